@@ -1,0 +1,178 @@
+"""The exceptions harlsync raises, one tree under :class:`HarlsyncError`.
+
+::
+
+    HarlsyncError
+    ├── ProtocolError            bytes that are not a valid HARL-U2 frame or reply
+    │   ├── FrameError           malformed frame: bad station, control byte, too long
+    │   ├── LRCError             LRC byte does not match
+    │   └── ReplyError           a well-formed frame that does not answer the request
+    ├── LinkError                the serial line (names the port and station)
+    │   ├── PortError            cannot open the port, or it went away
+    │   ├── PortBusyError        another harlsync holds the port or the line
+    │   └── LinkTimeout          no valid reply in time (also a TimeoutError)
+    ├── ControllerError          the controller answered "E"+status where the operation cannot go on
+    ├── ProjectError             the robot project on disk
+    │   ├── ProjectFormatError   unreadable YAML, a newer format version, a missing file
+    │   └── ProjectInvalid       schema or range errors (carries every issue found)
+    └── SyncError                pull / diff / plan / push
+        ├── InterlockError       a task is running or suspended: nothing may be written
+        ├── PolicyError          dirty tree, outside the maintenance window, reconfigure not allowed
+        ├── StalePlanError       the controller changed since the plan was made
+        └── VerifyError          a written item does not read back as written
+
+Library code raises these; only the CLI turns them into a one-line message and
+an exit code.  pyserial's own exceptions never leave the link layer.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "HarlsyncError",
+    "ProtocolError",
+    "FrameError",
+    "LRCError",
+    "ReplyError",
+    "LinkError",
+    "PortError",
+    "PortBusyError",
+    "LinkTimeout",
+    "ControllerError",
+    "ProjectError",
+    "ProjectFormatError",
+    "ProjectInvalid",
+    "SyncError",
+    "InterlockError",
+    "PolicyError",
+    "StalePlanError",
+    "VerifyError",
+]
+
+
+class HarlsyncError(Exception):
+    """Root of every error harlsync raises on purpose."""
+
+
+class ProtocolError(HarlsyncError):
+    """Bytes that are not a valid frame, or a frame that is not a valid reply."""
+
+
+class FrameError(ProtocolError):
+    """A frame that is malformed: bad station, control byte in the body, too long."""
+
+
+class LRCError(ProtocolError):
+    """A frame whose LRC byte does not match its contents."""
+
+
+class ReplyError(ProtocolError):
+    """A well-formed frame that does not answer the request that was sent."""
+
+
+class _Located:
+    """Mixin: an error that happened talking to one robot (port and station)."""
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        port: str | None = None,
+        station: int | None = None,
+        command: str | None = None,
+    ) -> None:
+        self.message = message
+        self.port = port
+        self.station = station
+        self.command = command
+        super().__init__(self._render())
+
+    def _render(self) -> str:
+        where = []
+        if self.port is not None:
+            where.append(f"port {self.port}")
+        if self.station is not None:
+            where.append(f"station {self.station}")
+        if self.command is not None:
+            where.append(f"command {self.command}")
+        return f"{', '.join(where)}: {self.message}" if where else self.message
+
+
+class LinkError(_Located, HarlsyncError):
+    """The serial line failed."""
+
+
+class PortError(LinkError):
+    """The port cannot be opened, or it went away."""
+
+
+class PortBusyError(LinkError):
+    """Another harlsync process holds the port (or the robot's line)."""
+
+
+class LinkTimeout(LinkError, TimeoutError):
+    """No valid reply arrived in time, after every retry."""
+
+
+class ControllerError(_Located, HarlsyncError):
+    """The controller answered ``E`` + status where the operation cannot go on.
+
+    ``status`` is the raw status text, as the HRCS-R3 manual lists it.
+    """
+
+    def __init__(
+        self,
+        status: str,
+        *,
+        port: str | None = None,
+        station: int | None = None,
+        command: str | None = None,
+    ) -> None:
+        self.status = status
+        super().__init__(
+            f"controller answered error status E{status}",
+            port=port,
+            station=station,
+            command=command,
+        )
+
+
+class ProjectError(HarlsyncError):
+    """The robot project on disk is unusable."""
+
+
+class ProjectFormatError(ProjectError):
+    """A project file cannot be read: YAML syntax, newer format version, missing file."""
+
+
+class ProjectInvalid(ProjectError):
+    """A project that breaks its schema or its own configuration.
+
+    ``issues`` holds every problem found, each already formatted as
+    ``file:line: field: what is wrong (allowed: ...)``.
+    """
+
+    def __init__(self, issues: list[str]) -> None:
+        self.issues = list(issues)
+        first = self.issues[0] if self.issues else "invalid project"
+        more = f" (and {len(self.issues) - 1} more)" if len(self.issues) > 1 else ""
+        super().__init__(first + more)
+
+
+class SyncError(HarlsyncError):
+    """Pull, diff, plan or push cannot go on."""
+
+
+class InterlockError(SyncError):
+    """A task is in execution or suspended: nothing may be written to this robot."""
+
+
+class PolicyError(SyncError):
+    """A deployment policy refuses the push (dirty tree, window, reconfiguration)."""
+
+
+class StalePlanError(SyncError):
+    """The controller changed since the saved plan was computed."""
+
+
+class VerifyError(SyncError):
+    """A written item does not read back as written."""

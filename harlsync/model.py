@@ -1,0 +1,335 @@
+"""The one data model shared by the codec, the controller API, the project files,
+the simulator and the sync engine.
+
+Values the controller holds (timer values, offsets, parameters, step tokens) are
+kept as their exact wire text: harlsync stores what the controller returned and
+writes exactly that back.  Numbers are parsed only to check ranges.
+"""
+
+from __future__ import annotations
+
+import enum
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, field, fields
+
+__all__ = [
+    "ProgramType",
+    "ProgramKey",
+    "Step",
+    "ProgramArea",
+    "Config",
+    "OffsetTable",
+    "OFFSET_FIELDS",
+    "Parameters",
+    "PARAMETER_NAMES",
+    "TaskState",
+    "Status",
+    "TASK_STATUS_NAMES",
+    "RobotData",
+    "TOKEN_RE",
+    "TIMER_RE",
+    "REGISTER_RE",
+    "OFFSET_RE",
+    "CODE_RE",
+    "MAX_STEP_DATA",
+    "OFFSET_TABLE_COUNT",
+]
+
+#: One wire token: printable ASCII, no space (fields never contain SP, STX or ETX).
+TOKEN_RE = re.compile(r"[!-~]+")
+#: Timer value, 0.00-9.99.
+TIMER_RE = re.compile(r"[0-9]\.[0-9]{2}")
+#: Register value, 0000-9999, zero padded.
+REGISTER_RE = re.compile(r"[0-9]{4}")
+#: Offset X Y Z W R C: -9999.99..9999.99 with two decimals.
+OFFSET_RE = re.compile(r"-?[0-9]{1,4}\.[0-9]{2}")
+#: Offset M data and F code: 0-99.
+CODE_RE = re.compile(r"[0-9]{1,2}")
+
+#: At most four data items follow a step's command.
+MAX_STEP_DATA = 4
+#: Offset tables 0-99 (the manual's fixed count; LNX does not report it).
+OFFSET_TABLE_COUNT = 100
+
+
+class ProgramType(enum.Enum):
+    """The four kinds of HARL-U2 program.  START is a single program (number 0)."""
+
+    START = "START"
+    MAIN = "MAIN"
+    SUB = "SUB"
+    HAND = "HAND"
+
+    @property
+    def letter(self) -> str:
+        """The command letter: LNA/SNA for START, LNM/SNM for MAIN, ..."""
+        return {"START": "A", "MAIN": "M", "SUB": "S", "HAND": "H"}[self.value]
+
+    @property
+    def numbered(self) -> bool:
+        """Whether requests carry a program number (all but START)."""
+        return self is not ProgramType.START
+
+
+#: A program's identity: its type and number (START is always number 0).
+ProgramKey = tuple[ProgramType, int]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One program step: a command and up to four data items, or nothing.
+
+    The tokens are opaque text, kept exactly as the controller returned them.
+    """
+
+    command: str | None = None
+    data: tuple[str, ...] = ()
+
+    @classmethod
+    def parse(cls, text: str) -> Step:
+        """Build a step from its text form, ``"MOVE P010 S50"`` (``""`` is empty)."""
+        tokens = text.split(" ") if text else []
+        return cls.from_tokens(tokens)
+
+    @classmethod
+    def from_tokens(cls, tokens: list[str] | tuple[str, ...]) -> Step:
+        if not tokens:
+            return cls()
+        return cls(tokens[0], tuple(tokens[1:]))
+
+    @property
+    def empty(self) -> bool:
+        return self.command is None
+
+    @property
+    def tokens(self) -> tuple[str, ...]:
+        return () if self.command is None else (self.command, *self.data)
+
+    @property
+    def text(self) -> str:
+        return " ".join(self.tokens)
+
+    def problems(self) -> list[str]:
+        """What makes this step unwritable, as short phrases (empty when fine)."""
+        out = []
+        if self.command is None and self.data:
+            out.append("data without a command")
+        if len(self.data) > MAX_STEP_DATA:
+            out.append(f"{len(self.data)} data items (at most {MAX_STEP_DATA})")
+        for token in self.tokens:
+            if not TOKEN_RE.fullmatch(token):
+                out.append(f"token {token!r} has a space or a control character")
+        return out
+
+    def __str__(self) -> str:
+        return self.text
+
+
+@dataclass(frozen=True)
+class ProgramArea:
+    """How many programs of one type exist and how many steps each has."""
+
+    count: int
+    steps: int
+
+
+@dataclass(frozen=True)
+class Config:
+    """The program configuration (LNX): areas per type, then timers, memory bits, registers.
+
+    SNX writes only the four program areas; the last three are read-only.
+    """
+
+    start: ProgramArea
+    main: ProgramArea
+    sub: ProgramArea
+    hand: ProgramArea
+    timers: int
+    memory_bits: int
+    registers: int
+
+    def area(self, ptype: ProgramType) -> ProgramArea:
+        return {
+            ProgramType.START: self.start,
+            ProgramType.MAIN: self.main,
+            ProgramType.SUB: self.sub,
+            ProgramType.HAND: self.hand,
+        }[ptype]
+
+    def programs(self) -> Iterator[ProgramKey]:
+        """Every program this configuration holds, in pull/push order."""
+        for ptype in ProgramType:
+            for number in range(self.area(ptype).count):
+                yield (ptype, number)
+
+    def has_step(self, key: ProgramKey, step: int) -> bool:
+        ptype, number = key
+        area = self.area(ptype)
+        return 0 <= number < area.count and 0 <= step < area.steps
+
+    def same_programs(self, other: Config) -> bool:
+        """Whether the SNX part (the four program areas) is the same."""
+        return all(self.area(t) == other.area(t) for t in ProgramType)
+
+    @property
+    def step_count(self) -> int:
+        return sum(self.area(t).count * self.area(t).steps for t in ProgramType)
+
+
+#: Offset table fields in wire order (the manual swaps the Z/W captions of LNL;
+#: the order is X Y Z W R C M F as in SNL).
+OFFSET_FIELDS = ("x", "y", "z", "w", "r", "c", "m", "f")
+
+
+@dataclass(frozen=True)
+class OffsetTable:
+    """One offset table: X..C are ``-9999.99``..``9999.99``, M and F ``0``..``99``."""
+
+    x: str = "0.00"
+    y: str = "0.00"
+    z: str = "0.00"
+    w: str = "0.00"
+    r: str = "0.00"
+    c: str = "0.00"
+    m: str = "0"
+    f: str = "0"
+
+    @property
+    def values(self) -> tuple[str, ...]:
+        return tuple(getattr(self, name) for name in OFFSET_FIELDS)
+
+    @classmethod
+    def from_values(cls, values: list[str] | tuple[str, ...]) -> OffsetTable:
+        return cls(*values)
+
+    def problems(self) -> list[str]:
+        out = []
+        for name in OFFSET_FIELDS:
+            value = getattr(self, name)
+            pattern = CODE_RE if name in ("m", "f") else OFFSET_RE
+            if not pattern.fullmatch(value):
+                allowed = "0-99" if name in ("m", "f") else "-9999.99..9999.99, two decimals"
+                out.append(f"{name.upper()} {value!r} (allowed: {allowed})")
+        return out
+
+
+#: The 13 expanded parameters (LNE/SNE), wire order: (YAML key, manual's name).
+PARAMETER_NAMES: tuple[tuple[str, str], ...] = (
+    ("pull_limit", "PULL LIMIT"),
+    ("arch_motion", "ARCH MOTION"),
+    ("table_data", "TABLE DATA"),
+    ("z_up_dis_1", "Z UP DIS 1"),
+    ("z_dn_dis_1", "Z DN DIS 1"),
+    ("z_up_dis_2", "Z UP DIS 2"),
+    ("z_dn_dis_2", "Z DN DIS 2"),
+    ("z_up_dis_3", "Z UP DIS 3"),
+    ("z_dn_dis_3", "Z DN DIS 3"),
+    ("pull_rate", "PULL RATE"),
+    ("io_status", "I/O STATUS"),
+    ("z_stop_pos", "Z STOP POS."),
+    ("prg_count", "PRG. COUNT"),
+)
+
+
+@dataclass(frozen=True)
+class Parameters:
+    """The 13 expanded parameters, by name, as wire text."""
+
+    pull_limit: str
+    arch_motion: str
+    table_data: str
+    z_up_dis_1: str
+    z_dn_dis_1: str
+    z_up_dis_2: str
+    z_dn_dis_2: str
+    z_up_dis_3: str
+    z_dn_dis_3: str
+    pull_rate: str
+    io_status: str
+    z_stop_pos: str
+    prg_count: str
+
+    @property
+    def values(self) -> tuple[str, ...]:
+        return tuple(getattr(self, f.name) for f in fields(self))
+
+    @classmethod
+    def from_values(cls, values: list[str] | tuple[str, ...]) -> Parameters:
+        return cls(*values)
+
+    def as_dict(self) -> dict[str, str]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+#: LNR task status values as the manual lists them.
+TASK_STATUS_NAMES = {0: "stop", 1: "in execution", 2: "suspended", 4: "complete", 8: "error"}
+_RUNNING_BITS = 1 | 2  # in execution, suspended
+
+
+@dataclass(frozen=True)
+class TaskState:
+    """One task's line of the LNR reply."""
+
+    task: int
+    status: int
+    program_type: str
+    program: int
+    step: int
+
+    @property
+    def status_name(self) -> str:
+        return TASK_STATUS_NAMES.get(self.status, f"unknown status {self.status}")
+
+    @property
+    def active(self) -> bool:
+        """In execution or suspended, or a status we do not know (fail safe)."""
+        return self.status not in TASK_STATUS_NAMES or bool(self.status & _RUNNING_BITS)
+
+    def describe(self) -> str:
+        return (
+            f"task {self.task} {self.status_name}: "
+            f"{self.program_type} program {self.program} step {self.step}"
+        )
+
+
+@dataclass(frozen=True)
+class Status:
+    """The LNR reply: one state per task (five tasks, 0-4)."""
+
+    tasks: tuple[TaskState, ...]
+    expected_tasks: int = 5
+
+    @property
+    def active_tasks(self) -> tuple[TaskState, ...]:
+        return tuple(t for t in self.tasks if t.active)
+
+    @property
+    def idle(self) -> bool:
+        """True only when every task is known and none is in execution or suspended."""
+        return len(self.tasks) == self.expected_tasks and not self.active_tasks
+
+    def describe(self) -> str:
+        if self.idle:
+            return "idle"
+        if len(self.tasks) != self.expected_tasks:
+            return f"LNR reported {len(self.tasks)} tasks, expected {self.expected_tasks}"
+        return "; ".join(t.describe() for t in self.active_tasks)
+
+
+@dataclass
+class RobotData:
+    """Everything a backup holds: what the controller's memory contains.
+
+    ``programs`` maps each program to its non-empty steps by step number; every
+    program the configuration has is present (an empty program maps to ``{}``).
+    ``registers`` is ``None`` unless the project keeps registers.
+    """
+
+    version: str
+    config: Config
+    parameters: Parameters
+    programs: dict[ProgramKey, dict[int, Step]] = field(default_factory=dict)
+    offsets: dict[int, OffsetTable] = field(default_factory=dict)
+    timers: dict[int, str] = field(default_factory=dict)
+    registers: dict[int, str] | None = None

@@ -1,0 +1,33 @@
+"""The HARL-U2 wire protocol, sans I/O: frames, LRC, typed commands and replies.
+
+Nothing here touches a port, a clock or a thread.
+"""
+
+from . import profile
+from .commands import (
+    READ_LETTERS,
+    UNSAFE_LETTERS,
+    WRITE_LETTERS,
+    Ack,
+    ErrorReply,
+    Request,
+    decode_reply,
+    parse_request,
+)
+from .frame import Frame, FrameDecoder, encode_frame, lrc
+
+__all__ = [
+    "profile",
+    "Frame",
+    "FrameDecoder",
+    "encode_frame",
+    "lrc",
+    "Request",
+    "ErrorReply",
+    "Ack",
+    "decode_reply",
+    "parse_request",
+    "READ_LETTERS",
+    "WRITE_LETTERS",
+    "UNSAFE_LETTERS",
+]

@@ -1,0 +1,403 @@
+"""HARL-U2 commands: typed requests and the decoding of their replies, sans I/O.
+
+A :class:`Request` is the command letters and its fields; ``payload`` is the text
+between ``station SP`` and ETX.  :func:`decode_reply` turns the reply payload into
+a typed value (a :class:`~harlsync.model.Step`, a timer's text, a
+:class:`~harlsync.model.Config` ...) or an :class:`ErrorReply` for ``E`` + status.
+A reply that does not fit the request raises :class:`~harlsync.errors.ReplyError`.
+
+Request builders, one per command of the profile::
+
+    LNA/LNM/LNS/LNH  read_step       SNA/SNM/SNS/SNH  write_step
+    LNT read_timer   LND read_register   SNT write_timer   SND write_register
+    LNL read_offset                      SNL write_offset
+    LNIB/LNID read_di_bit/read_di_port
+    LNOB/LNOD read_do_bit/read_do_port   SNOB/SNOD write_do_bit/write_do_port
+    LNBB/LNBD read_mem_bit/read_mem_port SNBB/SNBD write_mem_bit/write_mem_port
+    LNE read_parameters                  SNE write_parameters
+    LNR read_status   LNV read_version   LNX read_config   SNX write_config
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import ReplyError
+from ..model import (
+    MAX_STEP_DATA,
+    REGISTER_RE,
+    TIMER_RE,
+    TOKEN_RE,
+    Config,
+    OffsetTable,
+    Parameters,
+    ProgramArea,
+    ProgramType,
+    Status,
+    Step,
+    TaskState,
+)
+from . import profile
+
+__all__ = [
+    "Request",
+    "ErrorReply",
+    "Ack",
+    "decode_reply",
+    "parse_request",
+    "UNSAFE_LETTERS",
+    "WRITE_LETTERS",
+    "READ_LETTERS",
+    "read_step",
+    "write_step",
+    "read_timer",
+    "write_timer",
+    "read_register",
+    "write_register",
+    "read_offset",
+    "write_offset",
+    "read_di_bit",
+    "read_di_port",
+    "read_do_bit",
+    "read_do_port",
+    "write_do_bit",
+    "write_do_port",
+    "read_mem_bit",
+    "read_mem_port",
+    "write_mem_bit",
+    "write_mem_port",
+    "read_parameters",
+    "write_parameters",
+    "read_status",
+    "read_version",
+    "read_config",
+    "write_config",
+]
+
+#: Every LN command of the profile.
+READ_LETTERS = frozenset(
+    "LNA LNM LNS LNH LNT LND LNL LNIB LNID LNOB LNOD LNBB LNBD LNE LNR LNV LNX".split()
+)
+#: Every SN command of the profile.
+WRITE_LETTERS = frozenset("SNA SNM SNS SNH SNT SND SNL SNOB SNOD SNBB SNBD SNE SNX".split())
+#: SN commands the manual forbids during automatic operation.
+UNSAFE_LETTERS = frozenset("SNA SNM SNS SNH SNE SNX".split())
+
+_INT_RE = re.compile(r"[0-9]+")
+_BIT_RE = re.compile(r"[01]")
+_BYTE_RE = re.compile(r"[0-9]{1,3}")
+
+
+@dataclass(frozen=True)
+class Request:
+    """One command: its letters (``"LNM"``) and its fields (``("2", "3")``)."""
+
+    letters: str
+    args: tuple[str, ...] = ()
+
+    @property
+    def payload(self) -> str:
+        return " ".join((self.letters, *self.args))
+
+    @property
+    def is_write(self) -> bool:
+        return self.letters in WRITE_LETTERS
+
+    @property
+    def unsafe(self) -> bool:
+        """Forbidden by the manual during automatic operation."""
+        return self.letters in UNSAFE_LETTERS
+
+    def __str__(self) -> str:
+        return self.payload
+
+
+@dataclass(frozen=True)
+class ErrorReply:
+    """The controller answered ``E`` + status; ``status`` is the raw text after E."""
+
+    status: str
+
+
+@dataclass(frozen=True)
+class Ack:
+    """A successful SN write; ``payload`` is what the controller answered."""
+
+    payload: str
+
+
+# --- request builders --------------------------------------------------------------
+
+
+def _program_args(ptype: ProgramType, program: int, step: int) -> tuple[str, ...]:
+    if ptype.numbered:
+        return (str(program), str(step))
+    if program != 0:
+        raise ValueError("START is a single program: its number is 0")
+    return (str(step),)
+
+
+def read_step(ptype: ProgramType, program: int, step: int) -> Request:
+    return Request(f"LN{ptype.letter}", _program_args(ptype, program, step))
+
+
+def write_step(ptype: ProgramType, program: int, step: int, value: Step) -> Request:
+    problems = value.problems()
+    if problems:
+        raise ValueError(f"step {step}: {'; '.join(problems)}")
+    return Request(f"SN{ptype.letter}", _program_args(ptype, program, step) + value.tokens)
+
+
+def read_timer(number: int) -> Request:
+    return Request("LNT", (str(number),))
+
+
+def write_timer(number: int, value: str) -> Request:
+    _check(TIMER_RE, value, "timer value", "0.00-9.99")
+    return Request("SNT", (str(number), value))
+
+
+def read_register(number: int) -> Request:
+    return Request("LND", (str(number),))
+
+
+def write_register(number: int, value: str) -> Request:
+    _check(REGISTER_RE, value, "register value", "0000-9999")
+    return Request("SND", (str(number), value))
+
+
+def read_offset(table: int) -> Request:
+    return Request("LNL", (str(table),))
+
+
+def write_offset(table: int, value: OffsetTable) -> Request:
+    problems = value.problems()
+    if problems:
+        raise ValueError(f"offset table {table}: {'; '.join(problems)}")
+    return Request("SNL", (str(table), *value.values))
+
+
+def read_di_bit(bit: int) -> Request:
+    return Request("LNIB", (str(bit),))
+
+
+def read_di_port(port: int) -> Request:
+    return Request("LNID", (str(port),))
+
+
+def read_do_bit(bit: int) -> Request:
+    return Request("LNOB", (str(bit),))
+
+
+def read_do_port(port: int) -> Request:
+    return Request("LNOD", (str(port),))
+
+
+def write_do_bit(bit: int, on: bool) -> Request:
+    return Request("SNOB", (str(bit), "1" if on else "0"))
+
+
+def write_do_port(port: int, value: int) -> Request:
+    _check_byte(value)
+    return Request("SNOD", (str(port), str(value)))
+
+
+def read_mem_bit(bit: int) -> Request:
+    return Request("LNBB", (str(bit),))
+
+
+def read_mem_port(port: int) -> Request:
+    return Request("LNBD", (str(port),))
+
+
+def write_mem_bit(bit: int, on: bool) -> Request:
+    return Request("SNBB", (str(bit), "1" if on else "0"))
+
+
+def write_mem_port(port: int, value: int) -> Request:
+    _check_byte(value)
+    return Request("SNBD", (str(port), str(value)))
+
+
+def read_parameters() -> Request:
+    return Request("LNE")
+
+
+def write_parameters(value: Parameters) -> Request:
+    for name, text in value.as_dict().items():
+        _check(TOKEN_RE, text, f"parameter {name}", "one token, no spaces")
+    return Request("SNE", value.values)
+
+
+def read_status() -> Request:
+    return Request("LNR")
+
+
+def read_version() -> Request:
+    return Request("LNV")
+
+
+def read_config() -> Request:
+    return Request("LNX")
+
+
+def write_config(value: Config) -> Request:
+    args: list[str] = []
+    for ptype in ProgramType:
+        area = value.area(ptype)
+        args += [str(area.count), str(area.steps)]
+    return Request("SNX", tuple(args))
+
+
+def _check(pattern: re.Pattern[str], value: str, what: str, allowed: str) -> None:
+    if not pattern.fullmatch(value):
+        raise ValueError(f"{what} {value!r} out of range (allowed: {allowed})")
+
+
+def _check_byte(value: int) -> None:
+    if not 0 <= value <= 255:
+        raise ValueError(f"port value {value} out of range (allowed: 0-255)")
+
+
+# --- request parsing (the controller's side: the simulator uses it) ----------------
+
+#: Request letters -> (fewest, most) fields it takes.
+_ARITY: dict[str, tuple[int, int]] = {
+    "LNA": (1, 1), "LNM": (2, 2), "LNS": (2, 2), "LNH": (2, 2),
+    "LNT": (1, 1), "LND": (1, 1), "LNL": (1, 1),
+    "LNIB": (1, 1), "LNID": (1, 1), "LNOB": (1, 1), "LNOD": (1, 1),
+    "LNBB": (1, 1), "LNBD": (1, 1),
+    "LNE": (0, 0), "LNR": (0, 0), "LNV": (0, 0), "LNX": (0, 0),
+    "SNA": (1, 6), "SNM": (2, 7), "SNS": (2, 7), "SNH": (2, 7),
+    "SNT": (2, 2), "SND": (2, 2), "SNL": (9, 9),
+    "SNOB": (2, 2), "SNOD": (2, 2), "SNBB": (2, 2), "SNBD": (2, 2),
+    "SNE": (13, 13), "SNX": (8, 8),
+}  # fmt: skip
+
+
+def parse_request(payload: str) -> Request:
+    """Split a request payload into a :class:`Request`.
+
+    Raises :class:`ReplyError` for unknown letters or a wrong number of fields.
+    """
+    letters, *args = payload.split(" ")
+    arity = _ARITY.get(letters)
+    if arity is None:
+        raise ReplyError(f"unknown command {letters!r}")
+    lo, hi = arity
+    if not lo <= len(args) <= hi:
+        raise ReplyError(f"{letters} takes {lo}-{hi} fields, got {len(args)}")
+    return Request(letters, tuple(args))
+
+
+# --- reply decoding ----------------------------------------------------------------
+
+
+def decode_reply(request: Request, payload: str) -> Any:
+    """The typed value the reply to ``request`` carries.
+
+    Returns :class:`ErrorReply` for ``E`` + status, :class:`Ack` for an SN
+    success, and for LN commands: :class:`Step`, the timer or register text,
+    :class:`OffsetTable`, ``int`` for bits and ports, :class:`Parameters`,
+    :class:`Status`, the version text or :class:`Config`.
+
+    Raises :class:`ReplyError` when the payload does not fit the request.
+    """
+    if payload.startswith(profile.ERROR_PREFIX):
+        return ErrorReply(payload[len(profile.ERROR_PREFIX) :])
+    fields = payload.split(" ") if payload else []
+    letters = request.letters
+    if request.is_write:
+        if payload != profile.SN_OK:
+            raise ReplyError(f"{letters}: unexpected write reply {payload!r}")
+        return Ack(payload)
+    decoder = _DECODERS.get(letters)
+    if decoder is None:
+        raise ReplyError(f"no decoder for {letters}")
+    try:
+        return decoder(request, fields)
+    except (ValueError, IndexError) as exc:
+        raise ReplyError(f"{letters}: bad reply {payload!r}: {exc}") from exc
+
+
+def _one(fields: list[str], pattern: re.Pattern[str], what: str) -> str:
+    if len(fields) != 1 or not pattern.fullmatch(fields[0]):
+        raise ValueError(f"expected one {what}")
+    return fields[0]
+
+
+def _decode_step(request: Request, fields: list[str]) -> Step:
+    if not fields:
+        raise ValueError("no step number")
+    if fields[0] != request.args[-1]:
+        raise ValueError(f"answers step {fields[0]}, asked for {request.args[-1]}")
+    tokens = fields[1:]
+    if len(tokens) > 1 + MAX_STEP_DATA:
+        raise ValueError(f"more than {MAX_STEP_DATA} data items")
+    if not all(TOKEN_RE.fullmatch(t) for t in tokens):
+        raise ValueError("token with a control character")
+    return Step.from_tokens(tokens)
+
+
+def _decode_offset(request: Request, fields: list[str]) -> OffsetTable:
+    if len(fields) != 8:
+        raise ValueError(f"{len(fields)} fields, expected 8 (X Y Z W R C M F)")
+    table = OffsetTable.from_values(fields)
+    problems = table.problems()
+    if problems:
+        raise ValueError("; ".join(problems))
+    return table
+
+
+def _decode_byte(request: Request, fields: list[str]) -> int:
+    value = int(_one(fields, _BYTE_RE, "port value 0-255"))
+    if value > 255:
+        raise ValueError("port value above 255")
+    return value
+
+
+def _decode_parameters(request: Request, fields: list[str]) -> Parameters:
+    if len(fields) != 13:
+        raise ValueError(f"{len(fields)} fields, expected 13")
+    return Parameters.from_values(fields)
+
+
+def _decode_status(request: Request, fields: list[str]) -> Status:
+    if len(fields) % 4 or not fields:
+        raise ValueError(f"{len(fields)} fields, expected {profile.TASK_COUNT} x (S K N L)")
+    tasks = []
+    for i in range(0, len(fields), 4):
+        s, k, n, step = fields[i : i + 4]
+        tasks.append(TaskState(i // 4, int(s), k, int(n), int(step)))
+    return Status(tuple(tasks), profile.TASK_COUNT)
+
+
+def _decode_config(request: Request, fields: list[str]) -> Config:
+    if len(fields) != 11 or not all(_INT_RE.fullmatch(f) for f in fields):
+        raise ValueError("expected 11 numbers: P S P S P S P S T M R")
+    n = [int(f) for f in fields]
+    areas = [ProgramArea(n[i], n[i + 1]) for i in range(0, 8, 2)]
+    return Config(*areas, timers=n[8], memory_bits=n[9], registers=n[10])
+
+
+_DECODERS: dict[str, Any] = {
+    "LNA": _decode_step,
+    "LNM": _decode_step,
+    "LNS": _decode_step,
+    "LNH": _decode_step,
+    "LNT": lambda r, f: _one(f, TIMER_RE, "timer value 0.00-9.99"),
+    "LND": lambda r, f: _one(f, REGISTER_RE, "register value 0000-9999"),
+    "LNL": _decode_offset,
+    "LNIB": lambda r, f: int(_one(f, _BIT_RE, "bit 0 or 1")),
+    "LNOB": lambda r, f: int(_one(f, _BIT_RE, "bit 0 or 1")),
+    "LNBB": lambda r, f: int(_one(f, _BIT_RE, "bit 0 or 1")),
+    "LNID": _decode_byte,
+    "LNOD": _decode_byte,
+    "LNBD": _decode_byte,
+    "LNE": _decode_parameters,
+    "LNR": _decode_status,
+    "LNV": lambda r, f: _one(f, TOKEN_RE, "version"),
+    "LNX": _decode_config,
+}

@@ -1,0 +1,156 @@
+"""HARL-U2 framing: bytes <-> frames, sans I/O.
+
+How this works::
+
+    STX  station  SP  payload  ETX  LRC
+    02   '1'      20  'LNM 2 3' 03  xx        LRC = XOR of '1' .. ETX inclusive
+
+A :class:`FrameDecoder` is fed whatever bytes arrive, whole, one at a time or
+after line noise, and hands back complete frames.  Bytes before an STX are noise:
+they are dropped and counted.  After ETX exactly one LRC byte follows (it may be
+any value, even 02 or 03), so the decoder never looks for STX/ETX inside it.  A
+bad frame raises a :class:`~harlsync.errors.ProtocolError` subclass after the
+frame is consumed, so the next call goes on with the bytes after it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import reduce
+
+from ..errors import FrameError, LRCError
+from . import profile
+
+__all__ = ["Frame", "FrameDecoder", "encode_frame", "lrc"]
+
+
+def lrc(body: bytes) -> int:
+    """XOR of every byte of ``body`` (the bytes after STX through ETX inclusive)."""
+    return reduce(lambda acc, b: acc ^ b, body, 0)
+
+
+def _lrc_bytes(value: int) -> bytes:
+    if profile.LRC_ENCODING == "hex":
+        return f"{value:02X}".encode("ascii")
+    return bytes([value])
+
+
+_LRC_LEN = 2 if profile.LRC_ENCODING == "hex" else 1
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame: the station number and the payload text after ``station SP``."""
+
+    station: int
+    payload: str
+
+    @property
+    def fields(self) -> list[str]:
+        return self.payload.split(" ") if self.payload else []
+
+    @property
+    def is_error(self) -> bool:
+        return self.payload.startswith(profile.ERROR_PREFIX)
+
+    def encode(self) -> bytes:
+        return encode_frame(self.station, self.payload)
+
+
+def encode_frame(station: int, payload: str) -> bytes:
+    """The bytes of one frame, LRC included.
+
+    Raises :class:`FrameError` when the payload holds a byte a frame cannot carry.
+    """
+    if not 0 <= station <= 99:
+        raise FrameError(f"station {station} out of range")
+    try:
+        raw = payload.encode("ascii")
+    except UnicodeEncodeError as exc:
+        raise FrameError(f"payload {payload!r} is not ASCII") from exc
+    if any(b < 0x20 or b > 0x7E for b in raw):
+        raise FrameError(f"payload {payload!r} holds a control character")
+    body = f"{station} ".encode("ascii") + raw + bytes([profile.ETX])
+    return bytes([profile.STX]) + body + _lrc_bytes(lrc(body))
+
+
+class FrameDecoder:
+    """Incremental frame decoder: ``feed(bytes)``, then ``next_frame()`` until None.
+
+    ``dropped`` counts every byte discarded as noise (before an STX, or a frame
+    cut short by a new STX or by the length limit).
+    """
+
+    def __init__(self, max_frame: int = profile.MAX_FRAME) -> None:
+        self._buf = bytearray()
+        self._max = max_frame
+        self.dropped = 0
+
+    def feed(self, data: bytes) -> None:
+        self._buf += data
+
+    @property
+    def pending(self) -> int:
+        """Bytes held that do not yet make a frame."""
+        return len(self._buf)
+
+    def clear(self) -> None:
+        self.dropped += len(self._buf)
+        self._buf.clear()
+
+    def next_frame(self) -> Frame | None:
+        """The next complete frame, or None when more bytes are needed.
+
+        Raises :class:`FrameError` or :class:`LRCError` for a bad frame; the bad
+        frame's bytes are consumed first, so calling again continues after it.
+        """
+        buf = self._buf
+        while True:
+            start = buf.find(profile.STX)
+            if start < 0:
+                self.dropped += len(buf)
+                buf.clear()
+                return None
+            if start:
+                self.dropped += start
+                del buf[:start]
+            # buf[0] is STX: look for ETX, but a new STX first means this frame was cut.
+            end = -1
+            for i in range(1, len(buf)):
+                b = buf[i]
+                if b == profile.ETX:
+                    end = i
+                    break
+                if b == profile.STX:
+                    self.dropped += i
+                    del buf[:i]
+                    break
+            else:
+                if len(buf) > self._max:
+                    self.dropped += len(buf)
+                    buf.clear()
+                    raise FrameError(f"no ETX within {self._max} bytes: frame dropped")
+                return None
+            if end < 0:
+                continue  # cut frame dropped; rescan from the new STX
+            if len(buf) < end + 1 + _LRC_LEN:
+                return None
+            body = bytes(buf[1 : end + 1])
+            got = bytes(buf[end + 1 : end + 1 + _LRC_LEN])
+            del buf[: end + 1 + _LRC_LEN]
+            return _parse(body, got)
+
+
+def _parse(body: bytes, got_lrc: bytes) -> Frame:
+    want = _lrc_bytes(lrc(body))
+    if got_lrc != want:
+        raise LRCError(f"LRC {got_lrc.hex()} does not match {want.hex()} for {body[:-1]!r}")
+    text = body[:-1]
+    if any(b < 0x20 or b > 0x7E for b in text):
+        raise FrameError(f"control or non-ASCII byte in frame {text!r}")
+    head, sep, payload = text.decode("ascii").partition(" ")
+    if not sep or not head.isdigit() or len(head) > 2:
+        raise FrameError(f"no station number in frame {text!r}")
+    if payload and ("  " in payload or payload.startswith(" ") or payload.endswith(" ")):
+        raise FrameError(f"empty field in frame {text!r}")
+    return Frame(int(head), payload)

@@ -1,0 +1,51 @@
+"""Every choice the HARL-U2 manual leaves open, in one place.
+
+These are the *(profile)* decisions of ``shared/spec/harl-u2-wire-profile.md``.
+A site whose controller differs changes the constant here and nothing else:
+the codec, the link, the simulator and the sync engine all read them from this
+module.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+#: Frame control bytes (the manual).
+STX = 0x02
+ETX = 0x03
+SP = 0x20
+
+#: How the LRC travels after ETX: ``"raw"`` is one raw byte (0x00-0xFF, may equal
+#: STX or ETX); ``"hex"`` would be two upper-case ASCII hex digits.
+LRC_ENCODING: Literal["raw", "hex"] = "raw"
+
+#: A successful SN write is answered with this payload.
+SN_OK = "0"
+
+#: An error reply is this letter followed directly by the raw status.
+ERROR_PREFIX = "E"
+
+#: LNR reports this many tasks (0-4), four fields each: S K N L.
+TASK_COUNT = 5
+
+#: A step that holds nothing is answered with its step number alone, and an SN
+#: step write with no command clears the step.
+EMPTY_STEP_IS_NUMBER_ONLY = True
+
+#: Serial settings when the robot file gives none: 9600 8N1, no flow control.
+BAUDRATE = 9600
+BYTESIZE = 8
+PARITY: Literal["N", "E", "O"] = "N"
+STOPBITS: Literal[1, 2] = 1
+RTSCTS = False
+
+#: Seconds to wait for a complete reply frame before retrying.
+REPLY_TIMEOUT = 1.0
+
+#: Longest frame the decoder accepts before dropping it as noise (the longest real
+#: one, an SNE or LNR, is well under 200 bytes).
+MAX_FRAME = 512
+
+#: Default station numbers 1-4 (set on the pendant: SYSTEM GENERATION >
+#: MAINTENANCE > STATION NO.).
+STATIONS = (1, 2, 3, 4)
