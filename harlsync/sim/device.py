@@ -95,7 +95,7 @@ class Faults:
     slow_delay: float = 1.5
     fragment_gap: float = 0.002
     seed: int | None = None
-    _rng: random.Random = field(init=False, repr=False)
+    _rng: random.Random = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self._rng = random.Random(self.seed)
@@ -162,6 +162,8 @@ class Simulator:
         self.faults = faults or Faults()
         self.auto_after_writes = auto_after_writes
         self.received: list[Received] = []
+        #: Called with each :class:`Received` as it is recorded (``harlsync sim --record``).
+        self.listeners: list[Callable[[Received], None]] = []
         self.ignored = 0  # frames with a bad LRC, for another station, or malformed
         self.writes = 0
         self._clock = clock
@@ -170,14 +172,21 @@ class Simulator:
 
     # --- the wire ---------------------------------------------------------------------
 
-    def receive(self, data: bytes) -> list[tuple[float, bytes]]:
-        """Take bytes from the client; return the reply chunks as (delay, bytes)."""
+    def receive(
+        self, data: bytes, decoder: FrameDecoder | None = None
+    ) -> list[tuple[float, bytes]]:
+        """Take bytes from the client; return the reply chunks as (delay, bytes).
+
+        ``decoder`` keeps the framing state of one connection (one TCP client);
+        by default the line's own decoder is used.
+        """
         out: list[tuple[float, bytes]] = []
+        decoder = decoder or self._decoder
         with self.lock:
-            self._decoder.feed(data)
+            decoder.feed(data)
             while True:
                 try:
-                    frame = self._decoder.next_frame()
+                    frame = decoder.next_frame()
                 except ProtocolError as exc:
                     self.ignored += 1
                     log.debug("sim: ignored bad request: %s", exc)
@@ -194,9 +203,12 @@ class Simulator:
                 raw = encode_frame(frame.station, reply)
                 wire = self._wire_time(len(frame.encode()) + len(raw))
                 chunks = self.faults.shape(raw)
-                self.received.append(
-                    Received(frame.station, frame.payload, self._clock(), bool(chunks), automatic)
+                record = Received(
+                    frame.station, frame.payload, self._clock(), bool(chunks), automatic
                 )
+                self.received.append(record)
+                for listener in self.listeners:
+                    listener(record)
                 out += [(wire + extra, chunk) for extra, chunk in chunks]
 
     def _wire_time(self, nbytes: int) -> float:

@@ -1,0 +1,316 @@
+"""YAML in and out for project files, keeping every number's exact text.
+
+How this works
+--------------
+PyYAML resolves plain scalars by YAML 1.1 rules, which turn a register ``0012``
+into octal 10 and a time ``22:00`` into 1320.  Project files use the YAML 1.2
+*core* schema instead (:class:`CoreResolver`), and never let PyYAML construct
+Python objects: :func:`parse` composes the node tree and builds the data itself.
+
+- an int or float scalar becomes a :class:`Number`, a ``Decimal`` that keeps its
+  source text (``1.50`` stays ``"1.50"``, ``0012`` stays ``"0012"``);
+- every mapping key becomes its text (``7`` -> ``"7"``), so the data looks like
+  JSON to the schema validator, and a key written twice is reported with both lines;
+- the line of every path is recorded for error messages.
+
+Writing goes the other way: callers build nodes with :func:`num`, :func:`text`,
+:func:`mapping` ... and :func:`dump` serializes them with the same resolver, so a
+number is written plain with its exact text and a string is quoted only when it
+would otherwise read back as something else.  The output is deterministic, which
+makes load -> save byte-identical.
+"""
+
+from __future__ import annotations
+
+import decimal
+import io
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any, Union
+
+import yaml
+from yaml.composer import Composer
+from yaml.emitter import Emitter
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
+from yaml.parser import Parser
+from yaml.reader import Reader
+from yaml.resolver import BaseResolver
+from yaml.scanner import Scanner
+from yaml.serializer import Serializer
+
+__all__ = [
+    "Number",
+    "Path",
+    "Parsed",
+    "YamlSyntaxError",
+    "CoreResolver",
+    "parse",
+    "num",
+    "text",
+    "quoted",
+    "boolean",
+    "mapping",
+    "sequence",
+    "scalar_for",
+    "dump",
+]
+
+STR = "tag:yaml.org,2002:str"
+INT = "tag:yaml.org,2002:int"
+FLOAT = "tag:yaml.org,2002:float"
+BOOL = "tag:yaml.org,2002:bool"
+NULL = "tag:yaml.org,2002:null"
+MAP = "tag:yaml.org,2002:map"
+SEQ = "tag:yaml.org,2002:seq"
+
+#: A location in the data: mapping keys (text) and sequence indexes.
+Path = tuple[Union[str, int], ...]
+
+_DECIMAL_INT = re.compile(r"[-+]?[0-9]+")
+_DECIMAL_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+
+
+class Number(decimal.Decimal):
+    """A number read from YAML that remembers how it was written.
+
+    ``Number("1.50") == Decimal("1.5")`` and compares exactly with the schema's
+    limits, while ``.text`` is ``"1.50"``: the wire text to write back.
+    """
+
+    __slots__ = ("text",)
+    text: str
+
+    def __new__(cls, text: str) -> Number:
+        obj = super().__new__(cls, text)
+        obj.text = text
+        return obj
+
+    @property
+    def integral(self) -> bool:
+        """Written as an integer: digits only, no dot or exponent."""
+        return _DECIMAL_INT.fullmatch(self.text) is not None
+
+    def __repr__(self) -> str:
+        return f"Number({self.text!r})"
+
+    def __str__(self) -> str:
+        return self.text
+
+
+def is_number_text(value: str) -> bool:
+    """Whether ``value`` is a plain decimal number that :class:`Number` can keep."""
+    return bool(_DECIMAL_INT.fullmatch(value) or _DECIMAL_FLOAT.fullmatch(value))
+
+
+class CoreResolver(BaseResolver):
+    """YAML 1.2 core schema: null, bool, int, float; everything else is a string."""
+
+
+CoreResolver.add_implicit_resolver(
+    NULL, re.compile(r"^(?:~|null|Null|NULL|)$"), ["~", "n", "N", ""]
+)
+CoreResolver.add_implicit_resolver(
+    BOOL, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF")
+)
+CoreResolver.add_implicit_resolver(
+    INT, re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$"), list("-+0123456789")
+)
+CoreResolver.add_implicit_resolver(
+    FLOAT,
+    re.compile(
+        r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
+    ),
+    list("-+.0123456789"),
+)
+
+
+class _Loader(Reader, Scanner, Parser, Composer, CoreResolver):
+    """Reads a node tree; constructs nothing."""
+
+    def __init__(self, stream: str) -> None:
+        Reader.__init__(self, stream)
+        Scanner.__init__(self)
+        Parser.__init__(self)
+        Composer.__init__(self)
+        CoreResolver.__init__(self)
+
+
+class YamlSyntaxError(Exception):
+    """Text that is not YAML (or not data we accept), at a 1-based line."""
+
+    def __init__(self, line: int, message: str) -> None:
+        self.line = line
+        self.message = message
+        super().__init__(f"line {line}: {message}")
+
+
+@dataclass
+class Parsed:
+    """A parsed document: plain data, the line of each path, and duplicate keys."""
+
+    data: Any
+    lines: dict[Path, int] = field(default_factory=dict)
+    #: (path, first line, second line) for every key written more than once.
+    duplicates: list[tuple[Path, int, int]] = field(default_factory=list)
+
+    def line(self, path: Iterable[str | int]) -> int:
+        """The line of ``path``, or of its nearest ancestor that has one."""
+        path = tuple(path)
+        while path and path not in self.lines:
+            path = path[:-1]
+        return self.lines.get(path, 1)
+
+
+def parse(source: str) -> Parsed:
+    """Parse one YAML document.
+
+    Raises :class:`YamlSyntaxError` for a syntax error, several documents, an
+    unknown tag, a non-scalar mapping key or a recursive alias.
+    """
+    loader = _Loader(source)
+    try:
+        node = loader.get_single_node()
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = mark.line + 1 if mark is not None else 1
+        problem = exc.problem or exc.context or "invalid YAML"
+        if exc.context and exc.problem and exc.context_mark is not None:
+            problem = f"{problem} ({exc.context} at line {exc.context_mark.line + 1})"
+        raise YamlSyntaxError(line, problem) from None
+    except yaml.YAMLError as exc:
+        raise YamlSyntaxError(1, str(exc)) from None
+    finally:
+        loader.dispose()
+    parsed = Parsed(None)
+    if node is not None:
+        parsed.data = _build(node, (), parsed, set())
+    return parsed
+
+
+def _line(node: Node) -> int:
+    return node.start_mark.line + 1
+
+
+def _build(node: Node, path: Path, out: Parsed, active: set[int]) -> Any:
+    out.lines.setdefault(path, _line(node))
+    if isinstance(node, ScalarNode):
+        return _scalar(node)
+    if id(node) in active:
+        raise YamlSyntaxError(_line(node), "recursive alias")
+    active.add(id(node))
+    try:
+        if isinstance(node, SequenceNode):
+            if node.tag != SEQ:
+                raise YamlSyntaxError(_line(node), f"unsupported tag {node.tag}")
+            return [_build(item, (*path, i), out, active) for i, item in enumerate(node.value)]
+        if node.tag != MAP:
+            raise YamlSyntaxError(_line(node), f"unsupported tag {node.tag}")
+        result: dict[str, Any] = {}
+        for key_node, value_node in node.value:
+            if not isinstance(key_node, ScalarNode):
+                raise YamlSyntaxError(_line(key_node), "a mapping key must be a plain value")
+            key = _key(key_node)
+            key_path = (*path, key)
+            if key in result:
+                out.duplicates.append((key_path, out.lines[key_path], _line(key_node)))
+                continue
+            out.lines[key_path] = _line(key_node)
+            result[key] = _build(value_node, key_path, out, active)
+        return result
+    finally:
+        active.discard(id(node))
+
+
+def _scalar(node: ScalarNode) -> Any:
+    value: str = node.value
+    if node.tag in (INT, FLOAT):
+        # 0x1F, .inf and friends are core-schema numbers Number cannot keep: text.
+        return Number(value) if is_number_text(value) else value
+    if node.tag == BOOL:
+        if value.lower() not in ("true", "false"):
+            raise YamlSyntaxError(_line(node), f"{value!r} is not true or false")
+        return value.lower() == "true"
+    if node.tag == NULL:
+        return None
+    if node.tag == STR:
+        return value
+    raise YamlSyntaxError(_line(node), f"unsupported tag {node.tag}")
+
+
+def _key(node: ScalarNode) -> str:
+    """A key's text; integer keys are normalised (``07`` and ``7`` are the same key)."""
+    if node.tag == INT and _DECIMAL_INT.fullmatch(node.value):
+        return str(int(node.value))
+    return str(node.value)
+
+
+# -- writing ---------------------------------------------------------------------
+
+
+def num(value: str) -> ScalarNode:
+    """A number written exactly as ``value`` (which must be a decimal number)."""
+    if not is_number_text(value):
+        raise ValueError(f"not a decimal number: {value!r}")
+    tag = INT if _DECIMAL_INT.fullmatch(value) else FLOAT
+    return ScalarNode(tag, value)
+
+
+def text(value: str) -> ScalarNode:
+    """A string; the emitter quotes it only when it would read back as another type."""
+    return ScalarNode(STR, value)
+
+
+def quoted(value: str) -> ScalarNode:
+    """A string always written in double quotes (times like ``"22:00"``, which
+    YAML 1.1 tools would read as a number of minutes)."""
+    return ScalarNode(STR, value, style='"')
+
+
+def boolean(value: bool) -> ScalarNode:
+    return ScalarNode(BOOL, "true" if value else "false")
+
+
+def scalar_for(value: str) -> ScalarNode:
+    """Wire text of unknown kind: a plain number when it is one, else a string."""
+    return num(value) if is_number_text(value) else text(value)
+
+
+def mapping(items: Iterable[tuple[str | Node, Node]], *, flow: bool = False) -> MappingNode:
+    """A mapping in the given key order; string keys become plain/quoted strings."""
+    pairs = [(text(k) if isinstance(k, str) else k, v) for k, v in items]
+    return MappingNode(MAP, pairs, flow_style=flow)
+
+
+def sequence(items: Iterable[Node], *, flow: bool = False) -> SequenceNode:
+    return SequenceNode(SEQ, list(items), flow_style=flow)
+
+
+class _IndentingEmitter(Emitter):
+    """Indents block sequences under their key (PyYAML's default does not)."""
+
+    def increase_indent(self, flow: bool = False, indentless: bool = False) -> None:
+        super().increase_indent(flow, False)
+
+
+class _Dumper(_IndentingEmitter, Serializer, CoreResolver):
+    def __init__(self, stream: Any) -> None:
+        _IndentingEmitter.__init__(
+            self, stream, indent=2, width=1 << 30, allow_unicode=True, line_break="\n"
+        )
+        Serializer.__init__(self)
+        CoreResolver.__init__(self)
+
+
+def dump(node: Node, *, header: str = "") -> str:
+    """Serialize ``node`` as one YAML document, after the ``header`` comment lines."""
+    stream = io.StringIO()
+    dumper = _Dumper(stream)
+    try:
+        dumper.open()
+        dumper.serialize(node)
+        dumper.close()
+    finally:
+        dumper.dispose()
+    return header + stream.getvalue()

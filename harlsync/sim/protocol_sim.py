@@ -1,0 +1,237 @@
+"""The ``sim://`` port: an in-process simulated HARL-U2 behind pyserial's API.
+
+pyserial finds this module because :mod:`harlsync.link` adds ``harlsync.sim`` to
+``serial.protocol_handler_packages``.  URL forms::
+
+    sim://projects/pick-and-place          the robot of that project directory
+    sim:///abs/path/to/project?baud=9600   absolute path, wire-time emulation at 9600
+    sim://?seed=7&stations=1,2             generated robots on stations 1 and 2
+    sim://@name                            a Simulator registered with register()
+
+Query options: ``seed``, ``stations``, ``baud``, ``turnaround``,
+``auto_after_writes``, and the faults ``noise``, ``drop``, ``bad_lrc``,
+``fragment``, ``slow``, ``slow_delay``, ``fault_seed`` (rates 0-1).
+"""
+
+from __future__ import annotations
+
+import itertools
+import threading
+import time
+from typing import Any
+from urllib.parse import parse_qs
+
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+
+from ..protocol import FrameDecoder
+from .device import Faults, Simulator
+from .state import SimState
+
+__all__ = ["Serial", "register", "unregister", "build_simulator", "simulator_from_url"]
+
+_registry: dict[str, Simulator] = {}
+_names = itertools.count(1)
+
+
+def register(sim: Simulator, name: str | None = None) -> str:
+    """Make ``sim`` reachable as ``sim://@name``; return that URL."""
+    name = name or f"sim{next(_names)}"
+    _registry[name] = sim
+    return f"sim://@{name}"
+
+
+def unregister(url_or_name: str) -> None:
+    _registry.pop(url_or_name.removeprefix("sim://@"), None)
+
+
+def build_simulator(
+    *,
+    project: str | None = None,
+    seed: int | None = None,
+    stations: list[int] | None = None,
+    baudrate: int | None = None,
+    turnaround: float = 0.0,
+    faults: Faults | None = None,
+    auto_after_writes: int = 0,
+) -> Simulator:
+    """A simulated line: the robot of a project directory, or generated robots.
+
+    Raises :class:`~harlsync.errors.ProjectError` for an unreadable project.
+    """
+    states: dict[int, SimState] = {}
+    if project:
+        from ..project import load_project
+
+        loaded = load_project(project)
+        data = loaded.data
+        data.registers = data.registers or {}
+        for number in stations or [loaded.robot.station]:
+            states[number] = SimState.from_robot_data(data)
+    else:
+        for i, number in enumerate(stations or [1]):
+            states[number] = SimState.generate((seed or 0) + i)
+    return Simulator(
+        states,
+        baudrate=baudrate,
+        turnaround=turnaround,
+        faults=faults,
+        auto_after_writes=auto_after_writes,
+    )
+
+
+_FAULT_KEYS = {"noise", "drop", "bad_lrc", "fragment", "slow", "slow_delay"}
+
+
+def simulator_from_url(url: str) -> Simulator:
+    """The simulator a ``sim://`` URL names (a new one, unless ``@name``)."""
+    rest = url.split("://", 1)[1]
+    path, _, query = rest.partition("?")
+    if path.startswith("@"):
+        try:
+            return _registry[path[1:]]
+        except KeyError:
+            raise SerialException(f"no simulator registered as {path!r}") from None
+    opts = {k: v[-1] for k, v in parse_qs(query, keep_blank_values=True).items()}
+    known = {"seed", "stations", "baud", "turnaround", "auto_after_writes", "fault_seed"}
+    unknown = set(opts) - known - _FAULT_KEYS
+    if unknown:
+        raise SerialException(f"{url}: unknown sim:// option(s) {', '.join(sorted(unknown))}")
+    try:
+        faults = Faults(
+            **{k: float(opts[k]) for k in _FAULT_KEYS if k in opts},
+            seed=int(opts["fault_seed"]) if "fault_seed" in opts else None,
+        )
+        return build_simulator(
+            project=path or None,
+            seed=int(opts.get("seed", 0)),
+            stations=[int(s) for s in opts["stations"].split(",")] if "stations" in opts else None,
+            baudrate=int(opts["baud"]) if "baud" in opts else None,
+            turnaround=float(opts.get("turnaround", 0)),
+            faults=faults,
+            auto_after_writes=int(opts.get("auto_after_writes", 0)),
+        )
+    except ValueError as exc:
+        raise SerialException(f"{url}: bad sim:// option: {exc}") from exc
+
+
+class Serial(SerialBase):
+    """pyserial port class for ``sim://`` URLs."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self.sim: Simulator | None = None
+        self._decoder = FrameDecoder()
+        self._pending: list[tuple[float, bytes]] = []
+        self._cond = threading.Condition()
+        super().__init__(*args, **kwargs)
+
+    def open(self) -> None:
+        if self.is_open:
+            raise SerialException("Port is already open.")
+        if self._port is None:
+            raise SerialException("Port must be configured before it can be used.")
+        try:
+            self.sim = simulator_from_url(self._port)
+        except SerialException:
+            raise
+        except Exception as exc:  # a bad project must not look like "unknown protocol"
+            raise SerialException(f"cannot start simulator for {self._port}: {exc}") from exc
+        self._decoder = FrameDecoder()
+        self._pending = []
+        self.is_open = True
+
+    def close(self) -> None:
+        self.is_open = False
+        with self._cond:
+            self._cond.notify_all()
+        super().close()
+
+    def _reconfigure_port(self) -> None:
+        pass
+
+    def write(self, data: bytes) -> int:  # type: ignore[override]
+        if not self.is_open or self.sim is None:
+            raise PortNotOpenError()
+        chunks = self.sim.receive(bytes(data), self._decoder)
+        now = time.monotonic()
+        with self._cond:
+            last = self._pending[-1][0] if self._pending else now
+            for delay, chunk in chunks:
+                last = max(last, now + delay)
+                self._pending.append((last, chunk))
+            self._cond.notify_all()
+        return len(data)
+
+    def _take_due(self, size: int) -> bytes:
+        now = time.monotonic()
+        out = bytearray()
+        while self._pending and self._pending[0][0] <= now and len(out) < size:
+            due, chunk = self._pending.pop(0)
+            take = size - len(out)
+            out += chunk[:take]
+            if len(chunk) > take:
+                self._pending.insert(0, (due, chunk[take:]))
+        return bytes(out)
+
+    def read(self, size: int = 1) -> bytes:
+        if not self.is_open:
+            raise PortNotOpenError()
+        deadline = None if self._timeout is None else time.monotonic() + self._timeout
+        out = bytearray()
+        with self._cond:
+            while self.is_open:
+                out += self._take_due(size - len(out))
+                if len(out) >= size:
+                    break
+                now = time.monotonic()
+                if deadline is not None and now >= deadline:
+                    break
+                waits = [d for d in (deadline,) if d is not None]
+                if self._pending:
+                    waits.append(self._pending[0][0])
+                self._cond.wait(min(waits) - now if waits else None)
+        return bytes(out)
+
+    @property
+    def in_waiting(self) -> int:
+        if not self.is_open:
+            raise PortNotOpenError()
+        now = time.monotonic()
+        with self._cond:
+            return sum(len(c) for due, c in self._pending if due <= now)
+
+    def reset_input_buffer(self) -> None:
+        with self._cond:
+            now = time.monotonic()
+            self._pending = [(d, c) for d, c in self._pending if d > now]
+
+    def reset_output_buffer(self) -> None:
+        pass
+
+    def cancel_read(self) -> None:
+        with self._cond:
+            self._cond.notify_all()
+
+    def _update_rts_state(self) -> None:
+        pass
+
+    def _update_dtr_state(self) -> None:
+        pass
+
+    def _update_break_state(self) -> None:
+        pass
+
+    @property
+    def cts(self) -> bool:
+        return True
+
+    @property
+    def dsr(self) -> bool:
+        return True
+
+    @property
+    def ri(self) -> bool:
+        return False
+
+    @property
+    def cd(self) -> bool:
+        return True

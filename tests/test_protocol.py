@@ -1,0 +1,327 @@
+"""The sans-I/O codec: golden frames written by hand, decoded three ways."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from harlsync.errors import FrameError, LRCError, ProtocolError, ReplyError
+from harlsync.model import Config, OffsetTable, ProgramArea, ProgramType, Step
+from harlsync.protocol import FrameDecoder, decode_reply, encode_frame, lrc
+from harlsync.protocol import commands as c
+from harlsync.protocol.commands import Ack, ErrorReply
+
+STX, ETX = b"\x02", b"\x03"
+
+# Golden frames. Each LRC was worked out by hand, XOR of the bytes after STX
+# through ETX, as the manual's section 2.3 describes; none comes from our encoder.
+WORKED_REQUEST = STX + b"1 LNM 2 3" + ETX + b"\x5c"  # the profile's worked example
+WORKED_REPLY = STX + b"1 3 MOVE P010 S50" + ETX + b"\x27"
+LNV_REQUEST = STX + b"1 LNV" + ETX + b"\x46"
+LNV_REPLY = STX + b"1 5.00" + ETX + b"\x09"
+ERROR_REPLY = STX + b"1 E21" + ETX + b"\x54"
+LNT_REQUEST_ST2 = STX + b"2 LNT 5" + ETX + b"\x52"
+LNT_REPLY_ST2 = STX + b"2 1.50" + ETX + b"\x0b"
+# LRCs that happen to equal STX and ETX: a reader must take them as one raw byte.
+LRC_IS_STX = STX + b"1 0.68" + ETX + b"\x02"
+LRC_IS_ETX = STX + b"2 0.48" + ETX + b"\x03"
+
+GOLDEN = [
+    (WORKED_REQUEST, 1, "LNM 2 3"),
+    (WORKED_REPLY, 1, "3 MOVE P010 S50"),
+    (LNV_REQUEST, 1, "LNV"),
+    (LNV_REPLY, 1, "5.00"),
+    (ERROR_REPLY, 1, "E21"),
+    (LNT_REQUEST_ST2, 2, "LNT 5"),
+    (LNT_REPLY_ST2, 2, "1.50"),
+    (LRC_IS_STX, 1, "0.68"),
+    (LRC_IS_ETX, 2, "0.48"),
+]
+
+
+def feed_whole(data: bytes) -> tuple[list, FrameDecoder]:
+    dec = FrameDecoder()
+    dec.feed(data)
+    return drain(dec), dec
+
+
+def feed_bytewise(data: bytes) -> tuple[list, FrameDecoder]:
+    dec = FrameDecoder()
+    out = []
+    for i in range(len(data)):
+        dec.feed(data[i : i + 1])
+        out += drain(dec)
+    return out, dec
+
+
+NOISE = b"\x00\xff garbage\x7f"
+
+
+def feed_with_garbage(data: bytes) -> tuple[list, FrameDecoder]:
+    dec = FrameDecoder()
+    dec.feed(NOISE + data + NOISE)
+    return drain(dec), dec
+
+
+def drain(dec: FrameDecoder) -> list:
+    """Every frame and every protocol error the buffered bytes give, in order."""
+    out: list = []
+    while True:
+        try:
+            frame = dec.next_frame()
+        except ProtocolError as exc:
+            out.append(exc)
+            continue
+        if frame is None:
+            return out
+        out.append(frame)
+
+
+THREE_WAYS = pytest.mark.parametrize(
+    "feed", [feed_whole, feed_bytewise, feed_with_garbage], ids=["whole", "bytewise", "garbage"]
+)
+
+
+def test_lrc_is_the_xor_of_the_bytes_after_stx_through_etx() -> None:
+    assert lrc(b"1 LNM 2 3\x03") == 0x5C
+    assert lrc(b"") == 0
+
+
+@pytest.mark.parametrize("frame,station,payload", GOLDEN)
+def test_the_encoder_produces_the_golden_frames(frame: bytes, station: int, payload: str) -> None:
+    assert encode_frame(station, payload) == frame
+
+
+@THREE_WAYS
+@pytest.mark.parametrize("frame,station,payload", GOLDEN)
+def test_the_decoder_reads_each_golden_frame(feed, frame: bytes, station: int, payload: str) -> None:
+    out, _ = feed(frame)
+    assert [(f.station, f.payload) for f in out] == [(station, payload)]
+
+
+@THREE_WAYS
+def test_back_to_back_frames_come_out_in_order(feed) -> None:
+    out, _ = feed(WORKED_REQUEST + LRC_IS_ETX + LRC_IS_STX + WORKED_REPLY)
+    assert [f.payload for f in out] == ["LNM 2 3", "0.48", "0.68", "3 MOVE P010 S50"]
+
+
+def test_noise_before_stx_is_dropped_and_counted() -> None:
+    out, dec = feed_with_garbage(WORKED_REPLY)
+    assert [f.payload for f in out] == ["3 MOVE P010 S50"]
+    assert dec.dropped == 2 * len(NOISE)
+
+
+@THREE_WAYS
+def test_a_bad_lrc_is_an_error_and_the_next_frame_still_decodes(feed) -> None:
+    bad = WORKED_REPLY[:-1] + b"\x28"
+    out, _ = feed(bad + LNV_REPLY)
+    assert isinstance(out[0], LRCError)
+    assert [f.payload for f in out[1:]] == ["5.00"]
+
+
+@THREE_WAYS
+def test_a_frame_cut_short_by_a_new_stx_is_dropped(feed) -> None:
+    out, dec = feed(STX + b"1 3 MO" + LNV_REPLY)
+    assert [f.payload for f in out] == ["5.00"]
+    assert dec.dropped >= len(b"\x021 3 MO")
+
+
+@pytest.mark.parametrize(
+    "body",
+    [b"x LNV", b"1LNV", b"1 LNV  2", b"1 LN\x07V", b"123 LNV", b"1 \xe9"],
+    ids=["letter station", "no space", "empty field", "control byte", "long station", "non-ascii"],
+)
+def test_malformed_frames_are_frame_errors(body: bytes) -> None:
+    raw = body + ETX
+    out, _ = feed_whole(STX + raw + bytes([lrc(raw)]))
+    assert len(out) == 1 and isinstance(out[0], FrameError)
+
+
+def test_a_frame_without_etx_is_dropped_at_the_length_limit() -> None:
+    dec = FrameDecoder(max_frame=32)
+    dec.feed(STX + b"1 " + b"A" * 40)
+    with pytest.raises(FrameError):
+        dec.next_frame()
+    dec.feed(LNV_REPLY)
+    assert dec.next_frame().payload == "5.00"
+
+
+@settings(max_examples=300)
+@given(st.lists(st.binary(max_size=40), max_size=8))
+def test_arbitrary_bytes_only_ever_give_frames_or_protocol_errors(chunks: list[bytes]) -> None:
+    dec = FrameDecoder(max_frame=64)
+    for chunk in chunks:
+        dec.feed(chunk)
+        drain(dec)  # any other exception fails the test
+    assert dec.pending <= 64 + 2
+
+
+@given(
+    st.integers(1, 99),
+    st.lists(st.text(st.characters(min_codepoint=0x21, max_codepoint=0x7E), min_size=1), max_size=6),
+    st.binary(max_size=10),
+)
+def test_any_encoded_frame_decodes_to_itself_after_noise(station: int, fields, noise: bytes) -> None:
+    payload = " ".join(fields)
+    dec = FrameDecoder()
+    dec.feed(noise.replace(STX, b"") + encode_frame(station, payload))
+    frame = dec.next_frame()
+    assert (frame.station, frame.payload) == (station, payload)
+
+
+# --- commands -------------------------------------------------------------------------
+
+REQUESTS = [
+    (c.read_step(ProgramType.START, 0, 7), "LNA 7"),
+    (c.read_step(ProgramType.MAIN, 2, 3), "LNM 2 3"),
+    (c.read_step(ProgramType.SUB, 15, 255), "LNS 15 255"),
+    (c.read_step(ProgramType.HAND, 1, 0), "LNH 1 0"),
+    (c.read_timer(5), "LNT 5"),
+    (c.read_register(12), "LND 12"),
+    (c.read_offset(99), "LNL 99"),
+    (c.read_di_bit(200), "LNIB 200"),
+    (c.read_di_port(31), "LNID 31"),
+    (c.read_do_bit(3), "LNOB 3"),
+    (c.read_do_port(0), "LNOD 0"),
+    (c.read_mem_bit(383), "LNBB 383"),
+    (c.read_mem_port(15), "LNBD 15"),
+    (c.read_parameters(), "LNE"),
+    (c.read_status(), "LNR"),
+    (c.read_version(), "LNV"),
+    (c.read_config(), "LNX"),
+    (c.write_step(ProgramType.START, 0, 0, Step("CALL", ("M01",))), "SNA 0 CALL M01"),
+    (c.write_step(ProgramType.MAIN, 2, 3, Step.parse("MOVE P010 S50")), "SNM 2 3 MOVE P010 S50"),
+    (c.write_step(ProgramType.SUB, 1, 4, Step.parse("A 1 2 3 4")), "SNS 1 4 A 1 2 3 4"),
+    (c.write_step(ProgramType.HAND, 0, 9, Step()), "SNH 0 9"),
+    (c.write_timer(3, "1.50"), "SNT 3 1.50"),
+    (c.write_register(1, "0012"), "SND 1 0012"),
+    (
+        c.write_offset(7, OffsetTable("120.50", "-35.00", "0.00", "1.25", "90.00", "0.00", "0", "3")),
+        "SNL 7 120.50 -35.00 0.00 1.25 90.00 0.00 0 3",
+    ),
+    (c.write_do_bit(5, True), "SNOB 5 1"),
+    (c.write_do_port(2, 255), "SNOD 2 255"),
+    (c.write_mem_bit(256, False), "SNBB 256 0"),
+    (c.write_mem_port(1, 9), "SNBD 1 9"),
+    (
+        c.write_config(Config(ProgramArea(1, 64), ProgramArea(4, 128), ProgramArea(4, 64),
+                              ProgramArea(2, 32), 16, 128, 16)),
+        "SNX 1 64 4 128 4 64 2 32",
+    ),
+]
+
+
+@pytest.mark.parametrize("request_,payload", REQUESTS, ids=[p for _, p in REQUESTS])
+def test_every_command_encodes_as_the_profile_says(request_, payload: str) -> None:
+    assert request_.payload == payload
+    assert c.parse_request(payload) == request_
+
+
+def test_every_command_of_the_profile_has_a_builder() -> None:
+    built = {r.letters for r, _ in REQUESTS} | {"SNE"}
+    assert built == c.READ_LETTERS | c.WRITE_LETTERS
+
+
+def test_the_unsafe_commands_are_the_six_the_manual_marks() -> None:
+    assert c.UNSAFE_LETTERS == {"SNA", "SNM", "SNS", "SNH", "SNE", "SNX"}
+    assert all(c.Request(x).is_write for x in c.UNSAFE_LETTERS)
+
+
+@pytest.mark.parametrize(
+    "build",
+    [
+        lambda: c.write_timer(0, "10.00"),
+        lambda: c.write_timer(0, "1.5"),
+        lambda: c.write_register(0, "12"),
+        lambda: c.write_offset(0, OffsetTable(x="10000.00")),
+        lambda: c.write_offset(0, OffsetTable(m="100")),
+        lambda: c.write_step(ProgramType.MAIN, 0, 0, Step("A", ("1", "2", "3", "4", "5"))),
+        lambda: c.write_step(ProgramType.MAIN, 0, 0, Step("MO VE")),
+        lambda: c.write_step(ProgramType.START, 1, 0, Step("END")),
+        lambda: c.write_do_port(0, 256),
+    ],
+)
+def test_out_of_range_writes_are_refused_before_they_reach_the_wire(build) -> None:
+    with pytest.raises(ValueError):
+        build()
+
+
+def test_a_step_reply_decodes_into_command_and_data() -> None:
+    req = c.read_step(ProgramType.MAIN, 2, 3)
+    assert decode_reply(req, "3 MOVE P010 S50") == Step("MOVE", ("P010", "S50"))
+    assert decode_reply(req, "3") == Step()
+
+
+def test_a_step_reply_for_another_step_is_refused() -> None:
+    with pytest.raises(ReplyError, match="asked for 3"):
+        decode_reply(c.read_step(ProgramType.MAIN, 2, 3), "4 MOVE P010")
+
+
+def test_an_error_reply_keeps_the_raw_status() -> None:
+    assert decode_reply(c.read_timer(99), "E21") == ErrorReply("21")
+    assert decode_reply(c.write_timer(1, "1.00"), "E0x7") == ErrorReply("0x7")
+
+
+def test_a_write_is_acknowledged_by_0() -> None:
+    assert decode_reply(c.write_timer(1, "1.00"), "0") == Ack("0")
+    with pytest.raises(ReplyError):
+        decode_reply(c.write_timer(1, "1.00"), "1")
+
+
+def test_typed_values_of_every_read() -> None:
+    assert decode_reply(c.read_timer(1), "1.50") == "1.50"
+    assert decode_reply(c.read_register(1), "0012") == "0012"
+    table = decode_reply(c.read_offset(1), "120.50 -35.00 0.00 1.25 90.00 0.00 0 3")
+    assert table.x == "120.50" and table.y == "-35.00" and table.w == "1.25" and table.f == "3"
+    assert decode_reply(c.read_di_bit(1), "1") == 1
+    assert decode_reply(c.read_do_port(1), "255") == 255
+    assert decode_reply(c.read_mem_port(1), "0") == 0
+    assert decode_reply(c.read_version(), "5.00") == "5.00"
+    params = decode_reply(c.read_parameters(), "100 1 0 20.00 20.00 30.00 30.00 40.00 40.00 50 0 0.00 7")
+    assert params.pull_limit == "100" and params.z_up_dis_2 == "30.00" and params.prg_count == "7"
+    cfg = decode_reply(c.read_config(), "1 64 4 128 4 64 2 32 16 128 16")
+    assert cfg.main == ProgramArea(4, 128) and cfg.hand == ProgramArea(2, 32)
+    assert (cfg.timers, cfg.memory_bits, cfg.registers) == (16, 128, 16)
+
+
+def test_lnr_reports_five_tasks_and_idle_only_when_none_runs() -> None:
+    idle = decode_reply(c.read_status(), " ".join(["0 START 0 0"] * 4 + ["4 MAIN 3 17"]))
+    assert idle.idle and len(idle.tasks) == 5
+    busy = decode_reply(c.read_status(), " ".join(["0 START 0 0"] * 2 + ["1 MAIN 3 17"] + ["0 START 0 0"] * 2))
+    assert not busy.idle
+    assert busy.active_tasks[0].describe() == "task 2 in execution: MAIN program 3 step 17"
+    suspended = decode_reply(c.read_status(), " ".join(["2 SUB 1 4"] + ["0 START 0 0"] * 4))
+    assert not suspended.idle
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [
+        " ".join(["0 START 0 0"] * 4 + ["16 MAIN 0 0"]),  # a status the manual does not list
+        " ".join(["0 START 0 0"] * 4 + ["3 MAIN 0 0"]),  # both running bits
+        " ".join(["0 START 0 0"] * 4),  # a task missing
+    ],
+    ids=["unknown status", "bits 1 and 2", "four tasks"],
+)
+def test_lnr_fails_safe_on_anything_unexpected(payload: str) -> None:
+    assert not decode_reply(c.read_status(), payload).idle
+
+
+@pytest.mark.parametrize(
+    "request_,payload",
+    [
+        (c.read_timer(1), "1.5"),
+        (c.read_timer(1), "10.00"),
+        (c.read_register(1), "12"),
+        (c.read_offset(1), "1.00 2.00"),
+        (c.read_di_bit(1), "2"),
+        (c.read_do_port(1), "256"),
+        (c.read_config(), "1 64 4"),
+        (c.read_status(), "x START 0 0"),
+        (c.read_parameters(), "1 2 3"),
+    ],
+)
+def test_replies_that_do_not_fit_are_reply_errors(request_, payload: str) -> None:
+    with pytest.raises(ReplyError):
+        decode_reply(request_, payload)
