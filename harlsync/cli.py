@@ -136,6 +136,66 @@ def _cmd_sim(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# --- backup -----------------------------------------------------------------------------
+
+
+def _add_backup(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "backup", help="back up every robot of a plant (for cron and systemd)",
+        description="Pull every robot project found in PATH (a project directory, or a directory "
+                    "of projects): in parallel across separate lines, one at a time for stations "
+                    "that share a line. A robot that fails keeps its previous backup and the others "
+                    "go on. Exit 0 when every robot was backed up, 1 when any failed, 2 on an error "
+                    "before any robot ran.",
+    )
+    p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
+    p.add_argument("--jobs", type=int, default=4, metavar="N", help="robots pulled at once (default 4)")
+    p.add_argument("--commit", action="store_true",
+                   help="one git commit for the run, listing which robots changed and how much")
+    p.add_argument("--push", action="store_true", help="git push after committing (needs --commit)")
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--quiet", action="store_true",
+                   help="print the summary only when a robot failed (for cron mail)")
+    p.add_argument("--stale-after", type=float, default=36.0, metavar="HOURS",
+                   help="flag robots with no good backup for this long (default 36)")
+    p.add_argument("--attempts", type=int, default=2, metavar="N",
+                   help="tries per robot when the line fails (default 2)")
+    p.add_argument("--lock-timeout", type=float, default=60.0, metavar="SECONDS",
+                   help="wait this long for a line another harlsync is using (default 60)")
+    p.add_argument("--on-change", metavar="CMD",
+                   help="run CMD (through the shell, summary on stdin) when a robot changed")
+    p.add_argument("--on-failure", metavar="CMD",
+                   help="run CMD (through the shell, summary on stdin) when a robot failed")
+    p.add_argument("--metrics", metavar="FILE",
+                   help="write a Prometheus textfile with per-robot results")
+    p.set_defaults(func=_cmd_backup)
+
+
+def _cmd_backup(args: argparse.Namespace) -> int:
+    from datetime import timedelta
+
+    from .sync import backup
+
+    if args.push and not args.commit:
+        raise SystemExit("harlsync backup: --push needs --commit")
+    report = backup.backup(
+        args.paths, jobs=args.jobs, commit=args.commit, push=args.push,
+        stale_after=timedelta(hours=args.stale_after), attempts=args.attempts,
+        lock_timeout=args.lock_timeout,
+    )
+    if args.format == "json":
+        _print(json.dumps(report.to_json(), indent=2))
+    elif not args.quiet or not report.ok:
+        sys.stdout.write(report.render())
+    if args.metrics:
+        backup.write_metrics(args.metrics, report)
+    if args.on_change and report.changed:
+        backup.run_hook(args.on_change, report, "change")
+    if args.on_failure and not report.ok:
+        backup.run_hook(args.on_failure, report, "failure")
+    return EXIT_OK if report.ok else EXIT_NO
+
+
 # --- validate ---------------------------------------------------------------------------
 
 
@@ -162,9 +222,275 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# --- pull / diff / plan / push / rollback ---------------------------------------------
+
+
+def _connection_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--port", metavar="URL",
+                   help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
+                        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR")
+    p.add_argument("--station", type=int, metavar="N",
+                   help="station number instead of the robot file's (1-4 by default)")
+    p.add_argument("--lock-timeout", type=float, default=10.0, metavar="SECONDS",
+                   help="how long to wait for another harlsync using the same line (default 10)")
+
+
+class _Progress:
+    """A progress bar on a terminal (done/total, rate, time left); nothing otherwise."""
+
+    def __init__(self, what: str) -> None:
+        self.bar = None
+        self.what = what
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            if not sys.stderr.isatty():
+                return
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=self.what, unit="item", file=sys.stderr, leave=False)
+        self.bar.total = total
+        self.bar.n = done
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _add_pull(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "pull", help="read everything from the robot into a project directory",
+        description="Read the configuration, every program step, the parameters, the offset "
+                    "tables and the timers (and registers if the project keeps them) and write "
+                    "the project atomically: a pull that fails leaves the previous files as they "
+                    "were. DIR is created if missing; a first pull needs --port.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    _connection_args(p)
+    p.add_argument("--commit", action="store_true",
+                   help="commit the change to git, with a message that says what changed")
+    p.set_defaults(func=_cmd_pull)
+
+
+def _cmd_pull(args: argparse.Namespace) -> int:
+    from .sync import engine
+
+    progress = _Progress("pull")
+    try:
+        result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
+                             progress=progress, lock_timeout=args.lock_timeout)
+    finally:
+        progress.close()
+    if sys.stdout.isatty():
+        committed = f", committed {result.commit[:10]}" if result.commit else ""
+        _print(f"{result.robot.name}: {result.summary}{committed}")
+    return EXIT_OK
+
+
+def _add_diff(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "diff", help="compare the project with the live robot",
+        description="Compare the project with the live robot, item by item (program, step, "
+                    "table, field, timer). '-' lines are the robot, '+' lines the project. "
+                    "Exit 0 identical, 1 different, 2 error.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    _connection_args(p)
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--registers", action="store_true", help="compare registers too")
+    p.set_defaults(func=_cmd_diff)
+
+
+def _cmd_diff(args: argparse.Namespace) -> int:
+    from .sync import engine
+    from .sync.items import render_text, to_json
+
+    progress = _Progress("diff")
+    try:
+        result = engine.compare(args.dir, port=args.port, station=args.station,
+                                progress=progress, registers=args.registers)
+    finally:
+        progress.close()
+    if args.format == "json":
+        _print(json.dumps({
+            "robot": result.project.robot.name,
+            "target": result.target,
+            "project": str(result.project.path),
+            "identical": not result.changes,
+            "summary": engine.change_summary(result.changes),
+            "changes": [to_json(c) for c in result.changes],
+        }, indent=2))
+    elif result.changes:
+        sys.stdout.write(render_text(result.changes, f"robot {result.target}",
+                                     f"project {result.project.path}"))
+    return EXIT_NO if result.changes else EXIT_OK
+
+
+def _add_plan(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "plan", help="print the SN commands a push would send, and send none",
+        description="Read the robot, compare it with the project and print, in order, the exact "
+                    "SN commands a push would send. Nothing is written. --out saves the plan "
+                    "with a fingerprint of the robot and the project; push --plan refuses it "
+                    "if either changed since.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    _connection_args(p)
+    p.add_argument("--out", metavar="PLANFILE", help="save the plan to this file")
+    p.add_argument("--registers", action="store_true", help="include registers")
+    p.set_defaults(func=_cmd_plan)
+
+
+def _show_plan(the_plan) -> None:  # type: ignore[no-untyped-def]
+    for line in the_plan.unwritable:
+        _print(f"# cannot write: {line}")
+    if the_plan.reconfigure:
+        _print("# SNX changes the program configuration: every program is rewritten after it")
+    for write in the_plan.writes:
+        flag = "  # unsafe in automatic operation" if write.unsafe else ""
+        _print(f"{write.command}{flag}")
+    _print(f"# {len(the_plan.writes)} write(s) to {the_plan.robot} ({the_plan.target})")
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from .sync import engine
+
+    progress = _Progress("plan")
+    try:
+        the_plan = engine.plan(args.dir, port=args.port, station=args.station,
+                               progress=progress, registers=args.registers)
+    finally:
+        progress.close()
+    _show_plan(the_plan)
+    if args.out:
+        the_plan.save(args.out)
+        _print(f"# plan saved to {args.out}")
+    return EXIT_OK
+
+
+def _push_args(p: argparse.ArgumentParser) -> None:
+    _connection_args(p)
+    p.add_argument("--yes", action="store_true", help="do not ask before writing")
+    p.add_argument("--reason", metavar="TEXT", help="why, for the audit log")
+    p.add_argument("--outside-window", metavar="REASON",
+                   help="allow a write outside the robot's maintenance windows, saying why")
+    p.add_argument("--allow-reconfigure", action="store_true",
+                   help="allow a program configuration change (SNX), which destroys every "
+                        "program; all of them are rewritten after it")
+    p.add_argument("--allow-live-tuning", action="store_true",
+                   help="write timers and offset tables even while a task runs (the manual "
+                        "allows it); programs, parameters and configuration never")
+    p.add_argument("--registers", action="store_true",
+                   help="write registers too (the project must keep them)")
+
+
+def _confirm(the_plan) -> bool:  # type: ignore[no-untyped-def]
+    _show_plan(the_plan)
+    if not sys.stdin.isatty():
+        print("harlsync: no terminal to ask on: review with 'harlsync plan' and pass --yes",
+              file=sys.stderr)
+        return False
+    answer = input(f"Write these {len(the_plan.writes)} item(s) to {the_plan.robot}? [y/N] ")
+    return answer.strip().lower() in ("y", "yes")
+
+
+def _add_push(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "push", help="write what differs to the robot, safely",
+        description="Write only what differs (configuration, parameters, tables, timers, "
+                    "programs, in that order). Refuses a project that is invalid, has "
+                    "uncommitted changes, or is outside its maintenance window; stops before "
+                    "any write while a task is in execution or suspended (LNR, read before "
+                    "every write); verifies each write by reading it back; snapshots the robot "
+                    "first (see rollback) and records everything in the audit log. Exit 0 done, "
+                    "2 failed, 3 refused for safety.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    _push_args(p)
+    p.add_argument("--allow-dirty", action="store_true",
+                   help="push a project with uncommitted changes")
+    p.add_argument("--plan", metavar="PLANFILE",
+                   help="push only if the robot and project are as when this plan was made")
+    p.set_defaults(func=_cmd_push)
+
+
+def _push_options(args: argparse.Namespace) -> "PushOptions":  # noqa: F821
+    from .sync.engine import PushOptions
+
+    return PushOptions(
+        yes=args.yes, confirm=_confirm, reason=args.reason,
+        allow_dirty=getattr(args, "allow_dirty", False), outside_window=args.outside_window,
+        allow_reconfigure=args.allow_reconfigure, allow_live_tuning=args.allow_live_tuning,
+        registers=args.registers, plan_file=getattr(args, "plan", None),
+        lock_timeout=args.lock_timeout, progress=_Progress("read"),
+    )
+
+
+def _report(action: str, run: Callable[[], object]) -> int:
+    from .sync.engine import PushFailed
+
+    try:
+        result = run()
+    except PushFailed as failed:
+        r = failed.result
+        if r.plan is not None and (r.written or r.failed):
+            print(f"harlsync: {action} stopped: wrote {len(r.written)} of "
+                  f"{len(r.plan.writes)} item(s)", file=sys.stderr)
+            for w in r.written:
+                print(f"  written:     {w.name}: {w.command}", file=sys.stderr)
+            if r.failed is not None:
+                print(f"  unknown:     {r.failed.name}: {r.failed.command} (may or may not "
+                      "have been written)", file=sys.stderr)
+            for w in r.not_written:
+                if w is not r.failed:
+                    print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
+            print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
+        raise failed.cause from failed
+    assert hasattr(result, "plan")
+    if result.plan is None or result.plan.empty:
+        _print(f"{action}: robot already matches; nothing written")
+    else:
+        _print(f"{action}: wrote and verified {len(result.written)} item(s); "
+               f"snapshot {result.snapshot}; audit {result.audit_log}")
+    return EXIT_OK
+
+
+def _cmd_push(args: argparse.Namespace) -> int:
+    from .sync import engine
+
+    opts = _push_options(args)
+    return _report("push", lambda: engine.push(args.dir, opts, port=args.port, station=args.station))
+
+
+def _add_rollback(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "rollback", help="restore the snapshot taken before the last push",
+        description="Write back the robot's state as it was before the last push (or the "
+                    "snapshot named by --snapshot), under the same interlocks, verification "
+                    "and audit as push.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    _push_args(p)
+    p.add_argument("--snapshot", metavar="DIR",
+                   help="the snapshot to restore (default: the latest, in DIR/.harlsync/snapshots)")
+    p.set_defaults(func=_cmd_rollback)
+
+
+def _cmd_rollback(args: argparse.Namespace) -> int:
+    from .sync import engine
+
+    opts = _push_options(args)
+    return _report("rollback", lambda: engine.rollback(
+        args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station))
+
+
 # --- main -------------------------------------------------------------------------------
 
-_COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_validate, _add_sim]
+_COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
+    _add_pull, _add_diff, _add_plan, _add_push, _add_rollback, _add_backup, _add_validate,
+    _add_sim,
+]
 
 
 def build_parser() -> argparse.ArgumentParser:

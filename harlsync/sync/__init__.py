@@ -1,0 +1,36 @@
+"""Pull, diff, plan, push and rollback: knows projects and controllers, not bytes."""
+
+from .driver import Driver, HarlU2Driver
+from .engine import (
+    Comparison,
+    PullResult,
+    PushFailed,
+    PushOptions,
+    PushResult,
+    compare,
+    plan,
+    pull,
+    push,
+    rollback,
+)
+from .items import Change, diff
+from .plan import Plan, PlannedWrite
+
+__all__ = [
+    "Driver",
+    "HarlU2Driver",
+    "Change",
+    "diff",
+    "Plan",
+    "PlannedWrite",
+    "pull",
+    "PullResult",
+    "compare",
+    "Comparison",
+    "plan",
+    "push",
+    "rollback",
+    "PushOptions",
+    "PushResult",
+    "PushFailed",
+]

@@ -1,0 +1,320 @@
+"""The nightly plant backup: pull every robot, one commit per run, a report.
+
+Robots on separate lines are pulled in parallel (at most ``jobs`` at once);
+robots that share a line (stations of one HNC on one port) are pulled one after
+the other by the same worker, so their frames never interleave.  A robot that
+fails leaves its previous backup as it was (a pull is atomic) and the others go
+on.  Each project records its last successful backup in
+``DIR/.harlsync/backup.json``, so the report can flag robots that are stale or
+never had a good backup.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import subprocess
+import time
+from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass, field
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+from typing import Any
+
+from ..errors import HarlsyncError, LinkError, ProjectError
+from ..project import load_robot
+from . import git
+from .engine import pull
+from .items import summarize
+
+__all__ = [
+    "RobotOutcome",
+    "BackupReport",
+    "find_projects",
+    "backup",
+    "line_of",
+    "run_hook",
+    "write_metrics",
+]
+
+log = logging.getLogger(__name__)
+
+STATE_FILE = Path(".harlsync") / "backup.json"
+
+
+@dataclass
+class RobotOutcome:
+    """One robot's result in a backup run."""
+
+    name: str
+    path: str
+    port: str
+    station: int
+    ok: bool = False
+    changed: bool = False
+    summary: str = ""
+    counts: dict[str, int] = field(default_factory=dict)
+    duration: float = 0.0
+    error: str | None = None
+    attempts: list[str] = field(default_factory=list)  # reason of each failed attempt
+    last_success: str | None = None
+    stale: bool = False
+    never_backed_up: bool = False
+
+
+@dataclass
+class BackupReport:
+    robots: list[RobotOutcome]
+    commit: str | None = None
+    pushed: bool | None = None
+    push_error: str | None = None
+    started: str = ""
+    duration: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return all(r.ok for r in self.robots)
+
+    @property
+    def changed(self) -> list[RobotOutcome]:
+        return [r for r in self.robots if r.changed]
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "ok": self.ok,
+            "started": self.started,
+            "duration": round(self.duration, 3),
+            "commit": self.commit,
+            "pushed": self.pushed,
+            "push_error": self.push_error,
+            "robots": [asdict(r) | {"duration": round(r.duration, 3)} for r in self.robots],
+        }
+
+    def commit_message(self) -> str:
+        changed = self.changed
+        head = f"backup: {len(changed)} of {len(self.robots)} robot(s) changed"
+        lines = [head, ""] + [f"- {r.name}: {r.summary}" for r in changed]
+        failed = [r for r in self.robots if not r.ok]
+        if failed:
+            lines += ["", "Not backed up:"] + [f"- {r.name}: {r.error}" for r in failed]
+        return "\n".join(lines) + "\n"
+
+    def render(self) -> str:
+        """The summary a person reads in the morning."""
+        rows = [("robot", "result", "changes", "duration")]
+        for r in self.robots:
+            if r.ok:
+                result = "ok"
+            else:
+                result = "FAILED"
+            flags = []
+            if r.never_backed_up:
+                flags.append("never backed up")
+            elif r.stale:
+                flags.append(f"stale: last good backup {r.last_success}")
+            changes = r.summary if r.ok else (r.error or "")
+            if flags:
+                changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
+            rows.append((r.name, result, changes, f"{r.duration:.1f}s"))
+        widths = [max(len(row[i]) for row in rows) for i in range(3)]
+        lines = [
+            "  ".join(cell.ljust(widths[i]) for i, cell in enumerate(row[:3])) + "  " + row[3]
+            for row in rows
+        ]
+        ok = sum(r.ok for r in self.robots)
+        tail = f"{ok} of {len(self.robots)} robot(s) backed up, {len(self.changed)} changed"
+        if self.commit:
+            tail += f", commit {self.commit[:10]}"
+        if self.push_error:
+            tail += f"; git push FAILED: {self.push_error} (the commit is kept locally)"
+        elif self.pushed:
+            tail += ", pushed"
+        return "\n".join(lines + ["", tail]) + "\n"
+
+
+def find_projects(paths: Iterable[str | Path]) -> list[Path]:
+    """Project directories: each PATH that holds a robot.yaml, or those below it.
+
+    Raises ProjectError for a PATH that is neither.
+    """
+    found: list[Path] = []
+    for raw in paths:
+        path = Path(raw)
+        if (path / "robot.yaml").is_file():
+            found.append(path)
+            continue
+        if not path.is_dir():
+            raise ProjectError(f"{path}: no such directory")
+        below = sorted(p.parent for p in path.glob("**/robot.yaml") if ".harlsync" not in p.parts)
+        if not below:
+            raise ProjectError(f"{path}: no robot project here (no robot.yaml below it)")
+        found += below
+    unique: dict[Path, None] = {p.resolve(): None for p in found}
+    return list(unique)
+
+
+def line_of(port: str) -> str:
+    """The physical line a port URL names, so robots sharing it are pulled in turn."""
+    if "://" in port:
+        return port.split("?", 1)[0].lower()
+    return os.path.realpath(port)
+
+
+def _read_state(path: Path) -> dict[str, Any]:
+    try:
+        return dict(json.loads((path / STATE_FILE).read_text(encoding="utf-8")))
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_state(path: Path, state: dict[str, Any]) -> None:
+    target = path / STATE_FILE
+    target.parent.mkdir(parents=True, exist_ok=True)
+    ignore = target.parent / ".gitignore"
+    if not ignore.exists():
+        ignore.write_text("# harlsync's local state: not versioned\n*\n")
+    tmp = target.with_suffix(".tmp")
+    tmp.write_text(json.dumps(state, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    os.replace(tmp, target)
+
+
+def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
+    start = time.monotonic()
+    try:
+        robot = load_robot(path)
+    except HarlsyncError as exc:
+        return RobotOutcome(path.name, str(path), "?", 0, error=str(exc))
+    outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
+    for attempt in range(1, attempts + 1):
+        try:
+            result = pull(path, lock_timeout=lock_timeout)
+        except LinkError as exc:  # the line may recover: try again, bounded
+            outcome.attempts.append(f"attempt {attempt}: {exc}")
+            outcome.error = str(exc)
+            log.warning("%s: %s", robot.name, exc)
+            continue
+        except HarlsyncError as exc:  # garbage, bad project: trying again will not help
+            outcome.attempts.append(f"attempt {attempt}: {exc}")
+            outcome.error = str(exc)
+            break
+        outcome.ok, outcome.error = True, None
+        outcome.changed = result.changes is None or bool(result.changes)
+        outcome.summary = result.summary
+        outcome.counts = summarize(result.changes or [])
+        break
+    outcome.duration = time.monotonic() - start
+    return outcome
+
+
+def backup(
+    paths: Iterable[str | Path],
+    *,
+    jobs: int = 4,
+    commit: bool = False,
+    push: bool = False,
+    stale_after: timedelta = timedelta(hours=36),
+    attempts: int = 2,
+    lock_timeout: float = 60.0,
+    now: datetime | None = None,
+) -> BackupReport:
+    """Pull every robot under ``paths``; commit and push once when asked."""
+    started = time.monotonic()
+    now = now or datetime.now(timezone.utc)
+    projects = find_projects(paths)
+    lines: dict[str, list[Path]] = {}
+    for path in projects:
+        try:
+            port = load_robot(path).port
+        except HarlsyncError:
+            port = f"unreadable:{path}"
+        lines.setdefault(line_of(port), []).append(path)
+
+    def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
+        return [_pull_one(p, attempts, lock_timeout) for p in paths_on_line]
+
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        outcomes = [o for group in pool.map(run_line, lines.values()) for o in group]
+    outcomes.sort(key=lambda o: o.name)
+
+    for outcome in outcomes:
+        path = Path(outcome.path)
+        state = _read_state(path)
+        if outcome.ok:
+            state["last_success"] = now.isoformat(timespec="seconds")
+            state.pop("last_error", None)
+        else:
+            state["last_error"] = outcome.error
+        state["last_attempt"] = now.isoformat(timespec="seconds")
+        _write_state(path, state)
+        outcome.last_success = state.get("last_success")
+        outcome.never_backed_up = outcome.last_success is None
+        if outcome.last_success:
+            outcome.stale = now - datetime.fromisoformat(outcome.last_success) > stale_after
+
+    report = BackupReport(outcomes, started=now.isoformat(timespec="seconds"))
+    if commit:
+        done = [Path(o.path) for o in outcomes if o.ok and o.changed]
+        if done:
+            report.commit = git.commit(done, report.commit_message())
+        if push:
+            # Push even when nothing changed tonight: it catches up a failed push.
+            try:
+                git.push(projects[0])
+                report.pushed = True
+            except HarlsyncError as exc:
+                report.pushed, report.push_error = False, str(exc)
+    report.duration = time.monotonic() - started
+    return report
+
+
+def run_hook(command: str, report: BackupReport, event: str) -> int:
+    """Run a hook through the shell with the summary on stdin; its exit status.
+
+    The environment carries ``HARLSYNC_EVENT`` (``change`` or ``failure``),
+    ``HARLSYNC_CHANGED`` and ``HARLSYNC_FAILED`` (robot names, space separated)
+    and ``HARLSYNC_REPORT`` (the JSON report).
+    """
+    env = dict(os.environ)
+    env.update(
+        HARLSYNC_EVENT=event,
+        HARLSYNC_CHANGED=" ".join(r.name for r in report.changed),
+        HARLSYNC_FAILED=" ".join(r.name for r in report.robots if not r.ok),
+        HARLSYNC_REPORT=json.dumps(report.to_json()),
+    )
+    done = subprocess.run(command, shell=True, input=report.render(), text=True, env=env, check=False)
+    if done.returncode:
+        log.error("hook %r exited with %d", command, done.returncode)
+    return done.returncode
+
+
+def write_metrics(path: str | Path, report: BackupReport) -> None:
+    """Write a Prometheus textfile (node_exporter's textfile collector), atomically."""
+    lines = [
+        "# HELP harlsync_backup_success Whether the robot's last backup run succeeded.",
+        "# TYPE harlsync_backup_success gauge",
+        "# HELP harlsync_backup_last_success_timestamp_seconds Time of the robot's last good backup.",
+        "# TYPE harlsync_backup_last_success_timestamp_seconds gauge",
+        "# HELP harlsync_backup_duration_seconds How long the robot's backup took.",
+        "# TYPE harlsync_backup_duration_seconds gauge",
+        "# HELP harlsync_backup_changed_items Items changed since the previous backup.",
+        "# TYPE harlsync_backup_changed_items gauge",
+        "# HELP harlsync_backup_failed_attempts Failed attempts in this run.",
+        "# TYPE harlsync_backup_failed_attempts gauge",
+    ]
+    for r in report.robots:
+        label = '{robot="%s"}' % r.name.replace("\\", "\\\\").replace('"', '\\"')
+        last = datetime.fromisoformat(r.last_success).timestamp() if r.last_success else 0
+        changed = sum(v for k, v in r.counts.items() if k != "programs")
+        lines += [
+            f"harlsync_backup_success{label} {int(r.ok)}",
+            f"harlsync_backup_last_success_timestamp_seconds{label} {last:.0f}",
+            f"harlsync_backup_duration_seconds{label} {r.duration:.3f}",
+            f"harlsync_backup_changed_items{label} {changed}",
+            f"harlsync_backup_failed_attempts{label} {len(r.attempts)}",
+        ]
+    target = Path(path)
+    tmp = target.with_name(target.name + ".tmp")
+    tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    os.replace(tmp, target)

@@ -1,0 +1,449 @@
+"""Pull, diff, plan, push and rollback: the candidate workflow for a robot.
+
+How a push goes (each step stops the push when it fails; nothing is written
+before the last check)::
+
+    load + validate the project      (before the port is touched)
+    policy: git clean, maintenance window
+    open the port (exclusive lock on the line)
+    LNR: robot idle?                 (interlock, before the long read)
+    read the live robot, make the plan
+    stale plan? unwritable? reconfiguration allowed? confirmed?
+    snapshot the live robot          (DIR/.harlsync/snapshots/<time>/)
+    for each write, in the safe order:
+        LNR: idle?                   (interlock: before every write)
+        write, read back, compare    (verify)
+    audit record                     (always, whatever happened)
+
+The interlock reads LNR immediately before every write.  With
+``allow_live_tuning`` it still does so before every unsafe write (SNA, SNM, SNS,
+SNH, SNE, SNX) and before the first write, and skips it only before timer and
+offset writes, which the manual allows during automatic operation.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from ..controller import Controller
+from ..errors import (
+    HarlsyncError,
+    InterlockError,
+    PolicyError,
+    ProjectError,
+    StalePlanError,
+    SyncError,
+    VerifyError,
+)
+from ..link import Link
+from ..model import RobotData
+from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
+from . import audit, git
+from .driver import Driver, HarlU2Driver, Progress
+from .items import Change, diff, summarize
+from .plan import Plan, PlannedWrite, make_plan
+
+__all__ = [
+    "connect",
+    "pull",
+    "PullResult",
+    "compare",
+    "Comparison",
+    "plan",
+    "push",
+    "rollback",
+    "PushOptions",
+    "PushResult",
+    "snapshots",
+    "change_summary",
+    "PushFailed",
+]
+
+log = logging.getLogger(__name__)
+
+SNAPSHOT_DIR = Path(".harlsync") / "snapshots"
+
+
+def connect(
+    robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0
+) -> Driver:
+    """Open the robot's line (``port``/``station`` override the robot file)."""
+    link = Link(
+        port or robot.port,
+        station if station is not None else robot.station,
+        robot.serial,
+        lock_timeout=lock_timeout,
+    )
+    link.open()
+    return HarlU2Driver(Controller(link))
+
+
+def change_summary(changes: list[Change]) -> str:
+    """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
+    count = summarize(changes)
+    parts = []
+    if count["config"]:
+        parts.append("program configuration")
+    if count["parameters"]:
+        parts.append(f"{count['parameters']} parameter{'s' * (count['parameters'] > 1)}")
+    if count["programs"]:
+        parts.append(
+            f"{count['programs']} program{'s' * (count['programs'] > 1)} "
+            f"({count['steps']} step{'s' * (count['steps'] > 1)})"
+        )
+    for name, singular in (("tables", "table"), ("timers", "timer"), ("registers", "register")):
+        if count[name]:
+            parts.append(f"{count[name]} {singular if count[name] == 1 else name}")
+    return ", ".join(parts) or "no change"
+
+
+# --- pull ---------------------------------------------------------------------------
+
+
+@dataclass
+class PullResult:
+    path: Path
+    robot: Robot
+    changes: list[Change] | None  # None: there was no valid previous backup
+    commit: str | None = None
+
+    @property
+    def summary(self) -> str:
+        if self.changes is None:
+            return "first backup"
+        return change_summary(self.changes)
+
+
+def _robot_for(path: Path, port: str | None, station: int | None) -> Robot:
+    if (path / "robot.yaml").exists():
+        return load_robot(path)
+    if not port:
+        raise ProjectError(
+            f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
+        )
+    return new_robot(path.resolve().name, port, station or 1)
+
+
+def pull(
+    path: str | Path,
+    *,
+    port: str | None = None,
+    station: int | None = None,
+    commit: bool = False,
+    progress: Progress | None = None,
+    lock_timeout: float = 10.0,
+) -> PullResult:
+    """Read everything from the robot and write the project, atomically.
+
+    A pull that fails leaves the previous files untouched.
+    """
+    path = Path(path)
+    robot = _robot_for(path, port, station)
+    try:
+        previous: RobotData | None = load_project(path).data
+    except ProjectError:
+        previous = None
+    driver = connect(robot, port, station, lock_timeout=lock_timeout)
+    try:
+        live = driver.read_all(registers=robot.keep_registers, progress=progress)
+    finally:
+        driver.close()
+    save_project(path, Project(path, robot, live))
+    changes = None if previous is None else diff(previous, live, registers=robot.keep_registers)
+    result = PullResult(path, robot, changes)
+    if commit and (changes is None or changes):
+        result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
+    return result
+
+
+# --- diff and plan ------------------------------------------------------------------
+
+
+@dataclass
+class Comparison:
+    """The live robot against the project."""
+
+    project: Project
+    target: str
+    live: RobotData
+    changes: list[Change]
+
+
+def compare(
+    path: str | Path,
+    *,
+    port: str | None = None,
+    station: int | None = None,
+    progress: Progress | None = None,
+    registers: bool = False,
+) -> Comparison:
+    project = load_project(path)
+    driver = connect(project.robot, port, station)
+    try:
+        live = driver.read_all(registers=registers, progress=progress)
+        target = driver.label
+    finally:
+        driver.close()
+    return Comparison(project, target, live, diff(live, project.data, registers=registers))
+
+
+def plan(
+    path: str | Path,
+    *,
+    port: str | None = None,
+    station: int | None = None,
+    progress: Progress | None = None,
+    registers: bool = False,
+) -> Plan:
+    """The plan a push would carry out now; sends no SN command."""
+    project = load_project(path)
+    driver = connect(project.robot, port, station)
+    try:
+        live = driver.read_all(registers=registers, progress=progress)
+        return make_plan(live, project.data, driver, robot=project.robot.name, registers=registers)
+    finally:
+        driver.close()
+
+
+# --- push and rollback --------------------------------------------------------------
+
+
+@dataclass
+class PushOptions:
+    """Everything a person decides for one push or rollback."""
+
+    yes: bool = False
+    confirm: Callable[[Plan], bool] | None = None
+    reason: str | None = None
+    allow_dirty: bool = False
+    outside_window: str | None = None
+    allow_reconfigure: bool = False
+    allow_live_tuning: bool = False
+    registers: bool = False
+    plan_file: str | Path | None = None
+    lock_timeout: float = 10.0
+    now: datetime | None = None
+    progress: Progress | None = None
+
+
+@dataclass
+class PushResult:
+    """What a push did: the plan, what was written, and what was not."""
+
+    plan: Plan | None = None
+    written: list[PlannedWrite] = field(default_factory=list)
+    not_written: list[PlannedWrite] = field(default_factory=list)
+    failed: PlannedWrite | None = None
+    error: str | None = None
+    snapshot: Path | None = None
+    audit_log: Path | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+class PushFailed(SyncError):
+    """A push stopped; ``result`` says exactly what was and was not written."""
+
+    def __init__(self, cause: HarlsyncError, result: PushResult) -> None:
+        self.cause = cause
+        self.result = result
+        super().__init__(str(cause))
+
+
+def _check_window(robot: Robot, opts: PushOptions) -> None:
+    if not robot.windows or opts.outside_window:
+        return
+    now = opts.now or datetime.now()
+    if not any(window.contains(now) for window in robot.windows):
+        windows = "; ".join(str(w) for w in robot.windows)
+        raise PolicyError(
+            f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows}); "
+            "wait for a window or give --outside-window REASON"
+        )
+
+
+def _interlock(driver: Driver, robot: Robot, before: str) -> None:
+    try:
+        status = driver.status()
+    except HarlsyncError as exc:
+        raise InterlockError(
+            f"robot {robot.name} ({driver.label}): cannot read the task states before "
+            f"{before} ({exc}); not writing"
+        ) from exc
+    if not status.idle:
+        raise InterlockError(
+            f"robot {robot.name} ({driver.label}) is not idle: {status.describe()}; "
+            f"stopped before {before}. Stop the robot (or wait for the cycle to end) and run again"
+        )
+
+
+def snapshots(path: str | Path) -> list[Path]:
+    """The project's snapshots, oldest first."""
+    root = Path(path) / SNAPSHOT_DIR
+    return sorted(p for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
+
+
+def _save_snapshot(path: Path, robot: Robot, live: RobotData) -> Path:
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
+    target = path / SNAPSHOT_DIR / stamp
+    ignore = path / ".harlsync" / ".gitignore"
+    if not ignore.exists():
+        ignore.parent.mkdir(parents=True, exist_ok=True)
+        ignore.write_text("# snapshots taken before each push: local, not versioned\n*\n")
+    save_project(target, Project(target, robot, live))
+    return target
+
+
+def _deploy(
+    action: str,
+    project: Project,
+    target: RobotData,
+    opts: PushOptions,
+    port: str | None,
+    station: int | None,
+) -> PushResult:
+    robot = project.robot
+    result = PushResult()
+    record = audit.base_record(action)
+    record.update(
+        robot={"name": robot.name, "port": port or robot.port,
+               "station": station if station is not None else robot.station},
+        project=str(project.path),
+        commit=git.head(project.path),
+        reason=opts.reason,
+        outside_window=opts.outside_window,
+    )
+    driver: Driver | None = None
+    try:
+        _check_window(robot, opts)
+        driver = connect(robot, port, station, lock_timeout=opts.lock_timeout)
+        _interlock(driver, robot, "reading the robot")
+        live = driver.read_all(registers=opts.registers, progress=opts.progress)
+        result.plan = the_plan = make_plan(
+            live, target, driver, robot=robot.name, registers=opts.registers
+        )
+        record["plan"] = the_plan.commands
+        _check_plan(the_plan, opts)
+        if the_plan.empty:
+            record["result"] = "nothing to write"
+            return result
+        if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
+            raise PolicyError("push not confirmed: nothing was written")
+        result.snapshot = _save_snapshot(project.path, robot, live)
+        record["snapshot"] = str(result.snapshot)
+        _write_all(driver, robot, the_plan, opts, result)
+        record["result"] = "ok"
+        return result
+    except HarlsyncError as exc:
+        result.error = str(exc)
+        record["result"] = "refused" if isinstance(exc, InterlockError | PolicyError | StalePlanError) else "failed"
+        record["error"] = str(exc)
+        if result.plan is not None:
+            done = {id(w) for w in result.written}
+            result.not_written = [w for w in result.plan.writes if id(w) not in done]
+        raise PushFailed(exc, result) from exc
+    finally:
+        record["written"] = [
+            {"item": w.name, "command": w.command, "old": _show(w.old), "new": _show(w.new)}
+            for w in result.written
+        ]
+        if result.failed is not None:
+            record["failed_item"] = result.failed.name
+        if driver is not None:
+            driver.close()
+        result.audit_log = audit.append(record)
+
+
+def _show(value: Any) -> Any:
+    if value is None or isinstance(value, str):
+        return value
+    return getattr(value, "text", None) or repr(value)
+
+
+def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
+    if opts.plan_file is not None:
+        saved = Plan.load_saved(opts.plan_file)
+        if saved["live_fingerprint"] != the_plan.live_fingerprint:
+            raise StalePlanError(
+                f"the robot changed since the plan {opts.plan_file} was made; "
+                "make a new plan and review it"
+            )
+        if saved["project_fingerprint"] != the_plan.project_fingerprint:
+            raise StalePlanError(
+                f"the project changed since the plan {opts.plan_file} was made; "
+                "make a new plan and review it"
+            )
+    if the_plan.unwritable:
+        raise PolicyError("cannot deploy: " + "; ".join(the_plan.unwritable))
+    if the_plan.reconfigure and not opts.allow_reconfigure:
+        raise PolicyError(
+            "the project changes the program configuration (SNX), which destroys every "
+            "program on the robot; give --allow-reconfigure to do it and rewrite them all"
+        )
+
+
+def _write_all(
+    driver: Driver, robot: Robot, the_plan: Plan, opts: PushOptions, result: PushResult
+) -> None:
+    for index, write in enumerate(the_plan.writes):
+        if index == 0 or write.unsafe or not opts.allow_live_tuning:
+            _interlock(driver, robot, f"writing {write.name} ({write.command})")
+        result.failed = write
+        driver.write(write.key, write.new)
+        got = driver.read(write.key)
+        if not _same(write.key, got, write.new):
+            raise VerifyError(
+                f"{write.name} reads back as {_show(got)!r} after writing {_show(write.new)!r}"
+            )
+        result.failed = None
+        result.written.append(write)
+        log.info("wrote %s: %s", write.name, write.command)
+
+
+def _same(key: Any, got: Any, want: Any) -> bool:
+    if key == ("config",):
+        return bool(got is not None and got.same_programs(want))
+    return bool(got == want)
+
+
+def push(
+    path: str | Path,
+    opts: PushOptions,
+    *,
+    port: str | None = None,
+    station: int | None = None,
+) -> PushResult:
+    """Make the robot equal the project, safely.  Raises PushFailed with the result."""
+    project = load_project(path)  # an invalid project is refused before the port
+    if not opts.allow_dirty and not git.is_clean(project.path):
+        raise PolicyError(
+            f"{project.path} has uncommitted changes (or is not in a git repository): "
+            "commit them, or give --allow-dirty"
+        )
+    return _deploy("push", project, project.data, opts, port, station)
+
+
+def rollback(
+    path: str | Path,
+    opts: PushOptions,
+    *,
+    snapshot: str | Path | None = None,
+    port: str | None = None,
+    station: int | None = None,
+) -> PushResult:
+    """Restore the snapshot taken before the last push, under the same interlocks."""
+    project = load_project(path)
+    taken = snapshots(path)
+    chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
+    if chosen is None:
+        raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
+    saved = load_project(chosen)
+    return _deploy("rollback", project, saved.data, opts, port, station)
+

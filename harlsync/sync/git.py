@@ -1,0 +1,85 @@
+"""The few git operations harlsync needs, through the ``git`` command.
+
+Shelling out to git keeps the user's own configuration (identity, hooks, signing)
+in force and adds no dependency.
+"""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+from ..errors import SyncError
+
+__all__ = ["repo_root", "is_clean", "head", "commit", "push"]
+
+
+def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
+    try:
+        result = subprocess.run(
+            ["git", *args], cwd=cwd, capture_output=True, text=True, check=False
+        )
+    except FileNotFoundError as exc:
+        raise SyncError("git is not installed: install git or run without --commit") from exc
+    if check and result.returncode != 0:
+        detail = (result.stderr or result.stdout).strip().splitlines()
+        raise SyncError(f"git {' '.join(args)} failed in {cwd}: {detail[-1] if detail else ''}")
+    return result
+
+
+def repo_root(path: str | Path) -> Path | None:
+    """The top of the git work tree that holds ``path``, or None outside any."""
+    path = Path(path).resolve()
+    cwd = path if path.is_dir() else path.parent
+    while not cwd.exists():
+        cwd = cwd.parent
+    result = _git(cwd, "rev-parse", "--show-toplevel", check=False)
+    return Path(result.stdout.strip()) if result.returncode == 0 else None
+
+
+def is_clean(path: str | Path) -> bool:
+    """Whether ``path`` has no uncommitted change; outside any repository it is not clean."""
+    root = repo_root(path)
+    if root is None:
+        return False
+    status = _git(root, "status", "--porcelain", "--", str(Path(path).resolve()))
+    return not status.stdout.strip()
+
+
+def head(path: str | Path) -> str | None:
+    """The commit checked out where ``path`` lives, or None."""
+    root = repo_root(path)
+    if root is None:
+        return None
+    result = _git(root, "rev-parse", "HEAD", check=False)
+    return result.stdout.strip() if result.returncode == 0 else None
+
+
+def commit(paths: list[Path], message: str) -> str | None:
+    """Stage ``paths`` and commit them; the new commit, or None when nothing changed.
+
+    Raises SyncError when the paths are not in one git repository.
+    """
+    roots = {repo_root(p) for p in paths}
+    if None in roots or len(roots) != 1:
+        raise SyncError(
+            f"{', '.join(str(p) for p in paths)}: not inside one git repository; "
+            "run 'git init' there first or drop --commit"
+        )
+    root = roots.pop()
+    assert root is not None
+    specs = [str(Path(p).resolve()) for p in paths]
+    _git(root, "add", "--all", "--", *specs)
+    staged = _git(root, "diff", "--cached", "--quiet", "--", *specs, check=False)
+    if staged.returncode == 0:
+        return None
+    _git(root, "commit", "--quiet", "-m", message, "--", *specs)
+    return _git(root, "rev-parse", "HEAD").stdout.strip()
+
+
+def push(path: str | Path, remote: str | None = None) -> None:
+    """Push the current branch.  Raises SyncError with git's reason."""
+    root = repo_root(path)
+    if root is None:
+        raise SyncError(f"{path}: not inside a git repository")
+    _git(root, "push", *([remote] if remote else []))
