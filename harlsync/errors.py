@@ -10,7 +10,8 @@
     ├── LinkError                the serial line (names the port and station)
     │   ├── PortError            cannot open the port, or it went away
     │   ├── PortBusyError        another harlsync holds the port or the line
-    │   └── LinkTimeout          no valid reply in time (also a TimeoutError)
+    │   ├── LinkTimeout          no valid reply in time (also a TimeoutError)
+    │   └── WriteUnconfirmed     a write's reply was lost: it may or may not have taken
     ├── ControllerError          the controller answered "E"+status where the operation cannot go on
     ├── ProjectError             the robot project on disk
     │   ├── ProjectFormatError   unreadable YAML, a newer format version, a missing file
@@ -37,6 +38,7 @@ __all__ = [
     "PortError",
     "PortBusyError",
     "LinkTimeout",
+    "WriteUnconfirmed",
     "ControllerError",
     "ProjectError",
     "ProjectFormatError",
@@ -111,6 +113,14 @@ class PortBusyError(LinkError):
 
 class LinkTimeout(LinkError, TimeoutError):
     """No valid reply arrived in time, after every retry."""
+
+
+class WriteUnconfirmed(LinkError):
+    """No valid reply came to an SN write: the controller may or may not have applied it.
+
+    The link never re-sends a write on its own; the controller layer reads the
+    item back and decides on that evidence.
+    """
 
 
 class ControllerError(_Located, HarlsyncError):

@@ -1,17 +1,99 @@
-"""One serial line to a HARL-U2 controller (placeholder: being written)."""
+"""One serial line to a HARL-U2 controller: send a request, get its reply.
+
+How this works::
+
+    exchange(request)
+      | wait out replies still owed by earlier attempts, then drop pending input
+      v
+    write  STX station SP payload ETX LRC  ------------------------------->  controller
+      |                                                                         |
+    read in short polls into a FrameDecoder  <----------------------------  reply
+      |   bad LRC, malformed, noise   : log, keep reading (the reply may follow)
+      |   frame for another station   : ignore
+      |   frame that does not fit     : discard (a late reply), keep reading
+      v   deadline (settings.timeout) passes without a fitting reply
+    read  : drain input, re-send; after settings.retries re-sends -> LinkTimeout
+    write : never re-sent here -> WriteUnconfirmed (the controller reads the item back)
+
+Late replies.  A reply that missed its deadline may still arrive, and most
+replies carry no echo of what they answer (``LNT 3`` and ``LNT 4`` are both
+answered ``0.50``), so a late reply would pass for the answer to the next
+request.  Every attempt that got no reply therefore leaves a reply *owed* by
+that station; before the next request is sent the link listens until owed
+replies have come (and are discarded) or cannot come any more (``late_window``
+seconds after their deadline).  That costs one ``late_window`` after a reply
+that was really lost, and never returns a value that answers another request.
+
+Exclusive access.  pyserial's ``exclusive=True`` is advisory and device-only, so
+the link also holds an inter-process :class:`filelock.FileLock` named after the
+port (see :func:`lock_path`) for as long as it is open: processes that share a
+line (stations 1-4 on one HNC) never interleave frames.  Within a process a lock
+around each exchange does the same for threads sharing one :class:`Link`.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import hashlib
+import logging
+import os
+import re
+import socket
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+from urllib.parse import urlsplit
 
-from .protocol import profile
+import filelock
+import serial
 
-__all__ = ["SerialSettings"]
+from .errors import (
+    LinkError,
+    LinkTimeout,
+    PortBusyError,
+    PortError,
+    ProtocolError,
+    ReplyError,
+    WriteUnconfirmed,
+)
+from .protocol import FrameDecoder, Request, decode_reply, encode_frame, profile
+
+__all__ = [
+    "DEFAULT_LOCK_TIMEOUT",
+    "POLL_INTERVAL",
+    "Link",
+    "LinkStats",
+    "SerialSettings",
+    "default_lock_dir",
+    "lock_key",
+    "lock_path",
+]
+
+log = logging.getLogger(__name__)
+
+# sim:// URLs are served by harlsync/sim/protocol_sim.py.  pyserial imports the
+# handler by name when such a URL is opened: the link itself never imports sim.
+if "harlsync.sim" not in serial.protocol_handler_packages:
+    serial.protocol_handler_packages.append("harlsync.sim")
+
+#: Seconds a second harlsync waits for the port before PortBusyError.
+DEFAULT_LOCK_TIMEOUT = 10.0
+#: pyserial read timeout: how often the link looks at its own deadline.
+POLL_INTERVAL = 0.02
+#: Retry reasons kept in :attr:`LinkStats.reasons` (the oldest are dropped).
+MAX_REASONS = 500
 
 
 @dataclass(frozen=True)
 class SerialSettings:
-    """Per-robot serial settings and reply deadline; defaults are the profile's."""
+    """Per-robot serial settings and reply deadline; defaults are the profile's.
+
+    ``timeout`` is the seconds a reply may take; ``retries`` how many times a
+    read (never a write) is re-sent after a lost or garbled reply.
+    """
 
     baudrate: int = profile.BAUDRATE
     bytesize: int = profile.BYTESIZE
@@ -20,3 +102,425 @@ class SerialSettings:
     rtscts: bool = profile.RTSCTS
     timeout: float = profile.REPLY_TIMEOUT
     retries: int = 3
+
+
+@dataclass
+class LinkStats:
+    """What the link went through, for pull/backup reports.  Counts since creation."""
+
+    exchanges: int = 0
+    retries: int = 0
+    #: attempts whose deadline passed without a fitting reply
+    timeouts: int = 0
+    #: frames with a bad LRC or malformed
+    bad_frames: int = 0
+    #: bytes discarded as line noise (outside any frame)
+    noise_bytes: int = 0
+    #: frames for another station, ignored
+    other_station: int = 0
+    #: well-formed frames for our station that did not answer the request
+    unfitting: int = 0
+    #: replies to earlier attempts that arrived after their deadline, discarded
+    late_replies: int = 0
+    #: writes whose reply was lost (WriteUnconfirmed)
+    unconfirmed_writes: int = 0
+    #: one line per retry or unconfirmed write: "port, station, command: reason"
+    reasons: list[str] = field(default_factory=list)
+
+    def note(self, reason: str) -> None:
+        self.reasons.append(reason)
+        del self.reasons[:-MAX_REASONS]
+
+
+@dataclass(frozen=True)
+class _Failure:
+    """Why one attempt got no reply."""
+
+    reason: str
+    cause: ProtocolError | None = None
+
+
+class Link:
+    """One port (and the default station on it), opened by pyserial URL.
+
+    ``url`` is a device path (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL
+    (``socket://host:port``, ``rfc2217://``, ``loop://``, ``spy://``, ``sim://``).
+    ``lock_timeout`` is the seconds to wait for another harlsync to release the
+    port (0: fail at once, negative: wait for ever).  ``late_window`` is how long
+    after its deadline a missed reply may still arrive (default: settings.timeout).
+    """
+
+    def __init__(
+        self,
+        url: str,
+        station: int = 1,
+        settings: SerialSettings = SerialSettings(),
+        *,
+        lock_timeout: float = DEFAULT_LOCK_TIMEOUT,
+        lock_dir: str | os.PathLike[str] | None = None,
+        late_window: float | None = None,
+    ) -> None:
+        self.url = url
+        self.station = station
+        self.settings = settings
+        self.lock_timeout = lock_timeout
+        self.lock_path = lock_path(url, lock_dir)
+        self.late_window = settings.timeout if late_window is None else late_window
+        self.stats = LinkStats()
+        self._port: Any = None  # serial.SerialBase once open
+        self._file_lock: filelock.BaseFileLock | None = None
+        self._lock = threading.RLock()
+        self._decoder = FrameDecoder()
+        self._dropped_seen = 0
+        self._owed: dict[int, tuple[int, float]] = {}  # station -> (replies, due by)
+
+    # --- open / close ---------------------------------------------------------------
+
+    @property
+    def is_open(self) -> bool:
+        return self._port is not None
+
+    def open(self) -> Link:
+        """Take the port's lock and open it.
+
+        Raises :class:`PortBusyError` when another harlsync holds the port, and
+        :class:`PortError` when it cannot be opened.
+        """
+        with self._lock:
+            if self._port is not None:
+                return self
+            self._take_file_lock()
+            try:
+                self._port = self._open_port()
+            except BaseException:
+                self._release_file_lock()
+                raise
+            self._decoder = FrameDecoder()
+            self._dropped_seen = 0
+            self._owed.clear()
+            log.info("opened %s (station %d, %s)", self.url, self.station, self.settings)
+        return self
+
+    def close(self) -> None:
+        with self._lock:
+            port, self._port = self._port, None
+            if port is not None:
+                try:
+                    port.close()
+                except (serial.SerialException, OSError) as exc:
+                    log.warning("closing %s: %s", self.url, exc)
+            self._release_file_lock()
+
+    def __enter__(self) -> Link:
+        return self.open()
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def _open_port(self) -> Any:
+        s = self.settings
+        try:
+            port = serial.serial_for_url(self.url, do_not_open=True)
+            port.baudrate = s.baudrate
+            port.bytesize = s.bytesize
+            port.parity = s.parity
+            port.stopbits = s.stopbits
+            port.rtscts = s.rtscts
+            port.timeout = POLL_INTERVAL
+            port.write_timeout = max(s.timeout, 1.0)
+            if "://" not in self.url:
+                port.exclusive = True
+            port.open()
+            port.reset_input_buffer()
+        except (serial.SerialException, OSError, ValueError) as exc:
+            if "exclusively lock" in str(exc):
+                raise PortBusyError(
+                    f"in use by another program (it holds the device lock): {exc}", port=self.url
+                ) from exc
+            raise PortError(
+                f"cannot open: {exc}; check the cable/adapter and the port name", port=self.url
+            ) from exc
+        return port
+
+    def _take_file_lock(self) -> None:
+        path = self.lock_path
+        if path is None:
+            return
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            lock = filelock.FileLock(str(path), thread_local=False)
+            lock.acquire(timeout=self.lock_timeout)
+        except filelock.Timeout as exc:
+            raise PortBusyError(self._busy_message(path), port=self.url) from exc
+        except OSError as exc:
+            raise PortError(
+                f"cannot take the port lock {path}: {exc}; set HARLSYNC_LOCK_DIR to a writable "
+                "directory",
+                port=self.url,
+            ) from exc
+        self._file_lock = lock
+        try:
+            _owner_path(path).write_text(f"{os.getpid()} {socket.gethostname()}\n")
+        except OSError as exc:  # the pid is only for the message of a waiting harlsync
+            log.debug("cannot record the lock holder in %s: %s", _owner_path(path), exc)
+
+    def _release_file_lock(self) -> None:
+        lock, self._file_lock = self._file_lock, None
+        if lock is None:
+            return
+        try:
+            _owner_path(Path(lock.lock_file)).unlink()
+        except OSError:
+            pass
+        lock.release()
+
+    def _busy_message(self, path: Path) -> str:
+        who = "another harlsync"
+        try:
+            pid, _, host = _owner_path(path).read_text().strip().partition(" ")
+        except OSError:
+            pid, host = "", ""
+        if pid == str(os.getpid()) and host == socket.gethostname():
+            who = "another Link of this process"
+        elif pid:
+            who += f" (pid {pid}{'' if host == socket.gethostname() else ' on ' + host})"
+        return f"in use by {who}; wait for it to finish or use --lock-timeout (lock file {path})"
+
+    # --- exchange -------------------------------------------------------------------
+
+    def exchange(self, request: Request, *, station: int | None = None) -> Any:
+        """Send ``request`` to ``station`` (default: the link's) and return its reply.
+
+        Returns what :func:`~harlsync.protocol.decode_reply` makes of the reply:
+        a typed value, or an :class:`~harlsync.protocol.ErrorReply` for ``E`` +
+        status.  Raises :class:`LinkTimeout` when a read got no valid reply after
+        every retry, :class:`WriteUnconfirmed` when a write got none (it is never
+        re-sent here), :class:`PortError` when the port fails.
+        """
+        st = self.station if station is None else station
+        frame = encode_frame(st, request.payload)
+        with self._lock:
+            port = self._port
+            if port is None:
+                raise LinkError("link is not open", port=self.url, station=st)
+            self.stats.exchanges += 1
+            self._settle(port, st, wait=True)
+            attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
+            failure = _Failure("not sent")
+            for attempt in range(attempts):
+                if attempt:
+                    self.stats.retries += 1
+                    self._note(
+                        logging.WARNING,
+                        st,
+                        request,
+                        f"retry {attempt}/{attempts - 1} after {failure.reason}",
+                    )
+                    self._settle(port, st, wait=False)
+                sent = self._send(port, frame, st)
+                # A reply still owed may be this attempt's (the earlier one's was taken):
+                # it can come until this attempt's late window ends.
+                due_by = sent + self.settings.timeout + self.late_window
+                if st in self._owed:
+                    count, due = self._owed[st]
+                    self._owed[st] = (count, max(due, due_by))
+                result = self._await(port, request, st)
+                if not isinstance(result, _Failure):
+                    return result
+                failure = result
+                self.stats.timeouts += 1
+                count, due = self._owed.get(st, (0, 0.0))
+                self._owed[st] = (count + 1, max(due, due_by))
+            if request.is_write:
+                self.stats.unconfirmed_writes += 1
+                self._note(logging.WARNING, st, request, f"write unconfirmed: {failure.reason}")
+                raise WriteUnconfirmed(
+                    f"no valid reply to this write ({failure.reason}); it may or may not have "
+                    "taken: read the item back before sending it again",
+                    port=self.url,
+                    station=st,
+                    command=request.payload,
+                ) from failure.cause
+            raise LinkTimeout(
+                f"no valid reply after {attempts} attempt(s) (last: {failure.reason})",
+                port=self.url,
+                station=st,
+                command=request.payload,
+            ) from failure.cause
+
+    def _note(self, level: int, station: int, request: Request, reason: str) -> None:
+        line = f"port {self.url}, station {station}, command {request.payload}: {reason}"
+        self.stats.note(line)
+        log.log(level, "%s", line)
+
+    def _send(self, port: Any, frame: bytes, station: int) -> float:
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("%s -> %s", self.url, _hex(frame))
+        try:
+            port.write(frame)
+            port.flush()
+        except (serial.SerialException, OSError) as exc:
+            raise PortError(
+                f"port went away while sending: {exc}", port=self.url, station=station
+            ) from exc
+        return time.monotonic()
+
+    def _read(self, port: Any, station: int, *, block: bool) -> bytes:
+        """Whatever input is there; with ``block``, wait up to one poll for a byte."""
+        try:
+            waiting = port.in_waiting
+            data: bytes = port.read(waiting or 1) if waiting or block else b""
+            if data and not waiting and port.in_waiting:  # the rest of what arrived with it
+                data += port.read(port.in_waiting)
+        except (serial.SerialException, OSError) as exc:
+            raise PortError(f"port went away: {exc}", port=self.url, station=station) from exc
+        if data:
+            if log.isEnabledFor(logging.DEBUG):
+                log.debug("%s <- %s", self.url, _hex(data))
+            self._decoder.feed(data)
+        return data
+
+    def _count_noise(self) -> None:
+        self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
+        self._dropped_seen = self._decoder.dropped
+
+    def _settle(self, port: Any, station: int, *, wait: bool) -> None:
+        """Discard pending input; with ``wait``, first let replies owed by ``station`` come."""
+        while True:
+            count, due = self._owed.get(station, (0, 0.0))
+            if count and time.monotonic() >= due:
+                log.debug(
+                    "%s station %d: %d missed reply(ies) never came", self.url, station, count
+                )
+                del self._owed[station]
+                count = 0
+            data = self._read(port, station, block=wait and count > 0)
+            self._discard_frames(station)
+            if not data and not (wait and count):
+                break
+        self._decoder.clear()
+        self._count_noise()
+
+    def _discard_frames(self, station: int) -> None:
+        while True:
+            try:
+                frame = self._decoder.next_frame()
+            except ProtocolError as exc:
+                self.stats.bad_frames += 1
+                log.info("%s: discarded bad frame: %s", self.url, exc)
+                continue
+            if frame is None:
+                return
+            if frame.station == station:
+                self._late_reply(station, frame.payload)
+            else:
+                self.stats.other_station += 1
+
+    def _late_reply(self, station: int, payload: str) -> None:
+        count, due = self._owed.get(station, (0, 0.0))
+        self.stats.late_replies += 1
+        log.info("%s station %d: discarded late reply %r", self.url, station, payload)
+        if count > 1:
+            self._owed[station] = (count - 1, due)
+        else:
+            self._owed.pop(station, None)
+
+    def _await(self, port: Any, request: Request, station: int) -> Any:
+        """The decoded reply, or a :class:`_Failure` once the deadline has passed."""
+        deadline = time.monotonic() + self.settings.timeout
+        failure = _Failure(f"no reply within {self.settings.timeout:g} s")
+        while True:
+            while True:
+                try:
+                    frame = self._decoder.next_frame()
+                except ProtocolError as exc:
+                    self.stats.bad_frames += 1
+                    log.info("%s station %d %s: bad frame: %s", self.url, station, request, exc)
+                    failure = _Failure(f"bad frame: {exc}", exc)
+                    continue
+                if frame is None:
+                    break
+                if frame.station != station:
+                    self.stats.other_station += 1
+                    log.debug("%s: ignored a frame for station %d", self.url, frame.station)
+                    continue
+                try:
+                    value = decode_reply(request, frame.payload)
+                except ReplyError as exc:
+                    self.stats.unfitting += 1
+                    log.info("%s station %d %s: discarded: %s", self.url, station, request, exc)
+                    failure = _Failure(f"reply does not fit: {exc}", exc)
+                    if station in self._owed:
+                        self._late_reply(station, frame.payload)
+                    continue
+                self._count_noise()
+                return value
+            if time.monotonic() >= deadline:
+                self._count_noise()
+                return failure
+            self._read(port, station, block=True)
+
+
+def _hex(data: bytes) -> str:
+    return data.hex(" ").upper()
+
+
+# --- the port lock -----------------------------------------------------------------
+
+
+def default_lock_dir() -> Path:
+    """``$HARLSYNC_LOCK_DIR``, else ``$XDG_RUNTIME_DIR/harlsync``, else ``<tmp>/harlsync-locks``."""
+    env = os.environ.get("HARLSYNC_LOCK_DIR")
+    if env:
+        return Path(env)
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    if runtime and os.path.isdir(runtime):
+        return Path(runtime) / "harlsync"
+    return Path(tempfile.gettempdir()) / "harlsync-locks"
+
+
+_COM_RE = re.compile(r"(?:\\\\\.\\)?(COM\d+)", re.IGNORECASE)
+
+
+def lock_key(url: str) -> str | None:
+    """The identity of the line ``url`` opens, or None for one no other process can share.
+
+    Device paths resolve symlinks (``/dev/serial/by-id/...`` and ``/dev/ttyUSB0``
+    are one line), ``COM3`` is upper-cased, ``spy://`` is the port it wraps,
+    ``socket://`` and ``rfc2217://`` are host:port without options, ``loop://``
+    is private to its process (None), any other URL is taken as it is.
+    """
+    if "://" not in url:
+        com = _COM_RE.fullmatch(url)
+        if com:
+            return com.group(1).upper()
+        return os.path.realpath(url)
+    scheme = url.split("://", 1)[0].lower()
+    parts = urlsplit(url)
+    if scheme == "loop":
+        return None
+    if scheme == "spy":
+        return lock_key(parts.netloc + parts.path)
+    if scheme in ("socket", "rfc2217"):
+        return f"{scheme}://{parts.netloc.lower()}"
+    return url
+
+
+def lock_path(url: str, lock_dir: str | os.PathLike[str] | None = None) -> Path | None:
+    """The lock file for the line ``url`` opens (None when it needs none)."""
+    key = lock_key(url)
+    if key is None:
+        return None
+    digest = hashlib.sha256(key.encode()).hexdigest()[:12]
+    readable = re.sub(r"[^A-Za-z0-9.-]+", "_", key).strip("_")[-48:]
+    directory = Path(lock_dir) if lock_dir is not None else default_lock_dir()
+    return directory / f"{readable}-{digest}.lock"
+
+
+def _owner_path(path: Path) -> Path:
+    return path.with_name(path.name + ".owner")

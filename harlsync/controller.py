@@ -1,0 +1,350 @@
+"""What a HARL-U2 robot can do, as methods: read_step, write_timer, status(), config() ...
+
+A :class:`Controller` talks to one station through a :class:`~harlsync.link.Link`
+(several controllers, one per station, may share a link).  Every failure is a
+typed exception naming the port, the station and the command: an ``E`` + status
+reply raises :class:`~harlsync.errors.ControllerError` (its ``status`` is the raw
+text), the link raises :class:`~harlsync.errors.LinkError` subclasses.
+
+Writes are confirmed, never blindly repeated.  When the reply to an SN write is
+lost the link raises :class:`~harlsync.errors.WriteUnconfirmed`; the controller
+then reads the item back::
+
+    reads back what was written    -> the write took: done
+    reads back what was there      -> it did not take: send it once more (then the same check)
+    reads back anything else       -> WriteUnconfirmed (someone else changed it, or worse)
+
+"What was there" is the ``old`` value the caller passes (push knows it from its
+plan); without it the controller reads the item before writing.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable
+from types import TracebackType
+from typing import Any, TypeVar
+
+from .errors import ControllerError, WriteUnconfirmed
+from .link import DEFAULT_LOCK_TIMEOUT, Link, SerialSettings
+from .model import (
+    OFFSET_TABLE_COUNT,
+    Config,
+    OffsetTable,
+    Parameters,
+    ProgramKey,
+    ProgramType,
+    RobotData,
+    Status,
+    Step,
+)
+from .protocol import ErrorReply, Request
+from .protocol import commands as cmd
+
+__all__ = ["Controller", "Progress"]
+
+log = logging.getLogger(__name__)
+
+#: ``progress(done, total)``, called after each item read.
+Progress = Callable[[int, int], None]
+
+T = TypeVar("T")
+
+
+class Controller:
+    """One robot (``station``, default the link's) on an open :class:`Link`."""
+
+    def __init__(self, link: Link, station: int | None = None) -> None:
+        self.link = link
+        self.station = link.station if station is None else station
+        self._owns_link = False
+
+    @classmethod
+    def from_url(
+        cls,
+        url: str,
+        station: int = 1,
+        settings: SerialSettings | None = None,
+        *,
+        lock_timeout: float = DEFAULT_LOCK_TIMEOUT,
+        lock_dir: str | os.PathLike[str] | None = None,
+    ) -> Controller:
+        """Open a link to ``url`` and return a controller that closes it on :meth:`close`.
+
+        Raises :class:`~harlsync.errors.PortBusyError` or :class:`~harlsync.errors.PortError`.
+        """
+        link = Link(
+            url, station, settings or SerialSettings(), lock_timeout=lock_timeout, lock_dir=lock_dir
+        ).open()
+        controller = cls(link)
+        controller._owns_link = True
+        return controller
+
+    @property
+    def port(self) -> str:
+        return self.link.url
+
+    def close(self) -> None:
+        """Close the link if this controller opened it (``from_url``)."""
+        if self._owns_link:
+            self.link.close()
+
+    def __enter__(self) -> Controller:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # --- the one place requests go through ----------------------------------------
+
+    def request(self, request: Request) -> Any:
+        """Send one request and return its typed value.
+
+        Raises :class:`ControllerError` when the controller answers ``E`` + status.
+        """
+        value = self.link.exchange(request, station=self.station)
+        if isinstance(value, ErrorReply):
+            raise ControllerError(
+                value.status, port=self.port, station=self.station, command=request.payload
+            )
+        return value
+
+    def _write(
+        self,
+        request: Request,
+        readback: Request,
+        wanted: T,
+        old: T | None,
+        same: Callable[[T, T], bool] = lambda a, b: a == b,
+    ) -> None:
+        """Send an SN write; when its reply is lost, decide on what ``readback`` returns."""
+        if old is None:
+            old = self.request(readback)
+        for attempt in (1, 2):
+            try:
+                self.request(request)
+                return
+            except WriteUnconfirmed as exc:
+                now = self.request(readback)
+                if same(now, wanted):
+                    log.info("%s: reply lost but the write took (read back)", exc)
+                    return
+                if attempt == 1 and same(now, old):
+                    log.warning("%s: the write did not take (read back): sending it once more", exc)
+                    continue
+                if attempt == 1:
+                    why = (
+                        f"{readback.payload} reads back {_show(now)}: neither what was written "
+                        f"({_show(wanted)}) nor what was there before ({_show(old)})"
+                    )
+                else:
+                    why = f"sent twice, and {readback.payload} still reads back {_show(now)}"
+                raise WriteUnconfirmed(
+                    f"write not confirmed: {why}",
+                    port=self.port,
+                    station=self.station,
+                    command=request.payload,
+                ) from exc
+
+    # --- programs -----------------------------------------------------------------
+
+    def read_step(self, ptype: ProgramType, program: int, step: int) -> Step:
+        value: Step = self.request(cmd.read_step(ptype, program, step))
+        return value
+
+    def write_step(
+        self, ptype: ProgramType, program: int, step: int, value: Step, *, old: Step | None = None
+    ) -> None:
+        """Write one step (an empty :class:`Step` clears it)."""
+        self._write(
+            cmd.write_step(ptype, program, step, value),
+            cmd.read_step(ptype, program, step),
+            value,
+            old,
+        )
+
+    def read_program(
+        self,
+        ptype: ProgramType,
+        number: int,
+        steps: int | None = None,
+        progress: Progress | None = None,
+    ) -> dict[int, Step]:
+        """The non-empty steps of one program, by step number.
+
+        ``steps`` is how many to read (default: what LNX reports for the type).
+        """
+        if steps is None:
+            steps = self.config().area(ptype).steps
+        out: dict[int, Step] = {}
+        for n in range(steps):
+            value = self.read_step(ptype, number, n)
+            if not value.empty:
+                out[n] = value
+            if progress is not None:
+                progress(n + 1, steps)
+        return out
+
+    # --- timers, registers, offsets, parameters ---------------------------------------
+
+    def read_timer(self, number: int) -> str:
+        value: str = self.request(cmd.read_timer(number))
+        return value
+
+    def write_timer(self, number: int, value: str, *, old: str | None = None) -> None:
+        self._write(cmd.write_timer(number, value), cmd.read_timer(number), value, old)
+
+    def read_register(self, number: int) -> str:
+        value: str = self.request(cmd.read_register(number))
+        return value
+
+    def write_register(self, number: int, value: str, *, old: str | None = None) -> None:
+        self._write(cmd.write_register(number, value), cmd.read_register(number), value, old)
+
+    def read_offset(self, table: int) -> OffsetTable:
+        value: OffsetTable = self.request(cmd.read_offset(table))
+        return value
+
+    def write_offset(
+        self, table: int, value: OffsetTable, *, old: OffsetTable | None = None
+    ) -> None:
+        self._write(cmd.write_offset(table, value), cmd.read_offset(table), value, old)
+
+    def read_parameters(self) -> Parameters:
+        value: Parameters = self.request(cmd.read_parameters())
+        return value
+
+    def write_parameters(self, value: Parameters, *, old: Parameters | None = None) -> None:
+        self._write(cmd.write_parameters(value), cmd.read_parameters(), value, old)
+
+    # --- I/O and memory bits ------------------------------------------------------------
+
+    def read_di_bit(self, bit: int) -> bool:
+        return bool(self.request(cmd.read_di_bit(bit)))
+
+    def read_di_port(self, port: int) -> int:
+        value: int = self.request(cmd.read_di_port(port))
+        return value
+
+    def read_do_bit(self, bit: int) -> bool:
+        return bool(self.request(cmd.read_do_bit(bit)))
+
+    def read_do_port(self, port: int) -> int:
+        value: int = self.request(cmd.read_do_port(port))
+        return value
+
+    def write_do_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
+        """Drive one physical output."""
+        self._write(cmd.write_do_bit(bit, on), cmd.read_do_bit(bit), int(on), _bit(old))
+
+    def write_do_port(self, port: int, value: int, *, old: int | None = None) -> None:
+        """Drive eight physical outputs (bit n of ``value`` is DO 8*port+n)."""
+        self._write(cmd.write_do_port(port, value), cmd.read_do_port(port), value, old)
+
+    def read_mem_bit(self, bit: int) -> bool:
+        return bool(self.request(cmd.read_mem_bit(bit)))
+
+    def read_mem_port(self, port: int) -> int:
+        value: int = self.request(cmd.read_mem_port(port))
+        return value
+
+    def write_mem_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
+        self._write(cmd.write_mem_bit(bit, on), cmd.read_mem_bit(bit), int(on), _bit(old))
+
+    def write_mem_port(self, port: int, value: int, *, old: int | None = None) -> None:
+        self._write(cmd.write_mem_port(port, value), cmd.read_mem_port(port), value, old)
+
+    # --- status, version, configuration -------------------------------------------------
+
+    def status(self) -> Status:
+        """The LNR task states; ``.idle`` is the fail-safe verdict.
+
+        An unparsable reply raises (:class:`~harlsync.errors.LinkTimeout` from the
+        :class:`~harlsync.errors.ReplyError`): treat any error as "not idle".
+        """
+        value: Status = self.request(cmd.read_status())
+        return value
+
+    def version(self) -> str:
+        value: str = self.request(cmd.read_version())
+        return value
+
+    def config(self) -> Config:
+        value: Config = self.request(cmd.read_config())
+        return value
+
+    def write_config(self, value: Config, *, old: Config | None = None) -> None:
+        """SNX: set the four program areas.  The controller drops every program."""
+        self._write(
+            cmd.write_config(value),
+            cmd.read_config(),
+            value,
+            old,
+            lambda a, b: a.same_programs(b),
+        )
+
+    # --- everything ---------------------------------------------------------------------
+
+    def read_all(
+        self, include_registers: bool = False, progress: Progress | None = None
+    ) -> RobotData:
+        """Everything a backup holds, read in pull order.
+
+        The configuration first (it says what exists), then version, parameters,
+        every step of every program, the offset tables and the timers, and the
+        registers when ``include_registers``.  ``progress(done, total)`` is called
+        after each item.
+        """
+        config = self.config()
+        registers = config.registers if include_registers else 0
+        total = 3 + config.step_count + OFFSET_TABLE_COUNT + config.timers + registers
+        done = 0
+
+        def tick(value: T) -> T:
+            nonlocal done
+            done += 1
+            if progress is not None:
+                progress(done, total)
+            return value
+
+        tick(config)
+        version = tick(self.version())
+        parameters = tick(self.read_parameters())
+        programs: dict[ProgramKey, dict[int, Step]] = {}
+        for ptype, number in config.programs():
+            steps: dict[int, Step] = {}
+            for n in range(config.area(ptype).steps):
+                value = tick(self.read_step(ptype, number, n))
+                if not value.empty:
+                    steps[n] = value
+            programs[(ptype, number)] = steps
+        offsets = {n: tick(self.read_offset(n)) for n in range(OFFSET_TABLE_COUNT)}
+        timers = {n: tick(self.read_timer(n)) for n in range(config.timers)}
+        regs = {n: tick(self.read_register(n)) for n in range(registers)}
+        return RobotData(
+            version=version,
+            config=config,
+            parameters=parameters,
+            programs=programs,
+            offsets=offsets,
+            timers=timers,
+            registers=regs if include_registers else None,
+        )
+
+
+def _bit(value: bool | None) -> int | None:
+    return None if value is None else int(value)
+
+
+def _show(value: object) -> str:
+    if isinstance(value, Step):
+        return repr(value.text)
+    if isinstance(value, (OffsetTable, Parameters)):
+        return repr(" ".join(value.values))
+    return repr(value)

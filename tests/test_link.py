@@ -1,0 +1,387 @@
+"""The link: one port, requests and replies, retries, late replies, the port lock.
+
+Everything runs over a real pty (or a real TCP socket) served by the simulator.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+import serial
+from simline import (
+    JUNK,
+    LOSE,
+    SMALL,
+    Act,
+    ScriptedSim,
+    bad_lrc,
+    bytewise,
+    drop,
+    noise,
+    preceded_by,
+    slow,
+)
+
+from harlsync.errors import (
+    FrameError,
+    LinkError,
+    LinkTimeout,
+    LRCError,
+    PortBusyError,
+    PortError,
+    WriteUnconfirmed,
+)
+from harlsync.link import Link, SerialSettings, default_lock_dir, lock_key, lock_path
+from harlsync.model import ProgramType, Step
+from harlsync.protocol import Ack, ErrorReply, encode_frame
+from harlsync.protocol import commands as cmd
+from harlsync.sim import SimState
+from harlsync.sim.serve import PtyServer, TcpServer
+
+FAST = SerialSettings(timeout=0.25, retries=3)
+
+
+@pytest.fixture(autouse=True)
+def lock_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    path = tmp_path / "locks"
+    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(path))
+    return path
+
+
+@pytest.fixture
+def sim() -> ScriptedSim:
+    state = SimState.generate(3, SMALL)
+    assert state.data.registers is not None
+    for n in range(SMALL.registers):  # every register different: a wrong answer shows
+        state.data.registers[n] = f"{1000 + n:04d}"
+    for n in range(SMALL.timers):
+        state.data.timers[n] = f"{n + 1}.{n}0"
+    return ScriptedSim(state)
+
+
+@pytest.fixture
+def device(sim: ScriptedSim) -> Iterator[str]:
+    with PtyServer(sim) as server:
+        yield server.device
+
+
+@pytest.fixture
+def link(device: str) -> Iterator[Link]:
+    with Link(device, 1, FAST) as link:
+        yield link
+
+
+def timers(sim: ScriptedSim) -> dict[int, str]:
+    return sim.stations[1].data.timers
+
+
+# --- plain exchanges --------------------------------------------------------------------
+
+
+def test_a_read_over_a_pty_returns_the_typed_value(link: Link, sim: ScriptedSim) -> None:
+    assert link.exchange(cmd.read_version()) == "5.00"
+    assert link.exchange(cmd.read_timer(2)) == "3.20"
+    step = link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0))
+    assert step == sim.stations[1].data.programs[(ProgramType.MAIN, 0)][0]
+    assert link.stats.exchanges == 3 and link.stats.retries == 0
+
+
+def test_a_read_over_tcp_returns_the_typed_value(sim: ScriptedSim) -> None:
+    with TcpServer(sim) as server, Link(server.url, 1, FAST) as link:
+        assert link.exchange(cmd.read_register(3)) == "1003"
+
+
+def test_a_sim_url_opens_the_in_process_simulator() -> None:
+    with Link("sim://?seed=1", 1, FAST) as link:
+        assert link.exchange(cmd.read_version()) == "5.00"
+
+
+def test_an_error_reply_is_a_value_not_an_exception(link: Link) -> None:
+    assert isinstance(link.exchange(cmd.read_timer(99)), ErrorReply)
+    assert link.exchange(cmd.write_timer(1, "1.11")) == Ack("0")
+
+
+def test_traffic_is_logged_as_hex_at_debug(link: Link, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.DEBUG, logger="harlsync.link")
+    link.exchange(cmd.read_version())
+    sent = [r.getMessage() for r in caplog.records if " -> " in r.getMessage()]
+    got = " ".join(
+        r.getMessage().split(" <- ")[1] for r in caplog.records if " <- " in r.getMessage()
+    )
+    assert sent == [f"{link.url} -> 02 31 20 4C 4E 56 03 46"]  # LRC worked by hand
+    assert got == "02 31 20 35 2E 30 30 03 09"
+
+
+def test_threads_sharing_one_link_never_interleave_frames(link: Link, sim: ScriptedSim) -> None:
+    def worker(k: int) -> list[bool]:
+        out = []
+        for i in range(15):
+            n = (k + i) % SMALL.registers
+            out.append(link.exchange(cmd.read_register(n)) == f"{1000 + n:04d}")
+            t = (k * i) % SMALL.timers
+            out.append(link.exchange(cmd.read_timer(t)) == timers(sim)[t])
+        return out
+
+    with ThreadPoolExecutor(8) as pool:
+        results = [ok for part in pool.map(worker, range(8)) for ok in part]
+    assert len(results) == 8 * 30 and all(results)
+    assert sim.ignored == 0, "the simulator saw garbled (interleaved) requests"
+    assert link.stats.retries == 0
+
+
+def test_one_link_serves_several_stations_on_the_line() -> None:
+    sim = ScriptedSim({1: SimState.generate(1, SMALL), 2: SimState.generate(2, SMALL)})
+    sim.stations[2].data.version = "6.10"
+    with PtyServer(sim) as server, Link(server.device, 1, FAST) as link:
+        assert link.exchange(cmd.read_version()) == "5.00"
+        assert link.exchange(cmd.read_version(), station=2) == "6.10"
+
+
+# --- faults on the wire ----------------------------------------------------------------------
+
+
+def test_a_dropped_reply_is_retried_and_the_reason_logged(
+    link: Link, sim: ScriptedSim, caplog: pytest.LogCaptureFixture
+) -> None:
+    sim.plan("LNT 3", Act(wire=drop))
+    with caplog.at_level(logging.WARNING, logger="harlsync.link"):
+        assert link.exchange(cmd.read_timer(3)) == "4.30"
+    assert sim.sent("LNT 3") == ["LNT 3", "LNT 3"]
+    assert (link.stats.retries, link.stats.timeouts) == (1, 1)
+    (warning,) = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert f"port {link.url}, station 1, command LNT 3: retry 1/3 after no reply" in warning
+    assert link.stats.reasons == [warning]
+    # the lost reply never comes: the next request still gets its own answer
+    assert link.exchange(cmd.read_timer(2)) == "3.20"
+
+
+def test_a_reply_with_a_bad_lrc_is_retried(link: Link, sim: ScriptedSim) -> None:
+    sim.plan("LND 2", Act(wire=bad_lrc))
+    assert link.exchange(cmd.read_register(2)) == "1002"
+    assert link.stats.bad_frames == 1 and link.stats.retries == 1
+    assert "LRC" in link.stats.reasons[0]
+
+
+def test_noise_before_a_reply_is_dropped_without_a_retry(link: Link, sim: ScriptedSim) -> None:
+    sim.plan("LND 1", Act(wire=noise))
+    assert link.exchange(cmd.read_register(1)) == "1001"
+    assert link.stats.retries == 0
+    assert link.stats.noise_bytes == len(JUNK)
+
+
+def test_a_reply_in_single_bytes_is_put_together_without_a_retry(
+    link: Link, sim: ScriptedSim
+) -> None:
+    sim.plan("LNM 0 0", Act(wire=bytewise))
+    step = link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0))
+    assert step == sim.stations[1].data.programs[(ProgramType.MAIN, 0)][0]
+    assert link.stats.retries == 0 and link.stats.bad_frames == 0
+
+
+def test_a_frame_for_another_station_is_ignored(link: Link, sim: ScriptedSim) -> None:
+    sim.plan("LNT 1", Act(wire=preceded_by(encode_frame(2, "9.99"))))
+    assert link.exchange(cmd.read_timer(1)) == "2.10"
+    assert link.stats.other_station == 1 and link.stats.retries == 0
+
+
+def test_a_reply_that_does_not_fit_is_discarded_and_the_real_one_taken(
+    link: Link, sim: ScriptedSim
+) -> None:
+    sim.stations[1].data.programs[(ProgramType.MAIN, 1)][5] = Step.parse("MOVE P005 S50")
+    stale = encode_frame(1, "4 MOVE P004 S20")  # a late answer to step 4
+    sim.plan("LNM 1 5", Act(wire=preceded_by(stale)))
+    assert link.exchange(cmd.read_step(ProgramType.MAIN, 1, 5)) == Step.parse("MOVE P005 S50")
+    assert link.stats.unfitting == 1 and link.stats.retries == 0
+
+
+def test_a_slow_reply_is_never_taken_for_the_answer_to_the_next_request(
+    link: Link, sim: ScriptedSim
+) -> None:
+    # Register replies carry no register number: the late "1000" would pass for LND 1.
+    # The first reply comes after the deadline (and is taken for the retry); the retry's
+    # own reply comes after LND 0 has returned, while LND 1 would be waiting.
+    sim.plan("LND 0", Act(wire=slow(FAST.timeout * 1.5)), Act(wire=slow(FAST.timeout * 1.2)))
+    assert link.exchange(cmd.read_register(0)) == "1000"
+    assert link.exchange(cmd.read_register(1)) == "1001"
+    assert link.exchange(cmd.read_register(2)) == "1002"
+    assert link.stats.retries == 1 and link.stats.late_replies == 1
+
+
+def test_a_read_gives_up_after_its_retries_with_link_timeout(link: Link, sim: ScriptedSim) -> None:
+    sim.plan("LNT 1", *[Act(wire=drop)] * 3, Act(wire=bad_lrc))
+    with pytest.raises(LinkTimeout) as info:
+        link.exchange(cmd.read_timer(1))
+    assert isinstance(info.value, TimeoutError)
+    assert (info.value.port, info.value.station, info.value.command) == (link.url, 1, "LNT 1")
+    assert f"port {link.url}, station 1, command LNT 1: no valid reply after 4" in str(info.value)
+    assert isinstance(info.value.__cause__, LRCError)
+    assert len(sim.sent("LNT 1")) == 4 and link.stats.retries == 3
+
+
+def test_a_malformed_frame_is_reported_as_the_cause_of_the_timeout(
+    device: str, sim: ScriptedSim
+) -> None:
+    garbled = b"\x021 \x01\x03" + bytes([0x31 ^ 0x20 ^ 0x01 ^ 0x03])  # right LRC, control byte
+    sim.plan("LNT 1", *[Act(wire=lambda frame: [(0.0, garbled)])] * 2)
+    link = Link(device, 1, SerialSettings(timeout=0.2, retries=1))
+    with link, pytest.raises(LinkTimeout, match="bad frame") as info:
+        link.exchange(cmd.read_timer(1))
+    assert isinstance(info.value.__cause__, FrameError)
+    assert link.stats.bad_frames == 2
+
+
+def test_a_station_without_a_robot_times_out(device: str, sim: ScriptedSim) -> None:
+    link = Link(device, 3, SerialSettings(timeout=0.1, retries=1))
+    with link, pytest.raises(LinkTimeout, match="station 3, command LNV"):
+        link.exchange(cmd.read_version())
+    assert sim.ignored == 2 and sim.received == []
+
+
+def test_a_write_whose_reply_is_lost_is_never_resent_by_the_link(
+    link: Link, sim: ScriptedSim
+) -> None:
+    sim.plan("SNT 2", Act(wire=drop))
+    with pytest.raises(WriteUnconfirmed, match="command SNT 2 5.55: no valid reply"):
+        link.exchange(cmd.write_timer(2, "5.55"))
+    assert sim.sent("SNT 2") == ["SNT 2 5.55"]
+    assert timers(sim)[2] == "5.55"  # it took; only the controller may find that out
+    assert link.stats.unconfirmed_writes == 1 and link.stats.retries == 0
+
+
+def test_a_write_that_was_never_received_is_not_resent_either(link: Link, sim: ScriptedSim) -> None:
+    sim.plan("SND 0", LOSE)
+    with pytest.raises(WriteUnconfirmed):
+        link.exchange(cmd.write_register(0, "0042"))
+    assert len(sim.sent("SND 0")) == 1
+    assert sim.stations[1].data.registers == {0: "1000", 1: "1001", 2: "1002", 3: "1003"}
+
+
+def test_an_exchange_on_a_closed_link_raises(device: str) -> None:
+    link = Link(device, 1, FAST)
+    with pytest.raises(LinkError, match="not open"):
+        link.exchange(cmd.read_version())
+
+
+# --- the port -------------------------------------------------------------------------------
+
+
+def test_a_missing_port_raises_port_error_with_a_hint(lock_dir: Path) -> None:
+    with pytest.raises(PortError) as info:
+        Link("/dev/does-not-exist").open()
+    message = str(info.value)
+    assert message.startswith("port /dev/does-not-exist: cannot open")
+    assert "check the cable/adapter and the port name" in message
+    assert isinstance(info.value.__cause__, serial.SerialException)
+    # the port lock was given back
+    with pytest.raises(PortError):
+        Link("/dev/does-not-exist", lock_timeout=0).open()
+
+
+def test_a_port_that_goes_away_raises_port_error(sim: ScriptedSim) -> None:
+    server = TcpServer(sim)
+    server.start()
+    with Link(server.url, 1, FAST) as link:
+        assert link.exchange(cmd.read_version()) == "5.00"
+        server.stop()
+        with pytest.raises(PortError, match="went away"):
+            for _ in range(3):  # the first send may still be accepted by the socket
+                link.exchange(cmd.read_version())
+
+
+def test_a_second_link_on_the_same_port_is_refused(link: Link, device: str) -> None:
+    with pytest.raises(PortBusyError) as info:
+        Link(device, 2, lock_timeout=0.1).open()
+    assert str(info.value).startswith(f"port {device}: in use by another Link of this process")
+    assert "--lock-timeout" in str(info.value) and str(link.lock_path) in str(info.value)
+    assert link.exchange(cmd.read_version()) == "5.00"  # the holder is not disturbed
+
+
+def test_a_symlink_to_the_port_shares_its_lock(link: Link, device: str, tmp_path: Path) -> None:
+    alias = tmp_path / "ttyROBOT"
+    alias.symlink_to(device)
+    with pytest.raises(PortBusyError):
+        Link(str(alias), lock_timeout=0).open()
+
+
+def test_the_port_is_free_again_once_the_link_is_closed(device: str) -> None:
+    first = Link(device, 1, FAST).open()
+    first.close()
+    with Link(device, 1, FAST, lock_timeout=0) as second:
+        assert second.exchange(cmd.read_version()) == "5.00"
+
+
+def test_a_second_process_is_refused_and_told_who_holds_the_port(link: Link, device: str) -> None:
+    code = (
+        "import sys\n"
+        "from harlsync.errors import PortBusyError\n"
+        "from harlsync.link import Link\n"
+        "try:\n"
+        "    Link(sys.argv[1], lock_timeout=0.2).open()\n"
+        "except PortBusyError as exc:\n"
+        "    print(exc)\n"
+        "    sys.exit(3)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, device],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert done.returncode == 3, done.stderr
+    assert f"port {device}: in use by another harlsync (pid {os.getpid()})" in done.stdout
+
+
+def test_a_waiting_link_gets_the_port_when_the_holder_closes(device: str) -> None:
+    holder = Link(device, 1, FAST).open()
+    got: list[str] = []
+    waiting = threading.Event()
+
+    def wait_for_port() -> None:
+        waiting.set()
+        with Link(device, 1, FAST, lock_timeout=20) as link:
+            got.append(link.exchange(cmd.read_version()))
+
+    thread = threading.Thread(target=wait_for_port)
+    thread.start()
+    waiting.wait(10)
+    holder.close()
+    thread.join(30)
+    assert got == ["5.00"]
+
+
+# --- lock file names --------------------------------------------------------------------------
+
+
+def test_lock_keys_name_the_line_not_the_spelling(tmp_path: Path) -> None:
+    real = tmp_path / "ttyUSB0"
+    real.touch()
+    (tmp_path / "by-id").symlink_to(real)
+    assert lock_key(str(tmp_path / "by-id")) == str(real)
+    assert lock_key(f"spy://{real}?file=x.txt") == str(real)
+    assert lock_key("com3") == lock_key(r"\\.\COM3") == "COM3"
+    assert lock_key("socket://Robot-Cell:4001?logging=debug") == "socket://robot-cell:4001"
+    assert lock_key("rfc2217://10.0.0.5:2217") == "rfc2217://10.0.0.5:2217"
+    assert lock_key("loop://") is None
+    assert lock_path("loop://") is None
+
+
+def test_the_lock_directory_is_chosen_from_argument_env_runtime_dir_and_tmp(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "env"))
+    assert lock_path("COM3", tmp_path / "arg").parent == tmp_path / "arg"  # type: ignore[union-attr]
+    assert default_lock_dir() == tmp_path / "env"
+    monkeypatch.delenv("HARLSYNC_LOCK_DIR")
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    assert default_lock_dir() == tmp_path / "harlsync"
+    monkeypatch.delenv("XDG_RUNTIME_DIR")
+    assert default_lock_dir().name == "harlsync-locks"
