@@ -39,8 +39,8 @@ class Driver(Protocol):
     def read(self, key: Key) -> Any:
         """The item's current value (``None`` for an empty step)."""
 
-    def write(self, key: Key, value: Any) -> None:
-        """Write one item (``None`` clears a step)."""
+    def write(self, key: Key, value: Any, old: Any = None) -> None:
+        """Write one item (``None`` clears a step); ``old`` is what it holds now, if known."""
 
     def command(self, key: Key, value: Any) -> str:
         """The exact wire command that :meth:`write` sends, for plans and audits."""
@@ -59,8 +59,7 @@ class HarlU2Driver:
 
     def __init__(self, controller: Controller) -> None:
         self.controller = controller
-        link = controller.link
-        self.label = f"port {link.url} station {link.station}"
+        self.label = f"port {controller.port} station {controller.station}"
 
     def read_all(self, *, registers: bool, progress: Progress | None = None) -> RobotData:
         return self.controller.read_all(include_registers=registers, progress=progress)
@@ -112,26 +111,28 @@ class HarlU2Driver:
             return c.config()
         raise ValueError(f"no read for item {key}")
 
-    def write(self, key: Key, value: Any) -> None:
+    def write(self, key: Key, value: Any, old: Any = None) -> None:
+        # Knowing the old value lets the controller decide, after a lost reply,
+        # whether the write took, without an extra read before every write.
         c, kind = self.controller, key[0]
         if kind == "step":
             _, ptype, number, step = key
-            c.write_step(ProgramType(ptype), number, step, value or Step())
+            c.write_step(ProgramType(ptype), number, step, value or Step(), old=old or Step())
         elif kind == "timer":
-            c.write_timer(key[1], value)
+            c.write_timer(key[1], value, old=old)
         elif kind == "register":
-            c.write_register(key[1], value)
+            c.write_register(key[1], value, old=old)
         elif kind == "offset":
-            c.write_offset(key[1], value)
+            c.write_offset(key[1], value, old=old)
         elif kind == "parameters":
-            c.write_parameters(value)
+            c.write_parameters(value, old=old)
         elif kind == "config":
-            c.write_config(value)
+            c.write_config(value, old=old)
         else:
             raise ValueError(f"no write for item {key}")
 
     def close(self) -> None:
-        self.controller.link.close()
+        self.controller.close()
 
 
 _LETTERS = {"timer": "SNT", "register": "SND", "offset": "SNL", "parameters": "SNE", "config": "SNX"}

@@ -16,9 +16,10 @@ before the last check)::
     audit record                     (always, whatever happened)
 
 The interlock reads LNR immediately before every write.  With
-``allow_live_tuning`` it still does so before every unsafe write (SNA, SNM, SNS,
-SNH, SNE, SNX) and before the first write, and skips it only before timer and
-offset writes, which the manual allows during automatic operation.
+``allow_live_tuning`` it skips that only before timer and offset writes, which
+the manual allows during automatic operation; it still reads LNR before every
+unsafe write (SNA, SNM, SNS, SNH, SNE, SNX), and a plan that holds any unsafe
+write needs an idle robot before its first write.
 """
 
 from __future__ import annotations
@@ -40,7 +41,6 @@ from ..errors import (
     SyncError,
     VerifyError,
 )
-from ..link import Link
 from ..model import RobotData
 from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
 from . import audit, git
@@ -73,14 +73,13 @@ def connect(
     robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0
 ) -> Driver:
     """Open the robot's line (``port``/``station`` override the robot file)."""
-    link = Link(
+    controller = Controller.from_url(
         port or robot.port,
         station if station is not None else robot.station,
         robot.serial,
         lock_timeout=lock_timeout,
     )
-    link.open()
-    return HarlU2Driver(Controller(link))
+    return HarlU2Driver(controller)
 
 
 def change_summary(changes: list[Change]) -> str:
@@ -324,7 +323,8 @@ def _deploy(
     try:
         _check_window(robot, opts)
         driver = connect(robot, port, station, lock_timeout=opts.lock_timeout)
-        _interlock(driver, robot, "reading the robot")
+        if not opts.allow_live_tuning:
+            _interlock(driver, robot, "reading the robot")
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
         result.plan = the_plan = make_plan(
             live, target, driver, robot=robot.name, registers=opts.registers
@@ -392,11 +392,15 @@ def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
 def _write_all(
     driver: Driver, robot: Robot, the_plan: Plan, opts: PushOptions, result: PushResult
 ) -> None:
-    for index, write in enumerate(the_plan.writes):
-        if index == 0 or write.unsafe or not opts.allow_live_tuning:
+    if opts.allow_live_tuning and any(w.unsafe for w in the_plan.writes):
+        # Live tuning covers timers and tables only: a plan that also holds an
+        # unsafe write needs an idle robot before its first write of any kind.
+        _interlock(driver, robot, f"the first write ({the_plan.writes[0].command})")
+    for write in the_plan.writes:
+        if write.unsafe or not opts.allow_live_tuning:
             _interlock(driver, robot, f"writing {write.name} ({write.command})")
         result.failed = write
-        driver.write(write.key, write.new)
+        driver.write(write.key, write.new, write.old)
         got = driver.read(write.key)
         if not _same(write.key, got, write.new):
             raise VerifyError(

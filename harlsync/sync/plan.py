@@ -133,13 +133,9 @@ def make_plan(
         elif change.key[0] != "step" or not reconfigure:
             wanted.append((change.key, change.old, change.new))
     if reconfigure:
-        # SNX wipes every program: rewrite every non-empty step of the project.
-        live_items = items(live)
-        wanted += [
-            (key, live_items.get(key), value)
-            for key, value in items(project).items()
-            if key[0] == "step"
-        ]
+        # SNX wipes every program: rewrite every non-empty step of the project,
+        # each written over an empty step.
+        wanted += [(key, None, value) for key, value in items(project).items() if key[0] == "step"]
     wanted.sort(key=lambda w: push_order(w[0]))
     writes = [
         PlannedWrite(key, old, new, driver.command(key, new), driver.unsafe(key))

@@ -1,0 +1,495 @@
+"""The sync engine end to end: pull, diff, plan, push, rollback against the simulator
+over a real pty and a real TCP socket, asserting on what the simulator received."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+from collections.abc import Iterator
+from datetime import datetime
+from pathlib import Path
+
+import pytest
+
+from harlsync.cli import main
+from harlsync.errors import (
+    InterlockError,
+    PolicyError,
+    PortBusyError,
+    ProjectError,
+    StalePlanError,
+    VerifyError,
+)
+from harlsync.link import Link
+from harlsync.model import Config, ProgramArea, ProgramType, Step
+from harlsync.project import load_project, save_project
+from harlsync.sim import Faults, Simulator, SimState
+from harlsync.sim.device import Received
+from harlsync.sim.serve import PtyServer, TcpServer
+from harlsync.sync import PushFailed, PushOptions, engine
+from harlsync.sync import audit as audit_log
+
+SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
+
+
+def git(repo: Path, *args: str) -> str:
+    return subprocess.run(
+        ["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
+        cwd=repo, check=True, capture_output=True, text=True,
+    ).stdout
+
+
+def same_robot(a: SimState, b: SimState) -> bool:
+    x, y = a.data, b.data
+    return (x.config, x.parameters, x.programs, x.offsets, x.timers) == (
+        y.config, y.parameters, y.programs, y.offsets, y.timers
+    )
+
+
+@pytest.fixture(autouse=True)
+def isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / "audit.jsonl"))
+    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "locks"))
+
+
+@pytest.fixture(params=["tcp", "pty"])
+def served(request: pytest.FixtureRequest) -> Iterator[tuple[Simulator, str]]:
+    sim = Simulator(SimState.generate(11, SMALL))
+    server = TcpServer(sim) if request.param == "tcp" else PtyServer(sim)
+    url = server.start()
+    yield sim, url
+    server.stop()
+
+
+@pytest.fixture
+def repo(tmp_path: Path) -> Path:
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q")
+    return root
+
+
+def pulled(repo: Path, url: str) -> Path:
+    """A project pulled from ``url`` and committed."""
+    project = repo / "cell"
+    engine.pull(project, port=url)
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "backup")
+    return project
+
+
+def blank_like(sim: Simulator) -> Simulator:
+    return Simulator(SimState.blank(sim.stations[1].data.config))
+
+
+def serve(sim: Simulator) -> TcpServer:
+    server = TcpServer(sim)
+    server.start()
+    return server
+
+
+def edit_timer(project: Path, number: int, value: str, repo: Path | None = None) -> None:
+    text = (project / "timers.yaml").read_text()
+    lines = [
+        f"  {number}: {value}" if line.startswith(f"  {number}: ") else line
+        for line in text.splitlines()
+    ]
+    (project / "timers.yaml").write_text("\n".join(lines) + "\n")
+    if repo is not None:
+        git(repo, "commit", "-qam", f"timer {number}")
+
+
+def set_step(project: Path, ptype: ProgramType, number: int, step: int, text: str,
+             repo: Path | None = None) -> None:
+    """Edit one step the way an engineer's change would land: through the project files."""
+    loaded = load_project(project)
+    loaded.data.programs[(ptype, number)][step] = Step.parse(text)
+    save_project(project, loaded)
+    if repo is not None:
+        git(repo, "commit", "-qam", f"{ptype.value} {number} step {step}")
+
+
+YES = PushOptions(yes=True)
+
+
+def test_pull_then_push_to_a_blank_controller_gives_identical_state(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    blank = blank_like(sim)
+    with serve(blank) as target:
+        result = engine.push(project, YES, port=target.url)
+    assert result.ok and result.written
+    assert same_robot(blank.stations[1], sim.stations[1])
+    letters = {r.letters for r in blank.writes_received()}
+    assert letters <= {"SNE", "SNL", "SNT", "SNA", "SNM", "SNS", "SNH"}
+    assert not letters & {"SNOB", "SNOD", "SNBB", "SNBD", "SND", "SNX"}
+
+
+def test_push_writes_only_what_differs_in_the_safe_order(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 2, "7.25", repo)
+    set_step(project, ProgramType.MAIN, 1, 11, "MOVE P999 S20", repo)
+    before = len(sim.received)
+    engine.push(project, YES, port=url)
+    writes = [r.payload for r in sim.received[before:] if r.is_write]
+    assert writes == ["SNT 2 7.25", "SNM 1 11 MOVE P999 S20"]
+    assert sim.stations[1].data.timers[2] == "7.25"
+
+
+def test_diff_exit_codes_are_0_identical_1_different_2_error(served, repo, capsys) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    assert main(["diff", str(project), "--port", url]) == 0
+    edit_timer(project, 1, "9.99")
+    capsys.readouterr()
+    assert main(["diff", str(project), "--port", url]) == 1
+    out = capsys.readouterr().out
+    assert "@@ timers @@" in out and "+1: 9.99" in out
+    assert f"-1: {sim.stations[1].data.timers[1]}" in out
+    assert main(["diff", str(project), "--port", url, "--station", "3"]) == 2
+    assert "station 3" in capsys.readouterr().err
+
+
+def test_diff_json_matches_items_by_identity(served, repo, capsys) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    in_project = load_project(project).data.programs[(ProgramType.SUB, 1)][0].text
+    state = sim.stations[1].data
+    state.programs[(ProgramType.SUB, 1)][0] = Step.parse("WAIT DI3 ON")
+    del state.programs[(ProgramType.MAIN, 0)][1]
+    capsys.readouterr()
+    assert main(["diff", str(project), "--port", url, "--format", "json"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    restored = load_project(project).data.programs[(ProgramType.MAIN, 0)][1].text
+    assert report["changes"] == [
+        {"kind": "step", "item": "MAIN program 0 step 1", "program_type": "MAIN", "program": 0,
+         "step": 1, "fields": [{"field": None, "old": None, "new": restored}]},
+        {"kind": "step", "item": "SUB program 1 step 0", "program_type": "SUB", "program": 1,
+         "step": 0, "fields": [{"field": None, "old": "WAIT DI3 ON", "new": in_project}]},
+    ]
+
+
+def test_plan_prints_the_commands_and_sends_none(served, repo, capsys) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "0.50")
+    before = len(sim.received)
+    assert main(["plan", str(project), "--port", url]) == 0
+    assert "SNT 0 0.50" in capsys.readouterr().out
+    assert not [r for r in sim.received[before:] if r.is_write]
+
+
+def test_push_to_a_robot_in_automatic_operation_sends_no_sn_command(served, repo, capsys) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "0.50", repo)
+    sim.stations[1].start_task(3, "MAIN", 1, 7)
+    assert main(["push", str(project), "--port", url, "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert "task 3 in execution: MAIN program 1 step 7" in err
+    assert sim.writes_received() == []
+
+
+@pytest.mark.parametrize("live_tuning", [False, True])
+def test_a_suspended_task_also_blocks_every_write(served, repo, live_tuning) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    set_step(project, ProgramType.MAIN, 0, 11, "MOVE P999 S20", repo)
+    sim.stations[1].start_task(0)
+    sim.stations[1].suspend_task(0)
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, PushOptions(yes=True, allow_live_tuning=live_tuning), port=url)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert sim.writes_received() == []
+
+
+def test_a_robot_that_goes_automatic_mid_push_gets_no_unsafe_write_after(repo) -> None:
+    source = Simulator(SimState.generate(5, SMALL))
+    with serve(source) as server:
+        project = pulled(repo, server.url)
+    target = blank_like(source)
+    target.auto_after_writes = 4
+    with serve(target) as server, pytest.raises(PushFailed) as failed:
+        engine.push(project, YES, port=server.url)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert len(target.writes_received()) == 4
+    assert target.unsafe_in_automatic() == []
+    assert all(not r.automatic for r in target.writes_received())
+    assert len(failed.value.result.written) == 4
+
+
+def test_live_tuning_writes_timers_and_offsets_while_running_but_never_programs(repo) -> None:
+    source = Simulator(SimState.generate(5, SMALL))
+    with serve(source) as server:
+        project = pulled(repo, server.url)
+        edit_timer(project, 1, "4.44", repo)
+        source.stations[1].start_task(0)
+        engine.push(project, PushOptions(yes=True, allow_live_tuning=True), port=server.url)
+        assert [r.payload for r in source.writes_received()] == ["SNT 1 4.44"]
+        set_step(project, ProgramType.MAIN, 0, 11, "MOVE P999 S20", repo)
+        with pytest.raises(PushFailed):
+            engine.push(project, PushOptions(yes=True, allow_live_tuning=True), port=server.url)
+    assert [r.payload for r in source.writes_received()] == ["SNT 1 4.44"]
+
+
+def test_faults_during_pull_still_give_an_exact_backup(tmp_path) -> None:
+    sim = Simulator(
+        SimState.generate(3, SMALL),
+        faults=Faults(noise=0.2, drop=0.05, bad_lrc=0.05, fragment=0.3, seed=9),
+    )
+    project = tmp_path / "noisy"
+    with serve(sim) as server:
+        engine.pull(project, port=server.url)
+    clean = load_project(project).data
+    state = sim.stations[1].data
+    assert clean.programs == state.programs
+    assert clean.offsets == state.offsets and clean.timers == state.timers
+    assert clean.parameters == state.parameters and clean.config == state.config
+
+
+def test_a_pull_that_fails_leaves_the_previous_backup_untouched(tmp_path) -> None:
+    sim = Simulator(SimState.generate(3, SMALL))
+    project = tmp_path / "cell"
+    with serve(sim) as server:
+        engine.pull(project, port=server.url)
+        before = {p: p.read_bytes() for p in project.rglob("*.yaml")}
+        sim.stations[1].data.timers[0] = "9.99"
+        sim.faults = Faults(drop=1.0)
+        with pytest.raises(Exception):
+            engine.pull(project, port=server.url)
+    assert {p: p.read_bytes() for p in project.rglob("*.yaml")} == before
+
+
+@pytest.mark.parametrize(
+    "file,bad,expect",
+    [
+        ("timers.yaml", "  0: 12.5\n", "timers.yaml:"),
+        ("programs/main-00.yaml", "  3: [broken\n", "programs/main-00.yaml:"),
+        ("offsets.yaml", None, "offsets.yaml:"),
+    ],
+    ids=["out of range", "broken yaml", "bad offset"],
+)
+def test_an_invalid_project_is_refused_before_any_write(served, repo, capsys, file, bad, expect) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    path = project / file
+    if bad is None:
+        path.write_text(path.read_text().replace("x: 0.00", "x: 10000.00", 1))
+    else:
+        path.write_text(path.read_text() + bad)
+    git(repo, "commit", "-qam", "broken")
+    before = len(sim.received)
+    assert main(["push", str(project), "--port", url, "--yes"]) == 2
+    assert expect in capsys.readouterr().err
+    assert sim.received[before:] == []  # the port was not even used
+
+
+def test_a_configuration_change_is_refused_unless_allowed_and_then_rewrites_every_program(repo) -> None:
+    source = Simulator(SimState.generate(8, SMALL))
+    with serve(source) as server:
+        project = pulled(repo, server.url)
+    other = SMALL.__class__(ProgramArea(1, 8), ProgramArea(3, 16), ProgramArea(2, 8),
+                            ProgramArea(1, 6), 4, 16, 4)
+    target = Simulator(SimState.generate(99, other))
+    with serve(target) as server:
+        with pytest.raises(PushFailed) as failed:
+            engine.push(project, YES, port=server.url)
+        assert isinstance(failed.value.cause, PolicyError)
+        assert "--allow-reconfigure" in str(failed.value)
+        assert target.writes_received() == []
+        engine.push(project, PushOptions(yes=True, allow_reconfigure=True), port=server.url)
+    writes = [r.payload for r in target.writes_received()]
+    assert writes[0] == "SNX 1 8 2 12 2 8 1 6"
+    assert same_robot(target.stations[1], source.stations[1])
+
+
+def test_a_stale_plan_is_refused(served, repo, tmp_path) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "0.50", repo)
+    planfile = tmp_path / "plan.json"
+    assert main(["plan", str(project), "--port", url, "--out", str(planfile)]) == 0
+    sim.stations[1].data.offsets[3] = dataclasses.replace(sim.stations[1].data.offsets[3], x="1.00")
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, PushOptions(yes=True, plan_file=planfile), port=url)
+    assert isinstance(failed.value.cause, StalePlanError)
+    assert sim.writes_received() == []
+
+
+def test_a_fresh_plan_is_pushed(served, repo, tmp_path) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "0.50", repo)
+    planfile = tmp_path / "plan.json"
+    assert main(["plan", str(project), "--port", url, "--out", str(planfile)]) == 0
+    assert main(["push", str(project), "--port", url, "--yes", "--plan", str(planfile)]) == 0
+    assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.50"]
+
+
+def test_rollback_restores_the_snapshot(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    original = SimState.from_robot_data(sim.stations[1].data)
+    edit_timer(project, 3, "3.33")
+    set_step(project, ProgramType.SUB, 1, 7, "MOVE P999 S20", repo)
+    result = engine.push(project, YES, port=url)
+    assert result.snapshot is not None and sim.stations[1].data.timers[3] == "3.33"
+    assert main(["rollback", str(project), "--port", url, "--yes"]) == 0
+    assert same_robot(sim.stations[1], original)
+
+
+def test_rollback_is_interlocked_too(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 3, "3.33", repo)
+    engine.push(project, YES, port=url)
+    sim.stations[1].start_task(1)
+    writes = len(sim.writes_received())
+    with pytest.raises(PushFailed) as failed:
+        engine.rollback(project, YES, port=url)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert len(sim.writes_received()) == writes
+
+
+def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    old = sim.stations[1].data.timers[2]
+    edit_timer(project, 2, "2.22", repo)
+    engine.push(project, PushOptions(yes=True, reason="cycle time tuning"), port=url)
+    sim.stations[1].start_task(0)
+    edit_timer(project, 2, "2.23", repo)
+    with pytest.raises(PushFailed):
+        engine.push(project, YES, port=url)
+    records = audit_log.read(tmp_path / "audit.jsonl")
+    assert [r["result"] for r in records] == ["ok", "refused"]
+    ok = records[0]
+    assert ok["action"] == "push" and ok["reason"] == "cycle time tuning"
+    assert ok["user"] and ok["host"] and ok["time"]
+    assert ok["commit"] == git(repo, "rev-parse", "HEAD~1").strip()
+    assert ok["robot"] == {"name": "cell", "port": url, "station": 1}
+    assert ok["plan"] == ["SNT 2 2.22"]
+    assert ok["written"] == [{"item": "timer 2", "command": "SNT 2 2.22", "old": old, "new": "2.22"}]
+    assert "task 0 in execution" in records[1]["error"] and records[1]["written"] == []
+
+
+def test_a_dirty_project_or_one_outside_git_is_refused(served, repo, tmp_path) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "0.50")  # not committed
+    with pytest.raises(PolicyError, match="uncommitted"):
+        engine.push(project, YES, port=url)
+    loose = tmp_path / "loose"
+    engine.pull(loose, port=url)
+    with pytest.raises(PolicyError, match="not in a git repository"):
+        engine.push(loose, YES, port=url)
+    engine.push(project, PushOptions(yes=True, allow_dirty=True), port=url)
+    assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.50"]
+
+
+def test_a_push_outside_the_maintenance_window_is_refused_unless_explained(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    robot_yaml = project / "robot.yaml"
+    text = robot_yaml.read_text().replace(
+        "maintenance_windows: []",
+        "maintenance_windows:\n  - {days: [sat], start: '22:00', end: '04:00'}",
+    )
+    assert "maintenance_windows:\n  - " in text, "robot.yaml layout changed"
+    robot_yaml.write_text(text)
+    edit_timer(project, 0, "0.50")
+    git(repo, "commit", "-qam", "window")
+    tuesday_noon = datetime(2026, 11, 24, 12, 0)
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, PushOptions(yes=True, now=tuesday_noon), port=url)
+    assert "outside its maintenance windows" in str(failed.value)
+    assert sim.writes_received() == []
+    saturday_night = datetime(2026, 11, 28, 23, 0)
+    engine.push(project, PushOptions(yes=True, now=saturday_night), port=url)
+    edit_timer(project, 0, "0.60", repo)
+    engine.push(project, PushOptions(yes=True, now=tuesday_noon, outside_window="line down"), port=url)
+    assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.50", "SNT 0 0.60"]
+
+
+def test_a_write_that_does_not_read_back_fails_the_push_and_names_the_item(repo, monkeypatch) -> None:
+    source = Simulator(SimState.generate(4, SMALL))
+    with serve(source) as server:
+        project = pulled(repo, server.url)
+        edit_timer(project, 1, "1.11", repo)
+        real = Simulator.handle
+
+        def forgetful(self: Simulator, state: SimState, payload: str) -> str:
+            return "0" if payload.startswith("SNT") else real(self, state, payload)
+
+        monkeypatch.setattr(Simulator, "handle", forgetful)
+        with pytest.raises(PushFailed) as failed:
+            engine.push(project, YES, port=server.url)
+    assert isinstance(failed.value.cause, VerifyError)
+    assert "timer 1" in str(failed.value)
+
+
+def test_a_link_lost_mid_push_reports_what_was_written_and_a_rerun_converges(repo, capsys) -> None:
+    source = Simulator(SimState.generate(6, SMALL))
+    with serve(source) as server:
+        project = pulled(repo, server.url)
+    target = blank_like(source)
+
+    def cut_after_five_writes(record: Received) -> None:
+        if record.is_write and len(target.writes_received()) >= 5:
+            target.faults = Faults(drop=1.0)
+
+    target.listeners.append(cut_after_five_writes)
+    with serve(target) as server:
+        assert main(["push", str(project), "--port", server.url, "--yes"]) == 2
+        err = capsys.readouterr().err
+        assert "push stopped: wrote 4 of" in err and "not written:" in err and "unknown:" in err
+        target.listeners.clear()
+        target.faults = Faults()
+        assert main(["push", str(project), "--port", server.url, "--yes"]) == 0
+    assert same_robot(target.stations[1], source.stations[1])
+
+
+def test_the_lock_holds_a_second_harlsync_off_the_line(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "0.50", repo)
+    holder = Link(url, 1)
+    holder.open()
+    try:
+        with pytest.raises(PushFailed) as failed:
+            engine.push(project, PushOptions(yes=True, lock_timeout=0.2), port=url)
+        assert isinstance(failed.value.cause, PortBusyError)
+    finally:
+        holder.close()
+    assert sim.writes_received() == []
+
+
+def test_push_without_yes_and_without_a_terminal_refuses(served, repo, capsys, monkeypatch) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "0.50", repo)
+    monkeypatch.setattr("sys.stdin.isatty", lambda: False)
+    assert main(["push", str(project), "--port", url]) == 3
+    assert "pass --yes" in capsys.readouterr().err
+    assert sim.writes_received() == []
+
+
+def test_pull_commit_says_what_changed_and_skips_an_empty_commit(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    sim.stations[1].data.timers[1] = "8.88"
+    sim.stations[1].data.programs[(ProgramType.MAIN, 0)][10] = Step.parse("END")
+    result = engine.pull(project, port=url, commit=True)
+    assert result.commit is not None
+    message = git(repo, "log", "-1", "--format=%s")
+    assert message.strip() == "pull cell: 1 program (1 step), 1 timer"
+    head = git(repo, "rev-parse", "HEAD")
+    assert engine.pull(project, port=url, commit=True).commit is None
+    assert git(repo, "rev-parse", "HEAD") == head
+
+
+def test_a_first_pull_without_a_port_is_a_clear_error(tmp_path) -> None:
+    with pytest.raises(ProjectError, match="give --port"):
+        engine.pull(tmp_path / "new")
