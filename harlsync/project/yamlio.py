@@ -27,7 +27,7 @@ import io
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Union
+from typing import Any
 
 import yaml
 from yaml.composer import Composer
@@ -40,20 +40,20 @@ from yaml.scanner import Scanner
 from yaml.serializer import Serializer
 
 __all__ = [
+    "CoreResolver",
+    "KeyPath",
     "Number",
-    "Path",
     "Parsed",
     "YamlSyntaxError",
-    "CoreResolver",
-    "parse",
-    "num",
-    "text",
-    "quoted",
     "boolean",
-    "mapping",
-    "sequence",
-    "scalar_for",
     "dump",
+    "mapping",
+    "num",
+    "parse",
+    "quoted",
+    "scalar_for",
+    "sequence",
+    "text",
 ]
 
 STR = "tag:yaml.org,2002:str"
@@ -65,7 +65,7 @@ MAP = "tag:yaml.org,2002:map"
 SEQ = "tag:yaml.org,2002:seq"
 
 #: A location in the data: mapping keys (text) and sequence indexes.
-Path = tuple[Union[str, int], ...]
+KeyPath = tuple[str | int, ...]
 
 _DECIMAL_INT = re.compile(r"[-+]?[0-9]+")
 _DECIMAL_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
@@ -81,7 +81,7 @@ class Number(decimal.Decimal):
     __slots__ = ("text",)
     text: str
 
-    def __new__(cls, text: str) -> Number:
+    def __new__(cls, text: str) -> Number:  # noqa: PYI034 (typing.Self is 3.11+)
         obj = super().__new__(cls, text)
         obj.text = text
         return obj
@@ -137,6 +137,22 @@ class _Loader(Reader, Scanner, Parser, Composer, CoreResolver):
         CoreResolver.__init__(self)
 
 
+try:
+    from yaml.cyaml import CParser  # type: ignore[attr-defined]
+except ImportError:  # PyYAML built without libyaml
+    _FastLoader: type | None = None
+else:
+
+    class _CLoader(CParser, CoreResolver):  # type: ignore[misc]
+        """libyaml's parser with our resolver: same nodes, several times faster."""
+
+        def __init__(self, stream: str) -> None:
+            CParser.__init__(self, stream)
+            CoreResolver.__init__(self)
+
+    _FastLoader = _CLoader
+
+
 class YamlSyntaxError(Exception):
     """Text that is not YAML (or not data we accept), at a 1-based line."""
 
@@ -151,9 +167,9 @@ class Parsed:
     """A parsed document: plain data, the line of each path, and duplicate keys."""
 
     data: Any
-    lines: dict[Path, int] = field(default_factory=dict)
+    lines: dict[KeyPath, int] = field(default_factory=dict)
     #: (path, first line, second line) for every key written more than once.
-    duplicates: list[tuple[Path, int, int]] = field(default_factory=list)
+    duplicates: list[tuple[KeyPath, int, int]] = field(default_factory=list)
 
     def line(self, path: Iterable[str | int]) -> int:
         """The line of ``path``, or of its nearest ancestor that has one."""
@@ -169,31 +185,43 @@ def parse(source: str) -> Parsed:
     Raises :class:`YamlSyntaxError` for a syntax error, several documents, an
     unknown tag, a non-scalar mapping key or a recursive alias.
     """
-    loader = _Loader(source)
-    try:
-        node = loader.get_single_node()
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = mark.line + 1 if mark is not None else 1
-        problem = exc.problem or exc.context or "invalid YAML"
-        if exc.context and exc.problem and exc.context_mark is not None:
-            problem = f"{problem} ({exc.context} at line {exc.context_mark.line + 1})"
-        raise YamlSyntaxError(line, problem) from None
-    except yaml.YAMLError as exc:
-        raise YamlSyntaxError(1, str(exc)) from None
-    finally:
-        loader.dispose()
+    node = None
+    if _FastLoader is not None:
+        try:
+            node = _compose(_FastLoader(source))
+        except yaml.YAMLError:
+            pass  # report it as the pure-Python parser words it, on every install
+    if node is None:
+        try:
+            node = _compose(_Loader(source))
+        except yaml.MarkedYAMLError as exc:
+            mark = exc.problem_mark or exc.context_mark
+            line = mark.line + 1 if mark is not None else 1
+            problem = exc.problem or exc.context or "invalid YAML"
+            if exc.context and exc.problem and exc.context_mark is not None:
+                problem = f"{problem} ({exc.context} at line {exc.context_mark.line + 1})"
+            raise YamlSyntaxError(line, problem) from None
+        except yaml.YAMLError as exc:
+            raise YamlSyntaxError(1, str(exc)) from None
     parsed = Parsed(None)
     if node is not None:
         parsed.data = _build(node, (), parsed, set())
     return parsed
 
 
+def _compose(loader: Any) -> Node | None:
+    try:
+        node: Node | None = loader.get_single_node()
+    finally:
+        loader.dispose()
+    return node
+
+
 def _line(node: Node) -> int:
     return node.start_mark.line + 1
 
 
-def _build(node: Node, path: Path, out: Parsed, active: set[int]) -> Any:
+def _build(node: Node, path: KeyPath, out: Parsed, active: set[int]) -> Any:
     out.lines.setdefault(path, _line(node))
     if isinstance(node, ScalarNode):
         return _scalar(node)

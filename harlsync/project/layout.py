@@ -1,0 +1,622 @@
+"""The project's files: their names, their text, and checking a set of them.
+
+``render_files`` turns a robot and its data into file texts; ``analyse`` turns
+file contents back into a robot and its data, reporting every issue it meets.
+Both work in memory: :mod:`harlsync.project.store` does the disk I/O.
+
+Every file starts with a ``yaml-language-server`` comment naming its schema
+copy in ``.schemas/`` and a ``format:`` number.  A file written in an older
+format is migrated on load (:data:`MIGRATIONS`) and written in the current one
+on the next save; a newer format is refused.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from datetime import time
+from typing import Any
+
+from ..link import SerialSettings
+from ..model import (
+    OFFSET_FIELDS,
+    OFFSET_TABLE_COUNT,
+    PARAMETER_NAMES,
+    Config,
+    OffsetTable,
+    Parameters,
+    ProgramArea,
+    ProgramKey,
+    ProgramType,
+    RobotData,
+    Step,
+)
+from . import yamlio as y
+from .robot import Robot, Window
+from .schema import Issue, check, show
+
+__all__ = [
+    "FORMAT",
+    "MIGRATIONS",
+    "PROGRAMS_DIR",
+    "ROOT_FILES",
+    "SCHEMAS_DIR",
+    "Analysis",
+    "analyse",
+    "program_key",
+    "program_path",
+    "render_controller",
+    "render_files",
+    "render_offsets",
+    "render_parameters",
+    "render_program",
+    "render_registers",
+    "render_robot",
+    "render_timers",
+]
+
+#: The format number this harlsync reads and writes.
+FORMAT = 1
+
+#: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind
+#: ``kind`` into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).
+#: Load applies them in turn up to :data:`FORMAT`; the next save writes the
+#: result.  Empty while there has only been one format.
+MIGRATIONS: dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]] = {}
+
+#: Top-level files in the order they are checked and reported.
+ROOT_FILES = {
+    "robot.yaml": "robot",
+    "controller.yaml": "controller",
+    "parameters.yaml": "parameters",
+    "offsets.yaml": "offsets",
+    "timers.yaml": "timers",
+    "registers.yaml": "registers",
+}
+PROGRAMS_DIR = "programs"
+SCHEMAS_DIR = ".schemas"
+
+_DIGITS = re.compile(r"[0-9]+")
+_PROGRAM_NAME = re.compile(r"(start|(main|sub|hand)-([0-9]{2}))\.yaml")
+
+
+def program_path(key: ProgramKey) -> str:
+    """The program's file, relative to the project: ``programs/main-03.yaml``."""
+    ptype, number = key
+    if ptype is ProgramType.START:
+        return f"{PROGRAMS_DIR}/start.yaml"
+    return f"{PROGRAMS_DIR}/{ptype.value.lower()}-{number:02d}.yaml"
+
+
+def program_key(path: str) -> ProgramKey | None:
+    """The program a ``programs/...`` path holds, or ``None`` for another name."""
+    folder, _, name = path.rpartition("/")
+    match = _PROGRAM_NAME.fullmatch(name)
+    if folder != PROGRAMS_DIR or match is None:
+        return None
+    if match.group(1) == "start":
+        return (ProgramType.START, 0)
+    return (ProgramType(match.group(2).upper()), int(match.group(3)))
+
+
+def _header(kind: str, path: str) -> str:
+    up = "../" * path.count("/")
+    return f"# yaml-language-server: $schema={up}{SCHEMAS_DIR}/{kind}.schema.json\n"
+
+
+def _document(kind: str, path: str, items: Iterable[tuple[str, Any]]) -> str:
+    node = y.mapping([("format", y.num(str(FORMAT))), *items])
+    return y.dump(node, header=_header(kind, path))
+
+
+def _numbered(values: Mapping[int, Any], node: Callable[[Any], Any]) -> Any:
+    return y.mapping([(y.num(str(n)), node(values[n])) for n in sorted(values)])
+
+
+# -- rendering ------------------------------------------------------------------------
+
+
+def render_robot(robot: Robot) -> str:
+    serial = robot.serial
+    connection = [
+        ("port", y.text(robot.port)),
+        ("station", y.num(str(int(robot.station)))),
+        ("baudrate", y.num(str(int(serial.baudrate)))),
+        ("bytesize", y.num(str(int(serial.bytesize)))),
+        ("parity", y.text(serial.parity)),
+        ("stopbits", y.scalar_for(_whole(serial.stopbits))),
+        ("rtscts", y.boolean(serial.rtscts)),
+        ("timeout", y.scalar_for(repr(float(serial.timeout)))),
+        ("retries", y.num(str(int(serial.retries)))),
+    ]
+    windows = [
+        y.mapping(
+            [
+                ("days", y.sequence([y.text(d) for d in w.days], flow=True)),
+                ("start", y.quoted(w.start.strftime("%H:%M"))),
+                ("end", y.quoted(w.end.strftime("%H:%M"))),
+            ]
+        )
+        for w in robot.windows
+    ]
+    items: list[tuple[str, Any]] = [("name", y.text(robot.name))]
+    if robot.description is not None:
+        items.append(("description", y.text(robot.description)))
+    items += [
+        ("connection", y.mapping(connection)),
+        ("maintenance_windows", y.sequence(windows, flow=not windows)),
+        ("keep_registers", y.boolean(robot.keep_registers)),
+    ]
+    return _document("robot", "robot.yaml", items)
+
+
+def _whole(value: float) -> str:
+    """``1`` or ``1.0`` -> ``"1"``; ``1.5`` stays ``"1.5"``."""
+    return str(int(value)) if float(value).is_integer() else repr(float(value))
+
+
+def render_controller(version: str, config: Config) -> str:
+    def area(a: ProgramArea) -> Any:
+        return y.mapping(
+            [("count", y.num(str(a.count))), ("steps", y.num(str(a.steps)))], flow=True
+        )
+
+    programs = y.mapping([(t.value.lower(), area(config.area(t))) for t in ProgramType])
+    return _document(
+        "controller",
+        "controller.yaml",
+        [
+            ("version", y.text(version)),
+            ("programs", programs),
+            ("timers", y.num(str(config.timers))),
+            ("memory_bits", y.num(str(config.memory_bits))),
+            ("registers", y.num(str(config.registers))),
+        ],
+    )
+
+
+def render_parameters(parameters: Parameters) -> str:
+    items = [(name, y.scalar_for(value)) for name, value in parameters.as_dict().items()]
+    return _document("parameters", "parameters.yaml", items)
+
+
+def render_offsets(offsets: Mapping[int, OffsetTable]) -> str:
+    def table(t: OffsetTable) -> Any:
+        return y.mapping(
+            [(name, y.scalar_for(v)) for name, v in zip(OFFSET_FIELDS, t.values)], flow=True
+        )
+
+    return _document("offsets", "offsets.yaml", [("tables", _numbered(offsets, table))])
+
+
+def render_timers(timers: Mapping[int, str]) -> str:
+    return _document("timers", "timers.yaml", [("timers", _numbered(timers, y.scalar_for))])
+
+
+def render_registers(registers: Mapping[int, str]) -> str:
+    return _document(
+        "registers", "registers.yaml", [("registers", _numbered(registers, y.scalar_for))]
+    )
+
+
+def render_program(key: ProgramKey, steps: Mapping[int, Step]) -> str:
+    """One program file; empty steps are left out."""
+    ptype, number = key
+    kept = {n: s.text for n, s in steps.items() if not s.empty}
+    return _document(
+        "program",
+        program_path(key),
+        [
+            ("type", y.text(ptype.value)),
+            ("number", y.num(str(number))),
+            ("steps", _numbered(kept, y.text)),
+        ],
+    )
+
+
+def render_files(robot: Robot, data: RobotData) -> dict[str, str]:
+    """Every YAML file of the project, by path relative to it, in a fixed order.
+
+    ``registers.yaml`` is there only when the robot keeps registers and the data
+    has them.  Values are written as they are: :func:`analyse` says whether the
+    result is valid.
+    """
+    out = {
+        "robot.yaml": render_robot(robot),
+        "controller.yaml": render_controller(data.version, data.config),
+        "parameters.yaml": render_parameters(data.parameters),
+        "offsets.yaml": render_offsets(data.offsets),
+        "timers.yaml": render_timers(data.timers),
+    }
+    if robot.keep_registers and data.registers is not None:
+        out["registers.yaml"] = render_registers(data.registers)
+    for key in sorted(data.programs, key=_program_order):
+        out[program_path(key)] = render_program(key, data.programs[key])
+    return out
+
+
+def _program_order(key: ProgramKey) -> tuple[int, int]:
+    return (list(ProgramType).index(key[0]), key[1])
+
+
+# -- reading and checking ---------------------------------------------------------------
+
+
+@dataclass
+class Analysis:
+    """What :func:`analyse` found: the robot and data when valid, and every issue."""
+
+    robot: Robot | None = None
+    data: RobotData | None = None
+    issues: list[Issue] = field(default_factory=list)
+
+
+def analyse(files: Mapping[str, bytes]) -> Analysis:
+    """Read and check a project's files (path relative to the project -> content).
+
+    Every file is checked even when others are broken, and the checks against
+    the configuration (program numbers, steps, timers, tables) run on every file
+    that could be parsed, as long as ``controller.yaml`` is valid.  ``robot`` is
+    set when robot.yaml is valid, ``data`` only when there is no issue at all.
+    """
+    issues: list[Issue] = []
+    docs: dict[str, y.Parsed] = {}  # every file that could be parsed
+    valid: set[str] = set()  # ... and those that also match their schema
+
+    def read(name: str, kind: str) -> y.Parsed | None:
+        doc, ok = _read(name, kind, files[name], issues)
+        if doc is not None:
+            docs[name] = doc
+        if ok:
+            valid.add(name)
+        return doc
+
+    for name, kind in ROOT_FILES.items():
+        if name == "registers.yaml":
+            continue
+        if name not in files:
+            issues.append(Issue(name, None, None, "missing", fatal=True))
+            continue
+        read(name, kind)
+
+    result = Analysis(issues=issues)
+    if "robot.yaml" in valid:
+        result.robot = _build_robot(docs["robot.yaml"].data)
+    keep = result.robot is None or result.robot.keep_registers
+    if keep and "registers.yaml" in files:
+        read("registers.yaml", "registers")
+
+    programs: dict[ProgramKey, y.Parsed | None] = {}
+    for name in sorted(files):
+        if not name.startswith(PROGRAMS_DIR + "/"):
+            continue
+        key = program_key(name)
+        if key is None:
+            issues.append(
+                Issue(
+                    name,
+                    1,
+                    None,
+                    "not a program file name "
+                    "(allowed: start.yaml, main-NN.yaml, sub-NN.yaml, hand-NN.yaml)",
+                )
+            )
+            continue
+        programs[key] = doc = read(name, "program")
+        if doc is not None:
+            _check_program_header(name, key, doc, issues)
+
+    config = None
+    if "controller.yaml" in valid:
+        config = _build_config(docs["controller.yaml"].data)
+        _check_against_config(config, docs, programs, issues)
+
+    if not issues and config is not None:
+        result.data = _build_data(config, docs, programs)
+    result.issues = _unique(issues)
+    return result
+
+
+def _unique(issues: list[Issue]) -> list[Issue]:
+    """Sorted by file and line; one issue per field (the schema's, when both speak)."""
+    order = {name: i for i, name in enumerate(ROOT_FILES)}
+    seen: set[tuple[str, str]] = set()
+    out = []
+    for issue in issues:
+        if issue.field is not None:
+            if (issue.file, issue.field) in seen:
+                continue
+            seen.add((issue.file, issue.field))
+        out.append(issue)
+    return sorted(out, key=lambda i: (order.get(i.file, len(order)), i.file, i.line or 0))
+
+
+def _read(name: str, kind: str, raw: bytes, issues: list[Issue]) -> tuple[y.Parsed | None, bool]:
+    """Parse, migrate and schema-check one file.
+
+    Returns the document (``None`` when unreadable) and whether it is valid.
+    """
+    try:
+        source = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        issues.append(Issue(name, line, None, "not UTF-8 text", fatal=True))
+        return None, False
+    try:
+        doc = y.parse(source)
+    except y.YamlSyntaxError as exc:
+        issues.append(Issue(name, exc.line, None, f"YAML syntax error: {exc.message}", fatal=True))
+        return None, False
+    for path, first, second in doc.duplicates:
+        field_name = ".".join(str(p) for p in path)
+        issues.append(
+            Issue(name, second, field_name, f"written twice (lines {first} and {second})")
+        )
+    if isinstance(doc.data, dict) and not _migrate(name, kind, doc, issues):
+        return None, False
+    found = check(kind, name, doc)
+    issues.extend(found)
+    return doc, not found
+
+
+def _migrate(name: str, kind: str, doc: y.Parsed, issues: list[Issue]) -> bool:
+    """Bring ``doc`` to :data:`FORMAT`; ``False`` (with an issue) when it cannot be."""
+    value = doc.data.get("format")
+    if not (isinstance(value, y.Number) and value.integral):
+        return True  # the schema reports it
+    number = int(value)
+    line = doc.line(("format",))
+    if number > FORMAT:
+        issues.append(
+            Issue(
+                name,
+                line,
+                None,
+                f"format {number} is newer than this harlsync understands ({FORMAT}): upgrade harlsync",
+                fatal=True,
+            )
+        )
+        return False
+    while number < FORMAT:
+        if number not in MIGRATIONS:
+            issues.append(
+                Issue(
+                    name,
+                    line,
+                    "format",
+                    f"{number} is not a known format (allowed: 1-{FORMAT})",
+                    fatal=True,
+                )
+            )
+            return False
+        doc.data = MIGRATIONS[number](kind, doc.data)
+        number += 1
+        doc.data["format"] = y.Number(str(number))
+    return True
+
+
+def _get(doc: y.Parsed, key: str) -> Any:
+    return doc.data.get(key) if isinstance(doc.data, dict) else None
+
+
+def _numbers(mapping: Any) -> list[int]:
+    """The keys of a numbered mapping that are numbers (the schema reports the rest)."""
+    if not isinstance(mapping, dict):
+        return []
+    return [int(k) for k in mapping if _DIGITS.fullmatch(k)]
+
+
+def _check_program_header(name: str, key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
+    ptype, number = key
+    found_type, found_number = _get(doc, "type"), _get(doc, "number")
+    if isinstance(found_type, str) and found_type != ptype.value:
+        issues.append(
+            Issue(
+                name,
+                doc.line(("type",)),
+                "type",
+                f"{show(found_type)} does not match the file name (allowed: {ptype.value})",
+            )
+        )
+    if isinstance(found_number, y.Number) and found_number != number:
+        issues.append(
+            Issue(
+                name,
+                doc.line(("number",)),
+                "number",
+                f"{show(found_number)} does not match the file name (allowed: {number})",
+            )
+        )
+
+
+def _span(count: int) -> str:
+    return "none" if count <= 0 else ("0" if count == 1 else f"0-{count - 1}")
+
+
+def _ranges(numbers: Iterable[int]) -> str:
+    """``[0, 1, 2, 5]`` -> ``"0-2, 5"``."""
+    parts: list[str] = []
+    run: list[int] = []
+    for n in [*sorted(numbers), None]:
+        if run and n != run[-1] + 1:
+            parts.append(str(run[0]) if len(run) == 1 else f"{run[0]}-{run[-1]}")
+            run = []
+        if n is not None:
+            run.append(n)
+    return ", ".join(parts)
+
+
+def _check_numbered(
+    name: str, doc: y.Parsed, key: str, count: int, what: str, issues: list[Issue]
+) -> None:
+    """Every number 0..count-1 present under ``key``, and no other."""
+    if not isinstance(_get(doc, key), dict):
+        return
+    present = set(_numbers(_get(doc, key)))
+    for n in sorted(present - set(range(count))):
+        issues.append(
+            Issue(
+                name,
+                doc.line((key, str(n))),
+                f"{key}.{n}",
+                f"{what} {n} is outside the configuration (allowed: {_span(count)})",
+            )
+        )
+    missing = set(range(count)) - present
+    if missing:
+        issues.append(
+            Issue(
+                name,
+                doc.line((key,)),
+                key,
+                f"{what} {_ranges(missing)} missing (allowed: every {what} {_span(count)})",
+            )
+        )
+
+
+def _check_against_config(
+    config: Config,
+    docs: Mapping[str, y.Parsed],
+    programs: Mapping[ProgramKey, y.Parsed | None],
+    issues: list[Issue],
+) -> None:
+    """What the schemas cannot say: numbers that depend on controller.yaml."""
+    if (doc := docs.get("offsets.yaml")) is not None:
+        _check_numbered("offsets.yaml", doc, "tables", OFFSET_TABLE_COUNT, "table", issues)
+    if (doc := docs.get("timers.yaml")) is not None:
+        _check_numbered("timers.yaml", doc, "timers", config.timers, "timer", issues)
+    if (doc := docs.get("registers.yaml")) is not None:
+        _check_numbered("registers.yaml", doc, "registers", config.registers, "register", issues)
+
+    for key, doc in programs.items():
+        ptype, number = key
+        area = config.area(ptype)
+        if doc is None:
+            continue
+        name = program_path(key)
+        if number >= area.count:
+            issues.append(
+                Issue(
+                    name,
+                    doc.line(("number",)),
+                    "number",
+                    f"{ptype.value} program {number} is outside the configuration "
+                    f"(allowed: {_span(area.count)}, controller.yaml "
+                    f"programs.{ptype.value.lower()}.count)",
+                )
+            )
+            continue
+        for step in _numbers(_get(doc, "steps")):
+            if step >= area.steps:
+                issues.append(
+                    Issue(
+                        name,
+                        doc.line(("steps", str(step))),
+                        f"steps.{step}",
+                        f"step {step} is outside the configuration (allowed: {_span(area.steps)})",
+                    )
+                )
+    controller = docs["controller.yaml"]
+    for key in config.programs():
+        if key not in programs:
+            field_path = ("programs", key[0].value.lower(), "count")
+            issues.append(
+                Issue(
+                    "controller.yaml",
+                    controller.line(field_path),
+                    ".".join(field_path),
+                    f"{config.area(key[0]).count} {key[0].value} programs configured, but "
+                    f"{program_path(key)} is missing (an empty program is written `steps: {{}}`)",
+                )
+            )
+
+
+# -- building the model from valid documents ---------------------------------------------
+
+
+def _text(value: Any) -> str:
+    return value.text if isinstance(value, y.Number) else str(value)
+
+
+def _time(value: str) -> time:
+    hours, minutes = value.split(":")
+    return time(int(hours), int(minutes))
+
+
+def _build_robot(data: dict[str, Any]) -> Robot:
+    connection = data["connection"]
+    defaults = SerialSettings()
+    serial = SerialSettings(
+        baudrate=int(connection.get("baudrate", defaults.baudrate)),
+        bytesize=int(connection.get("bytesize", defaults.bytesize)),
+        parity=str(connection.get("parity", defaults.parity)),
+        stopbits=int(connection.get("stopbits", defaults.stopbits)),
+        rtscts=bool(connection.get("rtscts", defaults.rtscts)),
+        timeout=float(connection.get("timeout", defaults.timeout)),
+        retries=int(connection.get("retries", defaults.retries)),
+    )
+    windows = [
+        Window(tuple(w["days"]), _time(w["start"]), _time(w["end"]))
+        for w in data.get("maintenance_windows", [])
+    ]
+    return Robot(
+        name=data["name"],
+        port=connection["port"],
+        station=int(connection.get("station", 1)),
+        serial=serial,
+        windows=windows,
+        keep_registers=bool(data.get("keep_registers", False)),
+        description=data.get("description"),
+    )
+
+
+def _build_config(data: dict[str, Any]) -> Config:
+    def area(name: str) -> ProgramArea:
+        entry = data["programs"][name]
+        return ProgramArea(int(entry["count"]), int(entry["steps"]))
+
+    return Config(
+        start=area("start"),
+        main=area("main"),
+        sub=area("sub"),
+        hand=area("hand"),
+        timers=int(data["timers"]),
+        memory_bits=int(data["memory_bits"]),
+        registers=int(data["registers"]),
+    )
+
+
+def _build_data(
+    config: Config,
+    docs: Mapping[str, y.Parsed],
+    programs: Mapping[ProgramKey, y.Parsed | None],
+) -> RobotData:
+    """The data of a project whose every file is valid."""
+
+    def doc(name: str) -> dict[str, Any]:
+        data: dict[str, Any] = docs[name].data
+        return data
+
+    params = doc("parameters.yaml")
+    tables = doc("offsets.yaml")["tables"]
+    registers = None
+    if "registers.yaml" in docs:
+        registers = {int(n): _text(v) for n, v in doc("registers.yaml")["registers"].items()}
+    steps: dict[ProgramKey, dict[int, Step]] = {}
+    for key in sorted(programs, key=_program_order):
+        parsed = programs[key]
+        assert parsed is not None
+        steps[key] = {int(n): Step.parse(text) for n, text in parsed.data["steps"].items()}
+    return RobotData(
+        version=doc("controller.yaml")["version"],
+        config=config,
+        parameters=Parameters(**{k: _text(params[k]) for k, _ in PARAMETER_NAMES}),
+        programs=steps,
+        offsets={
+            int(n): OffsetTable(**{f: _text(t[f]) for f in OFFSET_FIELDS})
+            for n, t in tables.items()
+        },
+        timers={int(n): _text(v) for n, v in doc("timers.yaml")["timers"].items()},
+        registers=registers,
+    )

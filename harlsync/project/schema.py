@@ -1,0 +1,204 @@
+"""The JSON Schemas of project files and the validator that applies them.
+
+The schemas (``schemas/*.schema.json``, shipped as ``harlsync.schemas``) serve two
+readers.  Editors use ``type``, ``minimum`` and ``maximum``.  harlsync also checks
+each number's *text* through custom formats (``harl-timer``: two decimals,
+``harl-register``: four digits, ...) that editors ignore, and lets ``integer``
+accept a :class:`~harlsync.project.yamlio.Number` written without a dot.  Each
+leaf carries an ``x-allowed`` annotation quoted in error messages.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from decimal import Decimal
+from functools import cache
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+from jsonschema import Draft202012Validator, FormatChecker, ValidationError
+from jsonschema.protocols import Validator
+from jsonschema.validators import extend
+
+from ..model import CODE_RE, OFFSET_RE, REGISTER_RE, TIMER_RE
+from .yamlio import Number, Parsed
+
+__all__ = ["KINDS", "Issue", "check", "schema", "schema_text"]
+
+#: The file kinds, each with ``schemas/<kind>.schema.json``.
+KINDS = ("robot", "controller", "parameters", "offsets", "timers", "registers", "program")
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One problem in one file, rendered as ``file:line: field: message``.
+
+    ``fatal`` marks issues that make a file unreadable (syntax, newer format,
+    missing file): :func:`~harlsync.project.load_project` raises
+    :class:`~harlsync.errors.ProjectFormatError` for those.
+    """
+
+    file: str
+    line: int | None
+    field: str | None
+    message: str
+    fatal: bool = False
+
+    def __str__(self) -> str:
+        where = self.file if self.line is None else f"{self.file}:{self.line}"
+        return (
+            f"{where}: {self.field}: {self.message}" if self.field else f"{where}: {self.message}"
+        )
+
+
+def schema_text(kind: str) -> str:
+    """The schema file's exact text (copied into each project's ``.schemas/``)."""
+    name = f"{kind}.schema.json"
+    try:
+        folder: Any = files("harlsync.schemas")
+    except ModuleNotFoundError:  # a source checkout that was never pip-installed
+        folder = Path(__file__).resolve().parents[2] / "schemas"
+    text: str = folder.joinpath(name).read_text(encoding="utf-8")
+    return text
+
+
+@cache
+def schema(kind: str) -> dict[str, Any]:
+    """The parsed schema, decimals as ``Decimal`` so limits compare exactly."""
+    result: dict[str, Any] = json.loads(schema_text(kind), parse_float=Decimal)
+    return result
+
+
+def _text_matches(pattern: Any) -> Any:
+    def check(instance: object) -> bool:
+        if isinstance(instance, Number):
+            return pattern.fullmatch(instance.text) is not None
+        return True  # other types are the "type" keyword's business
+
+    return check
+
+
+_FORMATS = FormatChecker(formats=())
+_FORMATS.checks("harl-timer")(_text_matches(TIMER_RE))
+_FORMATS.checks("harl-register")(_text_matches(REGISTER_RE))
+_FORMATS.checks("harl-offset")(_text_matches(OFFSET_RE))
+_FORMATS.checks("harl-code")(_text_matches(CODE_RE))
+
+
+def _is_integer(checker: Any, instance: object) -> bool:
+    if isinstance(instance, Number):
+        return instance.integral
+    return bool(Draft202012Validator.TYPE_CHECKER.is_type(instance, "integer"))
+
+
+_Validator = extend(
+    Draft202012Validator,
+    type_checker=Draft202012Validator.TYPE_CHECKER.redefine("integer", _is_integer),
+)
+
+
+@cache
+def _validator(kind: str) -> Validator:
+    validator: Validator = _Validator(schema(kind), format_checker=_FORMATS)
+    return validator
+
+
+# -- turning jsonschema errors into issues ------------------------------------------
+
+_TYPE_WORDS = {
+    "object": "a mapping",
+    "array": "a list",
+    "string": "text",
+    "number": "a number",
+    "integer": "an integer",
+    "boolean": "true or false",
+    "null": "nothing",
+}
+#: When one value breaks several keywords, report the first of these only.
+_PRIORITY = (
+    "type",
+    "const",
+    "enum",
+    "minimum",
+    "maximum",
+    "exclusiveMinimum",
+    "exclusiveMaximum",
+    "format",
+    "pattern",
+)
+_RANGE = {"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"}
+
+
+def show(value: object) -> str:
+    """A value as the user wrote it, for messages."""
+    if isinstance(value, Number):
+        return value.text
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if value is None:
+        return "nothing"
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    return repr(value)
+
+
+def _dotted(path: Any) -> str:
+    return ".".join(str(p) for p in path) or "(top)"
+
+
+def check(kind: str, file: str, doc: Parsed) -> list[Issue]:
+    """Every schema violation of one parsed file, one issue per field, by line."""
+    issues: dict[tuple[Any, ...], tuple[int, Issue]] = {}
+    for error in _validator(kind).iter_errors(doc.data):
+        for rank, path, issue in _issues(error, file, doc):
+            old = issues.get(path)
+            if old is None or rank < old[0]:
+                issues[path] = (rank, issue)
+    return sorted((issue for _, issue in issues.values()), key=lambda i: i.line or 0)
+
+
+def _issues(error: ValidationError, file: str, doc: Parsed) -> list[tuple[int, Any, Issue]]:
+    path = tuple(error.absolute_path)
+    subschema: dict[str, Any] = error.schema if isinstance(error.schema, dict) else {}
+    allowed: str | None = subschema.get("x-allowed")
+    keyword = str(error.validator)
+    value: Any = error.instance
+    expected: Any = error.validator_value
+
+    def issue(at: tuple[Any, ...], message: str, hint: str | None = allowed) -> Issue:
+        text = f"{message} (allowed: {hint})" if hint else message
+        return Issue(file, doc.line(at), _dotted(at), text)
+
+    rank = _PRIORITY.index(keyword) if keyword in _PRIORITY else len(_PRIORITY)
+    if "propertyNames" in error.absolute_schema_path:
+        at = (*path, value)
+        return [(rank, at, issue(at, f"{show(value)} is not a valid key"))]
+    if keyword == "additionalProperties":
+        properties: dict[str, Any] = subschema.get("properties", {})
+        known = ", ".join(properties)
+        extra = [k for k in value if k not in properties]
+        return [(rank, (*path, k), issue((*path, k), "unknown key", known)) for k in extra]
+    if keyword == "required":
+        missing = [k for k in expected if k not in value]
+        return [(rank, (*path, k), issue((*path, k), "is missing", None)) for k in missing]
+    if keyword == "type":
+        types = expected if isinstance(expected, list) else [expected]
+        words = " or ".join(_TYPE_WORDS.get(t, str(t)) for t in types)
+        message = f"{show(value)} is not {words}"
+    elif keyword in _RANGE:
+        message = f"{show(value)} is out of range"
+    elif keyword in ("format", "pattern", "enum", "const"):
+        message = f"{show(value)} is not allowed"
+    elif keyword == "minItems":
+        message = "must not be empty"
+    elif keyword == "uniqueItems":
+        message = "has an item twice"
+    else:
+        message = error.message
+    return [(rank, path, issue(path, message))]

@@ -1,0 +1,240 @@
+"""Property: any robot data saves, loads back equal, and saves again byte for byte."""
+
+from __future__ import annotations
+
+import tempfile
+from datetime import time
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from harlsync.link import SerialSettings
+from harlsync.model import (
+    MAX_STEP_DATA,
+    OFFSET_TABLE_COUNT,
+    PARAMETER_NAMES,
+    Config,
+    OffsetTable,
+    Parameters,
+    ProgramArea,
+    ProgramType,
+    RobotData,
+    Step,
+)
+from harlsync.project import (
+    DAYS,
+    Project,
+    Robot,
+    Window,
+    load_project,
+    render_program,
+    save_project,
+)
+
+# Tokens YAML would misread if they were not quoted, or that look like numbers.
+TRICKY = [
+    "0012",
+    "1.50",
+    "-0",
+    "+7",
+    "1e5",
+    ".5",
+    "1.",
+    "0x1F",
+    "0o17",
+    ".inf",
+    ".NaN",
+    "true",
+    "FALSE",
+    "null",
+    "~",
+    "-",
+    "--",
+    "---",
+    "...",
+    "#",
+    "a#b",
+    "'",
+    '"',
+    ":",
+    "a:",
+    "?",
+    "*x",
+    "&y",
+    "!t",
+    "!!str",
+    "%",
+    "@",
+    "`",
+    "[",
+    "]",
+    "{",
+    "}",
+    ",",
+    "|",
+    ">",
+    "=",
+    "<<",
+    "\\",
+]
+token = st.one_of(
+    st.text(st.characters(min_codepoint=0x21, max_codepoint=0x7E), min_size=1, max_size=6),
+    st.sampled_from(TRICKY),
+)
+step = st.builds(
+    lambda command, data: Step(command, tuple(data)),
+    token,
+    st.lists(token, max_size=MAX_STEP_DATA),
+)
+two_decimals = st.integers(-999_999, 999_999).map(
+    lambda n: f"{'-' if n < 0 else ''}{abs(n) // 100}.{abs(n) % 100:02d}"
+)
+code = st.integers(0, 99).flatmap(lambda n: st.sampled_from([str(n), f"{n:02d}"]))
+table = st.builds(OffsetTable, *[two_decimals] * 6, code, code)
+timer = st.integers(0, 999).map(lambda n: f"{n // 100}.{n % 100:02d}")
+register = st.integers(0, 9999).map(lambda n: f"{n:04d}")
+area = st.builds(ProgramArea, st.integers(0, 3), st.integers(0, 8))
+config = st.builds(
+    Config,
+    start=st.builds(ProgramArea, st.integers(0, 1), st.integers(0, 8)),
+    main=area,
+    sub=area,
+    hand=area,
+    timers=st.integers(0, 5),
+    memory_bits=st.integers(0, 256),
+    registers=st.integers(0, 5),
+)
+text = st.text(
+    st.characters(blacklist_categories=("Cs", "Cc", "Co", "Cn", "Zl", "Zp")),
+    min_size=1,
+    max_size=20,
+)
+
+
+@st.composite
+def robot_data(draw: st.DrawFn) -> RobotData:
+    cfg = draw(config)
+    programs = {}
+    for key in cfg.programs():
+        steps = cfg.area(key[0]).steps
+        numbers = draw(st.sets(st.integers(0, steps - 1))) if steps else set()
+        programs[key] = {n: draw(step) for n in sorted(numbers)}
+    tables = draw(st.dictionaries(st.integers(0, OFFSET_TABLE_COUNT - 1), table, max_size=5))
+    keep = draw(st.booleans())
+    return RobotData(
+        version=draw(token),
+        config=cfg,
+        parameters=Parameters(*draw(st.lists(token, min_size=13, max_size=13))),
+        programs=programs,
+        offsets={n: tables.get(n, OffsetTable()) for n in range(OFFSET_TABLE_COUNT)},
+        timers={n: draw(timer) for n in range(cfg.timers)},
+        registers={n: draw(register) for n in range(cfg.registers)} if keep else None,
+    )
+
+
+window = st.builds(
+    Window,
+    st.lists(st.sampled_from(DAYS), min_size=1, unique=True).map(tuple),
+    st.builds(time, st.integers(0, 23), st.integers(0, 59)),
+    st.builds(time, st.integers(0, 23), st.integers(0, 59)),
+)
+serial = st.builds(
+    SerialSettings,
+    baudrate=st.sampled_from([1200, 9600, 19200, 115200]),
+    bytesize=st.sampled_from([7, 8]),
+    parity=st.sampled_from(["N", "E", "O"]),
+    stopbits=st.sampled_from([1, 2]),
+    rtscts=st.booleans(),
+    timeout=st.floats(0.001, 60),
+    retries=st.integers(0, 10),
+)
+
+
+@st.composite
+def projects(draw: st.DrawFn) -> Project:
+    data = draw(robot_data())
+    robot = Robot(
+        name=draw(text),
+        port=draw(st.text(st.characters(min_codepoint=0x21, max_codepoint=0x7E), min_size=1)),
+        station=draw(st.integers(1, 99)),
+        serial=draw(serial),
+        windows=draw(st.lists(window, max_size=2)),
+        keep_registers=data.registers is not None,
+        description=draw(st.none() | text),
+    )
+    return Project(Path("."), robot, data)
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(projects())
+def test_any_project_saves_loads_equal_and_saves_byte_identical(project: Project) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        first, second = Path(tmp, "first"), Path(tmp, "second")
+        save_project(first, project)
+        loaded = load_project(first)
+        assert loaded.data == project.data
+        assert loaded.robot == project.robot
+        save_project(second, loaded)
+        assert _files(second) == _files(first)
+        assert save_project(first, loaded) == []
+
+
+def test_empty_steps_are_left_out_of_a_program_file() -> None:
+    steps = {0: Step.parse("MOVE P010 S50"), 1: Step(), 5: Step.parse("END")}
+    text = render_program((ProgramType.MAIN, 2), steps)
+    assert text.splitlines()[2:] == [
+        "type: MAIN",
+        "number: 2",
+        "steps:",
+        "  0: MOVE P010 S50",
+        "  5: END",
+    ]
+    assert render_program((ProgramType.START, 0), {}).endswith(
+        "type: START\nnumber: 0\nsteps: {}\n"
+    )
+
+
+def test_parameter_names_are_the_yaml_keys() -> None:
+    project = Project(
+        Path("."),
+        Robot("r", "COM3"),
+        RobotData(
+            version="5.00",
+            config=Config(
+                ProgramArea(0, 0), ProgramArea(0, 0), ProgramArea(0, 0), ProgramArea(0, 0), 0, 0, 0
+            ),
+            parameters=Parameters(*[str(n) for n in range(13)]),
+            offsets={n: OffsetTable() for n in range(OFFSET_TABLE_COUNT)},
+        ),
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        save_project(tmp, project)
+        lines = Path(tmp, "parameters.yaml").read_text().splitlines()
+    assert lines[2:] == [f"{name}: {n}" for n, (name, _) in enumerate(PARAMETER_NAMES)]
+
+
+def test_libyaml_and_pure_python_parsing_agree_on_data_lines_and_duplicates(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from harlsync.project import yamlio
+
+    example = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
+    sources = [p.read_text(encoding="utf-8") for p in sorted(example.rglob("*.yaml"))]
+    sources += [
+        "a: 0012\nb: 1.50\nc: '0012'\nd: 22:00\ne: [1, x, true, null, ~, .inf, 0x1F]\n",
+        "steps:\n  3: A\n  03: B\n  4: 'a #b'\n  5:\n    - x\n    - {y: 1}\n",
+        "# only a comment\n",
+        "",
+    ]
+    fast = [yamlio.parse(s) for s in sources]
+    monkeypatch.setattr(yamlio, "_FastLoader", None)
+    pure = [yamlio.parse(s) for s in sources]
+    for a, b in zip(fast, pure):
+        assert (a.data, a.lines, a.duplicates) == (b.data, b.lines, b.duplicates)
+        assert repr(a.data) == repr(b.data)  # same Number texts

@@ -1,0 +1,433 @@
+"""Validation of project files: every kind of bad input names its file, line and field.
+
+Each test edits a copy of projects/pick-and-place.  Line numbers there: timers.yaml
+and offsets.yaml hold timer/table n on line 4 + n, program files step n on line
+6 + n (when steps are numbered from 0 without gaps).
+"""
+
+from __future__ import annotations
+
+import shutil
+from datetime import datetime, time
+from pathlib import Path
+
+import pytest
+
+from harlsync.errors import ProjectFormatError, ProjectInvalid
+from harlsync.link import SerialSettings
+from harlsync.project import (
+    Window,
+    load_project,
+    load_robot,
+    save_project,
+    validate_project,
+)
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
+
+
+@pytest.fixture
+def root(tmp_path: Path) -> Path:
+    target = tmp_path / "pick-and-place"
+    shutil.copytree(EXAMPLE, target)
+    return target
+
+
+def edit(root: Path, name: str, old: str, new: str) -> None:
+    path = root / name
+    text = path.read_text(encoding="utf-8")
+    assert old in text, f"{old!r} not in {name}"
+    path.write_text(text.replace(old, new, 1), encoding="utf-8")
+
+
+def only_issue(root: Path) -> str:
+    issues = validate_project(root)
+    assert len(issues) == 1, issues
+    return issues[0]
+
+
+def test_a_yaml_syntax_error_names_file_and_line_and_other_files_are_still_checked(
+    root: Path,
+) -> None:
+    edit(root, "timers.yaml", "  3: 1.50", "  3: [1.50")
+    edit(
+        root,
+        "programs/main-00.yaml",
+        "  1: MOVE P001 S80",
+        "  1: MOVE P001 S80\n  1: MOVE P001 S10",
+    )
+    issues = validate_project(root)
+    assert issues[0].startswith("timers.yaml:8: YAML syntax error: ")
+    assert issues[1] == "programs/main-00.yaml:8: steps.1: written twice (lines 7 and 8)"
+    assert len(issues) == 2
+    with pytest.raises(ProjectFormatError, match=r"^timers\.yaml:8: YAML syntax error"):
+        load_project(root)
+
+
+def test_a_value_of_the_wrong_type_is_reported(root: Path) -> None:
+    edit(root, "timers.yaml", "  4: 0.05", "  4: abc")
+    edit(root, "robot.yaml", "  station: 1", "  station: one")
+    edit(root, "programs/sub-00.yaml", "  5: END", "  5: 17")
+    assert validate_project(root) == [
+        "robot.yaml:7: connection.station: 'one' is not an integer (allowed: 1-99)",
+        "timers.yaml:8: timers.4: 'abc' is not a number (allowed: 0.00-9.99, two decimals)",
+        (
+            "programs/sub-00.yaml:11: steps.5: 17 is not text (allowed: a command and at most 4 "
+            "data items, printable ASCII tokens separated by single spaces)"
+        ),
+    ]
+    with pytest.raises(ProjectInvalid) as caught:
+        load_project(root)
+    assert len(caught.value.issues) == 3
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expected"),
+    [
+        ("  3: 1.50", "  3: 12.5", "timers.yaml:7: timers.3: 12.5 is out of range"),
+        ("  3: 1.50", "  3: -0.01", "timers.yaml:7: timers.3: -0.01 is out of range"),
+        ("  3: 1.50", "  3: 1.5", "timers.yaml:7: timers.3: 1.5 is not allowed"),
+        ("  3: 1.50", "  3: 1.500", "timers.yaml:7: timers.3: 1.500 is not allowed"),
+    ],
+)
+def test_a_timer_out_of_range_or_without_two_decimals_is_reported(
+    root: Path, old: str, new: str, expected: str
+) -> None:
+    edit(root, "timers.yaml", old, new)
+    assert only_issue(root) == expected + " (allowed: 0.00-9.99, two decimals)"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expected"),
+    [
+        (
+            "x: 120.50",
+            "x: 10000.00",
+            (
+                "offsets.yaml:11: tables.7.x: 10000.00 is out of range "
+                "(allowed: -9999.99..9999.99, two decimals)"
+            ),
+        ),
+        (
+            "x: 120.50",
+            "x: 120.5",
+            (
+                "offsets.yaml:11: tables.7.x: 120.5 is not allowed "
+                "(allowed: -9999.99..9999.99, two decimals)"
+            ),
+        ),
+        (
+            "y: -35.00",
+            "y: -10000.00",
+            (
+                "offsets.yaml:11: tables.7.y: -10000.00 is out of range "
+                "(allowed: -9999.99..9999.99, two decimals)"
+            ),
+        ),
+        (
+            "m: 0, f: 3}",
+            "m: 100, f: 3}",
+            "offsets.yaml:11: tables.7.m: 100 is out of range (allowed: 0-99)",
+        ),
+        (
+            "m: 0, f: 3}",
+            "m: 0, f: -1}",
+            "offsets.yaml:11: tables.7.f: -1 is out of range (allowed: 0-99)",
+        ),
+        (
+            "m: 0, f: 3}",
+            "m: 0, f: 3.0}",
+            "offsets.yaml:11: tables.7.f: 3.0 is not an integer (allowed: 0-99)",
+        ),
+    ],
+)
+def test_an_offset_out_of_range_is_reported(root: Path, old: str, new: str, expected: str) -> None:
+    edit(root, "offsets.yaml", old, new)
+    assert only_issue(root) == expected
+
+
+def with_registers(root: Path) -> None:
+    project = load_project(root)
+    project.robot.keep_registers = True
+    project.data.registers = {n: f"{n * 3:04d}" for n in range(project.data.config.registers)}
+    save_project(root, project, rewrite_robot=True)
+    assert (root / "registers.yaml").read_text().splitlines()[4] == "  1: 0003"
+
+
+@pytest.mark.parametrize(
+    ("new", "expected"),
+    [
+        ("  2: 10000", "registers.yaml:6: registers.2: 10000 is out of range"),
+        ("  2: -1", "registers.yaml:6: registers.2: -1 is out of range"),
+        ("  2: 12", "registers.yaml:6: registers.2: 12 is not allowed"),
+        ("  2: 12.00", "registers.yaml:6: registers.2: 12.00 is not an integer"),
+    ],
+)
+def test_a_register_out_of_range_or_not_four_digits_is_reported(
+    root: Path, new: str, expected: str
+) -> None:
+    with_registers(root)
+    edit(root, "registers.yaml", "  2: 0006", new)
+    assert only_issue(root) == expected + " (allowed: 0000-9999, four digits)"
+
+
+def test_registers_keep_their_leading_zeros(root: Path) -> None:
+    with_registers(root)
+    assert load_project(root).data.registers == {n: f"{n * 3:04d}" for n in range(16)}
+
+
+def test_registers_yaml_is_ignored_and_removed_when_registers_are_not_kept(root: Path) -> None:
+    with_registers(root)
+    edit(root, "robot.yaml", "keep_registers: true", "keep_registers: false")
+    edit(root, "registers.yaml", "  2: 0006", "  2: nonsense")
+    assert validate_project(root) == []
+    project = load_project(root)
+    assert project.data.registers is None
+    assert save_project(root, project) == ["registers.yaml"]
+    assert not (root / "registers.yaml").exists()
+
+
+def test_unknown_keys_are_reported_with_the_allowed_ones(root: Path) -> None:
+    edit(root, "robot.yaml", "  baudrate: 9600", "  baud: 9600")
+    edit(root, "robot.yaml", "keep_registers: false", "keep_registers: false\ncolour: red")
+    edit(root, "programs/hand-01.yaml", "type: HAND", "type: HAND\ncomment: open")
+    assert validate_project(root) == [
+        (
+            "robot.yaml:8: connection.baud: unknown key (allowed: port, station, baudrate, "
+            "bytesize, parity, stopbits, rtscts, timeout, retries)"
+        ),
+        (
+            "robot.yaml:20: colour: unknown key (allowed: format, name, description, connection, "
+            "maintenance_windows, keep_registers)"
+        ),
+        "programs/hand-01.yaml:4: comment: unknown key (allowed: format, type, number, steps)",
+    ]
+
+
+def test_a_missing_required_key_is_reported(root: Path) -> None:
+    edit(root, "robot.yaml", "  port: sim://projects/pick-and-place\n", "")
+    assert only_issue(root) == "robot.yaml:5: connection.port: is missing"
+
+
+def test_a_step_outside_the_configured_steps_is_reported(root: Path) -> None:
+    edit(root, "programs/hand-02.yaml", "  2: END", "  2: END\n  16: END")
+    assert only_issue(root) == (
+        "programs/hand-02.yaml:9: steps.16: step 16 is outside the configuration (allowed: 0-15)"
+    )
+
+
+def test_a_program_number_outside_the_configuration_is_reported(root: Path) -> None:
+    (root / "programs" / "main-04.yaml").write_text(
+        "format: 1\ntype: MAIN\nnumber: 4\nsteps:\n  0: END\n", encoding="utf-8"
+    )
+    assert only_issue(root) == (
+        "programs/main-04.yaml:3: number: MAIN program 4 is outside the configuration "
+        "(allowed: 0-3, controller.yaml programs.main.count)"
+    )
+
+
+def test_program_files_for_a_type_the_configuration_does_not_have_are_reported(root: Path) -> None:
+    edit(root, "controller.yaml", "hand: {count: 4, steps: 16}", "hand: {count: 0, steps: 0}")
+    assert validate_project(root) == [
+        f"programs/hand-0{n}.yaml:4: number: HAND program {n} is outside the configuration "
+        "(allowed: none, controller.yaml programs.hand.count)"
+        for n in range(4)
+    ]
+
+
+def test_a_program_file_whose_content_does_not_match_its_name_is_reported(root: Path) -> None:
+    edit(root, "programs/sub-02.yaml", "type: SUB\nnumber: 2", "type: MAIN\nnumber: 1")
+    assert validate_project(root) == [
+        "programs/sub-02.yaml:3: type: 'MAIN' does not match the file name (allowed: SUB)",
+        "programs/sub-02.yaml:4: number: 1 does not match the file name (allowed: 2)",
+    ]
+
+
+def test_a_yaml_file_in_programs_with_another_name_is_reported(root: Path) -> None:
+    (root / "programs" / "main-4.yaml").write_text("format: 1\n", encoding="utf-8")
+    assert only_issue(root).startswith("programs/main-4.yaml:1: not a program file name")
+
+
+def test_a_step_written_twice_is_reported_with_both_lines(root: Path) -> None:
+    edit(root, "programs/main-01.yaml", "  5: MOVE P010 S50", "  5: MOVE P010 S50\n  3: HAND H02")
+    assert only_issue(root) == "programs/main-01.yaml:12: steps.3: written twice (lines 9 and 12)"
+    with pytest.raises(ProjectInvalid):
+        load_project(root)
+
+
+def test_a_file_in_a_newer_format_is_refused_and_never_rewritten(root: Path) -> None:
+    edit(root, "programs/main-00.yaml", "format: 1", "format: 2")
+    edit(root, "programs/main-00.yaml", "type: MAIN", "type: MAIN\nfuture: feature")
+    message = (
+        "programs/main-00.yaml:2: format 2 is newer than this harlsync understands (1): "
+        "upgrade harlsync"
+    )
+    assert validate_project(root) == [message]
+    with pytest.raises(ProjectFormatError) as caught:
+        load_project(root)
+    assert str(caught.value) == message
+    before = (root / "programs" / "main-00.yaml").read_bytes()
+    pulled = load_project(EXAMPLE)  # e.g. a pull that read the robot
+    with pytest.raises(ProjectFormatError, match="not overwritten"):
+        save_project(root, pulled)
+    assert (root / "programs" / "main-00.yaml").read_bytes() == before
+
+
+def test_an_unknown_older_format_is_reported(root: Path) -> None:
+    edit(root, "parameters.yaml", "format: 1", "format: 0")
+    assert only_issue(root) == "parameters.yaml:2: format: 0 is not a known format (allowed: 1-1)"
+
+
+def test_a_missing_program_file_is_a_validation_error(root: Path) -> None:
+    (root / "programs" / "sub-02.yaml").unlink()
+    message = (
+        "controller.yaml:7: programs.sub.count: 4 SUB programs configured, but "
+        "programs/sub-02.yaml is missing (an empty program is written `steps: {}`)"
+    )
+    assert validate_project(root) == [message]
+    with pytest.raises(ProjectInvalid) as caught:
+        load_project(root)
+    assert caught.value.issues == [message]
+
+
+def test_a_missing_project_file_makes_the_project_unreadable(root: Path) -> None:
+    (root / "timers.yaml").unlink()
+    assert validate_project(root) == ["timers.yaml: missing"]
+    with pytest.raises(ProjectFormatError, match="timers.yaml: missing"):
+        load_project(root)
+
+
+def test_timers_must_match_the_configured_count(root: Path) -> None:
+    edit(root, "timers.yaml", "  15: 0.00\n", "  16: 0.00\n")
+    assert validate_project(root) == [
+        "timers.yaml:3: timers: timer 15 missing (allowed: every timer 0-15)",
+        "timers.yaml:19: timers.16: timer 16 is outside the configuration (allowed: 0-15)",
+    ]
+
+
+def test_every_offset_table_must_be_present_and_numbered_0_to_99(root: Path) -> None:
+    edit(root, "offsets.yaml", "  9: {", "  100: {")
+    assert validate_project(root) == [
+        "offsets.yaml:3: tables: table 9 missing (allowed: every table 0-99)",
+        "offsets.yaml:13: tables.100: '100' is not a valid key (allowed: table numbers 0-99)",
+    ]
+
+
+def test_a_step_with_five_data_items_or_a_double_space_is_reported(root: Path) -> None:
+    edit(root, "programs/start.yaml", "  2: CALL M00", "  2: CALL M00 A B C D")
+    edit(root, "programs/start.yaml", "  4: CALL M01", "  4: CALL  M01")
+    allowed = (
+        "(allowed: a command and at most 4 data items, printable ASCII tokens separated by "
+        "single spaces)"
+    )
+    assert validate_project(root) == [
+        f"programs/start.yaml:8: steps.2: 'CALL M00 A B C D' is not allowed {allowed}",
+        f"programs/start.yaml:10: steps.4: 'CALL  M01' is not allowed {allowed}",
+    ]
+
+
+def test_every_issue_of_every_file_is_reported_in_one_run(root: Path) -> None:
+    edit(root, "robot.yaml", "  parity: N", "  parity: X")
+    edit(root, "robot.yaml", 'start: "22:00"', "start: 25:00")
+    edit(root, "controller.yaml", "memory_bits: 128", "memory_bits: many")
+    edit(root, "parameters.yaml", "pull_rate: 50", "pull_rate: 'a b'")
+    edit(root, "programs/main-02.yaml", "steps:", "steps: [")
+    (root / "programs" / "hand-03.yaml").unlink()
+    issues = validate_project(root)
+    assert issues == [
+        "robot.yaml:10: connection.parity: 'X' is not allowed (allowed: N, E, O)",
+        (
+            "robot.yaml:17: maintenance_windows.0.start: '25:00' is not allowed "
+            "(allowed: HH:MM, 00:00-23:59)"
+        ),
+        "controller.yaml:10: memory_bits: 'many' is not an integer (allowed: 0-9999)",
+        (
+            "parameters.yaml:12: pull_rate: 'a b' is not allowed "
+            "(allowed: one token: printable ASCII without spaces)"
+        ),
+        issues[4],
+    ]
+    assert issues[4].startswith("programs/main-02.yaml:7: YAML syntax error")
+
+
+def test_a_path_that_is_not_a_directory_cannot_be_validated(tmp_path: Path) -> None:
+    with pytest.raises(ProjectFormatError, match="not a project directory"):
+        validate_project(tmp_path / "nowhere")
+
+
+def test_an_empty_directory_is_reported_file_by_file(tmp_path: Path) -> None:
+    assert validate_project(tmp_path) == [
+        "robot.yaml: missing",
+        "controller.yaml: missing",
+        "parameters.yaml: missing",
+        "offsets.yaml: missing",
+        "timers.yaml: missing",
+    ]
+
+
+def test_load_robot_needs_only_robot_yaml(tmp_path: Path) -> None:
+    shutil.copy(EXAMPLE / "robot.yaml", tmp_path / "robot.yaml")
+    robot = load_robot(tmp_path)
+    assert (robot.name, robot.port, robot.station) == (
+        "pick-and-place",
+        "sim://projects/pick-and-place",
+        1,
+    )
+    assert robot.serial.baudrate == 9600 and robot.serial.timeout == 1.0
+
+
+def test_connection_settings_left_out_take_the_profile_defaults(tmp_path: Path) -> None:
+    (tmp_path / "robot.yaml").write_text(
+        "format: 1\nname: r\nconnection:\n  port: COM3\n", encoding="utf-8"
+    )
+    robot = load_robot(tmp_path)
+    assert robot.station == 1 and robot.windows == [] and not robot.keep_registers
+    assert robot.serial == SerialSettings()  # the profile's defaults
+    assert robot.in_window(datetime(2026, 1, 1, 12, 0))
+
+
+def test_save_refuses_invalid_data_before_writing_anything(root: Path) -> None:
+    project = load_project(root)
+    project.data.timers[3] = "12.5"
+    before = {p: p.read_bytes() for p in root.rglob("*") if p.is_file()}
+    with pytest.raises(ProjectInvalid) as caught:
+        save_project(root, project)
+    assert caught.value.issues == [
+        "timers.yaml:7: timers.3: 12.5 is out of range (allowed: 0.00-9.99, two decimals)"
+    ]
+    assert {p: p.read_bytes() for p in root.rglob("*") if p.is_file()} == before
+
+
+def test_windows_that_cross_midnight_belong_to_the_day_they_open() -> None:
+    night = Window(("fri",), time(22, 0), time(6, 0))
+    assert night.contains(datetime(2026, 3, 6, 22, 0))  # Friday 22:00
+    assert night.contains(datetime(2026, 3, 7, 5, 59))  # Saturday 05:59
+    assert not night.contains(datetime(2026, 3, 7, 22, 0))  # Saturday 22:00
+    assert not night.contains(datetime(2026, 3, 6, 5, 0))  # Friday 05:00: Thursday's night
+    lunch = Window(("mon", "tue"), time(12, 0), time(12, 30))
+    assert lunch.contains(datetime(2026, 3, 3, 12, 29))
+    assert not lunch.contains(datetime(2026, 3, 3, 12, 30))
+    all_day = Window(("sun",), time(8, 0), time(8, 0))
+    assert all_day.contains(datetime(2026, 3, 8, 8, 0)) and all_day.contains(
+        datetime(2026, 3, 9, 7, 59)
+    )
+    assert not all_day.contains(datetime(2026, 3, 9, 8, 0))
+
+
+def test_an_older_format_is_migrated_on_load_and_written_as_current_on_save(
+    root: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from harlsync.project import layout
+
+    def tables_were_called_offsets(kind: str, data: dict) -> dict:  # type: ignore[type-arg]
+        if kind == "offsets":
+            data["tables"] = data.pop("offsets")
+        return data
+
+    monkeypatch.setitem(layout.MIGRATIONS, 0, tables_were_called_offsets)
+    edit(root, "offsets.yaml", "format: 1\ntables:", "format: 0\noffsets:")
+    assert validate_project(root) == []
+    project = load_project(root)
+    assert project.data == load_project(EXAMPLE).data
+    assert save_project(root, project) == ["offsets.yaml"]
+    assert (root / "offsets.yaml").read_bytes() == (EXAMPLE / "offsets.yaml").read_bytes()
