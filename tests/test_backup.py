@@ -1,0 +1,224 @@
+"""The nightly plant backup against several simulators at once."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from harlsync.cli import main
+from harlsync.model import Config, ProgramArea, ProgramType, Step
+from harlsync.sim import Faults, Simulator, SimState
+from harlsync.sim.serve import PtyServer, TcpServer
+from harlsync.sync import engine
+from harlsync.sync.backup import backup, find_projects, line_of
+
+SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
+
+
+def git(repo: Path, *args: str) -> str:
+    return subprocess.run(
+        ["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
+        cwd=repo, check=True, capture_output=True, text=True,
+    ).stdout
+
+
+def files_of(project: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(project)): p.read_bytes()
+        for p in sorted(project.rglob("*"))
+        if p.is_file() and ".harlsync" not in p.parts
+    }
+
+
+@dataclass
+class Plant:
+    root: Path
+    sims: dict[str, Simulator]
+    servers: list[TcpServer | PtyServer]
+
+
+@pytest.fixture
+def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
+    """Five robots: one on a pty, two stations sharing one TCP line, one that will stop
+    answering and one that will answer garbage, all first backed up while healthy."""
+    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "locks"))
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q")
+    shared = Simulator({1: SimState.generate(21, SMALL), 2: SimState.generate(22, SMALL)})
+    sims = {
+        "loader": Simulator(SimState.generate(20, SMALL)),
+        "press-1": shared,
+        "press-2": shared,
+        "silent": Simulator(SimState.generate(23, SMALL)),
+        "garbage": Simulator(SimState.generate(24, SMALL)),
+    }
+    pty = PtyServer(sims["loader"])
+    servers: list[TcpServer | PtyServer] = [pty]
+    ports = {"loader": (pty.start(), 1)}
+    line = TcpServer(shared)
+    servers.append(line)
+    ports["press-1"] = (line.start(), 1)
+    ports["press-2"] = (line.url, 2)
+    for name in ("silent", "garbage"):
+        server = TcpServer(sims[name])
+        servers.append(server)
+        ports[name] = (server.start(), 1)
+    for name, (url, station) in ports.items():
+        engine.pull(root / name, port=url, station=station)
+        robot = root / name / "robot.yaml"
+        robot.write_text(robot.read_text().replace("timeout: 1.0", "timeout: 0.2"))
+    git(root, "add", "-A")
+    git(root, "commit", "-qm", "first backup")
+    sims["silent"].faults = Faults(drop=1.0)
+    sims["garbage"].faults = Faults(bad_lrc=1.0, noise=1.0, seed=1)
+    yield Plant(root, sims, servers)
+    for server in servers:
+        server.stop()
+
+
+def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plant) -> None:
+    names = [p.name for p in find_projects([plant.root])]
+    assert names == ["garbage", "loader", "press-1", "press-2", "silent"]
+    assert line_of("socket://127.0.0.1:4001?logging=debug") == line_of("SOCKET://127.0.0.1:4001")
+
+
+def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant, capsys) -> None:
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    shared = plant.sims["press-2"].stations[2].data
+    shared.programs[(ProgramType.MAIN, 1)][7] = Step.parse("MOVE P123 S80")
+    shared.programs[(ProgramType.SUB, 0)][5] = Step.parse("MOVE P321 S20")
+    untouched = {n: files_of(plant.root / n) for n in ("silent", "garbage")}
+    head = git(plant.root, "rev-parse", "HEAD")
+
+    code = main(["backup", str(plant.root), "--commit", "--jobs", "3", "--attempts", "2"])
+    out = capsys.readouterr().out
+
+    assert code == 1
+    rows = {line.split()[0]: line for line in out.splitlines()[1:6]}
+    assert rows["loader"].split()[1] == "ok" and "1 timer" in rows["loader"]
+    assert rows["press-2"].split()[1] == "ok" and "2 programs (2 steps)" in rows["press-2"]
+    assert "no change" in rows["press-1"]
+    assert rows["silent"].split()[1] == "FAILED" and "station 1" in rows["silent"]
+    assert rows["garbage"].split()[1] == "FAILED"
+    assert "3 of 5 robot(s) backed up, 2 changed" in out
+    for name, before in untouched.items():
+        assert files_of(plant.root / name) == before
+    log = git(plant.root, "log", "--format=%B", f"{head.strip()}..HEAD")
+    assert log.startswith("backup: 2 of 5 robot(s) changed")
+    assert "- loader: 1 timer" in log and "- press-2: 2 programs (2 steps)" in log
+    assert "- silent:" in log and "- garbage:" in log  # the failures are in the message too
+    changed = git(plant.root, "show", "--name-only", "--format=", "HEAD").split()
+    assert sorted(changed) == ["loader/timers.yaml", "press-2/programs/main-01.yaml",
+                               "press-2/programs/sub-00.yaml"]
+
+
+def test_nothing_changed_means_no_commit_and_exit_0(plant: Plant) -> None:
+    for name in ("silent", "garbage"):
+        plant.sims[name].faults = Faults()
+    head = git(plant.root, "rev-parse", "HEAD")
+    report = backup([plant.root], commit=True)
+    assert report.ok and report.commit is None and not report.changed
+    assert git(plant.root, "rev-parse", "HEAD") == head
+    assert main(["backup", str(plant.root), "--quiet"]) == 0
+
+
+def test_the_json_report_records_attempts_staleness_and_never_backed_up(plant: Plant, capsys) -> None:
+    assert main(["backup", str(plant.root / "loader"), str(plant.root / "silent"),
+                 "--format", "json", "--attempts", "2"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    robots = {r["name"]: r for r in report["robots"]}
+    assert robots["loader"]["ok"] and robots["loader"]["last_success"]
+    assert not robots["loader"]["never_backed_up"]
+    silent = robots["silent"]
+    assert not silent["ok"] and len(silent["attempts"]) == 2
+    assert all("station 1" in reason for reason in silent["attempts"])
+    assert silent["never_backed_up"]  # the first pull was not a backup run
+    assert report["ok"] is False
+
+
+def test_a_robot_with_no_good_backup_for_too_long_is_flagged_stale(plant: Plant) -> None:
+    from datetime import datetime, timedelta, timezone
+
+    plant.sims["silent"].faults = Faults()
+    earlier = datetime.now(timezone.utc) - timedelta(days=3)
+    backup([plant.root / "silent"], now=earlier)
+    plant.sims["silent"].faults = Faults(drop=1.0)
+    report = backup([plant.root / "silent"], attempts=1)
+    [robot] = report.robots
+    assert robot.stale and not robot.never_backed_up
+    assert "stale: last good backup" in report.render()
+
+
+def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_path: Path) -> None:
+    plant.sims["loader"].stations[1].data.timers[2] = "1.23"
+    changed_out = tmp_path / "changed.txt"
+    failed_out = tmp_path / "failed.txt"
+    metrics = tmp_path / "harlsync.prom"
+    code = main([
+        "backup", str(plant.root), "--attempts", "1", "--quiet",
+        "--on-change", f"{sys.executable} -c \"import os,sys; open({str(changed_out)!r},'w')"
+                       f".write(os.environ['HARLSYNC_CHANGED'] + '|' + sys.stdin.read())\"",
+        "--on-failure", f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
+                        f".write(os.environ['HARLSYNC_FAILED'])\"",
+        "--metrics", str(metrics),
+    ])
+    assert code == 1
+    names, summary = changed_out.read_text().split("|", 1)
+    assert names == "loader" and "1 timer" in summary
+    assert failed_out.read_text() == "garbage silent"
+    text = metrics.read_text()
+    assert 'harlsync_backup_success{robot="loader"} 1' in text
+    assert 'harlsync_backup_success{robot="silent"} 0' in text
+    assert 'harlsync_backup_failed_attempts{robot="silent"} 1' in text
+
+
+def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
+    robot = plant.root / "loader" / "robot.yaml"
+    text = robot.read_text()
+    port_line = next(line for line in text.splitlines() if line.strip().startswith("port:"))
+    robot.write_text(text.replace(port_line, "  port: /dev/does-not-exist-harlsync"))
+    report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1)
+    outcome = {r.name: r for r in report.robots}
+    assert not outcome["loader"].ok and "/dev/does-not-exist-harlsync" in outcome["loader"].error
+    assert outcome["press-1"].ok
+
+
+def test_push_failure_is_reported_and_the_local_commit_kept(plant: Plant) -> None:
+    git(plant.root, "remote", "add", "origin", str(plant.root / "no-such-remote.git"))
+    plant.sims["loader"].stations[1].data.timers[3] = "3.21"
+    report = backup([plant.root / "loader"], commit=True, push=True)
+    assert report.commit is not None and report.pushed is False and report.push_error
+    assert git(plant.root, "rev-parse", "HEAD").strip() == report.commit
+    assert "git push FAILED" in report.render()
+
+
+def test_the_documented_cron_line_runs_against_simulated_robots(plant: Plant, tmp_path: Path) -> None:
+    doc = (Path(__file__).parents[1] / "docs" / "backup.md").read_text()
+    cron = next(line for line in doc.splitlines() if line.startswith("0 2 * * * "))
+    command = cron.removeprefix("0 2 * * * ")
+    bare = tmp_path / "remote.git"
+    git(tmp_path, "init", "-q", "--bare", str(bare))
+    git(plant.root, "remote", "add", "origin", str(bare))
+    git(plant.root, "push", "-q", "-u", "origin", "HEAD")
+    branch = git(plant.root, "rev-parse", "--abbrev-ref", "HEAD").strip()
+    plant.sims["loader"].stations[1].data.timers[0] = "0.01"
+    harlsync = str(Path(sys.executable).parent / "harlsync")
+    command = (command.replace("/srv/plant-robots", str(plant.root))
+               .replace("/opt/harlsync/.venv/bin/harlsync", harlsync)
+               .replace("/var/lib/node_exporter/textfile/harlsync.prom", str(tmp_path / "m.prom"))
+               .replace("mail -s \"harlsync: robots not backed up\" maintenance@plant.example",
+                        f"cat > {tmp_path / 'mail.txt'}"))
+    done = subprocess.run(["sh", "-c", command], capture_output=True, text=True)
+    assert done.returncode == 1
+    assert "silent" in done.stdout and "FAILED" in done.stdout  # --quiet prints on failure
+    assert "silent" in (tmp_path / "mail.txt").read_text()
+    assert "harlsync_backup_success" in (tmp_path / "m.prom").read_text()
+    pushed = git(bare, "log", "-1", "--format=%s", branch)
+    assert pushed.startswith("backup: 1 of 5 robot(s) changed")
