@@ -235,15 +235,19 @@ def test_live_tuning_writes_timers_and_offsets_while_running_but_never_programs(
 
 
 def test_faults_during_pull_still_give_an_exact_backup(tmp_path) -> None:
-    sim = Simulator(
-        SimState.generate(3, SMALL),
-        faults=Faults(noise=0.2, drop=0.05, bad_lrc=0.05, fragment=0.3, seed=9),
-    )
+    sim = Simulator(SimState.generate(3, SMALL))
     project = tmp_path / "noisy"
     with serve(sim) as server:
         engine.pull(project, port=server.url)
+        robot = project / "robot.yaml"
+        robot.write_text(robot.read_text().replace("timeout: 1.0", "timeout: 0.2"))
+        state = sim.stations[1].data
+        state.timers[2] = "5.55"
+        state.programs[(ProgramType.HAND, 0)][3] = Step.parse("OUT DO7 ON")
+        sim.faults = Faults(noise=0.2, drop=0.05, bad_lrc=0.05, fragment=0.3, seed=9)
+        engine.pull(project, port=server.url)
+    assert sum(not r.answered for r in sim.received) > 0  # the faults did happen
     clean = load_project(project).data
-    state = sim.stations[1].data
     assert clean.programs == state.programs
     assert clean.offsets == state.offsets and clean.timers == state.timers
     assert clean.parameters == state.parameters and clean.config == state.config

@@ -9,7 +9,7 @@ before the last check)::
     LNR: robot idle?                 (interlock, before the long read)
     read the live robot, make the plan
     stale plan? unwritable? reconfiguration allowed? confirmed?
-    snapshot the live robot          (DIR/.harlsync/snapshots/<time>/)
+    snapshot the live robot          (DIR/.harlsync/snapshots/<time>-push/)
     for each write, in the safe order:
         LNR: idle?                   (interlock: before every write)
         write, read back, compare    (verify)
@@ -283,15 +283,17 @@ def _interlock(driver: Driver, robot: Robot, before: str) -> None:
         )
 
 
-def snapshots(path: str | Path) -> list[Path]:
-    """The project's snapshots, oldest first."""
+def snapshots(path: str | Path, action: str = "push") -> list[Path]:
+    """The snapshots taken before each ``action`` (push or rollback), oldest first."""
     root = Path(path) / SNAPSHOT_DIR
-    return sorted(p for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
+    if not root.is_dir():
+        return []
+    return sorted(p for p in root.iterdir() if p.is_dir() and p.name.endswith(f"-{action}"))
 
 
-def _save_snapshot(path: Path, robot: Robot, live: RobotData) -> Path:
+def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Path:
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
-    target = path / SNAPSHOT_DIR / stamp
+    target = path / SNAPSHOT_DIR / f"{stamp}-{action}"
     ignore = path / ".harlsync" / ".gitignore"
     if not ignore.exists():
         ignore.parent.mkdir(parents=True, exist_ok=True)
@@ -336,7 +338,7 @@ def _deploy(
             return result
         if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
             raise PolicyError("push not confirmed: nothing was written")
-        result.snapshot = _save_snapshot(project.path, robot, live)
+        result.snapshot = _save_snapshot(project.path, robot, live, action)
         record["snapshot"] = str(result.snapshot)
         _write_all(driver, robot, the_plan, opts, result)
         record["result"] = "ok"
@@ -442,7 +444,11 @@ def rollback(
     port: str | None = None,
     station: int | None = None,
 ) -> PushResult:
-    """Restore the snapshot taken before the last push, under the same interlocks."""
+    """Restore the snapshot taken before the last push, under the same interlocks.
+
+    A rollback takes a snapshot of its own (``...-rollback``), but rolling back
+    again still restores the state before the last push, never the rollback's.
+    """
     project = load_project(path)
     taken = snapshots(path)
     chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
