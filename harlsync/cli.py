@@ -309,7 +309,8 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     progress = _Progress("diff")
     try:
         result = engine.compare(args.dir, port=args.port, station=args.station,
-                                progress=progress, registers=args.registers)
+                                progress=progress, registers=args.registers,
+                                lock_timeout=args.lock_timeout)
     finally:
         progress.close()
     if args.format == "json":
@@ -359,7 +360,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     progress = _Progress("plan")
     try:
         the_plan = engine.plan(args.dir, port=args.port, station=args.station,
-                               progress=progress, registers=args.registers)
+                               progress=progress, registers=args.registers,
+                               lock_timeout=args.lock_timeout)
     finally:
         progress.close()
     _show_plan(the_plan)
@@ -415,7 +417,7 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_push)
 
 
-def _push_options(args: argparse.Namespace) -> "PushOptions":  # noqa: F821
+def _push_options(args: argparse.Namespace) -> PushOptions:  # noqa: F821
     from .sync.engine import PushOptions
 
     return PushOptions(

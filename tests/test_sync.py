@@ -5,16 +5,17 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import subprocess
 from collections.abc import Iterator
 from datetime import datetime
 from pathlib import Path
 
 import pytest
+from conftest import git
 
 from harlsync.cli import main
 from harlsync.errors import (
     InterlockError,
+    LinkTimeout,
     PolicyError,
     PortBusyError,
     ProjectError,
@@ -24,20 +25,13 @@ from harlsync.errors import (
 from harlsync.link import Link
 from harlsync.model import Config, ProgramArea, ProgramType, Step
 from harlsync.project import load_project, save_project
-from harlsync.sim import Faults, Simulator, SimState
+from harlsync.sim import Faults, SimState, Simulator
 from harlsync.sim.device import Received
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
 
 SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
-
-
-def git(repo: Path, *args: str) -> str:
-    return subprocess.run(
-        ["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
-        cwd=repo, check=True, capture_output=True, text=True,
-    ).stdout
 
 
 def same_robot(a: SimState, b: SimState) -> bool:
@@ -261,7 +255,7 @@ def test_a_pull_that_fails_leaves_the_previous_backup_untouched(tmp_path) -> Non
         before = {p: p.read_bytes() for p in project.rglob("*.yaml")}
         sim.stations[1].data.timers[0] = "9.99"
         sim.faults = Faults(drop=1.0)
-        with pytest.raises(Exception):
+        with pytest.raises(LinkTimeout):
             engine.pull(project, port=server.url)
     assert {p: p.read_bytes() for p in project.rglob("*.yaml")} == before
 

@@ -43,7 +43,7 @@ from ..model import (
 from ..protocol import FrameDecoder, Request, encode_frame, parse_request, profile
 from .state import IO_BITS, MEM_BIT_BASE, SimState
 
-__all__ = ["Simulator", "Faults", "Received", "STATUS_RANGE", "STATUS_COMMAND", "STATUS_DATA"]
+__all__ = ["STATUS_COMMAND", "STATUS_DATA", "STATUS_RANGE", "Faults", "Received", "Simulator"]
 
 log = logging.getLogger(__name__)
 
@@ -228,10 +228,10 @@ class Simulator:
             if request.is_write:
                 reply = self._write(state, request)
                 self.writes += 1
-                if self.auto_after_writes and self.writes >= self.auto_after_writes:
-                    if not state.automatic:
-                        log.info("sim: scheduled switch to automatic operation")
-                        state.start_task(0)
+                due = self.auto_after_writes and self.writes >= self.auto_after_writes
+                if due and not state.automatic:
+                    log.info("sim: scheduled switch to automatic operation")
+                    state.start_task(0)
                 return reply
             return self._read(state, request)
         except _Refuse as refusal:

@@ -25,7 +25,7 @@ from ..model import (
 )
 from ..protocol import profile
 
-__all__ = ["SimState", "DEFAULT_CONFIG", "DEFAULT_PARAMETERS", "DEFAULT_VERSION"]
+__all__ = ["DEFAULT_CONFIG", "DEFAULT_PARAMETERS", "DEFAULT_VERSION", "SimState"]
 
 #: The configuration of a generated or blank robot: small enough that a full
 #: pull takes seconds, shaped like a real cell.
@@ -142,7 +142,7 @@ class SimState:
 def _generate_program(
     rng: random.Random, key: tuple[ProgramType, int], config: Config
 ) -> dict[int, Step]:
-    ptype, number = key
+    ptype = key[0]
     steps = config.area(ptype).steps
     length = min(steps, rng.randrange(4, 24))
     out: dict[int, Step] = {}

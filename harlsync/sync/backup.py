@@ -30,10 +30,10 @@ from .engine import pull
 from .items import summarize
 
 __all__ = [
-    "RobotOutcome",
     "BackupReport",
-    "find_projects",
+    "RobotOutcome",
     "backup",
+    "find_projects",
     "line_of",
     "run_hook",
     "write_metrics",
@@ -304,7 +304,8 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
         "# TYPE harlsync_backup_failed_attempts gauge",
     ]
     for r in report.robots:
-        label = '{robot="%s"}' % r.name.replace("\\", "\\\\").replace('"', '\\"')
+        escaped = r.name.replace("\\", "\\\\").replace('"', '\\"')
+        label = f'{{robot="{escaped}"}}'
         last = datetime.fromisoformat(r.last_success).timestamp() if r.last_success else 0
         changed = sum(v for k, v in r.counts.items() if k != "programs")
         lines += [

@@ -49,19 +49,19 @@ from .items import Change, diff, summarize
 from .plan import Plan, PlannedWrite, make_plan
 
 __all__ = [
-    "connect",
-    "pull",
-    "PullResult",
-    "compare",
     "Comparison",
-    "plan",
-    "push",
-    "rollback",
+    "PullResult",
+    "PushFailed",
     "PushOptions",
     "PushResult",
-    "snapshots",
     "change_summary",
-    "PushFailed",
+    "compare",
+    "connect",
+    "plan",
+    "pull",
+    "push",
+    "rollback",
+    "snapshots",
 ]
 
 log = logging.getLogger(__name__)
@@ -165,12 +165,17 @@ def pull(
 
 @dataclass
 class Comparison:
-    """The live robot against the project."""
+    """The live robot against the project.  ``driver`` is closed; it still names
+    the robot and builds its commands."""
 
     project: Project
-    target: str
+    driver: Driver
     live: RobotData
     changes: list[Change]
+
+    @property
+    def target(self) -> str:
+        return self.driver.label
 
 
 def compare(
@@ -180,15 +185,16 @@ def compare(
     station: int | None = None,
     progress: Progress | None = None,
     registers: bool = False,
+    lock_timeout: float = 10.0,
 ) -> Comparison:
+    """Read the live robot and compare it with the project, item by item."""
     project = load_project(path)
-    driver = connect(project.robot, port, station)
+    driver = connect(project.robot, port, station, lock_timeout=lock_timeout)
     try:
         live = driver.read_all(registers=registers, progress=progress)
-        target = driver.label
     finally:
         driver.close()
-    return Comparison(project, target, live, diff(live, project.data, registers=registers))
+    return Comparison(project, driver, live, diff(live, project.data, registers=registers))
 
 
 def plan(
@@ -198,15 +204,13 @@ def plan(
     station: int | None = None,
     progress: Progress | None = None,
     registers: bool = False,
+    lock_timeout: float = 10.0,
 ) -> Plan:
     """The plan a push would carry out now; sends no SN command."""
-    project = load_project(path)
-    driver = connect(project.robot, port, station)
-    try:
-        live = driver.read_all(registers=registers, progress=progress)
-        return make_plan(live, project.data, driver, robot=project.robot.name, registers=registers)
-    finally:
-        driver.close()
+    c = compare(path, port=port, station=station, progress=progress, registers=registers,
+                lock_timeout=lock_timeout)
+    return make_plan(c.live, c.project.data, c.driver, robot=c.project.robot.name,
+                     registers=registers)
 
 
 # --- push and rollback --------------------------------------------------------------
