@@ -14,6 +14,11 @@ then reads the item back::
     reads back what was there      -> it did not take: send it once more (then the same check)
     reads back anything else       -> WriteUnconfirmed (someone else changed it, or worse)
 
+Before sending an unsafe write (SNA, SNM, SNS, SNH, SNE, SNX) once more, the
+controller reads LNR again: the robot may have been started while the reply was
+awaited.  Unless every task is known and idle it raises
+:class:`~harlsync.errors.InterlockError` and does not send it again.
+
 "What was there" is the ``old`` value the caller passes (push knows it from its
 plan); without it the controller reads the item before writing.
 """
@@ -26,7 +31,7 @@ from collections.abc import Callable
 from types import TracebackType
 from typing import Any, TypeVar
 
-from .errors import ControllerError, WriteUnconfirmed
+from .errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
 from .link import DEFAULT_LOCK_TIMEOUT, Link, SerialSettings
 from .model import (
     OFFSET_TABLE_COUNT,
@@ -136,6 +141,8 @@ class Controller:
                     log.info("%s: reply lost but the write took (read back)", exc)
                     return
                 if attempt == 1 and same(now, old):
+                    if request.unsafe:
+                        self._idle_before_resend(request, exc)
                     log.warning("%s: the write did not take (read back): sending it once more", exc)
                     continue
                 if attempt == 1:
@@ -151,6 +158,21 @@ class Controller:
                     station=self.station,
                     command=request.payload,
                 ) from exc
+
+    def _idle_before_resend(self, request: Request, lost: WriteUnconfirmed) -> None:
+        """Raise InterlockError unless LNR, read now, shows every task known and idle."""
+        try:
+            status = self.status()
+        except HarlsyncError as exc:
+            why = f"cannot read the task states ({exc})"
+        else:
+            if status.idle:
+                return
+            why = f"the robot is not idle: {status.describe()}"
+        raise InterlockError(
+            f"port {self.port}, station {self.station}, command {request.payload}: the write did "
+            f"not take and {why}; not sending it again (forbidden during automatic operation)"
+        ) from lost
 
     # --- programs -----------------------------------------------------------------
 

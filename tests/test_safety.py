@@ -1,0 +1,140 @@
+"""Safety regressions: no unsafe SN command reaches a robot in automatic operation,
+whatever the line, the operator or the person at the keyboard does meanwhile.
+
+Each test drives the real controller or push over a real pty or TCP socket and
+asserts on what the simulator received (``Received.automatic`` is whether some
+task of that robot was in execution or suspended when the request arrived).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from conftest import git
+from simline import Act, ScriptedSim, drop
+
+from harlsync.controller import Controller
+from harlsync.errors import InterlockError
+from harlsync.link import SerialSettings
+from harlsync.model import Config, ProgramArea, ProgramType, Step
+from harlsync.project import load_project, save_project
+from harlsync.sim import SimState
+from harlsync.sim.serve import PtyServer, TcpServer
+from harlsync.sync import PushFailed, PushOptions, engine
+
+SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
+FAST = SerialSettings(timeout=0.2, retries=2)
+MAIN = ProgramType.MAIN
+YES = PushOptions(yes=True)
+
+
+@pytest.fixture(autouse=True)
+def isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / "audit.jsonl"))
+    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "locks"))
+
+
+@pytest.fixture
+def sim() -> ScriptedSim:
+    return ScriptedSim(SimState.generate(11, SMALL))
+
+
+@pytest.fixture
+def robot(sim: ScriptedSim) -> Iterator[Controller]:
+    with PtyServer(sim) as server, Controller.from_url(server.device, 1, FAST) as controller:
+        yield controller
+
+
+@pytest.fixture
+def line(sim: ScriptedSim) -> Iterator[str]:
+    with TcpServer(sim) as server:
+        yield server.url
+
+
+@pytest.fixture
+def project(tmp_path: Path, line: str) -> Path:
+    """The robot pulled into a committed project, with a short reply deadline."""
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q")
+    path = root / "cell"
+    engine.pull(path, port=line)
+    robot_yaml = path / "robot.yaml"
+    robot_yaml.write_text(robot_yaml.read_text().replace("timeout: 1.0", "timeout: 0.2"))
+    git(root, "add", "-A")
+    git(root, "commit", "-qm", "backup")
+    return path
+
+
+def commit_step(project: Path, number: int, step: int, text: str) -> None:
+    loaded = load_project(project)
+    loaded.data.programs[(MAIN, number)][step] = Step.parse(text)
+    save_project(project, loaded)
+    git(project.parent, "commit", "-qam", f"MAIN {number} step {step}")
+
+
+def operator_starts_the_robot(state: SimState) -> None:
+    state.start_task(0, "MAIN", 0, 0)
+
+
+# --- the re-send after a lost reply -------------------------------------------------------
+
+
+NEW_CONFIG = Config(ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), 4, 16, 4)
+
+UNSAFE_WRITES: list[tuple[str, str, Callable[[Controller], None]]] = [
+    ("SNM", "SNM 1 2", lambda c: c.write_step(MAIN, 1, 2, Step.parse("MOVE P777 S20"))),
+    ("SNA", "SNA 0", lambda c: c.write_step(ProgramType.START, 0, 0, Step.parse("END"))),
+    ("SNE", "SNE", lambda c: c.write_parameters(replace(c.read_parameters(), pull_rate="77"))),
+    ("SNX", "SNX", lambda c: c.write_config(NEW_CONFIG)),
+]
+
+
+@pytest.mark.parametrize("key,write", [(k, w) for _, k, w in UNSAFE_WRITES],
+                         ids=[n for n, _, _ in UNSAFE_WRITES])
+def test_an_unsafe_write_is_not_resent_when_the_robot_went_automatic_after_the_lost_reply(
+    robot: Controller, sim: ScriptedSim, key: str, write: Callable[[Controller], None]
+) -> None:
+    # The first send never took and its reply was lost; meanwhile the operator
+    # pressed start.  The controller must not send it a second time.
+    sim.plan(key, Act(apply=False, before=operator_starts_the_robot, wire=drop))
+    with pytest.raises(InterlockError, match="task 0 in execution"):
+        write(robot)
+    assert len(sim.sent(key)) == 1
+    assert sim.unsafe_in_automatic() == []
+
+
+def test_an_unsafe_write_is_resent_after_a_fresh_status_read_shows_the_robot_idle(
+    robot: Controller, sim: ScriptedSim
+) -> None:
+    sim.plan("SNM 1 2", Act(apply=False, wire=drop))
+    old = sim.stations[1].data.programs[(MAIN, 1)].get(2, Step())
+    robot.write_step(MAIN, 1, 2, Step.parse("MOVE P777 S20"), old=old)
+    assert [r.payload for r in sim.received] == [
+        "SNM 1 2 MOVE P777 S20", "LNM 1 2", "LNR", "SNM 1 2 MOVE P777 S20"
+    ]
+
+
+def test_a_timer_write_is_still_resent_while_a_task_runs(
+    robot: Controller, sim: ScriptedSim
+) -> None:
+    # SNT is allowed during automatic operation (live tuning): no status gate.
+    sim.plan("SNT 1", Act(apply=False, before=operator_starts_the_robot, wire=drop))
+    robot.write_timer(1, "7.25", old=sim.stations[1].data.timers[1])
+    assert sim.sent("SNT 1") == ["SNT 1 7.25", "SNT 1 7.25"]
+    assert sim.stations[1].data.timers[1] == "7.25"
+
+
+def test_push_does_not_resend_a_step_to_a_robot_started_after_its_reply_was_lost(
+    project: Path, sim: ScriptedSim
+) -> None:
+    commit_step(project, 1, 11, "MOVE P999 S20")
+    sim.plan("SNM 1 11", Act(apply=False, before=operator_starts_the_robot, wire=drop))
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, YES)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert sim.unsafe_in_automatic() == []
+    assert sim.sent("SNM 1 11") == ["SNM 1 11 MOVE P999 S20"]
