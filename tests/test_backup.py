@@ -90,9 +90,16 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
     shared.programs[(ProgramType.SUB, 0)][5] = Step.parse("MOVE P321 S20")
     untouched = {n: files_of(plant.root / n) for n in ("silent", "garbage")}
     head = git(plant.root, "rev-parse", "HEAD")
+    shared_line = plant.sims["press-1"]
+    before = len(shared_line.received)
 
     code = main(["backup", str(plant.root), "--commit", "--jobs", "3", "--attempts", "2"])
     out = capsys.readouterr().out
+
+    # The two stations on one line were pulled one after the other, never interleaved.
+    stations = [r.station for r in shared_line.received[before:]]
+    changes_of_station = sum(a != b for a, b in zip(stations, stations[1:]))
+    assert set(stations) == {1, 2} and changes_of_station == 1
 
     assert code == 1
     rows = {line.split()[0]: line for line in out.splitlines()[1:6]}
