@@ -17,7 +17,7 @@ from conftest import git
 from simline import Act, ScriptedSim, drop
 
 from harlsync.controller import Controller
-from harlsync.errors import InterlockError
+from harlsync.errors import InterlockError, StalePlanError
 from harlsync.link import SerialSettings
 from harlsync.model import Config, ProgramArea, ProgramType, Step
 from harlsync.project import load_project, save_project
@@ -138,3 +138,28 @@ def test_push_does_not_resend_a_step_to_a_robot_started_after_its_reply_was_lost
     assert isinstance(failed.value.cause, InterlockError)
     assert sim.unsafe_in_automatic() == []
     assert sim.sent("SNM 1 11") == ["SNM 1 11 MOVE P999 S20"]
+
+
+# --- the robot edited on the pendant after the read -------------------------------------
+
+
+def test_a_step_edited_on_the_pendant_after_the_read_is_not_overwritten(
+    project: Path, sim: ScriptedSim
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    commit_step(project, 1, 5, "MOVE P555 S20")
+    programs = sim.stations[1].data.programs
+
+    def reviewed_while_the_operator_edits(plan: object) -> bool:
+        # The plan is on screen; meanwhile the operator teaches step 5 on the pendant.
+        programs[(MAIN, 1)][5] = Step.parse("MOVE P123 S10")
+        return True
+
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, PushOptions(confirm=reviewed_while_the_operator_edits))
+    assert isinstance(failed.value.cause, StalePlanError)
+    assert "MAIN program 1 step 5" in str(failed.value)
+    assert programs[(MAIN, 1)][5] == Step.parse("MOVE P123 S10")  # the operator's edit survives
+    assert sim.sent("SNM 1 5") == []
+    assert [w.name for w in failed.value.result.written] == ["MAIN program 1 step 3"]
+    assert failed.value.result.failed is None

@@ -11,6 +11,7 @@ before the last check)::
     stale plan? unwritable? reconfiguration allowed? confirmed?
     snapshot the live robot          (DIR/.harlsync/snapshots/<time>-push/)
     for each write, in the safe order:
+        read the item: as planned?   (drift: edited on the pendant since the read)
         LNR: idle?                   (interlock: before every write)
         write, read back, compare    (verify)
     audit record                     (always, whatever happened)
@@ -403,6 +404,13 @@ def _write_all(
         # unsafe write needs an idle robot before its first write of any kind.
         _interlock(driver, robot, f"the first write ({the_plan.writes[0].command})")
     for write in the_plan.writes:
+        now = driver.read(write.key)
+        if not _same(write.key, now, write.old):
+            raise StalePlanError(
+                f"{write.name} changed on the robot since it was read (now {_show(now)!r}, "
+                f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
+                "the change, then run again"
+            )
         if write.unsafe or not opts.allow_live_tuning:
             _interlock(driver, robot, f"writing {write.name} ({write.command})")
         result.failed = write
