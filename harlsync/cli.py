@@ -13,9 +13,14 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 from . import __version__
 from .errors import HarlsyncError, InterlockError, PolicyError
+
+if TYPE_CHECKING:
+    from .sync.engine import PushOptions, PushResult
+    from .sync.plan import Plan
 
 __all__ = ["main"]
 
@@ -71,7 +76,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .sim import Faults
+    from .sim import Faults, Received
     from .sim.control import apply_command
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer
@@ -96,11 +101,14 @@ def _cmd_sim(args: argparse.Namespace) -> int:
             state.start_task(0)
     if args.record:
         record = open(args.record, "a", encoding="utf-8")  # noqa: SIM115 - open for the run
-        sim.listeners.append(
-            lambda r: (record.write(json.dumps(
+
+        def log_request(r: Received) -> None:
+            record.write(json.dumps(
                 {"station": r.station, "payload": r.payload, "automatic": r.automatic}
-            ) + "\n"), record.flush())
-        )
+            ) + "\n")
+            record.flush()
+
+        sim.listeners.append(log_request)
     servers: list[PtyServer | TcpServer] = []
     if not args.no_pty:
         pty = PtyServer(sim)
@@ -239,7 +247,7 @@ class _Progress:
     """A progress bar on a terminal (done/total, rate, time left); nothing otherwise."""
 
     def __init__(self, what: str) -> None:
-        self.bar = None
+        self.bar: Any = None
         self.what = what
 
     def __call__(self, done: int, total: int) -> None:
@@ -250,8 +258,7 @@ class _Progress:
 
             self.bar = tqdm(total=total, desc=self.what, unit="item", file=sys.stderr, leave=False)
         self.bar.total = total
-        self.bar.n = done
-        self.bar.refresh()
+        self.bar.update(done - self.bar.n)
 
     def close(self) -> None:
         if self.bar is not None:
@@ -343,7 +350,7 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_plan)
 
 
-def _show_plan(the_plan) -> None:  # type: ignore[no-untyped-def]
+def _show_plan(the_plan: Plan) -> None:
     for line in the_plan.unwritable:
         _print(f"# cannot write: {line}")
     if the_plan.reconfigure:
@@ -387,7 +394,7 @@ def _push_args(p: argparse.ArgumentParser) -> None:
                    help="write registers too (the project must keep them)")
 
 
-def _confirm(the_plan) -> bool:  # type: ignore[no-untyped-def]
+def _confirm(the_plan: Plan) -> bool:
     _show_plan(the_plan)
     if not sys.stdin.isatty():
         print("harlsync: no terminal to ask on: review with 'harlsync plan' and pass --yes",
@@ -417,7 +424,7 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_push)
 
 
-def _push_options(args: argparse.Namespace) -> PushOptions:  # noqa: F821
+def _push_options(args: argparse.Namespace) -> PushOptions:
     from .sync.engine import PushOptions
 
     return PushOptions(
@@ -429,7 +436,7 @@ def _push_options(args: argparse.Namespace) -> PushOptions:  # noqa: F821
     )
 
 
-def _report(action: str, run: Callable[[], object]) -> int:
+def _report(action: str, run: Callable[[], PushResult]) -> int:
     from .sync.engine import PushFailed
 
     try:
@@ -449,7 +456,6 @@ def _report(action: str, run: Callable[[], object]) -> int:
                     print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
             print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
         raise failed.cause from failed
-    assert hasattr(result, "plan")
     if result.plan is None or result.plan.empty:
         _print(f"{action}: robot already matches; nothing written")
     else:

@@ -29,25 +29,25 @@ an exit code.  pyserial's own exceptions never leave the link layer.
 from __future__ import annotations
 
 __all__ = [
-    "HarlsyncError",
-    "ProtocolError",
-    "FrameError",
-    "LRCError",
-    "ReplyError",
-    "LinkError",
-    "PortError",
-    "PortBusyError",
-    "LinkTimeout",
-    "WriteUnconfirmed",
     "ControllerError",
+    "FrameError",
+    "HarlsyncError",
+    "InterlockError",
+    "LRCError",
+    "LinkError",
+    "LinkTimeout",
+    "PolicyError",
+    "PortBusyError",
+    "PortError",
     "ProjectError",
     "ProjectFormatError",
     "ProjectInvalid",
-    "SyncError",
-    "InterlockError",
-    "PolicyError",
+    "ProtocolError",
+    "ReplyError",
     "StalePlanError",
+    "SyncError",
     "VerifyError",
+    "WriteUnconfirmed",
 ]
 
 
@@ -71,8 +71,8 @@ class ReplyError(ProtocolError):
     """A well-formed frame that does not answer the request that was sent."""
 
 
-class _Located:
-    """Mixin: an error that happened talking to one robot (port and station)."""
+class _Located(HarlsyncError):
+    """An error that happened talking to one robot (port and station)."""
 
     def __init__(
         self,
@@ -99,7 +99,7 @@ class _Located:
         return f"{', '.join(where)}: {self.message}" if where else self.message
 
 
-class LinkError(_Located, HarlsyncError):
+class LinkError(_Located):
     """The serial line failed."""
 
 
@@ -123,7 +123,7 @@ class WriteUnconfirmed(LinkError):
     """
 
 
-class ControllerError(_Located, HarlsyncError):
+class ControllerError(_Located):
     """The controller answered ``E`` + status where the operation cannot go on.
 
     ``status`` is the raw status text, as the HRCS-R3 manual lists it.

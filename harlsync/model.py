@@ -14,26 +14,26 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
 
 __all__ = [
-    "ProgramType",
-    "ProgramKey",
-    "Step",
-    "ProgramArea",
-    "Config",
-    "OffsetTable",
-    "OFFSET_FIELDS",
-    "Parameters",
-    "PARAMETER_NAMES",
-    "TaskState",
-    "Status",
-    "TASK_STATUS_NAMES",
-    "RobotData",
-    "TOKEN_RE",
-    "TIMER_RE",
-    "REGISTER_RE",
-    "OFFSET_RE",
     "CODE_RE",
     "MAX_STEP_DATA",
+    "OFFSET_FIELDS",
+    "OFFSET_RE",
     "OFFSET_TABLE_COUNT",
+    "PARAMETER_NAMES",
+    "REGISTER_RE",
+    "TASK_STATUS_NAMES",
+    "TIMER_RE",
+    "TOKEN_RE",
+    "Config",
+    "OffsetTable",
+    "Parameters",
+    "ProgramArea",
+    "ProgramKey",
+    "ProgramType",
+    "RobotData",
+    "Status",
+    "Step",
+    "TaskState",
 ]
 
 #: One wire token: printable ASCII, no space (fields never contain SP, STX or ETX).
@@ -148,6 +148,21 @@ class Config:
     timers: int
     memory_bits: int
     registers: int
+
+    @classmethod
+    def from_numbers(cls, n: list[int] | tuple[int, ...]) -> Config:
+        """From the 11 LNX numbers: P S for START, MAIN, SUB, HAND, then T M R."""
+        if len(n) != 11:
+            raise ValueError(f"{len(n)} numbers, expected 11: P S P S P S P S T M R")
+        return cls(
+            ProgramArea(n[0], n[1]),
+            ProgramArea(n[2], n[3]),
+            ProgramArea(n[4], n[5]),
+            ProgramArea(n[6], n[7]),
+            timers=n[8],
+            memory_bits=n[9],
+            registers=n[10],
+        )
 
     def area(self, ptype: ProgramType) -> ProgramArea:
         return {

@@ -81,7 +81,7 @@ class Number(decimal.Decimal):
     __slots__ = ("text",)
     text: str
 
-    def __new__(cls, text: str) -> Number:  # noqa: PYI034 (typing.Self is 3.11+)
+    def __new__(cls, text: str) -> Number:
         obj = super().__new__(cls, text)
         obj.text = text
         return obj

@@ -33,7 +33,6 @@ from ..model import (
     Config,
     OffsetTable,
     Parameters,
-    ProgramArea,
     ProgramType,
     Status,
     Step,
@@ -42,48 +41,48 @@ from ..model import (
 from . import profile
 
 __all__ = [
-    "Request",
-    "ErrorReply",
-    "Ack",
-    "decode_reply",
-    "parse_request",
+    "READ_LETTERS",
     "UNSAFE_LETTERS",
     "WRITE_LETTERS",
-    "READ_LETTERS",
-    "read_step",
-    "write_step",
-    "read_timer",
-    "write_timer",
-    "read_register",
-    "write_register",
-    "read_offset",
-    "write_offset",
+    "Ack",
+    "ErrorReply",
+    "Request",
+    "decode_reply",
+    "parse_request",
+    "read_config",
     "read_di_bit",
     "read_di_port",
     "read_do_bit",
     "read_do_port",
-    "write_do_bit",
-    "write_do_port",
     "read_mem_bit",
     "read_mem_port",
+    "read_offset",
+    "read_parameters",
+    "read_register",
+    "read_status",
+    "read_step",
+    "read_timer",
+    "read_version",
+    "write_config",
+    "write_do_bit",
+    "write_do_port",
     "write_mem_bit",
     "write_mem_port",
-    "read_parameters",
+    "write_offset",
     "write_parameters",
-    "read_status",
-    "read_version",
-    "read_config",
-    "write_config",
+    "write_register",
+    "write_step",
+    "write_timer",
 ]
 
 #: Every LN command of the profile.
 READ_LETTERS = frozenset(
-    "LNA LNM LNS LNH LNT LND LNL LNIB LNID LNOB LNOD LNBB LNBD LNE LNR LNV LNX".split()
+    ["LNA", "LNM", "LNS", "LNH", "LNT", "LND", "LNL", "LNIB", "LNID", "LNOB", "LNOD", "LNBB", "LNBD", "LNE", "LNR", "LNV", "LNX"]
 )
 #: Every SN command of the profile.
-WRITE_LETTERS = frozenset("SNA SNM SNS SNH SNT SND SNL SNOB SNOD SNBB SNBD SNE SNX".split())
+WRITE_LETTERS = frozenset(["SNA", "SNM", "SNS", "SNH", "SNT", "SND", "SNL", "SNOB", "SNOD", "SNBB", "SNBD", "SNE", "SNX"])
 #: SN commands the manual forbids during automatic operation.
-UNSAFE_LETTERS = frozenset("SNA SNM SNS SNH SNE SNX".split())
+UNSAFE_LETTERS = frozenset(["SNA", "SNM", "SNS", "SNH", "SNE", "SNX"])
 
 _INT_RE = re.compile(r"[0-9]+")
 _BIT_RE = re.compile(r"[01]")
@@ -377,9 +376,7 @@ def _decode_status(request: Request, fields: list[str]) -> Status:
 def _decode_config(request: Request, fields: list[str]) -> Config:
     if len(fields) != 11 or not all(_INT_RE.fullmatch(f) for f in fields):
         raise ValueError("expected 11 numbers: P S P S P S P S T M R")
-    n = [int(f) for f in fields]
-    areas = [ProgramArea(n[i], n[i + 1]) for i in range(0, 8, 2)]
-    return Config(*areas, timers=n[8], memory_bits=n[9], registers=n[10])
+    return Config.from_numbers([int(f) for f in fields])
 
 
 _DECODERS: dict[str, Any] = {

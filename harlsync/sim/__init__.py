@@ -3,4 +3,4 @@
 from .device import Faults, Received, Simulator
 from .state import DEFAULT_CONFIG, SimState
 
-__all__ = ["Simulator", "SimState", "Faults", "Received", "DEFAULT_CONFIG"]
+__all__ = ["DEFAULT_CONFIG", "Faults", "Received", "SimState", "Simulator"]

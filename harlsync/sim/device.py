@@ -36,7 +36,6 @@ from ..model import (
     Config,
     OffsetTable,
     Parameters,
-    ProgramArea,
     ProgramType,
     Step,
 )
@@ -319,10 +318,8 @@ class Simulator:
                 raise _Refuse(STATUS_DATA)
             data.parameters = Parameters.from_values(a)
         elif letters == "SNX":
-            n = [int(v) for v in a]
-            areas = [ProgramArea(n[i], n[i + 1]) for i in range(0, 8, 2)]
-            data.config = Config(
-                *areas, timers=cfg.timers, memory_bits=cfg.memory_bits, registers=cfg.registers
+            data.config = Config.from_numbers(
+                [*(int(v) for v in a), cfg.timers, cfg.memory_bits, cfg.registers]
             )
             # The manual: changing the configuration breaks the programs made.
             data.programs = {key: {} for key in data.config.programs()}

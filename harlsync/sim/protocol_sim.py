@@ -27,7 +27,7 @@ from ..protocol import FrameDecoder
 from .device import Faults, Simulator
 from .state import SimState
 
-__all__ = ["Serial", "register", "unregister", "build_simulator", "simulator_from_url"]
+__all__ = ["Serial", "build_simulator", "register", "simulator_from_url", "unregister"]
 
 _registry: dict[str, Simulator] = {}
 _names = itertools.count(1)
@@ -125,7 +125,7 @@ class Serial(SerialBase):
         super().__init__(*args, **kwargs)
 
     def open(self) -> None:
-        if self.is_open:
+        if self.is_open:  # type: ignore[has-type]
             raise SerialException("Port is already open.")
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")

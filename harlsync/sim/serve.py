@@ -21,7 +21,7 @@ from collections.abc import Callable
 from ..protocol import FrameDecoder
 from .device import Simulator
 
-__all__ = ["PtyServer", "TcpServer", "ReplyScheduler"]
+__all__ = ["PtyServer", "ReplyScheduler", "TcpServer"]
 
 log = logging.getLogger(__name__)
 
@@ -163,7 +163,7 @@ class TcpServer:
         while not self._stop.is_set():
             try:
                 conn, peer = self._sock.accept()
-            except (TimeoutError, socket.timeout):
+            except TimeoutError:
                 continue
             except OSError:
                 return
@@ -180,7 +180,7 @@ class TcpServer:
             while not self._stop.is_set():
                 try:
                     data = conn.recv(4096)
-                except (TimeoutError, socket.timeout):
+                except TimeoutError:
                     continue
                 except OSError:
                     break

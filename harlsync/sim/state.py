@@ -105,10 +105,9 @@ class SimState:
         for key in config.programs():
             data.programs[key] = _generate_program(rng, key, config)
         for n in rng.sample(range(OFFSET_TABLE_COUNT), k=min(12, OFFSET_TABLE_COUNT)):
-            data.offsets[n] = OffsetTable(
-                *(f"{rng.uniform(-500, 500):.2f}" for _ in range(6)),
-                m=str(rng.randrange(100)),
-                f=str(rng.randrange(100)),
+            data.offsets[n] = OffsetTable.from_values(
+                [f"{rng.uniform(-500, 500):.2f}" for _ in range(6)]
+                + [str(rng.randrange(100)), str(rng.randrange(100))]
             )
         for n in range(config.timers):
             if rng.random() < 0.6:

@@ -21,15 +21,15 @@ from typing import Any
 from ..model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
 
 __all__ = [
-    "Key",
     "Change",
-    "items",
-    "diff",
+    "Key",
     "describe",
+    "diff",
+    "items",
     "push_order",
+    "render_text",
     "summarize",
     "to_json",
-    "render_text",
 ]
 
 Key = tuple[Any, ...]
@@ -57,9 +57,9 @@ def items(data: RobotData, *, registers: bool = True) -> dict[Key, Any]:
         for n, value in data.registers.items():
             out[("register", n)] = value
     for (ptype, number), steps in data.programs.items():
-        for step, value in steps.items():
-            if not value.empty:
-                out[("step", ptype.value, number, step)] = value
+        for n, step in steps.items():
+            if not step.empty:
+                out[("step", ptype.value, number, n)] = step
     return out
 
 
