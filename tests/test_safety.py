@@ -17,13 +17,15 @@ from conftest import git
 from simline import Act, ScriptedSim, drop
 
 from harlsync.controller import Controller
-from harlsync.errors import InterlockError, StalePlanError
+from harlsync.errors import InterlockError, PolicyError, StalePlanError
 from harlsync.link import SerialSettings
 from harlsync.model import Config, ProgramArea, ProgramType, Step
 from harlsync.project import load_project, save_project
 from harlsync.sim import SimState
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
+from harlsync.sync import audit as audit_log
+from harlsync.sync.driver import HarlU2Driver
 
 SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
 FAST = SerialSettings(timeout=0.2, retries=2)
@@ -163,3 +165,43 @@ def test_a_step_edited_on_the_pendant_after_the_read_is_not_overwritten(
     assert sim.sent("SNM 1 5") == []
     assert [w.name for w in failed.value.result.written] == ["MAIN program 1 step 3"]
     assert failed.value.result.failed is None
+
+
+# --- the audit record, whatever stops the push ----------------------------------------------
+
+
+def test_ctrl_c_mid_push_still_leaves_an_audit_record_saying_what_was_written(
+    project: Path, sim: ScriptedSim, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    commit_step(project, 1, 5, "MOVE P555 S20")
+    real = HarlU2Driver.write
+    calls = []
+
+    def interrupted_on_the_second(self: HarlU2Driver, *args: object, **kwargs: object) -> None:
+        calls.append(args)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        real(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(HarlU2Driver, "write", interrupted_on_the_second)
+    with pytest.raises(KeyboardInterrupt):
+        engine.push(project, YES)
+    [record] = audit_log.read(tmp_path / "audit.jsonl")
+    assert record["result"] == "interrupted"
+    assert [w["item"] for w in record["written"]] == ["MAIN program 1 step 3"]
+    assert record["failed_item"] == "MAIN program 1 step 5"
+    assert sim.sent("SNM 1 5") == []
+
+
+def test_a_push_that_could_not_be_audited_is_refused_before_any_write(
+    project: Path, sim: ScriptedSim, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    blocker = tmp_path / "not-a-directory"
+    blocker.write_text("")
+    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(blocker / "audit.jsonl"))
+    before = len(sim.received)
+    with pytest.raises(PolicyError, match="audit"):
+        engine.push(project, YES)
+    assert sim.received[before:] == []

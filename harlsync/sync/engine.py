@@ -26,6 +26,7 @@ write needs an idle robot before its first write.
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -316,6 +317,7 @@ def _deploy(
     station: int | None,
 ) -> PushResult:
     robot = project.robot
+    _check_audit_log()
     result = PushResult()
     record = audit.base_record(action)
     record.update(
@@ -356,6 +358,11 @@ def _deploy(
             done = {id(w) for w in result.written}
             result.not_written = [w for w in result.plan.writes if id(w) not in done]
         raise PushFailed(exc, result) from exc
+    except BaseException as exc:  # Ctrl-C, or a bug: still say what was written
+        result.error = f"{type(exc).__name__}: {exc}"
+        record["result"] = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+        record["error"] = result.error
+        raise
     finally:
         record["written"] = [
             {"item": w.name, "command": w.command, "old": _show(w.old), "new": _show(w.new)}
@@ -366,6 +373,19 @@ def _deploy(
         if driver is not None:
             driver.close()
         result.audit_log = audit.append(record)
+
+
+def _check_audit_log() -> None:
+    """Refuse, before the port is opened, a push whose audit record could not be kept."""
+    path = audit.audit_path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        os.close(os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644))
+    except OSError as exc:
+        raise PolicyError(
+            f"cannot write the audit log {path} ({exc}); nothing was written. "
+            "Fix it or set HARLSYNC_AUDIT_LOG to a writable file"
+        ) from exc
 
 
 def _show(value: Any) -> Any:
