@@ -205,3 +205,27 @@ def test_a_push_that_could_not_be_audited_is_refused_before_any_write(
     with pytest.raises(PolicyError, match="audit"):
         engine.push(project, YES)
     assert sim.received[before:] == []
+
+
+# --- live tuning -----------------------------------------------------------------------------
+
+
+def test_live_tuning_does_not_write_registers_into_a_running_program(
+    project: Path, sim: ScriptedSim
+) -> None:
+    robot_yaml = project / "robot.yaml"
+    robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
+                                                         "keep_registers: true"))
+    engine.pull(project)
+    loaded = load_project(project)
+    assert loaded.data.registers is not None, "robot.yaml layout changed"
+    loaded.data.registers[1] = "0042" if loaded.data.registers[1] != "0042" else "0043"
+    loaded.data.timers[2] = "4.44" if loaded.data.timers[2] != "4.44" else "4.45"
+    save_project(project, loaded)
+    git(project.parent, "add", "-A")
+    git(project.parent, "commit", "-qm", "register 1, timer 2")
+    sim.stations[1].start_task(0)
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, PushOptions(yes=True, allow_live_tuning=True, registers=True))
+    assert isinstance(failed.value.cause, InterlockError)
+    assert [r.letters for r in sim.writes_received()] == []

@@ -19,8 +19,8 @@ before the last check)::
 The interlock reads LNR immediately before every write.  With
 ``allow_live_tuning`` it skips that only before timer and offset writes, which
 the manual allows during automatic operation; it still reads LNR before every
-unsafe write (SNA, SNM, SNS, SNH, SNE, SNX), and a plan that holds any unsafe
-write needs an idle robot before its first write.
+other write (SNA, SNM, SNS, SNH, SNE, SNX, and SND registers), and a plan that
+holds any such write needs an idle robot before its first write.
 """
 
 from __future__ import annotations
@@ -69,6 +69,9 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 SNAPSHOT_DIR = Path(".harlsync") / "snapshots"
+#: Items that --allow-live-tuning writes while a task runs: timers and offset tables.
+#: Registers are process state the running program counts with: never.
+LIVE_TUNING = ("timer", "offset")
 
 
 def connect(
@@ -419,9 +422,12 @@ def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
 def _write_all(
     driver: Driver, robot: Robot, the_plan: Plan, opts: PushOptions, result: PushResult
 ) -> None:
-    if opts.allow_live_tuning and any(w.unsafe for w in the_plan.writes):
-        # Live tuning covers timers and tables only: a plan that also holds an
-        # unsafe write needs an idle robot before its first write of any kind.
+    def live(write: PlannedWrite) -> bool:
+        return opts.allow_live_tuning and write.key[0] in LIVE_TUNING and not write.unsafe
+
+    if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
+        # Live tuning covers timers and tables only: a plan that also holds any
+        # other write needs an idle robot before its first write of any kind.
         _interlock(driver, robot, f"the first write ({the_plan.writes[0].command})")
     for write in the_plan.writes:
         now = driver.read(write.key)
@@ -431,7 +437,7 @@ def _write_all(
                 f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
                 "the change, then run again"
             )
-        if write.unsafe or not opts.allow_live_tuning:
+        if not live(write):
             _interlock(driver, robot, f"writing {write.name} ({write.command})")
         result.failed = write
         driver.write(write.key, write.new, write.old)
