@@ -252,8 +252,11 @@ class Link:
         if path is None:
             return
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            lock = filelock.FileLock(str(path), thread_local=False)
+            if not path.parent.is_dir():
+                path.parent.mkdir(parents=True, exist_ok=True)
+                # Shared by every user who runs harlsync (sticky, like /tmp).
+                os.chmod(path.parent, 0o1777)
+            lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
             lock.acquire(timeout=self.lock_timeout)
         except filelock.Timeout as exc:
             raise PortBusyError(self._busy_message(path), port=self.url) from exc
@@ -474,13 +477,15 @@ def _hex(data: bytes) -> str:
 
 
 def default_lock_dir() -> Path:
-    """``$HARLSYNC_LOCK_DIR``, else ``$XDG_RUNTIME_DIR/harlsync``, else ``<tmp>/harlsync-locks``."""
+    """``$HARLSYNC_LOCK_DIR``, else ``<tmp>/harlsync-locks``.
+
+    One directory for every session and user of the machine: a per-session one
+    (``$XDG_RUNTIME_DIR``) would let a cron job, which has no login session, and
+    a push from a shell lock different files and share the line.
+    """
     env = os.environ.get("HARLSYNC_LOCK_DIR")
     if env:
         return Path(env)
-    runtime = os.environ.get("XDG_RUNTIME_DIR")
-    if runtime and os.path.isdir(runtime):
-        return Path(runtime) / "harlsync"
     return Path(tempfile.gettempdir()) / "harlsync-locks"
 
 

@@ -374,14 +374,15 @@ def test_lock_keys_name_the_line_not_the_spelling(tmp_path: Path) -> None:
     assert lock_path("loop://") is None
 
 
-def test_the_lock_directory_is_chosen_from_argument_env_runtime_dir_and_tmp(
+def test_the_lock_directory_is_chosen_from_argument_env_and_tmp_never_the_session(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "env"))
     assert lock_path("COM3", tmp_path / "arg").parent == tmp_path / "arg"  # type: ignore[union-attr]
     assert default_lock_dir() == tmp_path / "env"
     monkeypatch.delenv("HARLSYNC_LOCK_DIR")
-    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
-    assert default_lock_dir() == tmp_path / "harlsync"
-    monkeypatch.delenv("XDG_RUNTIME_DIR")
-    assert default_lock_dir().name == "harlsync-locks"
+    monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
+    shared = default_lock_dir()
+    assert shared.name == "harlsync-locks"
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))  # a login session: same place
+    assert default_lock_dir() == shared

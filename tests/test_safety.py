@@ -8,6 +8,7 @@ task of that robot was in execution or suspended when the request arrived).
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -17,8 +18,8 @@ from conftest import git
 from simline import Act, ScriptedSim, drop
 
 from harlsync.controller import Controller
-from harlsync.errors import InterlockError, PolicyError, StalePlanError
-from harlsync.link import SerialSettings
+from harlsync.errors import InterlockError, PolicyError, PortBusyError, StalePlanError
+from harlsync.link import Link, SerialSettings
 from harlsync.model import Config, ProgramArea, ProgramType, Step
 from harlsync.project import load_project, save_project
 from harlsync.sim import SimState
@@ -229,3 +230,27 @@ def test_live_tuning_does_not_write_registers_into_a_running_program(
         engine.push(project, PushOptions(yes=True, allow_live_tuning=True, registers=True))
     assert isinstance(failed.value.cause, InterlockError)
     assert [r.letters for r in sim.writes_received()] == []
+
+
+# --- two harlsync on one line ---------------------------------------------------------------
+
+
+def test_a_cron_job_without_a_login_session_is_held_off_the_line_a_shell_push_holds(
+    project: Path, sim: ScriptedSim, line: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    monkeypatch.delenv("HARLSYNC_LOCK_DIR")
+    (tmp_path / "tmp").mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "run-user-1000").mkdir()
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path / "run-user-1000"))
+    interactive = Link(line, 1).open()  # an engineer's push, from an SSH session
+    try:
+        monkeypatch.delenv("XDG_RUNTIME_DIR")  # cron has no login session
+        before = len(sim.received)
+        with pytest.raises(PushFailed) as failed:
+            engine.push(project, PushOptions(yes=True, lock_timeout=0.2))
+        assert isinstance(failed.value.cause, PortBusyError)
+        assert sim.received[before:] == []
+    finally:
+        interactive.close()
