@@ -17,17 +17,17 @@ from .commands import (
 from .frame import Frame, FrameDecoder, encode_frame, lrc
 
 __all__ = [
-    "profile",
+    "READ_LETTERS",
+    "UNSAFE_LETTERS",
+    "WRITE_LETTERS",
+    "Ack",
+    "ErrorReply",
     "Frame",
     "FrameDecoder",
+    "Request",
+    "decode_reply",
     "encode_frame",
     "lrc",
-    "Request",
-    "ErrorReply",
-    "Ack",
-    "decode_reply",
     "parse_request",
-    "READ_LETTERS",
-    "WRITE_LETTERS",
-    "UNSAFE_LETTERS",
+    "profile",
 ]

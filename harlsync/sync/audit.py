@@ -18,7 +18,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-__all__ = ["audit_path", "append", "read", "base_record"]
+__all__ = ["append", "audit_path", "base_record", "read"]
 
 
 def audit_path() -> Path:

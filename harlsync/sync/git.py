@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..errors import SyncError
 
-__all__ = ["repo_root", "is_clean", "head", "commit", "push"]
+__all__ = ["commit", "head", "is_clean", "push", "repo_root"]
 
 
 def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess[str]:

@@ -22,7 +22,7 @@ from ..model import RobotData
 from .driver import Driver
 from .items import Change, Key, describe, diff, items, push_order
 
-__all__ = ["Plan", "PlannedWrite", "make_plan", "fingerprint", "PLAN_FORMAT"]
+__all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "fingerprint", "make_plan"]
 
 PLAN_FORMAT = 1
 
@@ -124,9 +124,26 @@ def make_plan(
         for name in ("timers", "memory_bits", "registers")
         if getattr(live.config, name) != getattr(project.config, name)
     ]
+    if registers and project.registers is None:
+        unwritable.append(
+            "registers: the project does not keep them; set keep_registers in robot.yaml "
+            "and pull, or push without registers"
+        )
+    explained = {
+        kind for kind, count in (("timer", "timers"), ("register", "registers"))
+        if getattr(live.config, count) != getattr(project.config, count)
+    } | ({"register"} if project.registers is None else set())
+    # Only a step can be written as "nothing" (cleared); any other item the
+    # project lacks cannot be written at all.
+    missing = [c for c in changes if c.new is None and c.key[0] != "step"]
+    unwritable += [
+        f"{c.name}: the project has none" for c in missing if c.key[0] not in explained
+    ]
     reconfigure = not live.config.same_programs(project.config)
     wanted: list[tuple[Key, Any, Any]] = []
     for change in changes:
+        if change.new is None and change.key[0] != "step":
+            continue  # in missing
         if change.key == ("config",):
             if reconfigure:
                 wanted.append((change.key, change.old, change.new))
