@@ -82,7 +82,6 @@ class Serial(protocol_sim.Serial):
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")
         replay = replay_from_url(self._port)
-        self.replay = replay
         self.sim = replay  # type: ignore[assignment]  # only receive() is called on it
         self._decoder = FrameDecoder()
         now = time.monotonic()

@@ -178,13 +178,12 @@ class Replay:
         """
         if self.mismatch is not None:
             raise self.mismatch
-        out: list[tuple[float, bytes]] = []
+        out = self.start()  # nothing, unless start() was not called
         data = bytes(data)
         while data:
             if self.done:
                 self._fail(f"the capture ends here, but the client sent {_show(data)}")
-            chunk = self.chunks[self._next]
-            assert chunk.direction == "TX"
+            chunk = self.chunks[self._next]  # a TX: the RX after each one are played
             want = chunk.data[self._matched :]
             take = min(len(data), len(want))
             if data[:take] != want[:take]:
