@@ -83,6 +83,28 @@ def operator_starts_the_robot(state: SimState) -> None:
     state.start_task(0, "MAIN", 0, 0)
 
 
+# --- what LNR may answer ------------------------------------------------------------------
+
+IDLE_TASK = "0 START 0 0"
+
+
+@pytest.mark.parametrize(
+    "reply",
+    ["E21", " ".join([IDLE_TASK] * 4), " ".join([IDLE_TASK] * 4 + ["3 MAIN 0 0"]),
+     " ".join([IDLE_TASK] * 4 + ["0 MAIN x 0"])],
+    ids=["error status", "four tasks", "two bits set", "unparsable"],
+)
+def test_a_push_writes_nothing_unless_lnr_shows_five_known_idle_tasks(
+    project: Path, sim: ScriptedSim, reply: str
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    sim.plan("LNR", *[Act(reply=reply)] * 20)
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, YES)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert sim.writes_received() == []
+
+
 # --- the re-send after a lost reply -------------------------------------------------------
 
 
@@ -254,3 +276,25 @@ def test_a_cron_job_without_a_login_session_is_held_off_the_line_a_shell_push_ho
         assert sim.received[before:] == []
     finally:
         interactive.close()
+
+
+# --- what no write can fix is refused, not crashed on -------------------------------------
+
+
+@pytest.mark.parametrize(
+    "timers,registers,expect",
+    [(8, False, "timers: the robot has 8, the project 4"),
+     (4, True, "registers: the project does not keep them")],
+    ids=["timer count", "registers not kept"],
+)
+def test_what_no_write_can_fix_refuses_the_push_before_any_write(
+    project: Path, tmp_path: Path, timers: int, registers: bool, expect: str
+) -> None:
+    target = ScriptedSim(SimState.generate(12, replace(SMALL, timers=timers)))
+    with TcpServer(target) as server, pytest.raises(PushFailed) as failed:
+        engine.push(project, PushOptions(yes=True, registers=registers), port=server.url)
+    assert isinstance(failed.value.cause, PolicyError)
+    assert expect in str(failed.value)
+    assert target.writes_received() == []
+    [record] = audit_log.read(tmp_path / "audit.jsonl")
+    assert record["result"] == "refused"
