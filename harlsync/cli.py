@@ -389,7 +389,7 @@ def _push_args(p: argparse.ArgumentParser) -> None:
                         "program; all of them are rewritten after it")
     p.add_argument("--allow-live-tuning", action="store_true",
                    help="write timers and offset tables even while a task runs (the manual "
-                        "allows it); programs, parameters and configuration never")
+                        "allows it); programs, parameters, configuration and registers never")
     p.add_argument("--registers", action="store_true",
                    help="write registers too (the project must keep them)")
 

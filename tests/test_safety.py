@@ -208,8 +208,12 @@ def test_ctrl_c_mid_push_still_leaves_an_audit_record_saying_what_was_written(
         real(self, *args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(HarlU2Driver, "write", interrupted_on_the_second)
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(PushFailed) as failed:
         engine.push(project, YES)
+    assert "interrupted (Ctrl-C)" in str(failed.value)
+    result = failed.value.result
+    assert [w.name for w in result.written] == ["MAIN program 1 step 3"]
+    assert result.failed is not None and result.failed.name == "MAIN program 1 step 5"
     [record] = audit_log.read(tmp_path / "audit.jsonl")
     assert record["result"] == "interrupted"
     assert [w["item"] for w in record["written"]] == ["MAIN program 1 step 3"]

@@ -353,17 +353,24 @@ def _deploy(
         _write_all(driver, robot, the_plan, opts, result)
         record["result"] = "ok"
         return result
-    except HarlsyncError as exc:
-        result.error = str(exc)
-        record["result"] = "refused" if isinstance(exc, InterlockError | PolicyError | StalePlanError) else "failed"
-        record["error"] = str(exc)
+    except (HarlsyncError, KeyboardInterrupt) as exc:
+        stopped: HarlsyncError = (
+            exc if isinstance(exc, HarlsyncError)
+            else SyncError(f"{action} interrupted (Ctrl-C)")
+        )
+        result.error = str(stopped)
+        refused = isinstance(exc, InterlockError | PolicyError | StalePlanError)
+        record["result"] = (
+            "refused" if refused else "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+        )
+        record["error"] = result.error
         if result.plan is not None:
             done = {id(w) for w in result.written}
             result.not_written = [w for w in result.plan.writes if id(w) not in done]
-        raise PushFailed(exc, result) from exc
-    except BaseException as exc:  # Ctrl-C, or a bug: still say what was written
+        raise PushFailed(stopped, result) from exc
+    except BaseException as exc:  # a bug: still record what was written
         result.error = f"{type(exc).__name__}: {exc}"
-        record["result"] = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+        record["result"] = "failed"
         record["error"] = result.error
         raise
     finally:
