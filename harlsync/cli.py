@@ -249,8 +249,11 @@ class _Progress:
     def __init__(self, what: str) -> None:
         self.bar: Any = None
         self.what = what
+        self.finished = False
 
     def __call__(self, done: int, total: int) -> None:
+        if self.finished:
+            return
         if self.bar is None:
             if not sys.stderr.isatty():
                 return
@@ -259,10 +262,14 @@ class _Progress:
             self.bar = tqdm(total=total, desc=self.what, unit="item", file=sys.stderr, leave=False)
         self.bar.total = total
         self.bar.update(done - self.bar.n)
+        if done >= total:  # clear the line before anything else is printed (a plan, a prompt)
+            self.close()
 
     def close(self) -> None:
+        self.finished = True
         if self.bar is not None:
             self.bar.close()
+            self.bar = None
 
 
 def _add_pull(sub: argparse._SubParsersAction) -> None:
@@ -277,6 +284,8 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
     _connection_args(p)
     p.add_argument("--commit", action="store_true",
                    help="commit the change to git, with a message that says what changed")
+    p.add_argument("--allow-dirty", action="store_true",
+                   help="pull even over uncommitted edits in DIR (they are overwritten)")
     p.set_defaults(func=_cmd_pull)
 
 
@@ -286,7 +295,8 @@ def _cmd_pull(args: argparse.Namespace) -> int:
     progress = _Progress("pull")
     try:
         result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
-                             progress=progress, lock_timeout=args.lock_timeout)
+                             progress=progress, lock_timeout=args.lock_timeout,
+                             allow_dirty=args.allow_dirty)
     finally:
         progress.close()
     if sys.stdout.isatty():
@@ -512,6 +522,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in _COMMANDS:
         add(sub)
+    for command in sub.choices.values():  # -v works after the command too
+        command.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
+                             help="more output: -v what it does, -vv raw traffic as hex")
     return parser
 
 
@@ -524,6 +537,7 @@ def _setup_logging(verbose: int) -> None:
         # Quiet under cron: only errors when nobody is watching.
         level = logging.WARNING if sys.stderr.isatty() else logging.ERROR
     logging.basicConfig(level=level, format="harlsync: %(levelname)s: %(message)s")
+    logging.getLogger("filelock").setLevel(max(level, logging.INFO))  # its debug lines are noise
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -140,8 +140,12 @@ def test_the_json_report_records_attempts_staleness_and_never_backed_up(plant: P
     silent = robots["silent"]
     assert not silent["ok"] and len(silent["attempts"]) == 2
     assert all("station 1" in reason for reason in silent["attempts"])
-    assert silent["never_backed_up"]  # the first pull was not a backup run
+    assert silent["last_success"] and not silent["never_backed_up"]  # the first pull counts
     assert report["ok"] is False
+    (plant.root / "silent" / ".harlsync" / "backup.json").unlink()
+    assert main(["backup", str(plant.root / "silent"), "--format", "json", "--attempts", "1"]) == 1
+    [silent] = json.loads(capsys.readouterr().out)["robots"]
+    assert silent["never_backed_up"] and silent["last_success"] is None
 
 
 def test_a_robot_with_no_good_backup_for_too_long_is_flagged_stale(plant: Plant) -> None:
@@ -198,6 +202,31 @@ def test_push_failure_is_reported_and_the_local_commit_kept(plant: Plant) -> Non
     assert report.commit is not None and report.pushed is False and report.push_error
     assert git(plant.root, "rev-parse", "HEAD").strip() == report.commit
     assert "git push FAILED" in report.render()
+    assert not report.ok  # a backup that never left the server is not a success
+
+
+def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(plant: Plant, capsys) -> None:
+    git(plant.root, "remote", "add", "origin", str(plant.root / "no-such-remote.git"))
+    plant.sims["loader"].stations[1].data.timers[3] = "3.21"
+    assert main(["backup", str(plant.root / "loader"), "--commit", "--push", "--quiet"]) == 1
+    assert "git push FAILED" in capsys.readouterr().out
+
+
+def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeypatch) -> None:
+    from harlsync.sync import backup as backup_module
+
+    real = backup_module.pull
+
+    def broken_for_the_loader(path: Path, **kwargs: object):  # type: ignore[no-untyped-def]
+        if Path(path).name == "loader":
+            raise RuntimeError("termios.error(5, 'Input/output error')")
+        return real(path, **kwargs)
+
+    monkeypatch.setattr(backup_module, "pull", broken_for_the_loader)
+    report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1)
+    outcome = {r.name: r for r in report.robots}
+    assert not outcome["loader"].ok and "RuntimeError" in outcome["loader"].error
+    assert outcome["press-1"].ok
 
 
 def test_the_documented_cron_line_runs_against_simulated_robots(plant: Plant, tmp_path: Path) -> None:

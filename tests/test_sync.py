@@ -491,3 +491,37 @@ def test_pull_commit_says_what_changed_and_skips_an_empty_commit(served, repo) -
 def test_a_first_pull_without_a_port_is_a_clear_error(tmp_path) -> None:
     with pytest.raises(ProjectError, match="give --port"):
         engine.pull(tmp_path / "new")
+
+
+def test_pull_refuses_to_overwrite_uncommitted_edits_but_not_robot_yaml(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    robot = project / "robot.yaml"
+    robot.write_text(robot.read_text().replace("timeout: 1.0", "timeout: 0.5"))
+    engine.pull(project)  # an edited robot.yaml is never overwritten: no refusal
+    edit_timer(project, 1, "9.99")
+    with pytest.raises(PolicyError, match="timers.yaml"):
+        engine.pull(project)
+    assert "  1: 9.99" in (project / "timers.yaml").read_text()
+    engine.pull(project, allow_dirty=True)
+    assert "  1: 9.99" not in (project / "timers.yaml").read_text()
+
+
+def test_a_push_refused_before_the_port_is_audited_too(served, repo, tmp_path) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 0, "12.5", repo)
+    with pytest.raises(ProjectError):
+        engine.push(project, PushOptions(yes=True, reason="try"), port=url)
+    [record] = audit_log.read(tmp_path / "audit.jsonl")
+    assert record["result"] == "refused" and "timers.yaml" in record["error"]
+    assert record["reason"] == "try" and record["written"] == []
+
+
+def test_a_first_pull_from_a_relative_sim_path_saves_it_absolute(tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(Path(__file__).parents[1])
+    engine.pull(tmp_path / "demo", port="sim://projects/pick-and-place")
+    robot = (tmp_path / "demo" / "robot.yaml").read_text()
+    assert f"sim://{Path('projects/pick-and-place').resolve()}" in robot
+    monkeypatch.chdir(tmp_path)
+    assert engine.compare(tmp_path / "demo").changes == []

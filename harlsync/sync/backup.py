@@ -25,7 +25,7 @@ from typing import Any
 
 from ..errors import HarlsyncError, LinkError, ProjectError
 from ..project import load_robot
-from . import git
+from . import git, history
 from .engine import pull
 from .items import summarize
 
@@ -40,9 +40,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-STATE_FILE = Path(".harlsync") / "backup.json"
-
 
 @dataclass
 class RobotOutcome:
@@ -75,7 +72,8 @@ class BackupReport:
 
     @property
     def ok(self) -> bool:
-        return all(r.ok for r in self.robots)
+        """Every robot backed up, and the commit pushed when a push was asked for."""
+        return all(r.ok for r in self.robots) and self.pushed is not False
 
     @property
     def changed(self) -> list[RobotOutcome]:
@@ -118,7 +116,9 @@ class BackupReport:
             if flags:
                 changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
             rows.append((r.name, result, changes, f"{r.duration:.1f}s"))
-        widths = [max(len(row[i]) for row in rows) for i in range(3)]
+        # Long error texts do not widen the table for everyone: the duration
+        # column stays where the other rows put it.
+        widths = [min(max(len(row[i]) for row in rows), 48) for i in range(3)]
         lines = [
             "  ".join(cell.ljust(widths[i]) for i, cell in enumerate(row[:3])) + "  " + row[3]
             for row in rows
@@ -162,24 +162,6 @@ def line_of(port: str) -> str:
     return os.path.realpath(port)
 
 
-def _read_state(path: Path) -> dict[str, Any]:
-    try:
-        return dict(json.loads((path / STATE_FILE).read_text(encoding="utf-8")))
-    except (OSError, ValueError):
-        return {}
-
-
-def _write_state(path: Path, state: dict[str, Any]) -> None:
-    target = path / STATE_FILE
-    target.parent.mkdir(parents=True, exist_ok=True)
-    ignore = target.parent / ".gitignore"
-    if not ignore.exists():
-        ignore.write_text("# harlsync's local state: not versioned\n*\n")
-    tmp = target.with_suffix(".tmp")
-    tmp.write_text(json.dumps(state, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    os.replace(tmp, target)
-
-
 def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
     start = time.monotonic()
     try:
@@ -198,6 +180,11 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
         except HarlsyncError as exc:  # garbage, bad project: trying again will not help
             outcome.attempts.append(f"attempt {attempt}: {exc}")
             outcome.error = str(exc)
+            break
+        except Exception as exc:  # a bug must cost one robot, never the night's backup
+            log.exception("%s: unexpected error", robot.name)
+            outcome.attempts.append(f"attempt {attempt}: unexpected {type(exc).__name__}: {exc}")
+            outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
         outcome.ok, outcome.error = True, None
         outcome.changed = result.changes is None or bool(result.changes)
@@ -240,14 +227,7 @@ def backup(
 
     for outcome in outcomes:
         path = Path(outcome.path)
-        state = _read_state(path)
-        if outcome.ok:
-            state["last_success"] = now.isoformat(timespec="seconds")
-            state.pop("last_error", None)
-        else:
-            state["last_error"] = outcome.error
-        state["last_attempt"] = now.isoformat(timespec="seconds")
-        _write_state(path, state)
+        state = history.record(path, ok=outcome.ok, error=outcome.error, now=now)
         outcome.last_success = state.get("last_success")
         outcome.never_backed_up = outcome.last_success is None
         if outcome.last_success:
@@ -314,6 +294,12 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
             f"harlsync_backup_duration_seconds{label} {r.duration:.3f}",
             f"harlsync_backup_changed_items{label} {changed}",
             f"harlsync_backup_failed_attempts{label} {len(r.attempts)}",
+        ]
+    if report.pushed is not None:
+        lines += [
+            "# HELP harlsync_backup_git_push_success Whether the run's git push succeeded.",
+            "# TYPE harlsync_backup_git_push_success gauge",
+            f"harlsync_backup_git_push_success {int(report.pushed)}",
         ]
     target = Path(path)
     tmp = target.with_name(target.name + ".tmp")

@@ -45,7 +45,7 @@ from ..errors import (
 )
 from ..model import RobotData
 from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
-from . import audit, git
+from . import audit, git, history
 from .driver import Driver, HarlU2Driver, Progress
 from .items import Change, diff, summarize
 from .plan import Plan, PlannedWrite, make_plan
@@ -68,7 +68,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-SNAPSHOT_DIR = Path(".harlsync") / "snapshots"
+SNAPSHOT_DIR = history.LOCAL_DIR / "snapshots"
 #: Items that --allow-live-tuning writes while a task runs: timers and offset tables.
 #: Registers are process state the running program counts with: never.
 LIVE_TUNING = ("timer", "offset")
@@ -130,7 +130,23 @@ def _robot_for(path: Path, port: str | None, station: int | None) -> Robot:
         raise ProjectError(
             f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
         )
-    return new_robot(path.resolve().name, port, station or 1)
+    return new_robot(path.resolve().name, _absolute_sim_path(port), station or 1)
+
+
+def _absolute_sim_path(port: str) -> str:
+    """``sim://projects/x`` as ``sim:///abs/projects/x``: robot.yaml works from any directory."""
+    if not port.startswith("sim://"):
+        return port
+    rest = port[len("sim://"):]
+    path, sep, query = rest.partition("?")
+    if not path or path.startswith(("@", "/")):
+        return port
+    return f"sim://{Path(path).resolve()}{sep}{query}"
+
+
+def _uncommitted(path: Path, *, ignore: tuple[str, ...] = ()) -> list[str]:
+    """Files under ``path`` with uncommitted changes (none outside git)."""
+    return [f for f in git.changed_files(path) if Path(f).name not in ignore]
 
 
 def pull(
@@ -141,13 +157,22 @@ def pull(
     commit: bool = False,
     progress: Progress | None = None,
     lock_timeout: float = 10.0,
+    allow_dirty: bool = False,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
-    A pull that fails leaves the previous files untouched.
+    A pull that fails leaves the previous files untouched.  A project with
+    uncommitted edits (other than robot.yaml, which a pull never rewrites) is
+    refused unless ``allow_dirty``: the pull would overwrite them.
     """
     path = Path(path)
     robot = _robot_for(path, port, station)
+    dirty = [] if allow_dirty else _uncommitted(path, ignore=("robot.yaml",))
+    if dirty:
+        raise PolicyError(
+            f"{path}: uncommitted changes a pull would overwrite ({', '.join(dirty[:3])}"
+            f"{', ...' if len(dirty) > 3 else ''}); commit or stash them, or give --allow-dirty"
+        )
     try:
         previous: RobotData | None = load_project(path).data
     except ProjectError:
@@ -158,6 +183,7 @@ def pull(
     finally:
         driver.close()
     save_project(path, Project(path, robot, live))
+    history.record(path, ok=True)
     changes = None if previous is None else diff(previous, live, registers=robot.keep_registers)
     result = PullResult(path, robot, changes)
     if commit and (changes is None or changes):
@@ -302,11 +328,8 @@ def snapshots(path: str | Path, action: str = "push") -> list[Path]:
 
 def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Path:
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
-    target = path / SNAPSHOT_DIR / f"{stamp}-{action}"
-    ignore = path / ".harlsync" / ".gitignore"
-    if not ignore.exists():
-        ignore.parent.mkdir(parents=True, exist_ok=True)
-        ignore.write_text("# snapshots taken before each push: local, not versioned\n*\n")
+    history.ensure_local_dir(path)
+    target = (path / SNAPSHOT_DIR / f"{stamp}-{action}").resolve()
     save_project(target, Project(target, robot, live))
     return target
 
@@ -471,14 +494,43 @@ def push(
     port: str | None = None,
     station: int | None = None,
 ) -> PushResult:
-    """Make the robot equal the project, safely.  Raises PushFailed with the result."""
-    project = load_project(path)  # an invalid project is refused before the port
-    if not opts.allow_dirty and not git.is_clean(project.path):
-        raise PolicyError(
-            f"{project.path} has uncommitted changes (or is not in a git repository): "
-            "commit them, or give --allow-dirty"
-        )
+    """Make the robot equal the project, safely.  Raises PushFailed with the result.
+
+    An invalid or uncommitted project is refused before the port is opened, and
+    the refusal is audited like any other.
+    """
+    try:
+        project = load_project(path)
+        if not opts.allow_dirty:
+            _check_committed(Path(path))
+    except HarlsyncError as exc:
+        _audit_refusal("push", path, opts, exc)
+        raise
     return _deploy("push", project, project.data, opts, port, station)
+
+
+def _check_committed(path: Path) -> None:
+    if git.repo_root(path) is None:
+        raise PolicyError(
+            f"{path} is not in a git repository, so what is pushed could not be traced: "
+            "git init; git add; git commit it (or give --allow-dirty)"
+        )
+    dirty = _uncommitted(path)
+    if dirty:
+        raise PolicyError(
+            f"{path} has uncommitted changes ({', '.join(dirty[:3])}"
+            f"{', ...' if len(dirty) > 3 else ''}): commit them, or give --allow-dirty"
+        )
+
+
+def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:
+    record = audit.base_record(action)
+    record.update(project=str(Path(path).resolve()), reason=opts.reason, result="refused",
+                  error=str(exc), written=[])
+    try:
+        audit.append(record)
+    except OSError as err:
+        log.error("cannot write the audit log: %s", err)
 
 
 def rollback(

@@ -11,7 +11,8 @@ from pathlib import Path
 
 from ..errors import SyncError
 
-__all__ = ["commit", "head", "is_clean", "push", "repo_root"]
+__all__ = [
+    "changed_files","commit", "head", "is_clean", "push", "repo_root"]
 
 
 def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
@@ -22,8 +23,10 @@ def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProce
     except FileNotFoundError as exc:
         raise SyncError("git is not installed: install git or run without --commit") from exc
     if check and result.returncode != 0:
-        detail = (result.stderr or result.stdout).strip().splitlines()
-        raise SyncError(f"git {' '.join(args)} failed in {cwd}: {detail[-1] if detail else ''}")
+        lines = [ln.strip() for ln in (result.stderr or result.stdout).splitlines() if ln.strip()]
+        detail = next((ln for ln in lines if ln.startswith(("fatal:", "error:"))), None)
+        detail = detail or (lines[0] if lines else f"exit status {result.returncode}")
+        raise SyncError(f"git {' '.join(args)} failed in {cwd}: {detail}")
     return result
 
 
@@ -37,13 +40,20 @@ def repo_root(path: str | Path) -> Path | None:
     return Path(result.stdout.strip()) if result.returncode == 0 else None
 
 
+def changed_files(path: str | Path) -> list[str]:
+    """Files under ``path`` with uncommitted changes, relative to the repository
+    (none outside a repository, and none for a path that does not exist yet)."""
+    root = repo_root(path)
+    if root is None or not Path(path).exists():
+        return []
+    status = _git(root, "status", "--porcelain", "--untracked-files=all", "--",
+                  str(Path(path).resolve()))
+    return [line[3:] for line in status.stdout.splitlines() if line.strip()]
+
+
 def is_clean(path: str | Path) -> bool:
     """Whether ``path`` has no uncommitted change; outside any repository it is not clean."""
-    root = repo_root(path)
-    if root is None:
-        return False
-    status = _git(root, "status", "--porcelain", "--", str(Path(path).resolve()))
-    return not status.stdout.strip()
+    return repo_root(path) is not None and not changed_files(path)
 
 
 def head(path: str | Path) -> str | None:
