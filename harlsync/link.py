@@ -24,6 +24,11 @@ replies have come (and are discarded) or cannot come any more (``late_window``
 seconds after their deadline).  That costs one ``late_window`` after a reply
 that was really lost, and never returns a value that answers another request.
 
+Errors.  Whatever a pyserial call on the port raises (SerialException, OSError,
+but also termios.error from a pty that went away, or TypeError from a port
+closed under it) leaves the link as :class:`PortError`, one line that names the
+port and says what to do; pyserial's own exceptions never get further.
+
 Exclusive access.  pyserial's ``exclusive=True`` is advisory and device-only, so
 the link also holds an inter-process :class:`filelock.FileLock` named after the
 port (see :func:`lock_path`) for as long as it is open: processes that share a
@@ -33,6 +38,7 @@ around each exchange does the same for threads sharing one :class:`Link`.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import logging
 import os
@@ -41,6 +47,7 @@ import socket
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
@@ -171,6 +178,7 @@ class Link:
         self._file_lock: filelock.BaseFileLock | None = None
         self._lock = threading.RLock()
         self._decoder = FrameDecoder()
+        self._rx = bytearray()  # received bytes not yet logged; ends with the decoder's
         self._dropped_seen = 0
         self._owed: dict[int, tuple[int, float]] = {}  # station -> (replies, due by)
 
@@ -196,20 +204,29 @@ class Link:
                 self._release_file_lock()
                 raise
             self._decoder = FrameDecoder()
+            self._rx.clear()
             self._dropped_seen = 0
             self._owed.clear()
             log.info("opened %s (station %d, %s)", self.url, self.station, self.settings)
         return self
 
     def close(self) -> None:
+        """Close the port and give its lock back.
+
+        Never raises for the port itself: close runs on the way out of every
+        job, and a port that fails to close has nothing left to lose (every
+        reply was already taken); raising would fail a finished job or hide the
+        error that is already on its way out.  It is logged as a warning.
+        """
         with self._lock:
             port, self._port = self._port, None
-            if port is not None:
-                try:
+            try:
+                if port is not None:
                     port.close()
-                except (serial.SerialException, OSError) as exc:
-                    log.warning("closing %s: %s", self.url, exc)
-            self._release_file_lock()
+            except Exception as exc:  # noqa: BLE001  any failure of pyserial: logged, see above
+                log.warning("port %s: closing failed: %s", self.url, _describe(exc))
+            finally:
+                self._release_file_lock()
 
     def __enter__(self) -> Link:
         return self.open()
@@ -226,26 +243,85 @@ class Link:
         s = self.settings
         try:
             port = serial.serial_for_url(self.url, do_not_open=True)
+        except Exception as exc:  # ValueError for an unknown scheme, SerialException for a bad URL
+            raise self._open_error(exc) from exc
+        try:
             port.baudrate = s.baudrate
             port.bytesize = s.bytesize
             port.parity = s.parity
             port.stopbits = s.stopbits
             port.rtscts = s.rtscts
             port.timeout = POLL_INTERVAL
-            port.write_timeout = max(s.timeout, 1.0)
+            port.write_timeout = self._write_timeout
             if "://" not in self.url:
                 port.exclusive = True
-            port.open()
-            port.reset_input_buffer()
-        except (serial.SerialException, OSError, ValueError) as exc:
-            if "exclusively lock" in str(exc):
-                raise PortBusyError(
-                    f"in use by another program (it holds the device lock): {exc}", port=self.url
-                ) from exc
+        except Exception as exc:
             raise PortError(
-                f"cannot open: {exc}; check the cable/adapter and the port name", port=self.url
+                f"serial settings not accepted: {_describe(exc)}; fix baud, data bits, parity "
+                "and stop bits in robot.yaml",
+                port=self.url,
+            ) from exc
+        try:
+            port.open()
+        except Exception as exc:
+            raise self._open_error(exc) from exc
+        try:
+            port.reset_input_buffer()
+        except Exception as exc:
+            try:
+                port.close()
+            except Exception as close_exc:  # noqa: BLE001  the error worth raising is exc
+                log.debug("port %s: closing failed: %s", self.url, _describe(close_exc))
+            raise PortError(
+                f"port went away right after opening: {_describe(exc)}; {_gone_hint(self.url)}",
+                port=self.url,
             ) from exc
         return port
+
+    def _open_error(self, exc: Exception) -> LinkError:
+        """What opening the port failed with, one line with what to do."""
+        url = self.url
+        text = _describe(exc)
+        device = "://" not in url
+        unknown = re.search(r"protocol '([^']*)' not known", text)
+        if isinstance(exc, ValueError) and unknown:
+            return PortError(
+                f"unknown port type '{unknown.group(1)}://'; use a device path (/dev/ttyUSB0, "
+                "COM3), socket://HOST:PORT, rfc2217://HOST:PORT or sim://PROJECT_DIR",
+                port=url,
+            )
+        if "exclusively lock" in text:
+            return PortBusyError(
+                "in use by another program (it holds the device lock); close that program "
+                f"(fuser -v {url} names it) and run again",
+                port=url,
+            )
+        if _caused_by(exc, ConnectionRefusedError) or re.search(
+            r"\[Errno (111|61|10061)\]|connection refused", text, re.IGNORECASE
+        ):
+            where = urlsplit(url.split("://", 1)[-1] if url.startswith("spy://") else url).netloc
+            return PortError(
+                f"nothing accepts connections at {where or url}; is the serial device server "
+                "(or harlsync sim --listen) running, and is the address right?",
+                port=url,
+            )
+        if device and _has_errno(exc, errno.ENOENT, FileNotFoundError):
+            windows = _COM_RE.fullmatch(url)
+            listing = "Device Manager > Ports" if windows else "ls /dev/ttyUSB* /dev/ttyACM*"
+            return PortError(
+                "no such device; check that the USB-serial adapter is plugged in and the port "
+                f"name ({listing})",
+                port=url,
+            )
+        if device and not _COM_RE.fullmatch(url) and _has_errno(exc, errno.EACCES, PermissionError):
+            return PortError(
+                "permission denied; add your user to the group that owns the device "
+                f"(ls -l {url}, usually dialout) and log in again",
+                port=url,
+            )
+        # pyserial says "could not open port URL: why"; the port is named already.
+        why = re.sub(r"^could not open port .*?: ", "", text, count=1, flags=re.IGNORECASE)
+        return PortError(f"cannot open: {why}; {_open_hint(url)}", port=url)
 
     def _take_file_lock(self) -> None:
         path = self.lock_path
@@ -312,7 +388,7 @@ class Link:
             if port is None:
                 raise LinkError("link is not open", port=self.url, station=st)
             self.stats.exchanges += 1
-            self._settle(port, st, wait=True)
+            self._settle(port, st, request, wait=True)
             attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
             failure = _Failure("not sent")
             for attempt in range(attempts):
@@ -324,8 +400,8 @@ class Link:
                         request,
                         f"retry {attempt}/{attempts - 1} after {failure.reason}",
                     )
-                    self._settle(port, st, wait=False)
-                sent = self._send(port, frame, st)
+                    self._settle(port, st, request, wait=False)
+                sent = self._send(port, frame, st, request)
                 # A reply still owed may be this attempt's (the earlier one's was taken):
                 # it can come until this attempt's late window ends.
                 due_by = sent + self.settings.timeout + self.late_window
@@ -350,7 +426,9 @@ class Link:
                     command=request.payload,
                 ) from failure.cause
             raise LinkTimeout(
-                f"no valid reply after {attempts} attempt(s) (last: {failure.reason})",
+                f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); check "
+                "the station number (pendant: SYSTEM GENERATION > MAINTENANCE > STATION NO.), "
+                "the cable, and the serial settings (baud, parity) in robot.yaml",
                 port=self.url,
                 station=st,
                 command=request.payload,
@@ -361,38 +439,67 @@ class Link:
         self.stats.note(line)
         log.log(level, "%s", line)
 
-    def _send(self, port: Any, frame: bytes, station: int) -> float:
+    @property
+    def _write_timeout(self) -> float:
+        return max(self.settings.timeout, 1.0)
+
+    def _send(self, port: Any, frame: bytes, station: int, request: Request) -> float:
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", self.url, _hex(frame))
         try:
             port.write(frame)
             port.flush()
-        except (serial.SerialException, OSError) as exc:
+        except serial.SerialTimeoutException as exc:
             raise PortError(
-                f"port went away while sending: {exc}", port=self.url, station=station
+                f"write timed out after {self._write_timeout:g} s: the line takes no data; check "
+                "the cable and the rtscts (hardware flow control) setting in robot.yaml",
+                port=self.url,
+                station=station,
+                command=request.payload,
             ) from exc
+        except Exception as exc:  # any failure of pyserial; see the module docstring
+            raise self._gone(exc, station, request, " while sending") from exc
         return time.monotonic()
 
-    def _read(self, port: Any, station: int, *, block: bool) -> bytes:
+    def _read(self, port: Any, station: int, request: Request, *, block: bool) -> bytes:
         """Whatever input is there; with ``block``, wait up to one poll for a byte."""
         try:
             waiting = port.in_waiting
             data: bytes = port.read(waiting or 1) if waiting or block else b""
             if data and not waiting and port.in_waiting:  # the rest of what arrived with it
                 data += port.read(port.in_waiting)
-        except (serial.SerialException, OSError) as exc:
-            raise PortError(f"port went away: {exc}", port=self.url, station=station) from exc
+        except Exception as exc:  # any failure of pyserial; see the module docstring
+            raise self._gone(exc, station, request, "") from exc
         if data:
-            if log.isEnabledFor(logging.DEBUG):
-                log.debug("%s <- %s", self.url, _hex(data))
+            self._rx += data
             self._decoder.feed(data)
         return data
+
+    def _gone(self, exc: Exception, station: int, request: Request, doing: str) -> PortError:
+        return PortError(
+            f"port went away{doing}: {_describe(exc)}; {_gone_hint(self.url)}",
+            port=self.url,
+            station=station,
+            command=request.payload,
+        )
+
+    def _log_rx(self) -> None:
+        """Log, as one hex line, the received bytes the decoder is done with.
+
+        Called after each frame (or bad frame, or noise) is taken from the
+        decoder, so a reply that came in single bytes is still one line.
+        """
+        done = len(self._rx) - self._decoder.pending
+        if done > 0:
+            if log.isEnabledFor(logging.DEBUG):
+                log.debug("%s <- %s", self.url, _hex(bytes(self._rx[:done])))
+            del self._rx[:done]
 
     def _count_noise(self) -> None:
         self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
         self._dropped_seen = self._decoder.dropped
 
-    def _settle(self, port: Any, station: int, *, wait: bool) -> None:
+    def _settle(self, port: Any, station: int, request: Request, *, wait: bool) -> None:
         """Discard pending input; with ``wait``, first let replies owed by ``station`` come."""
         while True:
             count, due = self._owed.get(station, (0, 0.0))
@@ -402,11 +509,12 @@ class Link:
                 )
                 del self._owed[station]
                 count = 0
-            data = self._read(port, station, block=wait and count > 0)
+            data = self._read(port, station, request, block=wait and count > 0)
             self._discard_frames(station)
             if not data and not (wait and count):
                 break
         self._decoder.clear()
+        self._log_rx()
         self._count_noise()
 
     def _discard_frames(self, station: int) -> None:
@@ -414,9 +522,11 @@ class Link:
             try:
                 frame = self._decoder.next_frame()
             except ProtocolError as exc:
+                self._log_rx()
                 self.stats.bad_frames += 1
                 log.info("%s: discarded bad frame: %s", self.url, exc)
                 continue
+            self._log_rx()
             if frame is None:
                 return
             if frame.station == station:
@@ -442,10 +552,12 @@ class Link:
                 try:
                     frame = self._decoder.next_frame()
                 except ProtocolError as exc:
+                    self._log_rx()
                     self.stats.bad_frames += 1
                     log.info("%s station %d %s: bad frame: %s", self.url, station, request, exc)
                     failure = _Failure(f"bad frame: {exc}", exc)
                     continue
+                self._log_rx()
                 if frame is None:
                     break
                 if frame.station != station:
@@ -466,11 +578,63 @@ class Link:
             if time.monotonic() >= deadline:
                 self._count_noise()
                 return failure
-            self._read(port, station, block=True)
+            self._read(port, station, request, block=True)
 
 
 def _hex(data: bytes) -> str:
     return data.hex(" ").upper()
+
+
+def _describe(exc: BaseException) -> str:
+    """One line for an exception from pyserial or below it."""
+    args = exc.args
+    if isinstance(exc, (OSError, ValueError)):  # SerialException is an OSError
+        text = str(exc)
+    elif len(args) == 2 and isinstance(args[0], int) and isinstance(args[1], str):
+        text = f"[Errno {args[0]}] {args[1]}"  # termios.error, which is not an OSError
+    else:
+        text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    return " ".join(text.split())
+
+
+def _chain(exc: BaseException) -> Iterator[BaseException]:
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        yield current
+        current = current.__cause__ or current.__context__
+
+
+def _caused_by(exc: BaseException, kind: type[BaseException]) -> bool:
+    return any(isinstance(e, kind) for e in _chain(exc))
+
+
+def _has_errno(exc: BaseException, number: int, kind: type[OSError]) -> bool:
+    """``exc`` or what it came from is errno ``number``, or names ``kind`` (Windows)."""
+    return any(
+        getattr(e, "errno", None) == number or isinstance(e, kind) for e in _chain(exc)
+    ) or kind.__name__ in str(exc)
+
+
+def _open_hint(url: str) -> str:
+    scheme = url.split("://", 1)[0].lower() if "://" in url else ""
+    if not scheme:
+        return "check the cable/adapter and the port name"
+    if scheme in ("socket", "rfc2217"):
+        return "check the address and that the serial device server is up and reachable"
+    if scheme == "sim":
+        return "check the sim:// options and project directory"
+    return "check the port URL"
+
+
+def _gone_hint(url: str) -> str:
+    scheme = url.split("://", 1)[0].lower() if "://" in url else ""
+    if not scheme:
+        return "check that the USB-serial adapter is still plugged in and the cable is seated"
+    if scheme in ("socket", "rfc2217"):
+        return "check that the serial device server is still up and reachable"
+    return "check the port URL"
 
 
 # --- the port lock -----------------------------------------------------------------

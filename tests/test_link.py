@@ -7,12 +7,15 @@ from __future__ import annotations
 
 import logging
 import os
+import socket
 import subprocess
 import sys
+import termios
 import threading
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import pytest
 import serial
@@ -120,6 +123,21 @@ def test_traffic_is_logged_as_hex_at_debug(link: Link, caplog: pytest.LogCapture
     assert got == "02 31 20 35 2E 30 30 03 09"
 
 
+def test_a_reply_in_single_bytes_is_logged_once_as_one_frame(
+    link: Link, sim: ScriptedSim, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.DEBUG, logger="harlsync.link")
+    sim.plan("LNV", Act(wire=bytewise))
+    sim.plan("LND 1", Act(wire=noise))
+    assert link.exchange(cmd.read_version()) == "5.00"
+    assert link.exchange(cmd.read_register(1)) == "1001"
+    got = [r.getMessage() for r in caplog.records if " <- " in r.getMessage()]
+    assert got == [
+        f"{link.url} <- 02 31 20 35 2E 30 30 03 09",
+        f"{link.url} <- {JUNK.hex(' ').upper()} 02 31 20 31 30 30 31 03 12",  # LRC by hand
+    ]
+
+
 def test_threads_sharing_one_link_never_interleave_frames(link: Link, sim: ScriptedSim) -> None:
     def worker(k: int) -> list[bool]:
         out = []
@@ -221,7 +239,14 @@ def test_a_read_gives_up_after_its_retries_with_link_timeout(link: Link, sim: Sc
         link.exchange(cmd.read_timer(1))
     assert isinstance(info.value, TimeoutError)
     assert (info.value.port, info.value.station, info.value.command) == (link.url, 1, "LNT 1")
-    assert f"port {link.url}, station 1, command LNT 1: no valid reply after 4" in str(info.value)
+    message = str(info.value)
+    assert message.startswith(f"port {link.url}, station 1, command LNT 1: no valid reply after 4 ")
+    assert "(last: bad frame: LRC " in message and " for frame '1 2.10')" in message
+    assert message.endswith(
+        "; check the station number (pendant: SYSTEM GENERATION > MAINTENANCE > STATION NO.), "
+        "the cable, and the serial settings (baud, parity) in robot.yaml"
+    )
+    assert "b'" not in message and "\n" not in message
     assert isinstance(info.value.__cause__, LRCError)
     assert len(sim.sent("LNT 1")) == 4 and link.stats.retries == 3
 
@@ -235,6 +260,8 @@ def test_a_malformed_frame_is_reported_as_the_cause_of_the_timeout(
     with link, pytest.raises(LinkTimeout, match="bad frame") as info:
         link.exchange(cmd.read_timer(1))
     assert isinstance(info.value.__cause__, FrameError)
+    assert "control or non-ASCII byte in frame '1 \\x01')" in str(info.value)
+    assert "b'" not in str(info.value)
     assert link.stats.bad_frames == 2
 
 
@@ -273,16 +300,163 @@ def test_an_exchange_on_a_closed_link_raises(device: str) -> None:
 # --- the port -------------------------------------------------------------------------------
 
 
-def test_a_missing_port_raises_port_error_with_a_hint(lock_dir: Path) -> None:
+def test_a_missing_port_raises_port_error_with_a_hint(tmp_path: Path) -> None:
+    missing = str(tmp_path / "ttyUSB9")
     with pytest.raises(PortError) as info:
-        Link("/dev/does-not-exist").open()
-    message = str(info.value)
-    assert message.startswith("port /dev/does-not-exist: cannot open")
-    assert "check the cable/adapter and the port name" in message
+        Link(missing).open()
+    assert str(info.value) == (
+        f"port {missing}: no such device; check that the USB-serial adapter is plugged in "
+        "and the port name (ls /dev/ttyUSB* /dev/ttyACM*)"
+    )
     assert isinstance(info.value.__cause__, serial.SerialException)
     # the port lock was given back
     with pytest.raises(PortError):
-        Link("/dev/does-not-exist", lock_timeout=0).open()
+        Link(missing, lock_timeout=0).open()
+
+
+def test_an_unknown_url_scheme_names_the_port_types_not_the_cable() -> None:
+    with pytest.raises(PortError) as info:
+        Link("sokcet://x:1").open()
+    assert str(info.value) == (
+        "port sokcet://x:1: unknown port type 'sokcet://'; use a device path "
+        "(/dev/ttyUSB0, COM3), socket://HOST:PORT, rfc2217://HOST:PORT or sim://PROJECT_DIR"
+    )
+    assert isinstance(info.value.__cause__, ValueError)
+
+
+@pytest.mark.parametrize("scheme", ["socket", "rfc2217"])
+def test_a_refused_connection_says_nothing_listens_there(scheme: str) -> None:
+    with socket.socket() as probe:  # a port nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    url = f"{scheme}://127.0.0.1:{port}"
+    with pytest.raises(PortError) as info:
+        Link(url).open()
+    assert str(info.value) == (
+        f"port {url}: nothing accepts connections at 127.0.0.1:{port}; is the serial device "
+        "server (or harlsync sim --listen) running, and is the address right?"
+    )
+
+
+class _Unopenable:
+    """What serial_for_url returns for a port whose open() fails with ``exc``."""
+
+    def __init__(self, exc: BaseException) -> None:
+        self.exc = exc
+
+    def open(self) -> None:
+        raise self.exc
+
+
+def test_a_port_without_permission_says_which_group(monkeypatch: pytest.MonkeyPatch) -> None:
+    denied = serial.SerialException(
+        13, "could not open port /dev/ttyS7: [Errno 13] Permission denied: '/dev/ttyS7'"
+    )
+    monkeypatch.setattr(serial, "serial_for_url", lambda url, **kw: _Unopenable(denied))
+    with pytest.raises(PortError) as info:
+        Link("/dev/ttyS7").open()
+    assert str(info.value) == (
+        "port /dev/ttyS7: permission denied; add your user to the group that owns the device "
+        "(ls -l /dev/ttyS7, usually dialout) and log in again"
+    )
+
+
+def test_any_other_open_failure_is_one_line_without_the_port_twice(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    odd = termios.error(22, "Invalid argument")  # not a SerialException, not an OSError
+    monkeypatch.setattr(serial, "serial_for_url", lambda url, **kw: _Unopenable(odd))
+    with pytest.raises(PortError) as info:
+        Link("/dev/ttyS7").open()
+    assert str(info.value) == (
+        "port /dev/ttyS7: cannot open: [Errno 22] Invalid argument; check the cable/adapter "
+        "and the port name"
+    )
+    assert info.value.__cause__ is odd
+
+
+def test_a_port_that_fails_right_after_opening_is_closed_and_let_go(
+    device: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    opened: list[Any] = []
+
+    def fail(self: Any) -> None:
+        opened.append(self)
+        raise termios.error(5, "Input/output error")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(serial.Serial, "reset_input_buffer", fail)
+        with pytest.raises(PortError, match="went away") as info:
+            Link(device, 1, FAST).open()
+    assert isinstance(info.value.__cause__, termios.error)
+    assert [port.is_open for port in opened] == [False]
+    with Link(device, 1, FAST, lock_timeout=0) as link:
+        assert link.exchange(cmd.read_version()) == "5.00"
+
+
+# --- a port that fails mid-exchange ------------------------------------------------------
+
+
+class _Failing:
+    """An open port whose attribute ``name`` raises ``exc``; everything else is the real port."""
+
+    def __init__(self, real: Any, name: str, exc: BaseException) -> None:
+        self.real, self.name, self.exc = real, name, exc
+
+    def __getattr__(self, attr: str) -> Any:
+        if attr == self.name:
+            raise self.exc
+        return getattr(self.real, attr)
+
+
+@pytest.mark.parametrize(
+    ("name", "exc"),
+    [
+        ("flush", termios.error(5, "Input/output error")),  # a pty that went away
+        ("write", termios.error(5, "Input/output error")),
+        ("in_waiting", termios.error(5, "Input/output error")),
+        ("read", TypeError("'NoneType' object cannot be interpreted as an integer")),
+        ("flush", OSError(5, "Input/output error")),
+    ],
+)
+def test_any_exception_from_port_io_becomes_port_error(
+    link: Link, monkeypatch: pytest.MonkeyPatch, name: str, exc: BaseException
+) -> None:
+    monkeypatch.setattr(link, "_port", _Failing(link._port, name, exc))
+    with pytest.raises(PortError) as info:
+        link.exchange(cmd.read_version())
+    message = str(info.value)
+    assert message.startswith(f"port {link.url}, station 1, command LNV: port went away")
+    assert "check that the USB-serial adapter is still plugged in" in message
+    assert "\n" not in message
+    assert info.value.__cause__ is exc
+
+
+def test_a_write_timeout_blames_flow_control_not_a_lost_port(
+    link: Link, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    stuck = serial.SerialTimeoutException("Write timeout")
+    monkeypatch.setattr(link, "_port", _Failing(link._port, "write", stuck))
+    with pytest.raises(PortError, match="write timed out after 1 s: ") as info:
+        link.exchange(cmd.read_version())
+    assert "rtscts" in str(info.value) and info.value.__cause__ is stuck
+
+
+def test_a_port_that_fails_to_close_is_still_let_go(
+    device: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    link = Link(device, 1, FAST).open()
+    real = link._port
+    link._port = _Failing(real, "close", termios.error(5, "Input/output error"))
+    with caplog.at_level(logging.WARNING, logger="harlsync.link"):
+        link.close()  # a finished job must not fail, nor hide its own error, over this
+    real.close()
+    assert not link.is_open
+    assert [r.getMessage() for r in caplog.records] == [
+        f"port {device}: closing failed: [Errno 5] Input/output error"
+    ]
+    with Link(device, 1, FAST, lock_timeout=0) as again:
+        assert again.exchange(cmd.read_version()) == "5.00"
 
 
 def test_a_port_that_goes_away_raises_port_error(sim: ScriptedSim) -> None:

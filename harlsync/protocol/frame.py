@@ -143,14 +143,22 @@ class FrameDecoder:
 
 def _parse(body: bytes, got_lrc: bytes) -> Frame:
     want = _lrc_bytes(lrc(body))
-    if got_lrc != want:
-        raise LRCError(f"LRC {got_lrc.hex()} does not match {want.hex()} for {body[:-1]!r}")
     text = body[:-1]
+    if got_lrc != want:
+        raise LRCError(f"LRC {got_lrc.hex()} does not match {want.hex()} for frame {_show(text)}")
     if any(b < 0x20 or b > 0x7E for b in text):
-        raise FrameError(f"control or non-ASCII byte in frame {text!r}")
+        raise FrameError(f"control or non-ASCII byte in frame {_show(text)}")
     head, sep, payload = text.decode("ascii").partition(" ")
     if not sep or not head.isdigit() or len(head) > 2:
-        raise FrameError(f"no station number in frame {text!r}")
+        raise FrameError(f"no station number in frame {_show(text)}")
     if payload and ("  " in payload or payload.startswith(" ") or payload.endswith(" ")):
-        raise FrameError(f"empty field in frame {text!r}")
+        raise FrameError(f"empty field in frame {_show(text)}")
     return Frame(int(head), payload)
+
+
+def _show(text: bytes) -> str:
+    """Frame text for a message: quoted, any other byte as ``\\xNN`` (no ``b''`` repr)."""
+    shown = "".join(
+        chr(b) if 0x20 <= b <= 0x7E and b not in b"'\\" else f"\\x{b:02x}" for b in text
+    )
+    return f"'{shown}'"
