@@ -80,7 +80,8 @@ def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
 def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plant) -> None:
     names = [p.name for p in find_projects([plant.root])]
     assert names == ["garbage", "loader", "press-1", "press-2", "silent"]
-    assert line_of("socket://127.0.0.1:4001?logging=debug") == line_of("SOCKET://127.0.0.1:4001")
+    assert line_of("socket://127.0.0.1:4001?logging=debug") == line_of("socket://127.0.0.1:4001")
+    assert line_of("spy:///dev/ttyS0?file=x.txt") == line_of("/dev/ttyS0")
 
 
 def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant, capsys) -> None:

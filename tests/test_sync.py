@@ -494,7 +494,7 @@ def test_a_first_pull_without_a_port_is_a_clear_error(tmp_path) -> None:
 
 
 def test_pull_refuses_to_overwrite_uncommitted_edits_but_not_robot_yaml(served, repo) -> None:
-    sim, url = served
+    _, url = served
     project = pulled(repo, url)
     robot = project / "robot.yaml"
     robot.write_text(robot.read_text().replace("timeout: 1.0", "timeout: 0.5"))
@@ -508,7 +508,7 @@ def test_pull_refuses_to_overwrite_uncommitted_edits_but_not_robot_yaml(served, 
 
 
 def test_a_push_refused_before_the_port_is_audited_too(served, repo, tmp_path) -> None:
-    sim, url = served
+    _, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "12.5", repo)
     with pytest.raises(ProjectError):

@@ -54,13 +54,18 @@ class Project:
     data: RobotData
 
 
-def _gather(root: Path) -> tuple[dict[str, bytes], list[Issue]]:
+def _gather(root: Path, *, robot_only: bool = False) -> tuple[dict[str, bytes], list[Issue]]:
     """The project's YAML files by relative path (``.schemas/`` is never read)."""
     if not root.is_dir():
-        raise ProjectFormatError(f"{root}: not a project directory")
+        raise ProjectFormatError(
+            f"{root}: not a project directory (no such directory); "
+            "a first 'harlsync pull DIR --port URL' makes one"
+        )
     names = [name for name in ROOT_FILES if (root / name).is_file()]
+    if robot_only:
+        names = [name for name in names if name == "robot.yaml"]
     programs = root / PROGRAMS_DIR
-    if programs.is_dir():
+    if programs.is_dir() and not robot_only:
         names += sorted(
             f"{PROGRAMS_DIR}/{p.name}"
             for p in programs.iterdir()
@@ -111,9 +116,8 @@ def load_robot(path: str | os.PathLike[str]) -> Robot:
 
     Raises ProjectFormatError or ProjectInvalid like :func:`load_project`.
     """
-    files, problems = _gather(Path(path))
-    robot_file = {k: v for k, v in files.items() if k == "robot.yaml"}
-    found = analyse(robot_file)
+    files, problems = _gather(Path(path), robot_only=True)
+    found = analyse(files)
     issues = problems + [i for i in found.issues if i.file == "robot.yaml"]
     fatal = [i for i in issues if i.fatal]
     if fatal:
@@ -139,11 +143,13 @@ def save_project(
     """
     root = Path(path)
     texts = render_files(project.robot, project.data)
+    # Step.problems() first: the YAML rendering cannot show every one of them
+    # (a step with data but no command renders as empty).
     issues = [
-        f"program {key[0].value} {key[1]} step {n}: data without a command"
+        f"program {key[0].value} {key[1]} step {n}: {problem}"
         for key, steps in project.data.programs.items()
         for n, step in steps.items()
-        if step.command is None and step.data
+        for problem in step.problems()
     ]
     issues += [str(i) for i in analyse({k: v.encode() for k, v in texts.items()}).issues]
     if issues:

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarlsyncError, LinkError, ProjectError
+from ..link import lock_key
 from ..project import load_robot
 from . import git, history
 from .engine import pull
@@ -156,10 +157,9 @@ def find_projects(paths: Iterable[str | Path]) -> list[Path]:
 
 
 def line_of(port: str) -> str:
-    """The physical line a port URL names, so robots sharing it are pulled in turn."""
-    if "://" in port:
-        return port.split("?", 1)[0].lower()
-    return os.path.realpath(port)
+    """The physical line a port URL names, so robots sharing it are pulled in turn:
+    the same identity the line lock uses."""
+    return lock_key(port) or port
 
 
 def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:

@@ -48,9 +48,6 @@ class Driver(Protocol):
     def unsafe(self, key: Key) -> bool:
         """Whether writing this item is forbidden during automatic operation."""
 
-    def wipes_programs(self, key: Key) -> bool:
-        """Whether writing this item destroys every program (HARL-U2: SNX)."""
-
     def close(self) -> None: ...
 
 
@@ -89,9 +86,6 @@ class HarlU2Driver:
 
     def unsafe(self, key: Key) -> bool:
         return Request(_letters(key)).unsafe
-
-    def wipes_programs(self, key: Key) -> bool:
-        return key[0] == "config"
 
     def read(self, key: Key) -> Any:
         c, kind = self.controller, key[0]

@@ -87,6 +87,26 @@ def connect(
     return HarlU2Driver(controller)
 
 
+def read_live(
+    robot: Robot,
+    port: str | None,
+    station: int | None,
+    *,
+    registers: bool,
+    progress: Progress | None,
+    lock_timeout: float,
+) -> tuple[Driver, RobotData]:
+    """Everything the robot holds, read over a line opened and closed for it.
+
+    The driver is returned closed: it still names the robot and builds commands.
+    """
+    driver = connect(robot, port, station, lock_timeout=lock_timeout)
+    try:
+        return driver, driver.read_all(registers=registers, progress=progress)
+    finally:
+        driver.close()
+
+
 def change_summary(changes: list[Change]) -> str:
     """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
     count = summarize(changes)
@@ -144,9 +164,10 @@ def _absolute_sim_path(port: str) -> str:
     return f"sim://{Path(path).resolve()}{sep}{query}"
 
 
-def _uncommitted(path: Path, *, ignore: tuple[str, ...] = ()) -> list[str]:
-    """Files under ``path`` with uncommitted changes (none outside git)."""
-    return [f for f in git.changed_files(path) if Path(f).name not in ignore]
+def _uncommitted(path: Path, *, ignore: tuple[str, ...] = ()) -> str:
+    """The files under ``path`` with uncommitted changes, for a message ('' when none)."""
+    dirty = [f for f in git.changed_files(path) if Path(f).name not in ignore]
+    return ", ".join(dirty[:3]) + (", ..." if len(dirty) > 3 else "")
 
 
 def pull(
@@ -167,21 +188,18 @@ def pull(
     """
     path = Path(path)
     robot = _robot_for(path, port, station)
-    dirty = [] if allow_dirty else _uncommitted(path, ignore=("robot.yaml",))
+    dirty = "" if allow_dirty else _uncommitted(path, ignore=("robot.yaml",))
     if dirty:
         raise PolicyError(
-            f"{path}: uncommitted changes a pull would overwrite ({', '.join(dirty[:3])}"
-            f"{', ...' if len(dirty) > 3 else ''}); commit or stash them, or give --allow-dirty"
+            f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
+            "commit or stash them, or give --allow-dirty"
         )
     try:
         previous: RobotData | None = load_project(path).data
     except ProjectError:
         previous = None
-    driver = connect(robot, port, station, lock_timeout=lock_timeout)
-    try:
-        live = driver.read_all(registers=robot.keep_registers, progress=progress)
-    finally:
-        driver.close()
+    _, live = read_live(robot, port, station, registers=robot.keep_registers,
+                        progress=progress, lock_timeout=lock_timeout)
     save_project(path, Project(path, robot, live))
     history.record(path, ok=True)
     changes = None if previous is None else diff(previous, live, registers=robot.keep_registers)
@@ -220,11 +238,8 @@ def compare(
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item."""
     project = load_project(path)
-    driver = connect(project.robot, port, station, lock_timeout=lock_timeout)
-    try:
-        live = driver.read_all(registers=registers, progress=progress)
-    finally:
-        driver.close()
+    driver, live = read_live(project.robot, port, station, registers=registers,
+                             progress=progress, lock_timeout=lock_timeout)
     return Comparison(project, driver, live, diff(live, project.data, registers=registers))
 
 
@@ -292,10 +307,8 @@ class PushFailed(SyncError):
 
 
 def _check_window(robot: Robot, opts: PushOptions) -> None:
-    if not robot.windows or opts.outside_window:
-        return
     now = opts.now or datetime.now()
-    if not any(window.contains(now) for window in robot.windows):
+    if not opts.outside_window and not robot.in_window(now):
         windows = "; ".join(str(w) for w in robot.windows)
         raise PolicyError(
             f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows}); "
@@ -461,7 +474,7 @@ def _write_all(
         _interlock(driver, robot, f"the first write ({the_plan.writes[0].command})")
     for write in the_plan.writes:
         now = driver.read(write.key)
-        if not _same(write.key, now, write.old):
+        if now != write.old:
             raise StalePlanError(
                 f"{write.name} changed on the robot since it was read (now {_show(now)!r}, "
                 f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
@@ -472,19 +485,13 @@ def _write_all(
         result.failed = write
         driver.write(write.key, write.new, write.old)
         got = driver.read(write.key)
-        if not _same(write.key, got, write.new):
+        if got != write.new:
             raise VerifyError(
                 f"{write.name} reads back as {_show(got)!r} after writing {_show(write.new)!r}"
             )
         result.failed = None
         result.written.append(write)
         log.info("wrote %s: %s", write.name, write.command)
-
-
-def _same(key: Any, got: Any, want: Any) -> bool:
-    if key == ("config",):
-        return bool(got is not None and got.same_programs(want))
-    return bool(got == want)
 
 
 def push(
@@ -517,10 +524,7 @@ def _check_committed(path: Path) -> None:
         )
     dirty = _uncommitted(path)
     if dirty:
-        raise PolicyError(
-            f"{path} has uncommitted changes ({', '.join(dirty[:3])}"
-            f"{', ...' if len(dirty) > 3 else ''}): commit them, or give --allow-dirty"
-        )
+        raise PolicyError(f"{path} has uncommitted changes ({dirty}): commit them, or give --allow-dirty")
 
 
 def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:

@@ -11,8 +11,7 @@ from pathlib import Path
 
 from ..errors import SyncError
 
-__all__ = [
-    "changed_files","commit", "head", "is_clean", "push", "repo_root"]
+__all__ = ["changed_files", "commit", "head", "push", "repo_root"]
 
 
 def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
@@ -49,11 +48,6 @@ def changed_files(path: str | Path) -> list[str]:
     status = _git(root, "status", "--porcelain", "--untracked-files=all", "--",
                   str(Path(path).resolve()))
     return [line[3:] for line in status.stdout.splitlines() if line.strip()]
-
-
-def is_clean(path: str | Path) -> bool:
-    """Whether ``path`` has no uncommitted change; outside any repository it is not clean."""
-    return repo_root(path) is not None and not changed_files(path)
 
 
 def head(path: str | Path) -> str | None:

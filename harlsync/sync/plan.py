@@ -140,15 +140,12 @@ def make_plan(
         f"{c.name}: the project has none" for c in missing if c.key[0] not in explained
     ]
     reconfigure = not live.config.same_programs(project.config)
-    wanted: list[tuple[Key, Any, Any]] = []
-    for change in changes:
-        if change.new is None and change.key[0] != "step":
-            continue  # in missing
-        if change.key == ("config",):
-            if reconfigure:
-                wanted.append((change.key, change.old, change.new))
-        elif change.key[0] != "step" or not reconfigure:
-            wanted.append((change.key, change.old, change.new))
+    # Without a reconfiguration the config item differs only in what SNX cannot
+    # write (unwritable above); with one, every step is rewritten below.
+    skip_kind = "step" if reconfigure else "config"
+    wanted: list[tuple[Key, Any, Any]] = [
+        (c.key, c.old, c.new) for c in changes if c not in missing and c.key[0] != skip_kind
+    ]
     if reconfigure:
         # SNX wipes every program: rewrite every non-empty step of the project,
         # each written over an empty step.
