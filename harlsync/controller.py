@@ -338,14 +338,12 @@ class Controller:
         tick(config)
         version = tick(self.version())
         parameters = tick(self.read_parameters())
-        programs: dict[ProgramKey, dict[int, Step]] = {}
-        for ptype, number in config.programs():
-            steps: dict[int, Step] = {}
-            for n in range(config.area(ptype).steps):
-                value = tick(self.read_step(ptype, number, n))
-                if not value.empty:
-                    steps[n] = value
-            programs[(ptype, number)] = steps
+        programs: dict[ProgramKey, dict[int, Step]] = {
+            (ptype, number): self.read_program(
+                ptype, number, config.area(ptype).steps, progress=lambda *_: tick(None)
+            )
+            for ptype, number in config.programs()
+        }
         offsets = {n: tick(self.read_offset(n)) for n in range(OFFSET_TABLE_COUNT)}
         timers = {n: tick(self.read_timer(n)) for n in range(config.timers)}
         regs = {n: tick(self.read_register(n)) for n in range(registers)}

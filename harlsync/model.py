@@ -164,6 +164,12 @@ class Config:
             registers=n[10],
         )
 
+    def numbers(self) -> tuple[int, ...]:
+        """The 11 LNX numbers (the first 8 are what SNX writes)."""
+        areas = (self.area(t) for t in ProgramType)
+        return (*(n for a in areas for n in (a.count, a.steps)),
+                self.timers, self.memory_bits, self.registers)
+
     def area(self, ptype: ProgramType) -> ProgramArea:
         return {
             ProgramType.START: self.start,

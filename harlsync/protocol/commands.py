@@ -75,14 +75,8 @@ __all__ = [
     "write_timer",
 ]
 
-#: Every LN command of the profile.
-READ_LETTERS = frozenset(
-    ["LNA", "LNM", "LNS", "LNH", "LNT", "LND", "LNL", "LNIB", "LNID", "LNOB", "LNOD", "LNBB", "LNBD", "LNE", "LNR", "LNV", "LNX"]
-)
-#: Every SN command of the profile.
-WRITE_LETTERS = frozenset(["SNA", "SNM", "SNS", "SNH", "SNT", "SND", "SNL", "SNOB", "SNOD", "SNBB", "SNBD", "SNE", "SNX"])
 #: SN commands the manual forbids during automatic operation.
-UNSAFE_LETTERS = frozenset(["SNA", "SNM", "SNS", "SNH", "SNE", "SNX"])
+UNSAFE_LETTERS = frozenset(("SNA", "SNM", "SNS", "SNH", "SNE", "SNX"))
 
 _INT_RE = re.compile(r"[0-9]+")
 _BIT_RE = re.compile(r"[01]")
@@ -243,11 +237,7 @@ def read_config() -> Request:
 
 
 def write_config(value: Config) -> Request:
-    args: list[str] = []
-    for ptype in ProgramType:
-        area = value.area(ptype)
-        args += [str(area.count), str(area.steps)]
-    return Request("SNX", tuple(args))
+    return Request("SNX", tuple(str(n) for n in value.numbers()[:8]))
 
 
 def _check(pattern: re.Pattern[str], value: str, what: str, allowed: str) -> None:
@@ -274,6 +264,12 @@ _ARITY: dict[str, tuple[int, int]] = {
     "SNOB": (2, 2), "SNOD": (2, 2), "SNBB": (2, 2), "SNBD": (2, 2),
     "SNE": (13, 13), "SNX": (8, 8),
 }  # fmt: skip
+
+
+#: Every LN command of the profile.
+READ_LETTERS = frozenset(k for k in _ARITY if k.startswith("LN"))
+#: Every SN command of the profile.
+WRITE_LETTERS = frozenset(k for k in _ARITY if k.startswith("SN"))
 
 
 def parse_request(payload: str) -> Request:

@@ -24,7 +24,7 @@ import re
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from ..errors import ProtocolError
 from ..model import (
@@ -100,16 +100,28 @@ class Faults:
         self._rng = random.Random(self.seed)
 
     @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The settings a user can give: the rates, the timings and the seed."""
+        return tuple(f.name for f in fields(cls) if f.init)
+
+    @classmethod
+    def from_settings(cls, settings: dict[str, str]) -> Faults:
+        """From name -> text (``{"noise": "0.1", "seed": "3"}``).  Raises ValueError."""
+        unknown = set(settings) - set(cls.names())
+        if unknown:
+            raise ValueError(
+                f"unknown fault {', '.join(sorted(unknown))} (known: {', '.join(cls.names())})"
+            )
+        return cls(**{  # type: ignore[arg-type]
+            name: int(value) if name == "seed" else float(value)
+            for name, value in settings.items()
+        })
+
+    @classmethod
     def parse(cls, text: str) -> Faults:
-        """From ``"noise=0.1,drop=0.05,seed=3"`` (the CLI and ``sim://`` form)."""
-        kwargs: dict[str, float | int] = {}
-        for item in filter(None, text.split(",")):
-            name, _, value = item.partition("=")
-            name = name.strip().replace("-", "_")
-            if name not in cls.__dataclass_fields__ or name.startswith("_"):
-                raise ValueError(f"unknown fault {name!r} (known: {', '.join(_FAULT_NAMES)})")
-            kwargs[name] = int(value) if name == "seed" else float(value)
-        return cls(**kwargs)  # type: ignore[arg-type]
+        """From ``"noise=0.1,drop=0.05,seed=3"`` (the CLI form).  Raises ValueError."""
+        pairs = (item.partition("=") for item in filter(None, text.split(",")))
+        return cls.from_settings({k.strip().replace("-", "_"): v for k, _, v in pairs})
 
     def shape(self, frame: bytes) -> list[tuple[float, bytes]]:
         """The reply as chunks ``(extra delay, bytes)``; empty when dropped."""
@@ -130,7 +142,6 @@ class Faults:
         return [(delay, bytes(data))]
 
 
-_FAULT_NAMES = ("noise", "drop", "bad_lrc", "fragment", "slow", "slow_delay", "seed")
 
 
 class Simulator:
@@ -271,11 +282,7 @@ class Simulator:
         if letters == "LNV":
             return data.version
         if letters == "LNX":
-            return " ".join(
-                str(n)
-                for t in ProgramType
-                for n in (cfg.area(t).count, cfg.area(t).steps)
-            ) + f" {cfg.timers} {cfg.memory_bits} {cfg.registers}"
+            return " ".join(str(n) for n in cfg.numbers())
         raise _Refuse(STATUS_COMMAND)
 
     def _write(self, state: SimState, req: Request) -> str:

@@ -79,7 +79,8 @@ def build_simulator(
     )
 
 
-_FAULT_KEYS = {"noise", "drop", "bad_lrc", "fragment", "slow", "slow_delay"}
+#: sim:// options that set faults: every fault setting, its seed spelt fault_seed.
+_FAULT_KEYS = {("fault_seed" if n == "seed" else n): n for n in Faults.names()}
 
 
 def simulator_from_url(url: str) -> Simulator:
@@ -92,14 +93,13 @@ def simulator_from_url(url: str) -> Simulator:
         except KeyError:
             raise SerialException(f"no simulator registered as {path!r}") from None
     opts = {k: v[-1] for k, v in parse_qs(query, keep_blank_values=True).items()}
-    known = {"seed", "stations", "baud", "turnaround", "auto_after_writes", "fault_seed"}
-    unknown = set(opts) - known - _FAULT_KEYS
+    known = {"seed", "stations", "baud", "turnaround", "auto_after_writes"}
+    unknown = set(opts) - known - set(_FAULT_KEYS)
     if unknown:
         raise SerialException(f"{url}: unknown sim:// option(s) {', '.join(sorted(unknown))}")
     try:
-        faults = Faults(
-            **{k: float(opts[k]) for k in _FAULT_KEYS if k in opts},
-            seed=int(opts["fault_seed"]) if "fault_seed" in opts else None,
+        faults = Faults.from_settings(
+            {name: opts[key] for key, name in _FAULT_KEYS.items() if key in opts}
         )
         return build_simulator(
             project=path or None,
