@@ -189,7 +189,7 @@ def test_replay_urls_open_capture_files_and_refuse_bad_ones(tmp_path: Path) -> N
     path.write_text("not a capture\n")
     with pytest.raises(serial.SerialException, match="line 1"):
         replay_from_url(f"replay://{path}")
-    with pytest.raises(serial.SerialException, match="no replay registered"):
+    with pytest.raises(serial.SerialException, match="no replay peer registered"):
         replay_from_url("replay://@nobody")
 
 

@@ -15,7 +15,6 @@ A request that differs from the capture fails the write (the link reports a
 
 from __future__ import annotations
 
-import itertools
 import time
 from typing import Any
 from urllib.parse import parse_qs
@@ -28,19 +27,9 @@ from .replay import Replay, ReplayMismatch, load_spy_log
 
 __all__ = ["Serial", "register", "replay_from_url", "unregister"]
 
-_registry: dict[str, Replay] = {}
-_names = itertools.count(1)
-
-
-def register(replay: Replay, name: str | None = None) -> str:
-    """Make ``replay`` reachable as ``replay://@name``; return that URL."""
-    name = name or f"replay{next(_names)}"
-    _registry[name] = replay
-    return f"replay://@{name}"
-
-
-def unregister(url_or_name: str) -> None:
-    _registry.pop(url_or_name.removeprefix("replay://@"), None)
+_replays: protocol_sim.Registry[Replay] = protocol_sim.Registry("replay")
+register = _replays.register
+unregister = _replays.unregister
 
 
 def replay_from_url(url: str) -> Replay:
@@ -51,10 +40,7 @@ def replay_from_url(url: str) -> Replay:
     rest = url.split("://", 1)[1]
     path, _, query = rest.partition("?")
     if path.startswith("@"):
-        try:
-            return _registry[path[1:]]
-        except KeyError:
-            raise SerialException(f"no replay registered as {path!r}") from None
+        return _replays.get(path)
     opts = {k: v[-1] for k, v in parse_qs(query, keep_blank_values=True).items()}
     unknown = set(opts) - {"timing"}
     if unknown or opts.get("timing", "1") not in ("0", "1"):

@@ -18,7 +18,7 @@ from __future__ import annotations
 import itertools
 import threading
 import time
-from typing import Any
+from typing import Any, Generic, TypeVar
 from urllib.parse import parse_qs
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
@@ -29,19 +29,37 @@ from .state import SimState
 
 __all__ = ["Serial", "build_simulator", "register", "simulator_from_url", "unregister"]
 
-_registry: dict[str, Simulator] = {}
-_names = itertools.count(1)
+T = TypeVar("T")
 
 
-def register(sim: Simulator, name: str | None = None) -> str:
-    """Make ``sim`` reachable as ``sim://@name``; return that URL."""
-    name = name or f"sim{next(_names)}"
-    _registry[name] = sim
-    return f"sim://@{name}"
+class Registry(Generic[T]):
+    """In-process peers reachable as ``SCHEME://@name`` (for tests and embedding)."""
+
+    def __init__(self, scheme: str) -> None:
+        self.scheme = scheme
+        self._peers: dict[str, T] = {}
+        self._names = itertools.count(1)
+
+    def register(self, peer: T, name: str | None = None) -> str:
+        """Make ``peer`` reachable as ``SCHEME://@name``; return that URL."""
+        name = name or f"{self.scheme}{next(self._names)}"
+        self._peers[name] = peer
+        return f"{self.scheme}://@{name}"
+
+    def unregister(self, url_or_name: str) -> None:
+        self._peers.pop(url_or_name.removeprefix(f"{self.scheme}://@"), None)
+
+    def get(self, path: str) -> T:
+        """The peer a URL path ``@name`` names.  Raises SerialException."""
+        try:
+            return self._peers[path[1:]]
+        except KeyError:
+            raise SerialException(f"no {self.scheme} peer registered as {path!r}") from None
 
 
-def unregister(url_or_name: str) -> None:
-    _registry.pop(url_or_name.removeprefix("sim://@"), None)
+_simulators: Registry[Simulator] = Registry("sim")
+register = _simulators.register
+unregister = _simulators.unregister
 
 
 def build_simulator(
@@ -88,10 +106,7 @@ def simulator_from_url(url: str) -> Simulator:
     rest = url.split("://", 1)[1]
     path, _, query = rest.partition("?")
     if path.startswith("@"):
-        try:
-            return _registry[path[1:]]
-        except KeyError:
-            raise SerialException(f"no simulator registered as {path!r}") from None
+        return _simulators.get(path)
     opts = {k: v[-1] for k, v in parse_qs(query, keep_blank_values=True).items()}
     known = {"seed", "stations", "baud", "turnaround", "auto_after_writes"}
     unknown = set(opts) - known - set(_FAULT_KEYS)
