@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 from pathlib import Path
 
+import pytest
+
 
 def git(repo: Path, *args: str) -> str:
     """Run git in ``repo`` with a throwaway identity; its standard output."""
@@ -12,3 +14,12 @@ def git(repo: Path, *args: str) -> str:
         ["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
         cwd=repo, check=True, capture_output=True, text=True,
     ).stdout
+
+
+@pytest.fixture(autouse=True)
+def lock_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Every test gets its own line locks and audit log, never the user's."""
+    path = tmp_path / "locks"
+    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(path))
+    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / "audit.jsonl"))
+    return path

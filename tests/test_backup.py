@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import subprocess
 import sys
@@ -41,7 +42,6 @@ class Plant:
 def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
     """Five robots: one on a pty, two stations sharing one TCP line, one that will stop
     answering and one that will answer garbage, all first backed up while healthy."""
-    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "locks"))
     root = tmp_path / "plant"
     root.mkdir()
     git(root, "init", "-q")
@@ -99,7 +99,7 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
 
     # The two stations on one line were pulled one after the other, never interleaved.
     stations = [r.station for r in shared_line.received[before:]]
-    changes_of_station = sum(a != b for a, b in zip(stations, stations[1:]))
+    changes_of_station = sum(a != b for a, b in itertools.pairwise(stations))
     assert set(stations) == {1, 2} and changes_of_station == 1
 
     assert code == 1
@@ -167,13 +167,13 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
     changed_out = tmp_path / "changed.txt"
     failed_out = tmp_path / "failed.txt"
     metrics = tmp_path / "harlsync.prom"
+    on_change = (f"{sys.executable} -c \"import os,sys; open({str(changed_out)!r},'w')"
+                 f".write(os.environ['HARLSYNC_CHANGED'] + '|' + sys.stdin.read())\"")
+    on_failure = (f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
+                  f".write(os.environ['HARLSYNC_FAILED'])\"")
     code = main([
         "backup", str(plant.root), "--attempts", "1", "--quiet",
-        "--on-change", f"{sys.executable} -c \"import os,sys; open({str(changed_out)!r},'w')"
-                       f".write(os.environ['HARLSYNC_CHANGED'] + '|' + sys.stdin.read())\"",
-        "--on-failure", f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
-                        f".write(os.environ['HARLSYNC_FAILED'])\"",
-        "--metrics", str(metrics),
+        "--on-change", on_change, "--on-failure", on_failure, "--metrics", str(metrics),
     ])
     assert code == 1
     names, summary = changed_out.read_text().split("|", 1)

@@ -36,13 +36,6 @@ FAST = SerialSettings(timeout=0.25, retries=3)
 MAIN, START = ProgramType.MAIN, ProgramType.START
 
 
-@pytest.fixture(autouse=True)
-def lock_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    path = tmp_path / "locks"
-    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(path))
-    return path
-
-
 @pytest.fixture
 def sim() -> ScriptedSim:
     return ScriptedSim(SimState.generate(11, SMALL))

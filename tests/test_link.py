@@ -52,13 +52,6 @@ from harlsync.sim.serve import PtyServer, TcpServer
 FAST = SerialSettings(timeout=0.25, retries=3)
 
 
-@pytest.fixture(autouse=True)
-def lock_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    path = tmp_path / "locks"
-    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(path))
-    return path
-
-
 @pytest.fixture
 def sim() -> ScriptedSim:
     state = SimState.generate(3, SMALL)

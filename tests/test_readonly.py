@@ -16,7 +16,7 @@ import pytest
 
 from harlsync.controller import Controller
 from harlsync.model import OFFSET_TABLE_COUNT, TIMER_RE, ProgramType
-from harlsync.sim import Simulator, SimState
+from harlsync.sim import SimState, Simulator
 from harlsync.sim.serve import PtyServer
 from harlsync.sync import engine
 from harlsync.sync.items import diff

@@ -56,13 +56,6 @@ LNE = b"\x021 LNE\x03U"
 LNE_REPLY = b"\x021 104 1 0 20.00 20.00 30.00 30.00 40.00 40.00 50 0 0.00 0\x03="
 
 
-@pytest.fixture(autouse=True)
-def lock_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    path = tmp_path / "locks"
-    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(path))
-    return path
-
-
 @pytest.fixture
 def served() -> Iterator[list[str]]:
     """URLs registered during the test, unregistered after it."""

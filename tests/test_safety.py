@@ -34,12 +34,6 @@ MAIN = ProgramType.MAIN
 YES = PushOptions(yes=True)
 
 
-@pytest.fixture(autouse=True)
-def isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / "audit.jsonl"))
-    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "locks"))
-
-
 @pytest.fixture
 def sim() -> ScriptedSim:
     return ScriptedSim(SimState.generate(11, SMALL))

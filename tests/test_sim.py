@@ -14,7 +14,7 @@ import serial
 
 from harlsync.model import Config, ProgramArea, ProgramType, Step
 from harlsync.protocol import FrameDecoder, encode_frame, lrc
-from harlsync.sim import Faults, Simulator, SimState
+from harlsync.sim import Faults, SimState, Simulator
 from harlsync.sim.control import apply_command
 from harlsync.sim.device import STATUS_RANGE
 from harlsync.sim.protocol_sim import register, simulator_from_url, unregister
@@ -240,9 +240,8 @@ def test_a_client_reads_a_program_step_by_step_over_a_pty(sim: Simulator) -> Non
 
 
 def test_a_client_reads_a_program_step_by_step_over_tcp(sim: Simulator) -> None:
-    with TcpServer(sim) as server:
-        with serial.serial_for_url(server.url, timeout=0.05) as port:
-            assert read_program_step_by_step(port, 0, 8) == expected_program(sim, 0, 8)
+    with TcpServer(sim) as server, serial.serial_for_url(server.url, timeout=0.05) as port:
+        assert read_program_step_by_step(port, 0, 8) == expected_program(sim, 0, 8)
 
 
 def test_fragments_and_noise_arrive_intact_over_tcp() -> None:

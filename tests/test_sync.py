@@ -41,12 +41,6 @@ def same_robot(a: SimState, b: SimState) -> bool:
     )
 
 
-@pytest.fixture(autouse=True)
-def isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / "audit.jsonl"))
-    monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "locks"))
-
-
 @pytest.fixture(params=["tcp", "pty"])
 def served(request: pytest.FixtureRequest) -> Iterator[tuple[Simulator, str]]:
     sim = Simulator(SimState.generate(11, SMALL))
