@@ -33,6 +33,12 @@ def _print(*args: object) -> None:
     print(*args, flush=True)
 
 
+def _usage(message: str) -> int:
+    """A wrong combination of options: say so on stderr, exit 2 like argparse does."""
+    print(f"harlsync {message}", file=sys.stderr)
+    return EXIT_ERROR
+
+
 # --- sim ------------------------------------------------------------------------------
 
 
@@ -82,11 +88,11 @@ def _cmd_sim(args: argparse.Namespace) -> int:
     from .sim.serve import PtyServer, TcpServer
 
     if args.no_pty and not args.listen:
-        raise SystemExit("harlsync sim: --no-pty needs --listen HOST:PORT")
+        return _usage("sim: --no-pty needs --listen HOST:PORT")
     try:
         faults = Faults.parse(args.faults)
     except ValueError as exc:
-        raise SystemExit(f"harlsync sim: --faults: {exc}") from exc
+        return _usage(f"sim: --faults: {exc}")
     sim = build_simulator(
         project=args.project,
         seed=args.seed,
@@ -185,7 +191,7 @@ def _cmd_backup(args: argparse.Namespace) -> int:
     from .sync import backup
 
     if args.push and not args.commit:
-        raise SystemExit("harlsync backup: --push needs --commit")
+        return _usage("backup: --push needs --commit")
     report = backup.backup(
         args.paths, jobs=args.jobs, commit=args.commit, push=args.push,
         stale_after=timedelta(hours=args.stale_after), attempts=args.attempts,

@@ -253,3 +253,8 @@ def test_the_documented_cron_line_runs_against_simulated_robots(plant: Plant, tm
     assert "harlsync_backup_success" in (tmp_path / "m.prom").read_text()
     pushed = git(bare, "log", "-1", "--format=%s", branch)
     assert pushed.startswith("backup: 1 of 5 robot(s) changed")
+
+
+def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:
+    assert main(["backup", str(tmp_path), "--push"]) == 2
+    assert "--push needs --commit" in capsys.readouterr().err
