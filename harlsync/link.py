@@ -66,7 +66,7 @@ from .errors import (
     ReplyError,
     WriteUnconfirmed,
 )
-from .protocol import FrameDecoder, Request, decode_reply, encode_frame, profile
+from .protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame, profile
 
 __all__ = [
     "DEFAULT_LOCK_TIMEOUT",
@@ -517,22 +517,33 @@ class Link:
         self._log_rx()
         self._count_noise()
 
-    def _discard_frames(self, station: int) -> None:
+    def _frames(self, station: int) -> Iterator[Frame | ProtocolError]:
+        """What the buffered bytes hold for ``station``: its frames, and each bad frame
+        as the error it raised (counted).  Frames for other stations are counted and
+        skipped."""
         while True:
             try:
                 frame = self._decoder.next_frame()
             except ProtocolError as exc:
                 self._log_rx()
                 self.stats.bad_frames += 1
-                log.info("%s: discarded bad frame: %s", self.url, exc)
+                yield exc
                 continue
             self._log_rx()
             if frame is None:
                 return
-            if frame.station == station:
-                self._late_reply(station, frame.payload)
-            else:
+            if frame.station != station:
                 self.stats.other_station += 1
+                log.debug("%s: ignored a frame for station %d", self.url, frame.station)
+                continue
+            yield frame
+
+    def _discard_frames(self, station: int) -> None:
+        for item in self._frames(station):
+            if isinstance(item, ProtocolError):
+                log.info("%s: discarded bad frame: %s", self.url, item)
+            else:
+                self._late_reply(station, item.payload)
 
     def _late_reply(self, station: int, payload: str) -> None:
         count, due = self._owed.get(station, (0, 0.0))
@@ -548,21 +559,10 @@ class Link:
         deadline = time.monotonic() + self.settings.timeout
         failure = _Failure(f"no reply within {self.settings.timeout:g} s")
         while True:
-            while True:
-                try:
-                    frame = self._decoder.next_frame()
-                except ProtocolError as exc:
-                    self._log_rx()
-                    self.stats.bad_frames += 1
-                    log.info("%s station %d %s: bad frame: %s", self.url, station, request, exc)
-                    failure = _Failure(f"bad frame: {exc}", exc)
-                    continue
-                self._log_rx()
-                if frame is None:
-                    break
-                if frame.station != station:
-                    self.stats.other_station += 1
-                    log.debug("%s: ignored a frame for station %d", self.url, frame.station)
+            for frame in self._frames(station):
+                if isinstance(frame, ProtocolError):
+                    log.info("%s station %d %s: bad frame: %s", self.url, station, request, frame)
+                    failure = _Failure(f"bad frame: {frame}", frame)
                     continue
                 try:
                     value = decode_reply(request, frame.payload)
