@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import itertools
+import json
 import os
 import shutil
+import signal
+import subprocess
+import sys
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -11,6 +16,7 @@ from typing import Any
 
 import pytest
 
+from harlsync.errors import ProjectError
 from harlsync.model import ProgramArea, ProgramType, Step
 from harlsync.project import Project, load_project, new_robot, save_project, store, validate_project
 
@@ -70,15 +76,35 @@ def test_a_save_writes_only_what_changed_and_removes_programs_no_longer_configur
     assert not [name for name in snapshot(root) if ".harlsync-" in name]
 
 
-@pytest.mark.parametrize("failing_call", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("failing_call", [1, 2, 3, 4])
 def test_a_save_that_fails_while_replacing_files_restores_the_previous_project(
     root: Path, monkeypatch: pytest.MonkeyPatch, failing_call: int
 ) -> None:
+    # Call 1 puts the journal in place, calls 2-4 replace the three changed files.
     before = snapshot(root)
     project = changed_project(root)
     monkeypatch.setattr(os, "replace", fail_on_call(os.replace, failing_call))
     with pytest.raises(OSError, match="No space left"):
         save_project(root, project)
+    assert snapshot(root) == before
+
+
+def test_a_save_that_fails_while_removing_a_program_restores_the_previous_project(
+    root: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    before = snapshot(root)
+    project = changed_project(root)
+    real = Path.unlink
+
+    def unlink(self: Path, missing_ok: bool = False) -> None:
+        if self.name == "main-03.yaml":
+            raise OSError(30, "Read-only file system")
+        real(self, missing_ok=missing_ok)
+
+    monkeypatch.setattr(Path, "unlink", unlink)
+    with pytest.raises(OSError, match="Read-only"):
+        save_project(root, project)
+    monkeypatch.undo()
     assert snapshot(root) == before
 
 
@@ -154,3 +180,74 @@ def test_a_step_with_data_but_no_command_is_refused(tmp_path: Path) -> None:
     with pytest.raises(Exception, match="MAIN 3 step 2: data without a command"):
         save_project(tmp_path, project)
     assert list(tmp_path.iterdir()) == []
+
+
+def saved_in_a_child_killed_at(root: Path, project: Project, kill_at: int) -> bool:
+    """Save ``project`` to ``root`` in a forked child that SIGKILLs itself at its
+    ``kill_at``-th file-system step (link, fsync, rename, unlink).  Returns whether
+    it was killed (False: the save ended before that step)."""
+    child = os.fork()
+    if child == 0:  # pragma: no cover - the child's exit status is the result
+        calls = 0
+
+        def deadly(real: Callable[..., Any]) -> Callable[..., Any]:
+            def step(*args: Any, **kwargs: Any) -> Any:
+                nonlocal calls
+                calls += 1
+                if calls == kill_at:
+                    os.kill(os.getpid(), signal.SIGKILL)
+                return real(*args, **kwargs)
+
+            return step
+
+        for name in ("link", "fsync", "replace", "unlink"):
+            setattr(os, name, deadly(getattr(os, name)))
+        try:
+            save_project(root, project)
+        finally:
+            os._exit(0)
+    _, status = os.waitpid(child, 0)
+    return os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGKILL
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork()")
+def test_a_save_killed_at_any_step_leaves_the_previous_project_or_the_whole_new_one(
+    tmp_path: Path, root: Path
+) -> None:
+    before = snapshot(root)
+    done = tmp_path / "done"
+    shutil.copytree(root, done)
+    save_project(done, changed_project(done))
+    after = snapshot(done)
+    outcomes = []
+    for kill_at in itertools.count(1):
+        cell = tmp_path / f"killed-{kill_at}"
+        shutil.copytree(root, cell)
+        if not saved_in_a_child_killed_at(cell, changed_project(cell), kill_at):
+            break
+        interrupted = (cell / store.JOURNAL).exists()
+        load_project(cell)  # the next harlsync puts it right
+        now = snapshot(cell)
+        assert now in (before, after), f"killed at step {kill_at}: a mix of old and new files"
+        assert now == before or not interrupted, f"killed at step {kill_at}"
+        outcomes.append("before" if now == before else "after")
+    # Killed at every step, from the first temporary to the last clean-up: the
+    # journal was put back from, and the save ends up whole on the late kills.
+    assert kill_at > 20 and outcomes[0] == "before" and outcomes[-1] == "after"
+    assert snapshot(cell) == after
+
+
+def test_a_save_in_progress_in_another_process_is_waited_for_not_undone(root: Path) -> None:
+    before = snapshot(root)
+    with subprocess.Popen([sys.executable, "-c", "input()"], stdin=subprocess.PIPE) as saver:
+        journal = {"pid": saver.pid, "files": [["timers.yaml", None, None]], "made_dirs": []}
+        (root / store.JOURNAL).write_text(json.dumps(journal))
+        with pytest.raises(ProjectError, match=f"process {saver.pid} is saving this project"):
+            load_project(root)
+        assert (root / "timers.yaml").exists()
+        saver.communicate(b"\n")
+    # That process is gone without finishing: its journal is undone (timers.yaml was new).
+    with pytest.raises(ProjectError):
+        load_project(root)
+    assert not (root / "timers.yaml").exists() and not (root / store.JOURNAL).exists()
+    assert set(snapshot(root)) == set(before) - {"timers.yaml"}

@@ -1,13 +1,26 @@
 """Loading, validating and atomically saving a project directory.
 
-A save is all or nothing.  It renders every file and checks the result exactly
-as a load would, before touching the disk; then it
+A save is all or nothing, even when the process is killed half way.  It renders
+every file and checks the result exactly as a load would, before touching the
+disk; then it
 
-1. writes each changed file to a temporary file next to it and fsyncs it
-   (a failure here removes the temporaries: nothing else was touched);
-2. replaces the targets one by one, keeping a hard link to each old file (a
-   failure here puts every old file back and removes the new ones);
-3. fsyncs the directories and drops the old copies.
+1. writes each changed file to a temporary file next to it and fsyncs it, and
+   gives each file it will replace or remove a second name (a hard link);
+2. writes the journal ``.harlsync-save.json``: what it is about to replace,
+   with those names (a failure before this point removes the temporaries:
+   nothing else was touched);
+3. replaces the targets one by one and removes the files no longer wanted (a
+   failure here puts every old file back, from its second name);
+4. fsyncs the directories and deletes the journal: the save is done.  Then it
+   drops the second names.
+
+A journal left behind means a process was killed in step 3: the next load or
+save puts the previous project back from it, after checking that the process
+that wrote it is gone.  Temporaries and second names of a killed process (their
+names carry its pid) are removed the same way::
+
+    .timers.yaml.harlsync-new-4242-9f3ab2c1     the new file, before step 3
+    .timers.yaml.harlsync-old-4242-0c77e1d4     the old file, until step 4 ends
 
 Files whose content did not change are not rewritten, and program files the
 new configuration no longer has are removed in step 2 (and restored on
@@ -17,6 +30,7 @@ does not exist yet, unless asked to replace it.
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
@@ -26,7 +40,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import ProjectFormatError, ProjectInvalid
+from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
 from ..model import RobotData
 from .layout import (
     FORMAT,
@@ -61,6 +75,7 @@ def _gather(root: Path, *, robot_only: bool = False) -> tuple[dict[str, bytes], 
             f"{root}: not a project directory (no such directory); "
             "a first 'harlsync pull DIR --port URL' makes one"
         )
+    recover(root)
     names = [name for name in ROOT_FILES if (root / name).is_file()]
     if robot_only:
         names = [name for name in names if name == "robot.yaml"]
@@ -142,6 +157,8 @@ def save_project(
     project, and OSError when the disk fails (the previous files are then intact).
     """
     root = Path(path)
+    if root.is_dir():
+        recover(root)
     texts = render_files(project.robot, project.data)
     # Step.problems() first: the YAML rendering cannot show every one of them
     # (a step with data but no command renders as empty).
@@ -214,8 +231,15 @@ def _stale_files(root: Path, texts: dict[str, str], *, keep_registers_file: bool
     return stale
 
 
+#: The journal of a save in progress (module docstring), in the project's root.
+JOURNAL = ".harlsync-save.json"
+_SIBLING_RE = re.compile(r"^\..+\.harlsync-(?:new|old)-([0-9]+)-[0-9a-f]+$")
+
+
 def _sibling(target: Path, what: str) -> Path:
-    return target.with_name(f".{target.name}.harlsync-{what}-{secrets.token_hex(4)}")
+    return target.with_name(
+        f".{target.name}.harlsync-{what}-{os.getpid()}-{secrets.token_hex(4)}"
+    )
 
 
 def _write_temp(target: Path, data: bytes) -> Path:
@@ -249,10 +273,19 @@ def _fsync_dir(directory: Path) -> None:
         os.close(fd)
 
 
+@dataclass(frozen=True)
+class _Entry:
+    """One file of a save: its new content (None: removed) and its old one (None: new)."""
+
+    name: str
+    temp: Path | None
+    old: Path | None
+
+
 def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
     """Write and remove files under ``root`` as one set (see the module docstring)."""
     made_dirs: list[Path] = []
-    staged: list[tuple[Path, Path]] = []
+    entries: list[_Entry] = []
     try:
         for name, data in writes.items():
             target = root / name
@@ -260,44 +293,126 @@ def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
                 if not parent.exists():
                     parent.mkdir()
                     made_dirs.append(parent)
-            staged.append((_write_temp(target, data), target))
-    except BaseException:
-        for temp, _ in staged:
-            temp.unlink(missing_ok=True)
-        for directory in reversed(made_dirs):
-            _quietly(directory.rmdir)
-        raise
-
-    done: list[tuple[Path, Path | None]] = []  # (target, its old content or None)
-    try:
-        for temp, target in staged:
-            done.append((target, _backup(target)))
-            os.replace(temp, target)
+            # The old file's second name first: until the temporary exists the
+            # entry reads as a removal, which an undo restores from that name.
+            entries.append(_Entry(name, None, _backup(target)))
+            entries[-1] = _Entry(name, _write_temp(target, data), entries[-1].old)
         for name in removes:
-            target = root / name
-            old = _sibling(target, "old")
-            os.replace(target, old)
-            done.append((target, old))
+            entries.append(_Entry(name, None, _backup(root / name)))
+        _write_journal(root, entries, made_dirs)
+        for entry in entries:
+            target = root / entry.name
+            if entry.temp is not None:
+                os.replace(entry.temp, target)
+            else:
+                target.unlink()
+        for directory in {(root / e.name).parent for e in entries}:
+            _fsync_dir(directory)
     except BaseException:
         log.warning("save of %s failed: restoring the previous files", root)
-        for target, saved in reversed(done):
-            if saved is None:
-                _quietly(target.unlink, missing_ok=True)
-            else:
-                _quietly(os.replace, saved, target)
-                # rename() between two links to one file does nothing: drop the link.
-                _quietly(saved.unlink, missing_ok=True)
-        for temp, _ in staged:
-            _quietly(temp.unlink, missing_ok=True)
-        for directory in reversed(made_dirs):
-            _quietly(directory.rmdir)
+        _undo(root, entries, made_dirs)
         raise
+    (root / JOURNAL).unlink()
+    _fsync_dir(root)
+    for entry in entries:
+        if entry.old is not None:
+            _quietly(entry.old.unlink, missing_ok=True)
 
-    for directory in {t.parent for _, t in staged} | {(root / n).parent for n in removes}:
-        _fsync_dir(directory)
-    for _, saved in done:
-        if saved is not None:
-            _quietly(saved.unlink, missing_ok=True)
+
+def _write_journal(root: Path, entries: list[_Entry], made_dirs: list[Path]) -> None:
+    record = {
+        "pid": os.getpid(),
+        "files": [[e.name, e.temp and e.temp.name, e.old and e.old.name] for e in entries],
+        "made_dirs": [os.path.relpath(d, root) for d in made_dirs],
+    }
+    journal = root / JOURNAL
+    temp = _write_temp(journal, json.dumps(record).encode("utf-8"))
+    try:
+        os.replace(temp, journal)
+    finally:
+        _quietly(temp.unlink, missing_ok=True)
+    _fsync_dir(root)
+
+
+def _undo(root: Path, entries: list[_Entry], made_dirs: list[Path]) -> None:
+    """Put back every old file of an unfinished save and drop the new ones."""
+    for entry in reversed(entries):
+        target = root / entry.name
+        if entry.old is None:
+            _quietly(target.unlink, missing_ok=True)
+        elif entry.old.exists():
+            _quietly(os.replace, entry.old, target)
+            # rename() between two links to one file does nothing: drop the link.
+            _quietly(entry.old.unlink, missing_ok=True)
+        if entry.temp is not None:
+            _quietly(entry.temp.unlink, missing_ok=True)
+    for directory in {(root / e.name).parent for e in entries if (root / e.name).parent.exists()}:
+        _quietly(_fsync_dir, directory)
+    _quietly((root / JOURNAL).unlink, missing_ok=True)
+    for directory in reversed(made_dirs):
+        _quietly(directory.rmdir)
+
+
+def _gone(pid: int) -> bool:
+    """Whether process ``pid`` no longer runs (ours counts as gone: its save ended)."""
+    if pid == os.getpid() or os.name != "posix":
+        return True  # Windows has no harmless way to ask (signal 0 is CTRL_C_EVENT there)
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:
+        return False  # it runs, as another user
+    return False
+
+
+def recover(root: Path) -> bool:
+    """Finish off a save that a killed process left half done: put the previous
+    project back and remove its temporaries.  Returns whether there was one.
+
+    Raises ProjectError while the process that wrote the journal still runs.
+    """
+    journal = root / JOURNAL
+    try:
+        record = json.loads(journal.read_bytes())
+        pid = int(record["pid"])
+        entries = [
+            _Entry(name, temp and (root / name).with_name(temp), old and (root / name).with_name(old))
+            for name, temp, old in record["files"]
+        ]
+        made_dirs = [root / d for d in record["made_dirs"]]
+    except FileNotFoundError:
+        return _sweep(root)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ProjectError(
+            f"{journal}: the journal of an interrupted save cannot be read ({exc}); "
+            "check the project against git (git status) and remove that file"
+        ) from exc
+    if not _gone(pid):
+        raise ProjectError(
+            f"{root}: process {pid} is saving this project right now; "
+            "wait for it to finish and run again"
+        )
+    log.warning("%s: a save by process %d was interrupted; putting the previous files back",
+                root, pid)
+    _undo(root, entries, made_dirs)
+    _sweep(root)
+    return True
+
+
+def _sweep(root: Path) -> bool:
+    """Remove temporaries and second names left by killed processes."""
+    found = False
+    for directory in (root, root / PROGRAMS_DIR, root / SCHEMAS_DIR):
+        if not directory.is_dir():
+            continue
+        for path in directory.iterdir():
+            match = _SIBLING_RE.match(path.name)
+            if match and _gone(int(match.group(1))):
+                log.warning("removing %s, left by an interrupted save", path)
+                _quietly(path.unlink, missing_ok=True)
+                found = True
+    return found
 
 
 def _quietly(action: Callable[..., object], *args: object, **kwargs: object) -> None:
