@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import errno
 import hashlib
+import ipaddress
 import logging
 import os
 import re
@@ -661,7 +662,8 @@ def lock_key(url: str) -> str | None:
 
     Device paths resolve symlinks (``/dev/serial/by-id/...`` and ``/dev/ttyUSB0``
     are one line), ``COM3`` is upper-cased, ``spy://`` is the port it wraps,
-    ``socket://`` and ``rfc2217://`` are host:port without options, ``loop://``
+    ``socket://`` and ``rfc2217://`` are host:port without options, the host
+    resolved (``localhost`` and ``127.0.0.1`` are one machine), ``loop://``
     is private to its process (None), any other URL is taken as it is.
     """
     if "://" not in url:
@@ -676,8 +678,25 @@ def lock_key(url: str) -> str | None:
     if scheme == "spy":
         return lock_key(parts.netloc + parts.path)
     if scheme in ("socket", "rfc2217"):
-        return f"{scheme}://{parts.netloc.lower()}"
+        return f"{scheme}://{_host_key(parts.hostname or '')}:{parts.port}"
     return url
+
+
+def _host_key(host: str) -> str:
+    """One name per machine: ``localhost``, ``127.0.0.1`` and ``::1`` are one
+    (``loopback``), a name and its address are one (the lowest address it has)."""
+    try:
+        addresses = sorted({str(info[4][0]) for info in socket.getaddrinfo(host, None)})
+    except (OSError, UnicodeError):
+        return host.lower()  # unknown: opening the port will say so
+    if not addresses:
+        return host.lower()
+    try:
+        if any(ipaddress.ip_address(a.split("%", 1)[0]).is_loopback for a in addresses):
+            return "loopback"
+    except ValueError:
+        pass
+    return addresses[0]
 
 
 def lock_path(url: str, lock_dir: str | os.PathLike[str] | None = None) -> Path | None:

@@ -535,8 +535,14 @@ def test_lock_keys_name_the_line_not_the_spelling(tmp_path: Path) -> None:
     assert lock_key(str(tmp_path / "by-id")) == str(real)
     assert lock_key(f"spy://{real}?file=x.txt") == str(real)
     assert lock_key("com3") == lock_key(r"\\.\COM3") == "COM3"
-    assert lock_key("socket://Robot-Cell:4001?logging=debug") == "socket://robot-cell:4001"
+    assert lock_key("socket://Robot-Cell.invalid:4001?logging=debug") == (
+        "socket://robot-cell.invalid:4001"
+    )
     assert lock_key("rfc2217://10.0.0.5:2217") == "rfc2217://10.0.0.5:2217"
+    # One device server, however it is spelled: a second harlsync must wait.
+    assert lock_key("socket://localhost:4001") == lock_key("socket://127.0.0.1:4001") == (
+        lock_key("socket://[::1]:4001")
+    ) != lock_key("socket://127.0.0.1:4002")
     assert lock_key("loop://") is None
     assert lock_path("loop://") is None
 
