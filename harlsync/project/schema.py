@@ -51,8 +51,8 @@ class Issue:
         """One line, whatever the file held: control characters in a key, a file
         name or a message are escaped, and a key of thousands of characters is cut."""
         where = self.file if self.line is None else f"{self.file}:{self.line}"
-        text = f"{where}: {_cut(self.field)}: {self.message}" if self.field else f"{where}: {self.message}"
-        return _one_line(text)
+        field = f"{_cut(self.field)}: " if self.field else ""
+        return _one_line(f"{where}: {field}{self.message}")
 
 
 #: Longest key or value quoted in a message, in characters.
