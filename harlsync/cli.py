@@ -517,6 +517,12 @@ _COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
 ]
 
 
+def _one_line(exc: BaseException) -> str:
+    """An error as one line for stderr and cron mail, whatever text it carries
+    (an OS message, a file name with a newline in it)."""
+    return "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="harlsync",
@@ -553,10 +559,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except (InterlockError, PolicyError) as exc:
-        print(f"harlsync: refused: {exc}", file=sys.stderr)
+        print(f"harlsync: refused: {_one_line(exc)}", file=sys.stderr)
         return EXIT_REFUSED
     except HarlsyncError as exc:
-        print(f"harlsync: error: {exc}", file=sys.stderr)
+        print(f"harlsync: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:
         print("harlsync: interrupted", file=sys.stderr)

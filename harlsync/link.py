@@ -45,6 +45,7 @@ import logging
 import os
 import re
 import socket
+import stat
 import tempfile
 import threading
 import time
@@ -314,14 +315,24 @@ class Link:
                 f"name ({listing})",
                 port=url,
             )
+        if device and not _COM_RE.fullmatch(url):
+            what = _not_a_tty(url, exc)
+            if what:
+                return PortError(
+                    f"not a serial port ({what}); give the serial device the robot's cable is "
+                    "on, e.g. /dev/ttyUSB0 (ls /dev/ttyUSB* /dev/ttyACM* /dev/serial/by-id)",
+                    port=url,
+                )
         if device and not _COM_RE.fullmatch(url) and _has_errno(exc, errno.EACCES, PermissionError):
             return PortError(
                 "permission denied; add your user to the group that owns the device "
                 f"(ls -l {url}, usually dialout) and log in again",
                 port=url,
             )
-        # pyserial says "could not open port URL: why"; the port is named already.
-        why = re.sub(r"^could not open port .*?: ", "", text, count=1, flags=re.IGNORECASE)
+        # pyserial says "[Errno N] could not open port URL: why"; the port is named already.
+        why = re.sub(
+            r"^(?:\[Errno \d+\] )?could not open port .*?: ", "", text, count=1, flags=re.IGNORECASE
+        )
         return PortError(f"cannot open: {why}; {_open_hint(url)}", port=url)
 
     def _take_file_lock(self) -> None:
@@ -616,6 +627,24 @@ def _has_errno(exc: BaseException, number: int, kind: type[OSError]) -> bool:
     return any(
         getattr(e, "errno", None) == number or isinstance(e, kind) for e in _chain(exc)
     ) or kind.__name__ in str(exc)
+
+
+def _not_a_tty(path: str, exc: BaseException) -> str | None:
+    """What ``path`` is, when opening it failed because it is no terminal device
+    (pyserial's "Could not configure port: (25, 'Inappropriate ioctl ...')", or
+    "Is a directory")."""
+    codes = {getattr(e, "errno", None) or (e.args[:1] or (None,))[0] for e in _chain(exc)}
+    if not codes & {errno.ENOTTY, errno.EISDIR}:
+        return None
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return "not a terminal device"
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISREG(mode):
+        return "a regular file"
+    return "a device that is not a terminal"
 
 
 def _open_hint(url: str) -> str:

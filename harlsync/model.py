@@ -222,6 +222,9 @@ class OffsetTable:
 
     @classmethod
     def from_values(cls, values: list[str] | tuple[str, ...]) -> OffsetTable:
+        """From the 8 wire fields X Y Z W R C M F.  Raises ValueError for another count."""
+        if len(values) != len(OFFSET_FIELDS):
+            raise ValueError(f"{len(values)} values, expected {len(OFFSET_FIELDS)}: X Y Z W R C M F")
         return cls(*values)
 
     def problems(self) -> list[str]:
@@ -277,6 +280,9 @@ class Parameters:
 
     @classmethod
     def from_values(cls, values: list[str] | tuple[str, ...]) -> Parameters:
+        """From the 13 wire fields, in order.  Raises ValueError for another count."""
+        if len(values) != len(PARAMETER_NAMES):
+            raise ValueError(f"{len(values)} values, expected {len(PARAMETER_NAMES)} parameters")
         return cls(*values)
 
     def as_dict(self) -> dict[str, str]:

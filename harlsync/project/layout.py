@@ -365,19 +365,20 @@ def _migrate(name: str, kind: str, doc: y.Parsed, issues: list[Issue]) -> bool:
     value = doc.data.get("format")
     if not (isinstance(value, y.Number) and value.integral):
         return True  # the schema reports it
-    number = int(value)
     line = doc.line(("format",))
-    if number > FORMAT:
+    if value > FORMAT:  # compared as a Decimal: format 10**5000 has no str(int)
         issues.append(
             Issue(
                 name,
                 line,
                 None,
-                f"format {number} is newer than this harlsync understands ({FORMAT}): upgrade harlsync",
+                f"format {show(value)} is newer than this harlsync understands ({FORMAT}): "
+                "upgrade harlsync",
                 fatal=True,
             )
         )
         return False
+    number = int(value)
     while number < FORMAT:
         if number not in MIGRATIONS:
             issues.append(
@@ -400,11 +401,16 @@ def _get(doc: y.Parsed, key: str) -> Any:
     return doc.data.get(key) if isinstance(doc.data, dict) else None
 
 
-def _numbers(mapping: Any) -> list[int]:
-    """The keys of a numbered mapping that are numbers (the schema reports the rest)."""
+#: Stands for a numbered key too long to be any item (and to convert with int()).
+_HUGE = 10**9
+
+
+def _numbers(mapping: Any) -> list[tuple[str, int]]:
+    """The keys of a numbered mapping that are numbers, as (text, number); the schema
+    reports the rest.  A key of more than 9 digits counts as :data:`_HUGE`."""
     if not isinstance(mapping, dict):
         return []
-    return [int(k) for k in mapping if _DIGITS.fullmatch(k)]
+    return [(k, int(k) if len(k) <= 9 else _HUGE) for k in mapping if _DIGITS.fullmatch(k)]
 
 
 def _check_program_header(name: str, key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
@@ -453,17 +459,19 @@ def _check_numbered(
     """Every number 0..count-1 present under ``key``, and no other."""
     if not isinstance(_get(doc, key), dict):
         return
-    present = set(_numbers(_get(doc, key)))
-    for n in sorted(present - set(range(count))):
-        issues.append(
-            Issue(
-                name,
-                doc.line((key, str(n))),
-                f"{key}.{n}",
-                f"{what} {n} is outside the configuration (allowed: {_span(count)})",
+    numbers = _numbers(_get(doc, key))
+    for text, n in sorted(numbers, key=lambda item: (item[1], item[0])):
+        if n >= count:
+            issues.append(
+                Issue(
+                    name,
+                    doc.line((key, text)),
+                    f"{key}.{text}",
+                    f"{what} {show(y.Number(text))} is outside the configuration "
+                    f"(allowed: {_span(count)})",
+                )
             )
-        )
-    missing = set(range(count)) - present
+    missing = set(range(count)) - {n for _, n in numbers}
     if missing:
         issues.append(
             Issue(
@@ -507,14 +515,15 @@ def _check_against_config(
                 )
             )
             continue
-        for step in _numbers(_get(doc, "steps")):
+        for text, step in _numbers(_get(doc, "steps")):
             if step >= area.steps:
                 issues.append(
                     Issue(
                         name,
-                        doc.line(("steps", str(step))),
-                        f"steps.{step}",
-                        f"step {step} is outside the configuration (allowed: {_span(area.steps)})",
+                        doc.line(("steps", text)),
+                        f"steps.{text}",
+                        f"step {show(y.Number(text))} is outside the configuration "
+                        f"(allowed: {_span(area.steps)})",
                     )
                 )
     controller = docs["controller.yaml"]

@@ -11,6 +11,7 @@ leaf carries an ``x-allowed`` annotation quoted in error messages.
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from decimal import Decimal
 from functools import cache
@@ -47,10 +48,26 @@ class Issue:
     fatal: bool = False
 
     def __str__(self) -> str:
+        """One line, whatever the file held: control characters in a key, a file
+        name or a message are escaped, and a key of thousands of characters is cut."""
         where = self.file if self.line is None else f"{self.file}:{self.line}"
-        return (
-            f"{where}: {self.field}: {self.message}" if self.field else f"{where}: {self.message}"
-        )
+        field = f"{_cut(self.field)}: " if self.field else ""
+        return _one_line(f"{where}: {field}{self.message}")
+
+
+#: Longest key or value quoted in a message, in characters.
+MAX_SHOWN = 80
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+
+
+def _one_line(text: str) -> str:
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100
+                        else f"\\u{ord(m.group()):04x}", text)
+
+
+def _cut(text: str) -> str:
+    return text if len(text) <= MAX_SHOWN else text[: MAX_SHOWN - 3] + "..."
 
 
 def schema_text(kind: str) -> str:
@@ -134,13 +151,13 @@ _RANGE = {"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"}
 def show(value: object) -> str:
     """A value as the user wrote it, for messages."""
     if isinstance(value, Number):
-        return value.text
+        return _cut(value.text)
     if isinstance(value, bool):
         return "true" if value else "false"
     if value is None:
         return "nothing"
     if isinstance(value, str):
-        return repr(value)
+        return repr(value) if len(value) <= MAX_SHOWN else repr(value[: MAX_SHOWN - 3]) + "..."
     if isinstance(value, dict):
         return "a mapping"
     if isinstance(value, list):

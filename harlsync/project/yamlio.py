@@ -11,7 +11,10 @@ Python objects: :func:`parse` composes the node tree and builds the data itself.
   source text (``1.50`` stays ``"1.50"``, ``0012`` stays ``"0012"``);
 - every mapping key becomes its text (``7`` -> ``"7"``), so the data looks like
   JSON to the schema validator, and a key written twice is reported with both lines;
-- the line of every path is recorded for error messages.
+- the line of every path is recorded for error messages;
+- hostile input is refused as a syntax error, never a crash or a hang: nesting
+  deeper than :data:`MAX_DEPTH`, and aliases that expand to more values than the
+  text could hold (a "billion laughs"), see :data:`ALIAS_BUDGET`.
 
 Writing goes the other way: callers build nodes with :func:`num`, :func:`text`,
 :func:`mapping` ... and :func:`dump` serializes them with the same resolver, so a
@@ -30,11 +33,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import yaml
-from yaml.composer import Composer
+from yaml.composer import Composer, ComposerError
 from yaml.emitter import Emitter
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from yaml.parser import Parser
-from yaml.reader import Reader
+from yaml.reader import Reader, ReaderError
 from yaml.resolver import BaseResolver
 from yaml.scanner import Scanner
 from yaml.serializer import Serializer
@@ -66,6 +69,12 @@ SEQ = "tag:yaml.org,2002:seq"
 
 #: A location in the data: mapping keys (text) and sequence indexes.
 KeyPath = tuple[str | int, ...]
+
+#: Deepest nesting of lists and mappings a project file may have (they need 4).
+MAX_DEPTH = 64
+#: Values an alias may add beyond one per character of the text (a document
+#: without aliases never has more values than characters).
+ALIAS_BUDGET = 10_000
 
 _DECIMAL_INT = re.compile(r"[-+]?[0-9]+")
 _DECIMAL_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
@@ -127,7 +136,8 @@ CoreResolver.add_implicit_resolver(
 
 
 class _Loader(Reader, Scanner, Parser, Composer, CoreResolver):
-    """Reads a node tree; constructs nothing."""
+    """Reads a node tree; constructs nothing.  Refuses nesting deeper than MAX_DEPTH
+    (PyYAML's composer recurses: deeper input would raise RecursionError)."""
 
     def __init__(self, stream: str) -> None:
         Reader.__init__(self, stream)
@@ -135,6 +145,20 @@ class _Loader(Reader, Scanner, Parser, Composer, CoreResolver):
         Parser.__init__(self)
         Composer.__init__(self)
         CoreResolver.__init__(self)
+        self._depth = 0
+
+    def compose_node(self, parent: Node | None, index: Any) -> Node | None:
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH + 1:
+                raise ComposerError(
+                    None, None, f"nested more than {MAX_DEPTH} levels deep",
+                    self.peek_event().start_mark,
+                )
+            node: Node | None = super().compose_node(parent, index)  # type: ignore[no-untyped-call]
+            return node
+        finally:
+            self._depth -= 1
 
 
 try:
@@ -189,11 +213,18 @@ def parse(source: str) -> Parsed:
     if _FastLoader is not None:
         try:
             node = _compose(_FastLoader(source))
-        except yaml.YAMLError:
+        except (yaml.YAMLError, RecursionError):
             pass  # report it as the pure-Python parser words it, on every install
     if node is None:
         try:
             node = _compose(_Loader(source))
+        except ReaderError as exc:
+            # Its str() is two lines and names a character position: say the line.
+            line = source.count("\n", 0, exc.position) + 1
+            raise YamlSyntaxError(
+                line, f"unacceptable character #x{exc.character:04x}: control characters "
+                "are not allowed"
+            ) from None
         except yaml.MarkedYAMLError as exc:
             mark = exc.problem_mark or exc.context_mark
             line = mark.line + 1 if mark is not None else 1
@@ -205,8 +236,25 @@ def parse(source: str) -> Parsed:
             raise YamlSyntaxError(1, str(exc)) from None
     parsed = Parsed(None)
     if node is not None:
-        parsed.data = _build(node, (), parsed, set())
+        budget = _Budget(len(source) + ALIAS_BUDGET)
+        parsed.data = _build(node, (), parsed, set(), budget)
     return parsed
+
+
+class _Budget:
+    """How many more values :func:`_build` may make (aliases can multiply them)."""
+
+    def __init__(self, values: int) -> None:
+        self.left = values
+
+    def spend(self, node: Node) -> None:
+        self.left -= 1
+        if self.left < 0:
+            raise YamlSyntaxError(
+                _line(node),
+                "aliases expand to far more values than the file holds (a 'billion laughs'); "
+                "write the values out instead of repeating aliases",
+            )
 
 
 def _compose(loader: Any) -> Node | None:
@@ -221,18 +269,23 @@ def _line(node: Node) -> int:
     return node.start_mark.line + 1
 
 
-def _build(node: Node, path: KeyPath, out: Parsed, active: set[int]) -> Any:
+def _build(node: Node, path: KeyPath, out: Parsed, active: set[int], budget: _Budget) -> Any:
+    budget.spend(node)
     out.lines.setdefault(path, _line(node))
     if isinstance(node, ScalarNode):
         return _scalar(node)
     if id(node) in active:
         raise YamlSyntaxError(_line(node), "recursive alias")
+    if len(active) >= MAX_DEPTH:  # libyaml composes deeper than the pure-Python loader
+        raise YamlSyntaxError(_line(node), f"nested more than {MAX_DEPTH} levels deep")
     active.add(id(node))
     try:
         if isinstance(node, SequenceNode):
             if node.tag != SEQ:
                 raise YamlSyntaxError(_line(node), f"unsupported tag {node.tag}")
-            return [_build(item, (*path, i), out, active) for i, item in enumerate(node.value)]
+            return [
+                _build(item, (*path, i), out, active, budget) for i, item in enumerate(node.value)
+            ]
         if node.tag != MAP:
             raise YamlSyntaxError(_line(node), f"unsupported tag {node.tag}")
         result: dict[str, Any] = {}
@@ -245,7 +298,7 @@ def _build(node: Node, path: KeyPath, out: Parsed, active: set[int]) -> Any:
                 out.duplicates.append((key_path, out.lines[key_path], _line(key_node)))
                 continue
             out.lines[key_path] = _line(key_node)
-            result[key] = _build(value_node, key_path, out, active)
+            result[key] = _build(value_node, key_path, out, active, budget)
         return result
     finally:
         active.discard(id(node))
@@ -269,9 +322,12 @@ def _scalar(node: ScalarNode) -> Any:
 
 def _key(node: ScalarNode) -> str:
     """A key's text; integer keys are normalised (``07`` and ``7`` are the same key)."""
-    if node.tag == INT and _DECIMAL_INT.fullmatch(node.value):
-        return str(int(node.value))
-    return str(node.value)
+    value = str(node.value)
+    if node.tag == INT and _DECIMAL_INT.fullmatch(value):
+        # As str(int(value)), without int(): a key of 5000 digits is still a key.
+        digits = value.lstrip("+-").lstrip("0") or "0"
+        return "-" + digits if value.startswith("-") and digits != "0" else digits
+    return value
 
 
 # -- writing ---------------------------------------------------------------------

@@ -115,6 +115,8 @@ class FrameDecoder:
                 self.dropped += start
                 del buf[:start]
             # buf[0] is STX: look for ETX, but a new STX first means this frame was cut.
+            # The length limit counts from the STX whatever the chunks were: a frame
+            # fed whole must not pass where the same bytes fed one by one would not.
             end = -1
             for i in range(1, len(buf)):
                 b = buf[i]
@@ -125,11 +127,11 @@ class FrameDecoder:
                     self.dropped += i
                     del buf[:i]
                     break
-            else:
-                if len(buf) > self._max:
-                    self.dropped += len(buf)
-                    buf.clear()
+                if i >= self._max:
+                    self.dropped += i + 1
+                    del buf[: i + 1]
                     raise FrameError(f"no ETX within {self._max} bytes: frame dropped")
+            else:
                 return None
             if end < 0:
                 continue  # cut frame dropped; rescan from the new STX

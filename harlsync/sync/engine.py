@@ -37,8 +37,12 @@ from ..controller import Controller
 from ..errors import (
     HarlsyncError,
     InterlockError,
+    LinkTimeout,
     PolicyError,
+    PortBusyError,
+    PortError,
     ProjectError,
+    ReplyError,
     StalePlanError,
     SyncError,
     VerifyError,
@@ -316,10 +320,26 @@ def _check_window(robot: Robot, opts: PushOptions) -> None:
         )
 
 
+def _no_answer(exc: HarlsyncError) -> bool:
+    """The line failed without any robot answering: the port, or silence (wrong
+    station, cable, baud) rather than an LNR reply that makes no sense."""
+    if isinstance(exc, LinkTimeout):
+        return not isinstance(exc.__cause__, ReplyError)
+    return isinstance(exc, PortError | PortBusyError)
+
+
 def _interlock(driver: Driver, robot: Robot, before: str) -> None:
+    """Raise InterlockError unless LNR shows every task known and idle.
+
+    When no robot answers at all the link's own error goes through (exit 2, like
+    diff and pull): nothing can be written either way, and "refused for safety"
+    would send the reader looking for a running task instead of at the port.
+    """
     try:
         status = driver.status()
     except HarlsyncError as exc:
+        if _no_answer(exc):
+            raise
         raise InterlockError(
             f"robot {robot.name} ({driver.label}): cannot read the task states before "
             f"{before} ({exc}); not writing"
