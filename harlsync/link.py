@@ -446,9 +446,11 @@ class Link:
     def _send(self, port: Any, frame: bytes, station: int, request: Request) -> float:
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", self.url, _hex(frame))
+        # No flush(): tcdrain waits, without any timeout, until the UART has sent the
+        # frame (for ever if flow control holds it), and the reply deadline is far
+        # longer than a request's time on the wire (1 s against 12 ms at 9600 baud).
         try:
             port.write(frame)
-            port.flush()
         except serial.SerialTimeoutException as exc:
             raise PortError(
                 f"write timed out after {self._write_timeout:g} s: the line takes no data; check "
