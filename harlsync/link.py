@@ -43,6 +43,7 @@ import hashlib
 import logging
 import os
 import re
+import select
 import socket
 import tempfile
 import threading
@@ -175,6 +176,7 @@ class Link:
         self.late_window = settings.timeout if late_window is None else late_window
         self.stats = LinkStats()
         self._port: Any = None  # serial.SerialBase once open
+        self._fd: int | None = None  # the port's file descriptor, when select() can wait on it
         self._file_lock: filelock.BaseFileLock | None = None
         self._lock = threading.RLock()
         self._decoder = FrameDecoder()
@@ -203,6 +205,7 @@ class Link:
             except BaseException:
                 self._release_file_lock()
                 raise
+            self._fd = _fileno(self._port)
             self._decoder = FrameDecoder()
             self._rx.clear()
             self._dropped_seen = 0
@@ -219,7 +222,7 @@ class Link:
         error that is already on its way out.  It is logged as a warning.
         """
         with self._lock:
-            port, self._port = self._port, None
+            port, self._port, self._fd = self._port, None, None
             try:
                 if port is not None:
                     port.close()
@@ -466,6 +469,11 @@ class Link:
     def _read(self, port: Any, station: int, request: Request, *, block: bool) -> bytes:
         """Whatever input is there; with ``block``, wait up to one poll for a byte."""
         try:
+            if block and self._fd is not None:
+                # One select, then one read of all that came: a blocking read(1) and a
+                # second read of the rest would cost two more syscalls per wake-up.
+                select.select([self._fd], [], [], POLL_INTERVAL)
+                block = False
             waiting = port.in_waiting
             data: bytes = port.read(waiting or 1) if waiting or block else b""
             if data and not waiting and port.in_waiting:  # the rest of what arrived with it
@@ -581,6 +589,16 @@ class Link:
                 self._count_noise()
                 return failure
             self._read(port, station, request, block=True)
+
+
+def _fileno(port: Any) -> int | None:
+    """The descriptor of a device or socket:// port; None for ports without one
+    (sim://, loop://, rfc2217://), which the link waits on with a timed read."""
+    try:
+        fd = port.fileno()
+    except (AttributeError, OSError, ValueError, serial.SerialException):
+        return None
+    return fd if isinstance(fd, int) and fd >= 0 else None
 
 
 def _hex(data: bytes) -> str:
