@@ -81,16 +81,27 @@ class ReplyScheduler:
         self._cond = threading.Condition()
         self._closed = False
         self._line_free = 0.0  # when the last byte queued so far has crossed the line
+        #: paced writes made, and by how many seconds they missed their deadline in
+        #: total and at worst: what the emulation itself adds to a measurement
+        self.writes = 0
+        self.late_total = 0.0
+        self.late_worst = 0.0
         self._thread = threading.Thread(target=self._run, name="sim-replies", daemon=True)
         self._thread.start()
 
-    def put(self, chunks: list[tuple[float, bytes]]) -> None:
+    def put(self, chunks: list[tuple[float, bytes]], since: float | None = None) -> None:
+        """Queue ``chunks``; their delays count from ``since`` (default: now).
+
+        Pass the time the request was read, so that the simulator's own time to
+        answer is not added to the line's.
+        """
         if not chunks:
             return
         now = time.monotonic()
+        start = now if since is None else since
         with self._cond:
             for delay, data in chunks:
-                end = max(now + delay, self._line_free + len(data) * self._char_time)
+                end = max(start + delay, self._line_free + len(data) * self._char_time)
                 self._line_free = end
                 if end <= now and not self._queue:
                     self._send(data)
@@ -134,10 +145,14 @@ class ReplyScheduler:
                 if wait > SPIN:
                     self._cond.wait(wait - SPIN)
                     continue
-                while time.monotonic() < due:
-                    pass  # at most SPIN: cheaper than oversleeping
+                now = time.monotonic()
+                while now < due:  # at most SPIN: cheaper than oversleeping
+                    now = time.monotonic()
                 self._queue.popleft()
                 self._send(data)
+                self.writes += 1
+                self.late_total += now - due
+                self.late_worst = max(self.late_worst, now - due)
 
 
 class PtyServer:
@@ -178,7 +193,13 @@ class PtyServer:
                 data = os.read(self._master, 4096)
             except OSError:
                 continue
-            self._replies.put(self.sim.receive(data))
+            received = time.monotonic()
+            self._replies.put(self.sim.receive(data), received)
+
+    @property
+    def replies(self) -> ReplyScheduler | None:
+        """The scheduler writing the replies (its lateness figures), once started."""
+        return self._replies
 
     def stop(self) -> None:
         self._stop.set()
@@ -258,7 +279,8 @@ class TcpServer:
                     break
                 if not data:
                     break
-                replies.put(self.sim.receive(data, decoder))
+                received = time.monotonic()
+                replies.put(self.sim.receive(data, decoder), received)
         finally:
             replies.close()
             conn.close()
