@@ -1,11 +1,25 @@
-"""What the bench scripts print first: when, on what, with which Python."""
+"""What the bench scripts share: the machine they ran on, the robots they read,
+and a simulator served from a process of its own."""
 
 from __future__ import annotations
 
+import json
 import os
 import platform
 import resource
+import subprocess
+import sys
+import time
+from collections.abc import Callable
 from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from harlsync.model import Config, ProgramArea, Step
+from harlsync.sim import DEFAULT_CONFIG, SimState
+
+BENCH = Path(__file__).resolve().parent
+BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
 
 
 def describe() -> str:
@@ -17,9 +31,13 @@ def describe() -> str:
             )
     except (OSError, StopIteration):
         pass
+    load = ""
+    if hasattr(os, "getloadavg"):
+        one, five, fifteen = os.getloadavg()
+        load = f" load {one:.1f} {five:.1f} {fifteen:.1f},"
     return (
         f"{datetime.now():%Y-%m-%d %H:%M}, {platform.system()} {platform.release()}, "
-        f"{os.cpu_count()} cores ({cpu}), Python {platform.python_version()}"
+        f"{os.cpu_count()} cores ({cpu}),{load} Python {platform.python_version()}"
     )
 
 
@@ -27,3 +45,134 @@ def peak_rss_mib() -> float:
     """This process's peak resident set size so far, in MiB (Linux reports KiB)."""
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / (1024 * 1024 if platform.system() == "Darwin" else 1024)
+
+
+def minutes(seconds: float) -> str:
+    return f"{seconds / 60:.1f} min" if seconds >= 60 else f"{seconds:.1f} s"
+
+
+# --- robots ------------------------------------------------------------------------------
+
+#: The manual's default ranges at their largest: programs 0-15, steps 0-255,
+#: timers 0-15, memory bits 256-383, registers 0-63.
+MAX_CONFIG = Config(
+    start=ProgramArea(1, 256),
+    main=ProgramArea(16, 256),
+    sub=ProgramArea(16, 256),
+    hand=ProgramArea(16, 256),
+    timers=16,
+    memory_bits=128,
+    registers=64,
+)
+
+
+def every_step_used(config: Config = MAX_CONFIG) -> SimState:
+    """A robot with every step holding a command (a generated robot uses about one
+    step in twenty, and an empty step's reply is shorter): the worst case on the wire."""
+    state = SimState.generate(1, config)
+    for ptype, number in config.programs():
+        steps = config.area(ptype).steps
+        program = {
+            n: Step("MOVE", (f"P{(n * 37 + number) % 1000:03d}", "S100")) for n in range(steps)
+        }
+        program[steps - 1] = Step("END")
+        state.data.programs[(ptype, number)] = program
+    return state
+
+
+#: A few hundred exchanges: for trying the scripts out.
+SMALL_CONFIG = Config(
+    start=ProgramArea(1, 32),
+    main=ProgramArea(2, 32),
+    sub=ProgramArea(2, 16),
+    hand=ProgramArea(1, 16),
+    timers=16,
+    memory_bits=128,
+    registers=64,
+)
+
+ROBOTS: dict[str, Callable[[], SimState]] = {
+    "default": lambda: SimState.generate(1, DEFAULT_CONFIG),
+    "maximum": lambda: SimState.generate(1, MAX_CONFIG),
+    "max-full": every_step_used,
+    # Every step used, smaller configurations: quick stand-ins for max-full.
+    "default-full": lambda: every_step_used(DEFAULT_CONFIG),
+    "small-full": lambda: every_step_used(SMALL_CONFIG),
+}
+
+
+# --- a simulator in its own process -----------------------------------------------------
+
+
+class SimProcess:
+    """``bench/simserver.py`` in a child process: ``lines`` simulated robots, each on
+    its own pty (or TCP port), so that the client under test and the simulator do
+    not share a GIL.  ``ports`` are what the client opens; :meth:`stats` is what
+    each line's simulator counted so far, :meth:`reset` zeroes it.
+    """
+
+    def __init__(
+        self, robot: str, *, baud: int = 0, lines: int = 1, tcp: bool = False, tick: float = 0.0
+    ) -> None:
+        command = [sys.executable, str(BENCH / "simserver.py"), robot, "--baud", str(baud),
+                   "--lines", str(lines)]
+        if tcp:
+            command.append("--tcp")
+        if tick:
+            command += ["--tick", str(tick)]
+        self._proc = subprocess.Popen(
+            command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1
+        )
+        self.ports: list[str] = self._answer()["ports"]
+
+    def _answer(self) -> Any:
+        assert self._proc.stdout is not None
+        line = self._proc.stdout.readline()
+        if not line:
+            raise RuntimeError(f"simserver exited with {self._proc.wait()}")
+        return json.loads(line)
+
+    def _ask(self, command: str) -> Any:
+        assert self._proc.stdin is not None
+        self._proc.stdin.write(command + "\n")
+        return self._answer()
+
+    def stats(self) -> list[dict[str, int]]:
+        """Per line: ``exchanges``, ``bytes_in``, ``bytes_out``, ``letters`` (request counts)."""
+        result: list[dict[str, int]] = self._ask("stats")
+        return result
+
+    def reset(self) -> None:
+        self._ask("reset")
+
+    def close(self) -> None:
+        if self._proc.stdin:
+            self._proc.stdin.close()
+        try:
+            self._proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.wait()
+
+    def __enter__(self) -> SimProcess:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def timed_pull(port: str, into: Path) -> tuple[float, float]:
+    """``harlsync.sync.engine.pull`` of ``port`` into a new directory ``into``:
+    (seconds until the last item was read, seconds for the whole pull)."""
+    from harlsync.sync.engine import pull
+
+    os.environ.setdefault("HARLSYNC_LOCK_DIR", str(into.parent / "locks"))
+    read_done = 0.0
+
+    def progress(done: int, total: int) -> None:
+        nonlocal read_done
+        read_done = time.perf_counter()
+
+    start = time.perf_counter()
+    pull(into, port=port, progress=progress)
+    return read_done - start, time.perf_counter() - start

@@ -26,65 +26,30 @@ import sys
 import tempfile
 import time
 import tracemalloc
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from machine import describe, peak_rss_mib
+from machine import BITS_PER_BYTE, ROBOTS, describe, minutes, peak_rss_mib
 
-from harlsync.model import Config, ProgramArea, Step
 from harlsync.protocol import FrameDecoder
-from harlsync.sim import DEFAULT_CONFIG, SimState, Simulator
+from harlsync.sim import Simulator
 from harlsync.sim.protocol_sim import register
 from harlsync.sim.serve import TcpServer
 from harlsync.sync.engine import pull
 
-#: The manual's default ranges at their largest: programs 0-15, steps 0-255,
-#: timers 0-15, memory bits 256-383, registers 0-63.
-MAX_CONFIG = Config(
-    start=ProgramArea(1, 256),
-    main=ProgramArea(16, 256),
-    sub=ProgramArea(16, 256),
-    hand=ProgramArea(16, 256),
-    timers=16,
-    memory_bits=128,
-    registers=64,
-)
-
-
-def every_step_used() -> SimState:
-    """The maximum configuration with every step holding a command (a generated robot
-    uses about one step in twenty, and an empty step's reply is shorter)."""
-    state = SimState.generate(1, MAX_CONFIG)
-    for ptype, number in MAX_CONFIG.programs():
-        steps = MAX_CONFIG.area(ptype).steps
-        program = {
-            n: Step("MOVE", (f"P{(n * 37 + number) % 1000:03d}", "S100")) for n in range(steps)
-        }
-        program[steps - 1] = Step("END")
-        state.data.programs[(ptype, number)] = program
-    return state
-
-
-ROBOTS: dict[str, Callable[[], SimState]] = {
-    "default": lambda: SimState.generate(1, DEFAULT_CONFIG),
-    "maximum": lambda: SimState.generate(1, MAX_CONFIG),
-    "max-full": every_step_used,
-}
+#: This script's robots (bench/machine.py has them all).
+PULL_ROBOTS = ("default", "maximum", "max-full")
 BAUD = 9600
-BITS_PER_BYTE = 10  # start bit, 8 data bits, stop bit
 
 
 class MeteredSimulator(Simulator):
-    """The simulator, counting exchanges and bytes each way.
+    """The simulator, counting exchanges (it counts bytes each way itself).
 
     It keeps no request record (``received``), so that what is measured is the
     client's memory, not the simulator's log of 12,000 requests.
     """
 
     exchanges = 0
-    bytes_in = 0
-    bytes_out = 0
 
     def receive(
         self, data: bytes, decoder: FrameDecoder | None = None
@@ -92,8 +57,6 @@ class MeteredSimulator(Simulator):
         chunks = super().receive(data, decoder)
         self.exchanges += len(self.received)
         self.received.clear()
-        self.bytes_in += len(data)
-        self.bytes_out += sum(len(chunk) for _, chunk in chunks)
         return chunks
 
 
@@ -179,10 +142,6 @@ def show(rows: list[dict[str, Any]]) -> None:
         )
 
 
-def minutes(seconds: float) -> str:
-    return f"{seconds / 60:.1f} min" if seconds >= 60 else f"{seconds:.1f} s"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     mode = parser.add_mutually_exclusive_group()
@@ -205,7 +164,7 @@ def main() -> None:
     # What a pull allocates does not depend on the transport: trace it over sim:// only.
     rows = [
         in_child(robot, transport, repeat, trace and transport == "sim")
-        for robot in ROBOTS
+        for robot in PULL_ROBOTS
         for transport in ("sim", "tcp")
     ]
     show(rows)

@@ -163,7 +163,8 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
                     "before any robot ran.",
     )
     p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
-    p.add_argument("--jobs", type=int, default=4, metavar="N", help="robots pulled at once (default 4)")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="lines read at once (default: every line at once)")
     p.add_argument("--commit", action="store_true",
                    help="one git commit for the run, listing which robots changed and how much")
     p.add_argument("--push", action="store_true", help="git push after committing (needs --commit)")

@@ -44,6 +44,7 @@ import ipaddress
 import logging
 import os
 import re
+import select
 import socket
 import stat
 import tempfile
@@ -53,11 +54,12 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
 import filelock
 import serial
+from serial.urlhandler import protocol_socket
 
 from .errors import (
     LinkError,
@@ -177,6 +179,7 @@ class Link:
         self.late_window = settings.timeout if late_window is None else late_window
         self.stats = LinkStats()
         self._port: Any = None  # serial.SerialBase once open
+        self._fd: int | None = None  # the port's file descriptor, when select() can wait on it
         self._file_lock: filelock.BaseFileLock | None = None
         self._lock = threading.RLock()
         self._decoder = FrameDecoder()
@@ -205,6 +208,7 @@ class Link:
             except BaseException:
                 self._release_file_lock()
                 raise
+            self._fd = _fileno(self._port)
             self._decoder = FrameDecoder()
             self._rx.clear()
             self._dropped_seen = 0
@@ -221,7 +225,7 @@ class Link:
         error that is already on its way out.  It is logged as a warning.
         """
         with self._lock:
-            port, self._port = self._port, None
+            port, self._port, self._fd = self._port, None, None
             try:
                 if port is not None:
                     port.close()
@@ -244,7 +248,11 @@ class Link:
     def _open_port(self) -> Any:
         s = self.settings
         try:
-            port = serial.serial_for_url(self.url, do_not_open=True)
+            if self.url.lower().startswith("socket://"):
+                port = _SocketPort(None)
+                port.port = self.url
+            else:
+                port = serial.serial_for_url(self.url, do_not_open=True)
         except Exception as exc:  # ValueError for an unknown scheme, SerialException for a bad URL
             raise self._open_error(exc) from exc
         try:
@@ -458,9 +466,11 @@ class Link:
     def _send(self, port: Any, frame: bytes, station: int, request: Request) -> float:
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", self.url, _hex(frame))
+        # No flush(): tcdrain waits, without any timeout, until the UART has sent the
+        # frame (for ever if flow control holds it), and the reply deadline is far
+        # longer than a request's time on the wire (1 s against 12 ms at 9600 baud).
         try:
             port.write(frame)
-            port.flush()
         except serial.SerialTimeoutException as exc:
             raise PortError(
                 f"write timed out after {self._write_timeout:g} s: the line takes no data; check "
@@ -476,6 +486,11 @@ class Link:
     def _read(self, port: Any, station: int, request: Request, *, block: bool) -> bytes:
         """Whatever input is there; with ``block``, wait up to one poll for a byte."""
         try:
+            if block and self._fd is not None:
+                # One select, then one read of all that came: a blocking read(1) and a
+                # second read of the rest would cost two more syscalls per wake-up.
+                select.select([self._fd], [], [], POLL_INTERVAL)
+                block = False
             waiting = port.in_waiting
             data: bytes = port.read(waiting or 1) if waiting or block else b""
             if data and not waiting and port.in_waiting:  # the rest of what arrived with it
@@ -591,6 +606,47 @@ class Link:
                 self._count_noise()
                 return failure
             self._read(port, station, request, block=True)
+
+
+class _SocketPort(protocol_socket.Serial):  # type: ignore[misc]
+    """pyserial's ``socket://`` port, whose close() does not sleep.
+
+    pyserial sleeps 0.3 s after every close, "in case of quick reconnects, give
+    the server some time": every command, and every robot of a backup, paid it.
+    Here only a reconnect to the same address within that time waits for the rest.
+    """
+
+    REOPEN_GAP = 0.3
+    _closed_at: ClassVar[dict[str, float]] = {}  # address -> when last closed
+
+    def open(self) -> None:
+        address = lock_key(self.portstr or "") or ""
+        wait = self._closed_at.get(address, 0.0) + self.REOPEN_GAP - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        super().open()
+
+    def close(self) -> None:
+        sock: socket.socket | None = getattr(self, "_socket", None)
+        if sock is not None:
+            try:
+                sock.shutdown(socket.SHUT_RDWR)
+                sock.close()
+            except OSError:
+                pass
+            self._socket = None
+            self._closed_at[lock_key(self.portstr or "") or ""] = time.monotonic()
+        self.is_open = False
+
+
+def _fileno(port: Any) -> int | None:
+    """The descriptor of a device or socket:// port; None for ports without one
+    (sim://, loop://, rfc2217://), which the link waits on with a timed read."""
+    try:
+        fd = port.fileno()
+    except (AttributeError, OSError, ValueError, serial.SerialException):
+        return None
+    return fd if isinstance(fd, int) and fd >= 0 else None
 
 
 def _hex(data: bytes) -> str:

@@ -15,6 +15,8 @@ frame is consumed, so the next call goes on with the bytes after it.
 
 from __future__ import annotations
 
+import operator
+import re
 from dataclasses import dataclass
 from functools import reduce
 
@@ -26,7 +28,7 @@ __all__ = ["Frame", "FrameDecoder", "encode_frame", "lrc"]
 
 def lrc(body: bytes) -> int:
     """XOR of every byte of ``body`` (the bytes after STX through ETX inclusive)."""
-    return reduce(lambda acc, b: acc ^ b, body, 0)
+    return reduce(operator.xor, body, 0)
 
 
 def _lrc_bytes(value: int) -> bytes:
@@ -34,6 +36,9 @@ def _lrc_bytes(value: int) -> bytes:
         return f"{value:02X}".encode("ascii")
     return bytes([value])
 
+
+#: A byte a payload cannot hold: anything but printable ASCII.
+_NOT_PRINTABLE = re.compile(rb"[^\x20-\x7e]")
 
 _LRC_LEN = 2 if profile.LRC_ENCODING == "hex" else 1
 
@@ -68,7 +73,7 @@ def encode_frame(station: int, payload: str) -> bytes:
         raw = payload.encode("ascii")
     except UnicodeEncodeError as exc:
         raise FrameError(f"payload {payload!r} is not ASCII") from exc
-    if any(b < 0x20 or b > 0x7E for b in raw):
+    if _NOT_PRINTABLE.search(raw):
         raise FrameError(f"payload {payload!r} holds a control character")
     body = f"{station} ".encode("ascii") + raw + bytes([profile.ETX])
     return bytes([profile.STX]) + body + _lrc_bytes(lrc(body))
@@ -117,24 +122,19 @@ class FrameDecoder:
             # buf[0] is STX: look for ETX, but a new STX first means this frame was cut.
             # The length limit counts from the STX whatever the chunks were: a frame
             # fed whole must not pass where the same bytes fed one by one would not.
-            end = -1
-            for i in range(1, len(buf)):
-                b = buf[i]
-                if b == profile.ETX:
-                    end = i
-                    break
-                if b == profile.STX:
-                    self.dropped += i
-                    del buf[:i]
-                    break
-                if i >= self._max:
-                    self.dropped += i + 1
-                    del buf[: i + 1]
-                    raise FrameError(f"no ETX within {self._max} bytes: frame dropped")
-            else:
-                return None
-            if end < 0:
+            limit = self._max + 1
+            end = buf.find(profile.ETX, 1, limit)
+            cut = buf.find(profile.STX, 1, end if end >= 0 else limit)
+            if cut > 0:
+                self.dropped += cut
+                del buf[:cut]
                 continue  # cut frame dropped; rescan from the new STX
+            if end < 0:
+                if len(buf) >= limit:
+                    self.dropped += limit
+                    del buf[:limit]
+                    raise FrameError(f"no ETX within {self._max} bytes: frame dropped")
+                return None
             if len(buf) < end + 1 + _LRC_LEN:
                 return None
             body = bytes(buf[1 : end + 1])
@@ -148,7 +148,7 @@ def _parse(body: bytes, got_lrc: bytes) -> Frame:
     text = body[:-1]
     if got_lrc != want:
         raise LRCError(f"LRC {got_lrc.hex()} does not match {want.hex()} for frame {_show(text)}")
-    if any(b < 0x20 or b > 0x7E for b in text):
+    if _NOT_PRINTABLE.search(text):
         raise FrameError(f"control or non-ASCII byte in frame {_show(text)}")
     head, sep, payload = text.decode("ascii").partition(" ")
     if not sep or not head.isdigit() or len(head) > 2:

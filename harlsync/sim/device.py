@@ -147,8 +147,10 @@ class Faults:
 class Simulator:
     """A simulated HNC controller: one serial line and the robots (stations) on it.
 
-    ``baudrate`` turns on wire-time emulation: each reply is due after the time the
-    request and the reply take on the wire at that speed, plus ``turnaround``.
+    ``baudrate`` turns on wire-time emulation: each reply's last byte is due after
+    the time the request and the reply take on the wire at that speed, plus
+    ``turnaround`` (the servers pace the bytes before it, see
+    :class:`~harlsync.sim.serve.ReplyScheduler`).
     ``auto_after_writes`` puts task 0 of the written station into automatic
     operation once that many SN writes have been answered (0 = never), so that
     interlocks can be tested mid-push.
@@ -176,6 +178,10 @@ class Simulator:
         self.listeners: list[Callable[[Received], None]] = []
         self.ignored = 0  # frames with a bad LRC, for another station, or malformed
         self.writes = 0
+        #: bytes received from the client, and reply bytes sent (before the server
+        #: writes them): what crossed the line each way
+        self.bytes_in = 0
+        self.bytes_out = 0
         self._clock = clock
         self._decoder = FrameDecoder()
         self.lock = threading.RLock()
@@ -193,6 +199,7 @@ class Simulator:
         out: list[tuple[float, bytes]] = []
         decoder = decoder or self._decoder
         with self.lock:
+            self.bytes_in += len(data)
             decoder.feed(data)
             while True:
                 try:
@@ -219,7 +226,14 @@ class Simulator:
                 self.received.append(record)
                 for listener in self.listeners:
                     listener(record)
-                out += [(wire + extra, chunk) for extra, chunk in chunks]
+                for extra, chunk in chunks:
+                    out.append((wire + extra, chunk))
+                    self.bytes_out += len(chunk)
+
+    @property
+    def char_time(self) -> float:
+        """Seconds one character takes on the emulated line (0: no emulation)."""
+        return self.bits_per_char / self.baudrate if self.baudrate else 0.0
 
     def _wire_time(self, nbytes: int) -> float:
         if not self.baudrate:
