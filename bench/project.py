@@ -1,7 +1,8 @@
 """How long load, validate, diff and save take on a full-size project, and their memory.
 
-    python bench/project.py              best of 5 (~30 s)
-    python bench/project.py --repeat 10  best of 10 (~45 s)
+    python bench/project.py              best of 5 (~15 s)
+    python bench/project.py --repeat 10  best of 10 (~25 s)
+    python bench/project.py --only load diff-1pct   some cases only
 
 The project is the largest default configuration of the manual with every step
 used (bench/pull.py's ``max-full`` robot): 49 programs x 256 steps = 12,544 steps,
@@ -158,15 +159,22 @@ def setup_case(case: str, path: Path) -> Callable[[], object]:
     raise ValueError(case)
 
 
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its finished children (harlsync validate)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
 def run_case(case: str, path: Path, repeat: int) -> dict[str, Any]:
     """One case in this process: the best time, the tracemalloc peak, the RSS."""
     action = setup_case(case, path)
     rss_before = peak_rss_mib()
-    times = []
+    times, cpu_times = [], []
     for _ in range(repeat):
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), _cpu_seconds()
         result = action()
         times.append(time.perf_counter() - start)
+        cpu_times.append(_cpu_seconds() - cpu_start)
     rss_after = peak_rss_mib()
     if case == "validate-cli":  # the peak of the largest child: one harlsync validate
         rss_before = None
@@ -182,6 +190,7 @@ def run_case(case: str, path: Path, repeat: int) -> dict[str, Any]:
         "case": case,
         "best": min(times),
         "median": sorted(times)[len(times) // 2],
+        "cpu": min(cpu_times),
         "traced": traced,
         "rss_before": rss_before,
         "rss_peak": rss_after,
@@ -200,7 +209,7 @@ def in_child(case: str, path: Path, repeat: int) -> dict[str, Any]:
 
 def show(rows: list[dict[str, Any]]) -> None:
     print(
-        f"{'case':13} {'what':44} {'best s':>7} {'median':>7} {'target':>7} {'':4} "
+        f"{'case':13} {'what':44} {'best s':>7} {'median':>7} {'CPU s':>6} {'target':>7} {'':4} "
         f"{'traced MiB':>10} {'RSS MiB':>7} {'(case +)':>8}"
     )
     for r in rows:
@@ -209,7 +218,7 @@ def show(rows: list[dict[str, Any]]) -> None:
         traced = "-" if r["traced"] is None else f"{r['traced']:.2f}"
         grown = "" if r["rss_before"] is None else f"(+{r['rss_peak'] - r['rss_before']:>5.1f})"
         print(
-            f"{r['case']:13} {what:44} {r['best']:>7.3f} {r['median']:>7.3f} "
+            f"{r['case']:13} {what:44} {r['best']:>7.3f} {r['median']:>7.3f} {r['cpu']:>6.3f} "
             f"{'-' if target is None else f'{target:.1f}':>7} {verdict:4} {traced:>10} "
             f"{r['rss_peak']:>7.1f} {grown:>8}"
         )
@@ -245,9 +254,10 @@ def main() -> None:
         rows = [in_child(case, path, args.repeat) for case in args.only or CASES]
     show(rows)
     print(
-        "\nEach case in its own interpreter.  traced MiB: tracemalloc peak of one run;"
-        "\nRSS MiB: the process's peak (validate-cli: the harlsync process's), (case +)"
-        "\nits growth during the timed runs, above what the case's inputs already took."
+        "\nEach case runs in its own interpreter.  best s, median: wall time of one run;"
+        "\nCPU s: the least CPU time of one run (steadier than wall time on a busy machine);"
+        "\ntraced MiB: tracemalloc peak of one more run; RSS MiB: the process's peak"
+        "\n(validate-cli: the harlsync process's); (case +): its growth during the timed runs."
     )
     print(f"ran in {time.perf_counter() - started:.0f} s")
 
