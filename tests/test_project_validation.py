@@ -326,6 +326,23 @@ def test_a_step_with_five_data_items_or_a_double_space_is_reported(root: Path) -
     ]
 
 
+def test_a_bad_step_number_and_a_bad_step_among_valid_ones_are_each_reported_issue_7(
+    root: Path,
+) -> None:
+    # The schema check passes a whole mapping at once while every key and value
+    # is valid (issue 7); one bad one must still be found and worded as before.
+    edit(root, "programs/start.yaml", "  5: JUMP 7", "  5a: JUMP 7")
+    edit(root, "programs/start.yaml", "  9: CALLS S02", "  9: CALLS\tS02")
+    allowed = (
+        "(allowed: a command and at most 4 data items, printable ASCII tokens separated by "
+        "single spaces)"
+    )
+    assert validate_project(root) == [
+        "programs/start.yaml:11: steps.5a: '5a' is not a valid key (allowed: step numbers 0, 1, 2, ...)",
+        f"programs/start.yaml:15: steps.9: 'CALLS\\tS02' is not allowed {allowed}",
+    ]
+
+
 def test_every_issue_of_every_file_is_reported_in_one_run(root: Path) -> None:
     edit(root, "robot.yaml", "  parity: N", "  parity: X")
     edit(root, "robot.yaml", 'start: "22:00"', "start: 25:00")

@@ -1,0 +1,266 @@
+"""How long load, validate, diff and save take on a full-size project, and their memory.
+
+    python bench/project.py              best of 5 (~15 s)
+    python bench/project.py --repeat 10  best of 10 (~25 s)
+    python bench/project.py --only load diff-1pct   some cases only
+
+The project is the largest default configuration of the manual with every step
+used (bench/pull.py's ``max-full`` robot): 49 programs x 256 steps = 12,544 steps,
+100 offset tables, 16 timers.  It is saved once into a temporary directory, and
+each case then runs in a fresh interpreter, so that its peak RSS is its own: the
+case ``--repeat`` times for the best time, then once more under tracemalloc for
+the peak of Python allocations.  See bench/README.md and docs/BENCHMARKS.md.
+
+Targets (issue 7): a diff in at most 0.2 s, load plus validate in at most 0.5 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+import tracemalloc
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from machine import describe, peak_rss_mib
+from pull import every_step_used
+
+from harlsync.model import RobotData, Step
+from harlsync.project import (
+    Project,
+    layout,
+    load_project,
+    new_robot,
+    save_project,
+    schema,
+    validate_project,
+    yamlio,
+)
+from harlsync.sync.engine import change_summary
+from harlsync.sync.items import diff, render_text, to_json
+
+DIFF_TARGET = 0.2
+LOAD_TARGET = 0.5
+
+
+def full_size() -> tuple[Project, RobotData]:
+    """The full-size project (not yet on disk) and the same robot with a change set:
+    1 % of the steps (110 edited, 15 cleared), 5 offset tables and 3 timers."""
+    data = every_step_used().data
+    robot = new_robot("max-full", "sim://?seed=1")
+    changed = replace(
+        data,
+        programs={key: dict(steps) for key, steps in data.programs.items()},
+        offsets=dict(data.offsets),
+        timers=dict(data.timers),
+    )
+    keys = list(changed.programs)
+    for i in range(125):
+        steps = changed.programs[keys[i * 7 % len(keys)]]
+        n = i * 53 % 255
+        if i < 110:
+            steps[n] = Step("MOVE", (steps[n].data[0], "S80"))
+        else:
+            del steps[n]
+    for n in (3, 17, 42, 64, 99):
+        changed.offsets[n] = replace(changed.offsets[n], x="123.45", f="7")
+    for n in (0, 5, 15):
+        changed.timers[n] = "0.75" if changed.timers[n] != "0.75" else "0.80"
+    return Project(Path(), robot, data), changed
+
+
+def _parse_all(path: Path) -> dict[str, tuple[str, yamlio.Parsed]]:
+    """Every project file read and parsed (no schema, no checks): name -> (kind, doc)."""
+    out = {}
+    for file in sorted(path.rglob("*.yaml")):
+        name = file.relative_to(path).as_posix()
+        if name.startswith(layout.SCHEMAS_DIR):
+            continue
+        kind = layout.ROOT_FILES.get(name, "program")
+        out[name] = (kind, yamlio.parse(file.read_text(encoding="utf-8")))
+    return out
+
+
+def _check_all(docs: dict[str, tuple[str, yamlio.Parsed]]) -> None:
+    """The schema check of every file, and the checks against controller.yaml."""
+    issues = [i for name, (kind, doc) in docs.items() for i in schema.check(kind, name, doc)]
+    config = layout._build_config(docs["controller.yaml"][1].data)
+    programs = {
+        layout.program_key(name): doc for name, (kind, doc) in docs.items() if kind == "program"
+    }
+    plain = {name: doc for name, (_, doc) in docs.items()}
+    layout._check_against_config(config, plain, programs, issues)  # type: ignore[arg-type]
+    assert not issues, issues
+
+
+def _cli(path: Path) -> Callable[[], object]:
+    command = [sys.executable, "-m", "harlsync", "validate", str(path)]
+    return lambda: subprocess.run(command, check=True)
+
+
+#: name -> (what it measures, target in seconds or None).
+CASES: dict[str, tuple[str, float | None]] = {
+    "parse": ("read + parse every YAML file (no checks)", None),
+    "check": ("schemas + checks against controller.yaml", None),
+    "load": ("load_project (push, diff, plan: validates)", LOAD_TARGET),
+    "validate": ("validate_project (harlsync validate)", LOAD_TARGET),
+    "validate-cli": ("`harlsync validate DIR`, whole process", LOAD_TARGET),
+    "diff-same": ("diff, identical robots", DIFF_TARGET),
+    "diff-1pct": ("diff, 1 % of steps, 5 tables, 3 timers", DIFF_TARGET),
+    "compare": ("diff + summary + text + JSON (no wire)", DIFF_TARGET),
+    "save-new": ("save_project into an empty directory", None),
+    "save-same": ("save_project, nothing changed", None),
+}
+
+
+def setup_case(case: str, path: Path) -> Callable[[], object]:
+    """What to time for ``case``, with everything it needs already built (only that,
+    so that the peak RSS of a load is the load's)."""
+    if case == "parse":
+        return lambda: _parse_all(path)
+    if case == "check":
+        docs = _parse_all(path)
+        return lambda: _check_all(docs)
+    if case == "load":
+        return lambda: load_project(path)
+    if case == "validate":
+        return lambda: validate_project(path)
+    if case == "validate-cli":
+        return _cli(path)
+    project, changed = full_size()
+    if case == "diff-same":
+        other = load_project(path).data
+        return lambda: diff(project.data, other)
+    if case == "diff-1pct":
+        return lambda: diff(project.data, changed)
+    if case == "compare":
+
+        def compare() -> object:
+            changes = diff(project.data, changed)
+            return (
+                change_summary(changes),
+                render_text(changes, "robot", "project"),
+                json.dumps([to_json(c) for c in changes]),
+            )
+
+        return compare
+    if case == "save-new":
+        counter = iter(range(1_000_000))  # beside the project, removed with it
+        return lambda: save_project(path.parent / f"save-new-{next(counter)}", project)
+    if case == "save-same":
+        return lambda: save_project(path, project)
+    raise ValueError(case)
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its finished children (harlsync validate)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
+def run_case(case: str, path: Path, repeat: int) -> dict[str, Any]:
+    """One case in this process: the best time, the tracemalloc peak, the RSS."""
+    action = setup_case(case, path)
+    rss_before = peak_rss_mib()
+    times, cpu_times = [], []
+    for _ in range(repeat):
+        start, cpu_start = time.perf_counter(), _cpu_seconds()
+        result = action()
+        times.append(time.perf_counter() - start)
+        cpu_times.append(_cpu_seconds() - cpu_start)
+    rss_after = peak_rss_mib()
+    if case == "validate-cli":  # the peak of the largest child: one harlsync validate
+        rss_before = None
+        rss_after = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    del result
+    traced = None
+    if case != "validate-cli":  # another process: tracemalloc cannot see it
+        tracemalloc.start()
+        action()
+        traced = tracemalloc.get_traced_memory()[1] / 2**20
+        tracemalloc.stop()
+    return {
+        "case": case,
+        "best": min(times),
+        "median": sorted(times)[len(times) // 2],
+        "cpu": min(cpu_times),
+        "traced": traced,
+        "rss_before": rss_before,
+        "rss_peak": rss_after,
+    }
+
+
+def in_child(case: str, path: Path, repeat: int) -> dict[str, Any]:
+    """:func:`run_case` in a fresh interpreter, so that its peak RSS is its own."""
+    command = [sys.executable, __file__, "--case", case, str(path), "--repeat", str(repeat)]
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    if done.returncode:
+        sys.exit(f"{case} failed:\n{done.stderr}")
+    result: dict[str, Any] = json.loads(done.stdout)
+    return result
+
+
+def show(rows: list[dict[str, Any]]) -> None:
+    print(
+        f"{'case':13} {'what':44} {'best s':>7} {'median':>7} {'CPU s':>6} {'target':>7} {'':4} "
+        f"{'traced MiB':>10} {'RSS MiB':>7} {'(case +)':>8}"
+    )
+    for r in rows:
+        what, target = CASES[r["case"]]
+        verdict = "" if target is None else ("PASS" if r["best"] <= target else "MISS")
+        traced = "-" if r["traced"] is None else f"{r['traced']:.2f}"
+        grown = "" if r["rss_before"] is None else f"(+{r['rss_peak'] - r['rss_before']:>5.1f})"
+        print(
+            f"{r['case']:13} {what:44} {r['best']:>7.3f} {r['median']:>7.3f} {r['cpu']:>6.3f} "
+            f"{'-' if target is None else f'{target:.1f}':>7} {verdict:4} {traced:>10} "
+            f"{r['rss_peak']:>7.1f} {grown:>8}"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--repeat", type=int, default=5, help="runs per case (best is shown)")
+    parser.add_argument("--only", nargs="+", choices=CASES, metavar="CASE", help="these cases")
+    parser.add_argument("--case", nargs=2, metavar=("CASE", "DIR"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+
+    if args.case:
+        case, path = args.case
+        print(json.dumps(run_case(case, Path(path), args.repeat)))
+        return
+
+    started = time.perf_counter()
+    print(f"harlsync project bench: {describe()}")
+    project, changed = full_size()
+    data = project.data
+    steps = sum(len(p) for p in data.programs.values())
+    programs = len(data.programs)
+    with tempfile.TemporaryDirectory(prefix="harlsync-bench-") as tmp:
+        path = Path(tmp) / "max-full"
+        save_project(path, replace(project, path=path))
+        size = sum(f.stat().st_size for f in path.rglob("*.yaml") if ".schemas" not in f.parts)
+        print(
+            f"{programs} programs, {steps:,} steps, {len(data.offsets)} tables, "
+            f"{len(data.timers)} timers: {size / 1024:.0f} KiB of YAML; "
+            f"change set: {len(diff(data, changed))} items; best of {args.repeat}\n"
+        )
+        rows = [in_child(case, path, args.repeat) for case in args.only or CASES]
+    show(rows)
+    print(
+        "\nEach case runs in its own interpreter.  best s, median: wall time of one run;"
+        "\nCPU s: the least CPU time of one run (steadier than wall time on a busy machine);"
+        "\ntraced MiB: tracemalloc peak of one more run; RSS MiB: the process's peak"
+        "\n(validate-cli: the harlsync process's); (case +): its growth during the timed runs."
+    )
+    print(f"ran in {time.perf_counter() - started:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
