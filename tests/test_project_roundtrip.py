@@ -5,7 +5,6 @@ from __future__ import annotations
 import tempfile
 from datetime import time
 from pathlib import Path
-from unittest import mock
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -30,10 +29,8 @@ from harlsync.project import (
     Robot,
     Window,
     load_project,
-    render_files,
     render_program,
     save_project,
-    yamlio,
 )
 
 # Tokens YAML would misread if they were not quoted, or that look like numbers.
@@ -186,41 +183,6 @@ def test_any_project_saves_loads_equal_and_saves_byte_identical(project: Project
         save_project(second, loaded)
         assert _files(second) == _files(first)
         assert save_project(first, loaded) == []
-
-
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(projects())
-def test_libyaml_writes_every_file_as_pyyaml_does_issue_7(project: Project) -> None:
-    # dump() hands the files it can to libyaml's emitter, for speed: the bytes
-    # must be those PyYAML's pure-Python emitter writes (and wrote before).
-    fast = render_files(project.robot, project.data)
-    with mock.patch.object(yamlio, "_FastDumper", None):
-        assert render_files(project.robot, project.data) == fast
-
-
-ascii_text = st.one_of(
-    st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=12),
-    st.sampled_from(TRICKY),
-)
-ascii_key = st.one_of(
-    st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), min_size=1, max_size=12),
-    st.sampled_from(TRICKY),
-    st.integers(90, 100).map(lambda n: "k" * n),
-)
-
-
-@pytest.mark.skipif(yamlio._FastDumper is None, reason="PyYAML without libyaml")
-@settings(max_examples=300, deadline=None)
-@given(st.lists(st.tuples(ascii_key, ascii_text), min_size=1, max_size=6), st.booleans())
-def test_libyaml_and_pyyaml_write_printable_ascii_alike_issue_7(
-    pairs: list[tuple[str, str]], flow: bool
-) -> None:
-    inner = yamlio.mapping([(k, yamlio.text(v)) for k, v in pairs], flow=flow)
-    listed = yamlio.sequence([yamlio.text(v) for _, v in pairs], flow=True)
-    node = yamlio.mapping([("a", inner), ("b", listed), *((k, yamlio.text(v)) for k, v in pairs)])
-    assert yamlio._same_in_libyaml(node)
-    fast = yamlio._serialize(node, yamlio._FastDumper)
-    assert fast == yamlio._serialize(node, yamlio._Dumper)
 
 
 def test_empty_steps_are_left_out_of_a_program_file() -> None:

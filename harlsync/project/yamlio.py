@@ -20,9 +20,7 @@ Writing goes the other way: callers build nodes with :func:`num`, :func:`text`,
 :func:`mapping` ... and :func:`dump` serializes them with the same resolver, so a
 number is written plain with its exact text and a string is quoted only when it
 would otherwise read back as something else.  The output is deterministic, which
-makes load -> save byte-identical.  libyaml's emitter writes the files where it
-gives the same bytes as PyYAML's own (every file but robot.yaml, in practice:
-:func:`_same_in_libyaml`), eight times faster; PyYAML's writes the rest.
+makes load -> save byte-identical.
 """
 
 from __future__ import annotations
@@ -389,73 +387,14 @@ class _Dumper(_IndentingEmitter, Serializer, CoreResolver):
         CoreResolver.__init__(self)
 
 
-try:
-    from yaml.cyaml import CEmitter  # type: ignore[attr-defined]
-except ImportError:  # PyYAML built without libyaml
-    _FastDumper: type | None = None
-else:
-
-    class _CDumper(CEmitter, CoreResolver):  # type: ignore[misc]
-        """libyaml's emitter with our resolver: several times faster than :class:`_Dumper`,
-        and byte for byte the same on what :func:`_same_in_libyaml` lets it write."""
-
-        def __init__(self, stream: Any) -> None:
-            CEmitter.__init__(
-                self, stream, indent=2, width=1 << 30, allow_unicode=True, line_break="\n"
-            )
-            CoreResolver.__init__(self)
-
-    _FastDumper = _CDumper
-
-
-def _same_in_libyaml(node: Node) -> bool:
-    """Whether libyaml's emitter writes ``node`` exactly as :class:`_Dumper` does.
-
-    It does for printable ASCII text in mappings and flow sequences, with keys
-    of 1 to 100 characters: every file but robot.yaml, when its values are
-    valid.  It does not indent a block sequence under its key
-    (:class:`_IndentingEmitter` does), it escapes some characters that PyYAML
-    writes as they are (NEL, emoji ...), and it writes an empty key, or one of
-    about 123-128 characters, as a simple key where PyYAML writes ``? key``.
-    Found with libyaml 0.2.6; the property tests in test_project_roundtrip.py
-    compare both emitters wherever the tests run.
-    """
-    todo = [node]
-    while todo:
-        item = todo.pop()
-        if isinstance(item, ScalarNode):
-            if not (item.value.isascii() and item.value.isprintable()):
-                return False
-        elif isinstance(item, SequenceNode):
-            if not item.flow_style:
-                return False
-            todo.extend(item.value)
-        else:
-            for key, value in item.value:
-                if not (isinstance(key, ScalarNode) and 0 < len(key.value) <= _SIMPLE_KEY):
-                    return False
-                todo += (key, value)
-    return True
-
-
-#: The longest mapping key :func:`_same_in_libyaml` accepts (ours are field
-#: names and numbers: far shorter).
-_SIMPLE_KEY = 100
-
-
 def dump(node: Node, *, header: str = "") -> str:
     """Serialize ``node`` as one YAML document, after the ``header`` comment lines."""
-    fast = _FastDumper is not None and _same_in_libyaml(node)
-    return header + _serialize(node, _FastDumper if fast else _Dumper)
-
-
-def _serialize(node: Node, dumper_class: Any) -> str:
     stream = io.StringIO()
-    dumper = dumper_class(stream)
+    dumper = _Dumper(stream)
     try:
         dumper.open()
         dumper.serialize(node)
         dumper.close()
     finally:
         dumper.dispose()
-    return stream.getvalue()
+    return header + stream.getvalue()
