@@ -33,6 +33,12 @@ def _print(*args: object) -> None:
     print(*args, flush=True)
 
 
+def _warn(warnings: list[str]) -> None:
+    """What the library found worth saying whatever the verbosity (an unfinished push)."""
+    for warning in warnings:
+        print(f"harlsync: warning: {warning}", file=sys.stderr, flush=True)
+
+
 def _usage(message: str) -> int:
     """A wrong combination of options: say so on stderr, exit 2 like argparse does."""
     print(f"harlsync {message}", file=sys.stderr)
@@ -336,6 +342,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
                                 lock_timeout=args.lock_timeout)
     finally:
         progress.close()
+    _warn(result.warnings)
     if args.format == "json":
         _print(json.dumps({
             "robot": result.project.robot.name,
@@ -459,6 +466,7 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
         result = run()
     except PushFailed as failed:
         r = failed.result
+        _warn(r.warnings)
         if r.plan is not None and (r.written or r.failed):
             print(f"harlsync: {action} stopped: wrote {len(r.written)} of "
                   f"{len(r.plan.writes)} item(s)", file=sys.stderr)
@@ -472,6 +480,7 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
                     print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
             print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
         raise failed.cause from failed
+    _warn(result.warnings)
     if result.plan is None or result.plan.empty:
         _print(f"{action}: robot already matches; nothing written")
     else:
