@@ -83,7 +83,11 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--auto-after-writes", type=int, default=0, metavar="N",
                    help="switch to automatic operation after N SN writes")
     p.add_argument("--record", metavar="FILE",
-                   help="append every request received to FILE as JSON lines")
+                   help="append every request received to FILE as JSON lines (station, "
+                        "payload, automatic, client: 'pty' or the TCP peer)")
+    p.add_argument("--state", metavar="DIR",
+                   help="battery-backed memory: keep each station as the project DIR/station-N, "
+                        "saved after every write and loaded again when the simulator restarts")
     p.set_defaults(func=_cmd_sim)
 
 
@@ -108,6 +112,10 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         faults=faults,
         auto_after_writes=args.auto_after_writes,
     )
+    if args.state:
+        from .sim.memory import keep_state
+
+        keep_state(sim, args.state)
     if args.auto:
         for state in sim.stations.values():
             state.start_task(0)
@@ -116,7 +124,8 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 
         def log_request(r: Received) -> None:
             record.write(json.dumps(
-                {"station": r.station, "payload": r.payload, "automatic": r.automatic}
+                {"station": r.station, "payload": r.payload, "automatic": r.automatic,
+                 "client": r.client}
             ) + "\n")
             record.flush()
 

@@ -108,7 +108,7 @@ class PtyServer:
                 data = os.read(self._master, 4096)
             except OSError:
                 continue
-            self._replies.put(self.sim.receive(data))
+            self._replies.put(self.sim.receive(data, client="pty"))
 
     def stop(self) -> None:
         self._stop.set()
@@ -168,11 +168,12 @@ class TcpServer:
             except OSError:
                 return
             log.info("sim: client %s connected", peer)
-            thread = threading.Thread(target=self._serve, args=(conn,), daemon=True)
+            client = f"{peer[0]}:{peer[1]}"
+            thread = threading.Thread(target=self._serve, args=(conn, client), daemon=True)
             thread.start()
             self._threads.append(thread)
 
-    def _serve(self, conn: socket.socket) -> None:
+    def _serve(self, conn: socket.socket, client: str) -> None:
         decoder = FrameDecoder()
         replies = ReplyScheduler(conn.sendall)
         conn.settimeout(0.1)
@@ -186,7 +187,7 @@ class TcpServer:
                     break
                 if not data:
                     break
-                replies.put(self.sim.receive(data, decoder))
+                replies.put(self.sim.receive(data, decoder, client))
         finally:
             replies.close()
             conn.close()
