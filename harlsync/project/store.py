@@ -3,11 +3,19 @@
 A save is all or nothing.  It renders every file and checks the result exactly
 as a load would, before touching the disk; then it
 
+0. writes a journal, ``DIR/.harlsync-save`` (fsynced), naming every file it
+   will write, replace or remove and the temporary names it will use;
 1. writes each changed file to a temporary file next to it and fsyncs it
    (a failure here removes the temporaries: nothing else was touched);
 2. replaces the targets one by one, keeping a hard link to each old file (a
    failure here puts every old file back and removes the new ones);
-3. fsyncs the directories and drops the old copies.
+3. fsyncs the directories, removes the journal, and drops the old copies.
+
+A save killed part way (SIGKILL, power loss) cannot clean up: the next load or
+save of the directory finds the journal and puts every old file back, removes
+the new and temporary ones (the previous project is then byte-identical), and
+removes old copies left after step 3.  A journal whose writer still runs on
+this host is left alone.
 
 Files whose content did not change are not rewritten, and program files the
 new configuration no longer has are removed in step 2 (and restored on
@@ -17,11 +25,13 @@ does not exist yet, unless asked to replace it.
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
 import secrets
 import shutil
+import socket
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,6 +71,7 @@ def _gather(root: Path, *, robot_only: bool = False) -> tuple[dict[str, bytes], 
             f"{root}: not a project directory (no such directory); "
             "a first 'harlsync pull DIR --port URL' makes one"
         )
+    recover(root)
     names = [name for name in ROOT_FILES if (root / name).is_file()]
     if robot_only:
         names = [name for name in names if name == "robot.yaml"]
@@ -142,6 +153,8 @@ def save_project(
     project, and OSError when the disk fails (the previous files are then intact).
     """
     root = Path(path)
+    if root.is_dir():
+        recover(root)
     texts = render_files(project.robot, project.data)
     # Step.problems() first: the YAML rendering cannot show every one of them
     # (a step with data but no command renders as empty).
@@ -214,12 +227,83 @@ def _stale_files(root: Path, texts: dict[str, str], *, keep_registers_file: bool
     return stale
 
 
+#: The journal of a save in progress (see the module docstring).
+JOURNAL = ".harlsync-save"
+_LEFTOVER = re.compile(r"\..+\.harlsync-(?:new|old)-[0-9a-f]{8}")
+
+
+def recover(root: Path) -> bool:
+    """Undo a save of ``root`` that was killed part way; drop its leftovers.
+
+    Returns True when a save was undone.  Raises OSError when the disk fails.
+    """
+    journal = root / JOURNAL
+    try:
+        entry = json.loads(journal.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        entry = None
+    except ValueError:  # killed while writing the journal: nothing else was touched yet
+        entry = {}
+    if entry is not None and _alive(entry):
+        return False
+    if entry is not None:
+        for name, temp, old, existed in reversed(entry.get("writes", [])):
+            target, temp_path, old_path = root / name, root / temp, root / old
+            if old_path.exists():
+                os.replace(old_path, target)
+                old_path.unlink(missing_ok=True)  # rename() between two links to one file
+            elif not existed and not temp_path.exists():
+                target.unlink(missing_ok=True)  # it is the new file
+            temp_path.unlink(missing_ok=True)
+        for name, old in entry.get("removes", []):
+            if (root / old).exists():
+                os.replace(root / old, root / name)
+        for directory in _managed_dirs(root):
+            _fsync_dir(directory)
+        journal.unlink()
+        _fsync_dir(root)
+        log.warning("%s: a save was interrupted; the previous files are back", root)
+    for directory in _managed_dirs(root):
+        for leftover in directory.iterdir():
+            if _LEFTOVER.fullmatch(leftover.name):
+                leftover.unlink(missing_ok=True)
+    return entry is not None
+
+
+def _alive(entry: dict[str, object]) -> bool:
+    """Whether the process that wrote a journal still runs (so it is saving now)."""
+    pid = entry.get("pid")
+    if entry.get("host") != socket.gethostname() or not isinstance(pid, int):
+        return False
+    if pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _managed_dirs(root: Path) -> list[Path]:
+    return [d for d in (root, root / PROGRAMS_DIR, root / SCHEMAS_DIR) if d.is_dir()]
+
+
+def _write_journal(root: Path, entry: dict[str, object]) -> None:
+    journal = root / JOURNAL
+    with open(journal, "w", encoding="utf-8") as f:
+        json.dump(entry, f)
+        f.flush()
+        os.fsync(f.fileno())
+    _fsync_dir(root)
+
+
 def _sibling(target: Path, what: str) -> Path:
     return target.with_name(f".{target.name}.harlsync-{what}-{secrets.token_hex(4)}")
 
 
-def _write_temp(target: Path, data: bytes) -> Path:
-    temp = _sibling(target, "new")
+def _write_temp(temp: Path, data: bytes) -> Path:
     with open(temp, "xb") as f:
         f.write(data)
         f.flush()
@@ -227,11 +311,10 @@ def _write_temp(target: Path, data: bytes) -> Path:
     return temp
 
 
-def _backup(target: Path) -> Path | None:
+def _backup(target: Path, backup: Path) -> Path | None:
     """A second name for the current file (hard link, or copy), or None if absent."""
     if not target.exists():
         return None
-    backup = _sibling(target, "old")
     try:
         os.link(target, backup)
     except OSError:
@@ -252,7 +335,17 @@ def _fsync_dir(directory: Path) -> None:
 def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
     """Write and remove files under ``root`` as one set (see the module docstring)."""
     made_dirs: list[Path] = []
-    staged: list[tuple[Path, Path]] = []
+    staged: list[tuple[Path, Path, Path]] = []  # (temp, target, old copy)
+    names = {name: (_sibling(root / name, "new"), _sibling(root / name, "old"))
+             for name in [*writes, *removes]}
+    journal = {
+        "pid": os.getpid(),
+        "host": socket.gethostname(),
+        "writes": [[name, str(names[name][0].relative_to(root)),
+                    str(names[name][1].relative_to(root)), (root / name).exists()]
+                   for name in writes],
+        "removes": [[name, str(names[name][1].relative_to(root))] for name in removes],
+    }
     try:
         for name, data in writes.items():
             target = root / name
@@ -260,22 +353,28 @@ def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
                 if not parent.exists():
                     parent.mkdir()
                     made_dirs.append(parent)
-            staged.append((_write_temp(target, data), target))
+            if not staged:
+                _write_journal(root, journal)
+            temp, old = names[name]
+            staged.append((_write_temp(temp, data), target, old))
+        if not staged and removes:
+            _write_journal(root, journal)
     except BaseException:
-        for temp, _ in staged:
+        for temp, _, _ in staged:
             temp.unlink(missing_ok=True)
+        _quietly((root / JOURNAL).unlink, missing_ok=True)
         for directory in reversed(made_dirs):
             _quietly(directory.rmdir)
         raise
 
     done: list[tuple[Path, Path | None]] = []  # (target, its old content or None)
     try:
-        for temp, target in staged:
-            done.append((target, _backup(target)))
+        for temp, target, old in staged:
+            done.append((target, _backup(target, old)))
             os.replace(temp, target)
         for name in removes:
             target = root / name
-            old = _sibling(target, "old")
+            old = names[name][1]
             os.replace(target, old)
             done.append((target, old))
     except BaseException:
@@ -287,14 +386,18 @@ def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
                 _quietly(os.replace, saved, target)
                 # rename() between two links to one file does nothing: drop the link.
                 _quietly(saved.unlink, missing_ok=True)
-        for temp, _ in staged:
+        for temp, _, _ in staged:
             _quietly(temp.unlink, missing_ok=True)
+        _quietly((root / JOURNAL).unlink, missing_ok=True)
         for directory in reversed(made_dirs):
             _quietly(directory.rmdir)
         raise
 
-    for directory in {t.parent for _, t in staged} | {(root / n).parent for n in removes}:
+    for directory in {t.parent for _, t, _ in staged} | {(root / n).parent for n in removes}:
         _fsync_dir(directory)
+    if staged or removes:
+        (root / JOURNAL).unlink()
+        _fsync_dir(root)
     for _, saved in done:
         if saved is not None:
             _quietly(saved.unlink, missing_ok=True)
