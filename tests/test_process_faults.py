@@ -7,9 +7,11 @@ against a real ``harlsync sim`` subprocess over TCP, and kill one or the other
 (SIGKILL: no clean-up code runs) at a point chosen by waiting on what the
 simulator has received (``--record``), never by sleeping:
 
-- a pull killed, or cut off from its line, mid-read, and a pull killed while it
-  replaces the files: the previous backup is byte-identical, every file of the
-  project (``.harlsync/`` included), and no temporary file is left;
+- a pull killed, or cut off from its line, mid-read: the previous backup is
+  byte-identical, every file of the project (``.harlsync/`` included), and no
+  temporary file is left; a pull killed while it replaces the files (the
+  command kills itself there): the next command puts the previous backup back,
+  byte-identical, and the next pull works;
 - a push killed mid-write: the audit log shows what it wrote, the next diff and
   push warn about it, and running the push again converges;
 - the simulator restarted mid-push (its memory is battery-backed, ``--state``):
@@ -224,6 +226,41 @@ def test_a_pull_stopped_mid_read_leaves_the_previous_backup_byte_identical(
     if what == "the line is lost":
         plant.sim.start()
     # Nothing left behind stops the next backup (a stray file would make the tree dirty).
+    assert run("pull", str(plant.cell)).returncode == 0
+    assert files_of(plant.cell) != before and temp_files(plant.cell) == []
+
+
+#: ``python -c`` this, then the harlsync arguments: the command SIGKILLs itself just
+#: before it replaces the Nth file of a save (N is the first argument).
+KILLED_AT_REPLACE = """
+import os, signal, sys
+from harlsync.cli import main
+real, count, kill_at = os.replace, 0, int(sys.argv.pop(1))
+def replace(src, dst):
+    global count
+    if ".harlsync-new-" in str(src):
+        count += 1
+        if count == kill_at:
+            os.kill(os.getpid(), signal.SIGKILL)
+    real(src, dst)
+os.replace = replace
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("kill_at", [1, 3], ids=["before the first file", "at the third file"])
+def test_a_pull_killed_while_it_replaces_the_files_is_undone_by_the_next_command(
+    plant: Plant, kill_at: int
+) -> None:
+    plant.edit({1: "9.99"}, {(0, 1): "MOVE P999 S20", (1, 1): "MOVE P998 S20"},
+               "three files the robot no longer matches")
+    before = files_of(plant.cell)
+    killed = subprocess.run([sys.executable, "-c", KILLED_AT_REPLACE, str(kill_at), "pull",
+                             str(plant.cell)], check=False, capture_output=True)
+    assert killed.returncode == -signal.SIGKILL
+    assert files_of(plant.cell) != before  # killed mid-save: a journal and temporaries
+    assert run("validate", str(plant.cell)).returncode == 0  # any load undoes the save
+    assert files_of(plant.cell) == before
     assert run("pull", str(plant.cell)).returncode == 0
     assert files_of(plant.cell) != before and temp_files(plant.cell) == []
 
