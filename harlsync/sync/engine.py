@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import logging
 import os
+import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -364,10 +365,25 @@ def snapshots(path: str | Path, action: str = "push") -> list[Path]:
 
 
 def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Path:
+    """Save the robot as a snapshot, whole or not at all: it is saved under a
+    hidden name and renamed, so a process killed meanwhile leaves no half
+    snapshot for rollback to pick (the next snapshot removes the leftover)."""
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
     history.ensure_local_dir(path)
-    target = (path / SNAPSHOT_DIR / f"{stamp}-{action}").resolve()
-    save_project(target, Project(target, robot, live))
+    root = (path / SNAPSHOT_DIR).resolve()
+    root.mkdir(exist_ok=True)
+    for leftover in root.glob(".*.partial"):
+        shutil.rmtree(leftover, ignore_errors=True)
+    partial = root / f".{stamp}-{action}.partial"
+    save_project(partial, Project(partial, robot, live))
+    target = root / f"{stamp}-{action}"
+    os.rename(partial, target)
+    if os.name == "posix":  # the rename must be on disk before the first write
+        fd = os.open(root, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
     return target
 
 
