@@ -13,7 +13,8 @@ simulator has received (``--record``), never by sleeping:
   command kills itself there): the next command puts the previous backup back,
   byte-identical, and the next pull works;
 - a push killed mid-write: the audit log shows what it wrote, the next diff and
-  push warn about it, and running the push again converges;
+  push warn about it, and running the push again converges; a push killed while
+  it saves its snapshot has written nothing and leaves no half snapshot;
 - the simulator restarted mid-push (its memory is battery-backed, ``--state``):
   the push fails naming what it wrote, a robot that comes back in automatic gets
   no write at all, and running the push again converges;
@@ -300,6 +301,20 @@ def test_a_push_killed_mid_write_is_audited_and_running_it_again_converges(plant
     assert [r["result"] for r in audit.results()] == ["unfinished", "ok"]
     assert plant.sim.unsafe_in_automatic() == []
     assert temp_files(plant.cell) == []
+
+
+def test_a_push_killed_while_it_saves_its_snapshot_writes_nothing_and_leaves_no_half_snapshot(
+    plant: Plant,
+) -> None:
+    plant.edit(**EIGHT_EDITS, message="eight edits")
+    killed = subprocess.run([sys.executable, "-c", KILLED_AT_REPLACE, "2", "push",
+                             str(plant.cell), "--yes"], check=False, capture_output=True)
+    assert killed.returncode == -signal.SIGKILL
+    assert plant.sim.writes() == []
+    assert engine.snapshots(plant.cell) == []  # rollback cannot pick a half snapshot
+    assert "no snapshot to roll back to" in run("rollback", str(plant.cell), "--yes").stderr
+    assert run("push", str(plant.cell), "--yes").returncode == 0
+    assert len(engine.snapshots(plant.cell)) == 1 and temp_files(plant.cell) == []
 
 
 def test_a_simulator_restarted_mid_push_fails_the_push_loudly_and_a_rerun_converges(
