@@ -331,7 +331,8 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
         "diff", help="compare the project with the live robot",
         description="Compare the project with the live robot, item by item (program, step, "
                     "table, field, timer). '-' lines are the robot, '+' lines the project. "
-                    "Exit 0 identical, 1 different, 2 error.",
+                    "Warns when the audit log shows an earlier push to this robot that never "
+                    "finished (killed part way). Exit 0 identical, 1 different, 2 error.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
@@ -444,8 +445,9 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
                     "uncommitted changes, or is outside its maintenance window; stops before "
                     "any write while a task is in execution or suspended (LNR, read before "
                     "every write); verifies each write by reading it back; snapshots the robot "
-                    "first (see rollback) and records everything in the audit log. Exit 0 done, "
-                    "2 failed, 3 refused for safety.",
+                    "first (see rollback) and records everything in the audit log, each write "
+                    "before it is sent, so the next push or diff can name what a push killed "
+                    "part way had written. Exit 0 done, 2 failed, 3 refused for safety.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _push_args(p)
