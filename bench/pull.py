@@ -52,9 +52,9 @@ class MeteredSimulator(Simulator):
     exchanges = 0
 
     def receive(
-        self, data: bytes, decoder: FrameDecoder | None = None
+        self, data: bytes, decoder: FrameDecoder | None = None, client: str = ""
     ) -> list[tuple[float, bytes]]:
-        chunks = super().receive(data, decoder)
+        chunks = super().receive(data, decoder, client)
         self.exchanges += len(self.received)
         self.received.clear()
         return chunks

@@ -33,6 +33,12 @@ def _print(*args: object) -> None:
     print(*args, flush=True)
 
 
+def _warn(warnings: list[str]) -> None:
+    """What the library found worth saying whatever the verbosity (an unfinished push)."""
+    for warning in warnings:
+        print(f"harlsync: warning: {warning}", file=sys.stderr, flush=True)
+
+
 def _usage(message: str) -> int:
     """A wrong combination of options: say so on stderr, exit 2 like argparse does."""
     print(f"harlsync {message}", file=sys.stderr)
@@ -77,7 +83,11 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--auto-after-writes", type=int, default=0, metavar="N",
                    help="switch to automatic operation after N SN writes")
     p.add_argument("--record", metavar="FILE",
-                   help="append every request received to FILE as JSON lines")
+                   help="append every request received to FILE as JSON lines (station, "
+                        "payload, automatic, client: 'pty' or the TCP peer)")
+    p.add_argument("--state", metavar="DIR",
+                   help="battery-backed memory: keep each station as the project DIR/station-N, "
+                        "saved after every write and loaded again when the simulator restarts")
     p.set_defaults(func=_cmd_sim)
 
 
@@ -102,6 +112,10 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         faults=faults,
         auto_after_writes=args.auto_after_writes,
     )
+    if args.state:
+        from .sim.memory import keep_state
+
+        keep_state(sim, args.state)
     if args.auto:
         for state in sim.stations.values():
             state.start_task(0)
@@ -110,7 +124,8 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 
         def log_request(r: Received) -> None:
             record.write(json.dumps(
-                {"station": r.station, "payload": r.payload, "automatic": r.automatic}
+                {"station": r.station, "payload": r.payload, "automatic": r.automatic,
+                 "client": r.client}
             ) + "\n")
             record.flush()
 
@@ -317,7 +332,8 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
         "diff", help="compare the project with the live robot",
         description="Compare the project with the live robot, item by item (program, step, "
                     "table, field, timer). '-' lines are the robot, '+' lines the project. "
-                    "Exit 0 identical, 1 different, 2 error.",
+                    "Warns when the audit log shows an earlier push to this robot that never "
+                    "finished (killed part way). Exit 0 identical, 1 different, 2 error.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
@@ -337,6 +353,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
                                 lock_timeout=args.lock_timeout)
     finally:
         progress.close()
+    _warn(result.warnings)
     if args.format == "json":
         _print(json.dumps({
             "robot": result.project.robot.name,
@@ -429,8 +446,9 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
                     "uncommitted changes, or is outside its maintenance window; stops before "
                     "any write while a task is in execution or suspended (LNR, read before "
                     "every write); verifies each write by reading it back; snapshots the robot "
-                    "first (see rollback) and records everything in the audit log. Exit 0 done, "
-                    "2 failed, 3 refused for safety.",
+                    "first (see rollback) and records everything in the audit log, each write "
+                    "before it is sent, so the next push or diff can name what a push killed "
+                    "part way had written. Exit 0 done, 2 failed, 3 refused for safety.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _push_args(p)
@@ -460,6 +478,7 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
         result = run()
     except PushFailed as failed:
         r = failed.result
+        _warn(r.warnings)
         if r.plan is not None and (r.written or r.failed):
             print(f"harlsync: {action} stopped: wrote {len(r.written)} of "
                   f"{len(r.plan.writes)} item(s)", file=sys.stderr)
@@ -473,6 +492,7 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
                     print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
             print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
         raise failed.cause from failed
+    _warn(result.warnings)
     if result.plan is None or result.plan.empty:
         _print(f"{action}: robot already matches; nothing written")
     else:

@@ -208,7 +208,7 @@ def test_ctrl_c_mid_push_still_leaves_an_audit_record_saying_what_was_written(
     result = failed.value.result
     assert [w.name for w in result.written] == ["MAIN program 1 step 3"]
     assert result.failed is not None and result.failed.name == "MAIN program 1 step 5"
-    [record] = audit_log.read(tmp_path / "audit.jsonl")
+    [record] = audit_log.results(tmp_path / "audit.jsonl")
     assert record["result"] == "interrupted"
     assert [w["item"] for w in record["written"]] == ["MAIN program 1 step 3"]
     assert record["failed_item"] == "MAIN program 1 step 5"
@@ -294,5 +294,5 @@ def test_what_no_write_can_fix_refuses_the_push_before_any_write(
     assert isinstance(failed.value.cause, PolicyError)
     assert expect in str(failed.value)
     assert target.writes_received() == []
-    [record] = audit_log.read(tmp_path / "audit.jsonl")
+    [record] = audit_log.results(tmp_path / "audit.jsonl")
     assert record["result"] == "refused"

@@ -355,7 +355,7 @@ def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path)
     edit_timer(project, 2, "2.23", repo)
     with pytest.raises(PushFailed):
         engine.push(project, YES, port=url)
-    records = audit_log.read(tmp_path / "audit.jsonl")
+    records = audit_log.results(tmp_path / "audit.jsonl")
     assert [r["result"] for r in records] == ["ok", "refused"]
     ok = records[0]
     assert ok["action"] == "push" and ok["reason"] == "cycle time tuning"
@@ -507,7 +507,7 @@ def test_a_push_refused_before_the_port_is_audited_too(served, repo, tmp_path) -
     edit_timer(project, 0, "12.5", repo)
     with pytest.raises(ProjectError):
         engine.push(project, PushOptions(yes=True, reason="try"), port=url)
-    [record] = audit_log.read(tmp_path / "audit.jsonl")
+    [record] = audit_log.results(tmp_path / "audit.jsonl")
     assert record["result"] == "refused" and "timers.yaml" in record["error"]
     assert record["reason"] == "try" and record["written"] == []
 

@@ -67,6 +67,7 @@ class Received:
     at: float
     answered: bool
     automatic: bool  # some task of that station was in execution or suspended
+    client: str = ""  # who sent it: "pty", a TCP peer "host:port", ... ("" when unknown)
 
     @property
     def letters(self) -> str:
@@ -189,12 +190,13 @@ class Simulator:
     # --- the wire ---------------------------------------------------------------------
 
     def receive(
-        self, data: bytes, decoder: FrameDecoder | None = None
+        self, data: bytes, decoder: FrameDecoder | None = None, client: str = ""
     ) -> list[tuple[float, bytes]]:
         """Take bytes from the client; return the reply chunks as (delay, bytes).
 
         ``decoder`` keeps the framing state of one connection (one TCP client);
-        by default the line's own decoder is used.
+        by default the line's own decoder is used.  ``client`` names the sender
+        in :attr:`received`.
         """
         out: list[tuple[float, bytes]] = []
         decoder = decoder or self._decoder
@@ -221,7 +223,7 @@ class Simulator:
                 wire = self._wire_time(len(frame.encode()) + len(raw))
                 chunks = self.faults.shape(raw)
                 record = Received(
-                    frame.station, frame.payload, self._clock(), bool(chunks), automatic
+                    frame.station, frame.payload, self._clock(), bool(chunks), automatic, client
                 )
                 self.received.append(record)
                 for listener in self.listeners:

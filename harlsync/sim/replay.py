@@ -168,7 +168,7 @@ class Replay:
         return self._replies(0.0)
 
     def receive(
-        self, data: bytes, decoder: FrameDecoder | None = None
+        self, data: bytes, decoder: FrameDecoder | None = None, client: str = ""
     ) -> list[tuple[float, bytes]]:
         """Take bytes from the client; return the recorded reply chunks as (delay, bytes).
 

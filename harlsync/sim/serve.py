@@ -194,7 +194,7 @@ class PtyServer:
             except OSError:
                 continue
             received = time.monotonic()
-            self._replies.put(self.sim.receive(data), received)
+            self._replies.put(self.sim.receive(data, client="pty"), received)
 
     @property
     def replies(self) -> ReplyScheduler | None:
@@ -259,11 +259,12 @@ class TcpServer:
             except OSError:
                 return
             log.info("sim: client %s connected", peer)
-            thread = threading.Thread(target=self._serve, args=(conn,), daemon=True)
+            client = f"{peer[0]}:{peer[1]}"
+            thread = threading.Thread(target=self._serve, args=(conn, client), daemon=True)
             thread.start()
             self._threads.append(thread)
 
-    def _serve(self, conn: socket.socket) -> None:
+    def _serve(self, conn: socket.socket, client: str) -> None:
         decoder = FrameDecoder()
         # Paced replies are small writes: Nagle would hold them back for the client's ACK.
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -280,7 +281,7 @@ class TcpServer:
                 if not data:
                     break
                 received = time.monotonic()
-                replies.put(self.sim.receive(data, decoder), received)
+                replies.put(self.sim.receive(data, decoder, client), received)
         finally:
             replies.close()
             conn.close()

@@ -1,24 +1,61 @@
-"""The audit log: one JSON line per push and rollback, appended, never rewritten.
+"""The audit log: what every push and rollback did, appended, never rewritten.
 
 Where it lives: ``$HARLSYNC_AUDIT_LOG`` if set, else
 ``$XDG_STATE_HOME/harlsync/audit.jsonl`` (``~/.local/state/harlsync/audit.jsonl``).
-Each record holds the time, user and host, the git commit and the reason, the
-robot, the plan, the result, and every item written with its old and new value.
-The file is opened in append mode and each record is written whole and fsynced;
-on a server, ``chattr +a`` makes it append-only for root too.
+The file is opened in append mode and each record is one JSON line, written
+whole and fsynced; on a server, ``chattr +a`` makes it append-only for root too.
+
+Records, tied together by ``id`` (one per push or rollback)::
+
+    {"event": "start", "id", "action", "time", "user", "host", "pid", "robot",
+     "project", "commit", "reason", "outside_window", "plan", "snapshot"}
+        before the first SN command is sent (write-ahead)
+    {"event": "write", "id", "time", "item", "command"}
+        just before each SN command is sent; the push reads each item back
+        before it logs the next one, so every write record but the last of an
+        unfinished push was written and verified
+    {"event": "end", "id", "action", "time", "user", "host", "pid", "robot", ...,
+     "plan", "result", "error", "written": [{"item", "command", "old", "new"}],
+     "failed_item"}
+        when the push ends, whatever the result (ok, nothing to write, refused,
+        failed, interrupted): the whole story in one record
+
+A push refused, or with nothing to write, has only its end record.  A push
+killed after its start record (SIGKILL, power loss) has no end record:
+:func:`results` reports it as ``"unfinished"``, and :func:`unfinished` finds it
+for the next push, rollback or diff of that robot, until a push or rollback of
+that robot ends ok.  Records written before these events existed have no
+``event`` and count as end records.
 """
 
 from __future__ import annotations
 
 import getpass
 import json
+import logging
 import os
+import secrets
 import socket
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-__all__ = ["append", "audit_path", "base_record", "read"]
+from ..link import lock_key
+
+__all__ = [
+    "append",
+    "audit_path",
+    "base_record",
+    "describe_unfinished",
+    "read",
+    "results",
+    "unfinished",
+]
+
+log = logging.getLogger(__name__)
+
+#: A push or rollback after which an earlier unfinished one no longer matters.
+SETTLED = ("ok", "nothing to write")
 
 
 def audit_path() -> Path:
@@ -29,27 +66,41 @@ def audit_path() -> Path:
     return Path(state) / "harlsync" / "audit.jsonl"
 
 
+def now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
 def base_record(action: str) -> dict[str, Any]:
-    """The fields every record starts with: action, time, user, host."""
+    """The fields every end record starts with: event, id, action, time, user, host, pid."""
     try:
         user = getpass.getuser()
     except (KeyError, OSError):
         user = str(os.getuid()) if hasattr(os, "getuid") else "unknown"
     return {
+        "event": "end",
+        "id": secrets.token_hex(8),
         "action": action,
-        "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "time": now(),
         "user": user,
         "host": socket.gethostname(),
+        "pid": os.getpid(),
     }
 
 
 def append(record: dict[str, Any], path: Path | None = None) -> Path:
-    """Append one record as a JSON line; return the log's path."""
+    """Append one record as a JSON line, fsynced; return the log's path.
+
+    A line left unterminated by an earlier writer (a full disk) is ended first,
+    so it cannot swallow this record.  Raises OSError.
+    """
     path = path or audit_path()
     path.parent.mkdir(parents=True, exist_ok=True)
     line = json.dumps(record, sort_keys=True, default=str) + "\n"
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o644)
     try:
+        size = os.fstat(fd).st_size
+        if size and os.pread(fd, 1, size - 1) != b"\n":
+            line = "\n" + line
         os.write(fd, line.encode("utf-8"))
         os.fsync(fd)
     finally:
@@ -58,7 +109,94 @@ def append(record: dict[str, Any], path: Path | None = None) -> Path:
 
 
 def read(path: Path | None = None) -> list[dict[str, Any]]:
+    """Every record, in order (a line that is not a JSON object is skipped, and logged)."""
     path = path or audit_path()
     if not path.exists():
         return []
-    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line]
+    records = []
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except ValueError:
+            record = None
+        if not isinstance(record, dict):
+            log.warning("%s:%d: not an audit record, skipped", path, number)
+            continue
+        records.append(record)
+    return records
+
+
+def results(path: Path | None = None) -> list[dict[str, Any]]:
+    """One record per push or rollback, in the order they started.
+
+    A finished one is its end record.  An unfinished one is its start record
+    with ``result: "unfinished"``, ``written`` (the write records but the last)
+    and ``failed_item`` (the last: it may or may not have been written).
+    """
+    started: dict[str, dict[str, Any]] = {}
+    where: dict[str, int] = {}
+    order: list[dict[str, Any]] = []
+    for record in read(path):
+        event = record.get("event", "end")
+        rid = record.get("id")
+        if event == "start" and rid:
+            started[rid] = {**record, "result": "unfinished", "written": [], "failed_item": None}
+            where[rid] = len(order)
+            order.append(started[rid])
+        elif event == "write" and rid in started:
+            pending = started[rid]
+            if pending["failed_item"] is not None:
+                pending["written"].append(pending["failed_item"])
+            pending["failed_item"] = {"item": record.get("item"), "command": record.get("command")}
+        elif event == "end":
+            if rid in started:
+                del started[rid]
+                order[where[rid]] = record
+            else:
+                order.append(record)
+    for pending in started.values():
+        pending["failed_item"] = (pending["failed_item"] or {}).get("item")
+    return order
+
+
+def _same_robot(record: dict[str, Any], port: str, station: int) -> bool:
+    robot = record.get("robot")
+    if not isinstance(robot, dict) or robot.get("station") != station:
+        return False
+    other = robot.get("port")
+    return isinstance(other, str) and (other == port or lock_key(other) == lock_key(port))
+
+
+def unfinished(port: str, station: int, path: Path | None = None) -> list[dict[str, Any]]:
+    """The unfinished pushes and rollbacks of the robot at ``port``/``station``
+    that no later push or rollback of it has settled (see :func:`results`)."""
+    found: list[dict[str, Any]] = []
+    for record in results(path):
+        if not _same_robot(record, port, station):
+            continue
+        if record.get("result") == "unfinished":
+            found.append(record)
+        elif record.get("result") in SETTLED:
+            found = []
+    return found
+
+
+def describe_unfinished(record: dict[str, Any]) -> str:
+    """One line: who started it when, what it wrote, what it may have written."""
+    written = [w.get("item") for w in record.get("written", [])]
+    plan = record.get("plan") or []
+    reason = f", reason {record['reason']!r}" if record.get("reason") else ""
+    text = (
+        f"an earlier {record.get('action', 'push')} to this robot did not finish: started "
+        f"{record.get('time')} by {record.get('user')} on {record.get('host')} "
+        f"(pid {record.get('pid')}{reason}); it wrote {len(written)} of {len(plan)} item(s)"
+    )
+    if written:
+        text += ": " + ", ".join(str(w) for w in written)
+    if record.get("failed_item"):
+        text += f"; unknown: {record['failed_item']} (may or may not have been written)"
+    if record.get("snapshot"):
+        text += f"; the robot before it: {record['snapshot']}"
+    return text

@@ -6,15 +6,18 @@ before the last check)::
     load + validate the project      (before the port is touched)
     policy: git clean, maintenance window
     open the port (exclusive lock on the line)
+    an earlier push left unfinished? (audit log: warn, naming what it wrote)
     LNR: robot idle?                 (interlock, before the long read)
     read the live robot, make the plan
     stale plan? unwritable? reconfiguration allowed? confirmed?
     snapshot the live robot          (DIR/.harlsync/snapshots/<time>-push/)
+    audit "start" record, the plan   (write-ahead, fsynced)
     for each write, in the safe order:
         read the item: as planned?   (drift: edited on the pendant since the read)
         LNR: idle?                   (interlock: before every write)
+        audit "write" record         (fsynced: a SIGKILL still leaves a trace)
         write, read back, compare    (verify)
-    audit record                     (always, whatever happened)
+    audit "end" record               (always, whatever happened)
 
 The interlock reads LNR immediately before every write.  With
 ``allow_live_tuning`` it skips that only before timer and offset writes, which
@@ -27,6 +30,7 @@ from __future__ import annotations
 
 import logging
 import os
+import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -99,16 +103,32 @@ def read_live(
     registers: bool,
     progress: Progress | None,
     lock_timeout: float,
-) -> tuple[Driver, RobotData]:
-    """Everything the robot holds, read over a line opened and closed for it.
+) -> tuple[Driver, RobotData, list[str]]:
+    """Everything the robot holds, read over a line opened and closed for it, and
+    a warning for each earlier push to it that did not finish.
 
     The driver is returned closed: it still names the robot and builds commands.
     """
     driver = connect(robot, port, station, lock_timeout=lock_timeout)
     try:
-        return driver, driver.read_all(registers=registers, progress=progress)
+        warnings = _unfinished(robot, port, station)
+        return driver, driver.read_all(registers=registers, progress=progress), warnings
     finally:
         driver.close()
+
+
+def _unfinished(robot: Robot, port: str | None, station: int | None) -> list[str]:
+    """What the audit log says about earlier pushes to this robot that never ended.
+
+    Called with the line held, so no push in progress can be mistaken for one.
+    """
+    try:
+        found = audit.unfinished(port or robot.port,
+                                 station if station is not None else robot.station)
+    except OSError as exc:
+        return [(f"cannot read the audit log {audit.audit_path()} ({exc}) to check for an "
+                 "unfinished push")]
+    return [audit.describe_unfinished(record) for record in found]
 
 
 def change_summary(changes: list[Change]) -> str:
@@ -202,8 +222,8 @@ def pull(
         previous: RobotData | None = load_project(path).data
     except ProjectError:
         previous = None
-    _, live = read_live(robot, port, station, registers=robot.keep_registers,
-                        progress=progress, lock_timeout=lock_timeout)
+    _, live, _ = read_live(robot, port, station, registers=robot.keep_registers,
+                           progress=progress, lock_timeout=lock_timeout)
     save_project(path, Project(path, robot, live))
     history.record(path, ok=True)
     changes = None if previous is None else diff(previous, live, registers=robot.keep_registers)
@@ -225,6 +245,8 @@ class Comparison:
     driver: Driver
     live: RobotData
     changes: list[Change]
+    #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def target(self) -> str:
@@ -242,9 +264,10 @@ def compare(
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item."""
     project = load_project(path)
-    driver, live = read_live(project.robot, port, station, registers=registers,
-                             progress=progress, lock_timeout=lock_timeout)
-    return Comparison(project, driver, live, diff(live, project.data, registers=registers))
+    driver, live, warnings = read_live(project.robot, port, station, registers=registers,
+                                       progress=progress, lock_timeout=lock_timeout)
+    return Comparison(project, driver, live, diff(live, project.data, registers=registers),
+                      warnings)
 
 
 def plan(
@@ -295,6 +318,8 @@ class PushResult:
     error: str | None = None
     snapshot: Path | None = None
     audit_log: Path | None = None
+    #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -360,10 +385,25 @@ def snapshots(path: str | Path, action: str = "push") -> list[Path]:
 
 
 def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Path:
+    """Save the robot as a snapshot, whole or not at all: it is saved under a
+    hidden name and renamed, so a process killed meanwhile leaves no half
+    snapshot for rollback to pick (the next snapshot removes the leftover)."""
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
     history.ensure_local_dir(path)
-    target = (path / SNAPSHOT_DIR / f"{stamp}-{action}").resolve()
-    save_project(target, Project(target, robot, live))
+    root = (path / SNAPSHOT_DIR).resolve()
+    root.mkdir(exist_ok=True)
+    for leftover in root.glob(".*.partial"):
+        shutil.rmtree(leftover, ignore_errors=True)
+    partial = root / f".{stamp}-{action}.partial"
+    save_project(partial, Project(partial, robot, live))
+    target = root / f"{stamp}-{action}"
+    os.rename(partial, target)
+    if os.name == "posix":  # the rename must be on disk before the first write
+        fd = os.open(root, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
     return target
 
 
@@ -382,7 +422,7 @@ def _deploy(
     record.update(
         robot={"name": robot.name, "port": port or robot.port,
                "station": station if station is not None else robot.station},
-        project=str(project.path),
+        project=str(project.path.resolve()),
         commit=git.head(project.path),
         reason=opts.reason,
         outside_window=opts.outside_window,
@@ -391,6 +431,7 @@ def _deploy(
     try:
         _check_window(robot, opts)
         driver = connect(robot, port, station, lock_timeout=opts.lock_timeout)
+        result.warnings = _unfinished(robot, port, station)
         if not opts.allow_live_tuning:
             _interlock(driver, robot, "reading the robot")
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
@@ -406,7 +447,10 @@ def _deploy(
             raise PolicyError("push not confirmed: nothing was written")
         result.snapshot = _save_snapshot(project.path, robot, live, action)
         record["snapshot"] = str(result.snapshot)
-        _write_all(driver, robot, the_plan, opts, result)
+        _journal(dict(record, event="start"))
+        _write_all(driver, robot, the_plan, opts, result,
+                   lambda w: _journal({"event": "write", "id": record["id"], "time": audit.now(),
+                                       "item": w.name, "command": w.command}))
         record["result"] = "ok"
         return result
     except (HarlsyncError, KeyboardInterrupt) as exc:
@@ -439,6 +483,17 @@ def _deploy(
         if driver is not None:
             driver.close()
         result.audit_log = audit.append(record)
+
+
+def _journal(record: dict[str, Any]) -> None:
+    """Append a start or write record before the write it announces; stop if it fails."""
+    try:
+        audit.append(record)
+    except OSError as exc:
+        raise SyncError(
+            f"cannot write the audit log {audit.audit_path()} ({exc}); stopped before "
+            + ("the first write" if record["event"] == "start" else f"writing {record['item']}")
+        ) from exc
 
 
 def _check_audit_log() -> None:
@@ -483,7 +538,12 @@ def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
 
 
 def _write_all(
-    driver: Driver, robot: Robot, the_plan: Plan, opts: PushOptions, result: PushResult
+    driver: Driver,
+    robot: Robot,
+    the_plan: Plan,
+    opts: PushOptions,
+    result: PushResult,
+    announce: Callable[[PlannedWrite], None],
 ) -> None:
     def live(write: PlannedWrite) -> bool:
         return opts.allow_live_tuning and write.key[0] in LIVE_TUNING and not write.unsafe
@@ -502,6 +562,7 @@ def _write_all(
             )
         if not live(write):
             _interlock(driver, robot, f"writing {write.name} ({write.command})")
+        announce(write)
         result.failed = write
         driver.write(write.key, write.new, write.old)
         got = driver.read(write.key)
