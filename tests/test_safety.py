@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
-from simline import Act, ScriptedSim, drop
+from simline import Act, ScriptedSim, drop, slow
 
 from harlsync.controller import Controller
 from harlsync.errors import InterlockError, PolicyError, PortBusyError, StalePlanError
@@ -157,6 +157,21 @@ def test_push_does_not_resend_a_step_to_a_robot_started_after_its_reply_was_lost
     assert isinstance(failed.value.cause, InterlockError)
     assert sim.unsafe_in_automatic() == []
     assert sim.sent("SNM 1 11") == ["SNM 1 11 MOVE P999 S20"]
+
+
+def test_issue_6_a_late_idle_lnr_reply_is_never_taken_for_the_retry_that_found_the_robot_running(
+    project: Path, sim: ScriptedSim
+) -> None:
+    # Found by tests/test_interlock_property.py.  The LNR before the write is answered
+    # "idle" after its deadline; the operator starts the robot; the retry is answered
+    # "running".  The late "idle" must not pass for the retry's answer.
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    sim.plan("LNR", Act(), Act(wire=slow(0.3)), Act(before=operator_starts_the_robot))
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, YES)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert "task 0 in execution" in str(failed.value)
+    assert sim.writes_received() == []
 
 
 # --- the robot edited on the pendant after the read -------------------------------------
