@@ -103,7 +103,7 @@ class Operator(Simulator):
 
     def __init__(
         self, state: SimState, schedule: list[tuple[int, Change]], *, seed: int,
-        lose_writes: set[int] = frozenset(),  # type: ignore[assignment]
+        lose_writes: set[int] | None = None,
     ) -> None:
         super().__init__(state)
         self.schedule = sorted(schedule, key=lambda entry: entry[0])
@@ -112,7 +112,7 @@ class Operator(Simulator):
         #: The rate of requests garbled on their way in (never carried out, never answered).
         self.lose = 0.0
         #: Which SN requests (0: the first one sent) are garbled on their way in.
-        self.lose_writes = set(lose_writes)
+        self.lose_writes = lose_writes or set()
         self.writes_sent = 0
         self.lost_writes = 0
         #: The chance that the reply to the request after which the operator acts is
