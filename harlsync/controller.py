@@ -17,7 +17,11 @@ then reads the item back::
 Before sending an unsafe write (SNA, SNM, SNS, SNH, SNE, SNX) once more, the
 controller reads LNR again: the robot may have been started while the reply was
 awaited.  Unless every task is known and idle it raises
-:class:`~harlsync.errors.InterlockError` and does not send it again.
+:class:`~harlsync.errors.InterlockError` and does not send it again.  A caller
+that needs an idle robot for a write the manual allows in automatic operation
+(a push without live tuning: timers, tables, registers) says so with
+``needs_idle=True``; ``needs_idle=False`` re-sends even an unsafe write unchecked
+(never done by harlsync itself).
 
 "What was there" is the ``old`` value the caller passes (push knows it from its
 plan); without it the controller reads the item before writing.
@@ -127,8 +131,15 @@ class Controller:
         wanted: T,
         old: T | None,
         same: Callable[[T, T], bool] = lambda a, b: a == b,
+        needs_idle: bool | None = None,
     ) -> None:
-        """Send an SN write; when its reply is lost, decide on what ``readback`` returns."""
+        """Send an SN write; when its reply is lost, decide on what ``readback`` returns.
+
+        ``needs_idle`` (default: whether the manual forbids it in automatic
+        operation) makes a re-send wait for LNR to show every task idle.
+        """
+        if needs_idle is None:
+            needs_idle = request.unsafe
         if old is None:
             old = self.request(readback)
         for attempt in (1, 2):
@@ -141,7 +152,7 @@ class Controller:
                     log.info("%s: reply lost but the write took (read back)", exc)
                     return
                 if attempt == 1 and same(now, old):
-                    if request.unsafe:
+                    if needs_idle:
                         self._idle_before_resend(request, exc)
                     log.warning("%s: the write did not take (read back): sending it once more", exc)
                     continue
@@ -171,7 +182,7 @@ class Controller:
             why = f"the robot is not idle: {status.describe()}"
         raise InterlockError(
             f"port {self.port}, station {self.station}, command {request.payload}: the write did "
-            f"not take and {why}; not sending it again (forbidden during automatic operation)"
+            f"not take and {why}; not sending it again (it needs an idle robot)"
         ) from lost
 
     # --- programs -----------------------------------------------------------------
@@ -181,7 +192,14 @@ class Controller:
         return value
 
     def write_step(
-        self, ptype: ProgramType, program: int, step: int, value: Step, *, old: Step | None = None
+        self,
+        ptype: ProgramType,
+        program: int,
+        step: int,
+        value: Step,
+        *,
+        old: Step | None = None,
+        needs_idle: bool | None = None,
     ) -> None:
         """Write one step (an empty :class:`Step` clears it)."""
         self._write(
@@ -189,6 +207,7 @@ class Controller:
             cmd.read_step(ptype, program, step),
             value,
             old,
+            needs_idle=needs_idle,
         )
 
     def read_program(
@@ -219,31 +238,46 @@ class Controller:
         value: str = self.request(cmd.read_timer(number))
         return value
 
-    def write_timer(self, number: int, value: str, *, old: str | None = None) -> None:
-        self._write(cmd.write_timer(number, value), cmd.read_timer(number), value, old)
+    def write_timer(
+        self, number: int, value: str, *, old: str | None = None, needs_idle: bool | None = None
+    ) -> None:
+        self._write(cmd.write_timer(number, value), cmd.read_timer(number), value, old,
+                    needs_idle=needs_idle)
 
     def read_register(self, number: int) -> str:
         value: str = self.request(cmd.read_register(number))
         return value
 
-    def write_register(self, number: int, value: str, *, old: str | None = None) -> None:
-        self._write(cmd.write_register(number, value), cmd.read_register(number), value, old)
+    def write_register(
+        self, number: int, value: str, *, old: str | None = None, needs_idle: bool | None = None
+    ) -> None:
+        self._write(cmd.write_register(number, value), cmd.read_register(number), value, old,
+                    needs_idle=needs_idle)
 
     def read_offset(self, table: int) -> OffsetTable:
         value: OffsetTable = self.request(cmd.read_offset(table))
         return value
 
     def write_offset(
-        self, table: int, value: OffsetTable, *, old: OffsetTable | None = None
+        self,
+        table: int,
+        value: OffsetTable,
+        *,
+        old: OffsetTable | None = None,
+        needs_idle: bool | None = None,
     ) -> None:
-        self._write(cmd.write_offset(table, value), cmd.read_offset(table), value, old)
+        self._write(cmd.write_offset(table, value), cmd.read_offset(table), value, old,
+                    needs_idle=needs_idle)
 
     def read_parameters(self) -> Parameters:
         value: Parameters = self.request(cmd.read_parameters())
         return value
 
-    def write_parameters(self, value: Parameters, *, old: Parameters | None = None) -> None:
-        self._write(cmd.write_parameters(value), cmd.read_parameters(), value, old)
+    def write_parameters(
+        self, value: Parameters, *, old: Parameters | None = None, needs_idle: bool | None = None
+    ) -> None:
+        self._write(cmd.write_parameters(value), cmd.read_parameters(), value, old,
+                    needs_idle=needs_idle)
 
     # --- I/O and memory bits ------------------------------------------------------------
 
@@ -301,7 +335,9 @@ class Controller:
         value: Config = self.request(cmd.read_config())
         return value
 
-    def write_config(self, value: Config, *, old: Config | None = None) -> None:
+    def write_config(
+        self, value: Config, *, old: Config | None = None, needs_idle: bool | None = None
+    ) -> None:
         """SNX: set the four program areas.  The controller drops every program."""
         self._write(
             cmd.write_config(value),
@@ -309,6 +345,7 @@ class Controller:
             value,
             old,
             lambda a, b: a.same_programs(b),
+            needs_idle=needs_idle,
         )
 
     # --- everything ---------------------------------------------------------------------

@@ -24,6 +24,13 @@ replies have come (and are discarded) or cannot come any more (``late_window``
 seconds after their deadline).  That costs one ``late_window`` after a reply
 that was really lost, and never returns a value that answers another request.
 
+A retry of the same read may take the earlier attempt's late reply as its own
+answer: the value is the same.  Not so for a volatile read (LNR, I/O and memory
+bits): the task states may have changed between the two attempts, and a late
+"idle" must never pass for the retry's "in execution".  Before re-sending a
+volatile read the link therefore waits out owed replies too, as before a new
+request.
+
 Errors.  Whatever a pyserial call on the port raises (SerialException, OSError,
 but also termios.error from a pty that went away, or TypeError from a port
 closed under it) leaves the link as :class:`PortError`, one line that names the
@@ -420,7 +427,7 @@ class Link:
                         request,
                         f"retry {attempt}/{attempts - 1} after {failure.reason}",
                     )
-                    self._settle(port, st, request, wait=False)
+                    self._settle(port, st, request, wait=request.volatile)
                 sent = self._send(port, frame, st, request)
                 # A reply still owed may be this attempt's (the earlier one's was taken):
                 # it can come until this attempt's late window ends.

@@ -226,6 +226,20 @@ def test_a_slow_reply_is_never_taken_for_the_answer_to_the_next_request(
     assert link.stats.retries == 1 and link.stats.late_replies == 1
 
 
+def test_issue_6_a_status_retry_is_answered_by_itself_never_by_the_late_first_reply(
+    link: Link, sim: ScriptedSim
+) -> None:
+    # Task states change on their own: the first LNR's late "idle" is stale by the
+    # time the retry is answered "task 0 in execution", and must be discarded.
+    def started(state: SimState) -> None:
+        state.start_task(0, "MAIN", 1, 2)
+
+    sim.plan("LNR", Act(wire=slow(FAST.timeout * 1.5)), Act(before=started))
+    status = link.exchange(cmd.read_status())
+    assert not status.idle and "task 0 in execution" in status.describe()
+    assert link.stats.retries == 1 and link.stats.late_replies == 1
+
+
 def test_a_read_gives_up_after_its_retries_with_link_timeout(link: Link, sim: ScriptedSim) -> None:
     sim.plan("LNT 1", *[Act(wire=drop)] * 3, Act(wire=bad_lrc))
     with pytest.raises(LinkTimeout) as info:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
-from simline import Act, ScriptedSim, drop
+from simline import Act, ScriptedSim, drop, slow
 
 from harlsync.controller import Controller
 from harlsync.errors import InterlockError, PolicyError, PortBusyError, StalePlanError
@@ -147,6 +147,15 @@ def test_a_timer_write_is_still_resent_while_a_task_runs(
     assert sim.stations[1].data.timers[1] == "7.25"
 
 
+def test_issue_6_a_timer_write_that_needs_an_idle_robot_is_not_resent_while_a_task_runs(
+    robot: Controller, sim: ScriptedSim
+) -> None:
+    sim.plan("SNT 1", Act(apply=False, before=operator_starts_the_robot, wire=drop))
+    with pytest.raises(InterlockError, match="task 0 in execution"):
+        robot.write_timer(1, "7.25", old=sim.stations[1].data.timers[1], needs_idle=True)
+    assert sim.sent("SNT 1") == ["SNT 1 7.25"]
+
+
 def test_push_does_not_resend_a_step_to_a_robot_started_after_its_reply_was_lost(
     project: Path, sim: ScriptedSim
 ) -> None:
@@ -157,6 +166,64 @@ def test_push_does_not_resend_a_step_to_a_robot_started_after_its_reply_was_lost
     assert isinstance(failed.value.cause, InterlockError)
     assert sim.unsafe_in_automatic() == []
     assert sim.sent("SNM 1 11") == ["SNM 1 11 MOVE P999 S20"]
+
+
+def test_issue_6_a_late_idle_lnr_reply_is_never_taken_for_the_retry_that_found_the_robot_running(
+    project: Path, sim: ScriptedSim
+) -> None:
+    # Found by tests/test_interlock_property.py.  The LNR before the write is answered
+    # "idle" after its deadline; the operator starts the robot; the retry is answered
+    # "running".  The late "idle" must not pass for the retry's answer.
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    sim.plan("LNR", Act(), Act(wire=slow(0.3)), Act(before=operator_starts_the_robot))
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, YES)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert "task 0 in execution" in str(failed.value)
+    assert sim.writes_received() == []
+
+
+def commit_timer(project: Path, number: int, value: str) -> None:
+    loaded = load_project(project)
+    loaded.data.timers[number] = value
+    save_project(project, loaded)
+    git(project.parent, "commit", "-qam", f"timer {number}")
+
+
+@pytest.mark.parametrize("live_tuning", [False, True], ids=["timer", "register, live tuning"])
+def test_issue_6_a_push_resends_no_write_to_a_robot_started_after_its_reply_was_lost(
+    project: Path, sim: ScriptedSim, live_tuning: bool
+) -> None:
+    # Found by tests/test_interlock_property.py.  The manual allows SNT and SND in
+    # automatic operation, so the controller re-sends them without reading LNR; but a
+    # push without --allow-live-tuning promises an idle robot for every write, and a
+    # register never goes to a running program.  The first send is lost on the way in;
+    # the operator presses start while the item is read back.
+    if live_tuning:
+        robot_yaml = project / "robot.yaml"
+        robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
+                                                             "keep_registers: true"))
+        engine.pull(project)
+        loaded = load_project(project)
+        assert loaded.data.registers is not None, "robot.yaml layout changed"
+        loaded.data.registers[1] = "0042" if loaded.data.registers[1] != "0042" else "0043"
+        save_project(project, loaded)
+        git(project.parent, "add", "-A")
+        git(project.parent, "commit", "-qm", "register 1")
+        key, readback = "SND 1", "LND 1"
+    else:
+        commit_timer(project, 1, "7.25" if sim.stations[1].data.timers[1] != "7.25" else "7.50")
+        key, readback = "SNT 1", "LNT 1"
+    sim.plan(key, Act(apply=False, wire=drop))
+    # read in the pull, before the write (drift), then after the lost reply:
+    sim.plan(readback, Act(), Act(), Act(before=operator_starts_the_robot))
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, PushOptions(yes=True, allow_live_tuning=live_tuning,
+                                         registers=live_tuning))
+    assert isinstance(failed.value.cause, InterlockError)
+    assert "task 0 in execution" in str(failed.value)
+    assert len(sim.sent(key)) == 1
+    assert [r.payload for r in sim.writes_received() if r.automatic] == []
 
 
 # --- the robot edited on the pendant after the read -------------------------------------

@@ -43,6 +43,7 @@ from . import profile
 __all__ = [
     "READ_LETTERS",
     "UNSAFE_LETTERS",
+    "VOLATILE_LETTERS",
     "WRITE_LETTERS",
     "Ack",
     "ErrorReply",
@@ -77,6 +78,8 @@ __all__ = [
 
 #: SN commands the manual forbids during automatic operation.
 UNSAFE_LETTERS = frozenset(("SNA", "SNM", "SNS", "SNH", "SNE", "SNX"))
+#: Reads whose answer changes without any write: task states, I/O and memory bits.
+VOLATILE_LETTERS = frozenset(("LNR", "LNIB", "LNID", "LNOB", "LNOD", "LNBB", "LNBD"))
 
 _INT_RE = re.compile(r"[0-9]+")
 _BIT_RE = re.compile(r"[01]")
@@ -102,6 +105,11 @@ class Request:
     def unsafe(self) -> bool:
         """Forbidden by the manual during automatic operation."""
         return self.letters in UNSAFE_LETTERS
+
+    @property
+    def volatile(self) -> bool:
+        """Its answer may change between two attempts (LNR: the operator pressed start)."""
+        return self.letters in VOLATILE_LETTERS
 
     def __str__(self) -> str:
         return self.payload

@@ -39,8 +39,12 @@ class Driver(Protocol):
     def read(self, key: Key) -> Any:
         """The item's current value (``None`` for an empty step)."""
 
-    def write(self, key: Key, value: Any, old: Any = None) -> None:
-        """Write one item (``None`` clears a step); ``old`` is what it holds now, if known."""
+    def write(self, key: Key, value: Any, old: Any = None, *, needs_idle: bool = True) -> None:
+        """Write one item (``None`` clears a step); ``old`` is what it holds now, if known.
+
+        With ``needs_idle`` the write is never sent again (after a lost reply)
+        unless the robot is then found idle; raises InterlockError instead.
+        """
 
     def command(self, key: Key, value: Any) -> str:
         """The exact wire command that :meth:`write` sends, for plans and audits."""
@@ -105,23 +109,24 @@ class HarlU2Driver:
             return c.config()
         raise ValueError(f"no read for item {key}")
 
-    def write(self, key: Key, value: Any, old: Any = None) -> None:
+    def write(self, key: Key, value: Any, old: Any = None, *, needs_idle: bool = True) -> None:
         # Knowing the old value lets the controller decide, after a lost reply,
         # whether the write took, without an extra read before every write.
-        c, kind = self.controller, key[0]
+        c, kind, idle = self.controller, key[0], needs_idle
         if kind == "step":
             _, ptype, number, step = key
-            c.write_step(ProgramType(ptype), number, step, value or Step(), old=old or Step())
+            c.write_step(ProgramType(ptype), number, step, value or Step(), old=old or Step(),
+                         needs_idle=idle)
         elif kind == "timer":
-            c.write_timer(key[1], value, old=old)
+            c.write_timer(key[1], value, old=old, needs_idle=idle)
         elif kind == "register":
-            c.write_register(key[1], value, old=old)
+            c.write_register(key[1], value, old=old, needs_idle=idle)
         elif kind == "offset":
-            c.write_offset(key[1], value, old=old)
+            c.write_offset(key[1], value, old=old, needs_idle=idle)
         elif kind == "parameters":
-            c.write_parameters(value, old=old)
+            c.write_parameters(value, old=old, needs_idle=idle)
         elif kind == "config":
-            c.write_config(value, old=old)
+            c.write_config(value, old=old, needs_idle=idle)
         else:
             raise ValueError(f"no write for item {key}")
 

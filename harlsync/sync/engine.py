@@ -19,7 +19,8 @@ before the last check)::
         write, read back, compare    (verify)
     audit "end" record               (always, whatever happened)
 
-The interlock reads LNR immediately before every write.  With
+The interlock reads LNR immediately before every write, a re-send after a
+lost reply included (the controller reads it again before re-sending).  With
 ``allow_live_tuning`` it skips that only before timer and offset writes, which
 the manual allows during automatic operation; it still reads LNR before every
 other write (SNA, SNM, SNS, SNH, SNE, SNX, and SND registers), and a plan that
@@ -564,7 +565,8 @@ def _write_all(
             _interlock(driver, robot, f"writing {write.name} ({write.command})")
         announce(write)
         result.failed = write
-        driver.write(write.key, write.new, write.old)
+        # A re-send after a lost reply is a write too: the same interlock applies.
+        driver.write(write.key, write.new, write.old, needs_idle=not live(write))
         got = driver.read(write.key)
         if got != write.new:
             raise VerifyError(

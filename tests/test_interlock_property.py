@@ -1,0 +1,668 @@
+"""Property test of the push interlock (issue 6, "Prove the promises").
+
+Over 1,000 random pushes in every CI run (plus 40 more through the CLI, on disk),
+each case drawn from one seed, it proves, from the simulator's own record of
+what arrived and of the task states when it arrived (``Simulator.received``),
+never from what harlsync believed:
+
+1. every SN that needs an idle robot arrived straight after an LNR that found
+   every task idle.  Without ``allow_live_tuning`` that is every SN; with it,
+   every SN but SNT (timers) and SNL (offset tables), and a plan that holds any
+   other write finds the robot idle before its first write;
+2. hence no such SN arrived while a task was in execution or suspended, except
+   in the one window no client can close (below);
+3. a push that returns has made the robot equal the project (converged);
+4. a push that raises PushFailed says why in one line; its result, its audit
+   record and (on disk) what ``harlsync push`` prints name exactly the writes the
+   simulator received; the robot holds, for each planned item, its old or its
+   new value (the new one for every write reported written); no item outside
+   the plan changed; no write was sent twice without reading the item back;
+5. the snapshot taken before the first write is what the robot held;
+6. once the robot is stopped and the line is clean, the same push converges (or
+   is refused again, writing nothing, when it needs --allow-reconfigure or
+   changes what SNX cannot write).
+
+A case is: a small random robot (``SimState.generate``); a project made from it
+by a random diff (steps changed, added and cleared, timers, offset tables,
+parameters, registers, sometimes the program configuration, rarely the timer
+count); random options (live tuning, registers, reconfiguration allowed); and,
+at random moments (after the simulator has answered the k-th request, most of
+them while the push writes), an operator who starts, suspends or stops tasks or
+sets odd task states, and a line that goes bad: faults on the replies (noise,
+drops, bad LRC, fragments, late replies), requests lost on their way in, one
+write request lost, a short burst of faults.  The reply to the request after
+which the operator acts is often late, lost or garbled: the operator acts while
+it is on the wire.
+
+The window no client can close: the operator starting the robot after the LNR
+that found it idle has been answered and before the write it cleared arrives.
+Such a write is counted (``race``), and checks 3-6 still hold for its case;
+a push stops at its next LNR.
+
+To replay or explore: ``HARLSYNC_PROPERTY_SEEDS=7,8,9`` runs only those seeds
+(a failure names its seed); ``HARLSYNC_PROPERTY_BASE=N`` moves every chunk.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from harlsync import cli
+from harlsync.errors import InterlockError, PolicyError
+from harlsync.link import SerialSettings
+from harlsync.model import (
+    OFFSET_TABLE_COUNT,
+    Config,
+    OffsetTable,
+    ProgramArea,
+    RobotData,
+    Step,
+)
+from harlsync.project import Project, load_project, new_robot, save_project
+from harlsync.protocol import FrameDecoder
+from harlsync.sim import Faults, SimState, Simulator
+from harlsync.sim.device import Received
+from harlsync.sim.protocol_sim import register, unregister
+from harlsync.sync import PushFailed, PushOptions, PushResult, engine
+from harlsync.sync import audit as audit_log
+from harlsync.sync.items import diff, items
+
+CHUNKS = 10
+PER_CHUNK = 100
+BASE = int(os.environ.get("HARLSYNC_PROPERTY_BASE", "600000"))
+ONLY = [int(s) for s in os.environ.get("HARLSYNC_PROPERTY_SEEDS", "").split(",") if s.strip()]
+
+#: The reply deadline while faults are on: short, so a lost reply costs little.
+FAST = SerialSettings(timeout=0.02, retries=2)
+#: The deadline for the re-run on a clean line: long, so a busy CI machine is no fault.
+CALM = SerialSettings(timeout=1.0, retries=3)
+#: Writes that allow_live_tuning lets through during automatic operation.
+LIVE = ("SNT", "SNL")
+
+
+# --- the operator at the pendant ------------------------------------------------------------
+
+Change = Callable[[Simulator, SimState], str]
+
+
+class Operator(Simulator):
+    """A simulator with a schedule: after answering the k-th request, make a change.
+
+    A change puts tasks into or out of automatic operation, or changes the line's
+    faults.  :attr:`received` records the task states when each request arrived,
+    so a change made after request k shows from request k+1 on.
+    """
+
+    def __init__(
+        self, state: SimState, schedule: list[tuple[int, Change]], *, seed: int,
+        lose_writes: set[int] | None = None,
+    ) -> None:
+        super().__init__(state)
+        self.schedule = sorted(schedule, key=lambda entry: entry[0])
+        self.done: list[str] = []
+        self.handled = 0
+        #: The rate of requests garbled on their way in (never carried out, never answered).
+        self.lose = 0.0
+        #: Which SN requests (0: the first one sent) are garbled on their way in.
+        self.lose_writes = lose_writes or set()
+        self.writes_sent = 0
+        self.lost_writes = 0
+        #: The chance that the reply to the request after which the operator acts is
+        #: late, lost or garbled: the operator acts while it is on the wire.
+        self.hiccup = 0.4
+        self._restore: Faults | None = None
+        self._rng = random.Random(seed)
+
+    def calm(self) -> None:
+        """The operator stops the robot and leaves it alone; the line is mended."""
+        self.schedule, self.lose_writes = [], set()
+        self.faults, self._restore, self.lose, self.hiccup = Faults(), None, 0.0, 0.0
+        for state in self.stations.values():
+            state.stop_all()
+
+    def receive(self, data: bytes, decoder: FrameDecoder | None = None) -> list[tuple[float, bytes]]:
+        write = b" SN" in data
+        lost = self.lose and self._rng.random() < self.lose
+        if write:
+            lost = lost or self.writes_sent in self.lose_writes
+            self.writes_sent += 1
+        if data and lost:
+            data = data[:-1] + bytes([data[-1] ^ 0x5A])  # a bad LRC: the robot drops it
+            self.lost_writes += write
+        return super().receive(data, decoder)
+
+    def handle(self, state: SimState, payload: str) -> str:
+        if self._restore is not None:
+            self.faults, self._restore = self._restore, None
+        reply = super().handle(state, payload)
+        acted = False
+        while self.schedule and self.schedule[0][0] <= self.handled:
+            _, change = self.schedule.pop(0)
+            self.done.append(f"after request {self.handled} ({payload}): {change(self, state)}")
+            acted = True
+        if acted and self._rng.random() < self.hiccup:
+            self._restore = self.faults
+            # Late within the link's late window (a reply later than that is beyond
+            # what any link without sequence numbers can place).
+            self.faults = self._rng.choice([
+                Faults(slow=1.0, slow_delay=FAST.timeout * 1.5), Faults(drop=1.0),
+                Faults(bad_lrc=1.0),
+            ])
+            self.done.append(f"  and the reply to it: {self.faults}")
+        self.handled += 1
+        return reply
+
+
+def start(task: int, ptype: str, program: int, step: int) -> Change:
+    def change(sim: Simulator, state: SimState) -> str:
+        state.start_task(task, ptype, program, step)
+        return f"task {task} in execution"
+    return change
+
+
+def suspend(task: int) -> Change:
+    def change(sim: Simulator, state: SimState) -> str:
+        state.suspend_task(task)
+        return f"task {task} suspended"
+    return change
+
+
+def set_status(task: int, status: int) -> Change:
+    def change(sim: Simulator, state: SimState) -> str:
+        state.tasks[task] = replace(state.tasks[task], status=status)
+        return f"task {task} status {status}"
+    return change
+
+
+def stop_all(sim: Simulator, state: SimState) -> str:
+    state.stop_all()
+    return "all tasks stopped"
+
+
+def line(faults: Faults, lose: float) -> Change:
+    def change(sim: Simulator, state: SimState) -> str:
+        assert isinstance(sim, Operator)
+        sim.faults, sim.lose = faults, lose
+        return f"faults now {faults}, requests lost {lose}"
+    return change
+
+
+# --- one random case ------------------------------------------------------------------------
+
+
+@dataclass
+class Case:
+    seed: int
+    before: RobotData
+    target: RobotData
+    opts: PushOptions
+    sim: Operator
+    story: list[str] = field(default_factory=list)
+
+    def why(self, message: str) -> str:
+        return (f"case seed {self.seed} (HARLSYNC_PROPERTY_SEEDS={self.seed} to replay): "
+                f"{message}\n  " + "\n  ".join(self.story + self.sim.done))
+
+
+def copy_data(data: RobotData) -> RobotData:
+    return RobotData(
+        version=data.version, config=data.config, parameters=data.parameters,
+        programs={k: dict(v) for k, v in data.programs.items()}, offsets=dict(data.offsets),
+        timers=dict(data.timers),
+        registers=None if data.registers is None else dict(data.registers),
+    )
+
+
+def random_step(rng: random.Random) -> Step:
+    return Step.parse(rng.choice([
+        f"MOVE P{rng.randrange(1000):03d} S{rng.choice([20, 50, 80, 100])}",
+        f"WAIT DI{rng.randrange(64)} {rng.choice(['ON', 'OFF'])}",
+        f"OUT DO{rng.randrange(32)} {rng.choice(['ON', 'OFF'])}",
+        f"TIMER T{rng.randrange(4):02d}",
+        "END",
+    ]))
+
+
+def random_config(rng: random.Random) -> Config:
+    def area(counts: tuple[int, ...]) -> ProgramArea:
+        return ProgramArea(rng.choice(counts), rng.choice((3, 4, 6)))
+    return Config(area((1,)), area((1, 2)), area((1, 2)), area((1,)), 4, 16, 4)
+
+
+def random_target(rng: random.Random, live: RobotData, story: list[str]) -> RobotData:
+    """``live`` with a random diff applied."""
+    data = copy_data(live)
+    cfg = data.config
+    if rng.random() < 0.12:
+        new = random_config(rng)
+        if not new.same_programs(cfg):
+            story.append(f"configuration {cfg.numbers()} -> {new.numbers()}")
+            data.config = new
+            data.programs = {
+                key: {n: s for n, s in data.programs.get(key, {}).items()
+                      if n < new.area(key[0]).steps}
+                for key in new.programs()
+            }
+            cfg = new
+    if rng.random() < 0.02:
+        story.append("timer count changed (no write can do it)")
+        data.config = replace(cfg, timers=cfg.timers + 1)
+        data.timers[cfg.timers] = "1.00"
+    if rng.random() < 0.7:
+        keys = list(cfg.programs())
+        for _ in range(rng.randint(1, 5)):
+            key = rng.choice(keys)
+            step = rng.randrange(cfg.area(key[0]).steps)
+            if rng.random() < 0.25:
+                data.programs[key].pop(step, None)
+            else:
+                data.programs[key][step] = random_step(rng)
+        story.append("steps edited")
+    if rng.random() < 0.4:
+        for n in rng.sample(range(cfg.timers), k=rng.randint(1, cfg.timers)):
+            data.timers[n] = f"{rng.randrange(1000) / 100:.2f}"
+        story.append("timers edited")
+    if rng.random() < 0.3:
+        for n in rng.sample(range(OFFSET_TABLE_COUNT), k=rng.randint(1, 3)):
+            data.offsets[n] = OffsetTable.from_values(
+                [f"{rng.uniform(-500, 500):.2f}" for _ in range(6)]
+                + [str(rng.randrange(100)), str(rng.randrange(100))]
+            )
+        story.append("offset tables edited")
+    if rng.random() < 0.15:
+        data.parameters = replace(data.parameters, pull_rate=str(rng.randrange(1, 100)))
+        story.append("parameters edited")
+    if rng.random() < 0.25:
+        assert data.registers is not None
+        for n in rng.sample(range(cfg.registers), k=rng.randint(1, 2)):
+            data.registers[n] = f"{rng.randrange(10000):04d}"
+        story.append("registers edited")
+    return data
+
+
+def random_faults(rng: random.Random, deadline: float) -> tuple[Faults, float]:
+    """Faults on the replies, and the rate of requests lost on the way in."""
+    faults = Faults(
+        noise=rng.choice([0.0, 0.02, 0.1]),
+        drop=rng.choice([0.0, 0.005, 0.01, 0.03]),
+        bad_lrc=rng.choice([0.0, 0.005, 0.01, 0.03]),
+        fragment=rng.choice([0.0, 0.05, 0.2]),
+        slow=rng.choice([0.0, 0.005, 0.01, 0.03]),
+        slow_delay=deadline * rng.choice([1.2, 1.8]),
+        fragment_gap=0.001,
+        seed=rng.randrange(2**32),
+    )
+    return faults, rng.choice([0.0, 0.005, 0.01, 0.03])
+
+
+def random_schedule(
+    rng: random.Random, reads: int, horizon: int, deadline: float
+) -> list[tuple[int, Change]]:
+    """Mode changes and line faults at random moments: most of them while the push
+    writes (request ``reads`` on), the rest at any time.  A lost reply costs two
+    deadlines, so the line is clean for most of the long read before the writes."""
+
+    def moment() -> int:
+        return rng.randrange(horizon) if rng.random() < 0.15 else rng.randrange(reads, horizon)
+
+    out: list[tuple[int, Change]] = []
+    for _ in range(rng.choice([0, 1, 1, 2, 2, 3, 5])):
+        task = rng.randrange(5)
+        change = rng.choices(
+            [start(task, rng.choice(["START", "MAIN", "SUB"]), 0, rng.randrange(4)),
+             suspend(task), stop_all, set_status(task, rng.choice([0, 4, 8])),
+             set_status(task, rng.choice([3, 16]))],
+            weights=[4, 2, 3, 1, 1],
+        )[0]
+        out.append((moment(), change))
+    if rng.random() < 0.6:
+        out.append((moment(), line(*random_faults(rng, deadline))))
+    if rng.random() < 0.15:
+        at = moment()
+        bad = Faults(drop=rng.choice([0.2, 0.5]), bad_lrc=0.1, slow=0.1, noise=0.2,
+                     slow_delay=deadline * 1.5, seed=rng.randrange(2**32))
+        out += [(at, line(bad, rng.choice([0.2, 0.4]))),
+                (at + rng.randint(2, 5), line(Faults(), 0.0))]
+    return out
+
+
+def make_case(seed: int) -> Case:
+    rng = random.Random(seed)
+    state = SimState.generate(rng.randrange(2**31), random_config(rng))
+    before = copy_data(state.data)
+    story: list[str] = []
+    target = random_target(rng, before, story)
+    opts = PushOptions(
+        yes=True, allow_dirty=True,
+        allow_live_tuning=rng.random() < 0.5,
+        allow_reconfigure=rng.random() < 0.7,
+        registers=rng.random() < 0.3,
+    )
+    story.append(f"options: live tuning {opts.allow_live_tuning}, registers {opts.registers}, "
+                 f"reconfigure {opts.allow_reconfigure}")
+    if rng.random() < 0.08:
+        state.start_task(rng.randrange(5), "MAIN", 0, 0)
+        story.append("the robot runs when the push starts")
+    cfg = before.config
+    reads = 4 + cfg.step_count + OFFSET_TABLE_COUNT + cfg.timers + cfg.registers * opts.registers
+    horizon = reads + 4 * len(diff(before, target, registers=True)) + 8
+    writes = len(diff(before, target, registers=opts.registers))
+    lose_writes = {rng.randrange(writes)} if writes and rng.random() < 0.3 else set()
+    if lose_writes:
+        story.append(f"write requests lost on the way in: {sorted(lose_writes)}")
+    schedule = random_schedule(rng, reads, horizon, FAST.timeout)
+    sim = Operator(state, schedule, seed=rng.randrange(2**32), lose_writes=lose_writes)
+    return Case(seed, before, target, opts, sim, story)
+
+
+# --- running it -----------------------------------------------------------------------------
+
+
+@dataclass
+class Outcome:
+    result: PushResult
+    failed: PushFailed | None
+    received: list[Received]
+    snapshot: RobotData | None
+
+
+Deploy = Callable[[Case, SerialSettings], Outcome]
+
+
+@pytest.fixture
+def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
+    """Push a case with its project held in memory and its snapshot kept in memory.
+
+    Writing the project, reading it back and writing the snapshot cost three times
+    the rest of a case; :func:`test_the_cli_on_a_project_on_disk_keeps_the_same_promises`
+    shows that they change nothing the checks look at.
+    """
+    taken: list[RobotData] = []
+
+    def keep(path: Path, robot: object, live: RobotData, action: str) -> Path:
+        taken.append(live)
+        return path / "snapshot"
+
+    monkeypatch.setattr(engine, "_save_snapshot", keep)
+
+    def deploy(case: Case, settings: SerialSettings) -> Outcome:
+        url = register(case.sim)
+        try:
+            robot = new_robot(f"case-{case.seed}", url, 1, serial=settings,
+                              keep_registers=case.opts.registers)
+            project = Project(tmp_path / f"case-{case.seed}", robot, case.target)
+            first, before = len(case.sim.received), len(taken)
+            try:
+                result = engine._deploy("push", project, case.target, case.opts, None, None)
+                failed = None
+            except PushFailed as exc:
+                result, failed = exc.result, exc
+            snapshot = taken[before] if len(taken) > before else None
+            return Outcome(result, failed, case.sim.received[first:], snapshot)
+        finally:
+            unregister(url)
+
+    return deploy
+
+
+@pytest.fixture
+def on_disk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> Deploy:
+    """Push a case as a person does: the project on disk, ``harlsync push DIR --yes``,
+    the snapshot written and read back; the exit status and what the command printed
+    are checked here (the result is taken from ``engine.push`` on its way out)."""
+    real = engine.push
+    seen: list[PushResult | PushFailed] = []
+
+    def spy(*args: Any, **kwargs: Any) -> PushResult:
+        try:
+            result = real(*args, **kwargs)
+        except PushFailed as exc:
+            seen.append(exc)
+            raise
+        seen.append(result)
+        return result
+
+    monkeypatch.setattr(engine, "push", spy)
+
+    def deploy(case: Case, settings: SerialSettings) -> Outcome:
+        url = register(case.sim)
+        try:
+            path = tmp_path / f"case-{case.seed}"
+            robot = new_robot(f"case-{case.seed}", url, 1, serial=settings,
+                              keep_registers=case.opts.registers)
+            save_project(path, Project(path, robot, case.target), rewrite_robot=True)
+            flags = [flag for flag, on in (("--allow-live-tuning", case.opts.allow_live_tuning),
+                                           ("--allow-reconfigure", case.opts.allow_reconfigure),
+                                           ("--registers", case.opts.registers)) if on]
+            first = len(case.sim.received)
+            capsys.readouterr()
+            code = cli.main(["push", str(path), "--yes", "--allow-dirty", *flags])
+            printed = capsys.readouterr().err
+            outcome = seen.pop()
+            failed = outcome if isinstance(outcome, PushFailed) else None
+            result = outcome.result if isinstance(outcome, PushFailed) else outcome
+            refused = failed is not None and isinstance(failed.cause, InterlockError | PolicyError)
+            assert code == (0 if failed is None else 3 if refused else 2), case.why(
+                f"exit status {code}: {printed}"
+            )
+            if failed is not None:
+                assert str(failed.cause) in printed, case.why(f"cause not shown: {printed}")
+                for w in result.written:
+                    assert f"written:     {w.name}: {w.command}" in printed, case.why(printed)
+                if result.failed is not None:
+                    assert f"unknown:     {result.failed.name}: {result.failed.command}" in (
+                        printed), case.why(printed)
+            snapshot = load_project(result.snapshot).data if result.snapshot else None
+            return Outcome(result, failed, case.sim.received[first:], snapshot)
+        finally:
+            unregister(url)
+
+    return deploy
+
+
+def needs_idle(letters: str, opts: PushOptions) -> bool:
+    """Whether the engine promises an idle robot for this SN (its docstring and README)."""
+    return not (opts.allow_live_tuning and letters in LIVE)
+
+
+def readback_letters(letters: str) -> str:
+    return "LN" + letters[2:]
+
+
+@dataclass
+class Tally:
+    cases: int = 0
+    ok: int = 0
+    failed: int = 0
+    refused_before_writing: int = 0
+    race: int = 0
+    live_in_automatic: int = 0
+    lost_writes: int = 0
+    causes: dict[str, int] = field(default_factory=dict)
+
+
+def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
+    opts, received = case.opts, got.received
+    for i, r in enumerate(received):
+        if not r.is_write or not needs_idle(r.letters, opts):
+            tally.live_in_automatic += r.is_write and r.automatic
+            continue
+        before = received[i - 1] if i else None
+        cleared = before is not None and before.letters == "LNR" and not before.automatic
+        assert cleared, case.why(
+            f"{r.payload!r} (request {i}) did not follow an LNR that found the robot idle "
+            f"(before it: {before})"
+        )
+        if r.automatic:
+            tally.race += 1  # started between that LNR and this write: see the docstring
+    plan = got.result.plan
+    if opts.allow_live_tuning and plan is not None and any(
+        needs_idle(w.command.split(" ")[0], opts) for w in plan.writes
+    ):
+        writes = [i for i, r in enumerate(received) if r.is_write]
+        if writes:
+            gate = [r for r in received[: writes[0]] if r.letters == "LNR"]
+            assert gate and not gate[-1].automatic, case.why(
+                "a live-tuning plan with unsafe writes did not find the robot idle "
+                "before its first write"
+            )
+
+
+def check_writes(case: Case, got: Outcome, final: RobotData) -> None:
+    """The result names exactly what the simulator received; the robot holds old or new."""
+    result = got.result
+    sent = [r for r in got.received if r.is_write]
+    written = {w.command for w in result.written}
+    maybe = written | ({result.failed.command} if result.failed else set())
+    for r in sent:
+        assert r.payload in maybe, case.why(
+            f"the robot received {r.payload!r}, which the result does not name as written "
+            f"or unknown"
+        )
+    payloads = [r.payload for r in sent]
+    for command in written:
+        assert command in payloads, case.why(f"reported written but never sent: {command!r}")
+    for command in set(payloads):
+        at = [i for i, r in enumerate(got.received) if r.payload == command]
+        assert len(at) <= 2, case.why(f"{command!r} sent {len(at)} times")
+        if len(at) == 2:
+            between = got.received[at[0] + 1 : at[1]]
+            readback = readback_letters(command.split(" ")[0])
+            assert any(r.letters == readback for r in between), case.why(
+                f"{command!r} sent twice without reading the item back in between"
+            )
+    plan = result.plan
+    if plan is None:
+        assert not sent, case.why("writes without a plan")
+        return
+    old, now = items(case.before), items(final)
+    wiped = plan.reconfigure and final.config.same_programs(case.target.config)
+    planned = {w.key: w for w in plan.writes}
+    done = {w.key for w in result.written}
+    for key in old.keys() | now.keys() | planned.keys():
+        was = None if wiped and key[0] == "step" else old.get(key)
+        w = planned.get(key)
+        if key in done:
+            assert w is not None and now.get(key) == w.new, case.why(
+                f"{key} was reported written but holds {now.get(key)!r}"
+            )
+        elif result.failed is not None and key == result.failed.key:
+            assert now.get(key) in (was, result.failed.new), case.why(
+                f"{key}, whose write failed, holds {now.get(key)!r}: neither old nor new"
+            )
+        else:
+            assert now.get(key) == was, case.why(
+                f"{key} was not written but changed from {was!r} to {now.get(key)!r}"
+            )
+
+
+def check_failure(case: Case, got: Outcome) -> None:
+    assert got.failed is not None
+    message = str(got.failed)
+    assert message and "\n" not in message, case.why(f"not one line: {message!r}")
+    result = got.result
+    plan = result.plan
+    if plan is not None:
+        # written, the one unknown, and not written: the plan, each write once.
+        named = [w.command for w in result.written] + [w.command for w in result.not_written]
+        assert sorted(named) == sorted(plan.commands), case.why("result does not cover the plan")
+        if result.failed is not None:
+            assert result.failed in result.not_written, case.why("unknown write not listed")
+    record = audit_log.read()[-1]
+    assert record["error"] == result.error, case.why("audit record is not this push's")
+    assert [w["command"] for w in record["written"]] == [w.command for w in result.written]
+    assert record.get("failed_item") == (result.failed.name if result.failed else None)
+
+
+def check_converged(case: Case, final: RobotData) -> None:
+    left = diff(final, case.target, registers=case.opts.registers)
+    assert not left, case.why(f"push returned but the robot still differs: {left[:3]}")
+
+
+def check_case(case: Case, deploy: Deploy, tally: Tally) -> None:
+    got = deploy(case, FAST)
+    final = case.sim.stations[1].data
+    tally.cases += 1
+    tally.lost_writes += case.sim.lost_writes
+    check_interlock(case, got, tally)
+    check_writes(case, got, final)
+    if got.snapshot is not None:
+        assert not diff(got.snapshot, case.before, registers=case.opts.registers), case.why(
+            "the snapshot is not what the robot held before the push"
+        )
+    if got.failed is None:
+        tally.ok += 1
+        check_converged(case, final)
+        return
+    tally.failed += 1
+    cause = type(got.failed.cause).__name__
+    tally.causes[cause] = tally.causes.get(cause, 0) + 1
+    check_failure(case, got)
+    if not [r for r in got.received if r.is_write]:
+        tally.refused_before_writing += 1
+    if isinstance(got.failed.cause, PolicyError):
+        assert not [r for r in got.received if r.is_write], case.why("refused, yet wrote")
+        return
+    # The operator stops the robot and the line is mended: the same push finishes.
+    case.sim.calm()
+    case.before = copy_data(final)
+    again = deploy(case, CALM)
+    check_interlock(case, again, tally)
+    check_writes(case, again, final)
+    if refused_by_policy(case):
+        assert again.failed is not None and isinstance(again.failed.cause, PolicyError), (
+            case.why(f"the re-run was not refused: {again.failed}")
+        )
+        assert not [r for r in again.received if r.is_write], case.why("refused, yet wrote")
+        return
+    assert again.failed is None, case.why(f"the re-run failed: {again.failed}")
+    check_converged(case, final)
+
+
+def refused_by_policy(case: Case) -> bool:
+    """Whether no push of this case may write: SNX not allowed, or what SNX cannot write."""
+    live, target = case.before.config, case.target.config
+    if live.timers != target.timers:
+        return True
+    return not live.same_programs(target) and not case.opts.allow_reconfigure
+
+
+def seeds(chunk: int) -> Iterator[int]:
+    if ONLY:
+        yield from (ONLY if chunk == 0 else [])
+        return
+    yield from range(BASE + chunk * PER_CHUNK, BASE + (chunk + 1) * PER_CHUNK)
+
+
+@pytest.mark.parametrize("chunk", range(CHUNKS))
+def test_no_unsafe_write_reaches_a_running_robot_and_every_push_converges_or_names_its_writes(
+    chunk: int, in_memory: Deploy
+) -> None:
+    tally = Tally()
+    for seed in seeds(chunk):
+        check_case(make_case(seed), in_memory, tally)
+    print(json.dumps(tally.__dict__))
+    if not ONLY:  # the cases still reach what they are meant to (a generator can rot)
+        assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 10, tally
+        assert tally.lost_writes >= 5, tally
+
+
+#: Seeds for the on-disk run: enough to meet every kind of outcome, few enough to be quick.
+ON_DISK = range(BASE - 40, BASE)
+
+
+def test_the_cli_on_a_project_on_disk_keeps_the_same_promises(on_disk: Deploy) -> None:
+    tally = Tally()
+    for seed in ONLY or ON_DISK:
+        check_case(make_case(seed), on_disk, tally)
+    print(json.dumps(tally.__dict__))
