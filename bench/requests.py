@@ -10,7 +10,8 @@ Counts what the simulator received (sim://, in process: counts, not times) for:
   robot since the pull, pushed back.  A push reads LNR once before it reads the
   robot, reads the whole robot to make its plan (and snapshot), then for each
   write: reads the item (drift since the plan), LNR (interlock), the SN write,
-  and reads the item back (verify).  These are the safety design's reads
+  and reads the item back (verify); and LNR once more after the last write (was
+  the robot started while it was on the wire?).  These are the safety design's reads
   (harlsync/sync/engine.py); the expected count is printed next to the count.
 """
 
@@ -68,11 +69,11 @@ def expected_pull(state: SimState) -> Counter[str]:
 
 
 def expected_push(state: SimState, steps: int, others: dict[str, int]) -> Counter[str]:
-    """A full read, LNR once before it, and per written item: drift read, LNR,
-    write, verify read."""
+    """A full read, LNR once before it, per written item: drift read, LNR, write,
+    verify read; and LNR once after the last write."""
     writes = steps + sum(others.values())
     expected = expected_pull(state)
-    expected["LNR"] += 1 + writes
+    expected["LNR"] += 1 + writes + 1
     expected["LN step"] += 2 * steps
     expected["SN step"] += steps
     for letters, n in others.items():

@@ -363,3 +363,47 @@ def test_what_no_write_can_fix_refuses_the_push_before_any_write(
     assert target.writes_received() == []
     [record] = audit_log.results(tmp_path / "audit.jsonl")
     assert record["result"] == "refused"
+
+
+# --- the start button pressed while a write is on the wire ---------------------------------
+
+
+def test_a_robot_started_while_the_last_write_was_on_the_wire_is_reported_after_the_push(
+    project: Path, sim: ScriptedSim, tmp_path: Path
+) -> None:
+    # No client can prevent this one (docs/SAFETY.md, limits): the status read before
+    # the write found the robot idle, and the operator pressed start as the write
+    # travelled.  The push must not stay silent about it.
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    sim.plan("SNM 1 3", Act(before=operator_starts_the_robot))
+    result = engine.push(project, YES)
+    [warning] = result.warnings
+    assert "is not idle at the end of the push: task 0 in execution" in warning
+    assert "started after the status read before MAIN program 1 step 3" in warning
+    assert "that write may have reached it while a task ran" in warning
+    [record] = audit_log.read(tmp_path / "audit.jsonl")[-1:]
+    assert record["warnings"] == [warning]
+
+
+def test_a_robot_started_between_two_writes_stops_the_push_naming_the_write_it_may_have_hit(
+    project: Path, sim: ScriptedSim
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    commit_step(project, 1, 5, "MOVE P555 S20")
+    sim.plan("SNM 1 3", Act(before=operator_starts_the_robot))
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, YES)
+    assert isinstance(failed.value.cause, InterlockError)
+    assert "before writing MAIN program 1 step 5" in str(failed.value)
+    assert "status read before MAIN program 1 step 3: that write may have reached it" in str(
+        failed.value
+    )
+    assert sim.sent("SNM 1 5") == []
+
+
+def test_a_push_that_ends_with_the_robot_idle_warns_of_nothing(
+    project: Path, sim: ScriptedSim
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    assert engine.push(project, YES).warnings == []
+    assert [r.letters for r in sim.received[-2:]] == ["LNM", "LNR"]

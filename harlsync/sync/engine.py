@@ -481,6 +481,8 @@ def _deploy(
         ]
         if result.failed is not None:
             record["failed_item"] = result.failed.name
+        if result.warnings:
+            record["warnings"] = result.warnings
         if driver is not None:
             driver.close()
         result.audit_log = audit.append(record)
@@ -562,7 +564,10 @@ def _write_all(
                 "the change, then run again"
             )
         if not live(write):
-            _interlock(driver, robot, f"writing {write.name} ({write.command})")
+            try:
+                _interlock(driver, robot, f"writing {write.name} ({write.command})")
+            except InterlockError as exc:
+                raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
         announce(write)
         result.failed = write
         # A re-send after a lost reply is a write too: the same interlock applies.
@@ -575,6 +580,28 @@ def _write_all(
         result.failed = None
         result.written.append(write)
         log.info("wrote %s: %s", write.name, write.command)
+    if result.written and not live(result.written[-1]):
+        # The last write had no LNR after it: one more tells whether the robot was
+        # started between the LNR before it and its arrival (no client can prevent that).
+        try:
+            status = driver.status()
+        except HarlsyncError as exc:
+            result.warnings.append(f"cannot read the task states after the last write ({exc})")
+            return
+        if not status.idle:
+            result.warnings.append(
+                f"robot {robot.name} ({driver.label}) is not idle at the end of the push: "
+                f"{status.describe()}{_maybe_hit(result, live)}"
+            )
+
+
+def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite], bool]) -> str:
+    """What an operator must check when the robot turned out started mid-push."""
+    last = result.written[-1] if result.written else None
+    if last is None or live(last):
+        return ""
+    return (f". It was started after the status read before {last.name}: that write may "
+            "have reached it while a task ran; check the robot")
 
 
 def push(
