@@ -38,6 +38,9 @@ def main() -> None:
     parser.add_argument("--robots", type=int, help="how many (default 32)")
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--jobs", type=int, help="backup's --jobs (default: its default)")
+    parser.add_argument("--tick", type=float, default=0.0,
+                        help="the simulators' pacing tick in seconds (default 0.001; a USB "
+                             "adapter's latency timer delivers bytes every 1-16 ms)")
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "default-full")
     count = args.robots or (8 if args.quick else 32)
@@ -48,7 +51,7 @@ def main() -> None:
           f"backup jobs: {args.jobs or 'default'}\n")
     with tempfile.TemporaryDirectory() as tmp, ExitStack() as stack:
         os.environ["HARLSYNC_LOCK_DIR"] = str(Path(tmp) / "locks")
-        sims = [stack.enter_context(SimProcess(robot, baud=args.baud, lines=min(
+        sims = [stack.enter_context(SimProcess(robot, baud=args.baud, tick=args.tick, lines=min(
             LINES_PER_PROCESS, count - i))) for i in range(0, count, LINES_PER_PROCESS)]
         ports = [port for sim in sims for port in sim.ports]
         data = ROBOTS[robot]().data
@@ -65,10 +68,12 @@ def main() -> None:
         for sim in sims:
             sim.reset()
 
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), os.times()
         fleet = backup([plant], **jobs)
         total = time.perf_counter() - start
+        client_cpu = sum(os.times()[:2]) - sum(cpu[:2])
         stats = [line for sim in sims for line in sim.stats()]
+    sims_cpu = sum(os.times()[2:4])  # the simulator processes, now ended: both phases
 
     assert alone.ok and fleet.ok, (alone.render(), fleet.render())
     durations = sorted(r.duration for r in fleet.robots)
@@ -84,6 +89,9 @@ def main() -> None:
     print(f"{'fleet: total':34} {total:>9.1f} {total / single:>8.2f} {total / limit:>8.2f}")
     print(f"\n{sum(s['exchanges'] for s in stats):,} exchanges; simulator replies late by "
           f"{late_mean * 1e6:.0f} us on average, {late * 1e3:.1f} ms at worst")
+    print(f"CPU: harlsync {client_cpu:.1f} s during the fleet backup ({client_cpu / total:.0%} of "
+          f"one core); the simulator processes {sims_cpu:.1f} s over both phases "
+          f"({sims_cpu / (single + total):.0%} of one core), on {os.cpu_count()} cores")
     print(f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}).")
 
 

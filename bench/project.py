@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from machine import describe, peak_rss_mib
-from pull import every_step_used
+from machine import every_step_used
 
 from harlsync.model import RobotData, Step
 from harlsync.project import (
