@@ -176,3 +176,12 @@ def timed_pull(port: str, into: Path) -> tuple[float, float]:
     start = time.perf_counter()
     pull(into, port=port, progress=progress)
     return read_done - start, time.perf_counter() - start
+
+
+def run_child(command: list[str], what: str) -> dict[str, Any]:
+    """Run a bench case in a fresh interpreter (so its peak RSS is its own); its JSON."""
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    if done.returncode:
+        sys.exit(f"{what} failed:\n{done.stderr}")
+    result: dict[str, Any] = json.loads(done.stdout)
+    return result

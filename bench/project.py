@@ -29,8 +29,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from machine import describe, peak_rss_mib
-from machine import every_step_used
+from machine import describe, every_step_used, peak_rss_mib, run_child
 
 from harlsync.model import RobotData, Step
 from harlsync.project import (
@@ -200,11 +199,7 @@ def run_case(case: str, path: Path, repeat: int) -> dict[str, Any]:
 def in_child(case: str, path: Path, repeat: int) -> dict[str, Any]:
     """:func:`run_case` in a fresh interpreter, so that its peak RSS is its own."""
     command = [sys.executable, __file__, "--case", case, str(path), "--repeat", str(repeat)]
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
-    if done.returncode:
-        sys.exit(f"{case} failed:\n{done.stderr}")
-    result: dict[str, Any] = json.loads(done.stdout)
-    return result
+    return run_child(command, case)
 
 
 def show(rows: list[dict[str, Any]]) -> None:

@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -29,7 +28,7 @@ import tracemalloc
 from pathlib import Path
 from typing import Any
 
-from machine import BITS_PER_BYTE, ROBOTS, describe, minutes, peak_rss_mib
+from machine import BITS_PER_BYTE, ROBOTS, describe, minutes, peak_rss_mib, run_child
 
 from harlsync.protocol import FrameDecoder
 from harlsync.sim import Simulator
@@ -119,11 +118,7 @@ def in_child(robot: str, transport: str, repeat: int, trace: bool) -> dict[str, 
     command = [sys.executable, __file__, "--case", robot, transport, "--repeat", str(repeat)]
     if not trace:
         command.append("--no-trace")
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
-    if done.returncode:
-        sys.exit(f"{robot} over {transport} failed:\n{done.stderr}")
-    result: dict[str, Any] = json.loads(done.stdout)
-    return result
+    return run_child(command, f"{robot} over {transport}")
 
 
 def show(rows: list[dict[str, Any]]) -> None:

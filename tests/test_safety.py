@@ -190,6 +190,22 @@ def commit_timer(project: Path, number: int, value: str) -> None:
     git(project.parent, "commit", "-qam", f"timer {number}")
 
 
+def commit_register_1(project: Path, *, timer_2: bool = False) -> None:
+    """Keep registers, pull them, and commit a change of register 1 (and timer 2)."""
+    robot_yaml = project / "robot.yaml"
+    robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
+                                                         "keep_registers: true"))
+    engine.pull(project)
+    loaded = load_project(project)
+    assert loaded.data.registers is not None, "robot.yaml layout changed"
+    loaded.data.registers[1] = "0042" if loaded.data.registers[1] != "0042" else "0043"
+    if timer_2:
+        loaded.data.timers[2] = "4.44" if loaded.data.timers[2] != "4.44" else "4.45"
+    save_project(project, loaded)
+    git(project.parent, "add", "-A")
+    git(project.parent, "commit", "-qm", "register 1" + (", timer 2" if timer_2 else ""))
+
+
 @pytest.mark.parametrize("live_tuning", [False, True], ids=["timer", "register, live tuning"])
 def test_issue_6_a_push_resends_no_write_to_a_robot_started_after_its_reply_was_lost(
     project: Path, sim: ScriptedSim, live_tuning: bool
@@ -200,16 +216,7 @@ def test_issue_6_a_push_resends_no_write_to_a_robot_started_after_its_reply_was_
     # register never goes to a running program.  The first send is lost on the way in;
     # the operator presses start while the item is read back.
     if live_tuning:
-        robot_yaml = project / "robot.yaml"
-        robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
-                                                             "keep_registers: true"))
-        engine.pull(project)
-        loaded = load_project(project)
-        assert loaded.data.registers is not None, "robot.yaml layout changed"
-        loaded.data.registers[1] = "0042" if loaded.data.registers[1] != "0042" else "0043"
-        save_project(project, loaded)
-        git(project.parent, "add", "-A")
-        git(project.parent, "commit", "-qm", "register 1")
+        commit_register_1(project)
         key, readback = "SND 1", "LND 1"
     else:
         commit_timer(project, 1, "7.25" if sim.stations[1].data.timers[1] != "7.25" else "7.50")
@@ -301,17 +308,7 @@ def test_a_push_that_could_not_be_audited_is_refused_before_any_write(
 def test_live_tuning_does_not_write_registers_into_a_running_program(
     project: Path, sim: ScriptedSim
 ) -> None:
-    robot_yaml = project / "robot.yaml"
-    robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
-                                                         "keep_registers: true"))
-    engine.pull(project)
-    loaded = load_project(project)
-    assert loaded.data.registers is not None, "robot.yaml layout changed"
-    loaded.data.registers[1] = "0042" if loaded.data.registers[1] != "0042" else "0043"
-    loaded.data.timers[2] = "4.44" if loaded.data.timers[2] != "4.44" else "4.45"
-    save_project(project, loaded)
-    git(project.parent, "add", "-A")
-    git(project.parent, "commit", "-qm", "register 1, timer 2")
+    commit_register_1(project, timer_2=True)
     sim.stations[1].start_task(0)
     with pytest.raises(PushFailed) as failed:
         engine.push(project, PushOptions(yes=True, allow_live_tuning=True, registers=True))
