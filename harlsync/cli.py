@@ -445,7 +445,9 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
                     "programs, in that order). Refuses a project that is invalid, has "
                     "uncommitted changes, or is outside its maintenance window; stops before "
                     "any write while a task is in execution or suspended (LNR, read before "
-                    "every write); verifies each write by reading it back; snapshots the robot "
+                    "every write and after the last: a robot started while a write was on the "
+                    "wire is named in a warning); verifies each write by reading it back; "
+                    "snapshots the robot "
                     "first (see rollback) and records everything in the audit log, each write "
                     "before it is sent, so the next push or diff can name what a push killed "
                     "part way had written. Exit 0 done, 2 failed, 3 refused for safety.",
