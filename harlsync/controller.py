@@ -20,8 +20,7 @@ awaited.  Unless every task is known and idle it raises
 :class:`~harlsync.errors.InterlockError` and does not send it again.  A caller
 that needs an idle robot for a write the manual allows in automatic operation
 (a push without live tuning: timers, tables, registers) says so with
-``needs_idle=True``; ``needs_idle=False`` re-sends even an unsafe write unchecked
-(never done by harlsync itself).
+``needs_idle=True``.  No argument lets an unsafe write be re-sent unchecked.
 
 "What was there" is the ``old`` value the caller passes (push knows it from its
 plan); without it the controller reads the item before writing.
@@ -131,15 +130,14 @@ class Controller:
         wanted: T,
         old: T | None,
         same: Callable[[T, T], bool] = lambda a, b: a == b,
-        needs_idle: bool | None = None,
+        needs_idle: bool = False,
     ) -> None:
         """Send an SN write; when its reply is lost, decide on what ``readback`` returns.
 
-        ``needs_idle`` (default: whether the manual forbids it in automatic
-        operation) makes a re-send wait for LNR to show every task idle.
+        A re-send waits for LNR to show every task idle when the manual forbids
+        the write in automatic operation, or when the caller asks (``needs_idle``).
         """
-        if needs_idle is None:
-            needs_idle = request.unsafe
+        needs_idle = request.unsafe or needs_idle
         if old is None:
             old = self.request(readback)
         for attempt in (1, 2):
@@ -199,7 +197,7 @@ class Controller:
         value: Step,
         *,
         old: Step | None = None,
-        needs_idle: bool | None = None,
+        needs_idle: bool = False,
     ) -> None:
         """Write one step (an empty :class:`Step` clears it)."""
         self._write(
@@ -239,7 +237,7 @@ class Controller:
         return value
 
     def write_timer(
-        self, number: int, value: str, *, old: str | None = None, needs_idle: bool | None = None
+        self, number: int, value: str, *, old: str | None = None, needs_idle: bool = False
     ) -> None:
         self._write(cmd.write_timer(number, value), cmd.read_timer(number), value, old,
                     needs_idle=needs_idle)
@@ -249,7 +247,7 @@ class Controller:
         return value
 
     def write_register(
-        self, number: int, value: str, *, old: str | None = None, needs_idle: bool | None = None
+        self, number: int, value: str, *, old: str | None = None, needs_idle: bool = False
     ) -> None:
         self._write(cmd.write_register(number, value), cmd.read_register(number), value, old,
                     needs_idle=needs_idle)
@@ -264,7 +262,7 @@ class Controller:
         value: OffsetTable,
         *,
         old: OffsetTable | None = None,
-        needs_idle: bool | None = None,
+        needs_idle: bool = False,
     ) -> None:
         self._write(cmd.write_offset(table, value), cmd.read_offset(table), value, old,
                     needs_idle=needs_idle)
@@ -274,7 +272,7 @@ class Controller:
         return value
 
     def write_parameters(
-        self, value: Parameters, *, old: Parameters | None = None, needs_idle: bool | None = None
+        self, value: Parameters, *, old: Parameters | None = None, needs_idle: bool = False
     ) -> None:
         self._write(cmd.write_parameters(value), cmd.read_parameters(), value, old,
                     needs_idle=needs_idle)
@@ -336,7 +334,7 @@ class Controller:
         return value
 
     def write_config(
-        self, value: Config, *, old: Config | None = None, needs_idle: bool | None = None
+        self, value: Config, *, old: Config | None = None, needs_idle: bool = False
     ) -> None:
         """SNX: set the four program areas.  The controller drops every program."""
         self._write(
