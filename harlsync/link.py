@@ -307,6 +307,13 @@ class Link:
                 "COM3), socket://HOST:PORT, rfc2217://HOST:PORT or sim://PROJECT_DIR",
                 port=url,
             )
+        scheme = url.split("://", 1)[0].lower() if "://" in url else ""
+        if scheme in ("socket", "rfc2217") and not _port_number(url):
+            return PortError(
+                f"not a {scheme}:// address; give {scheme}://HOST:PORT, PORT a number from "
+                "1 to 65535",
+                port=url,
+            )
         if "exclusively lock" in text:
             return PortBusyError(
                 "in use by another program (it holds the device lock); close that program "
@@ -770,8 +777,19 @@ def lock_key(url: str) -> str | None:
     if scheme == "spy":
         return lock_key(parts.netloc + parts.path)
     if scheme in ("socket", "rfc2217"):
-        return f"{scheme}://{_host_key(parts.hostname or '')}:{parts.port}"
+        port = _port_number(url)
+        if port is None:  # not a port number: opening it will say so
+            return f"{scheme}://{parts.netloc.lower()}"
+        return f"{scheme}://{_host_key(parts.hostname or '')}:{port}"
     return url
+
+
+def _port_number(url: str) -> int | None:
+    """The TCP port of a ``socket://`` or ``rfc2217://`` URL, or None if it has none."""
+    try:
+        return urlsplit(url).port
+    except ValueError:
+        return None
 
 
 def _host_key(host: str) -> str:

@@ -552,6 +552,9 @@ def test_lock_keys_name_the_line_not_the_spelling(tmp_path: Path) -> None:
         "socket://robot-cell.invalid:4001"
     )
     assert lock_key("rfc2217://10.0.0.5:2217") == "rfc2217://10.0.0.5:2217"
+    # A port number out of range is the open's error to report, not a crash here (the
+    # audit log keeps every port ever given, and is read before every push).
+    assert lock_key("socket://gw:99999") == "socket://gw:99999"
     # One device server, however it is spelled: a second harlsync must wait.
     assert lock_key("socket://localhost:4001") == lock_key("socket://127.0.0.1:4001") == (
         lock_key("socket://[::1]:4001")
@@ -572,3 +575,10 @@ def test_the_lock_directory_is_chosen_from_argument_env_and_tmp_never_the_sessio
     assert shared.name == "harlsync-locks"
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))  # a login session: same place
     assert default_lock_dir() == shared
+
+
+@pytest.mark.parametrize("url", ["socket://gw:99999", "rfc2217://gw:x", "socket://gw"])
+def test_a_device_server_address_without_a_port_number_says_what_to_give(url: str) -> None:
+    with pytest.raises(PortError, match=r"not a \w+:// address; give \w+://HOST:PORT, PORT a "
+                                        r"number from 1 to 65535"):
+        Link(url).open()
