@@ -8,6 +8,7 @@ task of that robot was in execution or suspended when the request arrived).
 
 from __future__ import annotations
 
+import os
 import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import replace
@@ -404,3 +405,49 @@ def test_a_push_that_ends_with_the_robot_idle_warns_of_nothing(
     commit_step(project, 1, 3, "MOVE P999 S20")
     assert engine.push(project, YES).warnings == []
     assert [r.letters for r in sim.received[-2:]] == ["LNM", "LNR"]
+
+
+def test_a_parameters_write_followed_only_by_live_tuning_is_still_checked_after(
+    project: Path, sim: ScriptedSim
+) -> None:
+    # Plan order: parameters (needs an idle robot), then a timer (live tuning: no
+    # LNR before it).  The robot started as SNE travelled must still be reported.
+    loaded = load_project(project)
+    pull_rate = loaded.data.parameters.pull_rate
+    loaded.data.parameters = replace(loaded.data.parameters,
+                                     pull_rate="77" if pull_rate != "77" else "78")
+    loaded.data.timers[2] = "4.44" if loaded.data.timers[2] != "4.44" else "4.45"
+    save_project(project, loaded)
+    git(project.parent, "commit", "-qam", "parameters, timer 2")
+    sim.plan("SNE", Act(before=operator_starts_the_robot))
+    result = engine.push(project, PushOptions(yes=True, allow_live_tuning=True))
+    [warning] = result.warnings
+    assert "status read before expanded parameters: that write may have reached it" in warning
+
+
+def test_an_audit_log_that_fails_at_the_end_does_not_hide_what_the_push_did(
+    project: Path, sim: ScriptedSim, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    real = audit_log.append
+
+    def full_disk_at_the_end(record: dict[str, object], path: Path | None = None) -> Path:
+        if record.get("event") == "end":
+            raise OSError(28, "No space left on device")
+        return real(record, path)
+
+    monkeypatch.setattr(audit_log, "append", full_disk_at_the_end)
+    result = engine.push(project, YES)
+    assert [w.name for w in result.written] == ["MAIN program 1 step 3"]
+    assert any("could not record the end of this push" in w for w in result.warnings)
+
+
+def test_an_audit_record_is_appended_whole_even_when_the_disk_takes_it_in_pieces(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    real = os.write
+    monkeypatch.setattr(os, "write", lambda fd, data: real(fd, data[:7]))
+    log_file = tmp_path / "pieces.jsonl"
+    audit_log.append({"event": "end", "item": "x" * 50}, log_file)
+    audit_log.append({"event": "end", "item": "y"}, log_file)
+    assert [r["item"] for r in audit_log.read(log_file)] == ["x" * 50, "y"]

@@ -30,6 +30,7 @@ that robot ends ok.  Records written before these events existed have no
 
 from __future__ import annotations
 
+import errno
 import getpass
 import json
 import logging
@@ -101,7 +102,12 @@ def append(record: dict[str, Any], path: Path | None = None) -> Path:
         size = os.fstat(fd).st_size
         if size and os.pread(fd, 1, size - 1) != b"\n":
             line = "\n" + line
-        os.write(fd, line.encode("utf-8"))
+        data = line.encode("utf-8")
+        while data:  # a full disk can take part of it without an error
+            written = os.write(fd, data)
+            if written == 0:
+                raise OSError(errno.ENOSPC, f"cannot append to {path}")
+            data = data[written:]
         os.fsync(fd)
     finally:
         os.close(fd)

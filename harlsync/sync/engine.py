@@ -485,7 +485,15 @@ def _deploy(
             record["warnings"] = result.warnings
         if driver is not None:
             driver.close()
-        result.audit_log = audit.append(record)
+        try:
+            result.audit_log = audit.append(record)
+        except OSError as exc:
+            # Never hide what happened on the robot behind the log's own failure.
+            log.error("cannot write the audit log's end record for this %s: %s", action, exc)
+            result.warnings.append(
+                f"the audit log {audit.audit_path()} could not record the end of this {action} "
+                f"({exc}); what it wrote is listed here"
+            )
 
 
 def _journal(record: dict[str, Any]) -> None:
@@ -563,12 +571,12 @@ def _write_all(
                 f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
                 "the change, then run again"
             )
+        announce(write)  # before the interlock: nothing between LNR and the write
         if not live(write):
             try:
                 _interlock(driver, robot, f"writing {write.name} ({write.command})")
             except InterlockError as exc:
                 raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
-        announce(write)
         result.failed = write
         # A re-send after a lost reply is a write too: the same interlock applies.
         driver.write(write.key, write.new, write.old, needs_idle=not live(write))
@@ -580,9 +588,10 @@ def _write_all(
         result.failed = None
         result.written.append(write)
         log.info("wrote %s: %s", write.name, write.command)
-    if result.written and not live(result.written[-1]):
-        # The last write had no LNR after it: one more tells whether the robot was
-        # started between the LNR before it and its arrival (no client can prevent that).
+    if _last_guarded(result, live) is not None:
+        # The last write that needed an idle robot had no LNR after it: one more tells
+        # whether the robot was started between the LNR before it and its arrival (no
+        # client can prevent that).
         try:
             status = driver.status()
         except HarlsyncError as exc:
@@ -595,10 +604,17 @@ def _write_all(
             )
 
 
+def _last_guarded(
+    result: PushResult, live: Callable[[PlannedWrite], bool]
+) -> PlannedWrite | None:
+    """The last write made that needed an idle robot (the last one LNR cleared)."""
+    return next((w for w in reversed(result.written) if not live(w)), None)
+
+
 def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite], bool]) -> str:
     """What an operator must check when the robot turned out started mid-push."""
-    last = result.written[-1] if result.written else None
-    if last is None or live(last):
+    last = _last_guarded(result, live)
+    if last is None:
         return ""
     return (f". It was started after the status read before {last.name}: that write may "
             "have reached it while a task ran; check the robot")
