@@ -519,3 +519,19 @@ def test_a_first_pull_from_a_relative_sim_path_saves_it_absolute(tmp_path, monke
     assert f"sim://{Path('projects/pick-and-place').resolve()}" in robot
     monkeypatch.chdir(tmp_path)
     assert engine.compare(tmp_path / "demo").changes == []
+
+
+def test_a_backup_commit_never_takes_the_leftovers_of_a_save_in_progress(tmp_path: Path) -> None:
+    from harlsync.sync import git as git_module
+
+    git(tmp_path, "init", "-q")
+    cell = tmp_path / "cell"
+    (cell / "programs").mkdir(parents=True)
+    (cell / "timers.yaml").write_text("format: 1\n")
+    (cell / ".timers.yaml.harlsync-new-4242-9f3ab2c1").write_text("half a save\n")
+    (cell / "programs" / ".main-00.yaml.harlsync-old-4242-0c77e1d4").write_text("old\n")
+    (cell / ".harlsync-save.json").write_text("{}\n")
+    assert git_module.commit([cell], "backup") is not None
+    assert git(tmp_path, "show", "--name-only", "--format=", "HEAD").split() == [
+        "cell/timers.yaml"
+    ]

@@ -10,6 +10,7 @@ import subprocess
 from pathlib import Path
 
 from ..errors import SyncError
+from ..project.store import JOURNAL
 
 __all__ = ["changed_files", "commit", "head", "push", "repo_root"]
 
@@ -59,6 +60,15 @@ def head(path: str | Path) -> str | None:
     return result.stdout.strip() if result.returncode == 0 else None
 
 
+#: What a save in progress leaves beside the files (harlsync.project.store): a
+#: commit made meanwhile by another process must not take it.
+_NEVER_COMMITTED = (
+    ":(exclude,glob)**/.*.harlsync-new-*",
+    ":(exclude,glob)**/.*.harlsync-old-*",
+    f":(exclude,glob)**/{JOURNAL}",
+)
+
+
 def commit(paths: list[Path], message: str) -> str | None:
     """Stage ``paths`` and commit them; the new commit, or None when nothing changed.
 
@@ -73,7 +83,7 @@ def commit(paths: list[Path], message: str) -> str | None:
     root = roots.pop()
     assert root is not None
     specs = [str(Path(p).resolve()) for p in paths]
-    _git(root, "add", "--all", "--", *specs)
+    _git(root, "add", "--all", "--", *specs, *_NEVER_COMMITTED)
     staged = _git(root, "diff", "--cached", "--quiet", "--", *specs, check=False)
     if staged.returncode == 0:
         return None
