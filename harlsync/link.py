@@ -645,9 +645,10 @@ class _SocketPort(protocol_socket.Serial):  # type: ignore[misc]
         if sock is not None:
             try:
                 sock.shutdown(socket.SHUT_RDWR)
-                sock.close()
             except OSError:
-                pass
+                pass  # the peer has gone already: close all the same
+            finally:
+                sock.close()
             self._socket = None
             self._closed_at[lock_key(self.portstr or "") or ""] = time.monotonic()
         self.is_open = False
