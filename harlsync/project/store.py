@@ -234,6 +234,9 @@ def _stale_files(root: Path, texts: dict[str, str], *, keep_registers_file: bool
 #: The journal of a save in progress (module docstring), in the project's root.
 JOURNAL = ".harlsync-save.json"
 _SIBLING_RE = re.compile(r"^\..+\.harlsync-(?:new|old)-([0-9]+)-[0-9a-f]+$")
+#: Glob patterns of every name a save in progress puts beside the project's files
+#: (:func:`_sibling`'s temporaries and second names, and the journal).
+IN_PROGRESS = (".*.harlsync-new-*", ".*.harlsync-old-*", JOURNAL)
 
 
 def _sibling(target: Path, what: str) -> Path:

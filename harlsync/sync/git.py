@@ -10,7 +10,7 @@ import subprocess
 from pathlib import Path
 
 from ..errors import SyncError
-from ..project.store import JOURNAL
+from ..project.store import IN_PROGRESS
 
 __all__ = ["changed_files", "commit", "head", "push", "repo_root"]
 
@@ -62,11 +62,7 @@ def head(path: str | Path) -> str | None:
 
 #: What a save in progress leaves beside the files (harlsync.project.store): a
 #: commit made meanwhile by another process must not take it.
-_NEVER_COMMITTED = (
-    ":(exclude,glob)**/.*.harlsync-new-*",
-    ":(exclude,glob)**/.*.harlsync-old-*",
-    f":(exclude,glob)**/{JOURNAL}",
-)
+_NEVER_COMMITTED = tuple(f":(exclude,glob)**/{pattern}" for pattern in IN_PROGRESS)
 
 
 def commit(paths: list[Path], message: str) -> str | None:
