@@ -20,7 +20,7 @@ from collections.abc import Callable
 
 from machine import describe, peak_rss_mib
 
-from harlsync.protocol import FrameDecoder, encode_frame
+from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame
 
 #: The frames of a pull, in about the proportions a pull sends them: mostly step
 #: reads and their replies, some empty steps, a few long replies (LNE, LNR, LNL).

@@ -15,8 +15,8 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from harlsync.model import Config, ProgramArea, Step
-from harlsync.sim import DEFAULT_CONFIG, SimState
+from harlsync.families.harl_u2.model import Config, ProgramArea, Step
+from harlsync.families.harl_u2.sim import DEFAULT_CONFIG, SimState
 
 BENCH = Path(__file__).resolve().parent
 BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit

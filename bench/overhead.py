@@ -28,10 +28,10 @@ from collections.abc import Callable
 
 from machine import SimProcess, describe
 
-from harlsync.controller import Controller
+from harlsync.families.harl_u2.controller import Controller
 from harlsync.link import Link
-from harlsync.model import ProgramType
-from harlsync.protocol import FrameDecoder, commands, encode_frame
+from harlsync.families.harl_u2.model import ProgramType
+from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_frame
 
 STEPS = 64  # read MAIN 0 steps 0..63 in turn (the default robot's MAIN has 128)
 

@@ -31,7 +31,7 @@ from typing import Any
 
 from machine import describe, every_step_used, peak_rss_mib, run_child
 
-from harlsync.model import RobotData, Step
+from harlsync.families.harl_u2.model import RobotData, Step
 from harlsync.project import (
     Project,
     layout,

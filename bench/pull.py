@@ -30,8 +30,8 @@ from typing import Any
 
 from machine import BITS_PER_BYTE, ROBOTS, describe, minutes, peak_rss_mib, run_child
 
-from harlsync.protocol import FrameDecoder
-from harlsync.sim import Simulator
+from harlsync.families.harl_u2.protocol import FrameDecoder
+from harlsync.families.harl_u2.sim import Simulator
 from harlsync.sim.protocol_sim import register
 from harlsync.sim.serve import TcpServer
 from harlsync.sync.engine import pull

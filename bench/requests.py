@@ -25,8 +25,8 @@ from pathlib import Path
 
 from machine import ROBOTS, describe
 
-from harlsync.model import OFFSET_TABLE_COUNT, OffsetTable, ProgramType, Step
-from harlsync.sim import SimState, Simulator
+from harlsync.families.harl_u2.model import OFFSET_TABLE_COUNT, OffsetTable, ProgramType, Step
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync.engine import PushOptions, pull, push
 

@@ -16,7 +16,8 @@ from collections import Counter
 
 from machine import ROBOTS
 
-from harlsync.sim import Received, Simulator, serve
+from harlsync.families.harl_u2.sim import Received, Simulator
+from harlsync.sim import serve
 from harlsync.sim.serve import PtyServer, TcpServer
 
 

@@ -92,7 +92,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .sim import Faults, Received
+    from .families.harl_u2.sim import Faults, Received
     from .sim.control import apply_command
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer

@@ -77,7 +77,7 @@ from .errors import (
     ReplyError,
     WriteUnconfirmed,
 )
-from .protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame, profile
+from .families.harl_u2.protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame, profile
 
 __all__ = [
     "DEFAULT_LOCK_TIMEOUT",

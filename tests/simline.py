@@ -13,8 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from harlsync.model import Config, ProgramArea
-from harlsync.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.model import Config, ProgramArea
+from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
 
 Chunks = list[tuple[float, bytes]]
 

@@ -14,8 +14,8 @@ import pytest
 from conftest import git
 
 from harlsync.cli import main
-from harlsync.model import Config, ProgramArea, ProgramType, Step
-from harlsync.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 from harlsync.sync.backup import backup, find_projects, line_of

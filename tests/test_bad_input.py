@@ -28,7 +28,7 @@ from conftest import git
 from simline import SMALL, ScriptedSim
 
 from harlsync.cli import main
-from harlsync.sim import SimState, Simulator
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 

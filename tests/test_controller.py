@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 from simline import LOSE, SMALL, Act, ScriptedSim, drop
 
-from harlsync.controller import Controller
+from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import ControllerError, LinkTimeout, WriteUnconfirmed
 from harlsync.link import Link, SerialSettings
-from harlsync.model import (
+from harlsync.families.harl_u2.model import (
     OFFSET_TABLE_COUNT,
     Config,
     OffsetTable,
@@ -28,8 +28,8 @@ from harlsync.model import (
     Step,
     TaskState,
 )
-from harlsync.sim import Faults, SimState, Simulator
-from harlsync.sim.device import STATUS_RANGE
+from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.sim.device import STATUS_RANGE
 from harlsync.sim.serve import PtyServer
 
 FAST = SerialSettings(timeout=0.25, retries=3)

@@ -43,10 +43,10 @@ from harlsync.errors import (
     WriteUnconfirmed,
 )
 from harlsync.link import Link, SerialSettings, default_lock_dir, lock_key, lock_path
-from harlsync.model import ProgramType, Step
-from harlsync.protocol import Ack, ErrorReply, encode_frame
-from harlsync.protocol import commands as cmd
-from harlsync.sim import SimState
+from harlsync.families.harl_u2.model import ProgramType, Step
+from harlsync.families.harl_u2.protocol import Ack, ErrorReply, encode_frame
+from harlsync.families.harl_u2.protocol import commands as cmd
+from harlsync.families.harl_u2.sim import SimState
 from harlsync.sim.serve import PtyServer, TcpServer
 
 FAST = SerialSettings(timeout=0.25, retries=3)

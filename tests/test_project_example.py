@@ -10,7 +10,7 @@ import sys
 from datetime import datetime, time
 from pathlib import Path
 
-from harlsync.model import (
+from harlsync.families.harl_u2.model import (
     Config,
     OffsetTable,
     Parameters,
@@ -196,7 +196,7 @@ def test_the_schema_copies_in_the_example_equal_schemas() -> None:
     for kind in KINDS:
         copy = EXAMPLE / ".schemas" / f"{kind}.schema.json"
         assert copy.read_text(encoding="utf-8") == schema_text(kind)
-        assert copy.read_bytes() == (REPO / "schemas" / f"{kind}.schema.json").read_bytes()
+        assert copy.read_bytes() == (REPO / "harlsync/families/harl_u2/schemas" / f"{kind}.schema.json").read_bytes()
 
 
 def test_every_file_names_its_schema_copy() -> None:

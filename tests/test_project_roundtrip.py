@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from harlsync.link import SerialSettings
-from harlsync.model import (
+from harlsync.families.harl_u2.model import (
     MAX_STEP_DATA,
     OFFSET_TABLE_COUNT,
     PARAMETER_NAMES,

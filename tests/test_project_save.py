@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 
 from harlsync.errors import ProjectError
-from harlsync.model import ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.model import ProgramArea, ProgramType, Step
 from harlsync.project import Project, load_project, new_robot, save_project, store, validate_project
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"

@@ -434,7 +434,7 @@ def test_windows_that_cross_midnight_belong_to_the_day_they_open() -> None:
 def test_an_older_format_is_migrated_on_load_and_written_as_current_on_save(
     root: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from harlsync.project import layout
+    from harlsync.families.harl_u2 import layout
 
     def tables_were_called_offsets(kind: str, data: dict) -> dict:  # type: ignore[type-arg]
         if kind == "offsets":

@@ -7,10 +7,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from harlsync.errors import FrameError, LRCError, ProtocolError, ReplyError
-from harlsync.model import Config, OffsetTable, ProgramArea, ProgramType, Step
-from harlsync.protocol import FrameDecoder, decode_reply, encode_frame, lrc
-from harlsync.protocol import commands as c
-from harlsync.protocol.commands import Ack, ErrorReply
+from harlsync.families.harl_u2.model import Config, OffsetTable, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.protocol import FrameDecoder, decode_reply, encode_frame, lrc
+from harlsync.families.harl_u2.protocol import commands as c
+from harlsync.families.harl_u2.protocol.commands import Ack, ErrorReply
 
 STX, ETX = b"\x02", b"\x03"
 

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from harlsync.controller import Controller
-from harlsync.model import OFFSET_TABLE_COUNT, TIMER_RE, ProgramType
-from harlsync.sim import SimState, Simulator
+from harlsync.families.harl_u2.controller import Controller
+from harlsync.families.harl_u2.model import OFFSET_TABLE_COUNT, TIMER_RE, ProgramType
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.serve import PtyServer
 from harlsync.sync import engine
 from harlsync.sync.items import diff

@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 import serial
 
-from harlsync.model import Config, ProgramArea, ProgramType, Step
-from harlsync.protocol import FrameDecoder, encode_frame, lrc
-from harlsync.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame, lrc
+from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
 from harlsync.sim.control import apply_command
-from harlsync.sim.device import STATUS_RANGE
+from harlsync.families.harl_u2.sim.device import STATUS_RANGE
 from harlsync.sim.protocol_sim import register, simulator_from_url, unregister
 from harlsync.sim.serve import PtyServer, TcpServer
 

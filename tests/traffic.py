@@ -2,7 +2,7 @@
 
 :func:`play` opens a :class:`~harlsync.link.Link` on a ``replay://`` URL and sends
 every request of the capture, in capture order, through
-:meth:`Controller.request <harlsync.controller.Controller.request>` (one
+:meth:`Controller.request <harlsync.families.harl_u2.controller.Controller.request>` (one
 controller per station): the link and the codec meet the capture's bytes, with
 its noise, fragments and silences.  The link's own retries send the recorded
 retries; what is left is the next request of the capture.
@@ -31,11 +31,11 @@ from typing import Any
 
 import yaml
 
-from harlsync.controller import Controller
+from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import ControllerError, LinkTimeout
 from harlsync.link import Link, SerialSettings
-from harlsync.model import Config, OffsetTable, Parameters, Status, Step
-from harlsync.protocol import Ack, parse_request
+from harlsync.families.harl_u2.model import Config, OffsetTable, Parameters, Status, Step
+from harlsync.families.harl_u2.protocol import Ack, parse_request
 from harlsync.sim.replay import Replay
 
 TRAFFIC = Path(__file__).parent / "fixtures" / "traffic"

@@ -15,7 +15,7 @@
 See docs/project-format.md for the format and how it evolves.
 """
 
-from .layout import FORMAT, program_key, program_path, render_files, render_program
+from ..families.harl_u2.layout import FORMAT, program_key, program_path, render_files, render_program
 from .robot import DAYS, Robot, Window, new_robot
 from .store import Project, load_project, load_robot, save_project, validate_project
 from .yamlio import Number

@@ -24,7 +24,7 @@ from jsonschema import Draft202012Validator, FormatChecker, ValidationError
 from jsonschema.protocols import Validator
 from jsonschema.validators import extend
 
-from ..model import CODE_RE, OFFSET_RE, REGISTER_RE, TIMER_RE
+from ..families.harl_u2.model import CODE_RE, OFFSET_RE, REGISTER_RE, TIMER_RE
 from .yamlio import Number, Parsed
 
 __all__ = ["KINDS", "Issue", "check", "schema", "schema_text"]
@@ -74,10 +74,7 @@ def _cut(text: str) -> str:
 def schema_text(kind: str) -> str:
     """The schema file's exact text (copied into each project's ``.schemas/``)."""
     name = f"{kind}.schema.json"
-    try:
-        folder: Any = files("harlsync.schemas")
-    except ModuleNotFoundError:  # a source checkout that was never pip-installed
-        folder = Path(__file__).resolve().parents[2] / "schemas"
+    folder: Any = files("harlsync.families.harl_u2.schemas")
     text: str = folder.joinpath(name).read_text(encoding="utf-8")
     return text
 

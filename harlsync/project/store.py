@@ -41,8 +41,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
-from ..model import RobotData
-from .layout import (
+from ..families.harl_u2.model import RobotData
+from ..families.harl_u2.layout import (
     FORMAT,
     PROGRAMS_DIR,
     ROOT_FILES,

@@ -1,6 +1,5 @@
-"""The simulated HARL-U2 controller: same codec, playing the device's side."""
+"""The simulator framework: serving a family's simulated controller over a pty,
+TCP and ``sim://``, mode control, battery-backed memory, and replay of captures.
 
-from .device import Faults, Received, Simulator
-from .state import DEFAULT_CONFIG, SimState
-
-__all__ = ["DEFAULT_CONFIG", "Faults", "Received", "SimState", "Simulator"]
+A family's simulated device lives in its own package (``harlsync.families.<name>.sim``).
+"""

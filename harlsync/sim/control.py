@@ -12,7 +12,7 @@ put a robot into automatic operation while a client is connected::
 
 from __future__ import annotations
 
-from .device import Simulator
+from ..families.harl_u2.sim.device import Simulator
 
 __all__ = ["apply_command", "describe"]
 

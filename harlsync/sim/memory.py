@@ -15,8 +15,8 @@ import logging
 from pathlib import Path
 
 from ..project import Project, load_project, new_robot, save_project
-from .device import Received, Simulator
-from .state import SimState
+from ..families.harl_u2.sim.device import Received, Simulator
+from ..families.harl_u2.sim.state import SimState
 
 __all__ = ["keep_state"]
 

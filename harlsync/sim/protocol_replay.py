@@ -21,7 +21,7 @@ from urllib.parse import parse_qs
 
 from serial.serialutil import SerialException
 
-from ..protocol import FrameDecoder
+from ..families.harl_u2.protocol import FrameDecoder
 from . import protocol_sim
 from .replay import Replay, ReplayMismatch, load_spy_log
 

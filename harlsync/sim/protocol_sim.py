@@ -23,9 +23,9 @@ from urllib.parse import parse_qs
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
-from ..protocol import FrameDecoder
-from .device import Faults, Simulator
-from .state import SimState
+from ..families.harl_u2.protocol import FrameDecoder
+from ..families.harl_u2.sim.device import Faults, Simulator
+from ..families.harl_u2.sim.state import SimState
 
 __all__ = ["Serial", "build_simulator", "register", "simulator_from_url", "unregister"]
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from ..errors import ProtocolError
-from ..protocol import Frame, FrameDecoder
+from ..families.harl_u2.protocol import Frame, FrameDecoder
 
 __all__ = ["Chunk", "Replay", "ReplayMismatch", "load_spy_log", "parse_spy_log"]
 

@@ -21,8 +21,8 @@ import tty
 from collections import deque
 from collections.abc import Callable
 
-from ..protocol import FrameDecoder
-from .device import Simulator
+from ..families.harl_u2.protocol import FrameDecoder
+from ..families.harl_u2.sim.device import Simulator
 
 __all__ = ["PtyServer", "ReplyScheduler", "TcpServer"]
 

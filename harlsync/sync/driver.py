@@ -12,10 +12,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from ..controller import Controller
-from ..model import ProgramType, RobotData, Status, Step
-from ..protocol import Request
-from ..protocol import commands as cmd
+from ..families.harl_u2.controller import Controller
+from ..families.harl_u2.model import ProgramType, RobotData, Status, Step
+from ..families.harl_u2.protocol import Request
+from ..families.harl_u2.protocol import commands as cmd
 from .items import Key
 
 __all__ = ["Driver", "HarlU2Driver", "Progress"]

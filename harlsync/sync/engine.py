@@ -38,7 +38,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from ..controller import Controller
+from ..families.harl_u2.controller import Controller
 from ..errors import (
     HarlsyncError,
     InterlockError,
@@ -52,7 +52,7 @@ from ..errors import (
     SyncError,
     VerifyError,
 )
-from ..model import RobotData
+from ..families.harl_u2.model import RobotData
 from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
 from . import audit, git, history
 from .driver import Driver, HarlU2Driver, Progress

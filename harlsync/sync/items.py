@@ -18,7 +18,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from ..model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
+from ..families.harl_u2.model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
 
 __all__ = [
     "Change",

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ProjectFormatError
-from ..model import RobotData
+from ..families.harl_u2.model import RobotData
 from .driver import Driver
 from .items import Change, Key, describe, diff, items, push_order
 

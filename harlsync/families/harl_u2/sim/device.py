@@ -26,7 +26,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
-from ..errors import ProtocolError
+from ....errors import ProtocolError
 from ..model import (
     MAX_STEP_DATA,
     OFFSET_TABLE_COUNT,

@@ -24,7 +24,7 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import ReplyError
+from ....errors import ReplyError
 from ..model import (
     MAX_STEP_DATA,
     REGISTER_RE,

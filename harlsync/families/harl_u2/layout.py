@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 from datetime import time
 from typing import Any
 
-from ..link import SerialSettings
-from ..model import (
+from ...link import SerialSettings
+from .model import (
     OFFSET_FIELDS,
     OFFSET_TABLE_COUNT,
     PARAMETER_NAMES,
@@ -32,9 +32,9 @@ from ..model import (
     RobotData,
     Step,
 )
-from . import yamlio as y
-from .robot import Robot, Window
-from .schema import Issue, check, show
+from ...project import yamlio as y
+from ...project.robot import Robot, Window
+from ...project.schema import Issue, check, show
 
 __all__ = [
     "FORMAT",

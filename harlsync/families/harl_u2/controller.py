@@ -34,8 +34,8 @@ from collections.abc import Callable
 from types import TracebackType
 from typing import Any, TypeVar
 
-from .errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
-from .link import DEFAULT_LOCK_TIMEOUT, Link, SerialSettings
+from ...errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
+from ...link import DEFAULT_LOCK_TIMEOUT, Link, SerialSettings
 from .model import (
     OFFSET_TABLE_COUNT,
     Config,

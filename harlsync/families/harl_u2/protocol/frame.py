@@ -20,7 +20,7 @@ import re
 from dataclasses import dataclass
 from functools import reduce
 
-from ..errors import FrameError, LRCError
+from ....errors import FrameError, LRCError
 from . import profile
 
 __all__ = ["Frame", "FrameDecoder", "encode_frame", "lrc"]

@@ -1,0 +1,1 @@
+"""Controller families, one package each."""
