@@ -1,0 +1,389 @@
+"""The IAI data model: positions and the values the status queries report.
+
+Numbers the controller holds are kept as exact decimal text (coordinates with
+three decimals, ``"-1.000"``; acceleration and deceleration with two, ``"0.30"``)
+and converted to and from the wire with integer arithmetic only, never a float:
+
+======================  ===============  ==================================
+value                   wire             text
+======================  ===============  ==================================
+coordinate, 0.001 mm    ``FFFFFC18``     ``-1.000`` (32-bit two's complement)
+acc / dec, 0.01 G       ``001E``         ``0.30`` (0.00 = the parameter's value)
+speed, mm/s             ``0064``         ``100`` (an int; 0 = the parameter's)
+axis pattern            ``05``           axes ``(1, 3)`` (bit n = axis n+1)
+extended data           ``90``           arm1 1, arm2 2 (bits 4-5, 6-7)
+======================  ===============  ==================================
+
+A value the wire cannot carry is a :class:`ValueError` from the conversion, or a
+line of :meth:`Position.problems` for the project validator.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+__all__ = [
+    "ARM_NAMES",
+    "AXIS_COUNT",
+    "COORD_MAX",
+    "COORD_MIN",
+    "G_MAX",
+    "MODE_NAMES",
+    "POSITION_NUMBER_MAX",
+    "SPEED_MAX",
+    "AxisStatus",
+    "Position",
+    "SystemStatus",
+    "Version",
+    "arms_from_extended",
+    "axes_from_pattern",
+    "axes_refusal",
+    "canonical_coord",
+    "canonical_g",
+    "coord_from_wire",
+    "coord_to_wire",
+    "extended_from_arms",
+    "g_from_wire",
+    "g_to_wire",
+    "pattern_from_axes",
+    "speed_from_wire",
+    "speed_to_wire",
+]
+
+#: Axes 1-8: one bit each in an axis pattern.
+AXIS_COUNT = 8
+#: The 32-bit coordinate range, in 0.001 units.
+COORD_MIN = -(2**31)
+COORD_MAX = 2**31 - 1
+#: Acceleration and deceleration: 4 hex digits of 0.01 G.
+G_MAX = 0xFFFF
+#: Speed: 4 hex digits of mm/s.
+SPEED_MAX = 0xFFFF
+#: Position numbers: 4 hex digits (the robot's own range is a per-robot setting).
+POSITION_NUMBER_MAX = 0xFFFF
+
+#: SCARA arm system codes in the extended data.
+ARM_NAMES = {0: "none", 1: "right", 2: "left"}
+#: 215H system mode codes (p.30).
+MODE_NAMES = {0: "indeterminable", 1: "AUTO", 2: "MANUAL", 3: "slave update", 4: "core update"}
+
+_DECIMAL_RE = re.compile(r"([+-]?)([0-9]*)(?:\.([0-9]*))?")
+_HEX_RE = re.compile(r"[0-9A-Fa-f]+")
+
+
+# --- numbers: text <-> units <-> wire ------------------------------------------------
+
+
+def _units(text: str, decimals: int, what: str) -> int:
+    """Decimal ``text`` as an integer count of 10**-decimals, exactly.
+
+    Raises :class:`ValueError` for anything but plain decimal text, or for more
+    significant decimals than the unit carries.
+    """
+    match = _DECIMAL_RE.fullmatch(text)
+    if match is None or not (match[2] or match[3]):
+        raise ValueError(f"{what} {text!r} is not a decimal number")
+    sign, whole, frac = match[1], match[2] or "0", (match[3] or "").rstrip("0")
+    if len(frac) > decimals:
+        raise ValueError(f"{what} {text!r} has more than {decimals} decimals")
+    scale: int = 10**decimals
+    units = int(whole) * scale + int(frac.ljust(decimals, "0") or "0")
+    return -units if sign == "-" else units
+
+
+def _text(units: int, decimals: int) -> str:
+    sign = "-" if units < 0 else ""
+    scale: int = 10**decimals
+    whole, frac = divmod(abs(units), scale)
+    return f"{sign}{whole}.{frac:0{decimals}d}"
+
+
+def _hex_value(wire: str, digits: int, what: str) -> int:
+    if len(wire) != digits or not _HEX_RE.fullmatch(wire):
+        raise ValueError(f"{what} {wire!r} is not {digits} hex digits")
+    return int(wire, 16)
+
+
+def canonical_coord(text: str) -> str:
+    """Coordinate text in its one form: three decimals (``"0012.5"`` -> ``"12.500"``).
+
+    Raises :class:`ValueError` when the text is not a decimal, has more than three
+    significant decimals, or lies outside the 32-bit range.
+    """
+    return _text(_coord_units(text), 3)
+
+
+def _coord_units(text: str) -> int:
+    units = _units(text, 3, "coordinate")
+    if not COORD_MIN <= units <= COORD_MAX:
+        raise ValueError(
+            f"coordinate {text!r} out of range "
+            f"(allowed: {_text(COORD_MIN, 3)} to {_text(COORD_MAX, 3)})"
+        )
+    return units
+
+
+def coord_to_wire(text: str) -> str:
+    """``"-1.000"`` -> ``"FFFFFC18"``: 8 hex digits, two's complement, 0.001 units."""
+    return f"{_coord_units(text) & 0xFFFFFFFF:08X}"
+
+
+def coord_from_wire(wire: str) -> str:
+    """``"FFFFFC18"`` -> ``"-1.000"``; either hex case.  Raises :class:`ValueError`."""
+    value = _hex_value(wire, 8, "coordinate")
+    return _text(value - (1 << 32) if value & 0x80000000 else value, 3)
+
+
+def canonical_g(text: str, what: str = "acceleration") -> str:
+    """Acceleration or deceleration text in its one form: ``"0.3"`` -> ``"0.30"``.
+
+    Raises :class:`ValueError` (naming ``what``) when the text is not a decimal, is
+    negative, has more than two significant decimals or is above 655.35 G.
+    """
+    return _text(_g_units(text, what), 2)
+
+
+def _g_units(text: str, what: str) -> int:
+    units = _units(text, 2, what)
+    if text.startswith("-") or not 0 <= units <= G_MAX:
+        raise ValueError(f"{what} {text!r} out of range (allowed: 0.00 to {_text(G_MAX, 2)})")
+    return units
+
+
+def g_to_wire(text: str, what: str = "acceleration") -> str:
+    """``"0.30"`` -> ``"001E"``: 4 hex digits of 0.01 G."""
+    return f"{_g_units(text, what):04X}"
+
+
+def g_from_wire(wire: str) -> str:
+    """``"001E"`` -> ``"0.30"``.  Raises :class:`ValueError`."""
+    return _text(_hex_value(wire, 4, "acceleration"), 2)
+
+
+def speed_to_wire(speed: int) -> str:
+    """Speed in mm/s as 4 hex digits.  Raises :class:`ValueError` outside 0-65535."""
+    if not 0 <= speed <= SPEED_MAX:
+        raise ValueError(f"speed {speed} out of range (allowed: 0 to {SPEED_MAX})")
+    return f"{speed:04X}"
+
+
+def speed_from_wire(wire: str) -> int:
+    return _hex_value(wire, 4, "speed")
+
+
+def axes_from_pattern(pattern: int) -> tuple[int, ...]:
+    """The axes whose bits are set, lowest first: ``0b101`` -> ``(1, 3)``."""
+    if not 0 <= pattern <= 0xFF:
+        raise ValueError(f"axis pattern {pattern:#x} is not 8 bits")
+    return tuple(n + 1 for n in range(AXIS_COUNT) if pattern >> n & 1)
+
+
+def pattern_from_axes(axes: tuple[int, ...]) -> int:
+    """The axis pattern of ``axes``.  Raises :class:`ValueError` for an axis outside 1-8."""
+    pattern = 0
+    for axis in axes:
+        if not 1 <= axis <= AXIS_COUNT:
+            raise ValueError(f"axis {axis} out of range (allowed: 1 to {AXIS_COUNT})")
+        pattern |= 1 << (axis - 1)
+    return pattern
+
+
+def extended_from_arms(arm1: int, arm2: int) -> int:
+    """The extended-data byte: arm1 in bits 4-5, arm2 in bits 6-7, bits 0-3 zero."""
+    for name, arm in (("arm1", arm1), ("arm2", arm2)):
+        if not 0 <= arm <= 3:
+            raise ValueError(f"{name} {arm} does not fit 2 bits")
+    return arm1 << 4 | arm2 << 6
+
+
+def arms_from_extended(extended: int) -> tuple[int, int]:
+    """(arm1, arm2) from the extended-data byte.
+
+    Raises :class:`ValueError` when a spare bit 0-3 is set.
+    """
+    if extended & 0x0F:
+        raise ValueError(f"extended data {extended:02X}h has spare bits 0-3 set")
+    return extended >> 4 & 3, extended >> 6 & 3
+
+
+# --- positions ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Position:
+    """One position of the table, as exact text.
+
+    ``axes`` are the axes that carry a coordinate (1-8, ascending), ``coords``
+    one coordinate each.  ``acc``/``dec`` ``"0.00"`` and ``speed`` 0 mean "use the
+    parameter's value".  ``arm1``/``arm2``: SCARA arm system, 0 none, 1 right, 2 left.
+    """
+
+    number: int
+    axes: tuple[int, ...]
+    acc: str
+    dec: str
+    speed: int
+    coords: tuple[str, ...]
+    arm1: int = 0
+    arm2: int = 0
+
+    def problems(self) -> list[str]:
+        """Every reason this position cannot be written, one line each; empty if none."""
+        out: list[str] = []
+        if not 1 <= self.number <= POSITION_NUMBER_MAX:
+            out.append(
+                f"position number {self.number} out of range (allowed: 1 to {POSITION_NUMBER_MAX})"
+            )
+        if not self.axes:
+            out.append("no axis: a position needs at least one coordinate")
+        elif any(not 1 <= a <= AXIS_COUNT for a in self.axes):
+            out.append(f"axes {list(self.axes)} out of range (allowed: 1 to {AXIS_COUNT})")
+        elif list(self.axes) != sorted(set(self.axes)):
+            out.append(f"axes {list(self.axes)} must be ascending and each once")
+        if len(self.coords) != len(self.axes):
+            out.append(f"{len(self.coords)} coordinates for {len(self.axes)} axes")
+        for axis, coord in zip(self.axes, self.coords):
+            try:
+                _coord_units(coord)
+            except ValueError as exc:
+                out.append(f"axis {axis}: {exc}")
+        for what, value in (("acceleration", self.acc), ("deceleration", self.dec)):
+            try:
+                _g_units(value, what)
+            except ValueError as exc:
+                out.append(str(exc))
+        if not 0 <= self.speed <= SPEED_MAX:
+            out.append(f"speed {self.speed} out of range (allowed: 0 to {SPEED_MAX})")
+        for name, arm in (("arm1", self.arm1), ("arm2", self.arm2)):
+            if arm not in ARM_NAMES:
+                out.append(f"{name} {arm} out of range (allowed: 0 none, 1 right, 2 left)")
+        return out
+
+    def canonical(self) -> Position:
+        """The same position with every text in its one form.
+
+        Raises :class:`ValueError` naming every problem when it has any.
+        """
+        problems = self.problems()
+        if problems:
+            raise ValueError(f"position {self.number}: {'; '.join(problems)}")
+        return Position(
+            self.number,
+            self.axes,
+            canonical_g(self.acc, "acceleration"),
+            canonical_g(self.dec, "deceleration"),
+            self.speed,
+            tuple(canonical_coord(c) for c in self.coords),
+            self.arm1,
+            self.arm2,
+        )
+
+
+# --- what the queries report --------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Version:
+    """201H: what the unit reports about itself.
+
+    The codes are kept as upper-case hex text: their meaning is not in the
+    manual pages we have.  ``built`` is ``YYYY-MM-DD hh:mm:ss``.
+    """
+
+    unit_type: int
+    device: int
+    model_code: str
+    unit_code: str
+    version: str
+    built: str
+
+
+@dataclass(frozen=True)
+class SystemStatus:
+    """215H: system mode, the two error numbers (hex text) and status bytes 1-4."""
+
+    mode: int
+    critical_error: str
+    latest_error: str
+    status1: int
+    status2: int
+    status3: int
+    status4: int
+
+    @property
+    def refusals(self) -> tuple[str, ...]:
+        """Every reason the profile's interlock forbids a write now, in its order."""
+        out: list[str] = []
+        if self.mode != 1:
+            name = MODE_NAMES.get(self.mode)
+            out.append(
+                f"{name} mode (215H mode {self.mode})"
+                if name
+                else f"unknown system mode {self.mode} (215H)"
+            )
+        checks = (
+            (self.status2 & 0x20, "program running (215H status byte 2 bit 5)"),
+            (self.status2 & 0x01, "flash ROM write in progress (215H status byte 2 bit 0)"),
+            (self.status2 & 0x02, "slave parameter writing (215H status byte 2 bit 1)"),
+            (self.status3 & 0x02, "operating in AUTO mode (215H status byte 3 bit 1)"),
+            (not self.status3 & 0x04, "system not ready (215H status byte 3 bit 2)"),
+            (self.status1 & 0x08, "emergency stop (215H status byte 1 bit 3)"),
+        )
+        out += [reason for refused, reason in checks if refused]
+        return tuple(out)
+
+    @property
+    def refusal(self) -> str | None:
+        """The first reason a write is forbidden, or None when the system is idle."""
+        refusals = self.refusals
+        return refusals[0] if refusals else None
+
+
+@dataclass(frozen=True)
+class AxisStatus:
+    """212H, one axis: status bits, sensors, error number (hex text), encoder
+    status and the current position as coordinate text."""
+
+    axis: int
+    status: int
+    sensors: int
+    error: str
+    encoder: int
+    position: str
+
+    @property
+    def in_use(self) -> bool:
+        """Bit 0: a task holds the axis (moving, servo starting or stopping, paused)."""
+        return bool(self.status & 0x01)
+
+    @property
+    def servo_on(self) -> bool:
+        return bool(self.status & 0x08)
+
+    @property
+    def home(self) -> int:
+        """Bits 1-2: 0 not yet returned, 1 returning, 2 completed."""
+        return self.status >> 1 & 3
+
+    @property
+    def refusal(self) -> str | None:
+        if self.in_use:
+            return f"axis {self.axis} servo axis in use (212H axis status bit 0)"
+        return None
+
+
+def axes_refusal(axes: tuple[int, ...], statuses: tuple[AxisStatus, ...]) -> str | None:
+    """The first reason 212H forbids a write for the robot's ``axes``, or None.
+
+    An axis the reply leaves out (driver not connected) cannot be seen to be
+    idle, so it refuses too.
+    """
+    by_axis = {s.axis: s for s in statuses}
+    for axis in axes:
+        status = by_axis.get(axis)
+        if status is None:
+            return f"axis {axis} not reported by 212H (driver not connected)"
+        if status.refusal is not None:
+            return status.refusal
+    return None

@@ -1,0 +1,167 @@
+"""Every choice the IAI protocol B manual leaves open, in one place.
+
+These are the *(profile)* decisions of ``shared/spec/iai-protocol-b-profile.md``
+(and the few fixed facts the codec needs beside them, each with its manual page).
+A site whose controller differs changes the constant here and nothing else: the
+codec, the link settings, the simulator and the sync engine read them from this
+module.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Literal, NamedTuple
+
+__all__ = [
+    "ACCEPT_LOWER_CASE_HEX",
+    "ALLOWED_MESSAGE_IDS",
+    "BAUDRATE",
+    "BAUDRATES",
+    "BUFFERS",
+    "BYTESIZE",
+    "CORE_MESSAGE_IDS",
+    "DEFAULT_MODEL",
+    "DEFAULT_POSITION_RANGE",
+    "DEFAULT_STATION",
+    "INTER_COMMAND_GAP",
+    "MAX_FRAME",
+    "OPT_IN_MESSAGE_IDS",
+    "PARITY",
+    "PERSISTENCE_NOTICE",
+    "POSITION_RECORD_HAS_NUMBER",
+    "READ_RECORD_MAX",
+    "REPLY_DEADLINE_BASE",
+    "REPLY_DEADLINE_FACTOR",
+    "RTSCTS",
+    "STOPBITS",
+    "VOLATILE_MESSAGE_IDS",
+    "WRITE_MESSAGE_IDS",
+    "WRITE_RECORD_MAX",
+    "XONXOFF",
+    "Buffers",
+    "bits_per_char",
+    "reply_deadline",
+]
+
+# --- station and serial line --------------------------------------------------------
+
+#: Station when the robot file gives none: 99h, written and shown as hex.
+DEFAULT_STATION = 0x99
+
+#: Serial settings when the robot file gives none: 9600 8N1, no flow control.
+BAUDRATE = 9600
+BYTESIZE = 8
+PARITY: Literal["N", "E", "O"] = "N"
+STOPBITS: Literal[1, 2] = 1
+RTSCTS = False
+XONXOFF = False
+
+#: The speeds the controller offers (p.7); 57600 and 115200 only on X-SEL
+#: P/Q/.../SXD, SSEL/ASEL/PSEL and TTA.
+BAUDRATES = (9600, 19200, 38400, 57600, 115200)
+
+#: Seconds to wait after a reply before the next command (p.9: at least 1 ms).
+INTER_COMMAND_GAP = 0.001
+
+#: Reply deadline: this many seconds ...
+REPLY_DEADLINE_BASE = 0.5
+#: ... plus this many times the wire time of the longest reply the command can get.
+REPLY_DEADLINE_FACTOR = 1.5
+
+
+def bits_per_char(bytesize: int = BYTESIZE, parity: str = PARITY, stopbits: int = STOPBITS) -> int:
+    """Bits one character takes on the wire: start bit, data, parity, stop bits."""
+    return 1 + bytesize + (0 if parity == "N" else 1) + stopbits
+
+
+def reply_deadline(reply_bytes: int, baudrate: int = BAUDRATE, char_bits: int = 10) -> float:
+    """Seconds to wait for a reply of at most ``reply_bytes`` bytes.
+
+    ``0.5 + 1.5 x wire time``: a 2048-byte reply at 9600 8N1 is 2.13 s on the
+    wire, so 3.7 s.
+    """
+    return REPLY_DEADLINE_BASE + REPLY_DEADLINE_FACTOR * reply_bytes * char_bits / baudrate
+
+
+# --- buffers per controller model (p.15) ----------------------------------------------
+
+
+class Buffers(NamedTuple):
+    """The largest frame, in bytes, a controller takes (receive) and gives (send)."""
+
+    receive: int
+    send: int
+
+
+_LARGE = Buffers(receive=2051, send=2048)
+_SMALL = Buffers(receive=1023, send=1024)
+
+#: Model name (the per-robot setting) -> its buffers.  The manual's model list;
+#: ``XSEL-JK`` names the whole X-SEL J/K family.
+BUFFERS: Mapping[str, Buffers] = MappingProxyType(
+    {
+        "TTA": _LARGE,
+        **{
+            f"XSEL-{m}": _LARGE
+            for m in ("P", "Q", "PCT", "QCT", "PX", "QX", "R", "S", "RX", "SX", "RXD", "SXD")
+        },
+        "SSEL": _LARGE,
+        "ASEL": _LARGE,
+        "PSEL": _LARGE,
+        "XSEL-JK": _SMALL,
+        **{f"XSEL-{m}": _SMALL for m in ("J", "K", "KE", "KT", "KET", "JX", "KX", "KTX")},
+        "TT": _SMALL,
+    }
+)
+
+#: Model when the robot file gives none.
+DEFAULT_MODEL = "TTA"
+
+#: The decoder gives up on a frame with no LF after this many bytes and resyncs at
+#: the next header.  The largest buffer of any model, plus slack in case the
+#: manual's sizes leave out the header or SC, CR and LF.
+MAX_FRAME = max(max(b) for b in BUFFERS.values()) + 16
+
+# --- frames -----------------------------------------------------------------------
+
+#: A reader accepts upper- or lower-case hex (station, id, data, SC); the client
+#: always sends upper case.
+ACCEPT_LOWER_CASE_HEX = True
+
+# --- positions ----------------------------------------------------------------------
+
+#: Position numbers a robot's table holds when the robot file gives no range
+#: (first, last), inclusive.
+DEFAULT_POSITION_RANGE = (1, 1000)
+
+#: 291H records carry no position number: pattern, acc, dec, speed, up to 8
+#: coordinates, extended = at most 80 bytes (the manual prints 84).
+POSITION_RECORD_HAS_NUMBER = False
+WRITE_RECORD_MAX = 80
+#: 22DH records carry the 4-digit number in front: at most 84 bytes.
+READ_RECORD_MAX = 84
+
+# --- messages -----------------------------------------------------------------------
+
+#: What backup, diff and deploy of positions need: version, system status, axis
+#: status, read positions, write positions.
+CORE_MESSAGE_IDS = frozenset({0x201, 0x215, 0x212, 0x22D, 0x291})
+#: Global flags and variables, when the project opts in: read flags, integer and
+#: real variables; write a flag, integer variables, real variables.
+OPT_IN_MESSAGE_IDS = frozenset({0x20D, 0x20E, 0x20F, 0x24B, 0x24C, 0x24D})
+#: The only message ids the encoder will put on the wire.
+ALLOWED_MESSAGE_IDS = CORE_MESSAGE_IDS | OPT_IN_MESSAGE_IDS
+#: The allowed ids that change the controller's data.
+WRITE_MESSAGE_IDS = frozenset({0x291, 0x24B, 0x24C, 0x24D})
+#: The allowed reads whose answer changes without any write from us: status, and
+#: the flags and variables running programs change.
+VOLATILE_MESSAGE_IDS = frozenset({0x215, 0x212, 0x20D, 0x20E, 0x20F})
+
+# --- persistence --------------------------------------------------------------------
+
+#: Said after every deploy, and kept in its audit record.
+PERSISTENCE_NOTICE = (
+    "The data written is in the controller's working memory only: write it to flash "
+    "ROM with the controller's own tools, or the next power cycle loses it."
+)

@@ -1,0 +1,1 @@
+"""Tests of the IAI protocol B family."""
