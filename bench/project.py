@@ -32,17 +32,17 @@ from typing import Any
 from machine import describe, every_step_used, peak_rss_mib, run_child
 
 from harlsync.families.harl_u2.model import RobotData, Step
+from harlsync.families.harl_u2 import layout
 from harlsync.project import (
     Project,
-    layout,
     load_project,
     new_robot,
     save_project,
-    schema,
     validate_project,
     yamlio,
 )
 from harlsync.sync.engine import change_summary
+from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.sync.items import diff, render_text, to_json
 
 DIFF_TARGET = 0.2
@@ -89,7 +89,7 @@ def _parse_all(path: Path) -> dict[str, tuple[str, yamlio.Parsed]]:
 
 def _check_all(docs: dict[str, tuple[str, yamlio.Parsed]]) -> None:
     """The schema check of every file, and the checks against controller.yaml."""
-    issues = [i for name, (kind, doc) in docs.items() for i in schema.check(kind, name, doc)]
+    issues = [i for name, (kind, doc) in docs.items() for i in layout.SCHEMAS.check(kind, name, doc)]
     config = layout._build_config(docs["controller.yaml"][1].data)
     programs = {
         layout.program_key(name): doc for name, (kind, doc) in docs.items() if kind == "program"
@@ -136,13 +136,13 @@ def setup_case(case: str, path: Path) -> Callable[[], object]:
     project, changed = full_size()
     if case == "diff-same":
         other = load_project(path).data
-        return lambda: diff(project.data, other)
+        return lambda: diff(CATALOGUE, project.data, other)
     if case == "diff-1pct":
-        return lambda: diff(project.data, changed)
+        return lambda: diff(CATALOGUE, project.data, changed)
     if case == "compare":
 
         def compare() -> object:
-            changes = diff(project.data, changed)
+            changes = diff(CATALOGUE, project.data, changed)
             return (
                 change_summary(changes),
                 render_text(changes, "robot", "project"),
@@ -244,7 +244,7 @@ def main() -> None:
         print(
             f"{programs} programs, {steps:,} steps, {len(data.offsets)} tables, "
             f"{len(data.timers)} timers: {size / 1024:.0f} KiB of YAML; "
-            f"change set: {len(diff(data, changed))} items; best of {args.repeat}\n"
+            f"change set: {len(diff(CATALOGUE, data, changed))} items; best of {args.repeat}\n"
         )
         rows = [in_child(case, path, args.repeat) for case in args.only or CASES]
     show(rows)

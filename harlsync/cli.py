@@ -259,8 +259,9 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="URL",
                    help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
                         "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR")
-    p.add_argument("--station", type=int, metavar="N",
-                   help="station number instead of the robot file's (1-4 by default)")
+    p.add_argument("--station", metavar="N",
+                   help="station number instead of the robot file's (HARL-U2: 1-99, as set "
+                        "on the pendant; IAI: two hex digits, 99 by default)")
     p.add_argument("--lock-timeout", type=float, default=10.0, metavar="SECONDS",
                    help="how long to wait for another harlsync using the same line (default 10)")
 
@@ -294,6 +295,12 @@ class _Progress:
             self.bar = None
 
 
+def _family_names() -> tuple[str, ...]:
+    from .families import names
+
+    return names()
+
+
 def _add_pull(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "pull", help="read everything from the robot into a project directory",
@@ -304,6 +311,9 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
+    p.add_argument("--family", choices=_family_names(), default=None,
+                   help="the controller family of a first pull (default harl-u2); later "
+                        "commands read it from robot.yaml")
     p.add_argument("--commit", action="store_true",
                    help="commit the change to git, with a message that says what changed")
     p.add_argument("--allow-dirty", action="store_true",
@@ -318,7 +328,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
     try:
         result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
                              progress=progress, lock_timeout=args.lock_timeout,
-                             allow_dirty=args.allow_dirty)
+                             allow_dirty=args.allow_dirty, family=args.family)
     finally:
         progress.close()
     if sys.stdout.isatty():
@@ -387,8 +397,8 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
 def _show_plan(the_plan: Plan) -> None:
     for line in the_plan.unwritable:
         _print(f"# cannot write: {line}")
-    if the_plan.reconfigure:
-        _print("# SNX changes the program configuration: every program is rewritten after it")
+    if the_plan.reconfiguration_note:
+        _print(f"# {the_plan.reconfiguration_note}")
     for write in the_plan.writes:
         flag = "  # unsafe in automatic operation" if write.unsafe else ""
         _print(f"{write.command}{flag}")

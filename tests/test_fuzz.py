@@ -34,11 +34,11 @@ from hypothesis import strategies as st
 
 from harlsync.errors import ProjectError, ProtocolError, ReplyError
 from harlsync.families.harl_u2.model import Config, OffsetTable, Parameters, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.layout import render_files
 from harlsync.project import (
     Project,
     load_project,
     new_robot,
-    render_files,
     save_project,
     validate_project,
 )

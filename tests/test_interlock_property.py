@@ -73,7 +73,8 @@ from harlsync.families.harl_u2.sim.device import Received
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import PushFailed, PushOptions, PushResult, engine
 from harlsync.sync import audit as audit_log
-from harlsync.sync.items import diff, items
+from harlsync.families.harl_u2.catalogue import CATALOGUE
+from harlsync.sync import items as sync_items
 
 CHUNKS = 10
 PER_CHUNK = 100
@@ -353,8 +354,8 @@ def make_case(seed: int) -> Case:
         story.append("the robot runs when the push starts")
     cfg = before.config
     reads = 4 + cfg.step_count + OFFSET_TABLE_COUNT + cfg.timers + cfg.registers * opts.registers
-    horizon = reads + 4 * len(diff(before, target, registers=True)) + 8
-    writes = len(diff(before, target, registers=opts.registers))
+    horizon = reads + 4 * len(sync_items.diff(CATALOGUE, before, target, registers=True)) + 8
+    writes = len(sync_items.diff(CATALOGUE, before, target, registers=opts.registers))
     lose_writes = {rng.randrange(writes)} if writes and rng.random() < 0.3 else set()
     if lose_writes:
         story.append(f"write requests lost on the way in: {sorted(lose_writes)}")
@@ -545,7 +546,7 @@ def check_writes(case: Case, got: Outcome, final: RobotData) -> None:
     if plan is None:
         assert not sent, case.why("writes without a plan")
         return
-    old, now = items(case.before), items(final)
+    old, now = CATALOGUE.items(case.before, registers=True), CATALOGUE.items(final, registers=True)
     wiped = plan.reconfigure and final.config.same_programs(case.target.config)
     planned = {w.key: w for w in plan.writes}
     done = {w.key for w in result.written}
@@ -585,7 +586,7 @@ def check_failure(case: Case, got: Outcome) -> None:
 
 
 def check_converged(case: Case, final: RobotData) -> None:
-    left = diff(final, case.target, registers=case.opts.registers)
+    left = sync_items.diff(CATALOGUE, final, case.target, registers=case.opts.registers)
     assert not left, case.why(f"push returned but the robot still differs: {left[:3]}")
 
 
@@ -597,7 +598,7 @@ def check_case(case: Case, deploy: Deploy, tally: Tally) -> None:
     check_interlock(case, got, tally)
     check_writes(case, got, final)
     if got.snapshot is not None:
-        assert not diff(got.snapshot, case.before, registers=case.opts.registers), case.why(
+        assert not sync_items.diff(CATALOGUE, got.snapshot, case.before, registers=case.opts.registers), case.why(
             "the snapshot is not what the robot held before the push"
         )
     if got.failed is None:

@@ -27,7 +27,7 @@ from harlsync.project import (
     save_project,
     validate_project,
 )
-from harlsync.project.schema import KINDS, schema_text
+from harlsync.families.harl_u2.layout import KINDS, SCHEMAS
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLE = REPO / "projects" / "pick-and-place"
@@ -195,7 +195,7 @@ def test_load_then_save_rewrites_every_file_byte_for_byte(tmp_path: Path) -> Non
 def test_the_schema_copies_in_the_example_equal_schemas() -> None:
     for kind in KINDS:
         copy = EXAMPLE / ".schemas" / f"{kind}.schema.json"
-        assert copy.read_text(encoding="utf-8") == schema_text(kind)
+        assert copy.read_text(encoding="utf-8") == SCHEMAS.text(kind)
         assert copy.read_bytes() == (REPO / "harlsync/families/harl_u2/schemas" / f"{kind}.schema.json").read_bytes()
 
 

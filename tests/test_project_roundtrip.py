@@ -23,13 +23,13 @@ from harlsync.families.harl_u2.model import (
     RobotData,
     Step,
 )
+from harlsync.families.harl_u2.layout import render_program
 from harlsync.project import (
     DAYS,
     Project,
     Robot,
     Window,
     load_project,
-    render_program,
     save_project,
 )
 

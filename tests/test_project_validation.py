@@ -197,7 +197,7 @@ def test_unknown_keys_are_reported_with_the_allowed_ones(root: Path) -> None:
             "bytesize, parity, stopbits, rtscts, timeout, retries)"
         ),
         (
-            "robot.yaml:20: colour: unknown key (allowed: format, name, description, connection, "
+            "robot.yaml:20: colour: unknown key (allowed: format, family, name, description, connection, "
             "maintenance_windows, keep_registers)"
         ),
         "programs/hand-01.yaml:4: comment: unknown key (allowed: format, type, number, steps)",

@@ -19,7 +19,8 @@ from harlsync.families.harl_u2.model import OFFSET_TABLE_COUNT, TIMER_RE, Progra
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.serve import PtyServer
 from harlsync.sync import engine
-from harlsync.sync.items import diff
+from harlsync.families.harl_u2.catalogue import CATALOGUE
+from harlsync.sync import items as sync_items
 
 PORT = os.environ.get("HARLSYNC_TEST_PORT")
 STATION = int(os.environ.get("HARLSYNC_TEST_STATION", "1"))
@@ -95,4 +96,4 @@ def test_a_pull_then_a_diff_of_the_same_robot_finds_nothing(target: Target, tmp_
     if target.sim is not None:
         assert comparison.changes == []
         state = target.sim.stations[1].data
-        assert diff(state, comparison.project.data) == []
+        assert sync_items.diff(CATALOGUE, state, comparison.project.data) == []

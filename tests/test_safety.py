@@ -27,7 +27,7 @@ from harlsync.families.harl_u2.sim import SimState
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
-from harlsync.sync.driver import HarlU2Driver
+from harlsync.families.harl_u2.driver import HarlU2Driver
 
 SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
 FAST = SerialSettings(timeout=0.2, retries=2)

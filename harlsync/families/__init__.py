@@ -5,8 +5,9 @@ This registry is the one place that names the family packages (python-can's
 one line in :data:`FAMILIES`, and changes no engine file.  A project whose
 ``robot.yaml`` has no ``family`` key is a HARL-U2 project (:data:`DEFAULT`).
 
-Every family package exports ``FAMILY`` (a :class:`~harlsync.families.base.Family`)
-and has a ``sim`` package with its simulated controller.
+Every family package has a ``family`` module whose ``FAMILY`` is its
+:class:`~harlsync.families.base.Family`, and a ``sim`` package with its simulated
+controller.  Neither is imported before it is asked for.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ def _package(name: str) -> str:
 
 def get(name: str | None) -> Family:
     """The family called ``name`` (``None``: the default).  Raises ProjectError."""
-    family: Family = import_module(_package(name or DEFAULT)).FAMILY
+    family: Family = import_module(_package(name or DEFAULT) + ".family").FAMILY
     return family
 
 

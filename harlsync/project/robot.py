@@ -1,4 +1,6 @@
-"""robot.yaml as Python: which robot, how to reach it, when a push may write to it."""
+"""robot.yaml as Python: which robot, of which family, how to reach it, when a push
+may write to it.  The family reads and writes the file (its connection keys differ);
+this is what the engine needs of it."""
 
 from __future__ import annotations
 
@@ -6,6 +8,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, time
 from typing import Any
 
+from ..families import DEFAULT
 from ..link import SerialSettings
 
 __all__ = ["DAYS", "Robot", "Window", "new_robot"]
@@ -45,10 +48,11 @@ class Window:
 
 @dataclass
 class Robot:
-    """One robot: its name, port URL, station and serial settings, and push policy.
+    """One robot: its name, family, port URL, station and serial settings, and push policy.
 
     ``windows`` empty means a push may write at any time; ``keep_registers`` keeps
-    the registers (runtime data) in the project.
+    the registers (runtime data: IAI variables and flags too) in the project.
+    ``options`` holds the family's own settings (an IAI robot's model and axes).
     """
 
     name: str
@@ -58,6 +62,8 @@ class Robot:
     windows: list[Window] = field(default_factory=list)
     keep_registers: bool = False
     description: str | None = None
+    family: str = DEFAULT
+    options: dict[str, Any] = field(default_factory=dict)
 
     def in_window(self, when: datetime) -> bool:
         """Whether a push may write at ``when``: no windows, or inside one of them."""

@@ -1,36 +1,32 @@
 """The JSON Schemas of project files and the validator that applies them.
 
-The schemas (``schemas/*.schema.json``, shipped as ``harlsync.schemas``) serve two
-readers.  Editors use ``type``, ``minimum`` and ``maximum``.  harlsync also checks
-each number's *text* through custom formats (``harl-timer``: two decimals,
-``harl-register``: four digits, ...) that editors ignore, and lets ``integer``
-accept a :class:`~harlsync.project.yamlio.Number` written without a dot.  Each
-leaf carries an ``x-allowed`` annotation quoted in error messages.
+Each family ships its schemas in its own package
+(``harlsync/families/<name>/schemas/<kind>.schema.json``) and reaches them
+through a :class:`SchemaSet`.  The schemas serve two readers.  Editors use
+``type``, ``minimum`` and ``maximum``.  harlsync also checks each number's
+*text* through custom formats the family names (``harl-timer``: two decimals,
+``iai-coord``: three, ...) that editors ignore, and lets ``integer`` accept a
+:class:`~harlsync.project.yamlio.Number` written without a dot.  Each leaf
+carries an ``x-allowed`` annotation quoted in error messages.
 """
 
 from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from decimal import Decimal
-from functools import cache
 from importlib.resources import files
-from pathlib import Path
 from typing import Any
 
 from jsonschema import Draft202012Validator, FormatChecker, ValidationError
 from jsonschema.protocols import Validator
 from jsonschema.validators import extend
 
-from ..families.harl_u2.model import CODE_RE, OFFSET_RE, REGISTER_RE, TIMER_RE
 from .yamlio import Number, Parsed
 
-__all__ = ["KINDS", "Issue", "check", "schema", "schema_text"]
-
-#: The file kinds, each with ``schemas/<kind>.schema.json``.
-KINDS = ("robot", "controller", "parameters", "offsets", "timers", "registers", "program")
+__all__ = ["Issue", "SchemaSet", "show"]
 
 
 @dataclass(frozen=True)
@@ -71,35 +67,13 @@ def _cut(text: str) -> str:
     return text if len(text) <= MAX_SHOWN else text[: MAX_SHOWN - 3] + "..."
 
 
-def schema_text(kind: str) -> str:
-    """The schema file's exact text (copied into each project's ``.schemas/``)."""
-    name = f"{kind}.schema.json"
-    folder: Any = files("harlsync.families.harl_u2.schemas")
-    text: str = folder.joinpath(name).read_text(encoding="utf-8")
-    return text
-
-
-@cache
-def schema(kind: str) -> dict[str, Any]:
-    """The parsed schema, decimals as ``Decimal`` so limits compare exactly."""
-    result: dict[str, Any] = json.loads(schema_text(kind), parse_float=Decimal)
-    return result
-
-
-def _text_matches(pattern: Any) -> Any:
+def _text_matches(pattern: re.Pattern[str]) -> Any:
     def check(instance: object) -> bool:
         if isinstance(instance, Number):
             return pattern.fullmatch(instance.text) is not None
         return True  # other types are the "type" keyword's business
 
     return check
-
-
-_FORMATS = FormatChecker(formats=())
-_FORMATS.checks("harl-timer")(_text_matches(TIMER_RE))
-_FORMATS.checks("harl-register")(_text_matches(REGISTER_RE))
-_FORMATS.checks("harl-offset")(_text_matches(OFFSET_RE))
-_FORMATS.checks("harl-code")(_text_matches(CODE_RE))
 
 
 def _is_integer(checker: Any, instance: object) -> bool:
@@ -154,10 +128,48 @@ _Validator = extend(
 )
 
 
-@cache
-def _validator(kind: str) -> Validator:
-    validator: Validator = _Validator(schema(kind), format_checker=_FORMATS)
-    return validator
+class SchemaSet:
+    """One family's schemas: ``<kind>.schema.json`` files in the Python package
+    ``package``, and the text formats (name -> exact pattern) they use."""
+
+    def __init__(
+        self, package: str, kinds: Iterable[str], formats: Mapping[str, re.Pattern[str]]
+    ) -> None:
+        self.package = package
+        self.kinds = tuple(kinds)
+        self._formats = FormatChecker(formats=())
+        for name, pattern in formats.items():
+            self._formats.checks(name)(_text_matches(pattern))
+        self._schemas: dict[str, dict[str, Any]] = {}
+        self._validators: dict[str, Validator] = {}
+
+    def text(self, kind: str) -> str:
+        """The schema file's exact text (copied into each project's ``.schemas/``)."""
+        folder: Any = files(self.package)
+        text: str = folder.joinpath(f"{kind}.schema.json").read_text(encoding="utf-8")
+        return text
+
+    def schema(self, kind: str) -> dict[str, Any]:
+        """The parsed schema, decimals as ``Decimal`` so limits compare exactly."""
+        if kind not in self._schemas:
+            self._schemas[kind] = json.loads(self.text(kind), parse_float=Decimal)
+        return self._schemas[kind]
+
+    def files(self) -> dict[str, str]:
+        """File name -> text of every schema, for a project's ``.schemas/``."""
+        return {f"{kind}.schema.json": self.text(kind) for kind in self.kinds}
+
+    def check(self, kind: str, file: str, doc: Parsed) -> list[Issue]:
+        """Every schema violation of one parsed file, one issue per field, by line."""
+        if kind not in self._validators:
+            self._validators[kind] = _Validator(self.schema(kind), format_checker=self._formats)
+        issues: dict[tuple[Any, ...], tuple[int, Issue]] = {}
+        for error in self._validators[kind].iter_errors(doc.data):
+            for rank, path, issue in _issues(error, file, doc):
+                old = issues.get(path)
+                if old is None or rank < old[0]:
+                    issues[path] = (rank, issue)
+        return sorted((issue for _, issue in issues.values()), key=lambda i: i.line or 0)
 
 
 # -- turning jsonschema errors into issues ------------------------------------------
@@ -205,17 +217,6 @@ def show(value: object) -> str:
 
 def _dotted(path: Any) -> str:
     return ".".join(str(p) for p in path) or "(top)"
-
-
-def check(kind: str, file: str, doc: Parsed) -> list[Issue]:
-    """Every schema violation of one parsed file, one issue per field, by line."""
-    issues: dict[tuple[Any, ...], tuple[int, Issue]] = {}
-    for error in _validator(kind).iter_errors(doc.data):
-        for rank, path, issue in _issues(error, file, doc):
-            old = issues.get(path)
-            if old is None or rank < old[0]:
-                issues[path] = (rank, issue)
-    return sorted((issue for _, issue in issues.values()), key=lambda i: i.line or 0)
 
 
 def _issues(error: ValidationError, file: str, doc: Parsed) -> list[tuple[int, Any, Issue]]:

@@ -39,53 +39,77 @@ import shutil
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from .. import families
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
-from ..families.harl_u2.model import RobotData
-from ..families.harl_u2.layout import (
-    FORMAT,
-    PROGRAMS_DIR,
-    ROOT_FILES,
-    SCHEMAS_DIR,
-    analyse,
-    program_key,
-    render_files,
-)
+from . import yamlio
 from .robot import Robot
-from .schema import KINDS, Issue, schema_text
+from .schema import Issue
 
-__all__ = ["Project", "load_project", "load_robot", "save_project", "validate_project"]
+if TYPE_CHECKING:
+    from ..families.base import Family
+
+__all__ = [
+    "SCHEMAS_DIR",
+    "Project",
+    "family_of",
+    "load_project",
+    "load_robot",
+    "save_project",
+    "validate_project",
+]
 
 log = logging.getLogger(__name__)
+
+#: Copies of the family's JSON Schemas in each project, for editors.
+SCHEMAS_DIR = ".schemas"
 
 
 @dataclass
 class Project:
-    """A robot project: where it lives, which robot, and what its memory holds."""
+    """A robot project: where it lives, which robot, and what its memory holds
+    (the family's data: see :mod:`harlsync.families.base`)."""
 
     path: Path
     robot: Robot
-    data: RobotData
+    data: Any
 
 
-def _gather(root: Path, *, robot_only: bool = False) -> tuple[dict[str, bytes], list[Issue]]:
-    """The project's YAML files by relative path (``.schemas/`` is never read)."""
+def family_of(root: Path) -> Family:
+    """The family a project's robot.yaml names (none, or no readable file: the default).
+
+    A robot.yaml that cannot be read is the default family's to report, as any
+    other issue of the file.  Raises ProjectError for a family harlsync does not know.
+    """
+    try:
+        doc = yamlio.parse((root / "robot.yaml").read_bytes().decode("utf-8"))
+    except (OSError, ValueError, yamlio.YamlSyntaxError):
+        return families.get(None)
+    name = doc.data.get("family") if isinstance(doc.data, dict) else None
+    if not isinstance(name, str):
+        return families.get(None)
+    try:
+        return families.get(name)
+    except ProjectError as exc:
+        line = doc.line(("family",))
+        raise ProjectFormatError(f"{root / 'robot.yaml'}:{line}: family: {exc}") from None
+
+
+def _gather(
+    root: Path, *, robot_only: bool = False
+) -> tuple[Family, dict[str, bytes], list[Issue]]:
+    """The project's family and YAML files by relative path (``.schemas/`` is never read)."""
     if not root.is_dir():
         raise ProjectFormatError(
             f"{root}: not a project directory (no such directory); "
             "a first 'harlsync pull DIR --port URL' makes one"
         )
     recover(root)
-    names = [name for name in ROOT_FILES if (root / name).is_file()]
+    family = family_of(root)
+    names = family.project_files(root)
     if robot_only:
         names = [name for name in names if name == "robot.yaml"]
-    programs = root / PROGRAMS_DIR
-    if programs.is_dir() and not robot_only:
-        names += sorted(
-            f"{PROGRAMS_DIR}/{p.name}"
-            for p in programs.iterdir()
-            if p.is_file() and p.suffix in (".yaml", ".yml") and not p.name.startswith(".")
-        )
     files: dict[str, bytes] = {}
     problems: list[Issue] = []
     for name in names:
@@ -93,7 +117,7 @@ def _gather(root: Path, *, robot_only: bool = False) -> tuple[dict[str, bytes], 
             files[name] = (root / name).read_bytes()
         except OSError as exc:
             problems.append(Issue(name, None, None, f"cannot read: {exc.strerror}", fatal=True))
-    return files, problems
+    return family, files, problems
 
 
 def validate_project(path: str | os.PathLike[str]) -> list[str]:
@@ -102,8 +126,8 @@ def validate_project(path: str | os.PathLike[str]) -> list[str]:
     An empty list means the project is valid.  Raises ProjectFormatError only when
     ``path`` is not a directory.
     """
-    files, problems = _gather(Path(path))
-    return [str(issue) for issue in problems + analyse(files).issues]
+    family, files, problems = _gather(Path(path))
+    return [str(issue) for issue in problems + family.analyse(files).issues]
 
 
 def load_project(path: str | os.PathLike[str]) -> Project:
@@ -114,8 +138,8 @@ def load_project(path: str | os.PathLike[str]) -> Project:
     files break their schemas or the configuration.
     """
     root = Path(path)
-    files, problems = _gather(root)
-    found = analyse(files)
+    family, files, problems = _gather(root)
+    found = family.analyse(files)
     issues = problems + found.issues
     fatal = [str(i) for i in issues if i.fatal]
     if fatal:
@@ -131,8 +155,8 @@ def load_robot(path: str | os.PathLike[str]) -> Robot:
 
     Raises ProjectFormatError or ProjectInvalid like :func:`load_project`.
     """
-    files, problems = _gather(Path(path), robot_only=True)
-    found = analyse(files)
+    family, files, problems = _gather(Path(path), robot_only=True)
+    found = family.analyse(files)
     issues = problems + [i for i in found.issues if i.file == "robot.yaml"]
     fatal = [i for i in issues if i.fatal]
     if fatal:
@@ -159,32 +183,24 @@ def save_project(
     root = Path(path)
     if root.is_dir():
         recover(root)
-    texts = render_files(project.robot, project.data)
-    # Step.problems() first: the YAML rendering cannot show every one of them
-    # (a step with data but no command renders as empty).
-    issues = [
-        f"program {key[0].value} {key[1]} step {n}: {problem}"
-        for key, steps in project.data.programs.items()
-        for n, step in steps.items()
-        for problem in step.problems()
-    ]
-    issues += [str(i) for i in analyse({k: v.encode() for k, v in texts.items()}).issues]
+    family = families.get(project.robot.family)
+    texts = family.render_files(project.robot, project.data)
+    issues = family.data_problems(project.data)
+    issues += [str(i) for i in family.analyse({k: v.encode() for k, v in texts.items()}).issues]
     if issues:
         raise ProjectInvalid(issues)
 
     wanted = {name: text.encode("utf-8") for name, text in texts.items()}
     if (root / "robot.yaml").exists() and not rewrite_robot:
         del wanted["robot.yaml"]
-    for kind in KINDS:
-        wanted[f"{SCHEMAS_DIR}/{kind}.schema.json"] = schema_text(kind).encode("utf-8")
+    for name, text in family.schemas().items():
+        wanted[f"{SCHEMAS_DIR}/{name}"] = text.encode("utf-8")
 
     changed = {name: data for name, data in wanted.items() if _current(root / name) != data}
-    stale = _stale_files(
-        root,
-        texts,
-        keep_registers_file=project.robot.keep_registers and project.data.registers is None,
-    )
-    newer = [problem for name in [*changed, *stale] if (problem := _newer_format(root, name))]
+    stale = family.stale_files(root, texts, project.robot, project.data)
+    newer = [
+        problem for name in [*changed, *stale] if (problem := _newer_format(root, name, family))
+    ]
     if newer:
         raise ProjectFormatError(
             newer[0] + (f" (and {len(newer) - 1} more)" if len(newer) > 1 else "")
@@ -196,16 +212,16 @@ def save_project(
 _FORMAT_LINE = re.compile(rb"^format:[ \t]*([0-9]+)[ \t]*(?:#.*)?$", re.MULTILINE)
 
 
-def _newer_format(root: Path, name: str) -> str | None:
+def _newer_format(root: Path, name: str, family: Family) -> str | None:
     """Why the file ``name`` must not be overwritten: it has a newer format."""
     content = _current(root / name) if name.endswith(".yaml") else None
     match = _FORMAT_LINE.search(content) if content else None
-    if match is None or int(match.group(1)) <= FORMAT:
+    if match is None or int(match.group(1)) <= family.format:
         return None
     line = content.count(b"\n", 0, match.start()) + 1  # type: ignore[union-attr]
     return (
         f"{name}:{line}: format {int(match.group(1))} is newer than this harlsync "
-        f"understands ({FORMAT}): upgrade harlsync (the file was not overwritten)"
+        f"understands ({family.format}): upgrade harlsync (the file was not overwritten)"
     )
 
 
@@ -214,21 +230,6 @@ def _current(path: Path) -> bytes | None:
         return path.read_bytes()
     except FileNotFoundError:
         return None
-
-
-def _stale_files(root: Path, texts: dict[str, str], *, keep_registers_file: bool) -> list[str]:
-    """Managed files on disk that the new project does not have."""
-    stale = []
-    unwanted = "registers.yaml" not in texts and not keep_registers_file
-    if unwanted and (root / "registers.yaml").is_file():
-        stale.append("registers.yaml")
-    programs = root / PROGRAMS_DIR
-    if programs.is_dir():
-        for p in sorted(programs.iterdir()):
-            name = f"{PROGRAMS_DIR}/{p.name}"
-            if p.is_file() and program_key(name) is not None and name not in texts:
-                stale.append(name)
-    return stale
 
 
 #: The journal of a save in progress (module docstring), in the project's root.
@@ -406,7 +407,11 @@ def recover(root: Path) -> bool:
 def _sweep(root: Path) -> bool:
     """Remove temporaries and second names left by killed processes."""
     found = False
-    for directory in (root, root / PROGRAMS_DIR, root / SCHEMAS_DIR):
+    # The project's own sub-directories (programs/, ...) and .schemas/: any family's.
+    directories = [root, root / SCHEMAS_DIR] + sorted(
+        d for d in root.iterdir() if d.is_dir() and not d.name.startswith(".")
+    ) if root.is_dir() else []
+    for directory in directories:
         if not directory.is_dir():
             continue
         for path in directory.iterdir():

@@ -1,6 +1,5 @@
 """Pull, diff, plan, push and rollback: knows projects and controllers, not bytes."""
 
-from .driver import Driver, HarlU2Driver
 from .engine import (
     Comparison,
     PullResult,
@@ -19,8 +18,6 @@ from .plan import Plan, PlannedWrite
 __all__ = [
     "Change",
     "Comparison",
-    "Driver",
-    "HarlU2Driver",
     "Plan",
     "PlannedWrite",
     "PullResult",

@@ -28,7 +28,7 @@ from ..errors import HarlsyncError, LinkError, ProjectError
 from ..link import lock_key
 from ..project import load_robot
 from . import git, history
-from .engine import pull
+from .engine import catalogue, pull
 from .items import summarize
 
 __all__ = [
@@ -190,7 +190,7 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
         outcome.ok, outcome.error = True, None
         outcome.changed = result.changes is None or bool(result.changes)
         outcome.summary = result.summary
-        outcome.counts = summarize(result.changes or [])
+        outcome.counts = summarize(catalogue(robot), result.changes or [])
         break
     outcome.duration = time.monotonic() - start
     return outcome

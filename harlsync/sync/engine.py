@@ -38,7 +38,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from ..families.harl_u2.controller import Controller
+from .. import families
 from ..errors import (
     HarlsyncError,
     InterlockError,
@@ -52,11 +52,10 @@ from ..errors import (
     SyncError,
     VerifyError,
 )
-from ..families.harl_u2.model import RobotData
-from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
+from ..families.base import Catalogue, Driver, Progress
+from ..project import Project, Robot, load_project, load_robot, save_project
 from . import audit, git, history
-from .driver import Driver, HarlU2Driver, Progress
-from .items import Change, diff, summarize
+from .items import Change, diff
 from .plan import Plan, PlannedWrite, make_plan
 
 __all__ = [
@@ -78,22 +77,34 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 SNAPSHOT_DIR = history.LOCAL_DIR / "snapshots"
-#: Items that --allow-live-tuning writes while a task runs: timers and offset tables.
-#: Registers are process state the running program counts with: never.
-LIVE_TUNING = ("timer", "offset")
 
 
 def connect(
     robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0
 ) -> Driver:
     """Open the robot's line (``port``/``station`` override the robot file)."""
-    controller = Controller.from_url(
-        port or robot.port,
-        station if station is not None else robot.station,
-        robot.serial,
-        lock_timeout=lock_timeout,
-    )
-    return HarlU2Driver(controller)
+    return families.get(robot.family).connect(robot, port, station, lock_timeout=lock_timeout)
+
+
+def catalogue(robot: Robot) -> Catalogue:
+    """The robot's family's items."""
+    return families.get(robot.family).catalogue
+
+
+#: A station as the command line gives it (text, read by the robot's family: hex for
+#: IAI), as a library caller gives it (a number), or none (robot.yaml's).
+Station = int | str | None
+
+
+def station_number(family: str | None, station: Station) -> int | None:
+    """``station`` as a number; text is read by the family (``"99"`` is 0x99 for IAI).
+    Raises ProjectError naming the allowed range."""
+    if not isinstance(station, str):
+        return station
+    try:
+        return families.get(family).parse_station(station)
+    except ValueError as exc:
+        raise ProjectError(f"--station: {exc}") from None
 
 
 def read_live(
@@ -104,7 +115,7 @@ def read_live(
     registers: bool,
     progress: Progress | None,
     lock_timeout: float,
-) -> tuple[Driver, RobotData, list[str]]:
+) -> tuple[Driver, Any, list[str]]:
     """Everything the robot holds, read over a line opened and closed for it, and
     a warning for each earlier push to it that did not finish.
 
@@ -134,21 +145,9 @@ def _unfinished(robot: Robot, port: str | None, station: int | None) -> list[str
 
 def change_summary(changes: list[Change]) -> str:
     """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
-    count = summarize(changes)
-    parts = []
-    if count["config"]:
-        parts.append("program configuration")
-    if count["parameters"]:
-        parts.append(f"{count['parameters']} parameter{'s' * (count['parameters'] > 1)}")
-    if count["programs"]:
-        parts.append(
-            f"{count['programs']} program{'s' * (count['programs'] > 1)} "
-            f"({count['steps']} step{'s' * (count['steps'] > 1)})"
-        )
-    for name, singular in (("tables", "table"), ("timers", "timer"), ("registers", "register")):
-        if count[name]:
-            parts.append(f"{count[name]} {singular if count[name] == 1 else name}")
-    return ", ".join(parts) or "no change"
+    if not changes:
+        return "no change"
+    return changes[0].catalogue.summary([(c.key, c.old, c.new) for c in changes])
 
 
 # --- pull ---------------------------------------------------------------------------
@@ -168,14 +167,22 @@ class PullResult:
         return change_summary(self.changes)
 
 
-def _robot_for(path: Path, port: str | None, station: int | None) -> Robot:
+def _robot_for(path: Path, port: str | None, station: Station, family: str | None) -> Robot:
     if (path / "robot.yaml").exists():
-        return load_robot(path)
+        robot = load_robot(path)
+        if family is not None and family != robot.family:
+            raise ProjectError(
+                f"{path / 'robot.yaml'}: the robot is of family {robot.family}, not {family}; "
+                "drop --family (it is only for a first pull) or pull into another directory"
+            )
+        return robot
     if not port:
         raise ProjectError(
             f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
         )
-    return new_robot(path.resolve().name, _absolute_sim_path(port), station or 1)
+    return families.get(family).new_robot(
+        path.resolve().name, _absolute_sim_path(port), station_number(family, station)
+    )
 
 
 def _absolute_sim_path(port: str) -> str:
@@ -199,20 +206,23 @@ def pull(
     path: str | Path,
     *,
     port: str | None = None,
-    station: int | None = None,
+    station: Station = None,
     commit: bool = False,
     progress: Progress | None = None,
     lock_timeout: float = 10.0,
     allow_dirty: bool = False,
+    family: str | None = None,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
     A pull that fails leaves the previous files untouched.  A project with
     uncommitted edits (other than robot.yaml, which a pull never rewrites) is
-    refused unless ``allow_dirty``: the pull would overwrite them.
+    refused unless ``allow_dirty``: the pull would overwrite them.  ``family``
+    names the controller family of a first pull (default: HARL-U2).
     """
     path = Path(path)
-    robot = _robot_for(path, port, station)
+    robot = _robot_for(path, port, station, family)
+    station = station_number(robot.family, station)
     dirty = "" if allow_dirty else _uncommitted(path, ignore=("robot.yaml",))
     if dirty:
         raise PolicyError(
@@ -220,14 +230,16 @@ def pull(
             "commit or stash them, or give --allow-dirty"
         )
     try:
-        previous: RobotData | None = load_project(path).data
+        previous: Any = load_project(path).data
     except ProjectError:
         previous = None
     _, live, _ = read_live(robot, port, station, registers=robot.keep_registers,
                            progress=progress, lock_timeout=lock_timeout)
     save_project(path, Project(path, robot, live))
     history.record(path, ok=True)
-    changes = None if previous is None else diff(previous, live, registers=robot.keep_registers)
+    changes = None if previous is None else diff(
+        catalogue(robot), previous, live, registers=robot.keep_registers
+    )
     result = PullResult(path, robot, changes)
     if commit and (changes is None or changes):
         result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
@@ -244,7 +256,7 @@ class Comparison:
 
     project: Project
     driver: Driver
-    live: RobotData
+    live: Any
     changes: list[Change]
     #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
     warnings: list[str] = field(default_factory=list)
@@ -258,24 +270,25 @@ def compare(
     path: str | Path,
     *,
     port: str | None = None,
-    station: int | None = None,
+    station: Station = None,
     progress: Progress | None = None,
     registers: bool = False,
     lock_timeout: float = 10.0,
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item."""
     project = load_project(path)
+    station = station_number(project.robot.family, station)
     driver, live, warnings = read_live(project.robot, port, station, registers=registers,
                                        progress=progress, lock_timeout=lock_timeout)
-    return Comparison(project, driver, live, diff(live, project.data, registers=registers),
-                      warnings)
+    changes = diff(catalogue(project.robot), live, project.data, registers=registers)
+    return Comparison(project, driver, live, changes, warnings)
 
 
 def plan(
     path: str | Path,
     *,
     port: str | None = None,
-    station: int | None = None,
+    station: Station = None,
     progress: Progress | None = None,
     registers: bool = False,
     lock_timeout: float = 10.0,
@@ -283,8 +296,8 @@ def plan(
     """The plan a push would carry out now; sends no SN command."""
     c = compare(path, port=port, station=station, progress=progress, registers=registers,
                 lock_timeout=lock_timeout)
-    return make_plan(c.live, c.project.data, c.driver, robot=c.project.robot.name,
-                     registers=registers)
+    return make_plan(catalogue(c.project.robot), c.live, c.project.data, c.driver,
+                     robot=c.project.robot.name, registers=registers)
 
 
 # --- push and rollback --------------------------------------------------------------
@@ -385,7 +398,7 @@ def snapshots(path: str | Path, action: str = "push") -> list[Path]:
     return sorted(p for p in root.iterdir() if p.is_dir() and p.name.endswith(f"-{action}"))
 
 
-def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Path:
+def _save_snapshot(path: Path, robot: Robot, live: Any, action: str) -> Path:
     """Save the robot as a snapshot, whole or not at all: it is saved under a
     hidden name and renamed, so a process killed meanwhile leaves no half
     snapshot for rollback to pick (the next snapshot removes the leftover)."""
@@ -411,12 +424,13 @@ def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Pa
 def _deploy(
     action: str,
     project: Project,
-    target: RobotData,
+    target: Any,
     opts: PushOptions,
     port: str | None,
-    station: int | None,
+    station: Station,
 ) -> PushResult:
     robot = project.robot
+    station = station_number(robot.family, station)
     _check_audit_log()
     result = PushResult()
     record = audit.base_record(action)
@@ -437,7 +451,7 @@ def _deploy(
             _interlock(driver, robot, "reading the robot")
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
         result.plan = the_plan = make_plan(
-            live, target, driver, robot=robot.name, registers=opts.registers
+            catalogue(robot), live, target, driver, robot=robot.name, registers=opts.registers
         )
         record["plan"] = the_plan.commands
         _check_plan(the_plan, opts)
@@ -541,11 +555,8 @@ def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
             )
     if the_plan.unwritable:
         raise PolicyError("cannot deploy: " + "; ".join(the_plan.unwritable))
-    if the_plan.reconfigure and not opts.allow_reconfigure:
-        raise PolicyError(
-            "the project changes the program configuration (SNX), which destroys every "
-            "program on the robot; give --allow-reconfigure to do it and rewrite them all"
-        )
+    if the_plan.reconfiguration is not None and not opts.allow_reconfigure:
+        raise PolicyError(the_plan.reconfiguration)
 
 
 def _write_all(
@@ -556,8 +567,10 @@ def _write_all(
     result: PushResult,
     announce: Callable[[PlannedWrite], None],
 ) -> None:
+    tunable = catalogue(robot).live_tuning
+
     def live(write: PlannedWrite) -> bool:
-        return opts.allow_live_tuning and write.key[0] in LIVE_TUNING and not write.unsafe
+        return opts.allow_live_tuning and write.key.kind in tunable and not write.unsafe
 
     if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
         # Live tuning covers timers and tables only: a plan that also holds any
@@ -625,7 +638,7 @@ def push(
     opts: PushOptions,
     *,
     port: str | None = None,
-    station: int | None = None,
+    station: Station = None,
 ) -> PushResult:
     """Make the robot equal the project, safely.  Raises PushFailed with the result.
 
@@ -669,7 +682,7 @@ def rollback(
     *,
     snapshot: str | Path | None = None,
     port: str | None = None,
-    station: int | None = None,
+    station: Station = None,
 ) -> PushResult:
     """Restore the snapshot taken before the last push, under the same interlocks.
 

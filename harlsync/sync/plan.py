@@ -1,12 +1,15 @@
 """A push plan: the exact writes that would make the robot equal the project.
 
-A plan is computed from the live robot and the project, in the safe order
-(configuration, parameters, tables, timers, registers, programs).  It carries a
-fingerprint of the live state and of the project it was computed from, so a
-saved plan can be refused when either changed since (a stale plan).
+A plan is computed from the live robot and the project, in the family's safe
+order (the HARL-U2's: configuration, parameters, tables, timers, registers,
+programs).  It carries a fingerprint of the live state and of the project it was
+computed from, so a saved plan can be refused when either changed since (a
+stale plan).
 
-A configuration (SNX) change destroys every program, so a plan that holds one
-rewrites every non-empty step of the project after it.
+The family decides what cannot be written and whether the plan reconfigures
+the robot destructively (a HARL-U2 SNX wipes every program, so such a plan
+rewrites every non-empty step after it); the engine asks for
+``--allow-reconfigure`` before such a plan.
 """
 
 from __future__ import annotations
@@ -18,9 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ProjectFormatError
-from ..families.harl_u2.model import RobotData
-from .driver import Driver
-from .items import Change, Key, describe, diff, items, push_order
+from ..families.base import Catalogue, Driver
+from .items import Change, diff
 
 __all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "fingerprint", "make_plan"]
 
@@ -31,15 +33,13 @@ PLAN_FORMAT = 1
 class PlannedWrite:
     """One write: the item, what the robot holds, what it will hold, the wire command."""
 
-    key: Key
+    key: Any
     old: Any
     new: Any
     command: str
     unsafe: bool
-
-    @property
-    def name(self) -> str:
-        return describe(self.key)
+    #: the item's name for people: ``MAIN program 2 step 3``
+    name: str
 
 
 @dataclass
@@ -52,9 +52,16 @@ class Plan:
     project_fingerprint: str
     changes: list[Change]
     writes: list[PlannedWrite]
-    reconfigure: bool = False
+    #: The refusal a push of this plan gives without --allow-reconfigure, when the
+    #: plan holds a destructive reconfiguration (and the line a printed plan starts with).
+    reconfiguration: str | None = None
+    reconfiguration_note: str | None = None
     #: Differences no write can fix (timer, memory bit, register counts).
     unwritable: list[str] = field(default_factory=list)
+
+    @property
+    def reconfigure(self) -> bool:
+        return self.reconfiguration is not None
 
     @property
     def empty(self) -> bool:
@@ -99,69 +106,43 @@ def _canonical(value: Any) -> Any:
     return value
 
 
-def fingerprint(data: RobotData, *, registers: bool = False) -> str:
+def fingerprint(catalogue: Catalogue, data: Any, *, registers: bool = False) -> str:
     """A hash of every item (and the version), stable across runs and machines."""
     flat = sorted(
-        (json.dumps(list(k)), _canonical(v)) for k, v in items(data, registers=registers).items()
+        (json.dumps(list(k)), _canonical(v))
+        for k, v in catalogue.items(data, registers=registers).items()
     )
-    text = json.dumps([data.version, flat], sort_keys=True, separators=(",", ":"))
+    text = json.dumps([catalogue.version(data), flat], sort_keys=True, separators=(",", ":"))
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
 def make_plan(
-    live: RobotData,
-    project: RobotData,
+    catalogue: Catalogue,
+    live: Any,
+    project: Any,
     driver: Driver,
     *,
     robot: str,
     registers: bool = False,
 ) -> Plan:
     """The writes that turn ``live`` into ``project``, in the safe order."""
-    changes = diff(live, project, registers=registers)
-    unwritable = [
-        f"{name}: the robot has {getattr(live.config, name)}, the project "
-        f"{getattr(project.config, name)}; the configuration write (SNX) cannot change it"
-        for name in ("timers", "memory_bits", "registers")
-        if getattr(live.config, name) != getattr(project.config, name)
-    ]
-    if registers and project.registers is None:
-        unwritable.append(
-            "registers: the project does not keep them; set keep_registers in robot.yaml "
-            "and pull, or push without registers"
-        )
-    explained = {
-        kind for kind, count in (("timer", "timers"), ("register", "registers"))
-        if getattr(live.config, count) != getattr(project.config, count)
-    } | ({"register"} if project.registers is None else set())
-    # Only a step can be written as "nothing" (cleared); any other item the
-    # project lacks cannot be written at all.
-    missing = [c for c in changes if c.new is None and c.key[0] != "step"]
-    unwritable += [
-        f"{c.name}: the project has none" for c in missing if c.key[0] not in explained
-    ]
-    reconfigure = not live.config.same_programs(project.config)
-    # Without a reconfiguration the config item differs only in what SNX cannot
-    # write (unwritable above); with one, every step is rewritten below.
-    skip_kind = "step" if reconfigure else "config"
-    wanted: list[tuple[Key, Any, Any]] = [
-        (c.key, c.old, c.new) for c in changes if c not in missing and c.key[0] != skip_kind
-    ]
-    if reconfigure:
-        # SNX wipes every program: rewrite every non-empty step of the project,
-        # each written over an empty step.
-        wanted += [(key, None, value) for key, value in items(project).items() if key[0] == "step"]
-    wanted.sort(key=lambda w: push_order(w[0]))
+    changes = diff(catalogue, live, project, registers=registers)
+    shape = catalogue.plan(live, project, [(c.key, c.old, c.new) for c in changes],
+                           registers=registers)
+    wanted = sorted(shape.wanted, key=lambda w: catalogue.order(w[0]))
     writes = [
-        PlannedWrite(key, old, new, driver.command(key, new), driver.unsafe(key))
+        PlannedWrite(key, old, new, driver.command(key, new), driver.unsafe(key),
+                     catalogue.describe(key))
         for key, old, new in wanted
     ]
     return Plan(
         robot=robot,
         target=driver.label,
-        live_fingerprint=fingerprint(live, registers=registers),
-        project_fingerprint=fingerprint(project, registers=registers),
+        live_fingerprint=fingerprint(catalogue, live, registers=registers),
+        project_fingerprint=fingerprint(catalogue, project, registers=registers),
         changes=changes,
         writes=writes,
-        reconfigure=reconfigure,
-        unwritable=unwritable,
+        reconfiguration=shape.reconfigure,
+        reconfiguration_note=shape.reconfigure_note,
+        unwritable=shape.unwritable,
     )

@@ -14,15 +14,33 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
-from datetime import time
 from typing import Any
 
 from ...link import SerialSettings
+from ...project import yamlio as y
+from ...project.files import (
+    SCHEMAS_DIR,
+    FileSet,
+    build_serial,
+    build_windows,
+    numbered,
+    numbers,
+    serial_items,
+    text_of,
+    unique,
+    window_nodes,
+)
+from ...project.robot import Robot
+from ...project.schema import Issue, SchemaSet, show
+from ..base import Analysis
 from .model import (
+    CODE_RE,
     OFFSET_FIELDS,
+    OFFSET_RE,
     OFFSET_TABLE_COUNT,
     PARAMETER_NAMES,
+    REGISTER_RE,
+    TIMER_RE,
     Config,
     OffsetTable,
     Parameters,
@@ -32,15 +50,14 @@ from .model import (
     RobotData,
     Step,
 )
-from ...project import yamlio as y
-from ...project.robot import Robot, Window
-from ...project.schema import Issue, check, show
 
 __all__ = [
     "FORMAT",
+    "KINDS",
     "MIGRATIONS",
     "PROGRAMS_DIR",
     "ROOT_FILES",
+    "SCHEMAS",
     "SCHEMAS_DIR",
     "Analysis",
     "analyse",
@@ -75,7 +92,18 @@ ROOT_FILES = {
     "registers.yaml": "registers",
 }
 PROGRAMS_DIR = "programs"
-SCHEMAS_DIR = ".schemas"
+
+#: The file kinds, each with ``schemas/<kind>.schema.json`` in this package.
+KINDS = ("robot", "controller", "parameters", "offsets", "timers", "registers", "program")
+#: The schemas, and the exact text of each number kind they name as a format.
+SCHEMAS = SchemaSet(
+    f"{__package__}.schemas",
+    KINDS,
+    {"harl-timer": TIMER_RE, "harl-register": REGISTER_RE, "harl-offset": OFFSET_RE,
+     "harl-code": CODE_RE},
+)
+#: How the files are read and written: their schemas, format and migrations.
+FILES = FileSet(SCHEMAS, FORMAT, MIGRATIONS)
 
 _DIGITS = re.compile(r"[0-9]+")
 _PROGRAM_NAME = re.compile(r"(start|(main|sub|hand)-([0-9]{2}))\.yaml")
@@ -100,60 +128,24 @@ def program_key(path: str) -> ProgramKey | None:
     return (ProgramType(match.group(2).upper()), int(match.group(3)))
 
 
-def _header(kind: str, path: str) -> str:
-    up = "../" * path.count("/")
-    return f"# yaml-language-server: $schema={up}{SCHEMAS_DIR}/{kind}.schema.json\n"
-
-
-def _document(kind: str, path: str, items: Iterable[tuple[str, Any]]) -> str:
-    node = y.mapping([("format", y.num(str(FORMAT))), *items])
-    return y.dump(node, header=_header(kind, path))
-
-
-def _numbered(values: Mapping[int, Any], node: Callable[[Any], Any]) -> Any:
-    return y.mapping([(y.num(str(n)), node(values[n])) for n in sorted(values)])
-
-
 # -- rendering ------------------------------------------------------------------------
 
 
 def render_robot(robot: Robot) -> str:
-    serial = robot.serial
     connection = [
         ("port", y.text(robot.port)),
         ("station", y.num(str(int(robot.station)))),
-        ("baudrate", y.num(str(int(serial.baudrate)))),
-        ("bytesize", y.num(str(int(serial.bytesize)))),
-        ("parity", y.text(serial.parity)),
-        ("stopbits", y.scalar_for(_whole(serial.stopbits))),
-        ("rtscts", y.boolean(serial.rtscts)),
-        ("timeout", y.scalar_for(repr(float(serial.timeout)))),
-        ("retries", y.num(str(int(serial.retries)))),
-    ]
-    windows = [
-        y.mapping(
-            [
-                ("days", y.sequence([y.text(d) for d in w.days], flow=True)),
-                ("start", y.quoted(w.start.strftime("%H:%M"))),
-                ("end", y.quoted(w.end.strftime("%H:%M"))),
-            ]
-        )
-        for w in robot.windows
+        *serial_items(robot.serial),
     ]
     items: list[tuple[str, Any]] = [("name", y.text(robot.name))]
     if robot.description is not None:
         items.append(("description", y.text(robot.description)))
     items += [
         ("connection", y.mapping(connection)),
-        ("maintenance_windows", y.sequence(windows, flow=not windows)),
+        ("maintenance_windows", window_nodes(robot)),
         ("keep_registers", y.boolean(robot.keep_registers)),
     ]
-    return _document("robot", "robot.yaml", items)
-
-
-def _whole(value: float) -> str:
-    """``1`` or ``1.0`` -> ``"1"``; ``1.5`` stays ``"1.5"``."""
-    return str(int(value)) if float(value).is_integer() else repr(float(value))
+    return FILES.document("robot", "robot.yaml", items)
 
 
 def render_controller(version: str, config: Config) -> str:
@@ -163,7 +155,7 @@ def render_controller(version: str, config: Config) -> str:
         )
 
     programs = y.mapping([(t.value.lower(), area(config.area(t))) for t in ProgramType])
-    return _document(
+    return FILES.document(
         "controller",
         "controller.yaml",
         [
@@ -178,7 +170,7 @@ def render_controller(version: str, config: Config) -> str:
 
 def render_parameters(parameters: Parameters) -> str:
     items = [(name, y.scalar_for(value)) for name, value in parameters.as_dict().items()]
-    return _document("parameters", "parameters.yaml", items)
+    return FILES.document("parameters", "parameters.yaml", items)
 
 
 def render_offsets(offsets: Mapping[int, OffsetTable]) -> str:
@@ -187,16 +179,16 @@ def render_offsets(offsets: Mapping[int, OffsetTable]) -> str:
             [(name, y.scalar_for(v)) for name, v in zip(OFFSET_FIELDS, t.values)], flow=True
         )
 
-    return _document("offsets", "offsets.yaml", [("tables", _numbered(offsets, table))])
+    return FILES.document("offsets", "offsets.yaml", [("tables", numbered(offsets, table))])
 
 
 def render_timers(timers: Mapping[int, str]) -> str:
-    return _document("timers", "timers.yaml", [("timers", _numbered(timers, y.scalar_for))])
+    return FILES.document("timers", "timers.yaml", [("timers", numbered(timers, y.scalar_for))])
 
 
 def render_registers(registers: Mapping[int, str]) -> str:
-    return _document(
-        "registers", "registers.yaml", [("registers", _numbered(registers, y.scalar_for))]
+    return FILES.document(
+        "registers", "registers.yaml", [("registers", numbered(registers, y.scalar_for))]
     )
 
 
@@ -204,13 +196,13 @@ def render_program(key: ProgramKey, steps: Mapping[int, Step]) -> str:
     """One program file; empty steps are left out."""
     ptype, number = key
     kept = {n: s.text for n, s in steps.items() if not s.empty}
-    return _document(
+    return FILES.document(
         "program",
         program_path(key),
         [
             ("type", y.text(ptype.value)),
             ("number", y.num(str(number))),
-            ("steps", _numbered(kept, y.text)),
+            ("steps", numbered(kept, y.text)),
         ],
     )
 
@@ -243,15 +235,6 @@ def _program_order(key: ProgramKey) -> tuple[int, int]:
 # -- reading and checking ---------------------------------------------------------------
 
 
-@dataclass
-class Analysis:
-    """What :func:`analyse` found: the robot and data when valid, and every issue."""
-
-    robot: Robot | None = None
-    data: RobotData | None = None
-    issues: list[Issue] = field(default_factory=list)
-
-
 def analyse(files: Mapping[str, bytes]) -> Analysis:
     """Read and check a project's files (path relative to the project -> content).
 
@@ -265,7 +248,7 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     valid: set[str] = set()  # ... and those that also match their schema
 
     def read(name: str, kind: str) -> y.Parsed | None:
-        doc, ok = _read(name, kind, files[name], issues)
+        doc, ok = FILES.read(name, kind, files[name], issues)
         if doc is not None:
             docs[name] = doc
         if ok:
@@ -314,103 +297,12 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
 
     if not issues and config is not None:
         result.data = _build_data(config, docs, programs)
-    result.issues = _unique(issues)
+    result.issues = unique(issues, list(ROOT_FILES))
     return result
-
-
-def _unique(issues: list[Issue]) -> list[Issue]:
-    """Sorted by file and line; one issue per field (the schema's, when both speak)."""
-    order = {name: i for i, name in enumerate(ROOT_FILES)}
-    seen: set[tuple[str, str]] = set()
-    out = []
-    for issue in issues:
-        if issue.field is not None:
-            if (issue.file, issue.field) in seen:
-                continue
-            seen.add((issue.file, issue.field))
-        out.append(issue)
-    return sorted(out, key=lambda i: (order.get(i.file, len(order)), i.file, i.line or 0))
-
-
-def _read(name: str, kind: str, raw: bytes, issues: list[Issue]) -> tuple[y.Parsed | None, bool]:
-    """Parse, migrate and schema-check one file.
-
-    Returns the document (``None`` when unreadable) and whether it is valid.
-    """
-    try:
-        source = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        issues.append(Issue(name, line, None, "not UTF-8 text", fatal=True))
-        return None, False
-    try:
-        doc = y.parse(source)
-    except y.YamlSyntaxError as exc:
-        issues.append(Issue(name, exc.line, None, f"YAML syntax error: {exc.message}", fatal=True))
-        return None, False
-    for path, first, second in doc.duplicates:
-        field_name = ".".join(str(p) for p in path)
-        issues.append(
-            Issue(name, second, field_name, f"written twice (lines {first} and {second})")
-        )
-    if isinstance(doc.data, dict) and not _migrate(name, kind, doc, issues):
-        return None, False
-    found = check(kind, name, doc)
-    issues.extend(found)
-    return doc, not found
-
-
-def _migrate(name: str, kind: str, doc: y.Parsed, issues: list[Issue]) -> bool:
-    """Bring ``doc`` to :data:`FORMAT`; ``False`` (with an issue) when it cannot be."""
-    value = doc.data.get("format")
-    if not (isinstance(value, y.Number) and value.integral):
-        return True  # the schema reports it
-    line = doc.line(("format",))
-    if value > FORMAT:  # compared as a Decimal: format 10**5000 has no str(int)
-        issues.append(
-            Issue(
-                name,
-                line,
-                None,
-                f"format {show(value)} is newer than this harlsync understands ({FORMAT}): "
-                "upgrade harlsync",
-                fatal=True,
-            )
-        )
-        return False
-    number = int(value)
-    while number < FORMAT:
-        if number not in MIGRATIONS:
-            issues.append(
-                Issue(
-                    name,
-                    line,
-                    "format",
-                    f"{number} is not a known format (allowed: 1-{FORMAT})",
-                    fatal=True,
-                )
-            )
-            return False
-        doc.data = MIGRATIONS[number](kind, doc.data)
-        number += 1
-        doc.data["format"] = y.Number(str(number))
-    return True
 
 
 def _get(doc: y.Parsed, key: str) -> Any:
     return doc.data.get(key) if isinstance(doc.data, dict) else None
-
-
-#: Stands for a numbered key too long to be any item (and to convert with int()).
-_HUGE = 10**9
-
-
-def _numbers(mapping: Any) -> list[tuple[str, int]]:
-    """The keys of a numbered mapping that are numbers, as (text, number); the schema
-    reports the rest.  A key of more than 9 digits counts as :data:`_HUGE`."""
-    if not isinstance(mapping, dict):
-        return []
-    return [(k, int(k) if len(k) <= 9 else _HUGE) for k in mapping if _DIGITS.fullmatch(k)]
 
 
 def _check_program_header(name: str, key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
@@ -459,8 +351,8 @@ def _check_numbered(
     """Every number 0..count-1 present under ``key``, and no other."""
     if not isinstance(_get(doc, key), dict):
         return
-    numbers = _numbers(_get(doc, key))
-    for text, n in sorted(numbers, key=lambda item: (item[1], item[0])):
+    found = numbers(_get(doc, key))
+    for text, n in sorted(found, key=lambda item: (item[1], item[0])):
         if n >= count:
             issues.append(
                 Issue(
@@ -471,7 +363,7 @@ def _check_numbered(
                     f"(allowed: {_span(count)})",
                 )
             )
-    missing = set(range(count)) - {n for _, n in numbers}
+    missing = set(range(count)) - {n for _, n in found}
     if missing:
         issues.append(
             Issue(
@@ -515,7 +407,7 @@ def _check_against_config(
                 )
             )
             continue
-        for text, step in _numbers(_get(doc, "steps")):
+        for text, step in numbers(_get(doc, "steps")):
             if step >= area.steps:
                 issues.append(
                     Issue(
@@ -544,37 +436,15 @@ def _check_against_config(
 # -- building the model from valid documents ---------------------------------------------
 
 
-def _text(value: Any) -> str:
-    return value.text if isinstance(value, y.Number) else str(value)
-
-
-def _time(value: str) -> time:
-    hours, minutes = value.split(":")
-    return time(int(hours), int(minutes))
-
-
 def _build_robot(data: dict[str, Any]) -> Robot:
     connection = data["connection"]
-    defaults = SerialSettings()
-    serial = SerialSettings(
-        baudrate=int(connection.get("baudrate", defaults.baudrate)),
-        bytesize=int(connection.get("bytesize", defaults.bytesize)),
-        parity=str(connection.get("parity", defaults.parity)),
-        stopbits=int(connection.get("stopbits", defaults.stopbits)),
-        rtscts=bool(connection.get("rtscts", defaults.rtscts)),
-        timeout=float(connection.get("timeout", defaults.timeout)),
-        retries=int(connection.get("retries", defaults.retries)),
-    )
-    windows = [
-        Window(tuple(w["days"]), _time(w["start"]), _time(w["end"]))
-        for w in data.get("maintenance_windows", [])
-    ]
     return Robot(
+        family=str(data.get("family", "harl-u2")),
         name=data["name"],
         port=connection["port"],
         station=int(connection.get("station", 1)),
-        serial=serial,
-        windows=windows,
+        serial=build_serial(connection, SerialSettings()),
+        windows=build_windows(data),
         keep_registers=bool(data.get("keep_registers", False)),
         description=data.get("description"),
     )
@@ -611,7 +481,7 @@ def _build_data(
     tables = doc("offsets.yaml")["tables"]
     registers = None
     if "registers.yaml" in docs:
-        registers = {int(n): _text(v) for n, v in doc("registers.yaml")["registers"].items()}
+        registers = {int(n): text_of(v) for n, v in doc("registers.yaml")["registers"].items()}
     steps: dict[ProgramKey, dict[int, Step]] = {}
     for key in sorted(programs, key=_program_order):
         parsed = programs[key]
@@ -620,12 +490,12 @@ def _build_data(
     return RobotData(
         version=doc("controller.yaml")["version"],
         config=config,
-        parameters=Parameters(**{k: _text(params[k]) for k, _ in PARAMETER_NAMES}),
+        parameters=Parameters(**{k: text_of(params[k]) for k, _ in PARAMETER_NAMES}),
         programs=steps,
         offsets={
-            int(n): OffsetTable(**{f: _text(t[f]) for f in OFFSET_FIELDS})
+            int(n): OffsetTable(**{f: text_of(t[f]) for f in OFFSET_FIELDS})
             for n, t in tables.items()
         },
-        timers={int(n): _text(v) for n, v in doc("timers.yaml")["timers"].items()},
+        timers={int(n): text_of(v) for n, v in doc("timers.yaml")["timers"].items()},
         registers=registers,
     )

@@ -1,0 +1,233 @@
+"""The HARL-U2's items: what one write changes, their keys, names and safe order.
+
+::
+
+    BlockKey("config")  BlockKey("parameters")          LNX / LNE, one write each
+    NumberKey("offset", 7)  NumberKey("timer", 3)       one table, timer, register
+    NumberKey("register", 1)
+    StepKey("step", "MAIN", 2, 3)                       one program step
+
+Push order: configuration, parameters, tables, timers, registers, then programs
+(START, MAIN, SUB, HAND, by number and step).  A configuration (SNX) change
+destroys every program, so a plan that holds one rewrites every non-empty step
+of the project after it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any, NamedTuple
+
+from ..base import PlanShape
+from .model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
+
+__all__ = ["CATALOGUE", "BlockKey", "HarlU2Catalogue", "Key", "NumberKey", "StepKey"]
+
+
+class BlockKey(NamedTuple):
+    """The program configuration or the expanded parameters: one item each."""
+
+    kind: str  # "config" | "parameters"
+
+
+class NumberKey(NamedTuple):
+    """A numbered item: an offset table, a timer, a register."""
+
+    kind: str  # "offset" | "timer" | "register"
+    number: int
+
+
+class StepKey(NamedTuple):
+    """One program step: ``StepKey("step", "MAIN", 2, 3)``; START is program 0."""
+
+    kind: str  # "step"
+    program_type: str
+    program: int
+    step: int
+
+
+Key = BlockKey | NumberKey | StepKey
+
+_KIND_ORDER = {"config": 0, "parameters": 1, "offset": 2, "timer": 3, "register": 4, "step": 5}
+_TYPE_ORDER = {t.value: i for i, t in enumerate(ProgramType)}
+_CONFIG_FIELDS = tuple(
+    f"{t.value.lower()}.{part}" for t in ProgramType for part in ("count", "steps")
+) + ("timers", "memory_bits", "registers")
+_PLURAL = {"step": "steps", "offset": "tables", "timer": "timers", "register": "registers"}
+
+
+class HarlU2Catalogue:
+    live_tuning = frozenset({"timer", "offset"})
+    """Items ``--allow-live-tuning`` writes while a task runs (the manual allows it).
+    Registers are process state the running program counts with: never."""
+
+    def items(self, data: RobotData, *, registers: bool = True) -> dict[Key, Any]:
+        out: dict[Key, Any] = {
+            BlockKey("config"): data.config, BlockKey("parameters"): data.parameters
+        }
+        for n, table in data.offsets.items():
+            out[NumberKey("offset", n)] = table
+        for n, value in data.timers.items():
+            out[NumberKey("timer", n)] = value
+        if registers and data.registers is not None:
+            for n, value in data.registers.items():
+                out[NumberKey("register", n)] = value
+        for (ptype, number), steps in data.programs.items():
+            for n, step in steps.items():
+                if not step.empty:
+                    out[StepKey("step", ptype.value, number, n)] = step
+        return out
+
+    def order(self, key: Key) -> tuple[Any, ...]:
+        if isinstance(key, StepKey):
+            return (_KIND_ORDER["step"], _TYPE_ORDER[key.program_type], key.program, key.step)
+        if isinstance(key, NumberKey):
+            return (_KIND_ORDER[key.kind], key.number)
+        return (_KIND_ORDER[key.kind],)
+
+    def describe(self, key: Key) -> str:
+        if isinstance(key, StepKey):
+            if key.program_type == "START":
+                return f"START program step {key.step}"
+            return f"{key.program_type} program {key.program} step {key.step}"
+        if isinstance(key, NumberKey):
+            return f"offset table {key.number}" if key.kind == "offset" else f"{key.kind} {key.number}"
+        return {"config": "program configuration", "parameters": "expanded parameters"}[key.kind]
+
+    def group(self, key: Key) -> str:
+        if isinstance(key, StepKey):
+            if key.program_type == "START":
+                return "START program"
+            return f"{key.program_type} program {key.program}"
+        return {"timer": "timers", "register": "registers"}.get(key.kind, self.describe(key))
+
+    def label(self, key: Key, field: str) -> str:
+        if isinstance(key, StepKey):
+            return str(key.step)
+        if isinstance(key, NumberKey) and key.kind in ("timer", "register"):
+            return str(key.number)
+        return field
+
+    def fields(self, key: Key, old: Any, new: Any) -> list[tuple[str, str | None, str | None]]:
+        if isinstance(key, StepKey):
+            return [("", _text(old), _text(new))]
+        if isinstance(new, OffsetTable) or isinstance(old, OffsetTable):
+            pairs = [(f, _attr(old, f), _attr(new, f)) for f in OFFSET_FIELDS]
+        elif isinstance(new, Parameters) or isinstance(old, Parameters):
+            names = (new or old).as_dict().keys()
+            pairs = [(f, _attr(old, f), _attr(new, f)) for f in names]
+        elif isinstance(new, Config) or isinstance(old, Config):
+            pairs = [(f, _config_field(old, f), _config_field(new, f)) for f in _CONFIG_FIELDS]
+        else:
+            pairs = [("", _text(old), _text(new))]
+        return [(f, a, b) for f, a, b in pairs if a != b]
+
+    def identity(self, key: Key) -> dict[str, Any]:
+        ident: dict[str, Any] = key._asdict()
+        return ident
+
+    def counts(self, changes: Iterable[tuple[Any, Any, Any]]) -> dict[str, int]:
+        """Programs, steps, tables, timers, registers, parameters, config."""
+        changes = list(changes)
+        programs = {(key.program_type, key.program) for key, _, _ in changes
+                    if isinstance(key, StepKey)}
+        count = {"programs": len(programs), "steps": 0, "tables": 0, "timers": 0,
+                 "registers": 0, "parameters": 0, "config": 0}
+        for key, old, new in changes:
+            kind = key.kind
+            if kind in _PLURAL:
+                count[_PLURAL[kind]] += 1
+            else:
+                count[kind] += len(self.fields(key, old, new))
+        return count
+
+    def summary(self, changes: Iterable[tuple[Any, Any, Any]]) -> str:
+        count = self.counts(changes)
+        parts = []
+        if count["config"]:
+            parts.append("program configuration")
+        if count["parameters"]:
+            parts.append(f"{count['parameters']} parameter{'s' * (count['parameters'] > 1)}")
+        if count["programs"]:
+            parts.append(
+                f"{count['programs']} program{'s' * (count['programs'] > 1)} "
+                f"({count['steps']} step{'s' * (count['steps'] > 1)})"
+            )
+        for name, singular in (("tables", "table"), ("timers", "timer"),
+                               ("registers", "register")):
+            if count[name]:
+                parts.append(f"{count[name]} {singular if count[name] == 1 else name}")
+        return ", ".join(parts) or "no change"
+
+    def version(self, data: RobotData) -> str:
+        return data.version
+
+    def plan(self, live: RobotData, project: RobotData, changes: list[tuple[Any, Any, Any]],
+             *, registers: bool) -> PlanShape:
+        unwritable = [
+            f"{name}: the robot has {getattr(live.config, name)}, the project "
+            f"{getattr(project.config, name)}; the configuration write (SNX) cannot change it"
+            for name in ("timers", "memory_bits", "registers")
+            if getattr(live.config, name) != getattr(project.config, name)
+        ]
+        if registers and project.registers is None:
+            unwritable.append(
+                "registers: the project does not keep them; set keep_registers in robot.yaml "
+                "and pull, or push without registers"
+            )
+        explained = {
+            kind for kind, count in (("timer", "timers"), ("register", "registers"))
+            if getattr(live.config, count) != getattr(project.config, count)
+        } | ({"register"} if project.registers is None else set())
+        # Only a step can be written as "nothing" (cleared); any other item the
+        # project lacks cannot be written at all.
+        missing = [c for c in changes if c[2] is None and c[0].kind != "step"]
+        unwritable += [
+            f"{self.describe(key)}: the project has none"
+            for key, _, _ in missing if key.kind not in explained
+        ]
+        reconfigure = not live.config.same_programs(project.config)
+        # Without a reconfiguration the config item differs only in what SNX cannot
+        # write (unwritable above); with one, every step is rewritten below.
+        skip_kind = "step" if reconfigure else "config"
+        wanted = [c for c in changes if c not in missing and c[0].kind != skip_kind]
+        if reconfigure:
+            # SNX wipes every program: rewrite every non-empty step of the project,
+            # each written over an empty step.
+            wanted += [(key, None, value) for key, value in self.items(project).items()
+                       if isinstance(key, StepKey)]
+        return PlanShape(
+            wanted=wanted,
+            unwritable=unwritable,
+            reconfigure=(
+                "the project changes the program configuration (SNX), which destroys every "
+                "program on the robot; give --allow-reconfigure to do it and rewrite them all"
+                if reconfigure else None
+            ),
+            reconfigure_note=(
+                "SNX changes the program configuration: every program is rewritten after it"
+                if reconfigure else None
+            ),
+        )
+
+
+CATALOGUE = HarlU2Catalogue()
+
+
+def _config_field(cfg: Config | None, name: str) -> str | None:
+    if cfg is None:
+        return None
+    if "." in name:
+        ptype, part = name.split(".")
+        return str(getattr(cfg.area(ProgramType(ptype.upper())), part))
+    return str(getattr(cfg, name))
+
+
+def _attr(obj: Any, name: str) -> str | None:
+    return None if obj is None else str(getattr(obj, name))
+
+
+def _text(value: Any) -> str | None:
+    if value is None:
+        return None
+    return value.text if isinstance(value, Step) else str(value)

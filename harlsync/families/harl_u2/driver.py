@@ -1,0 +1,87 @@
+"""The HARL-U2 as the engine's :class:`~harlsync.families.base.Driver`: read
+everything, read or write one item (keys from :mod:`.catalogue`), status (LNR)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from ..base import Progress
+from .catalogue import Key, NumberKey, StepKey
+from .controller import Controller
+from .model import ProgramType, RobotData, Status, Step
+from .protocol import Request
+from .protocol import commands as cmd
+
+__all__ = ["HarlU2Driver"]
+
+
+class HarlU2Driver:
+    """The HARL-U2 over a :class:`~harlsync.controller.Controller`."""
+
+    def __init__(self, controller: Controller) -> None:
+        self.controller = controller
+        self.label = f"port {controller.port} station {controller.station}"
+
+    def read_all(self, *, registers: bool, progress: Progress | None = None) -> RobotData:
+        return self.controller.read_all(include_registers=registers, progress=progress)
+
+    def status(self) -> Status:
+        return self.controller.status()
+
+    def _request(self, key: Key, value: Any) -> Request:
+        if isinstance(key, StepKey):
+            return cmd.write_step(
+                ProgramType(key.program_type), key.program, key.step, value or Step()
+            )
+        if isinstance(key, NumberKey):
+            return _NUMBERED_WRITES[key.kind](key.number, value)
+        return cmd.write_parameters(value) if key.kind == "parameters" else cmd.write_config(value)
+
+    def command(self, key: Key, value: Any) -> str:
+        return self._request(key, value).payload
+
+    def unsafe(self, key: Key) -> bool:
+        return Request(_letters(key)).unsafe
+
+    def read(self, key: Key) -> Any:
+        c = self.controller
+        if isinstance(key, StepKey):
+            value = c.read_step(ProgramType(key.program_type), key.program, key.step)
+            return None if value.empty else value
+        if isinstance(key, NumberKey):
+            read = {"timer": c.read_timer, "register": c.read_register, "offset": c.read_offset}
+            return read[key.kind](key.number)
+        return c.read_parameters() if key.kind == "parameters" else c.config()
+
+    def write(self, key: Key, value: Any, old: Any = None, *, needs_idle: bool = True) -> None:
+        # Knowing the old value lets the controller decide, after a lost reply,
+        # whether the write took, without an extra read before every write.
+        c, idle = self.controller, needs_idle
+        if isinstance(key, StepKey):
+            c.write_step(ProgramType(key.program_type), key.program, key.step, value or Step(),
+                         old=old or Step(), needs_idle=idle)
+        elif isinstance(key, NumberKey):
+            writes: dict[str, Callable[..., None]] = {
+                "timer": c.write_timer, "register": c.write_register, "offset": c.write_offset,
+            }
+            writes[key.kind](key.number, value, old=old, needs_idle=idle)
+        elif key.kind == "parameters":
+            c.write_parameters(value, old=old, needs_idle=idle)
+        else:
+            c.write_config(value, old=old, needs_idle=idle)
+
+    def close(self) -> None:
+        self.controller.close()
+
+
+_LETTERS = {"timer": "SNT", "register": "SND", "offset": "SNL", "parameters": "SNE", "config": "SNX"}
+_NUMBERED_WRITES: dict[str, Callable[[int, Any], Request]] = {
+    "timer": cmd.write_timer, "register": cmd.write_register, "offset": cmd.write_offset,
+}
+
+
+def _letters(key: Key) -> str:
+    if isinstance(key, StepKey):
+        return "SN" + ProgramType(key.program_type).letter
+    return _LETTERS[key.kind]

@@ -1,0 +1,104 @@
+"""The Hirata HARL-U2 as the engine sees it: its catalogue, files, robot and line."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ...project.robot import Robot
+from ..base import Analysis, Driver
+from . import layout
+from .catalogue import CATALOGUE
+from .model import RobotData
+
+__all__ = ["FAMILY", "HarlU2Family"]
+
+
+class HarlU2Family:
+    name = "harl-u2"
+    title = "Hirata HARL-U2"
+    catalogue = CATALOGUE
+    format = layout.FORMAT
+    directories = (layout.PROGRAMS_DIR,)
+    deploy_notes: tuple[str, ...] = ()
+
+    def analyse(self, files: Mapping[str, bytes]) -> Analysis:
+        return layout.analyse(files)
+
+    def render_files(self, robot: Robot, data: RobotData) -> dict[str, str]:
+        return layout.render_files(robot, data)
+
+    def data_problems(self, data: RobotData) -> list[str]:
+        # Step.problems() first: the YAML rendering cannot show every one of them
+        # (a step with data but no command renders as empty).
+        return [
+            f"program {key[0].value} {key[1]} step {n}: {problem}"
+            for key, steps in data.programs.items()
+            for n, step in steps.items()
+            for problem in step.problems()
+        ]
+
+    def project_files(self, root: Path) -> list[str]:
+        names = [name for name in layout.ROOT_FILES if (root / name).is_file()]
+        programs = root / layout.PROGRAMS_DIR
+        if programs.is_dir():
+            names += sorted(
+                f"{layout.PROGRAMS_DIR}/{p.name}"
+                for p in programs.iterdir()
+                if p.is_file() and p.suffix in (".yaml", ".yml") and not p.name.startswith(".")
+            )
+        return names
+
+    def stale_files(
+        self, root: Path, texts: Mapping[str, str], robot: Robot, data: RobotData
+    ) -> list[str]:
+        stale = []
+        keep_registers_file = robot.keep_registers and data.registers is None
+        unwanted = "registers.yaml" not in texts and not keep_registers_file
+        if unwanted and (root / "registers.yaml").is_file():
+            stale.append("registers.yaml")
+        programs = root / layout.PROGRAMS_DIR
+        if programs.is_dir():
+            for p in sorted(programs.iterdir()):
+                name = f"{layout.PROGRAMS_DIR}/{p.name}"
+                if p.is_file() and layout.program_key(name) is not None and name not in texts:
+                    stale.append(name)
+        return stale
+
+    def schemas(self) -> dict[str, str]:
+        return layout.SCHEMAS.files()
+
+    def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
+        return Robot(name=name, port=port, station=1 if station is None else station, **options)
+
+    def parse_station(self, text: str) -> int:
+        try:
+            station = int(text, 10)
+        except ValueError:
+            station = -1
+        if not 1 <= station <= 99:
+            raise ValueError(f"station {text!r} is out of range (allowed: 1-99, as set on the "
+                             "pendant: SYSTEM GENERATION > MAINTENANCE > STATION NO.)")
+        return station
+
+    def format_station(self, station: int) -> str:
+        return str(station)
+
+    def connect(
+        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float
+    ) -> Driver:
+        from .controller import Controller
+        from .driver import HarlU2Driver
+
+        controller = Controller.from_url(
+            port or robot.port,
+            station if station is not None else robot.station,
+            robot.serial,
+            lock_timeout=lock_timeout,
+        )
+        return HarlU2Driver(controller)
+
+
+#: The family, as the registry hands it out.
+FAMILY = HarlU2Family()

@@ -1,0 +1,212 @@
+"""What every family's project files share: the header and ``format:`` of each
+file, reading one file (UTF-8, YAML, duplicate keys, migration, schema), numbered
+mappings, and robot.yaml's common parts (serial settings, maintenance windows).
+
+Every file starts with a ``yaml-language-server`` comment naming its schema copy
+in ``.schemas/`` and a ``format:`` number.  A file written in an older format is
+migrated on load (the family's ``MIGRATIONS``) and written in the current one on
+the next save; a newer format is refused.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import time
+from typing import Any
+
+from ..link import SerialSettings
+from . import yamlio as y
+from .robot import Robot, Window
+from .schema import Issue, SchemaSet, show
+
+__all__ = [
+    "SCHEMAS_DIR",
+    "FileSet",
+    "build_serial",
+    "build_windows",
+    "numbers",
+    "serial_items",
+    "text_of",
+    "window_nodes",
+]
+
+SCHEMAS_DIR = ".schemas"
+
+#: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind ``kind``
+#: into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).
+Migrations = dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]]
+
+_DIGITS = re.compile(r"[0-9]+")
+#: Stands for a numbered key too long to be any item (and to convert with int()).
+HUGE = 10**9
+
+
+@dataclass
+class FileSet:
+    """One family's files: their schemas, format number and migrations."""
+
+    schemas: SchemaSet
+    format: int
+    migrations: Migrations = field(default_factory=dict)
+
+    def document(self, kind: str, path: str, items: Iterable[tuple[str, Any]]) -> str:
+        """A file's text: the schema comment, ``format:``, then ``items``."""
+        up = "../" * path.count("/")
+        header = f"# yaml-language-server: $schema={up}{SCHEMAS_DIR}/{kind}.schema.json\n"
+        node = y.mapping([("format", y.num(str(self.format))), *items])
+        return y.dump(node, header=header)
+
+    def read(
+        self, name: str, kind: str, raw: bytes, issues: list[Issue]
+    ) -> tuple[y.Parsed | None, bool]:
+        """Parse, migrate and schema-check one file.
+
+        Returns the document (``None`` when unreadable) and whether it is valid.
+        """
+        try:
+            source = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            line = raw[: exc.start].count(b"\n") + 1
+            issues.append(Issue(name, line, None, "not UTF-8 text", fatal=True))
+            return None, False
+        try:
+            doc = y.parse(source)
+        except y.YamlSyntaxError as exc:
+            issues.append(
+                Issue(name, exc.line, None, f"YAML syntax error: {exc.message}", fatal=True)
+            )
+            return None, False
+        for path, first, second in doc.duplicates:
+            field_name = ".".join(str(p) for p in path)
+            issues.append(
+                Issue(name, second, field_name, f"written twice (lines {first} and {second})")
+            )
+        if isinstance(doc.data, dict) and not self._migrate(name, kind, doc, issues):
+            return None, False
+        found = self.schemas.check(kind, name, doc)
+        issues.extend(found)
+        return doc, not found
+
+    def _migrate(self, name: str, kind: str, doc: y.Parsed, issues: list[Issue]) -> bool:
+        """Bring ``doc`` to the current format; ``False`` (with an issue) when it cannot be."""
+        value = doc.data.get("format")
+        if not (isinstance(value, y.Number) and value.integral):
+            return True  # the schema reports it
+        line = doc.line(("format",))
+        if value > self.format:  # compared as a Decimal: format 10**5000 has no str(int)
+            issues.append(Issue(
+                name, line, None,
+                f"format {show(value)} is newer than this harlsync understands "
+                f"({self.format}): upgrade harlsync",
+                fatal=True,
+            ))
+            return False
+        number = int(value)
+        while number < self.format:
+            if number not in self.migrations:
+                issues.append(Issue(
+                    name, line, "format",
+                    f"{number} is not a known format (allowed: 1-{self.format})", fatal=True,
+                ))
+                return False
+            doc.data = self.migrations[number](kind, doc.data)
+            number += 1
+            doc.data["format"] = y.Number(str(number))
+        return True
+
+
+def unique(issues: list[Issue], order: Sequence[str]) -> list[Issue]:
+    """Sorted by file (``order`` first) and line; one issue per field (the schema's,
+    when both speak)."""
+    rank = {name: i for i, name in enumerate(order)}
+    seen: set[tuple[str, str]] = set()
+    out = []
+    for issue in issues:
+        if issue.field is not None:
+            if (issue.file, issue.field) in seen:
+                continue
+            seen.add((issue.file, issue.field))
+        out.append(issue)
+    return sorted(out, key=lambda i: (rank.get(i.file, len(rank)), i.file, i.line or 0))
+
+
+def numbered(values: Mapping[int, Any], node: Callable[[Any], Any]) -> Any:
+    """A mapping keyed by number, in number order."""
+    return y.mapping([(y.num(str(n)), node(values[n])) for n in sorted(values)])
+
+
+def numbers(mapping: Any) -> list[tuple[str, int]]:
+    """The keys of a numbered mapping that are numbers, as (text, number); the schema
+    reports the rest.  A key of more than 9 digits counts as :data:`HUGE`."""
+    if not isinstance(mapping, dict):
+        return []
+    return [(k, int(k) if len(k) <= 9 else HUGE) for k in mapping if _DIGITS.fullmatch(k)]
+
+
+def text_of(value: Any) -> str:
+    """A scalar as its exact text (a number as written)."""
+    return value.text if isinstance(value, y.Number) else str(value)
+
+
+# -- robot.yaml -----------------------------------------------------------------------
+
+
+def _whole(value: float) -> str:
+    """``1`` or ``1.0`` -> ``"1"``; ``1.5`` stays ``"1.5"``."""
+    return str(int(value)) if float(value).is_integer() else repr(float(value))
+
+
+def serial_items(serial: SerialSettings) -> list[tuple[str, Any]]:
+    """The serial settings as robot.yaml's ``connection`` writes them."""
+    return [
+        ("baudrate", y.num(str(int(serial.baudrate)))),
+        ("bytesize", y.num(str(int(serial.bytesize)))),
+        ("parity", y.text(serial.parity)),
+        ("stopbits", y.scalar_for(_whole(serial.stopbits))),
+        ("rtscts", y.boolean(serial.rtscts)),
+        ("timeout", y.scalar_for(repr(float(serial.timeout)))),
+        ("retries", y.num(str(int(serial.retries)))),
+    ]
+
+
+def build_serial(connection: Mapping[str, Any], defaults: SerialSettings) -> SerialSettings:
+    """robot.yaml's serial settings, each missing one the family's default."""
+    return SerialSettings(
+        baudrate=int(connection.get("baudrate", defaults.baudrate)),
+        bytesize=int(connection.get("bytesize", defaults.bytesize)),
+        parity=str(connection.get("parity", defaults.parity)),
+        stopbits=int(connection.get("stopbits", defaults.stopbits)),
+        rtscts=bool(connection.get("rtscts", defaults.rtscts)),
+        timeout=float(connection.get("timeout", defaults.timeout)),
+        retries=int(connection.get("retries", defaults.retries)),
+    )
+
+
+def window_nodes(robot: Robot) -> Any:
+    """``maintenance_windows`` as robot.yaml writes it."""
+    windows = [
+        y.mapping(
+            [
+                ("days", y.sequence([y.text(d) for d in w.days], flow=True)),
+                ("start", y.quoted(w.start.strftime("%H:%M"))),
+                ("end", y.quoted(w.end.strftime("%H:%M"))),
+            ]
+        )
+        for w in robot.windows
+    ]
+    return y.sequence(windows, flow=not windows)
+
+
+def _time(value: str) -> time:
+    hours, minutes = value.split(":")
+    return time(int(hours), int(minutes))
+
+
+def build_windows(data: Mapping[str, Any]) -> list[Window]:
+    """robot.yaml's maintenance windows (the schema has checked them)."""
+    return [
+        Window(tuple(w["days"]), _time(w["start"]), _time(w["end"]))
+        for w in data.get("maintenance_windows", [])
+    ]
