@@ -77,7 +77,8 @@ from .errors import (
     ReplyError,
     WriteUnconfirmed,
 )
-from .families.harl_u2.protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame, profile
+from .families.harl_u2.protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame
+from .settings import SerialSettings
 
 __all__ = [
     "DEFAULT_LOCK_TIMEOUT",
@@ -103,23 +104,6 @@ DEFAULT_LOCK_TIMEOUT = 10.0
 POLL_INTERVAL = 0.02
 #: Retry reasons kept in :attr:`LinkStats.reasons` (the oldest are dropped).
 MAX_REASONS = 500
-
-
-@dataclass(frozen=True)
-class SerialSettings:
-    """Per-robot serial settings and reply deadline; defaults are the profile's.
-
-    ``timeout`` is the seconds a reply may take; ``retries`` how many times a
-    read (never a write) is re-sent after a lost or garbled reply.
-    """
-
-    baudrate: int = profile.BAUDRATE
-    bytesize: int = profile.BYTESIZE
-    parity: str = profile.PARITY
-    stopbits: float = profile.STOPBITS
-    rtscts: bool = profile.RTSCTS
-    timeout: float = profile.REPLY_TIMEOUT
-    retries: int = 3
 
 
 @dataclass
@@ -172,7 +156,7 @@ class Link:
         self,
         url: str,
         station: int = 1,
-        settings: SerialSettings = SerialSettings(),
+        settings: SerialSettings | None = None,
         *,
         lock_timeout: float = DEFAULT_LOCK_TIMEOUT,
         lock_dir: str | os.PathLike[str] | None = None,
@@ -180,6 +164,7 @@ class Link:
     ) -> None:
         self.url = url
         self.station = station
+        settings = SerialSettings() if settings is None else settings
         self.settings = settings
         self.lock_timeout = lock_timeout
         self.lock_path = lock_path(url, lock_dir)

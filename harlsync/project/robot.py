@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, time
 from typing import Any
 
-from ..link import SerialSettings
+from ..settings import SerialSettings
 
 __all__ = ["DAYS", "Robot", "Window", "new_robot"]
 
