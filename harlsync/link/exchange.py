@@ -36,72 +36,43 @@ but also termios.error from a pty that went away, or TypeError from a port
 closed under it) leaves the link as :class:`PortError`, one line that names the
 port and says what to do; pyserial's own exceptions never get further.
 
-Exclusive access.  pyserial's ``exclusive=True`` is advisory and device-only, so
-the link also holds an inter-process :class:`filelock.FileLock` named after the
-port (see :func:`lock_path`) for as long as it is open: processes that share a
-line (stations 1-4 on one HNC) never interleave frames.  Within a process a lock
-around each exchange does the same for threads sharing one :class:`Link`.
+Exclusive access.  The link holds the line lock (:mod:`harlsync.link.lock`) for
+as long as it is open, so processes that share a line never interleave frames.
+Within a process a lock around each exchange does the same for threads sharing
+one :class:`Link`.
 """
 
 from __future__ import annotations
 
-import errno
-import hashlib
-import ipaddress
 import logging
 import os
-import re
 import select
-import socket
-import stat
-import tempfile
 import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
 from types import TracebackType
-from typing import Any, ClassVar
-from urllib.parse import urlsplit
+from typing import Any
 
-import filelock
 import serial
-from serial.urlhandler import protocol_socket
 
-from .errors import (
+from ..errors import (
     LinkError,
     LinkTimeout,
-    PortBusyError,
     PortError,
     ProtocolError,
     ReplyError,
     WriteUnconfirmed,
 )
-from .families.harl_u2.protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame
-from .settings import SerialSettings
+from ..families.harl_u2.protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame
+from ..settings import SerialSettings
+from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
+from .port import POLL_INTERVAL, SerialPort, describe, fileno, gone_hint, open_port
 
-__all__ = [
-    "DEFAULT_LOCK_TIMEOUT",
-    "POLL_INTERVAL",
-    "Link",
-    "LinkStats",
-    "SerialSettings",
-    "default_lock_dir",
-    "lock_key",
-    "lock_path",
-]
+__all__ = ["Link", "LinkStats"]
 
 log = logging.getLogger(__name__)
 
-# sim:// URLs are served by harlsync/sim/protocol_sim.py.  pyserial imports the
-# handler by name when such a URL is opened: the link itself never imports sim.
-if "harlsync.sim" not in serial.protocol_handler_packages:
-    serial.protocol_handler_packages.append("harlsync.sim")
-
-#: Seconds a second harlsync waits for the port before PortBusyError.
-DEFAULT_LOCK_TIMEOUT = 10.0
-#: pyserial read timeout: how often the link looks at its own deadline.
-POLL_INTERVAL = 0.02
 #: Retry reasons kept in :attr:`LinkStats.reasons` (the oldest are dropped).
 MAX_REASONS = 500
 
@@ -170,9 +141,9 @@ class Link:
         self.lock_path = lock_path(url, lock_dir)
         self.late_window = settings.timeout if late_window is None else late_window
         self.stats = LinkStats()
-        self._port: Any = None  # serial.SerialBase once open
+        self._port: SerialPort | None = None
         self._fd: int | None = None  # the port's file descriptor, when select() can wait on it
-        self._file_lock: filelock.BaseFileLock | None = None
+        self._line_lock = LineLock(url, self.lock_path)
         self._lock = threading.RLock()
         self._decoder = FrameDecoder()
         self._rx = bytearray()  # received bytes not yet logged; ends with the decoder's
@@ -194,13 +165,14 @@ class Link:
         with self._lock:
             if self._port is not None:
                 return self
-            self._take_file_lock()
+            self._line_lock.acquire(self.lock_timeout)
             try:
-                self._port = self._open_port()
+                port = open_port(self.url, self.settings, self._write_timeout)
             except BaseException:
-                self._release_file_lock()
+                self._line_lock.release()
                 raise
-            self._fd = _fileno(self._port)
+            self._port = port
+            self._fd = fileno(port)
             self._decoder = FrameDecoder()
             self._rx.clear()
             self._dropped_seen = 0
@@ -222,9 +194,9 @@ class Link:
                 if port is not None:
                     port.close()
             except Exception as exc:  # noqa: BLE001  any failure of pyserial: logged, see above
-                log.warning("port %s: closing failed: %s", self.url, _describe(exc))
+                log.warning("port %s: closing failed: %s", self.url, describe(exc))
             finally:
-                self._release_file_lock()
+                self._line_lock.release()
 
     def __enter__(self) -> Link:
         return self.open()
@@ -236,158 +208,6 @@ class Link:
         tb: TracebackType | None,
     ) -> None:
         self.close()
-
-    def _open_port(self) -> Any:
-        s = self.settings
-        try:
-            if self.url.lower().startswith("socket://"):
-                port = _SocketPort(None)
-                port.port = self.url
-            else:
-                port = serial.serial_for_url(self.url, do_not_open=True)
-        except Exception as exc:  # ValueError for an unknown scheme, SerialException for a bad URL
-            raise self._open_error(exc) from exc
-        try:
-            port.baudrate = s.baudrate
-            port.bytesize = s.bytesize
-            port.parity = s.parity
-            port.stopbits = s.stopbits
-            port.rtscts = s.rtscts
-            port.timeout = POLL_INTERVAL
-            port.write_timeout = self._write_timeout
-            if "://" not in self.url:
-                port.exclusive = True
-        except Exception as exc:
-            raise PortError(
-                f"serial settings not accepted: {_describe(exc)}; fix baud, data bits, parity "
-                "and stop bits in robot.yaml",
-                port=self.url,
-            ) from exc
-        try:
-            port.open()
-        except Exception as exc:
-            raise self._open_error(exc) from exc
-        try:
-            port.reset_input_buffer()
-        except Exception as exc:
-            try:
-                port.close()
-            except Exception as close_exc:  # noqa: BLE001  the error worth raising is exc
-                log.debug("port %s: closing failed: %s", self.url, _describe(close_exc))
-            raise PortError(
-                f"port went away right after opening: {_describe(exc)}; {_gone_hint(self.url)}",
-                port=self.url,
-            ) from exc
-        return port
-
-    def _open_error(self, exc: Exception) -> LinkError:
-        """What opening the port failed with, one line with what to do."""
-        url = self.url
-        text = _describe(exc)
-        device = "://" not in url
-        unknown = re.search(r"protocol '([^']*)' not known", text)
-        if isinstance(exc, ValueError) and unknown:
-            return PortError(
-                f"unknown port type '{unknown.group(1)}://'; use a device path (/dev/ttyUSB0, "
-                "COM3), socket://HOST:PORT, rfc2217://HOST:PORT or sim://PROJECT_DIR",
-                port=url,
-            )
-        scheme = url.split("://", 1)[0].lower() if "://" in url else ""
-        if scheme in ("socket", "rfc2217") and not _port_number(url):
-            return PortError(
-                f"not a {scheme}:// address; give {scheme}://HOST:PORT, PORT a number from "
-                "1 to 65535",
-                port=url,
-            )
-        if "exclusively lock" in text:
-            return PortBusyError(
-                "in use by another program (it holds the device lock); close that program "
-                f"(fuser -v {url} names it) and run again",
-                port=url,
-            )
-        if _caused_by(exc, ConnectionRefusedError) or re.search(
-            r"\[Errno (111|61|10061)\]|connection refused", text, re.IGNORECASE
-        ):
-            where = urlsplit(url.split("://", 1)[-1] if url.startswith("spy://") else url).netloc
-            return PortError(
-                f"nothing accepts connections at {where or url}; is the serial device server "
-                "(or harlsync sim --listen) running, and is the address right?",
-                port=url,
-            )
-        if device and _has_errno(exc, errno.ENOENT, FileNotFoundError):
-            windows = _COM_RE.fullmatch(url)
-            listing = "Device Manager > Ports" if windows else "ls /dev/ttyUSB* /dev/ttyACM*"
-            return PortError(
-                "no such device; check that the USB-serial adapter is plugged in and the port "
-                f"name ({listing})",
-                port=url,
-            )
-        if device and not _COM_RE.fullmatch(url):
-            what = _not_a_tty(url, exc)
-            if what:
-                return PortError(
-                    f"not a serial port ({what}); give the serial device the robot's cable is "
-                    "on, e.g. /dev/ttyUSB0 (ls /dev/ttyUSB* /dev/ttyACM* /dev/serial/by-id)",
-                    port=url,
-                )
-        if device and not _COM_RE.fullmatch(url) and _has_errno(exc, errno.EACCES, PermissionError):
-            return PortError(
-                "permission denied; add your user to the group that owns the device "
-                f"(ls -l {url}, usually dialout) and log in again",
-                port=url,
-            )
-        # pyserial says "[Errno N] could not open port URL: why"; the port is named already.
-        why = re.sub(
-            r"^(?:\[Errno \d+\] )?could not open port .*?: ", "", text, count=1, flags=re.IGNORECASE
-        )
-        return PortError(f"cannot open: {why}; {_open_hint(url)}", port=url)
-
-    def _take_file_lock(self) -> None:
-        path = self.lock_path
-        if path is None:
-            return
-        try:
-            if not path.parent.is_dir():
-                path.parent.mkdir(parents=True, exist_ok=True)
-                # Shared by every user who runs harlsync (sticky, like /tmp).
-                os.chmod(path.parent, 0o1777)
-            lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
-            lock.acquire(timeout=self.lock_timeout)
-        except filelock.Timeout as exc:
-            raise PortBusyError(self._busy_message(path), port=self.url) from exc
-        except OSError as exc:
-            raise PortError(
-                f"cannot take the port lock {path}: {exc}; set HARLSYNC_LOCK_DIR to a writable "
-                "directory",
-                port=self.url,
-            ) from exc
-        self._file_lock = lock
-        try:
-            _owner_path(path).write_text(f"{os.getpid()} {socket.gethostname()}\n")
-        except OSError as exc:  # the pid is only for the message of a waiting harlsync
-            log.debug("cannot record the lock holder in %s: %s", _owner_path(path), exc)
-
-    def _release_file_lock(self) -> None:
-        lock, self._file_lock = self._file_lock, None
-        if lock is None:
-            return
-        try:
-            _owner_path(Path(lock.lock_file)).unlink()
-        except OSError:
-            pass
-        lock.release()
-
-    def _busy_message(self, path: Path) -> str:
-        who = "another harlsync"
-        try:
-            pid, _, host = _owner_path(path).read_text().strip().partition(" ")
-        except OSError:
-            pid, host = "", ""
-        if pid == str(os.getpid()) and host == socket.gethostname():
-            who = "another Link of this process"
-        elif pid:
-            who += f" (pid {pid}{'' if host == socket.gethostname() else ' on ' + host})"
-        return f"in use by {who}; wait for it to finish or use --lock-timeout (lock file {path})"
 
     # --- exchange -------------------------------------------------------------------
 
@@ -462,7 +282,7 @@ class Link:
     def _write_timeout(self) -> float:
         return max(self.settings.timeout, 1.0)
 
-    def _send(self, port: Any, frame: bytes, station: int, request: Request) -> float:
+    def _send(self, port: SerialPort, frame: bytes, station: int, request: Request) -> float:
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", self.url, _hex(frame))
         # No flush(): tcdrain waits, without any timeout, until the UART has sent the
@@ -482,7 +302,7 @@ class Link:
             raise self._gone(exc, station, request, " while sending") from exc
         return time.monotonic()
 
-    def _read(self, port: Any, station: int, request: Request, *, block: bool) -> bytes:
+    def _read(self, port: SerialPort, station: int, request: Request, *, block: bool) -> bytes:
         """Whatever input is there; with ``block``, wait up to one poll for a byte."""
         try:
             if block and self._fd is not None:
@@ -503,7 +323,7 @@ class Link:
 
     def _gone(self, exc: Exception, station: int, request: Request, doing: str) -> PortError:
         return PortError(
-            f"port went away{doing}: {_describe(exc)}; {_gone_hint(self.url)}",
+            f"port went away{doing}: {describe(exc)}; {gone_hint(self.url)}",
             port=self.url,
             station=station,
             command=request.payload,
@@ -525,7 +345,7 @@ class Link:
         self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
         self._dropped_seen = self._decoder.dropped
 
-    def _settle(self, port: Any, station: int, request: Request, *, wait: bool) -> None:
+    def _settle(self, port: SerialPort, station: int, request: Request, *, wait: bool) -> None:
         """Discard pending input; with ``wait``, first let replies owed by ``station`` come."""
         while True:
             count, due = self._owed.get(station, (0, 0.0))
@@ -580,7 +400,7 @@ class Link:
         else:
             self._owed.pop(station, None)
 
-    def _await(self, port: Any, request: Request, station: int) -> Any:
+    def _await(self, port: SerialPort, request: Request, station: int) -> Any:
         """The decoded reply, or a :class:`_Failure` once the deadline has passed."""
         deadline = time.monotonic() + self.settings.timeout
         failure = _Failure(f"no reply within {self.settings.timeout:g} s")
@@ -607,204 +427,5 @@ class Link:
             self._read(port, station, request, block=True)
 
 
-class _SocketPort(protocol_socket.Serial):  # type: ignore[misc]
-    """pyserial's ``socket://`` port, whose close() does not sleep.
-
-    pyserial sleeps 0.3 s after every close, "in case of quick reconnects, give
-    the server some time": every command, and every robot of a backup, paid it.
-    Here only a reconnect to the same address within that time waits for the rest.
-    """
-
-    REOPEN_GAP = 0.3
-    _closed_at: ClassVar[dict[str, float]] = {}  # address -> when last closed
-
-    def open(self) -> None:
-        address = lock_key(self.portstr or "") or ""
-        wait = self._closed_at.get(address, 0.0) + self.REOPEN_GAP - time.monotonic()
-        if wait > 0:
-            time.sleep(wait)
-        super().open()
-
-    def close(self) -> None:
-        sock: socket.socket | None = getattr(self, "_socket", None)
-        if sock is not None:
-            try:
-                sock.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass  # the peer has gone already: close all the same
-            finally:
-                sock.close()
-            self._socket = None
-            self._closed_at[lock_key(self.portstr or "") or ""] = time.monotonic()
-        self.is_open = False
-
-
-def _fileno(port: Any) -> int | None:
-    """The descriptor of a device or socket:// port; None for ports without one
-    (sim://, loop://, rfc2217://), which the link waits on with a timed read."""
-    try:
-        fd = port.fileno()
-    except (AttributeError, OSError, ValueError, serial.SerialException):
-        return None
-    return fd if isinstance(fd, int) and fd >= 0 else None
-
-
 def _hex(data: bytes) -> str:
     return data.hex(" ").upper()
-
-
-def _describe(exc: BaseException) -> str:
-    """One line for an exception from pyserial or below it."""
-    args = exc.args
-    if isinstance(exc, (OSError, ValueError)):  # SerialException is an OSError
-        text = str(exc)
-    elif len(args) == 2 and isinstance(args[0], int) and isinstance(args[1], str):
-        text = f"[Errno {args[0]}] {args[1]}"  # termios.error, which is not an OSError
-    else:
-        text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    return " ".join(text.split())
-
-
-def _chain(exc: BaseException) -> Iterator[BaseException]:
-    seen: set[int] = set()
-    current: BaseException | None = exc
-    while current is not None and id(current) not in seen:
-        seen.add(id(current))
-        yield current
-        current = current.__cause__ or current.__context__
-
-
-def _caused_by(exc: BaseException, kind: type[BaseException]) -> bool:
-    return any(isinstance(e, kind) for e in _chain(exc))
-
-
-def _has_errno(exc: BaseException, number: int, kind: type[OSError]) -> bool:
-    """``exc`` or what it came from is errno ``number``, or names ``kind`` (Windows)."""
-    return any(
-        getattr(e, "errno", None) == number or isinstance(e, kind) for e in _chain(exc)
-    ) or kind.__name__ in str(exc)
-
-
-def _not_a_tty(path: str, exc: BaseException) -> str | None:
-    """What ``path`` is, when opening it failed because it is no terminal device
-    (pyserial's "Could not configure port: (25, 'Inappropriate ioctl ...')", or
-    "Is a directory")."""
-    codes = {getattr(e, "errno", None) or (e.args[:1] or (None,))[0] for e in _chain(exc)}
-    if not codes & {errno.ENOTTY, errno.EISDIR}:
-        return None
-    try:
-        mode = os.stat(path).st_mode
-    except OSError:
-        return "not a terminal device"
-    if stat.S_ISDIR(mode):
-        return "a directory"
-    if stat.S_ISREG(mode):
-        return "a regular file"
-    return "a device that is not a terminal"
-
-
-def _open_hint(url: str) -> str:
-    scheme = url.split("://", 1)[0].lower() if "://" in url else ""
-    if not scheme:
-        return "check the cable/adapter and the port name"
-    if scheme in ("socket", "rfc2217"):
-        return "check the address and that the serial device server is up and reachable"
-    if scheme == "sim":
-        return "check the sim:// options and project directory"
-    return "check the port URL"
-
-
-def _gone_hint(url: str) -> str:
-    scheme = url.split("://", 1)[0].lower() if "://" in url else ""
-    if not scheme:
-        return "check that the USB-serial adapter is still plugged in and the cable is seated"
-    if scheme in ("socket", "rfc2217"):
-        return "check that the serial device server is still up and reachable"
-    return "check the port URL"
-
-
-# --- the port lock -----------------------------------------------------------------
-
-
-def default_lock_dir() -> Path:
-    """``$HARLSYNC_LOCK_DIR``, else ``<tmp>/harlsync-locks``.
-
-    One directory for every session and user of the machine: a per-session one
-    (``$XDG_RUNTIME_DIR``) would let a cron job, which has no login session, and
-    a push from a shell lock different files and share the line.
-    """
-    env = os.environ.get("HARLSYNC_LOCK_DIR")
-    if env:
-        return Path(env)
-    return Path(tempfile.gettempdir()) / "harlsync-locks"
-
-
-_COM_RE = re.compile(r"(?:\\\\\.\\)?(COM\d+)", re.IGNORECASE)
-
-
-def lock_key(url: str) -> str | None:
-    """The identity of the line ``url`` opens, or None for one no other process can share.
-
-    Device paths resolve symlinks (``/dev/serial/by-id/...`` and ``/dev/ttyUSB0``
-    are one line), ``COM3`` is upper-cased, ``spy://`` is the port it wraps,
-    ``socket://`` and ``rfc2217://`` are host:port without options, the host
-    resolved (``localhost`` and ``127.0.0.1`` are one machine), ``loop://``
-    is private to its process (None), any other URL is taken as it is.
-    """
-    if "://" not in url:
-        com = _COM_RE.fullmatch(url)
-        if com:
-            return com.group(1).upper()
-        return os.path.realpath(url)
-    scheme = url.split("://", 1)[0].lower()
-    parts = urlsplit(url)
-    if scheme == "loop":
-        return None
-    if scheme == "spy":
-        return lock_key(parts.netloc + parts.path)
-    if scheme in ("socket", "rfc2217"):
-        port = _port_number(url)
-        if port is None:  # not a port number: opening it will say so
-            return f"{scheme}://{parts.netloc.lower()}"
-        return f"{scheme}://{_host_key(parts.hostname or '')}:{port}"
-    return url
-
-
-def _port_number(url: str) -> int | None:
-    """The TCP port of a ``socket://`` or ``rfc2217://`` URL, or None if it has none."""
-    try:
-        return urlsplit(url).port
-    except ValueError:
-        return None
-
-
-def _host_key(host: str) -> str:
-    """One name per machine: ``localhost``, ``127.0.0.1`` and ``::1`` are one
-    (``loopback``), a name and its address are one (the lowest address it has)."""
-    try:
-        addresses = sorted({str(info[4][0]) for info in socket.getaddrinfo(host, None)})
-    except (OSError, UnicodeError):
-        return host.lower()  # unknown: opening the port will say so
-    if not addresses:
-        return host.lower()
-    try:
-        if any(ipaddress.ip_address(a.split("%", 1)[0]).is_loopback for a in addresses):
-            return "loopback"
-    except ValueError:
-        pass
-    return addresses[0]
-
-
-def lock_path(url: str, lock_dir: str | os.PathLike[str] | None = None) -> Path | None:
-    """The lock file for the line ``url`` opens (None when it needs none)."""
-    key = lock_key(url)
-    if key is None:
-        return None
-    digest = hashlib.sha256(key.encode()).hexdigest()[:12]
-    readable = re.sub(r"[^A-Za-z0-9.-]+", "_", key).strip("_")[-48:]
-    directory = Path(lock_dir) if lock_dir is not None else default_lock_dir()
-    return directory / f"{readable}-{digest}.lock"
-
-
-def _owner_path(path: Path) -> Path:
-    return path.with_name(path.name + ".owner")
