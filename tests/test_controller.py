@@ -17,7 +17,8 @@ from simline import LOSE, SMALL, Act, ScriptedSim, drop
 
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import ControllerError, LinkTimeout, WriteUnconfirmed
-from harlsync.link import Link, SerialSettings
+from harlsync.families.harl_u2.link import Link
+from harlsync.link import SerialSettings
 from harlsync.families.harl_u2.model import (
     OFFSET_TABLE_COUNT,
     Config,

@@ -23,7 +23,8 @@ from traffic import TRAFFIC, captures, load_expectations, play
 
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import LinkTimeout, PortError, ProtocolError
-from harlsync.link import Link, SerialSettings
+from harlsync.families.harl_u2.link import Link
+from harlsync.link import SerialSettings
 from harlsync.families.harl_u2.model import Config, OffsetTable, Parameters, ProgramArea, Status, Step
 from harlsync.families.harl_u2.protocol import Ack, encode_frame
 from harlsync.families.harl_u2.sim import SimState

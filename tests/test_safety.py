@@ -20,7 +20,8 @@ from simline import Act, ScriptedSim, drop, slow
 
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import InterlockError, PolicyError, PortBusyError, StalePlanError
-from harlsync.link import Link, SerialSettings
+from harlsync.families.harl_u2.link import Link
+from harlsync.link import SerialSettings
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.project import load_project, save_project
 from harlsync.families.harl_u2.sim import SimState

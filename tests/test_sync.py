@@ -22,7 +22,7 @@ from harlsync.errors import (
     StalePlanError,
     VerifyError,
 )
-from harlsync.link import Link
+from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.project import load_project, save_project
 from harlsync.families.harl_u2.sim import Faults, SimState, Simulator

@@ -1,17 +1,21 @@
-"""One serial line to a HARL-U2 controller: send a request, get its reply.
+"""One serial line to a controller: send a request, get its reply.
+
+The link is generic over a family's sans-I/O codec (:mod:`harlsync.link.codec`):
+the codec makes and reads the frames, the link owns the port, the deadlines and
+the retries.
 
 How this works::
 
     exchange(request)
       | wait out replies still owed by earlier attempts, then drop pending input
       v
-    write  STX station SP payload ETX LRC  ------------------------------->  controller
+    write  request.encode(station)  -------------------------------------->  controller
       |                                                                         |
-    read in short polls into a FrameDecoder  <----------------------------  reply
-      |   bad LRC, malformed, noise   : log, keep reading (the reply may follow)
+    read in short polls into the codec's decoder  <-----------------------  reply
+      |   bad frame, noise            : log, keep reading (the reply may follow)
       |   frame for another station   : ignore
       |   frame that does not fit     : discard (a late reply), keep reading
-      v   deadline (settings.timeout) passes without a fitting reply
+      v   deadline (codec.reply_timeout) passes without a fitting reply
     read  : drain input, re-send; after settings.retries re-sends -> LinkTimeout
     write : never re-sent here -> WriteUnconfirmed (the controller reads the item back)
 
@@ -25,8 +29,8 @@ seconds after their deadline).  That costs one ``late_window`` after a reply
 that was really lost, and never returns a value that answers another request.
 
 A retry of the same read may take the earlier attempt's late reply as its own
-answer: the value is the same.  Not so for a volatile read (LNR, I/O and memory
-bits): the task states may have changed between the two attempts, and a late
+answer: the value is the same.  Not so for a volatile read (HARL-U2 LNR, I/O and
+memory bits; IAI status): the task states may have changed between the two attempts, and a late
 "idle" must never pass for the retry's "in execution".  Before re-sending a
 volatile read the link therefore waits out owed replies too, as before a new
 request.
@@ -52,20 +56,13 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Any
+from typing import Generic, TypeVar
 
 import serial
 
-from ..errors import (
-    LinkError,
-    LinkTimeout,
-    PortError,
-    ProtocolError,
-    ReplyError,
-    WriteUnconfirmed,
-)
-from ..families.harl_u2.protocol import Frame, FrameDecoder, Request, decode_reply, encode_frame
+from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyError, WriteUnconfirmed
 from ..settings import SerialSettings
+from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
 from .port import POLL_INTERVAL, SerialPort, describe, fileno, gone_hint, open_port
 
@@ -113,14 +110,20 @@ class _Failure:
     cause: ProtocolError | None = None
 
 
-class Link:
-    """One port (and the default station on it), opened by pyserial URL.
+F = TypeVar("F", bound=Frame)
+T = TypeVar("T")
+
+
+class Link(Generic[F]):
+    """One port (and the default station on it), opened by pyserial URL, speaking
+    the frames of ``codec``.
 
     ``url`` is a device path (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL
     (``socket://host:port``, ``rfc2217://``, ``loop://``, ``spy://``, ``sim://``).
-    ``lock_timeout`` is the seconds to wait for another harlsync to release the
-    port (0: fail at once, negative: wait for ever).  ``late_window`` is how long
-    after its deadline a missed reply may still arrive (default: settings.timeout).
+    ``settings`` default to the codec's.  ``lock_timeout`` is the seconds to wait
+    for another harlsync to release the port (0: fail at once, negative: wait for
+    ever).  ``late_window`` is how long after its deadline a missed reply may still
+    arrive (default: that reply's deadline).
     """
 
     def __init__(
@@ -129,26 +132,28 @@ class Link:
         station: int = 1,
         settings: SerialSettings | None = None,
         *,
+        codec: Codec[F],
         lock_timeout: float = DEFAULT_LOCK_TIMEOUT,
         lock_dir: str | os.PathLike[str] | None = None,
         late_window: float | None = None,
     ) -> None:
         self.url = url
         self.station = station
-        settings = SerialSettings() if settings is None else settings
-        self.settings = settings
+        self.codec = codec
+        self.settings = codec.settings if settings is None else settings
         self.lock_timeout = lock_timeout
         self.lock_path = lock_path(url, lock_dir)
-        self.late_window = settings.timeout if late_window is None else late_window
+        self.late_window = late_window
         self.stats = LinkStats()
         self._port: SerialPort | None = None
         self._fd: int | None = None  # the port's file descriptor, when select() can wait on it
         self._line_lock = LineLock(url, self.lock_path)
         self._lock = threading.RLock()
-        self._decoder = FrameDecoder()
+        self._decoder: Decoder[F] = codec.decoder()
         self._rx = bytearray()  # received bytes not yet logged; ends with the decoder's
         self._dropped_seen = 0
         self._owed: dict[int, tuple[int, float]] = {}  # station -> (replies, due by)
+        self._replied_at = 0.0  # when the last reply was taken, for the codec's reply_gap
 
     # --- open / close ---------------------------------------------------------------
 
@@ -156,7 +161,7 @@ class Link:
     def is_open(self) -> bool:
         return self._port is not None
 
-    def open(self) -> Link:
+    def open(self) -> Link[F]:
         """Take the port's lock and open it.
 
         Raises :class:`PortBusyError` when another harlsync holds the port, and
@@ -173,7 +178,7 @@ class Link:
                 raise
             self._port = port
             self._fd = fileno(port)
-            self._decoder = FrameDecoder()
+            self._decoder = self.codec.decoder()
             self._rx.clear()
             self._dropped_seen = 0
             self._owed.clear()
@@ -198,7 +203,7 @@ class Link:
             finally:
                 self._line_lock.release()
 
-    def __enter__(self) -> Link:
+    def __enter__(self) -> Link[F]:
         return self.open()
 
     def __exit__(
@@ -211,23 +216,26 @@ class Link:
 
     # --- exchange -------------------------------------------------------------------
 
-    def exchange(self, request: Request, *, station: int | None = None) -> Any:
+    def exchange(self, request: Request[F, T], *, station: int | None = None) -> T:
         """Send ``request`` to ``station`` (default: the link's) and return its reply.
 
-        Returns what :func:`~harlsync.protocol.decode_reply` makes of the reply:
-        a typed value, or an :class:`~harlsync.protocol.ErrorReply` for ``E`` +
-        status.  Raises :class:`LinkTimeout` when a read got no valid reply after
-        every retry, :class:`WriteUnconfirmed` when a write got none (it is never
-        re-sent here), :class:`PortError` when the port fails.
+        Returns what ``request.decode`` makes of the reply: a typed value (for the
+        HARL-U2 and IAI codecs also an ``ErrorReply``, a value the caller inspects).
+        Raises :class:`LinkTimeout` when a read got no valid reply after every
+        retry, :class:`WriteUnconfirmed` when a write got none (it is never re-sent
+        here), :class:`PortError` when the port fails.
         """
         st = self.station if station is None else station
-        frame = encode_frame(st, request.payload)
+        frame = request.encode(st)
+        command = request.payload
+        timeout = self.codec.reply_timeout(request, self.settings)
+        late_window = timeout if self.late_window is None else self.late_window
         with self._lock:
             port = self._port
             if port is None:
                 raise LinkError("link is not open", port=self.url, station=st)
             self.stats.exchanges += 1
-            self._settle(port, st, request, wait=True)
+            self._settle(port, st, command, wait=True)
             attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
             failure = _Failure("not sent")
             for attempt in range(attempts):
@@ -236,45 +244,44 @@ class Link:
                     self._note(
                         logging.WARNING,
                         st,
-                        request,
+                        command,
                         f"retry {attempt}/{attempts - 1} after {failure.reason}",
                     )
-                    self._settle(port, st, request, wait=request.volatile)
-                sent = self._send(port, frame, st, request)
+                    self._settle(port, st, command, wait=request.volatile)
+                sent = self._send(port, frame, st, command)
                 # A reply still owed may be this attempt's (the earlier one's was taken):
                 # it can come until this attempt's late window ends.
-                due_by = sent + self.settings.timeout + self.late_window
+                due_by = sent + timeout + late_window
                 if st in self._owed:
                     count, due = self._owed[st]
                     self._owed[st] = (count, max(due, due_by))
-                result = self._await(port, request, st)
+                result = self._await(port, request, st, timeout)
                 if not isinstance(result, _Failure):
-                    return result
+                    return result.value
                 failure = result
                 self.stats.timeouts += 1
                 count, due = self._owed.get(st, (0, 0.0))
                 self._owed[st] = (count + 1, max(due, due_by))
             if request.is_write:
                 self.stats.unconfirmed_writes += 1
-                self._note(logging.WARNING, st, request, f"write unconfirmed: {failure.reason}")
+                self._note(logging.WARNING, st, command, f"write unconfirmed: {failure.reason}")
                 raise WriteUnconfirmed(
                     f"no valid reply to this write ({failure.reason}); it may or may not have "
                     "taken: read the item back before sending it again",
                     port=self.url,
                     station=st,
-                    command=request.payload,
+                    command=command,
                 ) from failure.cause
             raise LinkTimeout(
-                f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); check "
-                "the station number (pendant: SYSTEM GENERATION > MAINTENANCE > STATION NO.), "
-                "the cable, and the serial settings (baud, parity) in robot.yaml",
+                f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
+                f"{self.codec.no_reply_hint(st)}",
                 port=self.url,
                 station=st,
-                command=request.payload,
+                command=command,
             ) from failure.cause
 
-    def _note(self, level: int, station: int, request: Request, reason: str) -> None:
-        line = f"port {self.url}, station {station}, command {request.payload}: {reason}"
+    def _note(self, level: int, station: int, command: str, reason: str) -> None:
+        line = f"port {self.url}, station {station}, command {command}: {reason}"
         self.stats.note(line)
         log.log(level, "%s", line)
 
@@ -282,7 +289,10 @@ class Link:
     def _write_timeout(self) -> float:
         return max(self.settings.timeout, 1.0)
 
-    def _send(self, port: SerialPort, frame: bytes, station: int, request: Request) -> float:
+    def _send(self, port: SerialPort, frame: bytes, station: int, command: str) -> float:
+        gap = self._replied_at + self.codec.reply_gap - time.monotonic()
+        if gap > 0:  # the controller is not ready for the next command yet
+            time.sleep(gap)
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", self.url, _hex(frame))
         # No flush(): tcdrain waits, without any timeout, until the UART has sent the
@@ -296,13 +306,13 @@ class Link:
                 "the cable and the rtscts (hardware flow control) setting in robot.yaml",
                 port=self.url,
                 station=station,
-                command=request.payload,
+                command=command,
             ) from exc
         except Exception as exc:  # any failure of pyserial; see the module docstring
-            raise self._gone(exc, station, request, " while sending") from exc
+            raise self._gone(exc, station, command, " while sending") from exc
         return time.monotonic()
 
-    def _read(self, port: SerialPort, station: int, request: Request, *, block: bool) -> bytes:
+    def _read(self, port: SerialPort, station: int, command: str, *, block: bool) -> bytes:
         """Whatever input is there; with ``block``, wait up to one poll for a byte."""
         try:
             if block and self._fd is not None:
@@ -315,18 +325,18 @@ class Link:
             if data and not waiting and port.in_waiting:  # the rest of what arrived with it
                 data += port.read(port.in_waiting)
         except Exception as exc:  # any failure of pyserial; see the module docstring
-            raise self._gone(exc, station, request, "") from exc
+            raise self._gone(exc, station, command, "") from exc
         if data:
             self._rx += data
             self._decoder.feed(data)
         return data
 
-    def _gone(self, exc: Exception, station: int, request: Request, doing: str) -> PortError:
+    def _gone(self, exc: Exception, station: int, command: str, doing: str) -> PortError:
         return PortError(
             f"port went away{doing}: {describe(exc)}; {gone_hint(self.url)}",
             port=self.url,
             station=station,
-            command=request.payload,
+            command=command,
         )
 
     def _log_rx(self) -> None:
@@ -345,7 +355,7 @@ class Link:
         self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
         self._dropped_seen = self._decoder.dropped
 
-    def _settle(self, port: SerialPort, station: int, request: Request, *, wait: bool) -> None:
+    def _settle(self, port: SerialPort, station: int, command: str, *, wait: bool) -> None:
         """Discard pending input; with ``wait``, first let replies owed by ``station`` come."""
         while True:
             count, due = self._owed.get(station, (0, 0.0))
@@ -355,7 +365,7 @@ class Link:
                 )
                 del self._owed[station]
                 count = 0
-            data = self._read(port, station, request, block=wait and count > 0)
+            data = self._read(port, station, command, block=wait and count > 0)
             self._discard_frames(station)
             if not data and not (wait and count):
                 break
@@ -363,7 +373,7 @@ class Link:
         self._log_rx()
         self._count_noise()
 
-    def _frames(self, station: int) -> Iterator[Frame | ProtocolError]:
+    def _frames(self, station: int) -> Iterator[F | ProtocolError]:
         """What the buffered bytes hold for ``station``: its frames, and each bad frame
         as the error it raised (counted).  Frames for other stations are counted and
         skipped."""
@@ -400,31 +410,42 @@ class Link:
         else:
             self._owed.pop(station, None)
 
-    def _await(self, port: SerialPort, request: Request, station: int) -> Any:
-        """The decoded reply, or a :class:`_Failure` once the deadline has passed."""
-        deadline = time.monotonic() + self.settings.timeout
-        failure = _Failure(f"no reply within {self.settings.timeout:g} s")
+    def _await(
+        self, port: SerialPort, request: Request[F, T], station: int, timeout: float
+    ) -> _Reply[T] | _Failure:
+        """The decoded reply, or a :class:`_Failure` once ``timeout`` has passed."""
+        deadline = time.monotonic() + timeout
+        failure = _Failure(f"no reply within {timeout:g} s")
+        command = request.payload
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
-                    log.info("%s station %d %s: bad frame: %s", self.url, station, request, frame)
+                    log.info("%s station %d %s: bad frame: %s", self.url, station, command, frame)
                     failure = _Failure(f"bad frame: {frame}", frame)
                     continue
                 try:
-                    value = decode_reply(request, frame.payload)
+                    value = request.decode(frame)
                 except ReplyError as exc:
                     self.stats.unfitting += 1
-                    log.info("%s station %d %s: discarded: %s", self.url, station, request, exc)
+                    log.info("%s station %d %s: discarded: %s", self.url, station, command, exc)
                     failure = _Failure(f"reply does not fit: {exc}", exc)
                     if station in self._owed:
                         self._late_reply(station, frame.payload)
                     continue
                 self._count_noise()
-                return value
+                self._replied_at = time.monotonic()
+                return _Reply(value)
             if time.monotonic() >= deadline:
                 self._count_noise()
                 return failure
-            self._read(port, station, request, block=True)
+            self._read(port, station, command, block=True)
+
+
+@dataclass(frozen=True)
+class _Reply(Generic[T]):
+    """The value an attempt got (a reply may decode to None, so it is wrapped)."""
+
+    value: T
 
 
 def _hex(data: bytes) -> str:
