@@ -43,11 +43,11 @@ from harlsync.errors import (
     WriteUnconfirmed,
 )
 from harlsync.families.harl_u2.link import Link
-from harlsync.link import SerialSettings, default_lock_dir, lock_key, lock_path
 from harlsync.families.harl_u2.model import ProgramType, Step
 from harlsync.families.harl_u2.protocol import Ack, ErrorReply, encode_frame
 from harlsync.families.harl_u2.protocol import commands as cmd
 from harlsync.families.harl_u2.sim import SimState
+from harlsync.link import SerialSettings, default_lock_dir, lock_key, lock_path
 from harlsync.sim.serve import PtyServer, TcpServer
 
 FAST = SerialSettings(timeout=0.25, retries=3)
