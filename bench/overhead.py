@@ -29,7 +29,7 @@ from collections.abc import Callable
 from machine import SimProcess, describe
 
 from harlsync.families.harl_u2.controller import Controller
-from harlsync.link import Link
+from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import ProgramType
 from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_frame
 

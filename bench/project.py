@@ -31,8 +31,9 @@ from typing import Any
 
 from machine import describe, every_step_used, peak_rss_mib, run_child
 
-from harlsync.families.harl_u2.model import RobotData, Step
 from harlsync.families.harl_u2 import layout
+from harlsync.families.harl_u2.catalogue import CATALOGUE
+from harlsync.families.harl_u2.model import RobotData, Step
 from harlsync.project import (
     Project,
     load_project,
@@ -42,7 +43,6 @@ from harlsync.project import (
     yamlio,
 )
 from harlsync.sync.engine import change_summary
-from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.sync.items import diff, render_text, to_json
 
 DIFF_TARGET = 0.2

@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 from simline import LOSE, SMALL, Act, ScriptedSim, drop
 
-from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import ControllerError, LinkTimeout, WriteUnconfirmed
-from harlsync.link import Link, SerialSettings
+from harlsync.families.harl_u2.controller import Controller
+from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import (
     OFFSET_TABLE_COUNT,
     Config,
@@ -30,6 +30,7 @@ from harlsync.families.harl_u2.model import (
 )
 from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
 from harlsync.families.harl_u2.sim.device import STATUS_RANGE
+from harlsync.link import SerialSettings
 from harlsync.sim.serve import PtyServer
 
 FAST = SerialSettings(timeout=0.25, retries=3)

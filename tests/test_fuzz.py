@@ -33,8 +33,18 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from harlsync.errors import ProjectError, ProtocolError, ReplyError
-from harlsync.families.harl_u2.model import Config, OffsetTable, Parameters, ProgramArea, ProgramType, Step
-from harlsync.families.harl_u2.layout import render_files
+from harlsync.families.harl_u2.layout import analyse, render_files
+from harlsync.families.harl_u2.model import (
+    Config,
+    OffsetTable,
+    Parameters,
+    ProgramArea,
+    ProgramType,
+    Step,
+)
+from harlsync.families.harl_u2.protocol import FrameDecoder, decode_reply, encode_frame
+from harlsync.families.harl_u2.protocol import commands as c
+from harlsync.families.harl_u2.sim import SimState
 from harlsync.project import (
     Project,
     load_project,
@@ -42,10 +52,6 @@ from harlsync.project import (
     save_project,
     validate_project,
 )
-from harlsync.families.harl_u2.layout import analyse
-from harlsync.families.harl_u2.protocol import FrameDecoder, decode_reply, encode_frame
-from harlsync.families.harl_u2.protocol import commands as c
-from harlsync.families.harl_u2.sim import SimState
 
 FUZZ = settings(
     derandomize=True,

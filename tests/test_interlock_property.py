@@ -57,7 +57,7 @@ import pytest
 
 from harlsync import cli
 from harlsync.errors import InterlockError, PolicyError
-from harlsync.link import SerialSettings
+from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.families.harl_u2.model import (
     OFFSET_TABLE_COUNT,
     Config,
@@ -66,14 +66,14 @@ from harlsync.families.harl_u2.model import (
     RobotData,
     Step,
 )
-from harlsync.project import Project, load_project, new_robot, save_project
 from harlsync.families.harl_u2.protocol import FrameDecoder
 from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
 from harlsync.families.harl_u2.sim.device import Received
+from harlsync.link import SerialSettings
+from harlsync.project import Project, load_project, new_robot, save_project
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import PushFailed, PushOptions, PushResult, engine
 from harlsync.sync import audit as audit_log
-from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.sync import items as sync_items
 
 CHUNKS = 10

@@ -42,11 +42,12 @@ from harlsync.errors import (
     PortError,
     WriteUnconfirmed,
 )
-from harlsync.link import Link, SerialSettings, default_lock_dir, lock_key, lock_path
+from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import ProgramType, Step
 from harlsync.families.harl_u2.protocol import Ack, ErrorReply, encode_frame
 from harlsync.families.harl_u2.protocol import commands as cmd
 from harlsync.families.harl_u2.sim import SimState
+from harlsync.link import SerialSettings, default_lock_dir, lock_key, lock_path
 from harlsync.sim.serve import PtyServer, TcpServer
 
 FAST = SerialSettings(timeout=0.25, retries=3)
@@ -502,7 +503,7 @@ def test_a_second_process_is_refused_and_told_who_holds_the_port(link: Link, dev
     code = (
         "import sys\n"
         "from harlsync.errors import PortBusyError\n"
-        "from harlsync.link import Link\n"
+        "from harlsync.families.harl_u2.link import Link\n"
         "try:\n"
         "    Link(sys.argv[1], lock_timeout=0.2).open()\n"
         "except PortBusyError as exc:\n"

@@ -40,9 +40,9 @@ import pytest
 from conftest import git
 
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
-from harlsync.project import Project, load_project, new_robot, save_project
 from harlsync.families.harl_u2.protocol import Request
 from harlsync.families.harl_u2.sim import SimState
+from harlsync.project import Project, load_project, new_robot, save_project
 from harlsync.sync import audit, engine
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="SIGKILL and ptys are POSIX")

@@ -10,6 +10,7 @@ import sys
 from datetime import datetime, time
 from pathlib import Path
 
+from harlsync.families.harl_u2.layout import KINDS, SCHEMAS
 from harlsync.families.harl_u2.model import (
     Config,
     OffsetTable,
@@ -27,7 +28,6 @@ from harlsync.project import (
     save_project,
     validate_project,
 )
-from harlsync.families.harl_u2.layout import KINDS, SCHEMAS
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLE = REPO / "projects" / "pick-and-place"

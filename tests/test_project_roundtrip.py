@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from harlsync.link import SerialSettings
+from harlsync.families.harl_u2.layout import render_program
 from harlsync.families.harl_u2.model import (
     MAX_STEP_DATA,
     OFFSET_TABLE_COUNT,
@@ -23,7 +23,7 @@ from harlsync.families.harl_u2.model import (
     RobotData,
     Step,
 )
-from harlsync.families.harl_u2.layout import render_program
+from harlsync.link import SerialSettings
 from harlsync.project import (
     DAYS,
     Project,

@@ -8,9 +8,16 @@ from hypothesis import strategies as st
 
 from harlsync.errors import FrameError, LRCError, ProtocolError, ReplyError
 from harlsync.families.harl_u2.model import Config, OffsetTable, ProgramArea, ProgramType, Step
-from harlsync.families.harl_u2.protocol import FrameDecoder, decode_reply, encode_frame, lrc
+from harlsync.families.harl_u2.protocol import (
+    Frame,
+    FrameDecoder,
+    decode_reply,
+    encode_frame,
+    lrc,
+)
 from harlsync.families.harl_u2.protocol import commands as c
 from harlsync.families.harl_u2.protocol.commands import Ack, ErrorReply
+from harlsync.families.harl_u2.sim import SimState, Simulator
 
 STX, ETX = b"\x02", b"\x03"
 
@@ -325,3 +332,16 @@ def test_lnr_fails_safe_on_anything_unexpected(payload: str) -> None:
 def test_replies_that_do_not_fit_are_reply_errors(request_, payload: str) -> None:
     with pytest.raises(ReplyError):
         decode_reply(request_, payload)
+
+
+@pytest.mark.parametrize("request_,payload", REQUESTS, ids=[p for _, p in REQUESTS])
+def test_a_typed_request_decodes_its_reply_as_the_request_made_from_its_letters(
+    request_, payload: str
+) -> None:
+    # The builders give each request its own parser; parse_request (the replay's and the
+    # simulator's side) decodes by letters.  Both must read a controller's reply alike.
+    state = SimState.generate(2, Config(ProgramArea(1, 8), ProgramArea(4, 8), ProgramArea(4, 8),
+                                        ProgramArea(2, 8), 16, 16, 16))
+    reply = Simulator(state).handle(state, payload)
+    assert request_.decode_payload(reply) == c.parse_request(payload).decode_payload(reply)
+    assert request_.decode(Frame(1, reply)) == decode_reply(request_, reply)

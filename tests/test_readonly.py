@@ -14,12 +14,12 @@ from pathlib import Path
 
 import pytest
 
+from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.families.harl_u2.model import OFFSET_TABLE_COUNT, TIMER_RE, ProgramType
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.serve import PtyServer
 from harlsync.sync import engine
-from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.sync import items as sync_items
 
 PORT = os.environ.get("HARLSYNC_TEST_PORT")

@@ -21,12 +21,20 @@ from hypothesis import strategies as st
 from serial.urlhandler.protocol_spy import FormatHexdump
 from traffic import TRAFFIC, captures, load_expectations, play
 
-from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import LinkTimeout, PortError, ProtocolError
-from harlsync.link import Link, SerialSettings
-from harlsync.families.harl_u2.model import Config, OffsetTable, Parameters, ProgramArea, Status, Step
+from harlsync.families.harl_u2.controller import Controller
+from harlsync.families.harl_u2.link import Link
+from harlsync.families.harl_u2.model import (
+    Config,
+    OffsetTable,
+    Parameters,
+    ProgramArea,
+    Status,
+    Step,
+)
 from harlsync.families.harl_u2.protocol import Ack, encode_frame
 from harlsync.families.harl_u2.sim import SimState
+from harlsync.link import SerialSettings
 from harlsync.sim.protocol_replay import register, replay_from_url, unregister
 from harlsync.sim.replay import Chunk, Replay, ReplayMismatch, load_spy_log, parse_spy_log
 from harlsync.sim.serve import PtyServer
@@ -230,8 +238,8 @@ def test_a_late_reply_replays_late_so_it_is_not_taken_for_the_next_answer(
 
 
 def test_a_captured_pull_replays_into_the_same_project(tmp_path: Path) -> None:
-    from harlsync.project import load_project
     from harlsync.families.harl_u2.sim import Simulator
+    from harlsync.project import load_project
     from harlsync.sync.engine import pull
 
     small = Config(

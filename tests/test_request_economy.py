@@ -7,7 +7,14 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
-from harlsync.families.harl_u2.model import OFFSET_TABLE_COUNT, Config, OffsetTable, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.model import (
+    OFFSET_TABLE_COUNT,
+    Config,
+    OffsetTable,
+    ProgramArea,
+    ProgramType,
+    Step,
+)
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync.engine import PushOptions, pull, push

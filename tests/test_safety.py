@@ -18,16 +18,17 @@ import pytest
 from conftest import git
 from simline import Act, ScriptedSim, drop, slow
 
-from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import InterlockError, PolicyError, PortBusyError, StalePlanError
-from harlsync.link import Link, SerialSettings
+from harlsync.families.harl_u2.controller import Controller
+from harlsync.families.harl_u2.driver import HarlU2Driver
+from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
-from harlsync.project import load_project, save_project
 from harlsync.families.harl_u2.sim import SimState
+from harlsync.link import SerialSettings
+from harlsync.project import load_project, save_project
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
-from harlsync.families.harl_u2.driver import HarlU2Driver
 
 SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
 FAST = SerialSettings(timeout=0.2, retries=2)

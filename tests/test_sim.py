@@ -15,8 +15,8 @@ import serial
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame, lrc
 from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
-from harlsync.sim.control import apply_command
 from harlsync.families.harl_u2.sim.device import STATUS_RANGE
+from harlsync.sim.control import apply_command
 from harlsync.sim.protocol_sim import register, simulator_from_url, unregister
 from harlsync.sim.serve import PtyServer, TcpServer
 

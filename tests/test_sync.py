@@ -22,11 +22,11 @@ from harlsync.errors import (
     StalePlanError,
     VerifyError,
 )
-from harlsync.link import Link
+from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
-from harlsync.project import load_project, save_project
 from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
 from harlsync.families.harl_u2.sim.device import Received
+from harlsync.project import load_project, save_project
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log

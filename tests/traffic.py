@@ -31,11 +31,12 @@ from typing import Any
 
 import yaml
 
-from harlsync.families.harl_u2.controller import Controller
 from harlsync.errors import ControllerError, LinkTimeout
-from harlsync.link import Link, SerialSettings
+from harlsync.families.harl_u2.controller import Controller
+from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, OffsetTable, Parameters, Status, Step
 from harlsync.families.harl_u2.protocol import Ack, parse_request
+from harlsync.link import SerialSettings
 from harlsync.sim.replay import Replay
 
 TRAFFIC = Path(__file__).parent / "fixtures" / "traffic"

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from datetime import time
 from typing import Any
 
-from ..link import SerialSettings
+from ..settings import SerialSettings
 from . import yamlio as y
 from .robot import Robot, Window
 from .schema import Issue, SchemaSet, show

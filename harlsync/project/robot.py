@@ -9,7 +9,7 @@ from datetime import datetime, time
 from typing import Any
 
 from ..families import DEFAULT
-from ..link import SerialSettings
+from ..settings import SerialSettings
 
 __all__ = ["DAYS", "Robot", "Window", "new_robot"]
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from ..project import Project, load_project, new_robot, save_project
 from ..families.harl_u2.sim.device import Received, Simulator
 from ..families.harl_u2.sim.state import SimState
+from ..project import Project, load_project, new_robot, save_project
 
 __all__ = ["keep_state"]
 

@@ -1,7 +1,9 @@
 """What a HARL-U2 robot can do, as methods: read_step, write_timer, status(), config() ...
 
 A :class:`Controller` talks to one station through a :class:`~harlsync.link.Link`
-(several controllers, one per station, may share a link).  Every failure is a
+with the HARL-U2 codec (several controllers, one per station, may share a link).
+Every request is typed (``Request[Step]`` ...), so each method returns its value
+as the reply was decoded, without a cast.  Every failure is a
 typed exception naming the port, the station and the command: an ``E`` + status
 reply raises :class:`~harlsync.errors.ControllerError` (its ``status`` is the raw
 text), the link raises :class:`~harlsync.errors.LinkError` subclasses.
@@ -32,10 +34,13 @@ import logging
 import os
 from collections.abc import Callable
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from ...errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
-from ...link import DEFAULT_LOCK_TIMEOUT, Link, SerialSettings
+from ...link import DEFAULT_LOCK_TIMEOUT
+from ...link import Link as SharedLink
+from ...settings import SerialSettings
+from .link import Link
 from .model import (
     OFFSET_TABLE_COUNT,
     Config,
@@ -47,7 +52,7 @@ from .model import (
     Status,
     Step,
 )
-from .protocol import ErrorReply, Request
+from .protocol import Ack, ErrorReply, Frame, Request
 from .protocol import commands as cmd
 
 __all__ = ["Controller", "Progress"]
@@ -61,9 +66,9 @@ T = TypeVar("T")
 
 
 class Controller:
-    """One robot (``station``, default the link's) on an open :class:`Link`."""
+    """One robot (``station``, default the link's) on an open HARL-U2 link."""
 
-    def __init__(self, link: Link, station: int | None = None) -> None:
+    def __init__(self, link: SharedLink[Frame], station: int | None = None) -> None:
         self.link = link
         self.station = link.station if station is None else station
         self._owns_link = False
@@ -82,9 +87,7 @@ class Controller:
 
         Raises :class:`~harlsync.errors.PortBusyError` or :class:`~harlsync.errors.PortError`.
         """
-        link = Link(
-            url, station, settings or SerialSettings(), lock_timeout=lock_timeout, lock_dir=lock_dir
-        ).open()
+        link = Link(url, station, settings, lock_timeout=lock_timeout, lock_dir=lock_dir).open()
         controller = cls(link)
         controller._owns_link = True
         return controller
@@ -111,7 +114,7 @@ class Controller:
 
     # --- the one place requests go through ----------------------------------------
 
-    def request(self, request: Request) -> Any:
+    def request(self, request: Request[T]) -> T:
         """Send one request and return its typed value.
 
         Raises :class:`ControllerError` when the controller answers ``E`` + status.
@@ -125,8 +128,8 @@ class Controller:
 
     def _write(
         self,
-        request: Request,
-        readback: Request,
+        request: Request[Ack],
+        readback: Request[T],
         wanted: T,
         old: T | None,
         same: Callable[[T, T], bool] = lambda a, b: a == b,
@@ -168,7 +171,7 @@ class Controller:
                     command=request.payload,
                 ) from exc
 
-    def _idle_before_resend(self, request: Request, lost: WriteUnconfirmed) -> None:
+    def _idle_before_resend(self, request: Request[Ack], lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless LNR, read now, shows every task known and idle."""
         try:
             status = self.status()
@@ -186,8 +189,7 @@ class Controller:
     # --- programs -----------------------------------------------------------------
 
     def read_step(self, ptype: ProgramType, program: int, step: int) -> Step:
-        value: Step = self.request(cmd.read_step(ptype, program, step))
-        return value
+        return self.request(cmd.read_step(ptype, program, step))
 
     def write_step(
         self,
@@ -233,8 +235,7 @@ class Controller:
     # --- timers, registers, offsets, parameters ---------------------------------------
 
     def read_timer(self, number: int) -> str:
-        value: str = self.request(cmd.read_timer(number))
-        return value
+        return self.request(cmd.read_timer(number))
 
     def write_timer(
         self, number: int, value: str, *, old: str | None = None, needs_idle: bool = False
@@ -243,8 +244,7 @@ class Controller:
                     needs_idle=needs_idle)
 
     def read_register(self, number: int) -> str:
-        value: str = self.request(cmd.read_register(number))
-        return value
+        return self.request(cmd.read_register(number))
 
     def write_register(
         self, number: int, value: str, *, old: str | None = None, needs_idle: bool = False
@@ -253,8 +253,7 @@ class Controller:
                     needs_idle=needs_idle)
 
     def read_offset(self, table: int) -> OffsetTable:
-        value: OffsetTable = self.request(cmd.read_offset(table))
-        return value
+        return self.request(cmd.read_offset(table))
 
     def write_offset(
         self,
@@ -268,8 +267,7 @@ class Controller:
                     needs_idle=needs_idle)
 
     def read_parameters(self) -> Parameters:
-        value: Parameters = self.request(cmd.read_parameters())
-        return value
+        return self.request(cmd.read_parameters())
 
     def write_parameters(
         self, value: Parameters, *, old: Parameters | None = None, needs_idle: bool = False
@@ -283,15 +281,13 @@ class Controller:
         return bool(self.request(cmd.read_di_bit(bit)))
 
     def read_di_port(self, port: int) -> int:
-        value: int = self.request(cmd.read_di_port(port))
-        return value
+        return self.request(cmd.read_di_port(port))
 
     def read_do_bit(self, bit: int) -> bool:
         return bool(self.request(cmd.read_do_bit(bit)))
 
     def read_do_port(self, port: int) -> int:
-        value: int = self.request(cmd.read_do_port(port))
-        return value
+        return self.request(cmd.read_do_port(port))
 
     def write_do_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
         """Drive one physical output."""
@@ -305,8 +301,7 @@ class Controller:
         return bool(self.request(cmd.read_mem_bit(bit)))
 
     def read_mem_port(self, port: int) -> int:
-        value: int = self.request(cmd.read_mem_port(port))
-        return value
+        return self.request(cmd.read_mem_port(port))
 
     def write_mem_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
         self._write(cmd.write_mem_bit(bit, on), cmd.read_mem_bit(bit), int(on), _bit(old))
@@ -322,16 +317,13 @@ class Controller:
         An unparsable reply raises (:class:`~harlsync.errors.LinkTimeout` from the
         :class:`~harlsync.errors.ReplyError`): treat any error as "not idle".
         """
-        value: Status = self.request(cmd.read_status())
-        return value
+        return self.request(cmd.read_status())
 
     def version(self) -> str:
-        value: str = self.request(cmd.read_version())
-        return value
+        return self.request(cmd.read_version())
 
     def config(self) -> Config:
-        value: Config = self.request(cmd.read_config())
-        return value
+        return self.request(cmd.read_config())
 
     def write_config(
         self, value: Config, *, old: Config | None = None, needs_idle: bool = False

@@ -16,7 +16,6 @@ import re
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
-from ...link import SerialSettings
 from ...project import yamlio as y
 from ...project.files import (
     SCHEMAS_DIR,
@@ -32,6 +31,7 @@ from ...project.files import (
 )
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
+from ...settings import SerialSettings
 from ..base import Analysis
 from .model import (
     CODE_RE,

@@ -1,10 +1,14 @@
 """HARL-U2 commands: typed requests and the decoding of their replies, sans I/O.
 
 A :class:`Request` is the command letters and its fields; ``payload`` is the text
-between ``station SP`` and ETX.  :func:`decode_reply` turns the reply payload into
-a typed value (a :class:`~harlsync.model.Step`, a timer's text, a
-:class:`~harlsync.model.Config` ...) or an :class:`ErrorReply` for ``E`` + status.
-A reply that does not fit the request raises :class:`~harlsync.errors.ReplyError`.
+between ``station SP`` and ETX.  A request knows the type of its reply: the
+builders below return a ``Request[Step]``, a ``Request[str]`` (a timer's text), a
+``Request[Config]``, a ``Request[Ack]`` for every write ..., and
+:meth:`Request.decode` turns the reply into that type, or into an
+:class:`ErrorReply` for ``E`` + status.  A reply that does not fit the request
+raises :class:`~harlsync.errors.ReplyError`.  A request made from its letters
+alone (:func:`parse_request`, the simulator's side) is a ``Request[object]``
+that decodes by its letters.
 
 Request builders, one per command of the profile::
 
@@ -21,8 +25,9 @@ Request builders, one per command of the profile::
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
-from typing import Any
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Generic, TypeVar, overload
 
 from ....errors import ReplyError
 from ..model import (
@@ -39,6 +44,7 @@ from ..model import (
     TaskState,
 )
 from . import profile
+from .frame import Frame, encode_frame
 
 __all__ = [
     "READ_LETTERS",
@@ -47,6 +53,7 @@ __all__ = [
     "WRITE_LETTERS",
     "Ack",
     "ErrorReply",
+    "Parse",
     "Request",
     "decode_reply",
     "parse_request",
@@ -86,12 +93,37 @@ _BIT_RE = re.compile(r"[01]")
 _BYTE_RE = re.compile(r"[0-9]{1,3}")
 
 
-@dataclass(frozen=True)
-class Request:
-    """One command: its letters (``"LNM"``) and its fields (``("2", "3")``)."""
+T = TypeVar("T")
+#: A request's reply type: a ``Request[Step]`` is a ``Request[object]`` too.
+T_co = TypeVar("T_co", covariant=True)
+
+#: How a request reads the fields of its reply: ``parse(request, fields)``.  It
+#: raises :class:`ValueError` or :class:`IndexError` for a reply that does not fit
+#: (made a :class:`ReplyError` naming the reply), or :class:`ReplyError` itself.
+Parse = Callable[["Request[object]", list[str]], T_co]
+
+
+@dataclass(frozen=True, init=False)
+class Request(Generic[T_co]):
+    """One command: its letters (``"LNM"``), its fields (``("2", "3")``) and how
+    to read its reply.  Requests compare by letters and fields."""
 
     letters: str
-    args: tuple[str, ...] = ()
+    args: tuple[str, ...]
+    parse: Parse[T_co] = field(repr=False, compare=False)
+
+    @overload
+    def __init__(self: Request[object], letters: str, args: tuple[str, ...] = ()) -> None: ...
+
+    @overload
+    def __init__(self, letters: str, args: tuple[str, ...], parse: Parse[T_co]) -> None: ...
+
+    def __init__(
+        self, letters: str, args: tuple[str, ...] = (), parse: Parse[T_co] | None = None
+    ) -> None:
+        object.__setattr__(self, "letters", letters)
+        object.__setattr__(self, "args", args)
+        object.__setattr__(self, "parse", _by_letters if parse is None else parse)
 
     @property
     def payload(self) -> str:
@@ -110,6 +142,31 @@ class Request:
     def volatile(self) -> bool:
         """Its answer may change between two attempts (LNR: the operator pressed start)."""
         return self.letters in VOLATILE_LETTERS
+
+    def encode(self, station: int) -> bytes:
+        """The request frame for ``station``.  Raises :class:`~harlsync.errors.FrameError`
+        for a payload a frame cannot carry."""
+        return encode_frame(station, self.payload)
+
+    def decode(self, frame: Frame) -> T_co | ErrorReply:
+        """The typed value the reply ``frame`` carries (the station is the link's to check).
+
+        Raises :class:`ReplyError` when the frame does not answer this request.
+        """
+        return self.decode_payload(frame.payload)
+
+    def decode_payload(self, payload: str) -> T_co | ErrorReply:
+        """The typed value of the reply payload, or :class:`ErrorReply` for ``E`` + status.
+
+        Raises :class:`ReplyError` when the payload does not fit the request.
+        """
+        if payload.startswith(profile.ERROR_PREFIX):
+            return ErrorReply(payload[len(profile.ERROR_PREFIX) :])
+        fields = payload.split(" ") if payload else []
+        try:
+            return self.parse(self, fields)
+        except (ValueError, IndexError) as exc:
+            raise ReplyError(f"{self.letters}: bad reply {payload!r}: {exc}") from exc
 
     def __str__(self) -> str:
         return self.payload
@@ -140,112 +197,113 @@ def _program_args(ptype: ProgramType, program: int, step: int) -> tuple[str, ...
     return (str(step),)
 
 
-def read_step(ptype: ProgramType, program: int, step: int) -> Request:
-    return Request(f"LN{ptype.letter}", _program_args(ptype, program, step))
+def read_step(ptype: ProgramType, program: int, step: int) -> Request[Step]:
+    return Request(f"LN{ptype.letter}", _program_args(ptype, program, step), _parse_step)
 
 
-def write_step(ptype: ProgramType, program: int, step: int, value: Step) -> Request:
+def write_step(ptype: ProgramType, program: int, step: int, value: Step) -> Request[Ack]:
     problems = value.problems()
     if problems:
         raise ValueError(f"step {step}: {'; '.join(problems)}")
-    return Request(f"SN{ptype.letter}", _program_args(ptype, program, step) + value.tokens)
+    args = _program_args(ptype, program, step) + value.tokens
+    return Request(f"SN{ptype.letter}", args, _parse_ack)
 
 
-def read_timer(number: int) -> Request:
-    return Request("LNT", (str(number),))
+def read_timer(number: int) -> Request[str]:
+    return Request("LNT", (str(number),), _parse_timer)
 
 
-def write_timer(number: int, value: str) -> Request:
+def write_timer(number: int, value: str) -> Request[Ack]:
     _check(TIMER_RE, value, "timer value", "0.00-9.99")
-    return Request("SNT", (str(number), value))
+    return Request("SNT", (str(number), value), _parse_ack)
 
 
-def read_register(number: int) -> Request:
-    return Request("LND", (str(number),))
+def read_register(number: int) -> Request[str]:
+    return Request("LND", (str(number),), _parse_register)
 
 
-def write_register(number: int, value: str) -> Request:
+def write_register(number: int, value: str) -> Request[Ack]:
     _check(REGISTER_RE, value, "register value", "0000-9999")
-    return Request("SND", (str(number), value))
+    return Request("SND", (str(number), value), _parse_ack)
 
 
-def read_offset(table: int) -> Request:
-    return Request("LNL", (str(table),))
+def read_offset(table: int) -> Request[OffsetTable]:
+    return Request("LNL", (str(table),), _parse_offset)
 
 
-def write_offset(table: int, value: OffsetTable) -> Request:
+def write_offset(table: int, value: OffsetTable) -> Request[Ack]:
     problems = value.problems()
     if problems:
         raise ValueError(f"offset table {table}: {'; '.join(problems)}")
-    return Request("SNL", (str(table), *value.values))
+    return Request("SNL", (str(table), *value.values), _parse_ack)
 
 
-def read_di_bit(bit: int) -> Request:
-    return Request("LNIB", (str(bit),))
+def read_di_bit(bit: int) -> Request[int]:
+    return Request("LNIB", (str(bit),), _parse_bit)
 
 
-def read_di_port(port: int) -> Request:
-    return Request("LNID", (str(port),))
+def read_di_port(port: int) -> Request[int]:
+    return Request("LNID", (str(port),), _parse_byte)
 
 
-def read_do_bit(bit: int) -> Request:
-    return Request("LNOB", (str(bit),))
+def read_do_bit(bit: int) -> Request[int]:
+    return Request("LNOB", (str(bit),), _parse_bit)
 
 
-def read_do_port(port: int) -> Request:
-    return Request("LNOD", (str(port),))
+def read_do_port(port: int) -> Request[int]:
+    return Request("LNOD", (str(port),), _parse_byte)
 
 
-def write_do_bit(bit: int, on: bool) -> Request:
-    return Request("SNOB", (str(bit), "1" if on else "0"))
+def write_do_bit(bit: int, on: bool) -> Request[Ack]:
+    return Request("SNOB", (str(bit), "1" if on else "0"), _parse_ack)
 
 
-def write_do_port(port: int, value: int) -> Request:
+def write_do_port(port: int, value: int) -> Request[Ack]:
     _check_byte(value)
-    return Request("SNOD", (str(port), str(value)))
+    return Request("SNOD", (str(port), str(value)), _parse_ack)
 
 
-def read_mem_bit(bit: int) -> Request:
-    return Request("LNBB", (str(bit),))
+def read_mem_bit(bit: int) -> Request[int]:
+    return Request("LNBB", (str(bit),), _parse_bit)
 
 
-def read_mem_port(port: int) -> Request:
-    return Request("LNBD", (str(port),))
+def read_mem_port(port: int) -> Request[int]:
+    return Request("LNBD", (str(port),), _parse_byte)
 
 
-def write_mem_bit(bit: int, on: bool) -> Request:
-    return Request("SNBB", (str(bit), "1" if on else "0"))
+def write_mem_bit(bit: int, on: bool) -> Request[Ack]:
+    return Request("SNBB", (str(bit), "1" if on else "0"), _parse_ack)
 
 
-def write_mem_port(port: int, value: int) -> Request:
+def write_mem_port(port: int, value: int) -> Request[Ack]:
     _check_byte(value)
-    return Request("SNBD", (str(port), str(value)))
+    return Request("SNBD", (str(port), str(value)), _parse_ack)
 
 
-def read_parameters() -> Request:
-    return Request("LNE")
+def read_parameters() -> Request[Parameters]:
+    return Request("LNE", (), _parse_parameters)
 
 
-def write_parameters(value: Parameters) -> Request:
+def write_parameters(value: Parameters) -> Request[Ack]:
     for name, text in value.as_dict().items():
         _check(TOKEN_RE, text, f"parameter {name}", "one token, no spaces")
-    return Request("SNE", value.values)
+    return Request("SNE", value.values, _parse_ack)
 
 
-def read_status() -> Request:
-    return Request("LNR")
+def read_status() -> Request[Status]:
+    return Request("LNR", (), _parse_status)
 
 
-def read_version() -> Request:
-    return Request("LNV")
+def read_version() -> Request[str]:
+    return Request("LNV", (), _parse_version)
 
 
-def read_config() -> Request:
-    return Request("LNX")
+def read_config() -> Request[Config]:
+    return Request("LNX", (), _parse_config)
 
 
-def write_config(value: Config) -> Request:
-    return Request("SNX", tuple(str(n) for n in value.numbers()[:8]))
+def write_config(value: Config) -> Request[Ack]:
+    return Request("SNX", tuple(str(n) for n in value.numbers()[:8]), _parse_ack)
 
 
 def _check(pattern: re.Pattern[str], value: str, what: str, allowed: str) -> None:
@@ -280,8 +338,8 @@ READ_LETTERS = frozenset(k for k in _ARITY if k.startswith("LN"))
 WRITE_LETTERS = frozenset(k for k in _ARITY if k.startswith("SN"))
 
 
-def parse_request(payload: str) -> Request:
-    """Split a request payload into a :class:`Request`.
+def parse_request(payload: str) -> Request[object]:
+    """Split a request payload into a :class:`Request` that decodes by its letters.
 
     Raises :class:`ReplyError` for unknown letters or a wrong number of fields.
     """
@@ -298,8 +356,8 @@ def parse_request(payload: str) -> Request:
 # --- reply decoding ----------------------------------------------------------------
 
 
-def decode_reply(request: Request, payload: str) -> Any:
-    """The typed value the reply to ``request`` carries.
+def decode_reply(request: Request[T], payload: str) -> T | ErrorReply:
+    """The typed value the reply to ``request`` carries: ``request.decode_payload``.
 
     Returns :class:`ErrorReply` for ``E`` + status, :class:`Ack` for an SN
     success, and for LN commands: :class:`Step`, the timer or register text,
@@ -308,21 +366,7 @@ def decode_reply(request: Request, payload: str) -> Any:
 
     Raises :class:`ReplyError` when the payload does not fit the request.
     """
-    if payload.startswith(profile.ERROR_PREFIX):
-        return ErrorReply(payload[len(profile.ERROR_PREFIX) :])
-    fields = payload.split(" ") if payload else []
-    letters = request.letters
-    if request.is_write:
-        if payload != profile.SN_OK:
-            raise ReplyError(f"{letters}: unexpected write reply {payload!r}")
-        return Ack(payload)
-    decoder = _DECODERS.get(letters)
-    if decoder is None:
-        raise ReplyError(f"no decoder for {letters}")
-    try:
-        return decoder(request, fields)
-    except (ValueError, IndexError) as exc:
-        raise ReplyError(f"{letters}: bad reply {payload!r}: {exc}") from exc
+    return request.decode_payload(payload)
 
 
 def _one(fields: list[str], pattern: re.Pattern[str], what: str) -> str:
@@ -331,7 +375,14 @@ def _one(fields: list[str], pattern: re.Pattern[str], what: str) -> str:
     return fields[0]
 
 
-def _decode_step(request: Request, fields: list[str]) -> Step:
+def _parse_ack(request: Request[object], fields: list[str]) -> Ack:
+    payload = " ".join(fields)
+    if payload != profile.SN_OK:
+        raise ReplyError(f"{request.letters}: unexpected write reply {payload!r}")
+    return Ack(payload)
+
+
+def _parse_step(request: Request[object], fields: list[str]) -> Step:
     if not fields:
         raise ValueError("no step number")
     if fields[0] != request.args[-1]:
@@ -344,7 +395,15 @@ def _decode_step(request: Request, fields: list[str]) -> Step:
     return Step.from_tokens(tokens)
 
 
-def _decode_offset(request: Request, fields: list[str]) -> OffsetTable:
+def _parse_timer(request: Request[object], fields: list[str]) -> str:
+    return _one(fields, TIMER_RE, "timer value 0.00-9.99")
+
+
+def _parse_register(request: Request[object], fields: list[str]) -> str:
+    return _one(fields, REGISTER_RE, "register value 0000-9999")
+
+
+def _parse_offset(request: Request[object], fields: list[str]) -> OffsetTable:
     if len(fields) != 8:
         raise ValueError(f"{len(fields)} fields, expected 8 (X Y Z W R C M F)")
     table = OffsetTable.from_values(fields)
@@ -354,20 +413,24 @@ def _decode_offset(request: Request, fields: list[str]) -> OffsetTable:
     return table
 
 
-def _decode_byte(request: Request, fields: list[str]) -> int:
+def _parse_bit(request: Request[object], fields: list[str]) -> int:
+    return int(_one(fields, _BIT_RE, "bit 0 or 1"))
+
+
+def _parse_byte(request: Request[object], fields: list[str]) -> int:
     value = int(_one(fields, _BYTE_RE, "port value 0-255"))
     if value > 255:
         raise ValueError("port value above 255")
     return value
 
 
-def _decode_parameters(request: Request, fields: list[str]) -> Parameters:
+def _parse_parameters(request: Request[object], fields: list[str]) -> Parameters:
     if len(fields) != 13:
         raise ValueError(f"{len(fields)} fields, expected 13")
     return Parameters.from_values(fields)
 
 
-def _decode_status(request: Request, fields: list[str]) -> Status:
+def _parse_status(request: Request[object], fields: list[str]) -> Status:
     if len(fields) % 4 or not fields:
         raise ValueError(f"{len(fields)} fields, expected {profile.TASK_COUNT} x (S K N L)")
     tasks = []
@@ -377,28 +440,43 @@ def _decode_status(request: Request, fields: list[str]) -> Status:
     return Status(tuple(tasks), profile.TASK_COUNT)
 
 
-def _decode_config(request: Request, fields: list[str]) -> Config:
+def _parse_version(request: Request[object], fields: list[str]) -> str:
+    return _one(fields, TOKEN_RE, "version")
+
+
+def _parse_config(request: Request[object], fields: list[str]) -> Config:
     if len(fields) != 11 or not all(_INT_RE.fullmatch(f) for f in fields):
         raise ValueError("expected 11 numbers: P S P S P S P S T M R")
     return Config.from_numbers([int(f) for f in fields])
 
 
-_DECODERS: dict[str, Any] = {
-    "LNA": _decode_step,
-    "LNM": _decode_step,
-    "LNS": _decode_step,
-    "LNH": _decode_step,
-    "LNT": lambda r, f: _one(f, TIMER_RE, "timer value 0.00-9.99"),
-    "LND": lambda r, f: _one(f, REGISTER_RE, "register value 0000-9999"),
-    "LNL": _decode_offset,
-    "LNIB": lambda r, f: int(_one(f, _BIT_RE, "bit 0 or 1")),
-    "LNOB": lambda r, f: int(_one(f, _BIT_RE, "bit 0 or 1")),
-    "LNBB": lambda r, f: int(_one(f, _BIT_RE, "bit 0 or 1")),
-    "LNID": _decode_byte,
-    "LNOD": _decode_byte,
-    "LNBD": _decode_byte,
-    "LNE": _decode_parameters,
-    "LNR": _decode_status,
-    "LNV": lambda r, f: _one(f, TOKEN_RE, "version"),
-    "LNX": _decode_config,
+#: How a request made from its letters alone reads the reply to an LN command.
+_PARSERS: dict[str, Parse[object]] = {
+    "LNA": _parse_step,
+    "LNM": _parse_step,
+    "LNS": _parse_step,
+    "LNH": _parse_step,
+    "LNT": _parse_timer,
+    "LND": _parse_register,
+    "LNL": _parse_offset,
+    "LNIB": _parse_bit,
+    "LNOB": _parse_bit,
+    "LNBB": _parse_bit,
+    "LNID": _parse_byte,
+    "LNOD": _parse_byte,
+    "LNBD": _parse_byte,
+    "LNE": _parse_parameters,
+    "LNR": _parse_status,
+    "LNV": _parse_version,
+    "LNX": _parse_config,
 }
+
+
+def _by_letters(request: Request[object], fields: list[str]) -> object:
+    """The reply as its letters say: an :class:`Ack` for an SN, else the LN's value."""
+    if request.is_write:
+        return _parse_ack(request, fields)
+    parse = _PARSERS.get(request.letters)
+    if parse is None:
+        raise ReplyError(f"no decoder for {request.letters}")
+    return parse(request, fields)

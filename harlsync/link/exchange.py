@@ -1,0 +1,452 @@
+"""One serial line to a controller: send a request, get its reply.
+
+The link is generic over a family's sans-I/O codec (:mod:`harlsync.link.codec`):
+the codec makes and reads the frames, the link owns the port, the deadlines and
+the retries.
+
+How this works::
+
+    exchange(request)
+      | wait out replies still owed by earlier attempts, then drop pending input
+      v
+    write  request.encode(station)  -------------------------------------->  controller
+      |                                                                         |
+    read in short polls into the codec's decoder  <-----------------------  reply
+      |   bad frame, noise            : log, keep reading (the reply may follow)
+      |   frame for another station   : ignore
+      |   frame that does not fit     : discard (a late reply), keep reading
+      v   deadline (codec.reply_timeout) passes without a fitting reply
+    read  : drain input, re-send; after settings.retries re-sends -> LinkTimeout
+    write : never re-sent here -> WriteUnconfirmed (the controller reads the item back)
+
+Late replies.  A reply that missed its deadline may still arrive, and most
+replies carry no echo of what they answer (``LNT 3`` and ``LNT 4`` are both
+answered ``0.50``), so a late reply would pass for the answer to the next
+request.  Every attempt that got no reply therefore leaves a reply *owed* by
+that station; before the next request is sent the link listens until owed
+replies have come (and are discarded) or cannot come any more (``late_window``
+seconds after their deadline).  That costs one ``late_window`` after a reply
+that was really lost, and never returns a value that answers another request.
+
+A retry of the same read may take the earlier attempt's late reply as its own
+answer: the value is the same.  Not so for a volatile read (HARL-U2 LNR, I/O and
+memory bits; IAI status): the task states may have changed between the two attempts, and a late
+"idle" must never pass for the retry's "in execution".  Before re-sending a
+volatile read the link therefore waits out owed replies too, as before a new
+request.
+
+Errors.  Whatever a pyserial call on the port raises (SerialException, OSError,
+but also termios.error from a pty that went away, or TypeError from a port
+closed under it) leaves the link as :class:`PortError`, one line that names the
+port and says what to do; pyserial's own exceptions never get further.
+
+Exclusive access.  The link holds the line lock (:mod:`harlsync.link.lock`) for
+as long as it is open, so processes that share a line never interleave frames.
+Within a process a lock around each exchange does the same for threads sharing
+one :class:`Link`.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import select
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Generic, TypeVar
+
+import serial
+
+from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyError, WriteUnconfirmed
+from ..settings import SerialSettings
+from .codec import Codec, Decoder, Frame, Request
+from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
+from .port import POLL_INTERVAL, SerialPort, describe, fileno, gone_hint, open_port
+
+__all__ = ["Link", "LinkStats"]
+
+log = logging.getLogger(__name__)
+
+#: Retry reasons kept in :attr:`LinkStats.reasons` (the oldest are dropped).
+MAX_REASONS = 500
+
+
+@dataclass
+class LinkStats:
+    """What the link went through, for pull/backup reports.  Counts since creation."""
+
+    exchanges: int = 0
+    retries: int = 0
+    #: attempts whose deadline passed without a fitting reply
+    timeouts: int = 0
+    #: frames with a bad LRC or malformed
+    bad_frames: int = 0
+    #: bytes discarded as line noise (outside any frame)
+    noise_bytes: int = 0
+    #: frames for another station, ignored
+    other_station: int = 0
+    #: well-formed frames for our station that did not answer the request
+    unfitting: int = 0
+    #: replies to earlier attempts that arrived after their deadline, discarded
+    late_replies: int = 0
+    #: writes whose reply was lost (WriteUnconfirmed)
+    unconfirmed_writes: int = 0
+    #: one line per retry or unconfirmed write: "port, station, command: reason"
+    reasons: list[str] = field(default_factory=list)
+
+    def note(self, reason: str) -> None:
+        self.reasons.append(reason)
+        del self.reasons[:-MAX_REASONS]
+
+
+@dataclass(frozen=True)
+class _Failure:
+    """Why one attempt got no reply."""
+
+    reason: str
+    cause: ProtocolError | None = None
+
+
+F = TypeVar("F", bound=Frame)
+T = TypeVar("T")
+
+
+class Link(Generic[F]):
+    """One port (and the default station on it), opened by pyserial URL, speaking
+    the frames of ``codec``.
+
+    ``url`` is a device path (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL
+    (``socket://host:port``, ``rfc2217://``, ``loop://``, ``spy://``, ``sim://``).
+    ``settings`` default to the codec's.  ``lock_timeout`` is the seconds to wait
+    for another harlsync to release the port (0: fail at once, negative: wait for
+    ever).  ``late_window`` is how long after its deadline a missed reply may still
+    arrive (default: that reply's deadline).
+    """
+
+    def __init__(
+        self,
+        url: str,
+        station: int = 1,
+        settings: SerialSettings | None = None,
+        *,
+        codec: Codec[F],
+        lock_timeout: float = DEFAULT_LOCK_TIMEOUT,
+        lock_dir: str | os.PathLike[str] | None = None,
+        late_window: float | None = None,
+    ) -> None:
+        self.url = url
+        self.station = station
+        self.codec = codec
+        self.settings = codec.settings if settings is None else settings
+        self.lock_timeout = lock_timeout
+        self.lock_path = lock_path(url, lock_dir)
+        self.late_window = late_window
+        self.stats = LinkStats()
+        self._port: SerialPort | None = None
+        self._fd: int | None = None  # the port's file descriptor, when select() can wait on it
+        self._line_lock = LineLock(url, self.lock_path)
+        self._lock = threading.RLock()
+        self._decoder: Decoder[F] = codec.decoder()
+        self._rx = bytearray()  # received bytes not yet logged; ends with the decoder's
+        self._dropped_seen = 0
+        self._owed: dict[int, tuple[int, float]] = {}  # station -> (replies, due by)
+        self._replied_at = 0.0  # when the last reply was taken, for the codec's reply_gap
+
+    # --- open / close ---------------------------------------------------------------
+
+    @property
+    def is_open(self) -> bool:
+        return self._port is not None
+
+    def open(self) -> Link[F]:
+        """Take the port's lock and open it.
+
+        Raises :class:`PortBusyError` when another harlsync holds the port, and
+        :class:`PortError` when it cannot be opened.
+        """
+        with self._lock:
+            if self._port is not None:
+                return self
+            self._line_lock.acquire(self.lock_timeout)
+            try:
+                port = open_port(self.url, self.settings, self._write_timeout)
+            except BaseException:
+                self._line_lock.release()
+                raise
+            self._port = port
+            self._fd = fileno(port)
+            self._decoder = self.codec.decoder()
+            self._rx.clear()
+            self._dropped_seen = 0
+            self._owed.clear()
+            log.info("opened %s (station %d, %s)", self.url, self.station, self.settings)
+        return self
+
+    def close(self) -> None:
+        """Close the port and give its lock back.
+
+        Never raises for the port itself: close runs on the way out of every
+        job, and a port that fails to close has nothing left to lose (every
+        reply was already taken); raising would fail a finished job or hide the
+        error that is already on its way out.  It is logged as a warning.
+        """
+        with self._lock:
+            port, self._port, self._fd = self._port, None, None
+            try:
+                if port is not None:
+                    port.close()
+            except Exception as exc:  # noqa: BLE001  any failure of pyserial: logged, see above
+                log.warning("port %s: closing failed: %s", self.url, describe(exc))
+            finally:
+                self._line_lock.release()
+
+    def __enter__(self) -> Link[F]:
+        return self.open()
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # --- exchange -------------------------------------------------------------------
+
+    def exchange(self, request: Request[F, T], *, station: int | None = None) -> T:
+        """Send ``request`` to ``station`` (default: the link's) and return its reply.
+
+        Returns what ``request.decode`` makes of the reply: a typed value (for the
+        HARL-U2 and IAI codecs also an ``ErrorReply``, a value the caller inspects).
+        Raises :class:`LinkTimeout` when a read got no valid reply after every
+        retry, :class:`WriteUnconfirmed` when a write got none (it is never re-sent
+        here), :class:`PortError` when the port fails.
+        """
+        st = self.station if station is None else station
+        frame = request.encode(st)
+        command = request.payload
+        timeout = self.codec.reply_timeout(request, self.settings)
+        late_window = timeout if self.late_window is None else self.late_window
+        with self._lock:
+            port = self._port
+            if port is None:
+                raise LinkError("link is not open", port=self.url, station=st)
+            self.stats.exchanges += 1
+            self._settle(port, st, command, wait=True)
+            attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
+            failure = _Failure("not sent")
+            for attempt in range(attempts):
+                if attempt:
+                    self.stats.retries += 1
+                    self._note(
+                        logging.WARNING,
+                        st,
+                        command,
+                        f"retry {attempt}/{attempts - 1} after {failure.reason}",
+                    )
+                    self._settle(port, st, command, wait=request.volatile)
+                sent = self._send(port, frame, st, command)
+                # A reply still owed may be this attempt's (the earlier one's was taken):
+                # it can come until this attempt's late window ends.
+                due_by = sent + timeout + late_window
+                if st in self._owed:
+                    count, due = self._owed[st]
+                    self._owed[st] = (count, max(due, due_by))
+                result = self._await(port, request, st, timeout)
+                if not isinstance(result, _Failure):
+                    return result.value
+                failure = result
+                self.stats.timeouts += 1
+                count, due = self._owed.get(st, (0, 0.0))
+                self._owed[st] = (count + 1, max(due, due_by))
+            if request.is_write:
+                self.stats.unconfirmed_writes += 1
+                self._note(logging.WARNING, st, command, f"write unconfirmed: {failure.reason}")
+                raise WriteUnconfirmed(
+                    f"no valid reply to this write ({failure.reason}); it may or may not have "
+                    "taken: read the item back before sending it again",
+                    port=self.url,
+                    station=st,
+                    command=command,
+                ) from failure.cause
+            raise LinkTimeout(
+                f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
+                f"{self.codec.no_reply_hint(st)}",
+                port=self.url,
+                station=st,
+                command=command,
+            ) from failure.cause
+
+    def _note(self, level: int, station: int, command: str, reason: str) -> None:
+        line = f"port {self.url}, station {station}, command {command}: {reason}"
+        self.stats.note(line)
+        log.log(level, "%s", line)
+
+    @property
+    def _write_timeout(self) -> float:
+        return max(self.settings.timeout, 1.0)
+
+    def _send(self, port: SerialPort, frame: bytes, station: int, command: str) -> float:
+        gap = self._replied_at + self.codec.reply_gap - time.monotonic()
+        if gap > 0:  # the controller is not ready for the next command yet
+            time.sleep(gap)
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("%s -> %s", self.url, _hex(frame))
+        # No flush(): tcdrain waits, without any timeout, until the UART has sent the
+        # frame (for ever if flow control holds it), and the reply deadline is far
+        # longer than a request's time on the wire (1 s against 12 ms at 9600 baud).
+        try:
+            port.write(frame)
+        except serial.SerialTimeoutException as exc:
+            raise PortError(
+                f"write timed out after {self._write_timeout:g} s: the line takes no data; check "
+                "the cable and the rtscts (hardware flow control) setting in robot.yaml",
+                port=self.url,
+                station=station,
+                command=command,
+            ) from exc
+        except Exception as exc:  # any failure of pyserial; see the module docstring
+            raise self._gone(exc, station, command, " while sending") from exc
+        return time.monotonic()
+
+    def _read(self, port: SerialPort, station: int, command: str, *, block: bool) -> bytes:
+        """Whatever input is there; with ``block``, wait up to one poll for a byte."""
+        try:
+            if block and self._fd is not None:
+                # One select, then one read of all that came: a blocking read(1) and a
+                # second read of the rest would cost two more syscalls per wake-up.
+                select.select([self._fd], [], [], POLL_INTERVAL)
+                block = False
+            waiting = port.in_waiting
+            data: bytes = port.read(waiting or 1) if waiting or block else b""
+            if data and not waiting and port.in_waiting:  # the rest of what arrived with it
+                data += port.read(port.in_waiting)
+        except Exception as exc:  # any failure of pyserial; see the module docstring
+            raise self._gone(exc, station, command, "") from exc
+        if data:
+            self._rx += data
+            self._decoder.feed(data)
+        return data
+
+    def _gone(self, exc: Exception, station: int, command: str, doing: str) -> PortError:
+        return PortError(
+            f"port went away{doing}: {describe(exc)}; {gone_hint(self.url)}",
+            port=self.url,
+            station=station,
+            command=command,
+        )
+
+    def _log_rx(self) -> None:
+        """Log, as one hex line, the received bytes the decoder is done with.
+
+        Called after each frame (or bad frame, or noise) is taken from the
+        decoder, so a reply that came in single bytes is still one line.
+        """
+        done = len(self._rx) - self._decoder.pending
+        if done > 0:
+            if log.isEnabledFor(logging.DEBUG):
+                log.debug("%s <- %s", self.url, _hex(bytes(self._rx[:done])))
+            del self._rx[:done]
+
+    def _count_noise(self) -> None:
+        self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
+        self._dropped_seen = self._decoder.dropped
+
+    def _settle(self, port: SerialPort, station: int, command: str, *, wait: bool) -> None:
+        """Discard pending input; with ``wait``, first let replies owed by ``station`` come."""
+        while True:
+            count, due = self._owed.get(station, (0, 0.0))
+            if count and time.monotonic() >= due:
+                log.debug(
+                    "%s station %d: %d missed reply(ies) never came", self.url, station, count
+                )
+                del self._owed[station]
+                count = 0
+            data = self._read(port, station, command, block=wait and count > 0)
+            self._discard_frames(station)
+            if not data and not (wait and count):
+                break
+        self._decoder.clear()
+        self._log_rx()
+        self._count_noise()
+
+    def _frames(self, station: int) -> Iterator[F | ProtocolError]:
+        """What the buffered bytes hold for ``station``: its frames, and each bad frame
+        as the error it raised (counted).  Frames for other stations are counted and
+        skipped."""
+        while True:
+            try:
+                frame = self._decoder.next_frame()
+            except ProtocolError as exc:
+                self._log_rx()
+                self.stats.bad_frames += 1
+                yield exc
+                continue
+            self._log_rx()
+            if frame is None:
+                return
+            if frame.station != station:
+                self.stats.other_station += 1
+                log.debug("%s: ignored a frame for station %d", self.url, frame.station)
+                continue
+            yield frame
+
+    def _discard_frames(self, station: int) -> None:
+        for item in self._frames(station):
+            if isinstance(item, ProtocolError):
+                log.info("%s: discarded bad frame: %s", self.url, item)
+            else:
+                self._late_reply(station, item.payload)
+
+    def _late_reply(self, station: int, payload: str) -> None:
+        count, due = self._owed.get(station, (0, 0.0))
+        self.stats.late_replies += 1
+        log.info("%s station %d: discarded late reply %r", self.url, station, payload)
+        if count > 1:
+            self._owed[station] = (count - 1, due)
+        else:
+            self._owed.pop(station, None)
+
+    def _await(
+        self, port: SerialPort, request: Request[F, T], station: int, timeout: float
+    ) -> _Reply[T] | _Failure:
+        """The decoded reply, or a :class:`_Failure` once ``timeout`` has passed."""
+        deadline = time.monotonic() + timeout
+        failure = _Failure(f"no reply within {timeout:g} s")
+        command = request.payload
+        while True:
+            for frame in self._frames(station):
+                if isinstance(frame, ProtocolError):
+                    log.info("%s station %d %s: bad frame: %s", self.url, station, command, frame)
+                    failure = _Failure(f"bad frame: {frame}", frame)
+                    continue
+                try:
+                    value = request.decode(frame)
+                except ReplyError as exc:
+                    self.stats.unfitting += 1
+                    log.info("%s station %d %s: discarded: %s", self.url, station, command, exc)
+                    failure = _Failure(f"reply does not fit: {exc}", exc)
+                    if station in self._owed:
+                        self._late_reply(station, frame.payload)
+                    continue
+                self._count_noise()
+                self._replied_at = time.monotonic()
+                return _Reply(value)
+            if time.monotonic() >= deadline:
+                self._count_noise()
+                return failure
+            self._read(port, station, command, block=True)
+
+
+@dataclass(frozen=True)
+class _Reply(Generic[T]):
+    """The value an attempt got (a reply may decode to None, so it is wrapped)."""
+
+    value: T
+
+
+def _hex(data: bytes) -> str:
+    return data.hex(" ").upper()

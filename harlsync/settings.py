@@ -1,0 +1,32 @@
+"""A robot's serial settings: plain data, no pyserial and no family.
+
+The project store reads and writes these, the link opens a port with them, and
+each family supplies its own defaults (its codec's ``settings``).  The defaults
+here are the ones every existing robot.yaml was written against (the HARL-U2
+profile's: 9600 8N1, no flow control, a 1 s reply deadline, 3 read retries), so a
+file that leaves a setting out means what it always meant.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["SerialSettings"]
+
+
+@dataclass(frozen=True)
+class SerialSettings:
+    """Per-robot serial settings and reply deadline.
+
+    ``timeout`` is the seconds a reply may take (a family's codec may stretch it
+    per request, for replies that take long on the wire); ``retries`` how many
+    times a read (never a write) is re-sent after a lost or garbled reply.
+    """
+
+    baudrate: int = 9600
+    bytesize: int = 8
+    parity: str = "N"
+    stopbits: float = 1
+    rtscts: bool = False
+    timeout: float = 1.0
+    retries: int = 3
