@@ -81,19 +81,24 @@ class _Located(HarlsyncError):
         port: str | None = None,
         station: int | None = None,
         command: str | None = None,
+        station_text: str | None = None,
     ) -> None:
         self.message = message
         self.port = port
         self.station = station
         self.command = command
+        #: the station as the family writes it (IAI: hex), for the message
+        self.station_text = station_text if station_text is not None else (
+            None if station is None else str(station)
+        )
         super().__init__(self._render())
 
     def _render(self) -> str:
         where = []
         if self.port is not None:
             where.append(f"port {self.port}")
-        if self.station is not None:
-            where.append(f"station {self.station}")
+        if self.station_text is not None:
+            where.append(f"station {self.station_text}")
         if self.command is not None:
             where.append(f"command {self.command}")
         return f"{', '.join(where)}: {self.message}" if where else self.message
@@ -126,7 +131,8 @@ class WriteUnconfirmed(LinkError):
 class ControllerError(_Located):
     """The controller answered ``E`` + status where the operation cannot go on.
 
-    ``status`` is the raw status text, as the HRCS-R3 manual lists it.
+    ``status`` is the raw status text, as the HRCS-R3 manual lists it (for IAI,
+    the 3-hex code of an ``&`` reply); ``message`` words it for the family.
     """
 
     def __init__(
@@ -136,13 +142,16 @@ class ControllerError(_Located):
         port: str | None = None,
         station: int | None = None,
         command: str | None = None,
+        message: str | None = None,
+        station_text: str | None = None,
     ) -> None:
         self.status = status
         super().__init__(
-            f"controller answered error status E{status}",
+            message or f"controller answered error status E{status}",
             port=port,
             station=station,
             command=command,
+            station_text=station_text,
         )
 
 

@@ -233,7 +233,8 @@ class Link(Generic[F]):
         with self._lock:
             port = self._port
             if port is None:
-                raise LinkError("link is not open", port=self.url, station=st)
+                raise LinkError("link is not open", port=self.url, station=st,
+                                station_text=self.codec.station_text(st))
             self.stats.exchanges += 1
             self._settle(port, st, command, wait=True)
             attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
@@ -269,14 +270,14 @@ class Link(Generic[F]):
                     f"no valid reply to this write ({failure.reason}); it may or may not have "
                     "taken: read the item back before sending it again",
                     port=self.url,
-                    station=st,
+                    station=st, station_text=self.codec.station_text(st),
                     command=command,
                 ) from failure.cause
             raise LinkTimeout(
                 f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
                 f"{self.codec.no_reply_hint(st)}",
                 port=self.url,
-                station=st,
+                station=st, station_text=self.codec.station_text(st),
                 command=command,
             ) from failure.cause
 
@@ -305,7 +306,7 @@ class Link(Generic[F]):
                 f"write timed out after {self._write_timeout:g} s: the line takes no data; check "
                 "the cable and the rtscts (hardware flow control) setting in robot.yaml",
                 port=self.url,
-                station=station,
+                station=station, station_text=self.codec.station_text(station),
                 command=command,
             ) from exc
         except Exception as exc:  # any failure of pyserial; see the module docstring
@@ -335,7 +336,7 @@ class Link(Generic[F]):
         return PortError(
             f"port went away{doing}: {describe(exc)}; {gone_hint(self.url)}",
             port=self.url,
-            station=station,
+            station=station, station_text=self.codec.station_text(station),
             command=command,
         )
 

@@ -46,6 +46,9 @@ class Codec:
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
 
+    def station_text(self, station: int) -> str:
+        return f"{station:02X}"
+
     def no_reply_hint(self, station: int) -> str:
         return (
             "check that the controller speaks protocol B (I/O parameter No. 90 = 2), that its "

@@ -1,0 +1,94 @@
+"""IAI protocol B as the engine sees it: its catalogue, files, robot and line."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ...project.robot import Robot
+from ..base import Analysis, Driver
+from . import layout, profile
+from .catalogue import CATALOGUE
+from .codec import SETTINGS
+
+__all__ = ["FAMILY", "IaiFamily"]
+
+
+class IaiFamily:
+    name = "iai"
+    title = "IAI (protocol B: TTA, X-SEL, SSEL/ASEL/PSEL, TT)"
+    catalogue = CATALOGUE
+    format = layout.FORMAT
+    directories: tuple[str, ...] = ()
+    deploy_notes = (profile.PERSISTENCE_NOTICE,)
+
+    def analyse(self, files: Mapping[str, bytes]) -> Analysis:
+        return layout.analyse(files)
+
+    def render_files(self, robot: Robot, data: layout.IaiData) -> dict[str, str]:
+        return layout.render_files(robot, data)
+
+    def data_problems(self, data: layout.IaiData) -> list[str]:
+        return [
+            f"position {n}: {problem}"
+            for n, position in sorted(data.positions.items())
+            for problem in position.problems()
+        ]
+
+    def project_files(self, root: Path) -> list[str]:
+        return [name for name in layout.ROOT_FILES if (root / name).is_file()]
+
+    def stale_files(
+        self, root: Path, texts: Mapping[str, str], robot: Robot, data: layout.IaiData
+    ) -> list[str]:
+        return []
+
+    def schemas(self) -> dict[str, str]:
+        return layout.SCHEMAS.files()
+
+    def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
+        return Robot(
+            family=self.name, name=name, port=port,
+            station=profile.DEFAULT_STATION if station is None else station,
+            serial=SETTINGS,
+            options={"model": profile.DEFAULT_MODEL, "first": profile.DEFAULT_POSITION_RANGE[0],
+                     "last": profile.DEFAULT_POSITION_RANGE[1]},
+            **options,
+        )
+
+    def parse_station(self, text: str) -> int:
+        try:
+            station = int(text, 16) if len(text) <= 2 else -1
+        except ValueError:
+            station = -1
+        if not 0 <= station <= 0xFF:
+            raise ValueError(f"station {text!r} is out of range (allowed: two hex digits, "
+                             "00-FF; 99 by default)")
+        return station
+
+    def format_station(self, station: int) -> str:
+        return f"{station:02X}"
+
+    def connect(
+        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float
+    ) -> Driver:
+        from .controller import Controller
+        from .driver import IaiDriver
+
+        first, last = layout.position_range(robot)
+        controller = Controller.from_url(
+            port or robot.port,
+            station if station is not None else robot.station,
+            robot.serial,
+            lock_timeout=lock_timeout,
+            model=str(robot.options.get("model", profile.DEFAULT_MODEL)),
+            axes=robot.options.get("axes"),
+            first=first,
+            last=last,
+        )
+        return IaiDriver(controller)
+
+
+#: The family, as the registry hands it out.
+FAMILY = IaiFamily()

@@ -1,0 +1,66 @@
+"""A write whose reply may be lost, confirmed by reading the item back, never
+blindly repeated (every family's controller uses it)::
+
+    send  --reply-->                                  done
+      |  no reply (WriteUnconfirmed)
+      v
+    read back:  what was written   -> the write took: done
+                what was there     -> it did not take: check (the interlock), send once more
+                anything else      -> WriteUnconfirmed (someone else changed it, or worse)
+
+``before_resend`` runs before the second send: a family checks there that the
+robot is still idle (raising InterlockError stops the re-send).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import TypeVar
+
+from ..errors import WriteUnconfirmed
+
+__all__ = ["confirmed_write"]
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+
+def confirmed_write(
+    send: Callable[[], object],
+    readback: Callable[[], T],
+    wanted: T,
+    old: T,
+    *,
+    before_resend: Callable[[WriteUnconfirmed], None],
+    show: Callable[[T], str] = repr,
+    what: str = "the item",
+) -> None:
+    """Send a write; when its reply is lost, decide on what ``readback`` returns.
+
+    Raises WriteUnconfirmed when neither the new nor the old value reads back,
+    or when a second send still did not take.
+    """
+    for attempt in (1, 2):
+        try:
+            send()
+            return
+        except WriteUnconfirmed as exc:
+            now = readback()
+            if now == wanted:
+                log.info("%s: reply lost but the write took (read back)", exc)
+                return
+            if attempt == 1 and now == old:
+                before_resend(exc)
+                log.warning("%s: the write did not take (read back): sending it once more", exc)
+                continue
+            if attempt == 1:
+                why = (f"{what} reads back {show(now)}: neither what was written "
+                       f"({show(wanted)}) nor what was there before ({show(old)})")
+            else:
+                why = f"sent twice, and {what} still reads back {show(now)}"
+            raise WriteUnconfirmed(
+                f"write not confirmed: {why}", port=exc.port, station=exc.station,
+                command=exc.command, station_text=exc.station_text,
+            ) from exc
