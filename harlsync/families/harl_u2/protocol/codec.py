@@ -34,6 +34,9 @@ class Codec:
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
 
+    def station_text(self, station: int) -> str:
+        return str(station)
+
     def no_reply_hint(self, station: int) -> str:
         return (
             "check the station number (pendant: SYSTEM GENERATION > MAINTENANCE > STATION NO.), "
