@@ -503,6 +503,8 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
                 if w is not r.failed:
                     print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
             print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
+        for note in r.notes:
+            print(f"harlsync: note: {note}", file=sys.stderr)
         raise failed.cause from failed
     _warn(result.warnings)
     if result.plan is None or result.plan.empty:
@@ -510,6 +512,8 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
     else:
         _print(f"{action}: wrote and verified {len(result.written)} item(s); "
                f"snapshot {result.snapshot}; audit {result.audit_log}")
+    for note in result.notes:
+        _print(f"note: {note}")
     return EXIT_OK
 
 

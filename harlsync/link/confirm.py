@@ -34,6 +34,7 @@ def confirmed_write(
     old: T,
     *,
     before_resend: Callable[[WriteUnconfirmed], None],
+    same: Callable[[T, T], bool] = lambda a, b: a == b,
     show: Callable[[T], str] = repr,
     what: str = "the item",
 ) -> None:
@@ -48,10 +49,10 @@ def confirmed_write(
             return
         except WriteUnconfirmed as exc:
             now = readback()
-            if now == wanted:
+            if same(now, wanted):
                 log.info("%s: reply lost but the write took (read back)", exc)
                 return
-            if attempt == 1 and now == old:
+            if attempt == 1 and same(now, old):
                 before_resend(exc)
                 log.warning("%s: the write did not take (read back): sending it once more", exc)
                 continue

@@ -334,6 +334,8 @@ class PushResult:
     audit_log: Path | None = None
     #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
     warnings: list[str] = field(default_factory=list)
+    #: What the family says after anything was written (IAI: not yet in flash ROM).
+    notes: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -497,6 +499,10 @@ def _deploy(
             record["failed_item"] = result.failed.name
         if result.warnings:
             record["warnings"] = result.warnings
+        if result.written or result.failed is not None:
+            result.notes = list(families.get(robot.family).deploy_notes)
+            if result.notes:
+                record["notes"] = result.notes
         if driver is not None:
             driver.close()
         try:

@@ -39,6 +39,7 @@ from typing import TypeVar
 from ...errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
 from ...link import Link as SharedLink
+from ...link.confirm import confirmed_write
 from ...settings import SerialSettings
 from .link import Link
 from .model import (
@@ -143,33 +144,19 @@ class Controller:
         needs_idle = request.unsafe or needs_idle
         if old is None:
             old = self.request(readback)
-        for attempt in (1, 2):
-            try:
-                self.request(request)
-                return
-            except WriteUnconfirmed as exc:
-                now = self.request(readback)
-                if same(now, wanted):
-                    log.info("%s: reply lost but the write took (read back)", exc)
-                    return
-                if attempt == 1 and same(now, old):
-                    if needs_idle:
-                        self._idle_before_resend(request, exc)
-                    log.warning("%s: the write did not take (read back): sending it once more", exc)
-                    continue
-                if attempt == 1:
-                    why = (
-                        f"{readback.payload} reads back {_show(now)}: neither what was written "
-                        f"({_show(wanted)}) nor what was there before ({_show(old)})"
-                    )
-                else:
-                    why = f"sent twice, and {readback.payload} still reads back {_show(now)}"
-                raise WriteUnconfirmed(
-                    f"write not confirmed: {why}",
-                    port=self.port,
-                    station=self.station,
-                    command=request.payload,
-                ) from exc
+        confirmed_write(
+            lambda: self.request(request),
+            lambda: self.request(readback),
+            wanted,
+            old,
+            before_resend=(
+                (lambda lost: self._idle_before_resend(request, lost)) if needs_idle
+                else (lambda lost: None)
+            ),
+            same=same,
+            show=_show,
+            what=readback.payload,
+        )
 
     def _idle_before_resend(self, request: Request[Ack], lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless LNR, read now, shows every task known and idle."""
