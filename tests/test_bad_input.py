@@ -273,6 +273,13 @@ for _file in FILES:
         f"{_file}:2",
         "format 2 is newer than this harlsync understands (1): upgrade harlsync",
     )
+    # Issue 11: the same key, spelled as JSON spells it, is the same newer format.
+    DEFECTS[(_file, "newer format, quoted key")] = (
+        "format: 1\n",
+        '"format": 2\n',
+        f"{_file}:2",
+        "format 2 is newer than this harlsync understands (1): upgrade harlsync",
+    )
 
 
 def break_file(project: Path, file: str, old: str, new: str) -> None:
@@ -313,8 +320,8 @@ def test_a_broken_project_file_is_one_line_naming_file_and_line_and_nothing_is_s
 
 @pytest.mark.parametrize(
     ("file", "defect"),
-    [k for k in DEFECTS if k[0] == "robot.yaml" or k[1] == "newer format"],
-    ids=[f"{f}-{d}" for f, d in DEFECTS if f == "robot.yaml" or d == "newer format"],
+    [k for k in DEFECTS if k[0] == "robot.yaml" or k[1].startswith("newer format")],
+    ids=[f"{f}-{d}" for f, d in DEFECTS if f == "robot.yaml" or d.startswith("newer format")],
 )
 def test_a_pull_into_a_project_it_cannot_read_or_must_not_overwrite_changes_nothing(
     project: Path,

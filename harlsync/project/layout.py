@@ -44,6 +44,7 @@ __all__ = [
     "SCHEMAS_DIR",
     "Analysis",
     "analyse",
+    "newer_format",
     "program_key",
     "program_path",
     "render_controller",
@@ -360,23 +361,45 @@ def _read(name: str, kind: str, raw: bytes, issues: list[Issue]) -> tuple[y.Pars
     return doc, not found
 
 
+def newer_format(name: str, raw: bytes) -> Issue | None:
+    """Why the file ``name`` with content ``raw`` must not be read or overwritten:
+    its format is newer than :data:`FORMAT`.  None when it is not, or when the text
+    cannot be parsed at all (that file is broken, not newer).
+
+    The format is read by the YAML parser, as a load reads it, never matched as
+    text: ``"format": 2`` is the same key as ``format: 2``.
+    """
+    try:
+        doc = y.parse(raw.decode("utf-8"))
+    except (UnicodeDecodeError, y.YamlSyntaxError):
+        return None
+    return _newer(name, doc)
+
+
+def _newer(name: str, doc: y.Parsed) -> Issue | None:
+    value = doc.data.get("format") if isinstance(doc.data, dict) else None
+    # Compared as a Decimal: format 10**5000 has no str(int).
+    if not (isinstance(value, y.Number) and value.integral and value > FORMAT):
+        return None
+    return Issue(
+        name,
+        doc.line(("format",)),
+        None,
+        f"format {show(value)} is newer than this harlsync understands ({FORMAT}): "
+        "upgrade harlsync",
+        fatal=True,
+    )
+
+
 def _migrate(name: str, kind: str, doc: y.Parsed, issues: list[Issue]) -> bool:
     """Bring ``doc`` to :data:`FORMAT`; ``False`` (with an issue) when it cannot be."""
     value = doc.data.get("format")
     if not (isinstance(value, y.Number) and value.integral):
         return True  # the schema reports it
     line = doc.line(("format",))
-    if value > FORMAT:  # compared as a Decimal: format 10**5000 has no str(int)
-        issues.append(
-            Issue(
-                name,
-                line,
-                None,
-                f"format {show(value)} is newer than this harlsync understands ({FORMAT}): "
-                "upgrade harlsync",
-                fatal=True,
-            )
-        )
+    newer = _newer(name, doc)
+    if newer is not None:
+        issues.append(newer)
         return False
     number = int(value)
     while number < FORMAT:

@@ -43,11 +43,11 @@ from pathlib import Path
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
 from ..model import RobotData
 from .layout import (
-    FORMAT,
     PROGRAMS_DIR,
     ROOT_FILES,
     SCHEMAS_DIR,
     analyse,
+    newer_format,
     program_key,
     render_files,
 )
@@ -193,20 +193,11 @@ def save_project(
     return sorted([*changed, *stale])
 
 
-_FORMAT_LINE = re.compile(rb"^format:[ \t]*([0-9]+)[ \t]*(?:#.*)?$", re.MULTILINE)
-
-
 def _newer_format(root: Path, name: str) -> str | None:
     """Why the file ``name`` must not be overwritten: it has a newer format."""
     content = _current(root / name) if name.endswith(".yaml") else None
-    match = _FORMAT_LINE.search(content) if content else None
-    if match is None or int(match.group(1)) <= FORMAT:
-        return None
-    line = content.count(b"\n", 0, match.start()) + 1  # type: ignore[union-attr]
-    return (
-        f"{name}:{line}: format {int(match.group(1))} is newer than this harlsync "
-        f"understands ({FORMAT}): upgrade harlsync (the file was not overwritten)"
-    )
+    issue = newer_format(name, content) if content else None
+    return f"{issue} (the file was not overwritten)" if issue else None
 
 
 def _current(path: Path) -> bytes | None:
