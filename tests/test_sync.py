@@ -535,3 +535,52 @@ def test_a_backup_commit_never_takes_the_leftovers_of_a_save_in_progress(tmp_pat
     assert git(tmp_path, "show", "--name-only", "--format=", "HEAD").split() == [
         "cell/timers.yaml"
     ]
+
+
+class Clock(datetime):
+    """The machine's clock, set by the test: it jumps where a real one might."""
+
+    at = datetime(2026, 11, 24, 12, 0)
+
+    @classmethod
+    def now(cls, tz=None):  # type: ignore[no-untyped-def, override]
+        return cls.at.replace(tzinfo=tz)
+
+
+def test_issue_11_rollback_restores_the_state_before_the_last_push_whatever_the_clock_did(
+    served, repo, monkeypatch
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    monkeypatch.setattr(engine, "datetime", Clock)
+    Clock.at = datetime(2027, 3, 1, 12, 0)  # a year ahead
+    edit_timer(project, 1, "1.11", repo)
+    engine.push(project, YES, port=url)
+    before_the_last_push = SimState.from_robot_data(sim.stations[1].data)
+    Clock.at = datetime(2026, 3, 1, 12, 0)  # set right again: the clock fell back a year
+    edit_timer(project, 1, "2.22", repo)
+    engine.push(project, YES, port=url)
+    assert len(engine.snapshots(project)) == 2
+    engine.rollback(project, YES, port=url)
+    assert same_robot(sim.stations[1], before_the_last_push)
+
+
+def test_issue_11_snapshots_named_by_an_older_harlsync_are_still_listed_and_come_first(
+    served, repo
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 1, "1.11", repo)
+    engine.push(project, YES, port=url)
+    [taken] = engine.snapshots(project)
+    legacy = taken.with_name("20991231T235959.000000Z-push")  # an old name, from a fast clock
+    taken.rename(legacy)
+    assert engine.snapshots(project) == [legacy]
+    edit_timer(project, 1, "2.22", repo)
+    engine.push(project, YES, port=url)
+    [older, newer] = engine.snapshots(project)
+    assert older == legacy and load_project(newer).data.timers[1] == "1.11"
+    engine.rollback(project, YES, port=url)
+    assert sim.stations[1].data.timers[1] == "1.11"
+    engine.rollback(project, YES, port=url, snapshot=legacy)
+    assert sim.stations[1].data.timers[1] == load_project(legacy).data.timers[1] != "1.11"

@@ -10,7 +10,7 @@ before the last check)::
     LNR: robot idle?                 (interlock, before the long read)
     read the live robot, make the plan
     stale plan? unwritable? reconfiguration allowed? confirmed?
-    snapshot the live robot          (DIR/.harlsync/snapshots/<time>-push/)
+    snapshot the live robot          (DIR/.harlsync/snapshots/<n>-<time>-push/)
     audit "start" record, the plan   (write-ahead, fsynced)
     for each write, in the safe order:
         read the item: as planned?   (drift: edited on the pendant since the read)
@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -377,12 +378,26 @@ def _interlock(driver: Driver, robot: Robot, before: str) -> None:
         )
 
 
+#: A snapshot's name: a sequence number, which orders the snapshots whatever the clock
+#: did between two pushes, then the time (for people) and the action:
+#: ``000012-20261124T202350.294650Z-push``.  Names an older harlsync gave have no
+#: number (``20261124T202350.294650Z-push``): they come before every numbered one.
+_SNAPSHOT_NAME = re.compile(r"(?:(?P<number>[0-9]+)-)?[0-9]{8}T[0-9.]+Z-[a-z]+")
+
+
+def _snapshot_number(snapshot: Path) -> int:
+    """Its sequence number; 0 for a name without one."""
+    match = _SNAPSHOT_NAME.fullmatch(snapshot.name)
+    return int(match["number"]) if match and match["number"] else 0
+
+
 def snapshots(path: str | Path, action: str = "push") -> list[Path]:
     """The snapshots taken before each ``action`` (push or rollback), oldest first."""
     root = Path(path) / SNAPSHOT_DIR
     if not root.is_dir():
         return []
-    return sorted(p for p in root.iterdir() if p.is_dir() and p.name.endswith(f"-{action}"))
+    taken = [p for p in root.iterdir() if p.is_dir() and p.name.endswith(f"-{action}")]
+    return sorted(taken, key=lambda p: (_snapshot_number(p), p.name))
 
 
 def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Path:
@@ -395,9 +410,11 @@ def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Pa
     root.mkdir(exist_ok=True)
     for leftover in root.glob(".*.partial"):
         shutil.rmtree(leftover, ignore_errors=True)
-    partial = root / f".{stamp}-{action}.partial"
+    number = 1 + max((_snapshot_number(p) for p in root.iterdir()), default=0)
+    name = f"{number:06d}-{stamp}-{action}"
+    partial = root / f".{name}.partial"
     save_project(partial, Project(partial, robot, live))
-    target = root / f"{stamp}-{action}"
+    target = root / name
     os.rename(partial, target)
     if os.name == "posix":  # the rename must be on disk before the first write
         fd = os.open(root, os.O_RDONLY)
