@@ -14,6 +14,7 @@ before the last check)::
     audit "start" record, the plan   (write-ahead, fsynced)
     for each write, in the safe order:
         read the item: as planned?   (drift: edited on the pendant since the read)
+        still in the window?         (policy: a long push stops when its window closes)
         LNR: idle?                   (interlock: before every write)
         audit "write" record         (fsynced: a SIGKILL still leaves a trace)
         write, read back, compare    (verify)
@@ -337,13 +338,16 @@ class PushFailed(SyncError):
         super().__init__(str(cause))
 
 
-def _check_window(robot: Robot, opts: PushOptions) -> None:
+def _check_window(robot: Robot, opts: PushOptions, before: str | None = None) -> None:
+    """Refuse outside the maintenance windows: before the port is opened, and again
+    ``before`` each write, so a long push stops when its window closes."""
     now = opts.now or datetime.now()
     if not opts.outside_window and not robot.in_window(now):
         windows = "; ".join(str(w) for w in robot.windows)
+        stopped = f"; stopped before {before}" if before else ""
         raise PolicyError(
-            f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows}); "
-            "wait for a window or give --outside-window REASON"
+            f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows})"
+            f"{stopped}; wait for a window or give --outside-window REASON"
         )
 
 
@@ -588,6 +592,7 @@ def _write_all(
                 f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
                 "the change, then run again"
             )
+        _check_window(robot, opts, f"writing {write.name} ({write.command})")
         announce(write)  # before the interlock: nothing between LNR and the write
         if not live(write):
             try:
