@@ -587,6 +587,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except HarlsyncError as exc:
         print(f"harlsync: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_ERROR
+    except OSError as exc:
+        # The library names the file-system failures it expects (a full disk, a
+        # read-only project) with what to do; any other is still one line, not a
+        # traceback, and -vv shows where it came from.
+        log.debug("file-system error", exc_info=True)
+        print(f"harlsync: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_ERROR
     except KeyboardInterrupt:
         print("harlsync: interrupted", file=sys.stderr)
         return 130

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
+from fsfaults import disk_full, read_only
 from simline import SMALL, ScriptedSim
 
 from harlsync.cli import main
@@ -365,6 +366,40 @@ def test_a_program_outside_the_configuration_is_refused_naming_the_program_file(
     )
     assert robot.received == []
     assert tree(project) == before
+
+
+# --- the project's own disk -------------------------------------------------------------------
+
+#: what the disk does -> what the one line says about it
+DISKS = {
+    "read-only": "(Read-only file system): it is on a read-only file system: mount it read-write",
+    "full": "(No space left on device): free some space on that file system (df -h)",
+}
+
+
+@pytest.mark.parametrize("command", ["pull", "push"])
+@pytest.mark.parametrize("disk", list(DISKS))
+def test_a_project_on_a_disk_that_refuses_writes_is_one_line_and_nothing_is_sent_or_left(
+    project: Path, sim: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str], disk: str,
+    command: str,
+) -> None:
+    # Issue 11: a read-only project directory, or a disk that fills up while the pull
+    # saves (or the push saves its snapshot), gave a traceback and left a temporary.
+    robot, url = sim
+    if command == "pull":
+        robot.stations[1].data.timers[1] = "9.99"  # something to save
+    else:
+        break_file(project, "timers.yaml", "  3: 0.00\n", "  3: 0.50\n")  # something to write
+    before = tree(project)
+    with pytest.MonkeyPatch.context() as fs:
+        (read_only if disk == "read-only" else disk_full)(fs, project)
+        argv = [command, str(project), "--port", url, *(["--yes"] if command == "push" else [])]
+        code, _, err = cli(capsys, *argv)
+    line = one_line(err)
+    assert code == 2
+    assert line.startswith(f"harlsync: error: {project}") and DISKS[disk] in line, line
+    assert robot.writes_received() == []
+    assert tree(project) == before  # nothing changed, no temporary left
 
 
 # --- the line ---------------------------------------------------------------------------------

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from fsfaults import disk_full, read_only
 
 from harlsync.errors import ProjectError
 from harlsync.model import ProgramArea, ProgramType, Step
@@ -84,7 +85,7 @@ def test_a_save_that_fails_while_replacing_files_restores_the_previous_project(
     before = snapshot(root)
     project = changed_project(root)
     monkeypatch.setattr(os, "replace", fail_on_call(os.replace, failing_call))
-    with pytest.raises(OSError, match="No space left"):
+    with pytest.raises(ProjectError, match="No space left"):
         save_project(root, project)
     assert snapshot(root) == before
 
@@ -102,7 +103,7 @@ def test_a_save_that_fails_while_removing_a_program_restores_the_previous_projec
         real(self, missing_ok=missing_ok)
 
     monkeypatch.setattr(Path, "unlink", unlink)
-    with pytest.raises(OSError, match="Read-only"):
+    with pytest.raises(ProjectError, match="Read-only"):
         save_project(root, project)
     monkeypatch.undo()
     assert snapshot(root) == before
@@ -115,7 +116,7 @@ def test_a_save_that_fails_while_writing_temporary_files_touches_nothing(
     before = snapshot(root)
     project = changed_project(root)
     monkeypatch.setattr(store, "_write_temp", fail_on_call(store._write_temp, failing_call))
-    with pytest.raises(OSError, match="No space left"):
+    with pytest.raises(ProjectError, match="No space left"):
         save_project(root, project)
     assert snapshot(root) == before
 
@@ -125,7 +126,7 @@ def test_a_failed_first_save_into_a_new_directory_leaves_no_directory(
 ) -> None:
     project = load_project(EXAMPLE)
     monkeypatch.setattr(os, "replace", fail_on_call(os.replace, 7))
-    with pytest.raises(OSError):
+    with pytest.raises(ProjectError):
         save_project(tmp_path / "new" / "robot", project)
     assert list(tmp_path.iterdir()) == []
 
@@ -251,3 +252,48 @@ def test_a_save_in_progress_in_another_process_is_waited_for_not_undone(root: Pa
         load_project(root)
     assert not (root / "timers.yaml").exists() and not (root / store.JOURNAL).exists()
     assert set(snapshot(root)) == set(before) - {"timers.yaml"}
+
+
+# --- issue 11: a disk that fills up, a directory that is read-only --------------------------
+
+
+@pytest.mark.parametrize("written_before", [0, 1, 2, 3], ids=lambda n: f"after {n} file(s)")
+def test_issue_11_a_save_on_a_full_disk_is_one_line_and_leaves_no_file_behind(
+    root: Path, written_before: int
+) -> None:
+    # Three changed files, then the journal: the disk fills up at each in turn.
+    before = snapshot(root)
+    project = changed_project(root)
+    with pytest.MonkeyPatch.context() as disk, pytest.raises(ProjectError) as failed:
+        opened = disk_full(disk, root, after=written_before)
+        save_project(root, project)
+    assert len(opened) == written_before + 1
+    message = str(failed.value)
+    assert "\n" not in message
+    assert message.startswith(f"{root}: cannot save the project (No space left on device): ")
+    assert "free some space" in message
+    assert snapshot(root) == before  # and so no temporary is left either
+
+
+def test_issue_11_a_save_into_a_read_only_directory_is_one_line_and_changes_nothing(
+    root: Path,
+) -> None:
+    before = snapshot(root)
+    project = changed_project(root)
+    with (
+        pytest.MonkeyPatch.context() as disk,
+        pytest.raises(ProjectError, match=r"cannot save the project \(Read-only file system\)"),
+    ):
+        read_only(disk, root)
+        save_project(root, project)
+    assert snapshot(root) == before
+
+
+def test_issue_11_a_save_that_changes_nothing_writes_nothing(
+    root: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Not even a journal: a pull of an unchanged robot works on a read-only backup.
+    project = load_project(root)
+    save_project(root, project)
+    read_only(monkeypatch, root)
+    assert save_project(root, project) == []

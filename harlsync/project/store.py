@@ -30,6 +30,7 @@ does not exist yet, unless asked to replace it.
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
 import os
@@ -54,7 +55,15 @@ from .layout import (
 from .robot import Robot
 from .schema import KINDS, Issue, schema_text
 
-__all__ = ["Project", "load_project", "load_robot", "save_project", "validate_project"]
+__all__ = [
+    "Project",
+    "disk_error",
+    "load_project",
+    "load_robot",
+    "replace_file",
+    "save_project",
+    "validate_project",
+]
 
 log = logging.getLogger(__name__)
 
@@ -152,9 +161,10 @@ def save_project(
     and the schema copies under ``.schemas/``.  Removes program files the
     configuration no longer has, and ``registers.yaml`` when registers are not kept.
 
-    Returns the paths (relative to ``path``) written or removed.  Raises
-    ProjectInvalid, before writing anything, when the data would not make a valid
-    project, and OSError when the disk fails (the previous files are then intact).
+    Returns the paths (relative to ``path``) written or removed; nothing is written
+    when nothing changed.  Raises ProjectInvalid, before writing anything, when the
+    data would not make a valid project, and ProjectError when the disk fails (full,
+    read-only): the previous files are then intact and no temporary is left.
     """
     root = Path(path)
     if root.is_dir():
@@ -189,7 +199,11 @@ def save_project(
         raise ProjectFormatError(
             newer[0] + (f" (and {len(newer) - 1} more)" if len(newer) > 1 else "")
         )
-    _commit(root, changed, stale)
+    if changed or stale:
+        try:
+            _commit(root, changed, stale)
+        except OSError as exc:
+            raise disk_error(exc, root, "save the project") from exc
     return sorted([*changed, *stale])
 
 
@@ -237,12 +251,46 @@ def _sibling(target: Path, what: str) -> Path:
 
 
 def _write_temp(target: Path, data: bytes) -> Path:
+    """``data`` in a new temporary file beside ``target``, fsynced; its path.  When
+    the disk fails (full, read-only) the temporary is removed before the OSError."""
     temp = _sibling(target, "new")
-    with open(temp, "xb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
+    try:
+        with open(temp, "xb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+    except BaseException:
+        _quietly(temp.unlink, missing_ok=True)
+        raise
     return temp
+
+
+def replace_file(target: Path, data: bytes) -> None:
+    """Replace ``target`` by a file holding ``data``, atomically: readers see the old
+    file or the new one, and a failure leaves the old one and no temporary.
+
+    Raises OSError when the disk fails.
+    """
+    temp = _write_temp(target, data)
+    try:
+        os.replace(temp, target)
+    finally:
+        _quietly(temp.unlink, missing_ok=True)
+
+
+def disk_error(exc: OSError, where: Path, doing: str) -> ProjectError:
+    """A file-system failure while harlsync writes its own files, as one line: what
+    failed and where, why, and what to do."""
+    number = exc.errno
+    if number in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+        hint = "free some space on that file system (df -h) and run again"
+    elif number == errno.EROFS:
+        hint = "it is on a read-only file system: mount it read-write and run again"
+    elif number in (errno.EACCES, errno.EPERM):
+        hint = f"this user may not write there: check its owner and mode (ls -ld {where})"
+    else:
+        hint = "check the disk and run again"
+    return ProjectError(f"{where}: cannot {doing} ({exc.strerror or exc}): {hint}")
 
 
 def _backup(target: Path) -> Path | None:
@@ -253,7 +301,11 @@ def _backup(target: Path) -> Path | None:
     try:
         os.link(target, backup)
     except OSError:
-        shutil.copy2(target, backup)
+        try:
+            shutil.copy2(target, backup)
+        except BaseException:
+            _quietly(backup.unlink, missing_ok=True)
+            raise
     return backup
 
 
@@ -302,12 +354,12 @@ def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
                 target.unlink()
         for directory in {(root / e.name).parent for e in entries}:
             _fsync_dir(directory)
+        (root / JOURNAL).unlink()  # the save is done
     except BaseException:
         log.warning("save of %s failed: restoring the previous files", root)
         _undo(root, entries, made_dirs)
         raise
-    (root / JOURNAL).unlink()
-    _fsync_dir(root)
+    _quietly(_fsync_dir, root)
     for entry in entries:
         if entry.old is not None:
             _quietly(entry.old.unlink, missing_ok=True)
@@ -319,12 +371,7 @@ def _write_journal(root: Path, entries: list[_Entry], made_dirs: list[Path]) -> 
         "files": [[e.name, e.temp and e.temp.name, e.old and e.old.name] for e in entries],
         "made_dirs": [os.path.relpath(d, root) for d in made_dirs],
     }
-    journal = root / JOURNAL
-    temp = _write_temp(journal, json.dumps(record).encode("utf-8"))
-    try:
-        os.replace(temp, journal)
-    finally:
-        _quietly(temp.unlink, missing_ok=True)
+    replace_file(root / JOURNAL, json.dumps(record).encode("utf-8"))
     _fsync_dir(root)
 
 

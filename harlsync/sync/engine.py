@@ -56,6 +56,7 @@ from ..errors import (
 )
 from ..model import RobotData
 from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
+from ..project.store import disk_error
 from . import audit, git, history
 from .driver import Driver, HarlU2Driver, Progress
 from .items import Change, diff, summarize
@@ -411,21 +412,24 @@ def _save_snapshot(path: Path, robot: Robot, live: RobotData, action: str) -> Pa
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
     history.ensure_local_dir(path)
     root = (path / SNAPSHOT_DIR).resolve()
-    root.mkdir(exist_ok=True)
-    for leftover in root.glob(".*.partial"):
-        shutil.rmtree(leftover, ignore_errors=True)
-    number = 1 + max((_snapshot_number(p) for p in root.iterdir()), default=0)
-    name = f"{number:06d}-{stamp}-{action}"
-    partial = root / f".{name}.partial"
-    save_project(partial, Project(partial, robot, live))
-    target = root / name
-    os.rename(partial, target)
-    if os.name == "posix":  # the rename must be on disk before the first write
-        fd = os.open(root, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+    try:
+        root.mkdir(exist_ok=True)
+        for leftover in root.glob(".*.partial"):
+            shutil.rmtree(leftover, ignore_errors=True)
+        number = 1 + max((_snapshot_number(p) for p in root.iterdir()), default=0)
+        name = f"{number:06d}-{stamp}-{action}"
+        partial = root / f".{name}.partial"
+        save_project(partial, Project(partial, robot, live))
+        target = root / name
+        os.rename(partial, target)
+        if os.name == "posix":  # the rename must be on disk before the first write
+            fd = os.open(root, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+    except OSError as exc:
+        raise disk_error(exc, root, f"save the snapshot before the {action}") from exc
     return target
 
 
