@@ -217,12 +217,18 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         _print(json.dumps(report.to_json(), indent=2))
     elif not args.quiet or not report.ok:
         sys.stdout.write(report.render())
+    unwritten: HarlsyncError | None = None
     if args.metrics:
-        backup.write_metrics(args.metrics, report)
+        try:
+            backup.write_metrics(args.metrics, report)
+        except HarlsyncError as exc:  # the hooks still run: they may be the only alarm
+            unwritten = exc
     if args.on_change and report.changed:
         backup.run_hook(args.on_change, report, "change")
     if args.on_failure and not report.ok:
         backup.run_hook(args.on_failure, report, "failure")
+    if unwritten is not None:
+        raise unwritten
     return EXIT_OK if report.ok else EXIT_NO
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
+from fsfaults import read_only
 
 from harlsync.cli import main
 from harlsync.model import Config, ProgramArea, ProgramType, Step
@@ -258,3 +259,34 @@ def test_the_documented_cron_line_runs_against_simulated_robots(plant: Plant, tm
 def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:
     assert main(["backup", str(tmp_path), "--push"]) == 2
     assert "--push needs --commit" in capsys.readouterr().err
+
+
+def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_night_goes_on(
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for name in ("silent", "garbage"):
+        plant.sims[name].faults = Faults()
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    plant.sims["press-1"].stations[1].data.timers[2] = "7.77"
+    loader = plant.root / "loader"
+    before = {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()}
+    failed_out, metrics = tmp_path / "failed.txt", tmp_path / "harlsync.prom"
+    on_failure = (f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
+                  f".write(os.environ['HARLSYNC_FAILED'])\"")
+    with pytest.MonkeyPatch.context() as fs:
+        read_only(fs, loader)
+        code = main(["backup", str(plant.root), "--commit", "--attempts", "2",
+                     "--metrics", str(metrics), "--on-failure", on_failure])
+    out, err = capsys.readouterr()
+    assert code == 1 and "Traceback" not in err
+    rows = {line.split()[0]: line for line in out.splitlines()[1:6]}
+    assert rows["loader"].split()[1] == "FAILED"
+    assert f"{loader}: cannot save the project (Read-only file system)" in rows["loader"]
+    assert rows["press-1"].split()[1] == "ok" and "1 timer" in rows["press-1"]
+    assert "4 of 5 robot(s) backed up, 1 changed, commit " in out
+    assert git(plant.root, "show", "--name-only", "--format=", "HEAD").split() == [
+        "press-1/timers.yaml"
+    ]
+    assert failed_out.read_text() == "loader"
+    assert 'harlsync_backup_success{robot="loader"} 0' in metrics.read_text()
+    assert {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()} == before

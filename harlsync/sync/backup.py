@@ -24,9 +24,10 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
-from ..errors import HarlsyncError, LinkError, ProjectError
+from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..link import lock_key
 from ..project import load_robot
+from ..project.store import replace_file
 from . import git, history
 from .engine import pull
 from .items import summarize
@@ -196,6 +197,24 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
     return outcome
 
 
+def _record(outcome: RobotOutcome, now: datetime) -> RobotOutcome:
+    """Record the attempt in the robot's history (``DIR/.harlsync/backup.json``).
+
+    A history that cannot be written (a read-only or full disk) fails that robot
+    only: a robot backed up fine becomes a failure naming it.
+    """
+    path = Path(outcome.path)
+    try:
+        state = history.record(path, ok=outcome.ok, error=outcome.error, now=now)
+    except HarlsyncError as exc:
+        log.warning("%s: %s", outcome.name, exc)
+        if outcome.ok:
+            outcome.ok, outcome.error = False, str(exc)
+        state = history.read(path)
+    outcome.last_success = state.get("last_success")
+    return outcome
+
+
 def backup(
     paths: Iterable[str | Path],
     *,
@@ -226,7 +245,7 @@ def backup(
         lines.setdefault(line_of(port), []).append(path)
 
     def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
-        return [_pull_one(p, attempts, lock_timeout) for p in paths_on_line]
+        return [_record(_pull_one(p, attempts, lock_timeout), now) for p in paths_on_line]
 
     workers = len(lines) if jobs is None else jobs
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
@@ -234,9 +253,6 @@ def backup(
     outcomes.sort(key=lambda o: o.name)
 
     for outcome in outcomes:
-        path = Path(outcome.path)
-        state = history.record(path, ok=outcome.ok, error=outcome.error, now=now)
-        outcome.last_success = state.get("last_success")
         outcome.never_backed_up = outcome.last_success is None
         if outcome.last_success:
             outcome.stale = now - datetime.fromisoformat(outcome.last_success) > stale_after
@@ -278,7 +294,10 @@ def run_hook(command: str, report: BackupReport, event: str) -> int:
 
 
 def write_metrics(path: str | Path, report: BackupReport) -> None:
-    """Write a Prometheus textfile (node_exporter's textfile collector), atomically."""
+    """Write a Prometheus textfile (node_exporter's textfile collector), atomically.
+
+    Raises SyncError when it cannot be written (the previous file is then kept).
+    """
     lines = [
         "# HELP harlsync_backup_success Whether the robot's last backup run succeeded.",
         "# TYPE harlsync_backup_success gauge",
@@ -309,7 +328,7 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
             "# TYPE harlsync_backup_git_push_success gauge",
             f"harlsync_backup_git_push_success {int(report.pushed)}",
         ]
-    target = Path(path)
-    tmp = target.with_name(target.name + ".tmp")
-    tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    os.replace(tmp, target)
+    try:
+        replace_file(Path(path), ("\n".join(lines) + "\n").encode("utf-8"))
+    except OSError as exc:
+        raise SyncError(f"cannot write the metrics file {path}: {exc.strerror or exc}") from exc
