@@ -191,7 +191,8 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--attempts", type=int, default=2, metavar="N",
                    help="tries per robot when the line fails (default 2)")
     p.add_argument("--lock-timeout", type=float, default=60.0, metavar="SECONDS",
-                   help="wait this long for a line another harlsync is using (default 60)")
+                   help="wait this long for a line or a project another harlsync is using "
+                        "(default 60)")
     p.add_argument("--on-change", metavar="CMD",
                    help="run CMD (through the shell, summary on stdin) when a robot changed")
     p.add_argument("--on-failure", metavar="CMD",
@@ -268,7 +269,8 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--station", type=int, metavar="N",
                    help="station number instead of the robot file's (1-4 by default)")
     p.add_argument("--lock-timeout", type=float, default=10.0, metavar="SECONDS",
-                   help="how long to wait for another harlsync using the same line (default 10)")
+                   help="how long to wait for another harlsync using the same line or project "
+                        "(default 10)")
 
 
 class _Progress:

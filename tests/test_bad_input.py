@@ -402,6 +402,48 @@ def test_a_project_on_a_disk_that_refuses_writes_is_one_line_and_nothing_is_sent
     assert tree(project) == before  # nothing changed, no temporary left
 
 
+#: ``python -c`` this with a project directory: it holds the project's lock, as a
+#: pull that is saving it does, says "held", and lets go at a line on its input.
+HOLD_PROJECT = """
+import sys
+from harlsync.project.lock import project_lock
+with project_lock(sys.argv[1], command="pull"):
+    print("held", flush=True)
+    sys.stdin.readline()
+"""
+
+
+@pytest.mark.parametrize("command", ["pull", "push", "backup"])
+def test_a_project_another_harlsync_is_saving_is_one_line_naming_it_and_nothing_is_sent(
+    project: Path, sim: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    # Issue 11: two commands that save one directory (two pulls over two lines) mixed it.
+    robot, url = sim
+    robot.stations[1].data.timers[1] = "9.99"  # a pull has something to save, a push to write
+    argv = {
+        "pull": ["pull", str(project), "--port", url, "--lock-timeout", "0"],
+        "push": ["push", str(project), "--port", url, "--yes", "--lock-timeout", "0"],
+        "backup": ["backup", str(project), "--lock-timeout", "0", "--attempts", "1"],
+    }[command]
+    before = tree(project)
+    with subprocess.Popen([sys.executable, "-c", HOLD_PROJECT, str(project)], text=True,
+                          stdin=subprocess.PIPE, stdout=subprocess.PIPE) as holder:
+        assert holder.stdout is not None and holder.stdout.readline() == "held\n"
+        code, out, err = cli(capsys, *argv)
+        holder.communicate("\n", timeout=60)
+    says = (f"project {project} is in use by pid {holder.pid} (harlsync pull); wait for it to "
+            "finish and run again")
+    if command == "backup":
+        assert code == 1 and err == ""
+        [row] = [line for line in out.splitlines() if line.startswith("cell ")]
+        assert row.split()[1] == "FAILED" and says in row
+    else:
+        assert code == 2
+        assert one_line(err).startswith(f"harlsync: error: {says}")
+    assert robot.received == []  # the port was never opened
+    assert tree(project) == before
+
+
 # --- the line ---------------------------------------------------------------------------------
 
 

@@ -19,6 +19,7 @@ import subprocess
 import time
 from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
@@ -27,6 +28,7 @@ from typing import Any
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..link import lock_key
 from ..project import load_robot
+from ..project.lock import project_lock
 from ..project.store import replace_file
 from . import git, history
 from .engine import pull
@@ -197,6 +199,29 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
     return outcome
 
 
+def _backup_one(path: Path, attempts: int, lock_timeout: float, now: datetime) -> RobotOutcome:
+    """Back up one robot, holding its project from the pull to the record of it."""
+    with ExitStack() as held:
+        try:
+            held.enter_context(project_lock(path, timeout=lock_timeout, command="backup"))
+        except ProjectError as exc:  # another harlsync is saving it: one line, that robot
+            return _not_backed_up(path, exc)
+        return _record(_pull_one(path, attempts, lock_timeout), now)
+
+
+def _not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
+    """The outcome of a robot not even tried, reading only what it needs to name it."""
+    try:
+        robot = load_robot(path)
+        outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
+    except HarlsyncError:
+        outcome = RobotOutcome(path.name, str(path), "?", 0)
+    outcome.error = str(exc)
+    outcome.attempts.append(f"attempt 1: {exc}")
+    outcome.last_success = history.read(path).get("last_success")
+    return outcome
+
+
 def _record(outcome: RobotOutcome, now: datetime) -> RobotOutcome:
     """Record the attempt in the robot's history (``DIR/.harlsync/backup.json``).
 
@@ -245,7 +270,7 @@ def backup(
         lines.setdefault(line_of(port), []).append(path)
 
     def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
-        return [_record(_pull_one(p, attempts, lock_timeout), now) for p in paths_on_line]
+        return [_backup_one(p, attempts, lock_timeout, now) for p in paths_on_line]
 
     workers = len(lines) if jobs is None else jobs
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:

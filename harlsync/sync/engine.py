@@ -56,6 +56,7 @@ from ..errors import (
 )
 from ..model import RobotData
 from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
+from ..project.lock import holding_project
 from ..project.store import disk_error
 from . import audit, git, history
 from .driver import Driver, HarlU2Driver, Progress
@@ -198,6 +199,7 @@ def _uncommitted(path: Path, *, ignore: tuple[str, ...] = ()) -> str:
     return ", ".join(dirty[:3]) + (", ..." if len(dirty) > 3 else "")
 
 
+@holding_project("pull")
 def pull(
     path: str | Path,
     *,
@@ -646,6 +648,7 @@ def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite], bool]) -> str:
             "have reached it while a task ran; check the robot")
 
 
+@holding_project("push")
 def push(
     path: str | Path,
     opts: PushOptions,
@@ -689,6 +692,7 @@ def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: Harlsy
         log.error("cannot write the audit log: %s", err)
 
 
+@holding_project("rollback")
 def rollback(
     path: str | Path,
     opts: PushOptions,
