@@ -174,8 +174,8 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
         description="Pull every robot project found in PATH (a project directory, or a directory "
                     "of projects): in parallel across separate lines, one at a time for stations "
                     "that share a line. A robot that fails keeps its previous backup and the others "
-                    "go on. Exit 0 when every robot was backed up, 1 when any failed, 2 on an error "
-                    "before any robot ran.",
+                    "go on. Exit 0 when every robot was backed up, 1 when any failed or the git "
+                    "commit or push failed, 2 on an error before any robot ran.",
     )
     p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
     p.add_argument("--jobs", type=int, default=None, metavar="N",

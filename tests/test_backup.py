@@ -290,3 +290,46 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
     assert failed_out.read_text() == "loader"
     assert 'harlsync_backup_success{robot="loader"} 0' in metrics.read_text()
     assert {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()} == before
+
+
+def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for name in ("silent", "garbage"):
+        plant.sims[name].faults = Faults()
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    head = git(plant.root, "rev-parse", "HEAD")
+    stale_lock = plant.root / ".git" / "index.lock"  # left by a git killed mid-commit
+    stale_lock.write_text("")
+    assert main(["backup", str(plant.root), "--commit"]) == 1
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    assert "5 of 5 robot(s) backed up, 1 changed; git commit FAILED: " in out
+    assert "index.lock': File exists. (if no git is running there, remove that file)" in out
+    assert git(plant.root, "rev-parse", "HEAD") == head
+
+    stale_lock.unlink()  # someone clears it; the robots have not changed since
+    report = backup([plant.root], commit=True)
+    [loader] = [r for r in report.robots if r.name == "loader"]
+    assert report.ok and loader.ok, loader.error
+    assert loader.changed and "an earlier pull's backup, never committed" in loader.summary
+    assert git(plant.root, "show", "--name-only", "--format=", "HEAD").split() == [
+        "loader/timers.yaml"
+    ]
+    assert git(plant.root, "status", "--porcelain") == ""
+
+
+def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten(
+    plant: Plant,
+) -> None:
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    engine.pull(plant.root / "loader")  # saved, never committed (no --commit)
+    main_00 = plant.root / "loader" / "programs" / "main-00.yaml"
+    main_00.write_text(main_00.read_text() + "# checked by hand\n")
+    edited = files_of(plant.root / "loader")
+    report = backup([plant.root / "loader"], commit=True)
+    [loader] = report.robots
+    assert not loader.ok
+    assert "uncommitted changes a pull would overwrite (loader/programs/main-00.yaml)" in (
+        loader.error or "")
+    assert files_of(plant.root / "loader") == edited

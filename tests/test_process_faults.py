@@ -464,3 +464,34 @@ def test_issue_11_a_command_saving_a_project_holds_it_against_any_other_for_its_
     assert other_sim.requests() == []
     assert len(plant.sim.writes()) == 8
     assert run("diff", str(plant.cell)).returncode == 0
+
+
+#: ``python -c`` this, then the harlsync arguments: the command SIGKILLs itself when it
+#: is about to commit, after its save (as a power cut would).
+KILLED_AT_COMMIT = """
+import os, signal, sys
+from harlsync.cli import main
+from harlsync.sync import git
+git.commit = lambda *args, **kwargs: os.kill(os.getpid(), signal.SIGKILL)
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_issue_11_a_pull_killed_between_its_save_and_its_commit_is_committed_by_the_next(
+    plant: Plant,
+) -> None:
+    plant.sim.stop()
+    memory = load_project(plant.sim.memory / "station-1")
+    memory.data.timers[2] = "4.44"  # the robot changed (on the pendant)
+    save_project(plant.sim.memory / "station-1", memory)
+    plant.sim.start()
+    killed = subprocess.run([sys.executable, "-c", KILLED_AT_COMMIT, "pull", str(plant.cell),
+                             "--commit"], check=False, capture_output=True)
+    assert killed.returncode == -signal.SIGKILL
+    assert git(plant.root, "status", "--porcelain").split() == ["M", "cell/timers.yaml"]
+    again = run("pull", str(plant.cell), "--commit")
+    assert again.returncode == 0, again.stderr
+    assert git(plant.root, "status", "--porcelain") == ""
+    assert git(plant.root, "log", "-1", "--format=%s") == (
+        "pull cell: no change; with an earlier pull's backup, never committed (timers.yaml)\n")
+    assert "  2: 4.44\n" in git(plant.root, "show", "HEAD:cell/timers.yaml")

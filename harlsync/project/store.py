@@ -26,18 +26,25 @@ Files whose content did not change are not rewritten, and program files the
 new configuration no longer has are removed in step 2 (and restored on
 failure).  ``robot.yaml`` belongs to the user: a save writes it only when it
 does not exist yet, unless asked to replace it.
+
+Each save also records, in the same set, what it left: the SHA-256 of every
+file it manages, in ``.harlsync/saved.json`` (harlsync's local state, ignored by
+git).  :func:`edited_since_save` compares files with that record: a file still
+as the last save left it was not edited by anyone since, even when git shows it
+uncommitted (a backup whose commit failed).
 """
 
 from __future__ import annotations
 
 import errno
+import hashlib
 import json
 import logging
 import os
 import re
 import secrets
 import shutil
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -56,8 +63,10 @@ from .robot import Robot
 from .schema import KINDS, Issue, schema_text
 
 __all__ = [
+    "LOCAL_DIR",
     "Project",
     "disk_error",
+    "edited_since_save",
     "load_project",
     "load_robot",
     "replace_file",
@@ -187,6 +196,9 @@ def save_project(
         del wanted["robot.yaml"]
     for kind in KINDS:
         wanted[f"{SCHEMAS_DIR}/{kind}.schema.json"] = schema_text(kind).encode("utf-8")
+    wanted[SAVED] = _saved_record(wanted)
+    if not (root / LOCAL_IGNORE).exists():
+        wanted[LOCAL_IGNORE] = LOCAL_IGNORE_TEXT
 
     changed = {name: data for name, data in wanted.items() if _current(root / name) != data}
     stale = _stale_files(
@@ -204,7 +216,55 @@ def save_project(
             _commit(root, changed, stale)
         except OSError as exc:
             raise disk_error(exc, root, "save the project") from exc
-    return sorted([*changed, *stale])
+    return sorted(name for name in [*changed, *stale] if not name.startswith(f"{LOCAL_DIR}/"))
+
+
+#: harlsync's local state in a project: not versioned (its .gitignore says so).
+LOCAL_DIR = ".harlsync"
+LOCAL_IGNORE = f"{LOCAL_DIR}/.gitignore"
+LOCAL_IGNORE_TEXT = b"# harlsync's local state (snapshots, backup times): not versioned\n*\n"
+#: What the last save left: ``{"files": {name: sha256}}`` for every file it manages.
+SAVED = f"{LOCAL_DIR}/saved.json"
+
+
+def _saved_record(files: dict[str, bytes]) -> bytes:
+    digests = {name: hashlib.sha256(data).hexdigest() for name, data in sorted(files.items())}
+    return (json.dumps({"files": digests}, indent=1) + "\n").encode("utf-8")
+
+
+def _managed(name: str) -> bool:
+    """Whether a save writes or removes the file ``name`` (relative to the project)."""
+    folder = name.rpartition("/")[0]
+    return (name in ROOT_FILES or program_key(name) is not None
+            or (folder == SCHEMAS_DIR and name.endswith(".schema.json")))
+
+
+def edited_since_save(path: str | os.PathLike[str], names: Iterable[str]) -> list[str]:
+    """Those of ``names`` (files relative to the project) that are not as the last
+    save left them: changed, made or removed by someone else since.
+
+    A file the save wrote is as it left it when its content has the SHA-256 the save
+    recorded; a file the save manages but did not leave (a program the configuration
+    no longer has) when it is still absent.  Anything else counts as edited: a file
+    harlsync does not manage, and every file when there is no readable record.
+    """
+    root = Path(path)
+    try:
+        record = json.loads((root / SAVED).read_bytes())["files"]
+        if not isinstance(record, dict):
+            raise TypeError("not a mapping")
+    except (OSError, ValueError, KeyError, TypeError):
+        record = {}
+    edited = []
+    for name in names:
+        content = _current(root / name)
+        if name in record:
+            same = content is not None and hashlib.sha256(content).hexdigest() == record[name]
+        else:
+            same = bool(record) and content is None and _managed(name)
+        if not same:
+            edited.append(name)
+    return edited
 
 
 def _newer_format(root: Path, name: str) -> str | None:
@@ -444,7 +504,7 @@ def recover(root: Path) -> bool:
 def _sweep(root: Path) -> bool:
     """Remove temporaries and second names left by killed processes."""
     found = False
-    for directory in (root, root / PROGRAMS_DIR, root / SCHEMAS_DIR):
+    for directory in (root, root / PROGRAMS_DIR, root / SCHEMAS_DIR, root / LOCAL_DIR):
         if not directory.is_dir():
             continue
         for path in directory.iterdir():

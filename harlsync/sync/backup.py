@@ -70,6 +70,9 @@ class RobotOutcome:
 class BackupReport:
     robots: list[RobotOutcome]
     commit: str | None = None
+    #: Why the commit failed (a stale .git/index.lock...); the backups are then
+    #: saved but uncommitted, and the next run's pulls commit them.
+    commit_error: str | None = None
     pushed: bool | None = None
     push_error: str | None = None
     started: str = ""
@@ -77,8 +80,9 @@ class BackupReport:
 
     @property
     def ok(self) -> bool:
-        """Every robot backed up, and the commit pushed when a push was asked for."""
-        return all(r.ok for r in self.robots) and self.pushed is not False
+        """Every robot backed up and committed, and pushed when a push was asked for."""
+        return (all(r.ok for r in self.robots) and self.commit_error is None
+                and self.pushed is not False)
 
     @property
     def changed(self) -> list[RobotOutcome]:
@@ -90,6 +94,7 @@ class BackupReport:
             "started": self.started,
             "duration": round(self.duration, 3),
             "commit": self.commit,
+            "commit_error": self.commit_error,
             "pushed": self.pushed,
             "push_error": self.push_error,
             "robots": [asdict(r) | {"duration": round(r.duration, 3)} for r in self.robots],
@@ -132,6 +137,9 @@ class BackupReport:
         tail = f"{ok} of {len(self.robots)} robot(s) backed up, {len(self.changed)} changed"
         if self.commit:
             tail += f", commit {self.commit[:10]}"
+        if self.commit_error:
+            tail += (f"; git commit FAILED: {self.commit_error} (the backups are saved; the "
+                     "next run commits them)")
         if self.push_error:
             tail += f"; git push FAILED: {self.push_error} (the commit is kept locally)"
         elif self.pushed:
@@ -191,7 +199,7 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
             outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
         outcome.ok, outcome.error = True, None
-        outcome.changed = result.changes is None or bool(result.changes)
+        outcome.changed = result.changes is None or bool(result.changes) or bool(result.earlier)
         outcome.summary = result.summary
         outcome.counts = summarize(result.changes or [])
         break
@@ -286,7 +294,10 @@ def backup(
     if commit:
         done = [Path(o.path) for o in outcomes if o.ok and o.changed]
         if done:
-            report.commit = git.commit(done, report.commit_message())
+            try:
+                report.commit = git.commit(done, report.commit_message())
+            except HarlsyncError as exc:  # the night's report, metrics and hooks still come
+                report.commit_error = str(exc)
         if push:
             # Push even when nothing changed tonight: it catches up a failed push.
             try:
@@ -346,6 +357,12 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
             f"harlsync_backup_duration_seconds{label} {r.duration:.3f}",
             f"harlsync_backup_changed_items{label} {changed}",
             f"harlsync_backup_failed_attempts{label} {len(r.attempts)}",
+        ]
+    if report.commit is not None or report.commit_error is not None:
+        lines += [
+            "# HELP harlsync_backup_git_commit_success Whether the run's git commit succeeded.",
+            "# TYPE harlsync_backup_git_commit_success gauge",
+            f"harlsync_backup_git_commit_success {int(report.commit_error is None)}",
         ]
     if report.pushed is not None:
         lines += [

@@ -57,7 +57,7 @@ from ..errors import (
 from ..model import RobotData
 from ..project import Project, Robot, load_project, load_robot, new_robot, save_project
 from ..project.lock import holding_project
-from ..project.store import disk_error
+from ..project.store import disk_error, edited_since_save
 from . import audit, git, history
 from .driver import Driver, HarlU2Driver, Progress
 from .items import Change, diff, summarize
@@ -164,12 +164,16 @@ class PullResult:
     robot: Robot
     changes: list[Change] | None  # None: there was no valid previous backup
     commit: str | None = None
+    #: Files an earlier pull saved and nobody touched since, still uncommitted (its
+    #: commit failed or was killed): this pull's save and commit take them over.
+    earlier: list[str] = field(default_factory=list)
 
     @property
     def summary(self) -> str:
-        if self.changes is None:
-            return "first backup"
-        return change_summary(self.changes)
+        said = "first backup" if self.changes is None else change_summary(self.changes)
+        if self.earlier:
+            said += f"; with an earlier pull's backup, never committed ({_listed(self.earlier)})"
+        return said
 
 
 def _robot_for(path: Path, port: str | None, station: int | None) -> Robot:
@@ -195,8 +199,31 @@ def _absolute_sim_path(port: str) -> str:
 
 def _uncommitted(path: Path, *, ignore: tuple[str, ...] = ()) -> str:
     """The files under ``path`` with uncommitted changes, for a message ('' when none)."""
-    dirty = [f for f in git.changed_files(path) if Path(f).name not in ignore]
-    return ", ".join(dirty[:3]) + (", ..." if len(dirty) > 3 else "")
+    return _listed([f for f in git.changed_files(path) if Path(f).name not in ignore])
+
+
+def _listed(files: list[str]) -> str:
+    return ", ".join(files[:3]) + (", ..." if len(files) > 3 else "")
+
+
+def _earlier_pull_and_edits(path: Path) -> tuple[list[str], str]:
+    """What a pull finds uncommitted under ``path`` (robot.yaml aside, which it never
+    rewrites): the files an earlier pull saved and nobody touched since, and the
+    others, for a message ('' when none).
+
+    The first are harlsync's own backup whose commit failed (a stale index.lock,
+    a pull killed between its save and its commit): the save's record of what it
+    wrote (:func:`~harlsync.project.store.edited_since_save`) tells them from a
+    person's edit, which a pull must never overwrite.
+    """
+    dirty = [f for f in git.changed_files(path) if Path(f).name != "robot.yaml"]
+    top = git.repo_root(path)
+    if not dirty or top is None:
+        return [], ""
+    inside = {f: (top / f).relative_to(path.resolve()).as_posix() for f in dirty}
+    edited = set(edited_since_save(path, inside.values()))
+    return ([name for name in inside.values() if name not in edited],
+            _listed([f for f, name in inside.items() if name in edited]))
 
 
 @holding_project("pull")
@@ -214,11 +241,13 @@ def pull(
 
     A pull that fails leaves the previous files untouched.  A project with
     uncommitted edits (other than robot.yaml, which a pull never rewrites) is
-    refused unless ``allow_dirty``: the pull would overwrite them.
+    refused unless ``allow_dirty``: the pull would overwrite them.  Files an
+    earlier pull saved, untouched since, are not edits: this pull takes them over
+    (:attr:`PullResult.earlier`) and commits them with its own.
     """
     path = Path(path)
     robot = _robot_for(path, port, station)
-    dirty = "" if allow_dirty else _uncommitted(path, ignore=("robot.yaml",))
+    earlier, dirty = ([], "") if allow_dirty else _earlier_pull_and_edits(path)
     if dirty:
         raise PolicyError(
             f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
@@ -233,8 +262,8 @@ def pull(
     save_project(path, Project(path, robot, live))
     history.record(path, ok=True)
     changes = None if previous is None else diff(previous, live, registers=robot.keep_registers)
-    result = PullResult(path, robot, changes)
-    if commit and (changes is None or changes):
+    result = PullResult(path, robot, changes, earlier=earlier)
+    if commit and (changes is None or changes or earlier):
         result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
     return result
 

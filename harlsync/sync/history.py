@@ -12,12 +12,13 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from ..project import store
 from ..project.store import disk_error, replace_file
 
 __all__ = ["LOCAL_DIR", "ensure_local_dir", "read", "record"]
 
 #: harlsync's local, unversioned state inside a project.
-LOCAL_DIR = Path(".harlsync")
+LOCAL_DIR = Path(store.LOCAL_DIR)
 _FILE = LOCAL_DIR / "backup.json"
 
 
@@ -31,9 +32,7 @@ def ensure_local_dir(project: Path) -> Path:
         local.mkdir(parents=True, exist_ok=True)
         ignore = local / ".gitignore"
         if not ignore.exists():
-            replace_file(
-                ignore, b"# harlsync's local state (snapshots, backup times): not versioned\n*\n"
-            )
+            replace_file(ignore, store.LOCAL_IGNORE_TEXT)
     except OSError as exc:
         raise disk_error(exc, local, "write harlsync's local state") from exc
     return local
