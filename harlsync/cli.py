@@ -174,8 +174,8 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
         description="Pull every robot project found in PATH (a project directory, or a directory "
                     "of projects): in parallel across separate lines, one at a time for stations "
                     "that share a line. A robot that fails keeps its previous backup and the others "
-                    "go on. Exit 0 when every robot was backed up, 1 when any failed, 2 on an error "
-                    "before any robot ran.",
+                    "go on. Exit 0 when every robot was backed up, 1 when any failed or the git "
+                    "commit or push failed, 2 on an error before any robot ran.",
     )
     p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
@@ -191,7 +191,8 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--attempts", type=int, default=2, metavar="N",
                    help="tries per robot when the line fails (default 2)")
     p.add_argument("--lock-timeout", type=float, default=60.0, metavar="SECONDS",
-                   help="wait this long for a line another harlsync is using (default 60)")
+                   help="wait this long for a line or a project another harlsync is using "
+                        "(default 60)")
     p.add_argument("--on-change", metavar="CMD",
                    help="run CMD (through the shell, summary on stdin) when a robot changed")
     p.add_argument("--on-failure", metavar="CMD",
@@ -217,12 +218,18 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         _print(json.dumps(report.to_json(), indent=2))
     elif not args.quiet or not report.ok:
         sys.stdout.write(report.render())
+    unwritten: HarlsyncError | None = None
     if args.metrics:
-        backup.write_metrics(args.metrics, report)
+        try:
+            backup.write_metrics(args.metrics, report)
+        except HarlsyncError as exc:  # the hooks still run: they may be the only alarm
+            unwritten = exc
     if args.on_change and report.changed:
         backup.run_hook(args.on_change, report, "change")
     if args.on_failure and not report.ok:
         backup.run_hook(args.on_failure, report, "failure")
+    if unwritten is not None:
+        raise unwritten
     return EXIT_OK if report.ok else EXIT_NO
 
 
@@ -263,7 +270,8 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
                    help="station number instead of the robot file's (HARL-U2: 1-99, as set "
                         "on the pendant; IAI: two hex digits, 99 by default)")
     p.add_argument("--lock-timeout", type=float, default=10.0, metavar="SECONDS",
-                   help="how long to wait for another harlsync using the same line (default 10)")
+                   help="how long to wait for another harlsync using the same line or project "
+                        "(default 10)")
 
 
 class _Progress:
@@ -599,6 +607,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"harlsync: refused: {_one_line(exc)}", file=sys.stderr)
         return EXIT_REFUSED
     except HarlsyncError as exc:
+        print(f"harlsync: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_ERROR
+    except OSError as exc:
+        # The library names the file-system failures it expects (a full disk, a
+        # read-only project) with what to do; any other is still one line, not a
+        # traceback, and -vv shows where it came from.
+        log.debug("file-system error", exc_info=True)
         print(f"harlsync: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:

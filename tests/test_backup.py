@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
+from fsfaults import read_only
 
 from harlsync.cli import main
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
@@ -258,3 +259,77 @@ def test_the_documented_cron_line_runs_against_simulated_robots(plant: Plant, tm
 def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:
     assert main(["backup", str(tmp_path), "--push"]) == 2
     assert "--push needs --commit" in capsys.readouterr().err
+
+
+def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_night_goes_on(
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for name in ("silent", "garbage"):
+        plant.sims[name].faults = Faults()
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    plant.sims["press-1"].stations[1].data.timers[2] = "7.77"
+    loader = plant.root / "loader"
+    before = {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()}
+    failed_out, metrics = tmp_path / "failed.txt", tmp_path / "harlsync.prom"
+    on_failure = (f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
+                  f".write(os.environ['HARLSYNC_FAILED'])\"")
+    with pytest.MonkeyPatch.context() as fs:
+        read_only(fs, loader)
+        code = main(["backup", str(plant.root), "--commit", "--attempts", "2",
+                     "--metrics", str(metrics), "--on-failure", on_failure])
+    out, err = capsys.readouterr()
+    assert code == 1 and "Traceback" not in err
+    rows = {line.split()[0]: line for line in out.splitlines()[1:6]}
+    assert rows["loader"].split()[1] == "FAILED"
+    assert f"{loader}: cannot save the project (Read-only file system)" in rows["loader"]
+    assert rows["press-1"].split()[1] == "ok" and "1 timer" in rows["press-1"]
+    assert "4 of 5 robot(s) backed up, 1 changed, commit " in out
+    assert git(plant.root, "show", "--name-only", "--format=", "HEAD").split() == [
+        "press-1/timers.yaml"
+    ]
+    assert failed_out.read_text() == "loader"
+    assert 'harlsync_backup_success{robot="loader"} 0' in metrics.read_text()
+    assert {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()} == before
+
+
+def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for name in ("silent", "garbage"):
+        plant.sims[name].faults = Faults()
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    head = git(plant.root, "rev-parse", "HEAD")
+    stale_lock = plant.root / ".git" / "index.lock"  # left by a git killed mid-commit
+    stale_lock.write_text("")
+    assert main(["backup", str(plant.root), "--commit"]) == 1
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    assert "5 of 5 robot(s) backed up, 1 changed; git commit FAILED: " in out
+    assert "index.lock': File exists. (if no git is running there, remove that file)" in out
+    assert git(plant.root, "rev-parse", "HEAD") == head
+
+    stale_lock.unlink()  # someone clears it; the robots have not changed since
+    report = backup([plant.root], commit=True)
+    [loader] = [r for r in report.robots if r.name == "loader"]
+    assert report.ok and loader.ok, loader.error
+    assert loader.changed and "an earlier pull's backup, never committed" in loader.summary
+    assert git(plant.root, "show", "--name-only", "--format=", "HEAD").split() == [
+        "loader/timers.yaml"
+    ]
+    assert git(plant.root, "status", "--porcelain") == ""
+
+
+def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten(
+    plant: Plant,
+) -> None:
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    engine.pull(plant.root / "loader")  # saved, never committed (no --commit)
+    main_00 = plant.root / "loader" / "programs" / "main-00.yaml"
+    main_00.write_text(main_00.read_text() + "# checked by hand\n")
+    edited = files_of(plant.root / "loader")
+    report = backup([plant.root / "loader"], commit=True)
+    [loader] = report.robots
+    assert not loader.ok
+    assert "uncommitted changes a pull would overwrite (loader/programs/main-00.yaml)" in (
+        loader.error or "")
+    assert files_of(plant.root / "loader") == edited

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
+from fsfaults import disk_full, read_only
 from simline import SMALL, ScriptedSim
 
 from harlsync.cli import main
@@ -273,6 +274,13 @@ for _file in FILES:
         f"{_file}:2",
         "format 2 is newer than this harlsync understands (1): upgrade harlsync",
     )
+    # Issue 11: the same key, spelled as JSON spells it, is the same newer format.
+    DEFECTS[(_file, "newer format, quoted key")] = (
+        "format: 1\n",
+        '"format": 2\n',
+        f"{_file}:2",
+        "format 2 is newer than this harlsync understands (1): upgrade harlsync",
+    )
 
 
 def break_file(project: Path, file: str, old: str, new: str) -> None:
@@ -313,8 +321,8 @@ def test_a_broken_project_file_is_one_line_naming_file_and_line_and_nothing_is_s
 
 @pytest.mark.parametrize(
     ("file", "defect"),
-    [k for k in DEFECTS if k[0] == "robot.yaml" or k[1] == "newer format"],
-    ids=[f"{f}-{d}" for f, d in DEFECTS if f == "robot.yaml" or d == "newer format"],
+    [k for k in DEFECTS if k[0] == "robot.yaml" or k[1].startswith("newer format")],
+    ids=[f"{f}-{d}" for f, d in DEFECTS if f == "robot.yaml" or d.startswith("newer format")],
 )
 def test_a_pull_into_a_project_it_cannot_read_or_must_not_overwrite_changes_nothing(
     project: Path,
@@ -357,6 +365,82 @@ def test_a_program_outside_the_configuration_is_refused_naming_the_program_file(
         "configuration (allowed: 0-1, controller.yaml programs.main.count)"
     )
     assert robot.received == []
+    assert tree(project) == before
+
+
+# --- the project's own disk -------------------------------------------------------------------
+
+#: what the disk does -> what the one line says about it
+DISKS = {
+    "read-only": "(Read-only file system): it is on a read-only file system: mount it read-write",
+    "full": "(No space left on device): free some space on that file system (df -h)",
+}
+
+
+@pytest.mark.parametrize("command", ["pull", "push"])
+@pytest.mark.parametrize("disk", list(DISKS))
+def test_a_project_on_a_disk_that_refuses_writes_is_one_line_and_nothing_is_sent_or_left(
+    project: Path, sim: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str], disk: str,
+    command: str,
+) -> None:
+    # Issue 11: a read-only project directory, or a disk that fills up while the pull
+    # saves (or the push saves its snapshot), gave a traceback and left a temporary.
+    robot, url = sim
+    if command == "pull":
+        robot.stations[1].data.timers[1] = "9.99"  # something to save
+    else:
+        break_file(project, "timers.yaml", "  3: 0.00\n", "  3: 0.50\n")  # something to write
+    before = tree(project)
+    with pytest.MonkeyPatch.context() as fs:
+        (read_only if disk == "read-only" else disk_full)(fs, project)
+        argv = [command, str(project), "--port", url, *(["--yes"] if command == "push" else [])]
+        code, _, err = cli(capsys, *argv)
+    line = one_line(err)
+    assert code == 2
+    assert line.startswith(f"harlsync: error: {project}") and DISKS[disk] in line, line
+    assert robot.writes_received() == []
+    assert tree(project) == before  # nothing changed, no temporary left
+
+
+#: ``python -c`` this with a project directory: it holds the project's lock, as a
+#: pull that is saving it does, says "held", and lets go at a line on its input.
+HOLD_PROJECT = """
+import sys
+from harlsync.project.lock import project_lock
+with project_lock(sys.argv[1], command="pull"):
+    print("held", flush=True)
+    sys.stdin.readline()
+"""
+
+
+@pytest.mark.parametrize("command", ["pull", "push", "backup"])
+def test_a_project_another_harlsync_is_saving_is_one_line_naming_it_and_nothing_is_sent(
+    project: Path, sim: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    # Issue 11: two commands that save one directory (two pulls over two lines) mixed it.
+    robot, url = sim
+    robot.stations[1].data.timers[1] = "9.99"  # a pull has something to save, a push to write
+    argv = {
+        "pull": ["pull", str(project), "--port", url, "--lock-timeout", "0"],
+        "push": ["push", str(project), "--port", url, "--yes", "--lock-timeout", "0"],
+        "backup": ["backup", str(project), "--lock-timeout", "0", "--attempts", "1"],
+    }[command]
+    before = tree(project)
+    with subprocess.Popen([sys.executable, "-c", HOLD_PROJECT, str(project)], text=True,
+                          stdin=subprocess.PIPE, stdout=subprocess.PIPE) as holder:
+        assert holder.stdout is not None and holder.stdout.readline() == "held\n"
+        code, out, err = cli(capsys, *argv)
+        holder.communicate("\n", timeout=60)
+    says = (f"project {project} is in use by pid {holder.pid} (harlsync pull); wait for it to "
+            "finish and run again")
+    if command == "backup":
+        assert code == 1 and err == ""
+        [row] = [line for line in out.splitlines() if line.startswith("cell ")]
+        assert row.split()[1] == "FAILED" and says in row
+    else:
+        assert code == 2
+        assert one_line(err).startswith(f"harlsync: error: {says}")
+    assert robot.received == []  # the port was never opened
     assert tree(project) == before
 
 

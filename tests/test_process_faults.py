@@ -395,11 +395,18 @@ def test_two_harlsync_on_one_robot_one_gets_the_line_the_other_a_one_line_busy_e
     plant: Plant, second: str
 ) -> None:
     plant.edit(**EIGHT_EDITS, message="eight edits")
+    # The second command works on another backup of the same robot: the project
+    # lock does not meet it, the line lock must.
+    other_cell = plant.root / "cell-2"
+    engine.pull(other_cell, port=plant.sim.url)
+    git(plant.root, "add", "-A")
+    git(plant.root, "commit", "-qm", "a second backup of the robot")
+    plant.sim.mark()
     first = prompted_push(plant.cell)
     args = {
-        "push": ["push", str(plant.cell), "--yes", "--lock-timeout", "0"],
-        "pull": ["pull", str(plant.cell), "--lock-timeout", "0"],
-        "backup": ["backup", str(plant.cell), "--lock-timeout", "0", "--attempts", "1"],
+        "push": ["push", str(other_cell), "--yes", "--lock-timeout", "0"],
+        "pull": ["pull", str(other_cell), "--lock-timeout", "0"],
+        "backup": ["backup", str(other_cell), "--lock-timeout", "0", "--attempts", "1"],
     }[second]
     other = run(*args)
     assert first.answer("y") == 0
@@ -416,3 +423,75 @@ def test_two_harlsync_on_one_robot_one_gets_the_line_the_other_a_one_line_busy_e
     assert len(plant.sim.writes()) == 8 and plant.sim.unsafe_in_automatic() == []
     assert run("diff", str(plant.cell)).returncode == 0
 
+
+
+@pytest.mark.parametrize("second", ["pull over another line", "backup"])
+def test_issue_11_a_command_saving_a_project_holds_it_against_any_other_for_its_whole_run(
+    plant: Plant, tmp_path: Path, second: str
+) -> None:
+    # Two pulls of one directory over two lines each read their own robot and saved,
+    # leaving a project mixed from both. A push waiting at its prompt holds the
+    # project as long as any command does: nothing else may save it meanwhile.
+    other = tmp_path / "other-robot"
+    save_project(other, Project(other, new_robot("other", "sim://other", 1),
+                                SimState.generate(32, SMALL).data))
+    other_sim = SimProcess(other, tmp_path / "other-memory", tmp_path / "other.jsonl",
+                           ("--baud", "0")).start()
+    try:
+        plant.edit(**EIGHT_EDITS, message="eight edits")
+        before = files_of(plant.cell)
+        first = prompted_push(plant.cell)
+        args = {
+            "pull over another line": ["pull", str(plant.cell), "--port", other_sim.url,
+                                       "--lock-timeout", "0"],
+            "backup": ["backup", str(plant.cell), "--lock-timeout", "0", "--attempts", "1"],
+        }[second]
+        refused = run(*args)
+        assert files_of(plant.cell) == before
+        assert first.answer("y") == 0
+    finally:
+        other_sim.stop()
+    says = (f"project {plant.cell} is in use by pid {first.process.pid} (harlsync push); "
+            "wait for it to finish")
+    if second == "backup":
+        assert refused.returncode == 1
+        [row] = [line for line in refused.stdout.splitlines() if line.startswith("cell ")]
+        assert row.split()[1] == "FAILED" and says in row
+    else:
+        assert refused.returncode == 2
+        [line] = refused.stderr.splitlines()
+        assert line.startswith(f"harlsync: error: {says}")
+    assert other_sim.requests() == []
+    assert len(plant.sim.writes()) == 8
+    assert run("diff", str(plant.cell)).returncode == 0
+
+
+#: ``python -c`` this, then the harlsync arguments: the command SIGKILLs itself when it
+#: is about to commit, after its save (as a power cut would).
+KILLED_AT_COMMIT = """
+import os, signal, sys
+from harlsync.cli import main
+from harlsync.sync import git
+git.commit = lambda *args, **kwargs: os.kill(os.getpid(), signal.SIGKILL)
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_issue_11_a_pull_killed_between_its_save_and_its_commit_is_committed_by_the_next(
+    plant: Plant,
+) -> None:
+    plant.sim.stop()
+    memory = load_project(plant.sim.memory / "station-1")
+    memory.data.timers[2] = "4.44"  # the robot changed (on the pendant)
+    save_project(plant.sim.memory / "station-1", memory)
+    plant.sim.start()
+    killed = subprocess.run([sys.executable, "-c", KILLED_AT_COMMIT, "pull", str(plant.cell),
+                             "--commit"], check=False, capture_output=True)
+    assert killed.returncode == -signal.SIGKILL
+    assert git(plant.root, "status", "--porcelain").split() == ["M", "cell/timers.yaml"]
+    again = run("pull", str(plant.cell), "--commit")
+    assert again.returncode == 0, again.stderr
+    assert git(plant.root, "status", "--porcelain") == ""
+    assert git(plant.root, "log", "-1", "--format=%s") == (
+        "pull cell: no change; with an earlier pull's backup, never committed (timers.yaml)\n")
+    assert "  2: 4.44\n" in git(plant.root, "show", "HEAD:cell/timers.yaml")

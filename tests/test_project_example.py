@@ -162,10 +162,12 @@ def build_example(path: Path = EXAMPLE) -> Project:
 
 
 def _files(root: Path) -> dict[str, bytes]:
+    """The project's files; not ``.harlsync/``, the local state a save keeps beside
+    them (what it wrote), which git ignores."""
     return {
         p.relative_to(root).as_posix(): p.read_bytes()
         for p in sorted(root.rglob("*"))
-        if p.is_file()
+        if p.is_file() and ".harlsync" not in p.relative_to(root).parts
     }
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from fsfaults import disk_full, read_only
 
 from harlsync.errors import ProjectError
 from harlsync.families.harl_u2.model import ProgramArea, ProgramType, Step
@@ -60,6 +61,21 @@ def fail_on_call(real: Callable[..., Any], n: int) -> Callable[..., Any]:
     return fake
 
 
+def save_fails_and_changes_nothing(
+    root: Path, fault: Callable[[pytest.MonkeyPatch], object], match: str
+) -> ProjectError:
+    """Save :func:`changed_project` to ``root`` with ``fault`` applied to the file
+    system: it must fail with a ProjectError matching ``match`` and leave every file
+    under ``root`` as it was, no leftover added.  Returns the error."""
+    before = snapshot(root)
+    project = changed_project(root)
+    with pytest.MonkeyPatch.context() as patch, pytest.raises(ProjectError, match=match) as failed:
+        fault(patch)
+        save_project(root, project)
+    assert snapshot(root) == before
+    return failed.value
+
+
 def test_a_save_writes_only_what_changed_and_removes_programs_no_longer_configured(
     root: Path,
 ) -> None:
@@ -78,22 +94,19 @@ def test_a_save_writes_only_what_changed_and_removes_programs_no_longer_configur
 
 @pytest.mark.parametrize("failing_call", [1, 2, 3, 4])
 def test_a_save_that_fails_while_replacing_files_restores_the_previous_project(
-    root: Path, monkeypatch: pytest.MonkeyPatch, failing_call: int
+    root: Path, failing_call: int
 ) -> None:
     # Call 1 puts the journal in place, calls 2-4 replace the three changed files.
-    before = snapshot(root)
-    project = changed_project(root)
-    monkeypatch.setattr(os, "replace", fail_on_call(os.replace, failing_call))
-    with pytest.raises(OSError, match="No space left"):
-        save_project(root, project)
-    assert snapshot(root) == before
+    save_fails_and_changes_nothing(
+        root,
+        lambda patch: patch.setattr(os, "replace", fail_on_call(os.replace, failing_call)),
+        "No space left",
+    )
 
 
 def test_a_save_that_fails_while_removing_a_program_restores_the_previous_project(
-    root: Path, monkeypatch: pytest.MonkeyPatch
+    root: Path,
 ) -> None:
-    before = snapshot(root)
-    project = changed_project(root)
     real = Path.unlink
 
     def unlink(self: Path, missing_ok: bool = False) -> None:
@@ -101,23 +114,22 @@ def test_a_save_that_fails_while_removing_a_program_restores_the_previous_projec
             raise OSError(30, "Read-only file system")
         real(self, missing_ok=missing_ok)
 
-    monkeypatch.setattr(Path, "unlink", unlink)
-    with pytest.raises(OSError, match="Read-only"):
-        save_project(root, project)
-    monkeypatch.undo()
-    assert snapshot(root) == before
+    save_fails_and_changes_nothing(
+        root, lambda patch: patch.setattr(Path, "unlink", unlink), "Read-only"
+    )
 
 
 @pytest.mark.parametrize("failing_call", [1, 2, 3])
 def test_a_save_that_fails_while_writing_temporary_files_touches_nothing(
-    root: Path, monkeypatch: pytest.MonkeyPatch, failing_call: int
+    root: Path, failing_call: int
 ) -> None:
-    before = snapshot(root)
-    project = changed_project(root)
-    monkeypatch.setattr(store, "_write_temp", fail_on_call(store._write_temp, failing_call))
-    with pytest.raises(OSError, match="No space left"):
-        save_project(root, project)
-    assert snapshot(root) == before
+    save_fails_and_changes_nothing(
+        root,
+        lambda patch: patch.setattr(
+            store, "_write_temp", fail_on_call(store._write_temp, failing_call)
+        ),
+        "No space left",
+    )
 
 
 def test_a_failed_first_save_into_a_new_directory_leaves_no_directory(
@@ -125,7 +137,7 @@ def test_a_failed_first_save_into_a_new_directory_leaves_no_directory(
 ) -> None:
     project = load_project(EXAMPLE)
     monkeypatch.setattr(os, "replace", fail_on_call(os.replace, 7))
-    with pytest.raises(OSError):
+    with pytest.raises(ProjectError):
         save_project(tmp_path / "new" / "robot", project)
     assert list(tmp_path.iterdir()) == []
 
@@ -251,3 +263,43 @@ def test_a_save_in_progress_in_another_process_is_waited_for_not_undone(root: Pa
         load_project(root)
     assert not (root / "timers.yaml").exists() and not (root / store.JOURNAL).exists()
     assert set(snapshot(root)) == set(before) - {"timers.yaml"}
+
+
+# --- issue 11: a disk that fills up, a directory that is read-only --------------------------
+
+
+@pytest.mark.parametrize("written_before", [0, 1, 2, 3], ids=lambda n: f"after {n} file(s)")
+def test_issue_11_a_save_on_a_full_disk_is_one_line_and_leaves_no_file_behind(
+    root: Path, written_before: int
+) -> None:
+    # Three changed files, then the journal: the disk fills up at each in turn.
+    files: list[list[str]] = []  # what the full disk saw opened for writing
+    failed = save_fails_and_changes_nothing(
+        root, lambda disk: files.append(disk_full(disk, root, after=written_before)),
+        "No space left",
+    )
+    assert len(files[0]) == written_before + 1
+    message = str(failed)
+    assert "\n" not in message
+    assert message.startswith(f"{root}: cannot save the project (No space left on device): ")
+    assert "free some space" in message
+
+
+def test_issue_11_a_save_into_a_read_only_directory_is_one_line_and_changes_nothing(
+    root: Path,
+) -> None:
+    save_fails_and_changes_nothing(
+        root,
+        lambda disk: read_only(disk, root),
+        r"^[^\n]*cannot save the project \(Read-only file system\)",
+    )
+
+
+def test_issue_11_a_save_that_changes_nothing_writes_nothing(
+    root: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Not even a journal: a pull of an unchanged robot works on a read-only backup.
+    project = load_project(root)
+    save_project(root, project)
+    read_only(monkeypatch, root)
+    assert save_project(root, project) == []

@@ -535,3 +535,87 @@ def test_a_backup_commit_never_takes_the_leftovers_of_a_save_in_progress(tmp_pat
     assert git(tmp_path, "show", "--name-only", "--format=", "HEAD").split() == [
         "cell/timers.yaml"
     ]
+
+
+class Clock(datetime):
+    """The machine's clock, set by the test: it jumps where a real one might."""
+
+    at = datetime(2026, 11, 24, 12, 0)
+
+    @classmethod
+    def now(cls, tz=None):  # type: ignore[no-untyped-def, override]
+        return cls.at.replace(tzinfo=tz)
+
+
+def test_issue_11_rollback_restores_the_state_before_the_last_push_whatever_the_clock_did(
+    served, repo, monkeypatch
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    monkeypatch.setattr(engine, "datetime", Clock)
+    Clock.at = datetime(2027, 3, 1, 12, 0)  # a year ahead
+    edit_timer(project, 1, "1.11", repo)
+    engine.push(project, YES, port=url)
+    before_the_last_push = SimState.from_robot_data(sim.stations[1].data)
+    Clock.at = datetime(2026, 3, 1, 12, 0)  # set right again: the clock fell back a year
+    edit_timer(project, 1, "2.22", repo)
+    engine.push(project, YES, port=url)
+    assert len(engine.snapshots(project)) == 2
+    engine.rollback(project, YES, port=url)
+    assert same_robot(sim.stations[1], before_the_last_push)
+
+
+def test_issue_11_snapshots_named_by_an_older_harlsync_are_still_listed_and_come_first(
+    served, repo
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    edit_timer(project, 1, "1.11", repo)
+    engine.push(project, YES, port=url)
+    [taken] = engine.snapshots(project)
+    legacy = taken.with_name("20991231T235959.000000Z-push")  # an old name, from a fast clock
+    taken.rename(legacy)
+    assert engine.snapshots(project) == [legacy]
+    edit_timer(project, 1, "2.22", repo)
+    engine.push(project, YES, port=url)
+    [older, newer] = engine.snapshots(project)
+    assert older == legacy and load_project(newer).data.timers[1] == "1.11"
+    engine.rollback(project, YES, port=url)
+    assert sim.stations[1].data.timers[1] == "1.11"
+    engine.rollback(project, YES, port=url, snapshot=legacy)
+    assert sim.stations[1].data.timers[1] == load_project(legacy).data.timers[1] != "1.11"
+
+
+def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_window_closes(
+    served, repo, monkeypatch, capsys
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    robot_yaml = project / "robot.yaml"
+    robot_yaml.write_text(robot_yaml.read_text().replace(
+        "maintenance_windows: []",
+        "maintenance_windows:\n  - {days: [sat], start: '22:00', end: '04:00'}",
+    ))
+    for timer, value in ((0, "0.11"), (1, "1.11"), (2, "2.22")):
+        edit_timer(project, timer, value)
+    git(repo, "commit", "-qam", "three timers, a window")
+
+    class WindowClosesAfterTwoWrites(datetime):
+        @classmethod
+        def now(cls, tz=None):  # type: ignore[no-untyped-def, override]
+            inside, after = datetime(2026, 11, 28, 23, 0), datetime(2026, 11, 29, 4, 0)
+            return (inside if len(sim.writes_received()) < 2 else after).replace(tzinfo=tz)
+
+    monkeypatch.setattr(engine, "datetime", WindowClosesAfterTwoWrites)
+    capsys.readouterr()
+    assert main(["push", str(project), "--port", url, "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.11", "SNT 1 1.11"]
+    assert "push stopped: wrote 2 of 3 item(s)" in err
+    assert "  not written: timer 2: SNT 2 2.22" in err and "unknown:" not in err
+    assert err.splitlines()[-1].startswith(
+        "harlsync: refused: robot cell: Sun 04:00 is outside its maintenance windows "
+        "(sat 22:00-04:00); stopped before writing timer 2"
+    )
+    [record] = audit_log.results()
+    assert record["result"] == "refused" and len(record["written"]) == 2

@@ -26,6 +26,7 @@ __all__ = [
     "FileSet",
     "build_serial",
     "build_windows",
+    "newer_format",
     "numbers",
     "serial_items",
     "text_of",
@@ -95,13 +96,9 @@ class FileSet:
         if not (isinstance(value, y.Number) and value.integral):
             return True  # the schema reports it
         line = doc.line(("format",))
-        if value > self.format:  # compared as a Decimal: format 10**5000 has no str(int)
-            issues.append(Issue(
-                name, line, None,
-                f"format {show(value)} is newer than this harlsync understands "
-                f"({self.format}): upgrade harlsync",
-                fatal=True,
-            ))
+        newer = _newer(name, doc, self.format)
+        if newer is not None:
+            issues.append(newer)
             return False
         number = int(value)
         while number < self.format:
@@ -115,6 +112,34 @@ class FileSet:
             number += 1
             doc.data["format"] = y.Number(str(number))
         return True
+
+
+def newer_format(name: str, raw: bytes, current: int) -> Issue | None:
+    """Why the file ``name`` with content ``raw`` must not be read or overwritten:
+    its format is newer than ``current``.  None when it is not, or when the text
+    cannot be parsed at all (that file is broken, not newer).
+
+    The format is read by the YAML parser, as a load reads it, never matched as
+    text: ``"format": 2`` is the same key as ``format: 2``.
+    """
+    try:
+        doc = y.parse(raw.decode("utf-8"))
+    except (UnicodeDecodeError, y.YamlSyntaxError):
+        return None
+    return _newer(name, doc, current)
+
+
+def _newer(name: str, doc: y.Parsed, current: int) -> Issue | None:
+    value = doc.data.get("format") if isinstance(doc.data, dict) else None
+    # Compared as a Decimal: format 10**5000 has no str(int).
+    if not (isinstance(value, y.Number) and value.integral and value > current):
+        return None
+    return Issue(
+        name, doc.line(("format",)), None,
+        f"format {show(value)} is newer than this harlsync understands ({current}): "
+        "upgrade harlsync",
+        fatal=True,
+    )
 
 
 def unique(issues: list[Issue], order: Sequence[str]) -> list[Issue]:

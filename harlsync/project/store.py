@@ -26,17 +26,25 @@ Files whose content did not change are not rewritten, and program files the
 new configuration no longer has are removed in step 2 (and restored on
 failure).  ``robot.yaml`` belongs to the user: a save writes it only when it
 does not exist yet, unless asked to replace it.
+
+Each save also records, in the same set, what it left: the SHA-256 of every
+file it manages, in ``.harlsync/saved.json`` (harlsync's local state, ignored by
+git).  :func:`edited_since_save` compares files with that record: a file still
+as the last save left it was not edited by anyone since, even when git shows it
+uncommitted (a backup whose commit failed).
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import json
 import logging
 import os
 import re
 import secrets
 import shutil
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -44,6 +52,7 @@ from typing import TYPE_CHECKING, Any
 from .. import families
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
 from . import yamlio
+from .files import SCHEMAS_DIR, newer_format
 from .robot import Robot
 from .schema import Issue
 
@@ -51,19 +60,21 @@ if TYPE_CHECKING:
     from ..families.base import Family
 
 __all__ = [
+    "LOCAL_DIR",
     "SCHEMAS_DIR",
     "Project",
+    "disk_error",
+    "edited_since_save",
     "family_of",
     "load_project",
     "load_robot",
+    "replace_file",
     "save_project",
     "validate_project",
 ]
 
 log = logging.getLogger(__name__)
 
-#: Copies of the family's JSON Schemas in each project, for editors.
-SCHEMAS_DIR = ".schemas"
 
 
 @dataclass
@@ -176,9 +187,10 @@ def save_project(
     and the schema copies under ``.schemas/``.  Removes program files the
     configuration no longer has, and ``registers.yaml`` when registers are not kept.
 
-    Returns the paths (relative to ``path``) written or removed.  Raises
-    ProjectInvalid, before writing anything, when the data would not make a valid
-    project, and OSError when the disk fails (the previous files are then intact).
+    Returns the paths (relative to ``path``) written or removed; nothing is written
+    when nothing changed.  Raises ProjectInvalid, before writing anything, when the
+    data would not make a valid project, and ProjectError when the disk fails (full,
+    read-only): the previous files are then intact and no temporary is left.
     """
     root = Path(path)
     if root.is_dir():
@@ -195,6 +207,9 @@ def save_project(
         del wanted["robot.yaml"]
     for name, text in family.schemas().items():
         wanted[f"{SCHEMAS_DIR}/{name}"] = text.encode("utf-8")
+    wanted[SAVED] = _saved_record(wanted)
+    if not (root / LOCAL_IGNORE).exists():
+        wanted[LOCAL_IGNORE] = LOCAL_IGNORE_TEXT
 
     changed = {name: data for name, data in wanted.items() if _current(root / name) != data}
     stale = family.stale_files(root, texts, project.robot, project.data)
@@ -205,24 +220,70 @@ def save_project(
         raise ProjectFormatError(
             newer[0] + (f" (and {len(newer) - 1} more)" if len(newer) > 1 else "")
         )
-    _commit(root, changed, stale)
-    return sorted([*changed, *stale])
+    if changed or stale:
+        try:
+            _commit(root, changed, stale)
+        except OSError as exc:
+            raise disk_error(exc, root, "save the project") from exc
+    return sorted(name for name in [*changed, *stale] if not name.startswith(f"{LOCAL_DIR}/"))
 
 
-_FORMAT_LINE = re.compile(rb"^format:[ \t]*([0-9]+)[ \t]*(?:#.*)?$", re.MULTILINE)
+#: harlsync's local state in a project: not versioned (its .gitignore says so).
+LOCAL_DIR = ".harlsync"
+LOCAL_IGNORE = f"{LOCAL_DIR}/.gitignore"
+LOCAL_IGNORE_TEXT = b"# harlsync's local state (snapshots, backup times): not versioned\n*\n"
+#: What the last save left: ``{"files": {name: sha256}}`` for every file it manages.
+SAVED = f"{LOCAL_DIR}/saved.json"
+
+
+def _saved_record(files: dict[str, bytes]) -> bytes:
+    digests = {name: hashlib.sha256(data).hexdigest() for name, data in sorted(files.items())}
+    return (json.dumps({"files": digests}, indent=1) + "\n").encode("utf-8")
+
+
+def _managed(name: str, family: Family) -> bool:
+    """Whether a save writes or removes the file ``name`` (relative to the project):
+    the family's YAML files at the top or in its directories, and the schema copies."""
+    folder = name.rpartition("/")[0]
+    if folder == SCHEMAS_DIR:
+        return name.endswith(".schema.json")
+    return name.endswith(".yaml") and (folder == "" or folder in family.directories)
+
+
+def edited_since_save(path: str | os.PathLike[str], names: Iterable[str]) -> list[str]:
+    """Those of ``names`` (files relative to the project) that are not as the last
+    save left them: changed, made or removed by someone else since.
+
+    A file the save wrote is as it left it when its content has the SHA-256 the save
+    recorded; a file the save manages but did not leave (a program the configuration
+    no longer has) when it is still absent.  Anything else counts as edited: a file
+    harlsync does not manage, and every file when there is no readable record.
+    """
+    root = Path(path)
+    family = family_of(root)
+    try:
+        record = json.loads((root / SAVED).read_bytes())["files"]
+        if not isinstance(record, dict):
+            raise TypeError("not a mapping")
+    except (OSError, ValueError, KeyError, TypeError):
+        record = {}
+    edited = []
+    for name in names:
+        content = _current(root / name)
+        if name in record:
+            same = content is not None and hashlib.sha256(content).hexdigest() == record[name]
+        else:
+            same = bool(record) and content is None and _managed(name, family)
+        if not same:
+            edited.append(name)
+    return edited
 
 
 def _newer_format(root: Path, name: str, family: Family) -> str | None:
     """Why the file ``name`` must not be overwritten: it has a newer format."""
     content = _current(root / name) if name.endswith(".yaml") else None
-    match = _FORMAT_LINE.search(content) if content else None
-    if match is None or int(match.group(1)) <= family.format:
-        return None
-    line = content.count(b"\n", 0, match.start()) + 1  # type: ignore[union-attr]
-    return (
-        f"{name}:{line}: format {int(match.group(1))} is newer than this harlsync "
-        f"understands ({family.format}): upgrade harlsync (the file was not overwritten)"
-    )
+    issue = newer_format(name, content, family.format) if content else None
+    return f"{issue} (the file was not overwritten)" if issue else None
 
 
 def _current(path: Path) -> bytes | None:
@@ -247,12 +308,46 @@ def _sibling(target: Path, what: str) -> Path:
 
 
 def _write_temp(target: Path, data: bytes) -> Path:
+    """``data`` in a new temporary file beside ``target``, fsynced; its path.  When
+    the disk fails (full, read-only) the temporary is removed before the OSError."""
     temp = _sibling(target, "new")
-    with open(temp, "xb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
+    try:
+        with open(temp, "xb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+    except BaseException:
+        _quietly(temp.unlink, missing_ok=True)
+        raise
     return temp
+
+
+def replace_file(target: Path, data: bytes) -> None:
+    """Replace ``target`` by a file holding ``data``, atomically: readers see the old
+    file or the new one, and a failure leaves the old one and no temporary.
+
+    Raises OSError when the disk fails.
+    """
+    temp = _write_temp(target, data)
+    try:
+        os.replace(temp, target)
+    finally:
+        _quietly(temp.unlink, missing_ok=True)
+
+
+def disk_error(exc: OSError, where: Path, doing: str) -> ProjectError:
+    """A file-system failure while harlsync writes its own files, as one line: what
+    failed and where, why, and what to do."""
+    number = exc.errno
+    if number in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+        hint = "free some space on that file system (df -h) and run again"
+    elif number == errno.EROFS:
+        hint = "it is on a read-only file system: mount it read-write and run again"
+    elif number in (errno.EACCES, errno.EPERM):
+        hint = f"this user may not write there: check its owner and mode (ls -ld {where})"
+    else:
+        hint = "check the disk and run again"
+    return ProjectError(f"{where}: cannot {doing} ({exc.strerror or exc}): {hint}")
 
 
 def _backup(target: Path) -> Path | None:
@@ -263,7 +358,11 @@ def _backup(target: Path) -> Path | None:
     try:
         os.link(target, backup)
     except OSError:
-        shutil.copy2(target, backup)
+        try:
+            shutil.copy2(target, backup)
+        except BaseException:
+            _quietly(backup.unlink, missing_ok=True)
+            raise
     return backup
 
 
@@ -312,12 +411,12 @@ def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
                 target.unlink()
         for directory in {(root / e.name).parent for e in entries}:
             _fsync_dir(directory)
+        (root / JOURNAL).unlink()  # the save is done
     except BaseException:
         log.warning("save of %s failed: restoring the previous files", root)
         _undo(root, entries, made_dirs)
         raise
-    (root / JOURNAL).unlink()
-    _fsync_dir(root)
+    _quietly(_fsync_dir, root)
     for entry in entries:
         if entry.old is not None:
             _quietly(entry.old.unlink, missing_ok=True)
@@ -329,12 +428,7 @@ def _write_journal(root: Path, entries: list[_Entry], made_dirs: list[Path]) -> 
         "files": [[e.name, e.temp and e.temp.name, e.old and e.old.name] for e in entries],
         "made_dirs": [os.path.relpath(d, root) for d in made_dirs],
     }
-    journal = root / JOURNAL
-    temp = _write_temp(journal, json.dumps(record).encode("utf-8"))
-    try:
-        os.replace(temp, journal)
-    finally:
-        _quietly(temp.unlink, missing_ok=True)
+    replace_file(root / JOURNAL, json.dumps(record).encode("utf-8"))
     _fsync_dir(root)
 
 
@@ -407,8 +501,8 @@ def recover(root: Path) -> bool:
 def _sweep(root: Path) -> bool:
     """Remove temporaries and second names left by killed processes."""
     found = False
-    # The project's own sub-directories (programs/, ...) and .schemas/: any family's.
-    directories = [root, root / SCHEMAS_DIR] + sorted(
+    # The project's own sub-directories (programs/, ...), .schemas/ and .harlsync/.
+    directories = [root, root / SCHEMAS_DIR, root / LOCAL_DIR] + sorted(
         d for d in root.iterdir() if d.is_dir() and not d.name.startswith(".")
     ) if root.is_dir() else []
     for directory in directories:

@@ -19,14 +19,17 @@ import subprocess
 import time
 from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
-from ..errors import HarlsyncError, LinkError, ProjectError
+from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..link import lock_key
 from ..project import load_robot
+from ..project.lock import project_lock
+from ..project.store import replace_file
 from . import git, history
 from .engine import catalogue, pull
 from .items import summarize
@@ -67,6 +70,9 @@ class RobotOutcome:
 class BackupReport:
     robots: list[RobotOutcome]
     commit: str | None = None
+    #: Why the commit failed (a stale .git/index.lock...); the backups are then
+    #: saved but uncommitted, and the next run's pulls commit them.
+    commit_error: str | None = None
     pushed: bool | None = None
     push_error: str | None = None
     started: str = ""
@@ -74,8 +80,9 @@ class BackupReport:
 
     @property
     def ok(self) -> bool:
-        """Every robot backed up, and the commit pushed when a push was asked for."""
-        return all(r.ok for r in self.robots) and self.pushed is not False
+        """Every robot backed up and committed, and pushed when a push was asked for."""
+        return (all(r.ok for r in self.robots) and self.commit_error is None
+                and self.pushed is not False)
 
     @property
     def changed(self) -> list[RobotOutcome]:
@@ -87,6 +94,7 @@ class BackupReport:
             "started": self.started,
             "duration": round(self.duration, 3),
             "commit": self.commit,
+            "commit_error": self.commit_error,
             "pushed": self.pushed,
             "push_error": self.push_error,
             "robots": [asdict(r) | {"duration": round(r.duration, 3)} for r in self.robots],
@@ -129,6 +137,9 @@ class BackupReport:
         tail = f"{ok} of {len(self.robots)} robot(s) backed up, {len(self.changed)} changed"
         if self.commit:
             tail += f", commit {self.commit[:10]}"
+        if self.commit_error:
+            tail += (f"; git commit FAILED: {self.commit_error} (the backups are saved; the "
+                     "next run commits them)")
         if self.push_error:
             tail += f"; git push FAILED: {self.push_error} (the commit is kept locally)"
         elif self.pushed:
@@ -188,11 +199,52 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
             outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
         outcome.ok, outcome.error = True, None
-        outcome.changed = result.changes is None or bool(result.changes)
+        outcome.changed = result.changes is None or bool(result.changes) or bool(result.earlier)
         outcome.summary = result.summary
         outcome.counts = summarize(catalogue(robot), result.changes or [])
         break
     outcome.duration = time.monotonic() - start
+    return outcome
+
+
+def _backup_one(path: Path, attempts: int, lock_timeout: float, now: datetime) -> RobotOutcome:
+    """Back up one robot, holding its project from the pull to the record of it."""
+    with ExitStack() as held:
+        try:
+            held.enter_context(project_lock(path, timeout=lock_timeout, command="backup"))
+        except ProjectError as exc:  # another harlsync is saving it: one line, that robot
+            return _not_backed_up(path, exc)
+        return _record(_pull_one(path, attempts, lock_timeout), now)
+
+
+def _not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
+    """The outcome of a robot not even tried, reading only what it needs to name it."""
+    try:
+        robot = load_robot(path)
+        outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
+    except HarlsyncError:
+        outcome = RobotOutcome(path.name, str(path), "?", 0)
+    outcome.error = str(exc)
+    outcome.attempts.append(f"attempt 1: {exc}")
+    outcome.last_success = history.read(path).get("last_success")
+    return outcome
+
+
+def _record(outcome: RobotOutcome, now: datetime) -> RobotOutcome:
+    """Record the attempt in the robot's history (``DIR/.harlsync/backup.json``).
+
+    A history that cannot be written (a read-only or full disk) fails that robot
+    only: a robot backed up fine becomes a failure naming it.
+    """
+    path = Path(outcome.path)
+    try:
+        state = history.record(path, ok=outcome.ok, error=outcome.error, now=now)
+    except HarlsyncError as exc:
+        log.warning("%s: %s", outcome.name, exc)
+        if outcome.ok:
+            outcome.ok, outcome.error = False, str(exc)
+        state = history.read(path)
+    outcome.last_success = state.get("last_success")
     return outcome
 
 
@@ -226,7 +278,7 @@ def backup(
         lines.setdefault(line_of(port), []).append(path)
 
     def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
-        return [_pull_one(p, attempts, lock_timeout) for p in paths_on_line]
+        return [_backup_one(p, attempts, lock_timeout, now) for p in paths_on_line]
 
     workers = len(lines) if jobs is None else jobs
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
@@ -234,9 +286,6 @@ def backup(
     outcomes.sort(key=lambda o: o.name)
 
     for outcome in outcomes:
-        path = Path(outcome.path)
-        state = history.record(path, ok=outcome.ok, error=outcome.error, now=now)
-        outcome.last_success = state.get("last_success")
         outcome.never_backed_up = outcome.last_success is None
         if outcome.last_success:
             outcome.stale = now - datetime.fromisoformat(outcome.last_success) > stale_after
@@ -245,7 +294,10 @@ def backup(
     if commit:
         done = [Path(o.path) for o in outcomes if o.ok and o.changed]
         if done:
-            report.commit = git.commit(done, report.commit_message())
+            try:
+                report.commit = git.commit(done, report.commit_message())
+            except HarlsyncError as exc:  # the night's report, metrics and hooks still come
+                report.commit_error = str(exc)
         if push:
             # Push even when nothing changed tonight: it catches up a failed push.
             try:
@@ -278,7 +330,10 @@ def run_hook(command: str, report: BackupReport, event: str) -> int:
 
 
 def write_metrics(path: str | Path, report: BackupReport) -> None:
-    """Write a Prometheus textfile (node_exporter's textfile collector), atomically."""
+    """Write a Prometheus textfile (node_exporter's textfile collector), atomically.
+
+    Raises SyncError when it cannot be written (the previous file is then kept).
+    """
     lines = [
         "# HELP harlsync_backup_success Whether the robot's last backup run succeeded.",
         "# TYPE harlsync_backup_success gauge",
@@ -303,13 +358,19 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
             f"harlsync_backup_changed_items{label} {changed}",
             f"harlsync_backup_failed_attempts{label} {len(r.attempts)}",
         ]
+    if report.commit is not None or report.commit_error is not None:
+        lines += [
+            "# HELP harlsync_backup_git_commit_success Whether the run's git commit succeeded.",
+            "# TYPE harlsync_backup_git_commit_success gauge",
+            f"harlsync_backup_git_commit_success {int(report.commit_error is None)}",
+        ]
     if report.pushed is not None:
         lines += [
             "# HELP harlsync_backup_git_push_success Whether the run's git push succeeded.",
             "# TYPE harlsync_backup_git_push_success gauge",
             f"harlsync_backup_git_push_success {int(report.pushed)}",
         ]
-    target = Path(path)
-    tmp = target.with_name(target.name + ".tmp")
-    tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    os.replace(tmp, target)
+    try:
+        replace_file(Path(path), ("\n".join(lines) + "\n").encode("utf-8"))
+    except OSError as exc:
+        raise SyncError(f"cannot write the metrics file {path}: {exc.strerror or exc}") from exc

@@ -10,10 +10,11 @@ before the last check)::
     LNR: robot idle?                 (interlock, before the long read)
     read the live robot, make the plan
     stale plan? unwritable? reconfiguration allowed? confirmed?
-    snapshot the live robot          (DIR/.harlsync/snapshots/<time>-push/)
+    snapshot the live robot          (DIR/.harlsync/snapshots/<n>-<time>-push/)
     audit "start" record, the plan   (write-ahead, fsynced)
     for each write, in the safe order:
         read the item: as planned?   (drift: edited on the pendant since the read)
+        still in the window?         (policy: a long push stops when its window closes)
         LNR: idle?                   (interlock: before every write)
         audit "write" record         (fsynced: a SIGKILL still leaves a trace)
         write, read back, compare    (verify)
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -54,6 +56,8 @@ from ..errors import (
 )
 from ..families.base import Catalogue, Driver, Progress
 from ..project import Project, Robot, load_project, load_robot, save_project
+from ..project.lock import holding_project
+from ..project.store import disk_error, edited_since_save
 from . import audit, git, history
 from .items import Change, diff
 from .plan import Plan, PlannedWrite, make_plan
@@ -159,12 +163,16 @@ class PullResult:
     robot: Robot
     changes: list[Change] | None  # None: there was no valid previous backup
     commit: str | None = None
+    #: Files an earlier pull saved and nobody touched since, still uncommitted (its
+    #: commit failed or was killed): this pull's save and commit take them over.
+    earlier: list[str] = field(default_factory=list)
 
     @property
     def summary(self) -> str:
-        if self.changes is None:
-            return "first backup"
-        return change_summary(self.changes)
+        said = "first backup" if self.changes is None else change_summary(self.changes)
+        if self.earlier:
+            said += f"; with an earlier pull's backup, never committed ({_listed(self.earlier)})"
+        return said
 
 
 def _robot_for(path: Path, port: str | None, station: Station, family: str | None) -> Robot:
@@ -198,10 +206,34 @@ def _absolute_sim_path(port: str) -> str:
 
 def _uncommitted(path: Path, *, ignore: tuple[str, ...] = ()) -> str:
     """The files under ``path`` with uncommitted changes, for a message ('' when none)."""
-    dirty = [f for f in git.changed_files(path) if Path(f).name not in ignore]
-    return ", ".join(dirty[:3]) + (", ..." if len(dirty) > 3 else "")
+    return _listed([f for f in git.changed_files(path) if Path(f).name not in ignore])
 
 
+def _listed(files: list[str]) -> str:
+    return ", ".join(files[:3]) + (", ..." if len(files) > 3 else "")
+
+
+def _earlier_pull_and_edits(path: Path) -> tuple[list[str], str]:
+    """What a pull finds uncommitted under ``path`` (robot.yaml aside, which it never
+    rewrites): the files an earlier pull saved and nobody touched since, and the
+    others, for a message ('' when none).
+
+    The first are harlsync's own backup whose commit failed (a stale index.lock,
+    a pull killed between its save and its commit): the save's record of what it
+    wrote (:func:`~harlsync.project.store.edited_since_save`) tells them from a
+    person's edit, which a pull must never overwrite.
+    """
+    dirty = [f for f in git.changed_files(path) if Path(f).name != "robot.yaml"]
+    top = git.repo_root(path)
+    if not dirty or top is None:
+        return [], ""
+    inside = {f: (top / f).relative_to(path.resolve()).as_posix() for f in dirty}
+    edited = set(edited_since_save(path, inside.values()))
+    return ([name for name in inside.values() if name not in edited],
+            _listed([f for f, name in inside.items() if name in edited]))
+
+
+@holding_project("pull")
 def pull(
     path: str | Path,
     *,
@@ -217,13 +249,15 @@ def pull(
 
     A pull that fails leaves the previous files untouched.  A project with
     uncommitted edits (other than robot.yaml, which a pull never rewrites) is
-    refused unless ``allow_dirty``: the pull would overwrite them.  ``family``
+    refused unless ``allow_dirty``: the pull would overwrite them.  Files an
+    earlier pull saved, untouched since, are not edits: this pull takes them over
+    (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
     names the controller family of a first pull (default: HARL-U2).
     """
     path = Path(path)
     robot = _robot_for(path, port, station, family)
     station = station_number(robot.family, station)
-    dirty = "" if allow_dirty else _uncommitted(path, ignore=("robot.yaml",))
+    earlier, dirty = ([], "") if allow_dirty else _earlier_pull_and_edits(path)
     if dirty:
         raise PolicyError(
             f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
@@ -240,8 +274,8 @@ def pull(
     changes = None if previous is None else diff(
         catalogue(robot), previous, live, registers=robot.keep_registers
     )
-    result = PullResult(path, robot, changes)
-    if commit and (changes is None or changes):
+    result = PullResult(path, robot, changes, earlier=earlier)
+    if commit and (changes is None or changes or earlier):
         result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
     return result
 
@@ -351,13 +385,16 @@ class PushFailed(SyncError):
         super().__init__(str(cause))
 
 
-def _check_window(robot: Robot, opts: PushOptions) -> None:
+def _check_window(robot: Robot, opts: PushOptions, before: str | None = None) -> None:
+    """Refuse outside the maintenance windows: before the port is opened, and again
+    ``before`` each write, so a long push stops when its window closes."""
     now = opts.now or datetime.now()
     if not opts.outside_window and not robot.in_window(now):
         windows = "; ".join(str(w) for w in robot.windows)
+        stopped = f"; stopped before {before}" if before else ""
         raise PolicyError(
-            f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows}); "
-            "wait for a window or give --outside-window REASON"
+            f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows})"
+            f"{stopped}; wait for a window or give --outside-window REASON"
         )
 
 
@@ -392,12 +429,26 @@ def _interlock(driver: Driver, robot: Robot, before: str) -> None:
         )
 
 
+#: A snapshot's name: a sequence number, which orders the snapshots whatever the clock
+#: did between two pushes, then the time (for people) and the action:
+#: ``000012-20261124T202350.294650Z-push``.  Names an older harlsync gave have no
+#: number (``20261124T202350.294650Z-push``): they come before every numbered one.
+_SNAPSHOT_NAME = re.compile(r"(?:(?P<number>[0-9]+)-)?[0-9]{8}T[0-9.]+Z-[a-z]+")
+
+
+def _snapshot_number(snapshot: Path) -> int:
+    """Its sequence number; 0 for a name without one."""
+    match = _SNAPSHOT_NAME.fullmatch(snapshot.name)
+    return int(match["number"]) if match and match["number"] else 0
+
+
 def snapshots(path: str | Path, action: str = "push") -> list[Path]:
     """The snapshots taken before each ``action`` (push or rollback), oldest first."""
     root = Path(path) / SNAPSHOT_DIR
     if not root.is_dir():
         return []
-    return sorted(p for p in root.iterdir() if p.is_dir() and p.name.endswith(f"-{action}"))
+    taken = [p for p in root.iterdir() if p.is_dir() and p.name.endswith(f"-{action}")]
+    return sorted(taken, key=lambda p: (_snapshot_number(p), p.name))
 
 
 def _save_snapshot(path: Path, robot: Robot, live: Any, action: str) -> Path:
@@ -407,19 +458,24 @@ def _save_snapshot(path: Path, robot: Robot, live: Any, action: str) -> Path:
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
     history.ensure_local_dir(path)
     root = (path / SNAPSHOT_DIR).resolve()
-    root.mkdir(exist_ok=True)
-    for leftover in root.glob(".*.partial"):
-        shutil.rmtree(leftover, ignore_errors=True)
-    partial = root / f".{stamp}-{action}.partial"
-    save_project(partial, Project(partial, robot, live))
-    target = root / f"{stamp}-{action}"
-    os.rename(partial, target)
-    if os.name == "posix":  # the rename must be on disk before the first write
-        fd = os.open(root, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+    try:
+        root.mkdir(exist_ok=True)
+        for leftover in root.glob(".*.partial"):
+            shutil.rmtree(leftover, ignore_errors=True)
+        number = 1 + max((_snapshot_number(p) for p in root.iterdir()), default=0)
+        name = f"{number:06d}-{stamp}-{action}"
+        partial = root / f".{name}.partial"
+        save_project(partial, Project(partial, robot, live))
+        target = root / name
+        os.rename(partial, target)
+        if os.name == "posix":  # the rename must be on disk before the first write
+            fd = os.open(root, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+    except OSError as exc:
+        raise disk_error(exc, root, f"save the snapshot before the {action}") from exc
     return target
 
 
@@ -590,6 +646,7 @@ def _write_all(
                 f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
                 "the change, then run again"
             )
+        _check_window(robot, opts, f"writing {write.name} ({write.command})")
         announce(write)  # before the interlock: nothing between LNR and the write
         if not live(write):
             try:
@@ -639,6 +696,7 @@ def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite], bool]) -> str:
             "have reached it while a task ran; check the robot")
 
 
+@holding_project("push")
 def push(
     path: str | Path,
     opts: PushOptions,
@@ -682,6 +740,7 @@ def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: Harlsy
         log.error("cannot write the audit log: %s", err)
 
 
+@holding_project("rollback")
 def rollback(
     path: str | Path,
     opts: PushOptions,

@@ -26,7 +26,10 @@ def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProce
         lines = [ln.strip() for ln in (result.stderr or result.stdout).splitlines() if ln.strip()]
         detail = next((ln for ln in lines if ln.startswith(("fatal:", "error:"))), None)
         detail = detail or (lines[0] if lines else f"exit status {result.returncode}")
-        raise SyncError(f"git {' '.join(args)} failed in {cwd}: {detail}")
+        if "index.lock" in detail:  # left by a git that was killed or crashed
+            detail += " (if no git is running there, remove that file)"
+        # The subcommand only: the paths of a backup's add would fill the line.
+        raise SyncError(f"git {args[0]} failed in {cwd}: {detail}")
     return result
 
 
