@@ -76,7 +76,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
                    help="extra delay before each reply")
     p.add_argument(
         "--faults", default="", metavar="NAME=RATE,...",
-        help="fault injection: noise, drop, bad_lrc, fragment, slow (rates 0-1), "
+        help="fault injection: noise, drop, bad_checksum (bad_lrc), fragment, slow (rates 0-1), "
              "slow_delay (seconds), seed",
     )
     p.add_argument("--auto", action="store_true", help="start with task 0 in automatic operation")
@@ -84,7 +84,8 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
                    help="switch to automatic operation after N SN writes")
     p.add_argument("--record", metavar="FILE",
                    help="append every request received to FILE as JSON lines (station, "
-                        "payload, automatic, client: 'pty' or the TCP peer)")
+                        "payload, busy: whether a task was in execution or suspended, client: "
+                        "'pty' or the TCP peer)")
     p.add_argument("--state", metavar="DIR",
                    help="battery-backed memory: keep each station as the project DIR/station-N, "
                         "saved after every write and loaded again when the simulator restarts")
@@ -92,7 +93,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .families.harl_u2.sim import Faults, Received
+    from .sim import Faults, Received
     from .sim.control import apply_command
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer
@@ -110,7 +111,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         baudrate=args.baud or None,
         turnaround=args.turnaround,
         faults=faults,
-        auto_after_writes=args.auto_after_writes,
+        busy_after_writes=args.auto_after_writes,
     )
     if args.state:
         from .sim.memory import keep_state
@@ -118,14 +119,13 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         keep_state(sim, args.state)
     if args.auto:
         for state in sim.stations.values():
-            state.start_task(0)
+            sim.control(sim.family.busy_verb, state, ())
     if args.record:
         record = open(args.record, "a", encoding="utf-8")  # noqa: SIM115 - open for the run
 
         def log_request(r: Received) -> None:
             record.write(json.dumps(
-                {"station": r.station, "payload": r.payload, "automatic": r.automatic,
-                 "client": r.client}
+                {"station": r.station, "payload": r.payload, "busy": r.busy, "client": r.client}
             ) + "\n")
             record.flush()
 

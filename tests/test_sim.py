@@ -14,8 +14,9 @@ import serial
 
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame, lrc
-from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.families.harl_u2.sim.device import STATUS_RANGE
+from harlsync.sim import Faults
 from harlsync.sim.control import apply_command
 from harlsync.sim.protocol_sim import register, simulator_from_url, unregister
 from harlsync.sim.serve import PtyServer, TcpServer
@@ -161,7 +162,7 @@ def test_fault_drop_sends_nothing_but_records_the_request() -> None:
 
 
 def test_fault_bad_lrc_corrupts_only_the_lrc() -> None:
-    sim = Simulator(SimState.generate(1, SMALL), faults=Faults(bad_lrc=1.0))
+    sim = Simulator(SimState.generate(1, SMALL), faults=Faults(bad_checksum=1.0))
     [(_, reply)] = sim.receive(encode_frame(1, "LNV"))
     assert reply[:-1] == encode_frame(1, "5.00")[:-1]
     assert reply[-1] != lrc(reply[1:-1])
@@ -296,6 +297,6 @@ def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Pa
     finally:
         proc.kill()
     records = [json.loads(line) for line in record.read_text().splitlines()]
-    assert [(r["station"], r["payload"], r["automatic"]) for r in records] == [
+    assert [(r["station"], r["payload"], r["busy"]) for r in records] == [
         (2, "LNV", False), (1, "LNR", False), (1, "LNR", True)
     ]
