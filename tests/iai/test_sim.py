@@ -9,6 +9,9 @@ field by field with the codec, whose own golden tests cover its decoding.
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -319,7 +322,7 @@ def test_a_dropped_reply_is_recorded_as_unanswered(line: Line) -> None:
     assert [(r.command, r.answered) for r in line.sim.received] == [("201", False), ("215", True)]
 
 
-# --- the framework's side: generation, control, URLs, memory -------------------------
+# --- the framework's side: generation, control, URLs, memory, the command -------------------------
 
 
 def test_a_generated_controller_is_realistic_and_reproducible() -> None:
@@ -383,6 +386,47 @@ def test_battery_backed_memory_keeps_the_table_across_a_restart(tmp_path: Path) 
     kept = again.stations[0x99]
     assert kept.positions == sim.stations[0x99].positions and 6 in kept.positions
     assert kept.integers == {1: -1000} and kept.idle  # a restarted controller is idle
+
+
+def test_harlsync_sim_family_iai_serves_pty_and_tcp(tmp_path: Path) -> None:
+    record = tmp_path / "requests.jsonl"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "harlsync", "sim", "--family", "iai", "--seed", "3", "--baud", "0",
+         "--listen", "127.0.0.1:0", "--stations", "99,A0", "--record", str(record)],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )
+    assert proc.stdin is not None and proc.stdout is not None
+    try:
+        lines = dict(proc.stdout.readline().strip().split(": ", 1) for _ in range(3))
+        assert lines["stations"] == "99, A0"
+        with serial.serial_for_url(lines["pty"], timeout=0.05) as port:
+            port.write(SYSTEM_STATUS_Q)
+            assert read_line(port) == STATUS_IDLE
+        with serial.serial_for_url(lines["tcp"], timeout=0.05) as port:
+            proc.stdin.write("run 99\n")
+            proc.stdin.flush()
+            assert proc.stdout.readline().startswith("station 99: program running")
+            port.write(SYSTEM_STATUS_Q)
+            assert read_line(port) == STATUS_RUNNING
+        proc.stdin.close()
+        assert proc.wait(timeout=10) == 0
+    finally:
+        proc.kill()
+    records = [json.loads(line) for line in record.read_text().splitlines()]
+    assert [(r["station"], r["payload"], r["busy"]) for r in records] == [
+        (0x99, "215", False), (0x99, "215", True)
+    ]
+
+
+def test_harlsync_sim_help_lists_each_familys_verbs() -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "harlsync", "sim", "--help"], capture_output=True, text=True,
+        check=True,
+    ).stdout
+    text = " ".join(out.split())
+    assert "harl-u2: auto [STATION [TASK]]" in text
+    assert "iai: run [STATION], manual [STATION], estop [STATION]" in text
+    assert "run-after-writes N, status" in text
 
 
 # --- helpers ------------------------------------------------------------------------------------
