@@ -7,13 +7,14 @@ A family's simulated controller lives in its own package
 :class:`SimFamily` the framework reaches it through.
 """
 
-from .device import Decoder, Faults, Received, RequestFrame, Simulator
+from .device import Decoder, Faults, Received, Refused, RequestFrame, Simulator
 from .family import SimFamily, Verb, project_family, sim_family
 
 __all__ = [
     "Decoder",
     "Faults",
     "Received",
+    "Refused",
     "RequestFrame",
     "SimFamily",
     "Simulator",

@@ -40,7 +40,7 @@ from ..errors import ProtocolError
 if TYPE_CHECKING:
     from .family import SimFamily
 
-__all__ = ["Decoder", "Faults", "Received", "RequestFrame", "Simulator"]
+__all__ = ["Decoder", "Faults", "Received", "Refused", "RequestFrame", "Simulator"]
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +80,16 @@ class Decoder(Protocol[F_co]):
     def dropped(self) -> int:
         """Bytes discarded as noise so far."""
         ...
+
+
+class Refused(Exception):
+    """A well-formed request a simulated station does not carry out: the family
+    answers it with its error reply, carrying ``code`` (HARL-U2 ``E`` + status,
+    IAI ``&`` + code)."""
+
+    def __init__(self, code: str) -> None:
+        super().__init__(code)
+        self.code = code
 
 
 @dataclass(frozen=True)

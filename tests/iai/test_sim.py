@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 import serial
+from simprocess import harlsync_sim
 
 from harlsync.families.iai import protocol as p
 from harlsync.families.iai.model import Position, Version
@@ -390,14 +391,10 @@ def test_battery_backed_memory_keeps_the_table_across_a_restart(tmp_path: Path) 
 
 def test_harlsync_sim_family_iai_serves_pty_and_tcp(tmp_path: Path) -> None:
     record = tmp_path / "requests.jsonl"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "harlsync", "sim", "--family", "iai", "--seed", "3", "--baud", "0",
-         "--listen", "127.0.0.1:0", "--stations", "99,A0", "--record", str(record)],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-    )
-    assert proc.stdin is not None and proc.stdout is not None
-    try:
-        lines = dict(proc.stdout.readline().strip().split(": ", 1) for _ in range(3))
+    with harlsync_sim(
+        "--family", "iai", "--seed", "3", "--baud", "0", "--listen", "127.0.0.1:0",
+        "--stations", "99,A0", "--record", str(record),
+    ) as (proc, lines):
         assert lines["stations"] == "99, A0"
         with serial.serial_for_url(lines["pty"], timeout=0.05) as port:
             port.write(SYSTEM_STATUS_Q)
@@ -408,10 +405,6 @@ def test_harlsync_sim_family_iai_serves_pty_and_tcp(tmp_path: Path) -> None:
             assert proc.stdout.readline().startswith("station 99: program running")
             port.write(SYSTEM_STATUS_Q)
             assert read_line(port) == STATUS_RUNNING
-        proc.stdin.close()
-        assert proc.wait(timeout=10) == 0
-    finally:
-        proc.kill()
     records = [json.loads(line) for line in record.read_text().splitlines()]
     assert [(r["station"], r["payload"], r["busy"]) for r in records] == [
         (0x99, "215", False), (0x99, "215", True)

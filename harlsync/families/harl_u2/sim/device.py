@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ....errors import ProtocolError
 from ....sim import device
+from ....sim.device import Refused
 from ....sim.family import Verb
 from ..model import (
     MAX_STEP_DATA,
@@ -42,11 +43,6 @@ __all__ = ["SIM_FAMILY", "STATUS_COMMAND", "STATUS_DATA", "STATUS_RANGE", "Simul
 STATUS_RANGE = "21"  # number outside the configuration
 STATUS_COMMAND = "10"  # unknown command or wrong number of fields
 STATUS_DATA = "22"  # value out of range for a write
-
-
-class _Refuse(Exception):
-    def __init__(self, status: str) -> None:
-        self.status = status
 
 
 class HarlU2SimFamily:
@@ -163,8 +159,8 @@ class Simulator(device.Simulator[SimState, Frame]):
                 self.wrote(state)
                 return reply
             return self._read(state, request)
-        except _Refuse as refusal:
-            return profile.ERROR_PREFIX + refusal.status
+        except Refused as refusal:
+            return profile.ERROR_PREFIX + refusal.code
         except ValueError:
             return profile.ERROR_PREFIX + STATUS_COMMAND
 
@@ -202,7 +198,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             return data.version
         if letters == "LNX":
             return " ".join(str(n) for n in cfg.numbers())
-        raise _Refuse(STATUS_COMMAND)
+        raise Refused(STATUS_COMMAND)
 
     def _write(self, state: SimState, req: Request) -> str:
         data, cfg, a = state.data, state.data.config, req.args
@@ -212,7 +208,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             key, step = _program_step(cfg, "LN" + letters[2], a[: 2 if numbered else 1])
             tokens = a[2 if numbered else 1 :]
             if len(tokens) > 1 + MAX_STEP_DATA:
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             if tokens:
                 data.programs[key][step] = Step.from_tokens(tokens)
             else:
@@ -225,7 +221,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         elif letters == "SNL":
             table = OffsetTable.from_values(a[1:])
             if table.problems():
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             data.offsets[_index(a[0], OFFSET_TABLE_COUNT)] = table
         elif letters in ("SNOB", "SNBB"):
             bits = state.do if letters == "SNOB" else state.mem
@@ -236,12 +232,12 @@ class Simulator(device.Simulator[SimState, Frame]):
             port = _index(a[0], len(bits) // 8)
             value = int(a[1])
             if not 0 <= value <= 255:
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             for i in range(8):
                 bits[port * 8 + i] = (value >> i) & 1
         elif letters == "SNE":
             if not all(TOKEN_RE.fullmatch(v) for v in a):
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             data.parameters = Parameters.from_values(a)
         elif letters == "SNX":
             data.config = Config.from_numbers(
@@ -250,7 +246,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             # The manual: changing the configuration breaks the programs made.
             data.programs = {key: {} for key in data.config.programs()}
         else:
-            raise _Refuse(STATUS_COMMAND)
+            raise Refused(STATUS_COMMAND)
         return profile.SN_OK
 
     # --- for tests -------------------------------------------------------------------
@@ -264,10 +260,10 @@ class Simulator(device.Simulator[SimState, Frame]):
 def _index(text: str, size: int, base: int = 0) -> int:
     """A number field within [base, base+size), else a range error."""
     if not text.isdigit():
-        raise _Refuse(STATUS_COMMAND)
+        raise Refused(STATUS_COMMAND)
     n = int(text) - base
     if not 0 <= n < size:
-        raise _Refuse(STATUS_RANGE)
+        raise Refused(STATUS_RANGE)
     return n
 
 
@@ -279,7 +275,7 @@ def _program_step(
     if ptype is ProgramType.START:
         number, step_text = 0, args[0]
         if area.count < 1:
-            raise _Refuse(STATUS_RANGE)
+            raise Refused(STATUS_RANGE)
     else:
         number, step_text = _index(args[0], area.count), args[1]
     return (ptype, number), _index(step_text, area.steps)
@@ -291,11 +287,11 @@ def _port_value(bits: list[int], port: int) -> int:
 
 def _valid(pattern: re.Pattern[str], text: str) -> str:
     if not pattern.fullmatch(text):
-        raise _Refuse(STATUS_DATA)
+        raise Refused(STATUS_DATA)
     return text
 
 
 def _valid_bit(text: str) -> str:
     if text not in ("0", "1"):
-        raise _Refuse(STATUS_DATA)
+        raise Refused(STATUS_DATA)
     return text

@@ -42,6 +42,7 @@ from pathlib import Path
 
 from ....errors import ProjectError, ProjectFormatError
 from ....sim import device
+from ....sim.device import Refused
 from ....sim.family import Verb
 from .. import profile
 from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes
@@ -62,13 +63,6 @@ log = logging.getLogger(__name__)
 
 #: The file a station's battery-backed memory is kept in, in its state directory.
 MEMORY_FILE = "memory.json"
-
-
-class _Refuse(Exception):
-    """A well-formed command that is not carried out: answered ``&`` + ``code``."""
-
-    def __init__(self, code: str) -> None:
-        self.code = code
 
 
 class IaiSimFamily:
@@ -130,7 +124,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             return None  # a reply or an error is no command: a bad header (p.9)
         try:
             reply = Frame("#", station, frame.message_id, self.handle(state, frame))
-        except _Refuse as refusal:
+        except Refused as refusal:
             reply = Frame("&", station, None, refusal.code)
         return reply.encode()
 
@@ -195,23 +189,23 @@ class Simulator(device.Simulator[SimState, Frame]):
     # --- the controller ---------------------------------------------------------------------
 
     def handle(self, state: SimState, frame: Frame) -> str:
-        """The reply data to one command for one controller.  Raises :class:`_Refuse`."""
+        """The reply data to one command for one controller.  Raises :class:`~harlsync.sim.Refused`."""
         assert frame.message_id is not None  # a '!' frame always has one
         handler = _HANDLERS.get(frame.message_id)
         if handler is None or frame.message_id not in profile.ALLOWED_MESSAGE_IDS:
             log.warning("sim: station %02X got message %03XH, which is off the allow-list",
                         frame.station, frame.message_id)
-            raise _Refuse(codes.NOT_SUPPORTED)
+            raise Refused(codes.NOT_SUPPORTED)
         if _FRAME_OVERHEAD + len(frame.data) > state.buffers.receive:
-            raise _Refuse(codes.TOO_LONG)
+            raise Refused(codes.TOO_LONG)
         if frame.message_id in profile.WRITE_MESSAGE_IDS and not state.idle:
-            raise _Refuse(codes.NOT_IDLE)
+            raise Refused(codes.NOT_IDLE)
         try:
             reply = handler(self, state, frame.data)
         except ValueError:
-            raise _Refuse(codes.BAD_DATA) from None
+            raise Refused(codes.BAD_DATA) from None
         if _FRAME_OVERHEAD + len(reply) > state.buffers.send:
-            raise _Refuse(codes.TOO_LONG)
+            raise Refused(codes.TOO_LONG)
         return reply
 
     def _version(self, state: SimState, data: str) -> str:
@@ -220,7 +214,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         f.end()
         found = state.versions.get((unit, number))
         if found is None:
-            raise _Refuse(codes.BAD_DATA)
+            raise Refused(codes.BAD_DATA)
         day, clock = found.built.split(" ")
         year, month, mday = (int(x) for x in day.split("-"))
         hour, minute, second = (int(x) for x in clock.split(":"))
@@ -239,7 +233,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         pattern = f.hex(2, "axis pattern")
         f.end()
         if not pattern:
-            raise _Refuse(codes.PATTERN_ZERO)
+            raise Refused(codes.PATTERN_ZERO)
         # An axis the robot does not have is left out: "driver not connected" (p.27).
         reported = tuple(a for a in axes_from_pattern(pattern) if a in state.axes)
         sensors, error, encoder = 0, "000", 0
@@ -274,16 +268,16 @@ class Simulator(device.Simulator[SimState, Frame]):
         for i in range(count):  # each record checked before any is written
             axes = axes_from_pattern(f.hex(2, f"record {i} axis pattern"))
             if not axes:
-                raise _Refuse(codes.PATTERN_ZERO)
+                raise Refused(codes.PATTERN_ZERO)
             if not set(axes) <= set(state.axes):
-                raise _Refuse(codes.NO_AXIS)
+                raise Refused(codes.NO_AXIS)
             f.take(12 + 8 * len(axes), f"record {i} values")
             if f.hex(2, f"record {i} extended data") & 0x0F:
-                raise _Refuse(codes.EXTENDED_BITS)
+                raise Refused(codes.EXTENDED_BITS)
         _, positions = parse_write_positions(data)
         first, last = state.position_range
         if not all(first <= p.number <= last for p in positions):
-            raise _Refuse(codes.OUT_OF_RANGE)
+            raise Refused(codes.OUT_OF_RANGE)
         state.positions.update((p.number, p) for p in positions)
         self.wrote(state)
         return f"00{len(positions):04X}"
