@@ -132,7 +132,8 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .sim import Faults, Received, project_family, sim_family
+    from .families import get
+    from .sim import Faults, Received, project_family
     from .sim.control import apply_command
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer
@@ -145,7 +146,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         return _usage(f"sim: --faults: {exc}")
     stations = None
     if args.stations:
-        family = sim_family(args.family or (project_family(args.project) if args.project else None))
+        family = get(args.family or (project_family(args.project) if args.project else None))
         try:
             stations = [family.parse_station(s) for s in args.stations.split(",")]
         except ValueError as exc:
@@ -187,7 +188,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         tcp = TcpServer(sim, host or "127.0.0.1", int(port))
         _print(f"tcp: {tcp.start()}")
         servers.append(tcp)
-    _print(f"stations: {', '.join(sim.family.show_station(n) for n in sorted(sim.stations))}")
+    _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
 
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())

@@ -29,7 +29,7 @@ def after_writes_verb(busy_verb: str) -> str:
 def describe(sim: Simulator[Any, Any]) -> str:
     with sim.lock:
         return "; ".join(
-            f"station {sim.family.show_station(n)}: {sim.describe(s)}"
+            f"station {sim.show_station(n)}: {sim.describe(s)}"
             for n, s in sorted(sim.stations.items())
         ) + f"; {sim.writes} writes received"
 
@@ -52,8 +52,8 @@ def apply_command(sim: Simulator[Any, Any], line: str) -> str:
         if verb not in {v.name for v in family.verbs}:
             known = ", ".join([*(v.name for v in family.verbs), schedule, "status"])
             raise ValueError(f"unknown command {verb!r} ({known})")
-        station = family.parse_station(args[0]) if args else min(sim.stations)
+        station = sim.parse_station(args[0]) if args else min(sim.stations)
         if station not in sim.stations:
-            raise ValueError(f"no station {family.show_station(station)}")
+            raise ValueError(f"no station {sim.show_station(station)}")
         sim.control(verb, sim.stations[station], args[1:])
     return describe(sim)

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar, cast
 
+from .. import families
 from ..errors import ProtocolError
 
 if TYPE_CHECKING:
@@ -279,8 +280,7 @@ class Simulator(ABC, Generic[S, F]):
         state = self.stations.get(frame.station)
         if state is None:
             self.ignored += 1
-            log.debug("sim: no robot with station %s: silence",
-                      self.family.show_station(frame.station))
+            log.debug("sim: no robot with station %s: silence", self.show_station(frame.station))
             return []
         busy = self.busy(state)
         reply = self.respond(frame.station, state, frame)
@@ -299,6 +299,13 @@ class Simulator(ABC, Generic[S, F]):
             listener(record)
         self.bytes_out += sum(len(chunk) for _, chunk in chunks)
         return [(wire + extra, chunk) for extra, chunk in chunks]
+
+    def parse_station(self, text: str) -> int:
+        """A station as the family's people write it (``99`` is 99h for IAI).  Raises ValueError."""
+        return families.get(self.family.name).parse_station(text)
+
+    def show_station(self, number: int) -> str:
+        return families.get(self.family.name).format_station(number)
 
     @property
     def char_time(self) -> float:

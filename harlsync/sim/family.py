@@ -52,13 +52,10 @@ class SimFamily(Protocol):
         ...
 
     @property
-    def default_station(self) -> int: ...
-
-    def parse_station(self, text: str) -> int:
-        """A station number as a user writes it (decimal, or hex for IAI).  Raises ValueError."""
+    def default_station(self) -> int:
+        """Where a generated robot sits.  (How stations are written is the family's
+        :class:`~harlsync.families.base.Family`'s, not repeated here.)"""
         ...
-
-    def show_station(self, number: int) -> str: ...
 
     def decoder(self) -> Decoder[RequestFrame]:
         """A new decoder for the requests a client sends this family's controllers."""

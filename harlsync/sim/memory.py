@@ -27,7 +27,7 @@ def keep_state(sim: Simulator[Any, Any], directory: str | Path) -> None:
     after every write it receives.  Raises ProjectError for an unreadable state."""
     root = Path(directory)
     paths = {
-        number: root / f"station-{sim.family.show_station(number)}" for number in sim.stations
+        number: root / f"station-{sim.show_station(number)}" for number in sim.stations
     }
     for number, path in paths.items():
         if not sim.load_station(number, path):
@@ -39,6 +39,6 @@ def keep_state(sim: Simulator[Any, Any], directory: str | Path) -> None:
                 sim.save_station(request.station, paths[request.station])
             except Exception as exc:  # noqa: BLE001  the simulator must go on answering
                 log.error("sim: cannot save station %s to %s: %s",
-                          sim.family.show_station(request.station), paths[request.station], exc)
+                          sim.show_station(request.station), paths[request.station], exc)
 
     sim.listeners.append(save_after_write)

@@ -28,6 +28,7 @@ from urllib.parse import parse_qs
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
+from .. import families
 from ..errors import ProjectError
 from .device import Decoder, Faults, Simulator
 from .family import project_family, sim_family
@@ -144,11 +145,12 @@ def simulator_from_url(url: str) -> Simulator[Any, Any]:
             {name: opts[key] for key, name in _FAULT_KEYS.items() if key in opts}
         )
         stations = opts.get("stations")
+        notation = families.get(sim_side.name)
         return build_simulator(
             family=sim_side.name,
             project=path or None,
             seed=int(opts.get("seed", 0)),
-            stations=[sim_side.parse_station(s) for s in stations.split(",")] if stations else None,
+            stations=[notation.parse_station(s) for s in stations.split(",")] if stations else None,
             baudrate=int(opts["baud"]) if "baud" in opts else None,
             turnaround=float(opts.get("turnaround", 0)),
             faults=faults,

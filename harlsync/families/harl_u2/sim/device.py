@@ -57,15 +57,6 @@ class HarlU2SimFamily:
     busy_verb = "auto"
     default_station = 1
 
-    def parse_station(self, text: str) -> int:
-        number = int(text)
-        if not 0 <= number <= 99:
-            raise ValueError(f"station {text} out of range (allowed: 0 to 99)")
-        return number
-
-    def show_station(self, number: int) -> str:
-        return str(number)
-
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
 

@@ -80,16 +80,6 @@ class IaiSimFamily:
     busy_verb = "run"
     default_station = profile.DEFAULT_STATION
 
-    def parse_station(self, text: str) -> int:
-        """Stations are hex, as the robot file and ``--station`` give them: ``99`` is 99h."""
-        number = int(text, 16)
-        if not 0 <= number <= 0xFF:
-            raise ValueError(f"station {text} out of range (allowed: 00 to FF, hex)")
-        return number
-
-    def show_station(self, number: int) -> str:
-        return f"{number:02X}"
-
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
 
