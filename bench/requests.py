@@ -57,7 +57,7 @@ def by_kind(counts: Counter[str]) -> Counter[str]:
 
 
 def count(sim: Simulator) -> Counter[str]:
-    got = Counter(r.letters for r in sim.received)
+    got = Counter(r.command for r in sim.received)
     sim.received.clear()
     return by_kind(got)
 

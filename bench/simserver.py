@@ -16,8 +16,8 @@ from collections import Counter
 
 from machine import ROBOTS
 
-from harlsync.families.harl_u2.sim import Received, Simulator
-from harlsync.sim import serve
+from harlsync.families.harl_u2.sim import Simulator
+from harlsync.sim import Received, serve
 from harlsync.sim.serve import PtyServer, TcpServer
 
 
@@ -30,7 +30,7 @@ class CountingSimulator(Simulator):
         self.listeners.append(self._count)
 
     def _count(self, record: Received) -> None:
-        self.letters[record.letters] += 1
+        self.letters[record.command] += 1
         self.received.clear()
 
     def stats(self) -> dict[str, object]:

@@ -48,23 +48,58 @@ def _usage(message: str) -> int:
 # --- sim ------------------------------------------------------------------------------
 
 
+def _sim_verbs() -> str:
+    """The control commands of ``harlsync sim``, per family, for its help."""
+    from .families import names
+    from .sim import sim_family
+    from .sim.control import after_writes_verb
+
+    lines = []
+    for name in names():
+        family = sim_family(name)
+        verbs = [str(v) for v in family.verbs]
+        verbs.append(f"{after_writes_verb(family.busy_verb)} N")
+        lines.append(f"{name}: {', '.join(verbs)}, status")
+    return "; ".join(lines)
+
+
+class _SimHelp(argparse.HelpFormatter):
+    """Fills in :func:`_sim_verbs` when the help is shown: only then are the
+    families' simulators imported."""
+
+    VERBS = "<verbs>"
+
+    def add_text(self, text: str | None) -> None:
+        if text and self.VERBS in text:
+            text = text.replace(self.VERBS, _sim_verbs())
+        super().add_text(text)
+
+
 def _add_sim(sub: argparse._SubParsersAction) -> None:
+    from .families import names
+
     p = sub.add_parser(
         "sim",
-        help="run a simulated HARL-U2 on a pty and/or a TCP port",
+        help="run a simulated controller (HARL-U2, IAI) on a pty and/or a TCP port",
         description=(
-            "Serve a simulated HARL-U2 controller. It prints the pty device path and the "
-            "socket:// URL to connect to, then reads control commands on standard input: "
-            "auto [STATION [TASK]], suspend [STATION [TASK]], stop [STATION], "
-            "auto-after-writes N, status. Stop it with Ctrl-C or end of input."
+            "Serve a simulated controller of one family. It prints the pty device path and the "
+            "socket:// URL to connect to, then reads control commands on standard input "
+            f"(STATION as the family writes it, default the lowest): {_SimHelp.VERBS}. "
+            "Stop it with Ctrl-C or end of input."
         ),
+        formatter_class=_SimHelp,
     )
+    p.add_argument("--family", default=None, choices=names(),
+                   help="the controller family (default: harl-u2, or with --project the one "
+                        "its robot.yaml names)")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--project", metavar="DIR", help="serve the robot of this project directory")
-    src.add_argument("--seed", type=int, default=0, help="generate realistic programs from SEED")
+    src.add_argument("--seed", type=int, default=0,
+                     help="generate a realistic robot (programs, positions) from SEED")
     p.add_argument(
         "--stations", default=None, metavar="N[,N...]",
-        help="stations on the line (default: the project's station, or 1)",
+        help="stations on the line, in the family's notation: decimal for harl-u2, hex for iai "
+             "(default: the project's station, or 1 for harl-u2 and 99 for iai)",
     )
     p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
     p.add_argument("--no-pty", action="store_true", help="do not open a pty (needs --listen)")
@@ -76,23 +111,29 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
                    help="extra delay before each reply")
     p.add_argument(
         "--faults", default="", metavar="NAME=RATE,...",
-        help="fault injection: noise, drop, bad_lrc, fragment, slow (rates 0-1), "
+        help="fault injection: noise, drop, bad_checksum (bad_lrc), fragment, slow (rates 0-1), "
              "slow_delay (seconds), seed",
     )
-    p.add_argument("--auto", action="store_true", help="start with task 0 in automatic operation")
-    p.add_argument("--auto-after-writes", type=int, default=0, metavar="N",
-                   help="switch to automatic operation after N SN writes")
+    p.add_argument("--auto", "--run", dest="busy", action="store_true",
+                   help="start busy: task 0 in automatic operation (harl-u2), a program "
+                        "running (iai)")
+    p.add_argument("--auto-after-writes", "--run-after-writes", dest="busy_after_writes",
+                   type=int, default=0, metavar="N",
+                   help="become busy after N writes: automatic operation (harl-u2), a program "
+                        "running (iai)")
     p.add_argument("--record", metavar="FILE",
                    help="append every request received to FILE as JSON lines (station, "
-                        "payload, automatic, client: 'pty' or the TCP peer)")
+                        "payload, busy: whether the station was not idle, client: 'pty' or "
+                        "the TCP peer)")
     p.add_argument("--state", metavar="DIR",
-                   help="battery-backed memory: keep each station as the project DIR/station-N, "
+                   help="battery-backed memory: keep each station in DIR/station-N, "
                         "saved after every write and loaded again when the simulator restarts")
     p.set_defaults(func=_cmd_sim)
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .families.harl_u2.sim import Faults, Received
+    from .families import get
+    from .sim import Faults, Received, project_family
     from .sim.control import apply_command
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer
@@ -103,29 +144,36 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         faults = Faults.parse(args.faults)
     except ValueError as exc:
         return _usage(f"sim: --faults: {exc}")
+    stations = None
+    if args.stations:
+        family = get(args.family or (project_family(args.project) if args.project else None))
+        try:
+            stations = [family.parse_station(s) for s in args.stations.split(",")]
+        except ValueError as exc:
+            return _usage(f"sim: --stations: {exc}")
     sim = build_simulator(
+        family=args.family,
         project=args.project,
         seed=args.seed,
-        stations=[int(s) for s in args.stations.split(",")] if args.stations else None,
+        stations=stations,
         baudrate=args.baud or None,
         turnaround=args.turnaround,
         faults=faults,
-        auto_after_writes=args.auto_after_writes,
+        busy_after_writes=args.busy_after_writes,
     )
     if args.state:
         from .sim.memory import keep_state
 
         keep_state(sim, args.state)
-    if args.auto:
+    if args.busy:
         for state in sim.stations.values():
-            state.start_task(0)
+            sim.control(sim.family.busy_verb, state, ())
     if args.record:
         record = open(args.record, "a", encoding="utf-8")  # noqa: SIM115 - open for the run
 
         def log_request(r: Received) -> None:
             record.write(json.dumps(
-                {"station": r.station, "payload": r.payload, "automatic": r.automatic,
-                 "client": r.client}
+                {"station": r.station, "payload": r.payload, "busy": r.busy, "client": r.client}
             ) + "\n")
             record.flush()
 
@@ -140,7 +188,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         tcp = TcpServer(sim, host or "127.0.0.1", int(port))
         _print(f"tcp: {tcp.start()}")
         servers.append(tcp)
-    _print(f"stations: {', '.join(str(n) for n in sorted(sim.stations))}")
+    _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
 
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())

@@ -14,7 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from harlsync.families.harl_u2.model import Config, ProgramArea
-from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.sim import Faults
 
 Chunks = list[tuple[float, bytes]]
 
@@ -68,7 +69,7 @@ LOSE = Act(apply=False, wire=drop)
 class _Shaper(Faults):
     wire: Callable[[bytes], Chunks] | None = None
 
-    def shape(self, frame: bytes) -> Chunks:
+    def shape(self, frame: bytes, corrupt: Callable[[bytes], bytes]) -> Chunks:
         wire, self.wire = self.wire, None
         return [(0.0, frame)] if wire is None else wire(frame)
 

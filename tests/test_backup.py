@@ -16,7 +16,8 @@ from fsfaults import read_only
 
 from harlsync.cli import main
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
-from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.sim import Faults
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 from harlsync.sync.backup import backup, find_projects, line_of
@@ -72,7 +73,7 @@ def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
     git(root, "add", "-A")
     git(root, "commit", "-qm", "first backup")
     sims["silent"].faults = Faults(drop=1.0)
-    sims["garbage"].faults = Faults(bad_lrc=1.0, noise=1.0, seed=1)
+    sims["garbage"].faults = Faults(bad_checksum=1.0, noise=1.0, seed=1)
     yield Plant(root, sims, servers)
     for server in servers:
         server.stop()

@@ -28,9 +28,10 @@ from harlsync.families.harl_u2.model import (
     Step,
     TaskState,
 )
-from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.families.harl_u2.sim.device import STATUS_RANGE
 from harlsync.link import SerialSettings
+from harlsync.sim import Faults
 from harlsync.sim.serve import PtyServer
 
 FAST = SerialSettings(timeout=0.25, retries=3)
@@ -122,7 +123,7 @@ def test_read_all_reads_everything_the_configuration_says_exists(
 
 def test_read_all_comes_through_random_line_faults_unchanged(tmp_path: Path) -> None:
     faults = Faults(
-        noise=0.1, drop=0.03, bad_lrc=0.03, fragment=0.2, slow=0.02, slow_delay=0.22, seed=5
+        noise=0.1, drop=0.03, bad_checksum=0.03, fragment=0.2, slow=0.02, slow_delay=0.22, seed=5
     )
     sim = Simulator(SimState.generate(4, SMALL), faults=faults)
     settings = SerialSettings(timeout=0.15, retries=5)

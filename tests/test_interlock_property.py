@@ -67,10 +67,10 @@ from harlsync.families.harl_u2.model import (
     Step,
 )
 from harlsync.families.harl_u2.protocol import FrameDecoder
-from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
-from harlsync.families.harl_u2.sim.device import Received
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.link import SerialSettings
 from harlsync.project import Project, load_project, new_robot, save_project
+from harlsync.sim import Faults, Received
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import PushFailed, PushOptions, PushResult, engine
 from harlsync.sync import audit as audit_log
@@ -155,7 +155,7 @@ class Operator(Simulator):
             # what any link without sequence numbers can place).
             self.faults = self._rng.choice([
                 Faults(slow=1.0, slow_delay=FAST.timeout * 1.5), Faults(drop=1.0),
-                Faults(bad_lrc=1.0),
+                Faults(bad_checksum=1.0),
             ])
             self.done.append(f"  and the reply to it: {self.faults}")
         self.handled += 1
@@ -294,7 +294,7 @@ def random_faults(rng: random.Random, deadline: float) -> tuple[Faults, float]:
     faults = Faults(
         noise=rng.choice([0.0, 0.02, 0.1]),
         drop=rng.choice([0.0, 0.005, 0.01, 0.03]),
-        bad_lrc=rng.choice([0.0, 0.005, 0.01, 0.03]),
+        bad_checksum=rng.choice([0.0, 0.005, 0.01, 0.03]),
         fragment=rng.choice([0.0, 0.05, 0.2]),
         slow=rng.choice([0.0, 0.005, 0.01, 0.03]),
         slow_delay=deadline * rng.choice([1.2, 1.8]),
@@ -328,7 +328,7 @@ def random_schedule(
         out.append((moment(), line(*random_faults(rng, deadline))))
     if rng.random() < 0.15:
         at = moment()
-        bad = Faults(drop=rng.choice([0.2, 0.5]), bad_lrc=0.1, slow=0.1, noise=0.2,
+        bad = Faults(drop=rng.choice([0.2, 0.5]), bad_checksum=0.1, slow=0.1, noise=0.2,
                      slow_delay=deadline * 1.5, seed=rng.randrange(2**32))
         out += [(at, line(bad, rng.choice([0.2, 0.4]))),
                 (at + rng.randint(2, 5), line(Faults(), 0.0))]
@@ -495,16 +495,16 @@ class Tally:
 def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
     opts, received = case.opts, got.received
     for i, r in enumerate(received):
-        if not r.is_write or not needs_idle(r.letters, opts):
-            tally.live_in_automatic += r.is_write and r.automatic
+        if not r.is_write or not needs_idle(r.command, opts):
+            tally.live_in_automatic += r.is_write and r.busy
             continue
         before = received[i - 1] if i else None
-        cleared = before is not None and before.letters == "LNR" and not before.automatic
+        cleared = before is not None and before.command == "LNR" and not before.busy
         assert cleared, case.why(
             f"{r.payload!r} (request {i}) did not follow an LNR that found the robot idle "
             f"(before it: {before})"
         )
-        if r.automatic:
+        if r.busy:
             tally.race += 1  # started between that LNR and this write: see the docstring
     plan = got.result.plan
     if opts.allow_live_tuning and plan is not None and any(
@@ -512,8 +512,8 @@ def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
     ):
         writes = [i for i, r in enumerate(received) if r.is_write]
         if writes:
-            gate = [r for r in received[: writes[0]] if r.letters == "LNR"]
-            assert gate and not gate[-1].automatic, case.why(
+            gate = [r for r in received[: writes[0]] if r.command == "LNR"]
+            assert gate and not gate[-1].busy, case.why(
                 "a live-tuning plan with unsafe writes did not find the robot idle "
                 "before its first write"
             )
@@ -539,7 +539,7 @@ def check_writes(case: Case, got: Outcome, final: RobotData) -> None:
         if len(at) == 2:
             between = got.received[at[0] + 1 : at[1]]
             readback = readback_letters(command.split(" ")[0])
-            assert any(r.letters == readback for r in between), case.why(
+            assert any(r.command == readback for r in between), case.why(
                 f"{command!r} sent twice without reading the item back in between"
             )
     plan = result.plan

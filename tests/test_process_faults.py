@@ -146,7 +146,7 @@ class SimProcess:
 
     def unsafe_in_automatic(self) -> list[str]:
         return [str(r["payload"]) for r in self.requests()
-                if r["automatic"] and Request(str(r["payload"]).split(" ", 1)[0]).unsafe]
+                if r["busy"] and Request(str(r["payload"]).split(" ", 1)[0]).unsafe]
 
     def kill(self) -> None:
         assert self.process is not None

@@ -26,7 +26,7 @@ STEP_LETTERS = {"LNA", "LNM", "LNS", "LNH", "SNA", "SNM", "SNS", "SNH"}
 def sent(sim: Simulator) -> Counter[str]:
     """What the simulator received since the last call, steps counted as one kind."""
     got = Counter(
-        r.letters[:2] + " step" if r.letters in STEP_LETTERS else r.letters for r in sim.received
+        r.command[:2] + " step" if r.command in STEP_LETTERS else r.command for r in sim.received
     )
     sim.received.clear()
     return got

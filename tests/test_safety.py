@@ -2,7 +2,7 @@
 whatever the line, the operator or the person at the keyboard does meanwhile.
 
 Each test drives the real controller or push over a real pty or TCP socket and
-asserts on what the simulator received (``Received.automatic`` is whether some
+asserts on what the simulator received (``Received.busy`` is whether some
 task of that robot was in execution or suspended when the request arrived).
 """
 
@@ -232,7 +232,7 @@ def test_issue_6_a_push_resends_no_write_to_a_robot_started_after_its_reply_was_
     assert isinstance(failed.value.cause, InterlockError)
     assert "task 0 in execution" in str(failed.value)
     assert len(sim.sent(key)) == 1
-    assert [r.payload for r in sim.writes_received() if r.automatic] == []
+    assert [r.payload for r in sim.writes_received() if r.busy] == []
 
 
 # --- the robot edited on the pendant after the read -------------------------------------
@@ -315,7 +315,7 @@ def test_live_tuning_does_not_write_registers_into_a_running_program(
     with pytest.raises(PushFailed) as failed:
         engine.push(project, PushOptions(yes=True, allow_live_tuning=True, registers=True))
     assert isinstance(failed.value.cause, InterlockError)
-    assert [r.letters for r in sim.writes_received()] == []
+    assert [r.command for r in sim.writes_received()] == []
 
 
 # --- two harlsync on one line ---------------------------------------------------------------
@@ -405,7 +405,7 @@ def test_a_push_that_ends_with_the_robot_idle_warns_of_nothing(
 ) -> None:
     commit_step(project, 1, 3, "MOVE P999 S20")
     assert engine.push(project, YES).warnings == []
-    assert [r.letters for r in sim.received[-2:]] == ["LNM", "LNR"]
+    assert [r.command for r in sim.received[-2:]] == ["LNM", "LNR"]
 
 
 def test_a_parameters_write_followed_only_by_live_tuning_is_still_checked_after(

@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 import serial
+from simprocess import harlsync_sim
 
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame, lrc
-from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.families.harl_u2.sim.device import STATUS_RANGE
+from harlsync.sim import Faults
 from harlsync.sim.control import apply_command
 from harlsync.sim.protocol_sim import register, simulator_from_url, unregister
 from harlsync.sim.serve import PtyServer, TcpServer
@@ -161,7 +161,7 @@ def test_fault_drop_sends_nothing_but_records_the_request() -> None:
 
 
 def test_fault_bad_lrc_corrupts_only_the_lrc() -> None:
-    sim = Simulator(SimState.generate(1, SMALL), faults=Faults(bad_lrc=1.0))
+    sim = Simulator(SimState.generate(1, SMALL), faults=Faults(bad_checksum=1.0))
     [(_, reply)] = sim.receive(encode_frame(1, "LNV"))
     assert reply[:-1] == encode_frame(1, "5.00")[:-1]
     assert reply[-1] != lrc(reply[1:-1])
@@ -275,13 +275,10 @@ def test_sim_url_with_baud_emulation_takes_wire_time() -> None:
 
 def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Path) -> None:
     record = tmp_path / "requests.jsonl"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "harlsync", "sim", "--seed", "3", "--baud", "0",
-         "--listen", "127.0.0.1:0", "--stations", "1,2", "--record", str(record)],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-    )
-    try:
-        lines = dict(proc.stdout.readline().strip().split(": ", 1) for _ in range(3))
+    with harlsync_sim(
+        "--seed", "3", "--baud", "0", "--listen", "127.0.0.1:0", "--stations", "1,2",
+        "--record", str(record),
+    ) as (proc, lines):
         assert lines["stations"] == "1, 2"
         with serial.serial_for_url(lines["pty"], timeout=0.05) as port:
             assert exchange(port, "LNV", station=2) == "5.00"
@@ -291,11 +288,7 @@ def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Pa
             proc.stdin.flush()
             assert proc.stdout.readline().startswith("station 1: automatic")
             assert exchange(port, "LNR").startswith("1 MAIN 0 0")
-        proc.stdin.close()
-        assert proc.wait(timeout=10) == 0
-    finally:
-        proc.kill()
     records = [json.loads(line) for line in record.read_text().splitlines()]
-    assert [(r["station"], r["payload"], r["automatic"]) for r in records] == [
+    assert [(r["station"], r["payload"], r["busy"]) for r in records] == [
         (2, "LNV", False), (1, "LNR", False), (1, "LNR", True)
     ]

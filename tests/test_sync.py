@@ -24,9 +24,9 @@ from harlsync.errors import (
 )
 from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
-from harlsync.families.harl_u2.sim import Faults, SimState, Simulator
-from harlsync.families.harl_u2.sim.device import Received
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.project import load_project, save_project
+from harlsync.sim import Faults, Received
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
@@ -109,7 +109,7 @@ def test_pull_then_push_to_a_blank_controller_gives_identical_state(served, repo
         result = engine.push(project, YES, port=target.url)
     assert result.ok and result.written
     assert same_robot(blank.stations[1], sim.stations[1])
-    letters = {r.letters for r in blank.writes_received()}
+    letters = {r.command for r in blank.writes_received()}
     assert letters <= {"SNE", "SNL", "SNT", "SNA", "SNM", "SNS", "SNH"}
     assert not letters & {"SNOB", "SNOD", "SNBB", "SNBD", "SND", "SNX"}
 
@@ -198,13 +198,13 @@ def test_a_robot_that_goes_automatic_mid_push_gets_no_unsafe_write_after(repo) -
     with serve(source) as server:
         project = pulled(repo, server.url)
     target = blank_like(source)
-    target.auto_after_writes = 4
+    target.busy_after_writes = 4
     with serve(target) as server, pytest.raises(PushFailed) as failed:
         engine.push(project, YES, port=server.url)
     assert isinstance(failed.value.cause, InterlockError)
     assert len(target.writes_received()) == 4
     assert target.unsafe_in_automatic() == []
-    assert all(not r.automatic for r in target.writes_received())
+    assert all(not r.busy for r in target.writes_received())
     assert len(failed.value.result.written) == 4
 
 
@@ -232,7 +232,7 @@ def test_faults_during_pull_still_give_an_exact_backup(tmp_path) -> None:
         state = sim.stations[1].data
         state.timers[2] = "5.55"
         state.programs[(ProgramType.HAND, 0)][3] = Step.parse("OUT DO7 ON")
-        sim.faults = Faults(noise=0.2, drop=0.05, bad_lrc=0.05, fragment=0.3, seed=9)
+        sim.faults = Faults(noise=0.2, drop=0.05, bad_checksum=0.05, fragment=0.3, seed=9)
         engine.pull(project, port=server.url)
     assert sum(not r.answered for r in sim.received) > 0  # the faults did happen
     clean = load_project(project).data

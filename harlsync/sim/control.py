@@ -1,54 +1,59 @@
 """Mode control of a running simulator, one text command at a time.
 
 ``harlsync sim`` reads these from its standard input, so a person or a test can
-put a robot into automatic operation while a client is connected::
+make a robot busy while a client is connected.  Every family takes::
 
-    auto [STATION [TASK]]       task in execution (automatic operation)
-    suspend [STATION [TASK]]    task suspended
-    stop [STATION]              every task stopped: the robot is idle
-    auto-after-writes N         switch to automatic after N more SN writes
-    status                      one line per station: idle / automatic, writes received
+    status                      one line per station: its mode, and the writes carried out
+    BUSY-after-writes N         make the written station busy after N more writes
+                                (BUSY is the family's busy verb: auto-after-writes, run-after-writes)
+
+and its own verbs (:attr:`~harlsync.sim.SimFamily.verbs`), each with the
+station first (the family's notation; default: the lowest station), e.g.
+HARL-U2 ``auto [STATION [TASK]]``, IAI ``manual [STATION]``.
 """
 
 from __future__ import annotations
 
-from ..families.harl_u2.sim.device import Simulator
+from typing import Any
 
-__all__ = ["apply_command", "describe"]
+from .device import Simulator
+
+__all__ = ["after_writes_verb", "apply_command", "describe"]
 
 
-def describe(sim: Simulator) -> str:
+def after_writes_verb(busy_verb: str) -> str:
+    """The schedule's verb for a family whose busy verb is ``busy_verb``."""
+    return f"{busy_verb}-after-writes"
+
+
+def describe(sim: Simulator[Any, Any]) -> str:
     with sim.lock:
         return "; ".join(
-            f"station {n}: {'automatic' if s.automatic else 'idle'}"
+            f"station {sim.show_station(n)}: {sim.describe(s)}"
             for n, s in sorted(sim.stations.items())
         ) + f"; {sim.writes} writes received"
 
 
-def apply_command(sim: Simulator, line: str) -> str:
+def apply_command(sim: Simulator[Any, Any], line: str) -> str:
     """Carry out one control command; return what to show.  Raises ValueError."""
     words = line.split()
     if not words:
         return ""
-    verb, args = words[0].lower(), [int(w) for w in words[1:]]
+    family = sim.family
+    verb, args = words[0].lower(), words[1:]
+    schedule = after_writes_verb(family.busy_verb)
     with sim.lock:
         if verb == "status":
             return describe(sim)
-        if verb == "auto-after-writes":
-            (count,) = args
-            sim.auto_after_writes = sim.writes + count
-            return f"automatic after {count} more writes"
-        station = args[0] if args else min(sim.stations)
+        if verb == schedule:
+            (count,) = (int(a) for a in args)
+            sim.busy_after_writes = sim.writes + count
+            return f"{family.busy_verb} after {count} more writes"
+        if verb not in {v.name for v in family.verbs}:
+            known = ", ".join([*(v.name for v in family.verbs), schedule, "status"])
+            raise ValueError(f"unknown command {verb!r} ({known})")
+        station = sim.parse_station(args[0]) if args else min(sim.stations)
         if station not in sim.stations:
-            raise ValueError(f"no station {station}")
-        state = sim.stations[station]
-        task = args[1] if len(args) > 1 else 0
-        if verb == "auto":
-            state.start_task(task)
-        elif verb == "suspend":
-            state.suspend_task(task)
-        elif verb == "stop":
-            state.stop_all()
-        else:
-            raise ValueError(f"unknown command {verb!r} (auto, suspend, stop, auto-after-writes, status)")
+            raise ValueError(f"no station {sim.show_station(station)}")
+        sim.control(verb, sim.stations[station], args[1:])
     return describe(sim)

@@ -5,6 +5,7 @@ pyserial finds this module the way it finds ``sim://`` (see
 
     replay://tests/fixtures/traffic/cell-3.txt     a capture file, relative path
     replay:///abs/path/capture.txt?timing=0        absolute path, every reply at once
+    replay://cell-7.txt?family=iai                 a capture of another family's line
     replay://@name                                 a Replay registered with register()
 
 So a capture taken at a site replays through any command, e.g.
@@ -21,8 +22,9 @@ from urllib.parse import parse_qs
 
 from serial.serialutil import SerialException
 
-from ..families.harl_u2.protocol import FrameDecoder
+from ..errors import ProjectError
 from . import protocol_sim
+from .family import sim_family
 from .replay import Replay, ReplayMismatch, load_spy_log
 
 __all__ = ["Serial", "register", "replay_from_url", "unregister"]
@@ -35,23 +37,27 @@ unregister = _replays.unregister
 def replay_from_url(url: str) -> Replay:
     """The replay a ``replay://`` URL names (a new one, unless ``@name``).
 
-    Raises SerialException for a missing or unreadable capture.
+    Raises SerialException for a missing or unreadable capture or an unknown family.
     """
     rest = url.split("://", 1)[1]
     path, _, query = rest.partition("?")
     if path.startswith("@"):
         return _replays.get(path)
     opts = {k: v[-1] for k, v in parse_qs(query, keep_blank_values=True).items()}
-    unknown = set(opts) - {"timing"}
+    unknown = set(opts) - {"timing", "family"}
     if unknown or opts.get("timing", "1") not in ("0", "1"):
-        raise SerialException(f"{url}: replay:// takes only timing=0 or timing=1")
+        raise SerialException(f"{url}: replay:// takes only timing=0 or timing=1, and family")
     if not path:
         raise SerialException(f"{url}: no capture file")
     try:
         chunks = load_spy_log(path)
     except (OSError, ValueError) as exc:
         raise SerialException(f"cannot replay {path}: {exc}") from exc
-    return Replay(chunks, timing=opts.get("timing", "1") == "1")
+    try:
+        decoder = sim_family(opts.get("family")).decoder
+    except ProjectError as exc:
+        raise SerialException(f"{url}: {exc}") from exc
+    return Replay(chunks, timing=opts.get("timing", "1") == "1", decoder=decoder)
 
 
 class Serial(protocol_sim.Serial):
@@ -68,8 +74,8 @@ class Serial(protocol_sim.Serial):
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")
         replay = replay_from_url(self._port)
-        self.sim = replay  # type: ignore[assignment]  # only receive() is called on it
-        self._decoder = FrameDecoder()
+        self.sim = replay
+        self._decoder = None
         now = time.monotonic()
         self._pending = [(now + delay, data) for delay, data in replay.start()]
         self.is_open = True

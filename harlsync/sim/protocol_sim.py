@@ -1,16 +1,20 @@
-"""The ``sim://`` port: an in-process simulated HARL-U2 behind pyserial's API.
+"""The ``sim://`` port: an in-process simulated controller behind pyserial's API.
 
 pyserial finds this module because :mod:`harlsync.link` adds ``harlsync.sim`` to
 ``serial.protocol_handler_packages``.  URL forms::
 
-    sim://projects/pick-and-place          the robot of that project directory
+    sim://projects/pick-and-place          the robot of that project directory (of the
+                                           family its robot.yaml names)
     sim:///abs/path/to/project?baud=9600   absolute path, wire-time emulation at 9600
-    sim://?seed=7&stations=1,2             generated robots on stations 1 and 2
+    sim://?seed=7&stations=1,2             generated robots on stations 1 and 2 (HARL-U2)
+    sim://?seed=7&family=iai&stations=99   a generated IAI controller on station 99h
     sim://@name                            a Simulator registered with register()
 
-Query options: ``seed``, ``stations``, ``baud``, ``turnaround``,
-``auto_after_writes``, and the faults ``noise``, ``drop``, ``bad_lrc``,
-``fragment``, ``slow``, ``slow_delay``, ``fault_seed`` (rates 0-1).
+Query options: ``family``, ``seed``, ``stations`` (as the family writes them),
+``baud``, ``turnaround``, the family's schedule ``auto_after_writes`` (HARL-U2)
+or ``run_after_writes`` (IAI), and the faults ``noise``, ``drop``,
+``bad_checksum`` (or ``bad_lrc``), ``fragment``, ``slow``, ``slow_delay``,
+``fault_seed`` (rates 0-1).
 """
 
 from __future__ import annotations
@@ -18,18 +22,35 @@ from __future__ import annotations
 import itertools
 import threading
 import time
-from typing import Any, Generic, TypeVar
+from pathlib import Path
+from typing import Any, Generic, Protocol, TypeVar
 from urllib.parse import parse_qs
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
-from ..families.harl_u2.protocol import FrameDecoder
-from ..families.harl_u2.sim.device import Faults, Simulator
-from ..families.harl_u2.sim.state import SimState
+from .. import families
+from ..errors import ProjectError
+from .device import Decoder, Faults, Simulator
+from .family import project_family, sim_family
 
-__all__ = ["Serial", "build_simulator", "register", "simulator_from_url", "unregister"]
+__all__ = [
+    "Peer",
+    "Serial",
+    "build_simulator",
+    "register",
+    "simulator_from_url",
+    "unregister",
+]
 
 T = TypeVar("T")
+
+
+class Peer(Protocol):
+    """What answers a ``sim://`` or ``replay://`` port: a Simulator or a Replay."""
+
+    def receive(
+        self, data: bytes, decoder: Decoder[Any] | None = None, client: str = ""
+    ) -> list[tuple[float, bytes]]: ...
 
 
 class Registry(Generic[T]):
@@ -57,58 +78,65 @@ class Registry(Generic[T]):
             raise SerialException(f"no {self.scheme} peer registered as {path!r}") from None
 
 
-_simulators: Registry[Simulator] = Registry("sim")
+_simulators: Registry[Simulator[Any, Any]] = Registry("sim")
 register = _simulators.register
 unregister = _simulators.unregister
 
 
 def build_simulator(
     *,
+    family: str | None = None,
     project: str | None = None,
     seed: int | None = None,
     stations: list[int] | None = None,
     baudrate: int | None = None,
     turnaround: float = 0.0,
     faults: Faults | None = None,
-    auto_after_writes: int = 0,
-) -> Simulator:
+    busy_after_writes: int = 0,
+) -> Simulator[Any, Any]:
     """A simulated line: the robot of a project directory, or generated robots.
 
-    Raises :class:`~harlsync.errors.ProjectError` for an unreadable project.
+    ``family`` defaults to the one the project's robot.yaml names, or to the
+    default family.  Raises :class:`~harlsync.errors.ProjectError` for an
+    unreadable project, an unknown family, or a project of another family.
     """
-    states: dict[int, SimState] = {}
     if project:
-        from ..project import load_project
-
-        loaded = load_project(project)
-        data = loaded.data
-        data.registers = data.registers or {}
-        for number in stations or [loaded.robot.station]:
-            states[number] = SimState.from_robot_data(data)
+        named = project_family(project)
+        if family is not None and family != named:
+            raise ProjectError(f"{project}: a {named} project, not {family}")
+        family = named
+    sim_side = sim_family(family)
+    if project:
+        sim = sim_side.from_project(Path(project), stations)
     else:
-        for i, number in enumerate(stations or [1]):
-            states[number] = SimState.generate((seed or 0) + i)
-    return Simulator(
-        states,
-        baudrate=baudrate,
-        turnaround=turnaround,
-        faults=faults,
-        auto_after_writes=auto_after_writes,
-    )
+        sim = sim_side.generate(seed or 0, stations or [sim_side.default_station])
+    sim.baudrate = baudrate
+    sim.turnaround = turnaround
+    sim.faults = faults or Faults()
+    sim.busy_after_writes = busy_after_writes
+    return sim
 
 
-#: sim:// options that set faults: every fault setting, its seed spelt fault_seed.
-_FAULT_KEYS = {("fault_seed" if n == "seed" else n): n for n in Faults.names()}
+#: sim:// options that set faults: every fault setting and spelling, the seed spelt fault_seed.
+_FAULT_KEYS = {
+    ("fault_seed" if n == "seed" else n): n for n in (*Faults.names(), *Faults.SPELLINGS)
+}
 
 
-def simulator_from_url(url: str) -> Simulator:
-    """The simulator a ``sim://`` URL names (a new one, unless ``@name``)."""
+def simulator_from_url(url: str) -> Simulator[Any, Any]:
+    """The simulator a ``sim://`` URL names (a new one, unless ``@name``).
+
+    Raises SerialException for a bad option, ProjectError for a bad project.
+    """
     rest = url.split("://", 1)[1]
     path, _, query = rest.partition("?")
     if path.startswith("@"):
         return _simulators.get(path)
     opts = {k: v[-1] for k, v in parse_qs(query, keep_blank_values=True).items()}
-    known = {"seed", "stations", "baud", "turnaround", "auto_after_writes"}
+    family = opts.get("family") or (project_family(path) if path else None)
+    sim_side = sim_family(family)
+    after_writes = f"{sim_side.busy_verb}_after_writes"
+    known = {"family", "seed", "stations", "baud", "turnaround", after_writes}
     unknown = set(opts) - known - set(_FAULT_KEYS)
     if unknown:
         raise SerialException(f"{url}: unknown sim:// option(s) {', '.join(sorted(unknown))}")
@@ -116,14 +144,17 @@ def simulator_from_url(url: str) -> Simulator:
         faults = Faults.from_settings(
             {name: opts[key] for key, name in _FAULT_KEYS.items() if key in opts}
         )
+        stations = opts.get("stations")
+        notation = families.get(sim_side.name)
         return build_simulator(
+            family=sim_side.name,
             project=path or None,
             seed=int(opts.get("seed", 0)),
-            stations=[int(s) for s in opts["stations"].split(",")] if "stations" in opts else None,
+            stations=[notation.parse_station(s) for s in stations.split(",")] if stations else None,
             baudrate=int(opts["baud"]) if "baud" in opts else None,
             turnaround=float(opts.get("turnaround", 0)),
             faults=faults,
-            auto_after_writes=int(opts.get("auto_after_writes", 0)),
+            busy_after_writes=int(opts.get(after_writes, 0)),
         )
     except ValueError as exc:
         raise SerialException(f"{url}: bad sim:// option: {exc}") from exc
@@ -133,8 +164,8 @@ class Serial(SerialBase):
     """pyserial port class for ``sim://`` URLs."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        self.sim: Simulator | None = None
-        self._decoder = FrameDecoder()
+        self.sim: Peer | None = None
+        self._decoder: Decoder[Any] | None = None
         self._pending: list[tuple[float, bytes]] = []
         self._cond = threading.Condition()
         super().__init__(*args, **kwargs)
@@ -145,12 +176,13 @@ class Serial(SerialBase):
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")
         try:
-            self.sim = simulator_from_url(self._port)
+            sim = simulator_from_url(self._port)
         except SerialException:
             raise
         except Exception as exc:  # a bad project must not look like "unknown protocol"
             raise SerialException(f"cannot start simulator for {self._port}: {exc}") from exc
-        self._decoder = FrameDecoder()
+        self.sim = sim
+        self._decoder = sim.new_decoder()
         self._pending = []
         self.is_open = True
 

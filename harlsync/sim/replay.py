@@ -23,7 +23,9 @@ recorded time after the request (or at once, ``timing=False``).  The client
 sees the same replies, fragments, noise, late replies and silences as the
 recorded client did.  Anything else it sends is a :class:`ReplayMismatch`.
 The ``replay://`` port (:mod:`harlsync.sim.protocol_replay`) serves it to any
-harlsync command.
+harlsync command.  The bytes are any family's: the family's decoder (the
+default family's unless given) only names requests in messages and finds the
+next one for :meth:`Replay.next_request`.
 
 Replay follows the capture, not the protocol: a client that sends its requests
 in another order, or retries differently, does not match the capture.
@@ -33,12 +35,13 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 from ..errors import ProtocolError
-from ..families.harl_u2.protocol import Frame, FrameDecoder
+from .device import Decoder, RequestFrame
+from .family import sim_family
 
 __all__ = ["Chunk", "Replay", "ReplayMismatch", "load_spy_log", "parse_spy_log"]
 
@@ -146,12 +149,20 @@ class Replay:
 
     ``timing`` delays each recorded reply chunk by the time it came after its
     request in the capture, so timeouts, retries and late replies happen as they
-    did; without it every reply is due at once.
+    did; without it every reply is due at once.  ``decoder`` makes a decoder for
+    the capture's family (default: the default family's).
     """
 
-    def __init__(self, chunks: Sequence[Chunk], *, timing: bool = True) -> None:
+    def __init__(
+        self,
+        chunks: Sequence[Chunk],
+        *,
+        timing: bool = True,
+        decoder: Callable[[], Decoder[RequestFrame]] | None = None,
+    ) -> None:
         self.chunks = list(chunks)
         self.timing = timing
+        self.new_decoder = decoder or sim_family(None).decoder
         #: the first error; once set, every further write fails
         self.mismatch: ReplayMismatch | None = None
         self._next = 0  # the next chunk to play
@@ -168,7 +179,7 @@ class Replay:
         return self._replies(0.0)
 
     def receive(
-        self, data: bytes, decoder: FrameDecoder | None = None, client: str = ""
+        self, data: bytes, decoder: Decoder[Any] | None = None, client: str = ""
     ) -> list[tuple[float, bytes]]:
         """Take bytes from the client; return the recorded reply chunks as (delay, bytes).
 
@@ -182,14 +193,15 @@ class Replay:
         data = bytes(data)
         while data:
             if self.done:
-                self._fail(f"the capture ends here, but the client sent {_show(data)}")
+                self._fail(f"the capture ends here, but the client sent {self._show(data)}")
             chunk = self.chunks[self._next]  # a TX: the RX after each one are played
             want = chunk.data[self._matched :]
             take = min(len(data), len(want))
             if data[:take] != want[:take]:
                 self._fail(
                     f"request {self._requests + 1} of the capture (at {chunk.at:.3f} s) is "
-                    f"{_show(chunk.data)}, but the client sent {_show(chunk.data[: self._matched] + data)}"
+                    f"{self._show(chunk.data)}, but the client sent "
+                    f"{self._show(chunk.data[: self._matched] + data)}"
                 )
             data = data[take:]
             self._matched += take
@@ -213,13 +225,13 @@ class Replay:
         self.mismatch = ReplayMismatch(f"replay: {message}")
         raise self.mismatch
 
-    def next_request(self) -> Frame | None:
+    def next_request(self) -> RequestFrame | None:
         """The next request frame of the capture that the client has not sent, or None.
 
         Raises :class:`~harlsync.errors.ProtocolError` when the capture's next TX
         bytes are not a valid frame.
         """
-        decoder = FrameDecoder()
+        decoder = self.new_decoder()
         skip = self._matched
         for chunk in self.chunks[self._next :]:
             if chunk.direction != "TX":
@@ -233,15 +245,14 @@ class Replay:
             raise ProtocolError("the capture ends inside a request")
         return None
 
-
-def _show(data: bytes) -> str:
-    """A request as ``'1 LNM 0 3'`` when it is one valid frame, else as hex."""
-    decoder = FrameDecoder()
-    decoder.feed(data)
-    try:
-        frame = decoder.next_frame()
-    except ProtocolError:
-        frame = None
-    if frame is not None and not decoder.pending and not decoder.dropped:
-        return repr(f"{frame.station} {frame.payload}")
-    return data.hex(" ").upper() or "nothing"
+    def _show(self, data: bytes) -> str:
+        """A request as ``'1 LNM 0 3'`` when it is one valid frame, else as hex."""
+        decoder = self.new_decoder()
+        decoder.feed(data)
+        try:
+            frame = decoder.next_frame()
+        except ProtocolError:
+            frame = None
+        if frame is not None and not decoder.pending and not decoder.dropped:
+            return repr(f"{frame.station} {frame.payload}")
+        return data.hex(" ").upper() or "nothing"

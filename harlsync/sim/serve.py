@@ -1,4 +1,5 @@
-"""Serving a :class:`~harlsync.sim.Simulator` over a real pty and a real TCP socket.
+"""Serving a :class:`~harlsync.sim.Simulator` of any family over a real pty and a
+real TCP socket.
 
 The simulator decides what to answer and when (:meth:`Simulator.receive` returns
 ``(delay, bytes)`` chunks); these servers only move bytes and honour the delays,
@@ -20,9 +21,9 @@ import time
 import tty
 from collections import deque
 from collections.abc import Callable
+from typing import Any
 
-from ..families.harl_u2.protocol import FrameDecoder
-from ..families.harl_u2.sim.device import Simulator
+from .device import Simulator
 
 __all__ = ["PtyServer", "ReplyScheduler", "TcpServer"]
 
@@ -162,7 +163,7 @@ class PtyServer:
     and reopen the device while the simulator keeps running.
     """
 
-    def __init__(self, sim: Simulator) -> None:
+    def __init__(self, sim: Simulator[Any, Any]) -> None:
         self.sim = sim
         self.device = ""
         self._master = self._slave = -1
@@ -227,7 +228,7 @@ class TcpServer:
     its own framing state; all share the one simulated line.
     """
 
-    def __init__(self, sim: Simulator, host: str = "127.0.0.1", port: int = 0) -> None:
+    def __init__(self, sim: Simulator[Any, Any], host: str = "127.0.0.1", port: int = 0) -> None:
         self.sim = sim
         self._sock = socket.create_server((host, port))
         self.host, self.port = self._sock.getsockname()[:2]
@@ -265,7 +266,7 @@ class TcpServer:
             self._threads.append(thread)
 
     def _serve(self, conn: socket.socket, client: str) -> None:
-        decoder = FrameDecoder()
+        decoder = self.sim.new_decoder()
         # Paced replies are small writes: Nagle would hold them back for the client's ACK.
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         replies = ReplyScheduler(conn.sendall, self.sim.char_time)

@@ -1,32 +1,26 @@
-"""The simulated HARL-U2: one serial line, one or several stations, played with
-the project's own codec from the device's side.
+"""The simulated HARL-U2: the controller's side of every HARL-U2 command, played
+with the family's own codec, on the shared simulated line (:mod:`harlsync.sim`).
 
 How this works::
 
-    bytes in --> FrameDecoder --> frame for a station we have? --no--> silence
-                                      |yes
-                                  handle(request)  --> reply payload ("E"+status on error)
-                                      |
-                  Faults.shape(reply frame) --> [(delay, bytes), ...] --> the wire
+    frame for one of our stations --> handle(state, payload) --> reply payload
+                                          |                    ("E"+status on error)
+                                      encode_frame(station, reply) --> the line
 
-:meth:`Simulator.receive` is sans-I/O like the codec: it takes the bytes the
-client sent and returns the chunks to send back, each with the delay after which
-it is due.  The pty, TCP and ``sim://`` servers only move those bytes and honour
-the delays.  Every valid request is recorded in :attr:`Simulator.received`, so a
-test can assert exactly what was and was not sent.
+The line (:class:`harlsync.sim.Simulator`) does the rest: decoding, station
+lookup, wire time, faults and the record of every request.
 """
 
 from __future__ import annotations
 
-import logging
-import random
 import re
-import threading
-import time
-from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from collections.abc import Sequence
+from pathlib import Path
 
 from ....errors import ProtocolError
+from ....sim import device
+from ....sim.device import Refused
+from ....sim.family import Verb
 from ..model import (
     MAX_STEP_DATA,
     OFFSET_TABLE_COUNT,
@@ -39,12 +33,10 @@ from ..model import (
     ProgramType,
     Step,
 )
-from ..protocol import FrameDecoder, Request, encode_frame, parse_request, profile
+from ..protocol import Frame, FrameDecoder, Request, encode_frame, parse_request, profile
 from .state import IO_BITS, MEM_BIT_BASE, SimState
 
-__all__ = ["STATUS_COMMAND", "STATUS_DATA", "STATUS_RANGE", "Faults", "Received", "Simulator"]
-
-log = logging.getLogger(__name__)
+__all__ = ["SIM_FAMILY", "STATUS_COMMAND", "STATUS_DATA", "STATUS_RANGE", "Simulator"]
 
 #: Error statuses the simulator answers with (the real codes are in the HRCS-R3
 #: manual, which we do not have; harlsync only shows them raw).
@@ -53,194 +45,96 @@ STATUS_COMMAND = "10"  # unknown command or wrong number of fields
 STATUS_DATA = "22"  # value out of range for a write
 
 
-class _Refuse(Exception):
-    def __init__(self, status: str) -> None:
-        self.status = status
+class HarlU2SimFamily:
+    """The HARL-U2 side of the simulator framework (a :class:`~harlsync.sim.SimFamily`)."""
 
+    name = "harl-u2"
+    verbs = (
+        Verb("auto", "[STATION [TASK]]", "task in execution (automatic operation)"),
+        Verb("suspend", "[STATION [TASK]]", "task suspended"),
+        Verb("stop", "[STATION]", "every task stopped: the robot is idle"),
+    )
+    busy_verb = "auto"
+    default_station = 1
 
-@dataclass(frozen=True)
-class Received:
-    """One valid request the simulator received."""
+    def decoder(self) -> FrameDecoder:
+        return FrameDecoder()
 
-    station: int
-    payload: str
-    at: float
-    answered: bool
-    automatic: bool  # some task of that station was in execution or suspended
-    client: str = ""  # who sent it: "pty", a TCP peer "host:port", ... ("" when unknown)
+    def generate(self, seed: int, stations: Sequence[int]) -> Simulator:
+        return Simulator({n: SimState.generate(seed + i) for i, n in enumerate(stations)})
 
-    @property
-    def letters(self) -> str:
-        return self.payload.split(" ", 1)[0]
+    def from_project(self, project: Path, stations: Sequence[int] | None) -> Simulator:
+        from ....project import load_project
 
-    @property
-    def is_write(self) -> bool:
-        return self.letters.startswith("SN")
-
-
-@dataclass
-class Faults:
-    """Fault injection on replies: each rate is a probability per reply (0-1).
-
-    ``noise`` prefixes random bytes, ``drop`` sends nothing, ``bad_lrc`` flips the
-    LRC, ``fragment`` splits the reply into pieces sent with gaps, ``slow`` delays
-    it by ``slow_delay`` seconds (longer than the client's deadline by default).
-    """
-
-    noise: float = 0.0
-    drop: float = 0.0
-    bad_lrc: float = 0.0
-    fragment: float = 0.0
-    slow: float = 0.0
-    slow_delay: float = 1.5
-    fragment_gap: float = 0.002
-    seed: int | None = None
-    _rng: random.Random = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        self._rng = random.Random(self.seed)
-
-    @classmethod
-    def names(cls) -> tuple[str, ...]:
-        """The settings a user can give: the rates, the timings and the seed."""
-        return tuple(f.name for f in fields(cls) if f.init)
-
-    @classmethod
-    def from_settings(cls, settings: dict[str, str]) -> Faults:
-        """From name -> text (``{"noise": "0.1", "seed": "3"}``).  Raises ValueError."""
-        unknown = set(settings) - set(cls.names())
-        if unknown:
-            raise ValueError(
-                f"unknown fault {', '.join(sorted(unknown))} (known: {', '.join(cls.names())})"
-            )
-        return cls(**{  # type: ignore[arg-type]
-            name: int(value) if name == "seed" else float(value)
-            for name, value in settings.items()
+        loaded = load_project(project)
+        return Simulator({
+            number: SimState.from_robot_data(loaded.data)
+            for number in stations or [loaded.robot.station]
         })
 
-    @classmethod
-    def parse(cls, text: str) -> Faults:
-        """From ``"noise=0.1,drop=0.05,seed=3"`` (the CLI form).  Raises ValueError."""
-        pairs = (item.partition("=") for item in filter(None, text.split(",")))
-        return cls.from_settings({k.strip().replace("-", "_"): v for k, _, v in pairs})
 
-    def shape(self, frame: bytes) -> list[tuple[float, bytes]]:
-        """The reply as chunks ``(extra delay, bytes)``; empty when dropped."""
-        rng = self._rng
-        if self.drop and rng.random() < self.drop:
-            return []
-        data = bytearray(frame)
-        if self.bad_lrc and rng.random() < self.bad_lrc:
-            data[-1] ^= 0x5A
-        if self.noise and rng.random() < self.noise:
-            junk = bytes(rng.choice(b"\x00\x7f\xff#*?!ZQ\x03 ") for _ in range(rng.randrange(1, 8)))
-            data[:0] = junk
-        delay = self.slow_delay if self.slow and rng.random() < self.slow else 0.0
-        if self.fragment and rng.random() < self.fragment and len(data) > 2:
-            cuts = sorted(rng.sample(range(1, len(data)), k=min(3, len(data) - 1)))
-            pieces = [bytes(data[a:b]) for a, b in zip([0, *cuts], [*cuts, len(data)])]
-            return [(delay + i * self.fragment_gap, p) for i, p in enumerate(pieces)]
-        return [(delay, bytes(data))]
+SIM_FAMILY = HarlU2SimFamily()
 
 
-
-
-class Simulator:
+class Simulator(device.Simulator[SimState, Frame]):
     """A simulated HNC controller: one serial line and the robots (stations) on it.
 
-    ``baudrate`` turns on wire-time emulation: each reply's last byte is due after
-    the time the request and the reply take on the wire at that speed, plus
-    ``turnaround`` (the servers pace the bytes before it, see
-    :class:`~harlsync.sim.serve.ReplyScheduler`).
-    ``auto_after_writes`` puts task 0 of the written station into automatic
-    operation once that many SN writes have been answered (0 = never), so that
-    interlocks can be tested mid-push.
+    ``busy_after_writes`` puts task 0 of the written station into automatic
+    operation once that many SN writes have been carried out.
     """
 
-    def __init__(
-        self,
-        stations: dict[int, SimState] | SimState,
-        *,
-        baudrate: int | None = None,
-        bits_per_char: int = 10,
-        turnaround: float = 0.0,
-        faults: Faults | None = None,
-        auto_after_writes: int = 0,
-        clock: Callable[[], float] = time.monotonic,
-    ) -> None:
-        self.stations = stations if isinstance(stations, dict) else {1: stations}
-        self.baudrate = baudrate
-        self.bits_per_char = bits_per_char
-        self.turnaround = turnaround
-        self.faults = faults or Faults()
-        self.auto_after_writes = auto_after_writes
-        self.received: list[Received] = []
-        #: Called with each :class:`Received` as it is recorded (``harlsync sim --record``).
-        self.listeners: list[Callable[[Received], None]] = []
-        self.ignored = 0  # frames with a bad LRC, for another station, or malformed
-        self.writes = 0
-        #: bytes received from the client, and reply bytes sent (before the server
-        #: writes them): what crossed the line each way
-        self.bytes_in = 0
-        self.bytes_out = 0
-        self._clock = clock
-        self._decoder = FrameDecoder()
-        self.lock = threading.RLock()
+    family = SIM_FAMILY
 
-    # --- the wire ---------------------------------------------------------------------
+    # --- the line's hooks ---------------------------------------------------------------
 
-    def receive(
-        self, data: bytes, decoder: FrameDecoder | None = None, client: str = ""
-    ) -> list[tuple[float, bytes]]:
-        """Take bytes from the client; return the reply chunks as (delay, bytes).
+    def respond(self, station: int, state: SimState, frame: Frame) -> bytes:
+        return encode_frame(station, self.handle(state, frame.payload))
 
-        ``decoder`` keeps the framing state of one connection (one TCP client);
-        by default the line's own decoder is used.  ``client`` names the sender
-        in :attr:`received`.
-        """
-        out: list[tuple[float, bytes]] = []
-        decoder = decoder or self._decoder
-        with self.lock:
-            self.bytes_in += len(data)
-            decoder.feed(data)
-            while True:
-                try:
-                    frame = decoder.next_frame()
-                except ProtocolError as exc:
-                    self.ignored += 1
-                    log.debug("sim: ignored bad request: %s", exc)
-                    continue
-                if frame is None:
-                    return out
-                state = self.stations.get(frame.station)
-                if state is None:
-                    self.ignored += 1
-                    log.debug("sim: no robot with station %d: silence", frame.station)
-                    continue
-                automatic = state.automatic
-                reply = self.handle(state, frame.payload)
-                raw = encode_frame(frame.station, reply)
-                wire = self._wire_time(len(frame.encode()) + len(raw))
-                chunks = self.faults.shape(raw)
-                record = Received(
-                    frame.station, frame.payload, self._clock(), bool(chunks), automatic, client
-                )
-                self.received.append(record)
-                for listener in self.listeners:
-                    listener(record)
-                for extra, chunk in chunks:
-                    out.append((wire + extra, chunk))
-                    self.bytes_out += len(chunk)
+    def command(self, frame: Frame) -> str:
+        return frame.payload.split(" ", 1)[0]
 
-    @property
-    def char_time(self) -> float:
-        """Seconds one character takes on the emulated line (0: no emulation)."""
-        return self.bits_per_char / self.baudrate if self.baudrate else 0.0
+    def is_write(self, frame: Frame) -> bool:
+        return self.command(frame).startswith("SN")
 
-    def _wire_time(self, nbytes: int) -> float:
-        if not self.baudrate:
-            return self.turnaround
-        return self.turnaround + nbytes * self.bits_per_char / self.baudrate
+    def busy(self, state: SimState) -> bool:
+        return state.automatic
+
+    def corrupt_checksum(self, frame: bytes) -> bytes:
+        return frame[:-1] + bytes([frame[-1] ^ 0x5A])  # the LRC is the last byte
+
+    def control(self, verb: str, state: SimState, args: Sequence[str]) -> None:
+        task = int(args[0]) if args else 0
+        if not 0 <= task < len(state.tasks):
+            raise ValueError(f"no task {task} (allowed: 0 to {len(state.tasks) - 1})")
+        if verb == "auto":
+            state.start_task(task)
+        elif verb == "suspend":
+            state.suspend_task(task)
+        elif verb == "stop":
+            state.stop_all()
+        else:
+            raise ValueError(f"unknown command {verb!r}")
+
+    def describe(self, state: SimState) -> str:
+        return "automatic" if state.automatic else "idle"
+
+    def save_station(self, station: int, directory: Path) -> None:
+        """Save the station as the robot project ``directory`` (atomically, as a pull does)."""
+        from ....project import Project, new_robot, save_project
+
+        robot = new_robot(directory.name, f"sim://{directory.resolve()}", station,
+                          keep_registers=True)
+        save_project(directory, Project(directory, robot, self.stations[station].data))
+
+    def load_station(self, station: int, directory: Path) -> bool:
+        """Restore the station from the robot project ``directory``, when there is one.
+        Tasks and I/O are not kept: a restarted controller has every task stopped."""
+        from ....project import load_project
+
+        if not (directory / "robot.yaml").exists():
+            return False
+        self.stations[station] = SimState.from_robot_data(load_project(directory).data)
+        return True
 
     # --- the controller -----------------------------------------------------------
 
@@ -253,15 +147,11 @@ class Simulator:
         try:
             if request.is_write:
                 reply = self._write(state, request)
-                self.writes += 1
-                due = self.auto_after_writes and self.writes >= self.auto_after_writes
-                if due and not state.automatic:
-                    log.info("sim: scheduled switch to automatic operation")
-                    state.start_task(0)
+                self.wrote(state)
                 return reply
             return self._read(state, request)
-        except _Refuse as refusal:
-            return profile.ERROR_PREFIX + refusal.status
+        except Refused as refusal:
+            return profile.ERROR_PREFIX + refusal.code
         except ValueError:
             return profile.ERROR_PREFIX + STATUS_COMMAND
 
@@ -299,7 +189,7 @@ class Simulator:
             return data.version
         if letters == "LNX":
             return " ".join(str(n) for n in cfg.numbers())
-        raise _Refuse(STATUS_COMMAND)
+        raise Refused(STATUS_COMMAND)
 
     def _write(self, state: SimState, req: Request) -> str:
         data, cfg, a = state.data, state.data.config, req.args
@@ -309,7 +199,7 @@ class Simulator:
             key, step = _program_step(cfg, "LN" + letters[2], a[: 2 if numbered else 1])
             tokens = a[2 if numbered else 1 :]
             if len(tokens) > 1 + MAX_STEP_DATA:
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             if tokens:
                 data.programs[key][step] = Step.from_tokens(tokens)
             else:
@@ -322,7 +212,7 @@ class Simulator:
         elif letters == "SNL":
             table = OffsetTable.from_values(a[1:])
             if table.problems():
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             data.offsets[_index(a[0], OFFSET_TABLE_COUNT)] = table
         elif letters in ("SNOB", "SNBB"):
             bits = state.do if letters == "SNOB" else state.mem
@@ -333,12 +223,12 @@ class Simulator:
             port = _index(a[0], len(bits) // 8)
             value = int(a[1])
             if not 0 <= value <= 255:
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             for i in range(8):
                 bits[port * 8 + i] = (value >> i) & 1
         elif letters == "SNE":
             if not all(TOKEN_RE.fullmatch(v) for v in a):
-                raise _Refuse(STATUS_DATA)
+                raise Refused(STATUS_DATA)
             data.parameters = Parameters.from_values(a)
         elif letters == "SNX":
             data.config = Config.from_numbers(
@@ -347,36 +237,24 @@ class Simulator:
             # The manual: changing the configuration breaks the programs made.
             data.programs = {key: {} for key in data.config.programs()}
         else:
-            raise _Refuse(STATUS_COMMAND)
+            raise Refused(STATUS_COMMAND)
         return profile.SN_OK
 
-    # --- for tests and the CLI --------------------------------------------------------
+    # --- for tests -------------------------------------------------------------------
 
-    def writes_received(self, station: int | None = None) -> list[Received]:
-        with self.lock:
-            return [
-                r
-                for r in self.received
-                if r.is_write and (station is None or r.station == station)
-            ]
-
-    def unsafe_in_automatic(self) -> list[Received]:
+    def unsafe_in_automatic(self) -> list[device.Received]:
         """Unsafe SN commands (SNA/SNM/SNS/SNH/SNE/SNX) received during automatic operation."""
         with self.lock:
-            return [
-                r
-                for r in self.received
-                if r.automatic and Request(r.letters).unsafe
-            ]
+            return [r for r in self.received if r.busy and Request(r.command).unsafe]
 
 
 def _index(text: str, size: int, base: int = 0) -> int:
     """A number field within [base, base+size), else a range error."""
     if not text.isdigit():
-        raise _Refuse(STATUS_COMMAND)
+        raise Refused(STATUS_COMMAND)
     n = int(text) - base
     if not 0 <= n < size:
-        raise _Refuse(STATUS_RANGE)
+        raise Refused(STATUS_RANGE)
     return n
 
 
@@ -388,7 +266,7 @@ def _program_step(
     if ptype is ProgramType.START:
         number, step_text = 0, args[0]
         if area.count < 1:
-            raise _Refuse(STATUS_RANGE)
+            raise Refused(STATUS_RANGE)
     else:
         number, step_text = _index(args[0], area.count), args[1]
     return (ptype, number), _index(step_text, area.steps)
@@ -400,11 +278,11 @@ def _port_value(bits: list[int], port: int) -> int:
 
 def _valid(pattern: re.Pattern[str], text: str) -> str:
     if not pattern.fullmatch(text):
-        raise _Refuse(STATUS_DATA)
+        raise Refused(STATUS_DATA)
     return text
 
 
 def _valid_bit(text: str) -> str:
     if text not in ("0", "1"):
-        raise _Refuse(STATUS_DATA)
+        raise Refused(STATUS_DATA)
     return text

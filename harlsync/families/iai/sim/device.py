@@ -1,0 +1,373 @@
+"""The simulated IAI controller (protocol B): the controller's side of every
+allow-listed message, exactly as the profile says, on the shared simulated line
+(:mod:`harlsync.sim`).
+
+How this works::
+
+    '!' frame for one of our stations --> handle(state, frame) --> reply data --> '#' frame
+    ('#' or '&' frame: silence)               |
+                                      refused: '&' station code SC CR LF  (codes.py)
+
+The line does the decoding: a bad SC, a foreign station, a bad header or a
+missing LF never reach :meth:`Simulator.handle`, and get no reply (p.9).  A
+well-formed command that cannot be carried out gets an ``&`` reply with one of
+the placeholder codes of :mod:`~harlsync.families.iai.sim.codes`:
+
+- any message off the allow-list (motion, servo, program control, resets ...):
+  refused and recorded, so a test can assert it was never sent (:meth:`Simulator.off_list`);
+- a write (291H, 24BH-24DH) while the controller is not idle by the profile's
+  interlock: refused before its data is looked at;
+- 291H with a record of axis pattern 00, a coordinate for an axis the robot does
+  not have, extended bits 0-3 set, or a number outside the position range:
+  nothing of it is written (a 291H is applied whole or not at all);
+- a command larger than the model's receive buffer, or a read whose reply would
+  not fit its send buffer; a 22DH reply is cut to the whole records that fit
+  instead, its count saying how many.
+
+**(simulator)** The manual does not say what a controller in MANUAL mode does
+with a command (p.7 says the protocol runs in AUTO).  This simulator answers
+reads in MANUAL mode, reporting mode 2 in 215H, and refuses writes; a real
+controller that stays silent instead looks to the client like one that does not
+answer, which its interlock also treats as not idle.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import struct
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from ....errors import ProjectError, ProjectFormatError
+from ....sim import device
+from ....sim.device import Refused
+from ....sim.family import Verb
+from .. import profile
+from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes
+from ..protocol import (
+    _FRAME_OVERHEAD,
+    Frame,
+    FrameDecoder,
+    _Fields,
+    parse_write_positions,
+    position_record,
+)
+from . import codes
+from .state import MANUAL, SimState
+
+__all__ = ["SIM_FAMILY", "IaiSimFamily", "Simulator"]
+
+log = logging.getLogger(__name__)
+
+#: The file a station's battery-backed memory is kept in, in its state directory.
+MEMORY_FILE = "memory.json"
+
+
+class IaiSimFamily:
+    """The IAI side of the simulator framework (a :class:`~harlsync.sim.SimFamily`)."""
+
+    name = "iai"
+    verbs = (
+        Verb("run", "[STATION]", "a program running, holding every axis"),
+        Verb("manual", "[STATION]", "MANUAL mode"),
+        Verb("estop", "[STATION]", "emergency stop"),
+        Verb("flash", "[STATION]", "a flash ROM write in progress"),
+        Verb("hold", "[STATION [AXIS]]", "an axis in use (default: the first)"),
+        Verb("stop", "[STATION]", "idle: AUTO mode, no program, nothing held"),
+    )
+    busy_verb = "run"
+    default_station = profile.DEFAULT_STATION
+
+    def decoder(self) -> FrameDecoder:
+        return FrameDecoder()
+
+    def generate(self, seed: int, stations: Sequence[int]) -> Simulator:
+        return Simulator({n: SimState.generate(seed + i) for i, n in enumerate(stations)})
+
+    def from_project(self, project: Path, stations: Sequence[int] | None) -> Simulator:
+        raise ProjectError(
+            f"{project}: the simulator cannot load an IAI project yet; serve a generated "
+            "one (--seed) or build one with SimState.from_positions()"
+        )
+
+
+SIM_FAMILY = IaiSimFamily()
+
+Handler = Callable[["Simulator", SimState, str], str]
+
+
+class Simulator(device.Simulator[SimState, Frame]):
+    """A simulated IAI controller: one serial line and the controllers (stations) on it.
+
+    ``busy_after_writes`` starts a program on the written station once that many
+    writes have been carried out.
+    """
+
+    family = SIM_FAMILY
+
+    # --- the line's hooks -----------------------------------------------------------------
+
+    def respond(self, station: int, state: SimState, frame: Frame) -> bytes | None:
+        if frame.kind != "!":
+            return None  # a reply or an error is no command: a bad header (p.9)
+        try:
+            reply = Frame("#", station, frame.message_id, self.handle(state, frame))
+        except Refused as refusal:
+            reply = Frame("&", station, None, refusal.code)
+        return reply.encode()
+
+    def command(self, frame: Frame) -> str:
+        return frame.payload[:3]
+
+    def is_write(self, frame: Frame) -> bool:
+        return frame.message_id in profile.WRITE_MESSAGE_IDS
+
+    def busy(self, state: SimState) -> bool:
+        return not state.idle
+
+    def corrupt_checksum(self, frame: bytes) -> bytes:
+        wrong = int(frame[-4:-2], 16) ^ 0x5A  # the SC: two hex digits before CR LF
+        return frame[:-4] + f"{wrong:02X}".encode("ascii") + frame[-2:]
+
+    def control(self, verb: str, state: SimState, args: Sequence[str]) -> None:
+        if verb == "hold":
+            axis = int(args[0]) if args else state.axes[0]
+            if axis not in state.axes:
+                raise ValueError(f"no axis {axis} (the robot has {list(state.axes)})")
+            state.axes_in_use.add(axis)
+        elif args:
+            raise ValueError(f"{verb} takes only a station")
+        elif verb == "run":
+            state.run_program()
+        elif verb == "manual":
+            state.mode = MANUAL
+        elif verb == "estop":
+            state.emergency_stop = True
+        elif verb == "flash":
+            state.flash_writing = True
+        elif verb == "stop":
+            state.stop()
+        else:
+            raise ValueError(f"unknown command {verb!r}")
+
+    def describe(self, state: SimState) -> str:
+        return ", ".join(state.not_idle()) or "idle"
+
+    def save_station(self, station: int, directory: Path) -> None:
+        """Write the station's table, flags and variables to ``directory/memory.json``
+        (a new file renamed over the old one: a kill never leaves half of it)."""
+        directory.mkdir(parents=True, exist_ok=True)
+        target = directory / MEMORY_FILE
+        temp = directory / f".{MEMORY_FILE}.{os.getpid()}"
+        temp.write_text(json.dumps(self.stations[station].memory(), indent=1) + "\n")
+        os.replace(temp, target)
+
+    def load_station(self, station: int, directory: Path) -> bool:
+        path = directory / MEMORY_FILE
+        if not path.exists():
+            return False
+        old = self.stations[station]
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+            self.stations[station] = SimState.from_memory(doc, old.versions)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ProjectFormatError(f"{path}: not a simulator memory: {exc}") from exc
+        return True
+
+    # --- the controller ---------------------------------------------------------------------
+
+    def handle(self, state: SimState, frame: Frame) -> str:
+        """The reply data to one command for one controller.  Raises :class:`~harlsync.sim.Refused`."""
+        assert frame.message_id is not None  # a '!' frame always has one
+        handler = _HANDLERS.get(frame.message_id)
+        if handler is None or frame.message_id not in profile.ALLOWED_MESSAGE_IDS:
+            log.warning("sim: station %02X got message %03XH, which is off the allow-list",
+                        frame.station, frame.message_id)
+            raise Refused(codes.NOT_SUPPORTED)
+        if _FRAME_OVERHEAD + len(frame.data) > state.buffers.receive:
+            raise Refused(codes.TOO_LONG)
+        if frame.message_id in profile.WRITE_MESSAGE_IDS and not state.idle:
+            raise Refused(codes.NOT_IDLE)
+        try:
+            reply = handler(self, state, frame.data)
+        except ValueError:
+            raise Refused(codes.BAD_DATA) from None
+        if _FRAME_OVERHEAD + len(reply) > state.buffers.send:
+            raise Refused(codes.TOO_LONG)
+        return reply
+
+    def _version(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        unit, number = f.hex(2, "unit type"), f.hex(1, "device number")
+        f.end()
+        found = state.versions.get((unit, number))
+        if found is None:
+            raise Refused(codes.BAD_DATA)
+        day, clock = found.built.split(" ")
+        year, month, mday = (int(x) for x in day.split("-"))
+        hour, minute, second = (int(x) for x in clock.split(":"))
+        built = f"{year:04X}" + "".join(f"{n:02X}" for n in (month, mday, hour, minute, second))
+        return (
+            f"{unit:02X}{number:X}{found.model_code}{found.unit_code}{found.version}{built}"
+        )
+
+    def _system_status(self, state: SimState, data: str) -> str:
+        _Fields(data).end()
+        status = "".join(f"{b:02X}" for b in state.status_bytes())
+        return f"{state.mode:X}{state.critical_error}{state.latest_error}{status}"
+
+    def _axis_status(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        pattern = f.hex(2, "axis pattern")
+        f.end()
+        if not pattern:
+            raise Refused(codes.PATTERN_ZERO)
+        # An axis the robot does not have is left out: "driver not connected" (p.27).
+        reported = tuple(a for a in axes_from_pattern(pattern) if a in state.axes)
+        sensors, error, encoder = 0, "000", 0
+        return f"{pattern_from_axes(reported):02X}" + "".join(
+            f"{state.axis_status(a):02X}{sensors:X}{error}{encoder:02X}"
+            f"{coord_to_wire(state.current[a])}"
+            for a in reported
+        )
+
+    def _read_positions(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        f.expect(2, 0, "reserved field")
+        head, count = f.hex(4, "head position"), f.hex(4, "position count")
+        f.end()
+        room = state.buffers.send - _FRAME_OVERHEAD - len("00") - len("0000")
+        records = []
+        for number in sorted(n for n in state.positions if head <= n < head + count):
+            record = position_record(state.positions[number], numbered=True)
+            if len(record) > room:
+                break  # only whole records that fit: the count says how many
+            room -= len(record)
+            records.append(record)
+        return f"00{len(records):04X}" + "".join(records)
+
+    def _write_positions(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        f.expect(2, 0, "reserved field")
+        f.hex(4, "start position")
+        count = f.hex(4, "position count")
+        if not count:
+            raise ValueError("no position")
+        for i in range(count):  # each record checked before any is written
+            axes = axes_from_pattern(f.hex(2, f"record {i} axis pattern"))
+            if not axes:
+                raise Refused(codes.PATTERN_ZERO)
+            if not set(axes) <= set(state.axes):
+                raise Refused(codes.NO_AXIS)
+            f.take(12 + 8 * len(axes), f"record {i} values")
+            if f.hex(2, f"record {i} extended data") & 0x0F:
+                raise Refused(codes.EXTENDED_BITS)
+        _, positions = parse_write_positions(data)
+        first, last = state.position_range
+        if not all(first <= p.number <= last for p in positions):
+            raise Refused(codes.OUT_OF_RANGE)
+        state.positions.update((p.number, p) for p in positions)
+        self.wrote(state)
+        return f"00{len(positions):04X}"
+
+    def _read_flags(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        program, start, count = f.hex(2, "program"), f.hex(4, "start flag"), f.hex(4, "count")
+        f.end()
+        _global(program, count)
+        octets = (
+            sum(1 << i for i in range(8) if k + i < count and start + k + i in state.flags)
+            for k in range(0, count, 8)
+        )
+        return f"{program:02X}{start:04X}{count:04X}" + "".join(f"{o:02X}" for o in octets)
+
+    def _read_integers(self, state: SimState, data: str) -> str:
+        program, start, count = _variables(_Fields(data), end=True)
+        values = (state.integers.get(n, 0) & 0xFFFFFFFF for n in range(start, start + count))
+        return f"{program:02X}{start:03X}{count:02X}" + "".join(f"{v:08X}" for v in values)
+
+    def _read_reals(self, state: SimState, data: str) -> str:
+        program, start, count = _variables(_Fields(data), end=True)
+        values = (state.reals.get(n, 0.0) for n in range(start, start + count))
+        return f"{program:02X}{start:03X}{count:02X}" + "".join(
+            struct.pack(">d", v).hex().upper() for v in values
+        )
+
+    def _write_flag(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        program, number, change = f.hex(2, "program"), f.hex(4, "flag"), f.hex(1, "change")
+        f.end()
+        _global(program, 1)
+        if change & 0x0E:
+            raise ValueError("change type bits 1-3 are reserved")
+        if change & 1:
+            state.flags.add(number)
+        else:
+            state.flags.discard(number)
+        self.wrote(state)
+        return ""
+
+    def _write_integers(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        program, start, count = _variables(f)
+        values = [f.hex(8, f"variable {start + i}") for i in range(count)]
+        f.end()
+        state.integers.update(
+            (start + i, v - (1 << 32) if v & 0x80000000 else v) for i, v in enumerate(values)
+        )
+        self.wrote(state)
+        return f"{program:02X}{start:03X}{count:02X}"
+
+    def _write_reals(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        program, start, count = _variables(f)
+        values = [bytes.fromhex(f.take(16, f"variable {start + i}")) for i in range(count)]
+        f.end()
+        state.reals.update((start + i, struct.unpack(">d", v)[0]) for i, v in enumerate(values))
+        self.wrote(state)
+        return f"{program:02X}{start:03X}{count:02X}"
+
+    # --- for tests -----------------------------------------------------------------------------
+
+    def off_list(self) -> list[device.Received]:
+        """Every request received whose message is off the profile's allow-list."""
+        with self.lock:
+            return [
+                r for r in self.received if int(r.command, 16) not in profile.ALLOWED_MESSAGE_IDS
+            ]
+
+    def writes_while_busy(self) -> list[device.Received]:
+        """Every write received while the controller was not idle (each one refused)."""
+        return [r for r in self.writes_received() if r.busy]
+
+
+def _global(program: int, count: int) -> None:
+    """Only the global flags and variables (program 00), at least one of them."""
+    if program or not count:
+        raise ValueError(f"program {program:02X}, count {count}: global and at least one")
+
+
+def _variables(f: _Fields, *, end: bool = False) -> tuple[int, int, int]:
+    """Program, start and count of a variable query or change (20EH, 20FH, 24CH, 24DH)."""
+    program, start, count = f.hex(2, "program"), f.hex(3, "start"), f.hex(2, "count")
+    if end:
+        f.end()
+    _global(program, count)
+    return program, start, count
+
+
+_HANDLERS: dict[int, Handler] = {
+    0x201: Simulator._version,
+    0x215: Simulator._system_status,
+    0x212: Simulator._axis_status,
+    0x22D: Simulator._read_positions,
+    0x291: Simulator._write_positions,
+    0x20D: Simulator._read_flags,
+    0x20E: Simulator._read_integers,
+    0x20F: Simulator._read_reals,
+    0x24B: Simulator._write_flag,
+    0x24C: Simulator._write_integers,
+    0x24D: Simulator._write_reals,
+}

@@ -1,0 +1,381 @@
+"""The simulated line, for every family: stations, wire time, faults and the record.
+
+How this works::
+
+    bytes in --> family decoder --> frame for a station we have? --no--> silence
+                                          |yes
+                      family: respond(station, state, frame) --> reply bytes (None: silence)
+                                          |
+                  Faults.shape(reply) --> [(delay, bytes), ...] --> the wire
+
+:meth:`Simulator.receive` is sans-I/O like the codecs: it takes the bytes the
+client sent and returns the chunks to send back, each with the delay after which
+it is due.  The pty, TCP and ``sim://`` servers (:mod:`harlsync.sim.serve`,
+:mod:`harlsync.sim.protocol_sim`) only move those bytes and honour the delays.
+Every request a station answers is recorded in :attr:`Simulator.received`, with
+whether that station was busy (not idle) when it arrived, so a test can assert
+exactly what was and was not sent, and when.
+
+A family subclasses :class:`Simulator` with what only it knows: its decoder
+(through its :class:`~harlsync.sim.family.SimFamily`), how one request is
+carried out on one station's state and its reply encoded (:meth:`respond`),
+which requests are writes, when a station is busy, its control verbs, where its
+checksum sits, and how a station is kept in battery-backed memory.
+"""
+
+from __future__ import annotations
+
+import logging
+import random
+import threading
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar, cast
+
+from .. import families
+from ..errors import ProtocolError
+
+if TYPE_CHECKING:
+    from .family import SimFamily
+
+__all__ = ["Decoder", "Faults", "Received", "Refused", "RequestFrame", "Simulator"]
+
+log = logging.getLogger(__name__)
+
+
+class RequestFrame(Protocol):
+    """What the framework reads of a family's decoded frame."""
+
+    @property
+    def station(self) -> int: ...
+
+    @property
+    def payload(self) -> str:
+        """The frame's text between station and checksum, as the record keeps it."""
+        ...
+
+
+F_co = TypeVar("F_co", bound=RequestFrame, covariant=True)
+S = TypeVar("S")
+F = TypeVar("F", bound=RequestFrame)
+
+
+class Decoder(Protocol[F_co]):
+    """A family's sans-I/O frame decoder: ``feed(bytes)``, then ``next_frame()``
+    until None; a bad frame raises :class:`~harlsync.errors.ProtocolError` after
+    its bytes are consumed."""
+
+    def feed(self, data: bytes) -> None: ...
+
+    def next_frame(self) -> F_co | None: ...
+
+    @property
+    def pending(self) -> int:
+        """Bytes held that are not yet part of a returned or failed frame."""
+        ...
+
+    @property
+    def dropped(self) -> int:
+        """Bytes discarded as noise so far."""
+        ...
+
+
+class Refused(Exception):
+    """A well-formed request a simulated station does not carry out: the family
+    answers it with its error reply, carrying ``code`` (HARL-U2 ``E`` + status,
+    IAI ``&`` + code)."""
+
+    def __init__(self, code: str) -> None:
+        super().__init__(code)
+        self.code = code
+
+
+@dataclass(frozen=True)
+class Received:
+    """One request a simulated station answered (or would have: see ``answered``)."""
+
+    station: int
+    payload: str
+    #: the request's name: HARL-U2 letters (``SNM``), an IAI message id (``291``)
+    command: str
+    #: whether the request is a write (whether or not the station carried it out)
+    is_write: bool
+    at: float
+    #: False when a fault dropped the reply
+    answered: bool
+    #: the station was not idle when the request arrived: a HARL-U2 task in
+    #: execution or suspended, an IAI controller its interlock refuses
+    busy: bool
+    #: who sent it: "pty", a TCP peer "host:port", ... ("" when unknown)
+    client: str = ""
+
+
+#: The bytes line noise is drawn from: no CR or LF (which could end an IAI frame)
+#: and no STX (which could start a HARL-U2 one), so noise is always dropped whole.
+_NOISE = b"\x00\x7f\xff#*?!ZQ\x03 "
+
+
+@dataclass
+class Faults:
+    """Fault injection on replies: each rate is a probability per reply (0-1).
+
+    ``noise`` prefixes random bytes, ``drop`` sends nothing, ``bad_checksum``
+    corrupts the checksum (the HARL-U2 LRC, the IAI SC), ``fragment`` splits the
+    reply into pieces sent with gaps, ``slow`` delays it by ``slow_delay``
+    seconds (longer than the client's deadline by default).
+    """
+
+    noise: float = 0.0
+    drop: float = 0.0
+    bad_checksum: float = 0.0
+    fragment: float = 0.0
+    slow: float = 0.0
+    slow_delay: float = 1.5
+    fragment_gap: float = 0.002
+    seed: int | None = None
+    _rng: random.Random = field(init=False, repr=False, compare=False)
+
+    #: Other spellings a user may give a setting in: the HARL-U2 name of its checksum.
+    SPELLINGS: ClassVar[Mapping[str, str]] = {"bad_lrc": "bad_checksum"}
+
+    def __post_init__(self) -> None:
+        self._rng = random.Random(self.seed)
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The settings a user can give: the rates, the timings and the seed."""
+        return tuple(f.name for f in fields(cls) if f.init)
+
+    @classmethod
+    def from_settings(cls, settings: Mapping[str, str]) -> Faults:
+        """From name -> text (``{"noise": "0.1", "seed": "3"}``).  Raises ValueError."""
+        named = {cls.SPELLINGS.get(name, name): value for name, value in settings.items()}
+        unknown = set(named) - set(cls.names())
+        if unknown:
+            raise ValueError(
+                f"unknown fault {', '.join(sorted(unknown))} (known: {', '.join(cls.names())})"
+            )
+        return cls(**{  # type: ignore[arg-type]
+            name: int(value) if name == "seed" else float(value) for name, value in named.items()
+        })
+
+    @classmethod
+    def parse(cls, text: str) -> Faults:
+        """From ``"noise=0.1,drop=0.05,seed=3"`` (the CLI form).  Raises ValueError."""
+        pairs = (item.partition("=") for item in filter(None, text.split(",")))
+        return cls.from_settings({k.strip().replace("-", "_"): v for k, _, v in pairs})
+
+    def shape(
+        self, frame: bytes, corrupt: Callable[[bytes], bytes]
+    ) -> list[tuple[float, bytes]]:
+        """The reply as chunks ``(extra delay, bytes)``; empty when dropped.
+
+        ``corrupt`` returns the frame with a wrong checksum (the family knows where
+        its checksum sits).
+        """
+        rng = self._rng
+        if self.drop and rng.random() < self.drop:
+            return []
+        data = bytearray(frame)
+        if self.bad_checksum and rng.random() < self.bad_checksum:
+            data = bytearray(corrupt(bytes(data)))
+        if self.noise and rng.random() < self.noise:
+            data[:0] = bytes(rng.choice(_NOISE) for _ in range(rng.randrange(1, 8)))
+        delay = self.slow_delay if self.slow and rng.random() < self.slow else 0.0
+        if self.fragment and rng.random() < self.fragment and len(data) > 2:
+            cuts = sorted(rng.sample(range(1, len(data)), k=min(3, len(data) - 1)))
+            pieces = [bytes(data[a:b]) for a, b in zip([0, *cuts], [*cuts, len(data)])]
+            return [(delay + i * self.fragment_gap, p) for i, p in enumerate(pieces)]
+        return [(delay, bytes(data))]
+
+
+class Simulator(ABC, Generic[S, F]):
+    """A simulated serial line and the stations (robots) on it, each holding a
+    family state ``S``; requests arrive as the family's frames ``F``.
+
+    ``baudrate`` turns on wire-time emulation: each reply's last byte is due after
+    the time the request and the reply take on the wire at that speed, plus
+    ``turnaround`` (the servers pace the bytes before it, see
+    :class:`~harlsync.sim.serve.ReplyScheduler`).  ``busy_after_writes`` makes the
+    written station busy (the family's :attr:`~SimFamily.busy_verb`: a HARL-U2
+    task in automatic operation, an IAI program running) once that many writes
+    have been carried out (0 = never), so that interlocks can be tested mid-push.
+    """
+
+    #: The family this simulator belongs to: its decoder, stations and verbs.
+    family: ClassVar[SimFamily]
+
+    def __init__(
+        self,
+        stations: Mapping[int, S] | S,
+        *,
+        baudrate: int | None = None,
+        bits_per_char: int = 10,
+        turnaround: float = 0.0,
+        faults: Faults | None = None,
+        busy_after_writes: int = 0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if isinstance(stations, Mapping):
+            self.stations: dict[int, S] = dict(stations)
+        else:
+            self.stations = {self.family.default_station: stations}
+        self.baudrate = baudrate
+        self.bits_per_char = bits_per_char
+        self.turnaround = turnaround
+        self.faults = faults or Faults()
+        self.busy_after_writes = busy_after_writes
+        self.received: list[Received] = []
+        #: Called with each :class:`Received` as it is recorded (``harlsync sim --record``).
+        self.listeners: list[Callable[[Received], None]] = []
+        self.ignored = 0  # frames with a bad checksum, for another station, or malformed
+        #: writes carried out (a refused write is received, not carried out)
+        self.writes = 0
+        #: bytes received from the client, and reply bytes sent (before the server
+        #: writes them): what crossed the line each way
+        self.bytes_in = 0
+        self.bytes_out = 0
+        self._clock = clock
+        self._decoder = self.new_decoder()
+        self.lock = threading.RLock()
+
+    # --- the wire ---------------------------------------------------------------------
+
+    def new_decoder(self) -> Decoder[F]:
+        """A decoder for one connection's bytes (each TCP client has its own)."""
+        return cast("Decoder[F]", self.family.decoder())
+
+    def receive(
+        self, data: bytes, decoder: Decoder[F] | None = None, client: str = ""
+    ) -> list[tuple[float, bytes]]:
+        """Take bytes from the client; return the reply chunks as (delay, bytes).
+
+        ``decoder`` keeps the framing state of one connection (one TCP client);
+        by default the line's own decoder is used.  ``client`` names the sender
+        in :attr:`received`.
+        """
+        out: list[tuple[float, bytes]] = []
+        decoder = self._decoder if decoder is None else decoder
+        with self.lock:
+            self.bytes_in += len(data)
+            decoder.feed(data)
+            while True:
+                held, dropped = decoder.pending, decoder.dropped
+                try:
+                    frame = decoder.next_frame()
+                except ProtocolError as exc:
+                    self.ignored += 1
+                    log.debug("sim: ignored bad request: %s", exc)
+                    continue
+                if frame is None:
+                    return out
+                size = held - decoder.pending - (decoder.dropped - dropped)
+                out += self._answer(frame, size, client)
+
+    def _answer(self, frame: F, size: int, client: str) -> list[tuple[float, bytes]]:
+        """The chunks answering one frame of ``size`` bytes; recorded when answered."""
+        state = self.stations.get(frame.station)
+        if state is None:
+            self.ignored += 1
+            log.debug("sim: no robot with station %s: silence", self.show_station(frame.station))
+            return []
+        busy = self.busy(state)
+        reply = self.respond(frame.station, state, frame)
+        if reply is None:
+            self.ignored += 1
+            log.debug("sim: %r is not a request: silence", frame)
+            return []
+        wire = self._wire_time(size + len(reply))
+        chunks = self.faults.shape(reply, self.corrupt_checksum)
+        record = Received(
+            frame.station, frame.payload, self.command(frame), self.is_write(frame),
+            self._clock(), bool(chunks), busy, client,
+        )
+        self.received.append(record)
+        for listener in self.listeners:
+            listener(record)
+        self.bytes_out += sum(len(chunk) for _, chunk in chunks)
+        return [(wire + extra, chunk) for extra, chunk in chunks]
+
+    def parse_station(self, text: str) -> int:
+        """A station as the family's people write it (``99`` is 99h for IAI).  Raises ValueError."""
+        return families.get(self.family.name).parse_station(text)
+
+    def show_station(self, number: int) -> str:
+        return families.get(self.family.name).format_station(number)
+
+    @property
+    def char_time(self) -> float:
+        """Seconds one character takes on the emulated line (0: no emulation)."""
+        return self.bits_per_char / self.baudrate if self.baudrate else 0.0
+
+    def _wire_time(self, nbytes: int) -> float:
+        return self.turnaround + nbytes * self.char_time
+
+    # --- what the family plugs in -----------------------------------------------------
+
+    @abstractmethod
+    def respond(self, station: int, state: S, frame: F) -> bytes | None:
+        """Carry out one request on one station's state; the reply frame's bytes,
+        or None for silence (a frame that is no request)."""
+
+    @abstractmethod
+    def is_write(self, frame: F) -> bool:
+        """Whether the request is a write (for the record, carried out or not)."""
+
+    @abstractmethod
+    def command(self, frame: F) -> str:
+        """The request's name in the record."""
+
+    @abstractmethod
+    def busy(self, state: S) -> bool:
+        """Whether the station is not idle: a write now is one the interlock forbids."""
+
+    @abstractmethod
+    def corrupt_checksum(self, frame: bytes) -> bytes:
+        """``frame`` with a wrong checksum and every other byte as it was."""
+
+    @abstractmethod
+    def control(self, verb: str, state: S, args: Sequence[str]) -> None:
+        """Carry out one of the family's :attr:`~SimFamily.verbs` on a station.
+
+        ``args`` are the words after the station.  Raises ValueError for bad ones.
+        """
+
+    @abstractmethod
+    def describe(self, state: S) -> str:
+        """The station's mode in a few words (``idle``, ``automatic``, ``MANUAL``)."""
+
+    @abstractmethod
+    def save_station(self, station: int, directory: Path) -> None:
+        """Keep the station's battery-backed memory in ``directory``."""
+
+    @abstractmethod
+    def load_station(self, station: int, directory: Path) -> bool:
+        """Restore the station from ``directory``; False when nothing is kept there.
+
+        Raises :class:`~harlsync.errors.ProjectError` for an unreadable memory.
+        """
+
+    # --- for the family and for tests --------------------------------------------------
+
+    def wrote(self, state: S) -> None:
+        """Count one write carried out on ``state``, and make the station busy when
+        :attr:`busy_after_writes` is reached.  A family calls it after each write."""
+        self.writes += 1
+        due = self.busy_after_writes and self.writes >= self.busy_after_writes
+        if due and not self.busy(state):
+            log.info("sim: scheduled switch after %d writes: %s", self.writes,
+                     self.family.busy_verb)
+            self.control(self.family.busy_verb, state, ())
+
+    def writes_received(self, station: int | None = None) -> list[Received]:
+        with self.lock:
+            return [
+                r
+                for r in self.received
+                if r.is_write and (station is None or r.station == station)
+            ]
