@@ -48,12 +48,12 @@ def test_positions_are_one_per_line_keyed_by_number_with_exact_decimal_text(
     lines = (project / "positions.yaml").read_text().splitlines()
     assert lines[0] == "# yaml-language-server: $schema=.schemas/positions.schema.json"
     assert lines[3:] == [
-        "  1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, "
-        "speed: 100}",
-        "  2: {axes: [1, 2, 3], coords: [100.000, -2.000, 0.000], acc: 0.30, dec: 0.30, "
-        "speed: 100}",
-        "  7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, "
-        "arm1: right, arm2: left}",
+        ("  1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, "
+        "speed: 100}"),
+        ("  2: {axes: [1, 2, 3], coords: [100.000, -2.000, 0.000], acc: 0.30, dec: 0.30, "
+        "speed: 100}"),
+        ("  7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, "
+        "arm1: right, arm2: left}"),
     ]
 
 
@@ -66,8 +66,8 @@ def _edit(project: Path, old: str, new: str, file: str = "positions.yaml") -> No
 
 BAD = [
     ("coords: [100.000, -1.000, 0.000]", "coords: [100.000, -1.000, 99999999.000]",
-     "positions.yaml:4: positions.1.coords.2: 99999999.000 is out of range "
-     "(allowed: mm with three decimals, -2147483.648 to 2147483.647)"),
+     ("positions.yaml:4: positions.1.coords.2: 99999999.000 is out of range "
+     "(allowed: mm with three decimals, -2147483.648 to 2147483.647)")),
     ("axes: [1, 2, 3], coords: [100.000, -1.000, 0.000]",
      "axes: [1, 2, 3, 4, 5, 6, 7, 8, 9], coords: [100.000, -1.000, 0.000]",
      "positions.yaml:4: positions.1.axes:"),
@@ -78,15 +78,15 @@ BAD = [
     ("speed: 100}", "speed: 100, colour: red}",
      "positions.yaml:4: positions.1.colour: unknown key"),
     ("-1.000", "-01.0",
-     "positions.yaml:4: positions.1.coords.1: -01.0 is not written in its one form "
-     "(write -1.000"),
+     ("positions.yaml:4: positions.1.coords.1: -01.0 is not written in its one form "
+     "(write -1.000")),
     ("acc: 0.30", "acc: 0.3",
      "positions.yaml:4: positions.1.acc: 0.3 is not written in its one form (write 0.30"),
     ("axes: [1, 2], coords", "axes: [1, 4], coords",
      "positions.yaml:6: positions.7.axes: axis 4 is not one of the robot's (allowed: 1, 2, 3"),
     ("  7: {", "  1007: {",
-     "positions.yaml:6: positions.1007: position 1007 is outside the robot's table "
-     "(allowed: 1-1000"),
+     ("positions.yaml:6: positions.1007: position 1007 is outside the robot's table "
+     "(allowed: 1-1000")),
     ("speed: 100}", "speed: 70000}",
      "positions.yaml:4: positions.1.speed: 70000 is out of range (allowed: mm/s, 0-65535"),
 ]
@@ -106,8 +106,10 @@ def test_a_station_that_is_not_two_hex_digits_is_refused_with_the_range(project:
     _edit(project, 'station: "99"', 'station: "9G"', "robot.yaml")
     issues = validate_project(project)
     assert issues == [
-        "robot.yaml:7: connection.station: '9G' is not a station (allowed: two hex digits, "
-        "00-FF; 99 by default)"
+        (
+            "robot.yaml:7: connection.station: '9G' is not a station (allowed: two hex "
+            "digits, 00-FF; 99 by default)"
+        )
     ]
 
 

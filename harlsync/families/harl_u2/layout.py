@@ -61,7 +61,6 @@ __all__ = [
     "SCHEMAS_DIR",
     "Analysis",
     "analyse",
-    "newer_format",
     "program_key",
     "program_path",
     "render_controller",

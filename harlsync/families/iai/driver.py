@@ -9,7 +9,7 @@ from ..base import Progress
 from .catalogue import Key, PositionKey, PositionRun
 from .controller import Controller, IaiStatus
 from .layout import IaiData
-from .protocol import write_positions
+from .protocol import position_fields, write_positions
 
 __all__ = ["IaiDriver"]
 
@@ -38,9 +38,15 @@ class IaiDriver:
         self.controller.write_run(key.start, value, old)
 
     def command(self, key: Key, value: Any) -> str:
+        """The 291H a write sends, its fields spaced and its records split by ``|``
+        so a person can read it: ``291H 00 0004 0002 | 07 001D 001D 03E8 ... 00 | ...``."""
         if not isinstance(key, PositionRun):
             raise TypeError(f"no write for item {key}: positions are written in runs")
-        return write_positions(key.start, value).payload
+        request = write_positions(key.start, value)  # refuses what the wire cannot carry
+        head = f"{request.message_id:03X}H 00 {key.start:04X} {len(value):04X}"
+        return " | ".join(
+            [head, *(" ".join(position_fields(p, numbered=False)) for p in value)]
+        )
 
     def unsafe(self, key: Key) -> bool:
         return True  # every IAI write needs an idle robot

@@ -76,6 +76,7 @@ __all__ = [
     "encode_frame",
     "max_positions_per_read",
     "parse_write_positions",
+    "position_fields",
     "position_record",
     "read_flags",
     "read_integers",
@@ -494,26 +495,33 @@ def max_positions_per_read(model: str) -> int:
     return (buffers.send - _READ_OVERHEAD) // profile.READ_RECORD_MAX
 
 
-def position_record(position: Position, *, numbered: bool) -> str:
-    """One position as record text: 22DH's form with the number in front
-    (``numbered``), 291H's without.
+def position_fields(position: Position, *, numbered: bool) -> list[str]:
+    """One position's record, field by field (pattern, acc, dec, speed, coordinates,
+    extended; the number first when ``numbered``).
 
     Raises :class:`ValueError` naming every problem of a position the wire cannot carry.
     """
     problems = position.problems()
     if problems:
         raise ValueError(f"position {position.number}: {'; '.join(problems)}")
-    return "".join(
-        (
-            f"{position.number:04X}" if numbered else "",
-            f"{pattern_from_axes(position.axes):02X}",
-            g_to_wire(position.acc, "acceleration"),
-            g_to_wire(position.dec, "deceleration"),
-            speed_to_wire(position.speed),
-            *(coord_to_wire(c) for c in position.coords),
-            f"{extended_from_arms(position.arm1, position.arm2):02X}",
-        )
-    )
+    return [
+        *([f"{position.number:04X}"] if numbered else []),
+        f"{pattern_from_axes(position.axes):02X}",
+        g_to_wire(position.acc, "acceleration"),
+        g_to_wire(position.dec, "deceleration"),
+        speed_to_wire(position.speed),
+        *(coord_to_wire(c) for c in position.coords),
+        f"{extended_from_arms(position.arm1, position.arm2):02X}",
+    ]
+
+
+def position_record(position: Position, *, numbered: bool) -> str:
+    """One position as record text: 22DH's form with the number in front
+    (``numbered``), 291H's without.
+
+    Raises :class:`ValueError` naming every problem of a position the wire cannot carry.
+    """
+    return "".join(position_fields(position, numbered=numbered))
 
 
 def _take_position(f: _Fields, number: int | None) -> Position:

@@ -55,7 +55,7 @@ from ..protocol import (
     position_record,
 )
 from . import codes
-from .state import MANUAL, SimState
+from .state import DEFAULT_AXES, MANUAL, SimState
 
 __all__ = ["SIM_FAMILY", "IaiSimFamily", "Simulator"]
 
@@ -87,10 +87,25 @@ class IaiSimFamily:
         return Simulator({n: SimState.generate(seed + i) for i, n in enumerate(stations)})
 
     def from_project(self, project: Path, stations: Sequence[int] | None) -> Simulator:
-        raise ProjectError(
-            f"{project}: the simulator cannot load an IAI project yet; serve a generated "
-            "one (--seed) or build one with SimState.from_positions()"
-        )
+        """The robot of an IAI project: its table, axes (robot.yaml's, else the
+        default), model, position range and version."""
+        from ....project import load_project
+        from ..layout import position_range
+
+        loaded = load_project(project)
+        robot, data = loaded.robot, loaded.data
+        try:
+            states = {
+                number: SimState.from_positions(
+                    data.positions, axes=robot.options.get("axes") or DEFAULT_AXES,
+                    model=data.model, position_range=position_range(robot),
+                    version=data.version,
+                )
+                for number in stations or [robot.station]
+            }
+        except ValueError as exc:
+            raise ProjectError(f"{project}: the simulator cannot hold this robot: {exc}") from exc
+        return Simulator(states)
 
 
 SIM_FAMILY = IaiSimFamily()
