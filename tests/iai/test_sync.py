@@ -1,0 +1,233 @@
+"""An IAI robot through the whole workflow, over a real pty and a real TCP socket:
+pull, diff, plan, push, rollback, the interlock, and a backup of a plant that
+mixes IAI and HARL-U2 robots.  Every check of what reached the robot reads the
+simulator's own record."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from harlsync import cli
+from harlsync.families.harl_u2.model import Config, ProgramArea
+from harlsync.families.harl_u2.sim import SimState as HarlState
+from harlsync.families.harl_u2.sim import Simulator as HarlSimulator
+from harlsync.families.iai.model import Position
+from harlsync.families.iai.sim import SimState, Simulator
+from harlsync.project import load_project
+from harlsync.sim.serve import PtyServer, TcpServer
+from harlsync.sync import PushFailed, PushOptions, engine
+from harlsync.sync.backup import backup
+
+STATION = 0x99
+YES = PushOptions(yes=True)
+SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
+
+
+def git(repo: Path, *args: str) -> str:
+    return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True,
+                          text=True).stdout
+
+
+def table(state: SimState) -> dict[int, Position]:
+    return dict(state.positions)
+
+
+@pytest.fixture(params=["tcp", "pty"])
+def served(request: pytest.FixtureRequest) -> Iterator[tuple[Simulator, str]]:
+    sim = Simulator({STATION: SimState.generate(5, position_range=(1, 120))})
+    server = TcpServer(sim) if request.param == "tcp" else PtyServer(sim)
+    url = server.start()
+    yield sim, url
+    server.stop()
+
+
+@pytest.fixture
+def repo(tmp_path: Path) -> Path:
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q")
+    return root
+
+
+def pulled(repo: Path, url: str, name: str = "cell-9") -> Path:
+    project = repo / name
+    assert cli.main(["pull", str(project), "--family", "iai", "--port", url,
+                     "--station", "99"]) == 0
+    robot = project / "robot.yaml"
+    robot.write_text(robot.read_text().replace("last_position: 1000", "last_position: 120"))
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "backup")
+    return project
+
+
+def move(project: Path, repo: Path, number: int, coord: str) -> None:
+    """Change the first coordinate of a position, as an engineer's edit would."""
+    path = project / "positions.yaml"
+    lines = [
+        re.sub(r"coords: \[[^,\]]+", f"coords: [{coord}", line, count=1)
+        if line.startswith(f"  {number}: ") else line
+        for line in path.read_text().splitlines()
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    git(repo, "commit", "-qam", f"move position {number}")
+
+
+def writes(sim: Simulator) -> list[str]:
+    return [r.payload for r in sim.received if r.is_write]
+
+
+def test_a_pull_backs_up_every_position_exactly_and_diff_finds_no_difference(served, repo) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    loaded = load_project(project)
+    assert loaded.robot.family == "iai" and loaded.robot.station == STATION
+    held = {n: p for n, p in table(sim.stations[STATION]).items() if n <= 120}
+    assert loaded.data.positions == held
+    assert cli.main(["diff", str(project)]) == 0
+    assert not writes(sim) and not sim.off_list()
+
+
+def test_push_writes_only_the_changed_positions_and_rollback_restores_them(
+    served, repo, capsys
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    before = table(sim.stations[STATION])
+    numbers = sorted(load_project(project).data.positions)[:2]
+    for n in numbers:
+        move(project, repo, n, "1.500")
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 1
+    shown = capsys.readouterr().out
+    assert f"+{numbers[0]}: axes [" in shown and "coords [1.500" in shown
+    assert cli.main(["push", str(project), "--yes"]) == 0
+    said = capsys.readouterr().out
+    assert "flash ROM" in said  # the positions are in working memory only
+    after = table(sim.stations[STATION])
+    assert {n for n in after if after[n] != before.get(n)} == set(numbers)
+    assert all(after[n].coords[0] == "1.500" for n in numbers)
+    assert all(w.startswith("291") for w in writes(sim))
+    assert cli.main(["diff", str(project)]) == 0
+    assert cli.main(["rollback", str(project), "--yes"]) == 0
+    assert table(sim.stations[STATION]) == before
+    assert not sim.off_list() and not sim.writes_while_busy()
+
+
+def test_plan_prints_each_291h_field_by_field_and_sends_nothing(served, repo, capsys) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    n = sorted(load_project(project).data.positions)[0]
+    move(project, repo, n, "2.000")
+    capsys.readouterr()
+    sent = len(sim.received)
+    assert cli.main(["plan", str(project)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"291H 00 {n:04X} 0001 | ")
+    assert "000007D0" in lines[0]  # 2.000 mm in 0.001 mm, two's complement
+    assert not [r for r in sim.received[sent:] if r.is_write]
+
+
+@pytest.mark.parametrize(
+    ("verb", "named"),
+    [
+        ("run", "program running (215H status byte 2 bit 5)"),
+        ("manual", "MANUAL mode"),
+        ("estop", "emergency stop"),
+        ("flash", "flash ROM write in progress"),
+        ("hold", "axis 1 servo axis in use"),
+    ],
+)
+def test_a_push_to_a_controller_that_is_not_idle_is_refused_naming_the_bit(
+    served, repo, capsys, verb, named
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    move(project, repo, sorted(load_project(project).data.positions)[0], "3.000")
+    sim.control(verb, sim.stations[STATION], [])
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert named in err and len(err.strip().splitlines()) == 1
+    assert not writes(sim)
+
+
+def test_a_position_on_the_robot_the_project_lacks_is_shown_and_refused(served, repo,
+                                                                       capsys) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    n = sorted(load_project(project).data.positions)[-1]
+    path = project / "positions.yaml"
+    path.write_text("".join(line for line in path.read_text().splitlines(keepends=True)
+                            if not line.startswith(f"  {n}: ")))
+    git(repo, "commit", "-qam", "drop a position")
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 1
+    assert f"-{n}: axes [" in capsys.readouterr().out
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert f"position {n}: defined on the robot but not in the project" in err
+    assert not writes(sim)
+
+
+def test_a_program_started_mid_push_gets_no_write_after_it(repo) -> None:
+    sim = Simulator({STATION: SimState.generate(8, position_range=(1, 120))})
+    server = TcpServer(sim)
+    try:
+        project = pulled(repo, server.start())
+        positions = sorted(load_project(project).data.positions)
+        for n in positions[:: max(1, len(positions) // 4)][:4]:  # scattered: several 291H
+            move(project, repo, n, "4.000")
+        sim.busy_after_writes = sim.writes + 1
+        with pytest.raises(PushFailed) as failed:
+            engine.push(project, YES)
+        assert "program running" in str(failed.value)
+        assert len(writes(sim)) == 1 and not sim.writes_while_busy()
+    finally:
+        server.stop()
+
+
+def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo) -> None:
+    iai = Simulator({STATION: SimState.generate(9, position_range=(1, 60))})
+    harl = HarlSimulator(HarlState.generate(3, SMALL))
+    servers = [TcpServer(iai), PtyServer(harl)]
+    try:
+        iai_url, harl_url = (s.start() for s in servers)
+        pulled(repo, iai_url, "iai-cell")
+        robot = repo / "iai-cell" / "robot.yaml"
+        robot.write_text(robot.read_text().replace("last_position: 120", "last_position: 60"))
+        engine.pull(repo / "press", port=harl_url)
+        git(repo, "add", "-A")
+        git(repo, "commit", "-qm", "first backup")
+        first = sorted(iai.stations[STATION].positions)[0]
+        iai.stations[STATION].positions.pop(first)  # changed on the controller
+        report = backup([repo], commit=True)
+        assert report.ok, report.render()
+        by_name = {r.name: r for r in report.robots}
+        assert by_name["iai-cell"].changed and not by_name["press"].changed
+        assert by_name["iai-cell"].summary == "1 position"
+        assert f"  {first}: " not in (repo / "iai-cell" / "positions.yaml").read_text()
+        assert "iai-cell" in git(repo, "log", "-1", "--format=%B")
+        assert not iai.writes_while_busy() and not iai.off_list()
+    finally:
+        for server in servers:
+            server.stop()
+
+
+def test_the_audit_record_of_an_iai_push_carries_the_flash_notice(served, repo, tmp_path,
+                                                                 monkeypatch) -> None:
+    log = tmp_path / "audit.jsonl"
+    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(log))
+    _, url = served
+    project = pulled(repo, url)
+    move(project, repo, sorted(load_project(project).data.positions)[0], "5.000")
+    engine.push(project, YES)
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    end = [r for r in records if r.get("result") == "ok"][-1]
+    assert "flash ROM" in end["notes"][0]
+    assert end["written"][0]["command"].startswith("291H 00 ")
