@@ -111,3 +111,11 @@ class ScriptedSim(Simulator):
                 for r in self.received
                 if r.payload == payload or r.payload.startswith(payload + " ")
             ]
+
+
+class EchoingLine(Simulator):
+    """A simulator on a line that echoes every byte sent, before the reply (a 2-wire
+    RS-485 adapter does: its receiver hears its own transmitter)."""
+
+    def receive(self, data: bytes, *args: object, **kwargs: object) -> Chunks:
+        return [(0.0, data), *super().receive(data, *args, **kwargs)]  # type: ignore[arg-type]

@@ -13,7 +13,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from simline import LOSE, SMALL, Act, ScriptedSim, drop
+from simline import LOSE, SMALL, Act, EchoingLine, ScriptedSim, drop
 
 from harlsync.errors import ControllerError, LinkTimeout, WriteUnconfirmed
 from harlsync.families.harl_u2.controller import Controller
@@ -132,6 +132,16 @@ def test_read_all_comes_through_random_line_faults_unchanged(tmp_path: Path) -> 
     assert got == expected(sim.stations[1], True)
     assert stats.retries > 0 and stats.noise_bytes > 0
     assert len(stats.reasons) == stats.retries
+
+
+def test_issue_11_read_all_over_a_line_that_echoes_every_request_is_unchanged() -> None:
+    sim = EchoingLine(SimState.generate(4, SMALL))
+    with PtyServer(sim) as server, Controller.from_url(server.device, 1, FAST) as robot:
+        got = robot.read_all(include_registers=True)
+        stats = robot.link.stats
+    assert got == expected(sim.stations[1], True)
+    assert got.version != "LNV"
+    assert stats.echoes == len(sim.received) and stats.retries == 0
 
 
 def test_one_link_carries_a_controller_per_station(device: str) -> None:

@@ -204,6 +204,27 @@ def test_a_frame_for_another_station_is_ignored(link: Link, sim: ScriptedSim) ->
     assert link.stats.other_station == 1 and link.stats.retries == 0
 
 
+def test_issue_11_an_echo_of_our_request_is_never_taken_for_the_reply(
+    link: Link, sim: ScriptedSim, caplog: pytest.LogCaptureFixture
+) -> None:
+    # A 2-wire RS-485 adapter hears its own transmitter: "1 LNV" comes back before the
+    # reply, and as a version it is a valid token ("version: LNV" in controller.yaml).
+    sent = b"\x021 LNV\x03\x46"  # the golden LNV request, LRC worked by hand
+    sim.plan("LNV", Act(wire=preceded_by(sent)))
+    with caplog.at_level(logging.INFO, logger="harlsync.link"):
+        assert link.exchange(cmd.read_version()) == "5.00"
+        sim.plan("LND 1", Act(wire=preceded_by(encode_frame(1, "LND 1"))))
+        assert link.exchange(cmd.read_register(1)) == "1001"
+    assert (link.stats.echoes, link.stats.unfitting, link.stats.retries) == (2, 0, 0)
+    said = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
+    assert [m for m in said if "echo" in m] == [
+        (
+            f"{link.url} station 1: skipped the echo of our own request LNV (the line echoes "
+            "what we send, as 2-wire RS-485 adapters do)"
+        )
+    ]  # said once at -v, not once per request
+
+
 def test_a_reply_that_does_not_fit_is_discarded_and_the_real_one_taken(
     link: Link, sim: ScriptedSim
 ) -> None:

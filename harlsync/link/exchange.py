@@ -13,6 +13,7 @@ How this works::
       |                                                                         |
     read in short polls into the codec's decoder  <-----------------------  reply
       |   bad frame, noise            : log, keep reading (the reply may follow)
+      |   our own request, echoed     : skip (2-wire RS-485 adapters echo what we send)
       |   frame for another station   : ignore
       |   frame that does not fit     : discard (a late reply), keep reading
       v   deadline (codec.reply_timeout) passes without a fitting reply
@@ -92,6 +93,8 @@ class LinkStats:
     unfitting: int = 0
     #: replies to earlier attempts that arrived after their deadline, discarded
     late_replies: int = 0
+    #: frames byte for byte the request we sent last (a line that echoes), skipped
+    echoes: int = 0
     #: writes whose reply was lost (WriteUnconfirmed)
     unconfirmed_writes: int = 0
     #: one line per retry or unconfirmed write: "port, station, command: reason"
@@ -154,6 +157,7 @@ class Link(Generic[F]):
         self._dropped_seen = 0
         self._owed: dict[int, tuple[int, float]] = {}  # station -> (replies, due by)
         self._replied_at = 0.0  # when the last reply was taken, for the codec's reply_gap
+        self._sent = b""  # the last frame sent, to know its echo
 
     # --- open / close ---------------------------------------------------------------
 
@@ -182,6 +186,7 @@ class Link(Generic[F]):
             self._rx.clear()
             self._dropped_seen = 0
             self._owed.clear()
+            self._sent = b""
             log.info("opened %s (station %d, %s)", self.url, self.station, self.settings)
         return self
 
@@ -296,6 +301,7 @@ class Link(Generic[F]):
             time.sleep(gap)
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", self.url, _hex(frame))
+        self._sent = frame
         # No flush(): tcdrain waits, without any timeout, until the UART has sent the
         # frame (for ever if flow control holds it), and the reply deadline is far
         # longer than a request's time on the wire (1 s against 12 ms at 9600 baud).
@@ -340,17 +346,21 @@ class Link(Generic[F]):
             command=command,
         )
 
-    def _log_rx(self) -> None:
-        """Log, as one hex line, the received bytes the decoder is done with.
+    def _log_rx(self) -> bytes:
+        """Log, as one hex line, the received bytes the decoder is done with; return them.
 
         Called after each frame (or bad frame, or noise) is taken from the
-        decoder, so a reply that came in single bytes is still one line.
+        decoder, so a reply that came in single bytes is still one line, and
+        what it returns ends with that frame's bytes.
         """
         done = len(self._rx) - self._decoder.pending
-        if done > 0:
-            if log.isEnabledFor(logging.DEBUG):
-                log.debug("%s <- %s", self.url, _hex(bytes(self._rx[:done])))
-            del self._rx[:done]
+        if done <= 0:
+            return b""
+        consumed = bytes(self._rx[:done])
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("%s <- %s", self.url, _hex(consumed))
+        del self._rx[:done]
+        return consumed
 
     def _count_noise(self) -> None:
         self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
@@ -386,14 +396,30 @@ class Link(Generic[F]):
                 self.stats.bad_frames += 1
                 yield exc
                 continue
-            self._log_rx()
+            consumed = self._log_rx()
             if frame is None:
                 return
+            if self._sent and consumed.endswith(self._sent):
+                self._echo(frame)
+                continue
             if frame.station != station:
                 self.stats.other_station += 1
                 log.debug("%s: ignored a frame for station %d", self.url, frame.station)
                 continue
             yield frame
+
+    def _echo(self, frame: F) -> None:
+        """Count and skip a frame byte for byte what we sent last: the line echoes us."""
+        self.stats.echoes += 1
+        level = logging.INFO if self.stats.echoes == 1 else logging.DEBUG
+        log.log(
+            level,
+            "%s station %d: skipped the echo of our own request %s (the line echoes what "
+            "we send, as 2-wire RS-485 adapters do)",
+            self.url,
+            frame.station,
+            frame.payload,
+        )
 
     def _discard_frames(self, station: int) -> None:
         for item in self._frames(station):

@@ -43,18 +43,19 @@ class ScriptedIai:
 
     char_time = 0.0
 
-    def __init__(self) -> None:
+    def __init__(self, *, echo: bool = False) -> None:
         self.decoder = p.FrameDecoder()
         self.received: list[bytes] = []
         self.acts: list[Act] = []
         self.reply = STATUS_IDLE
+        self.echo = echo
 
     def plan(self, *acts: Act) -> None:
         self.acts += acts
 
     def receive(self, data: bytes, client: str = "") -> Chunks:
         self.decoder.feed(data)
-        out: Chunks = []
+        out: Chunks = [(0.0, data)] if self.echo else []
         while True:
             try:
                 frame = self.decoder.next_frame()
@@ -140,3 +141,11 @@ def test_the_reply_deadline_grows_with_the_longest_reply_a_request_can_get() -> 
     )
     at_115200 = replace(SETTINGS, baudrate=115200)
     assert CODEC.reply_timeout(positions, at_115200) < CODEC.reply_timeout(positions, SETTINGS)
+
+
+def test_issue_11_a_line_that_echoes_commands_is_recognised_not_taken_for_a_misfit() -> None:
+    device = ScriptedIai(echo=True)
+    with PtyServer(device) as server, open_link(server, fast()) as link:
+        assert isinstance(link.exchange(p.system_status()), SystemStatus)
+        assert isinstance(link.exchange(p.system_status()), SystemStatus)
+    assert (link.stats.echoes, link.stats.unfitting, link.stats.retries) == (2, 0, 0)
