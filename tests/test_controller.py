@@ -13,9 +13,9 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from simline import LOSE, SMALL, Act, EchoingLine, ScriptedSim, drop
+from simline import LOSE, SMALL, Act, DuplicatingLine, EchoingLine, ScriptedSim, drop
 
-from harlsync.errors import ControllerError, LinkTimeout, WriteUnconfirmed
+from harlsync.errors import ControllerError, LinkError, LinkTimeout, WriteUnconfirmed
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import (
@@ -142,6 +142,23 @@ def test_issue_11_read_all_over_a_line_that_echoes_every_request_is_unchanged() 
     assert got == expected(sim.stations[1], True)
     assert got.version != "LNV"
     assert stats.echoes == len(sim.received) and stats.retries == 0
+
+
+def test_issue_11_read_all_over_a_line_that_repeats_every_reply_fails_with_one_clear_line() -> None:
+    # Each reply twice, 3 ms apart: the repeat answered the next request, and a pull
+    # saved hundreds of wrong timers and offsets with exit 0.
+    sim = DuplicatingLine(SimState.generate(4, SMALL))
+    with (
+        PtyServer(sim) as server,
+        Controller.from_url(server.device, 1, FAST) as robot,
+        pytest.raises(LinkError) as info,
+    ):
+        robot.read_all(include_registers=True)
+    assert str(info.value) == (
+        f"port {server.device}, station 1: the line delivers replies nobody asked for "
+        "(2 unrequested frames): two devices answering, or a device server retransmitting; "
+        "fix the line"
+    )
 
 
 def test_one_link_carries_a_controller_per_station(device: str) -> None:

@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import pytest
 
-from harlsync.errors import LinkTimeout, ProtocolError
+from harlsync.errors import LinkError, LinkTimeout, ProtocolError
 from harlsync.families.iai import profile
 from harlsync.families.iai import protocol as p
 from harlsync.families.iai.codec import CODEC, SETTINGS
@@ -43,12 +43,13 @@ class ScriptedIai:
 
     char_time = 0.0
 
-    def __init__(self, *, echo: bool = False) -> None:
+    def __init__(self, *, echo: bool = False, repeat: bool = False) -> None:
         self.decoder = p.FrameDecoder()
         self.received: list[bytes] = []
         self.acts: list[Act] = []
         self.reply = STATUS_IDLE
         self.echo = echo
+        self.repeat = repeat
 
     def plan(self, *acts: Act) -> None:
         self.acts += acts
@@ -68,6 +69,8 @@ class ScriptedIai:
             self.received.append(frame.encode())
             act = self.acts.pop(0) if self.acts else None
             out += act(self.reply) if act else [(0.0, self.reply)]
+            if self.repeat:
+                out.append((0.003, self.reply))
 
 
 @pytest.fixture
@@ -149,3 +152,15 @@ def test_issue_11_a_line_that_echoes_commands_is_recognised_not_taken_for_a_misf
         assert isinstance(link.exchange(p.system_status()), SystemStatus)
         assert isinstance(link.exchange(p.system_status()), SystemStatus)
     assert (link.stats.echoes, link.stats.unfitting, link.stats.retries) == (2, 0, 0)
+
+
+def test_issue_11_a_line_that_repeats_replies_fails_the_read_on_the_iai_too() -> None:
+    device = ScriptedIai(repeat=True)
+    with (
+        PtyServer(device) as server,
+        open_link(server, fast()) as link,
+        pytest.raises(LinkError, match="the line delivers replies nobody asked for"),
+    ):
+        for _ in range(5):
+            link.exchange(p.system_status())
+    assert link.stats.unrequested == 2 and len(device.received) < 5
