@@ -208,7 +208,12 @@ class Link(Generic[F]):
             self._overdue.clear()
             self._unrequested = 0
             self._sent = b""
-            log.info("opened %s (station %d, %s)", self.url, self.station, self.settings)
+            log.info(
+                "opened %s (station %s, %s)",
+                self.url,
+                self.codec.station_text(self.station),
+                self.settings,
+            )
         return self
 
     def close(self) -> None:
@@ -312,7 +317,10 @@ class Link(Generic[F]):
             ) from failure.cause
 
     def _note(self, level: int, station: int, command: str, reason: str) -> None:
-        line = f"port {self.url}, station {station}, command {command}: {reason}"
+        line = (
+            f"port {self.url}, station {self.codec.station_text(station)}, command {command}: "
+            f"{reason}"
+        )
         self.stats.note(line)
         log.log(level, "%s", line)
 
@@ -397,7 +405,10 @@ class Link(Generic[F]):
             count, due = self._owed.get(station, (0, 0.0))
             if count and time.monotonic() >= due:
                 log.debug(
-                    "%s station %d: %d missed reply(ies) never came", self.url, station, count
+                    "%s station %s: %d missed reply(ies) never came",
+                    self.url,
+                    self.codec.station_text(station),
+                    count,
                 )
                 del self._owed[station]
                 self._overdue[station] = self._overdue.get(station, 0) + count
@@ -430,7 +441,11 @@ class Link(Generic[F]):
                 continue
             if frame.station != station:
                 self.stats.other_station += 1
-                log.debug("%s: ignored a frame for station %d", self.url, frame.station)
+                log.debug(
+                    "%s: ignored a frame for station %s",
+                    self.url,
+                    self.codec.station_text(frame.station),
+                )
                 continue
             yield frame
 
@@ -440,10 +455,10 @@ class Link(Generic[F]):
         level = logging.INFO if self.stats.echoes == 1 else logging.DEBUG
         log.log(
             level,
-            "%s station %d: skipped the echo of our own request %s (the line echoes what "
+            "%s station %s: skipped the echo of our own request %s (the line echoes what "
             "we send, as 2-wire RS-485 adapters do)",
             self.url,
-            frame.station,
+            self.codec.station_text(frame.station),
             frame.payload,
         )
 
@@ -463,16 +478,19 @@ class Link(Generic[F]):
             self._overdue[station] -= 1
             self.stats.late_replies += 1
             log.info(
-                "%s station %d: discarded a reply later than its window %r",
+                "%s station %s: discarded a reply later than its window %r",
                 self.url,
-                station,
+                self.codec.station_text(station),
                 payload,
             )
         else:
             self._unrequested += 1
             self.stats.unrequested += 1
             log.info(
-                "%s station %d: discarded a frame nobody asked for %r", self.url, station, payload
+                "%s station %s: discarded a frame nobody asked for %r",
+                self.url,
+                self.codec.station_text(station),
+                payload,
             )
 
     def _check_line(self, station: int) -> None:
@@ -483,12 +501,18 @@ class Link(Generic[F]):
                 "frames): two devices answering, or a device server retransmitting; fix the line",
                 port=self.url,
                 station=station,
+                station_text=self.codec.station_text(station),
             )
 
     def _late_reply(self, station: int, payload: str) -> None:
         count, due = self._owed.get(station, (0, 0.0))
         self.stats.late_replies += 1
-        log.info("%s station %d: discarded late reply %r", self.url, station, payload)
+        log.info(
+            "%s station %s: discarded late reply %r",
+            self.url,
+            self.codec.station_text(station),
+            payload,
+        )
         if count > 1:
             self._owed[station] = (count - 1, due)
         else:
@@ -501,17 +525,18 @@ class Link(Generic[F]):
         deadline = time.monotonic() + timeout
         failure = _Failure(f"no reply within {timeout:g} s")
         command = request.payload
+        shown = self.codec.station_text(station)
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
-                    log.info("%s station %d %s: bad frame: %s", self.url, station, command, frame)
+                    log.info("%s station %s %s: bad frame: %s", self.url, shown, command, frame)
                     failure = _Failure(f"bad frame: {frame}", frame)
                     continue
                 try:
                     value = request.decode(frame)
                 except ReplyError as exc:
                     self.stats.unfitting += 1
-                    log.info("%s station %d %s: discarded: %s", self.url, station, command, exc)
+                    log.info("%s station %s %s: discarded: %s", self.url, shown, command, exc)
                     failure = _Failure(f"reply does not fit: {exc}", exc)
                     self._stray(station, frame.payload)
                     continue
