@@ -262,7 +262,7 @@ def test_issue_11_a_pull_over_a_line_that_repeats_replies_fails_and_the_backup_s
     project = tmp_path / "cell"
     with serve(sim) as server:
         engine.pull(project, port=server.url)
-    before = {p: p.read_bytes() for p in project.rglob("*") if p.is_file()}
+    before = every_file(project)
     sim.stations[1].data.timers[0] = "9.99"
     with serve(DuplicatingLine(sim.stations[1])) as server:
         assert main(["pull", str(project), "--port", server.url]) == 2
@@ -270,7 +270,11 @@ def test_issue_11_a_pull_over_a_line_that_repeats_replies_fails_and_the_backup_s
     assert err.count("\n") == 1 and "Traceback" not in err
     assert err.startswith(f"harlsync: error: port {server.url}, station 1: the line delivers "
                           "replies nobody asked for (")
-    assert {p: p.read_bytes() for p in project.rglob("*") if p.is_file()} == before
+    assert every_file(project) == before
+
+
+def every_file(project: Path) -> dict[Path, bytes]:
+    return {p: p.read_bytes() for p in project.rglob("*") if p.is_file()}
 
 
 @pytest.mark.parametrize(

@@ -477,21 +477,20 @@ class Link(Generic[F]):
         elif self._overdue.get(station):
             self._overdue[station] -= 1
             self.stats.late_replies += 1
-            log.info(
-                "%s station %s: discarded a reply later than its window %r",
-                self.url,
-                self.codec.station_text(station),
-                payload,
-            )
+            self._discarded(station, "a reply later than its window", payload)
         else:
             self._unrequested += 1
             self.stats.unrequested += 1
-            log.info(
-                "%s station %s: discarded a frame nobody asked for %r",
-                self.url,
-                self.codec.station_text(station),
-                payload,
-            )
+            self._discarded(station, "a frame nobody asked for", payload)
+
+    def _discarded(self, station: int, what: str, payload: str) -> None:
+        log.info(
+            "%s station %s: discarded %s %r",
+            self.url,
+            self.codec.station_text(station),
+            what,
+            payload,
+        )
 
     def _check_line(self, station: int) -> None:
         """Raise LinkError once the line has delivered too many frames nobody asked for."""
@@ -507,12 +506,7 @@ class Link(Generic[F]):
     def _late_reply(self, station: int, payload: str) -> None:
         count, due = self._owed.get(station, (0, 0.0))
         self.stats.late_replies += 1
-        log.info(
-            "%s station %s: discarded late reply %r",
-            self.url,
-            self.codec.station_text(station),
-            payload,
-        )
+        self._discarded(station, "late reply", payload)
         if count > 1:
             self._owed[station] = (count - 1, due)
         else:
