@@ -122,7 +122,7 @@ def test_push_writes_only_the_changed_positions_and_rollback_restores_them(
 def test_plan_prints_each_291h_field_by_field_and_sends_nothing(served, repo, capsys) -> None:
     sim, url = served
     project = pulled(repo, url)
-    n = sorted(load_project(project).data.positions)[0]
+    n = min(load_project(project).data.positions)
     move(project, repo, n, "2.000")
     capsys.readouterr()
     sent = len(sim.received)
@@ -148,7 +148,7 @@ def test_a_push_to_a_controller_that_is_not_idle_is_refused_naming_the_bit(
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
-    move(project, repo, sorted(load_project(project).data.positions)[0], "3.000")
+    move(project, repo, min(load_project(project).data.positions), "3.000")
     sim.control(verb, sim.stations[STATION], [])
     capsys.readouterr()
     assert cli.main(["push", str(project), "--yes"]) == 3
@@ -161,7 +161,7 @@ def test_a_position_on_the_robot_the_project_lacks_is_shown_and_refused(served, 
                                                                        capsys) -> None:
     sim, url = served
     project = pulled(repo, url)
-    n = sorted(load_project(project).data.positions)[-1]
+    n = max(load_project(project).data.positions)
     path = project / "positions.yaml"
     path.write_text("".join(line for line in path.read_text().splitlines(keepends=True)
                             if not line.startswith(f"  {n}: ")))
@@ -204,7 +204,7 @@ def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo) -> None:
         engine.pull(repo / "press", port=harl_url)
         git(repo, "add", "-A")
         git(repo, "commit", "-qm", "first backup")
-        first = sorted(iai.stations[STATION].positions)[0]
+        first = min(iai.stations[STATION].positions)
         iai.stations[STATION].positions.pop(first)  # changed on the controller
         report = backup([repo], commit=True)
         assert report.ok, report.render()
@@ -225,7 +225,7 @@ def test_the_audit_record_of_an_iai_push_carries_the_flash_notice(served, repo, 
     monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(log))
     _, url = served
     project = pulled(repo, url)
-    move(project, repo, sorted(load_project(project).data.positions)[0], "5.000")
+    move(project, repo, min(load_project(project).data.positions), "5.000")
     engine.push(project, YES)
     records = [json.loads(line) for line in log.read_text().splitlines()]
     end = [r for r in records if r.get("result") == "ok"][-1]
