@@ -231,3 +231,49 @@ def test_the_audit_record_of_an_iai_push_carries_the_flash_notice(served, repo, 
     end = [r for r in records if r.get("result") == "ok"][-1]
     assert "flash ROM" in end["notes"][0]
     assert end["written"][0]["command"].startswith("291H 00 ")
+
+
+BAD_EDITS = [
+    ("coords: [", "coords: [99999999.000, ", "is out of range"),
+    ("axes: [", "axes: [1, 2, 3, 4, 5, 6, 7, 8, 9, ", "axes"),
+    ("coords: [", "coords: [0.000, ", "coordinate(s) for"),
+    ("speed: ", "colour: red, speed: ", "unknown key"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "said"), BAD_EDITS, ids=[b[2] for b in BAD_EDITS])
+def test_a_bad_positions_file_is_one_line_with_file_and_line_exit_2_and_nothing_sent(
+    served, repo, capsys, old, new, said
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    path = project / "positions.yaml"
+    lines = path.read_text().splitlines(keepends=True)
+    lines[3] = lines[3].replace(old, new, 1)
+    path.write_text("".join(lines))
+    git(repo, "commit", "-qam", "a bad edit")
+    before = {p: p.read_bytes() for p in project.rglob("*") if p.is_file()}
+    sent = len(sim.received)
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "positions.yaml:4: positions." in err[0] and said in err[0]
+    assert len(sim.received) == sent
+    assert {p: p.read_bytes() for p in project.rglob("*") if p.is_file()} == before
+
+
+def test_a_duplicate_position_is_one_line_exit_2_and_nothing_sent(served, repo, capsys) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    path = project / "positions.yaml"
+    lines = path.read_text().splitlines(keepends=True)
+    number = lines[3].split(":")[0].strip()
+    lines[4] = f"  {number}:" + lines[4].split(":", 1)[1]
+    path.write_text("".join(lines))
+    git(repo, "commit", "-qam", "a position twice")
+    sent = len(sim.received)
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"positions.yaml:5: positions.{number}: written twice" in err[0]
+    assert len(sim.received) == sent
