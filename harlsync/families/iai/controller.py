@@ -24,12 +24,12 @@ import logging
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
-from types import TracebackType
 from typing import TypeVar
 
 from ...errors import ControllerError, HarlsyncError, InterlockError, ReplyError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT, Link
 from ...link.confirm import confirmed_write
+from ...link.owner import OnLink
 from ...settings import SerialSettings
 from ..base import Progress
 from . import profile
@@ -74,7 +74,7 @@ class IaiStatus:
         return "idle" if self.refusal is None else self.refusal
 
 
-class Controller:
+class Controller(OnLink):
     """One IAI controller on a link.
 
     ``axes`` are the robot's axes (robot.yaml); ``None`` checks every axis the
@@ -96,7 +96,6 @@ class Controller:
         self.model = model
         self.axes = axes
         self.first, self.last = first, last
-        self._owns_link = False
 
     @classmethod
     def from_url(
@@ -119,26 +118,13 @@ class Controller:
         controller._owns_link = True
         return controller
 
-    @property
-    def port(self) -> str:
-        return self.link.url
 
     @property
     def label(self) -> str:
         return f"port {self.port} station {self.station:02X}"
 
-    def close(self) -> None:
-        if self._owns_link:
-            self.link.close()
 
-    def __enter__(self) -> Controller:
-        return self
 
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # --- the one place requests go through ---------------------------------------
 
