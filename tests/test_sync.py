@@ -51,14 +51,6 @@ def served(request: pytest.FixtureRequest) -> Iterator[tuple[Simulator, str]]:
     server.stop()
 
 
-@pytest.fixture
-def repo(tmp_path: Path) -> Path:
-    root = tmp_path / "plant"
-    root.mkdir()
-    git(root, "init", "-q")
-    return root
-
-
 def pulled(repo: Path, url: str) -> Path:
     """A project pulled from ``url`` and committed."""
     project = repo / "cell"

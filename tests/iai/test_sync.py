@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import json
 import re
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from conftest import git
 
 from harlsync import cli
 from harlsync.families.harl_u2.model import Config, ProgramArea
@@ -29,11 +29,6 @@ YES = PushOptions(yes=True)
 SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
 
 
-def git(repo: Path, *args: str) -> str:
-    return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True,
-                          text=True).stdout
-
-
 def table(state: SimState) -> dict[int, Position]:
     return dict(state.positions)
 
@@ -45,14 +40,6 @@ def served(request: pytest.FixtureRequest) -> Iterator[tuple[Simulator, str]]:
     url = server.start()
     yield sim, url
     server.stop()
-
-
-@pytest.fixture
-def repo(tmp_path: Path) -> Path:
-    root = tmp_path / "plant"
-    root.mkdir()
-    git(root, "init", "-q")
-    return root
 
 
 def pulled(repo: Path, url: str, name: str = "cell-9") -> Path:
