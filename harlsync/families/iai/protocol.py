@@ -205,6 +205,8 @@ class FrameDecoder:
         self._buf = bytearray()
         self._max = max_frame
         self._dropped = 0
+        #: bytes at the front of the buffer already searched for an LF and a header
+        self._scanned = 0
 
     def feed(self, data: bytes) -> None:
         self._buf += data
@@ -221,6 +223,7 @@ class FrameDecoder:
         """Drop every buffered byte (counted in ``dropped``)."""
         self._dropped += len(self._buf)
         self._buf.clear()
+        self._scanned = 0
 
     def next_frame(self) -> Frame | None:
         """The next complete frame, or None when more bytes are needed.
@@ -234,28 +237,38 @@ class FrameDecoder:
             if found is None:
                 self._dropped += len(buf)
                 buf.clear()
+                self._scanned = 0
                 return None
             if found.start():
                 self._dropped += found.start()
                 del buf[: found.start()]
+                self._scanned = 0
             # The limit counts from the header whatever the chunks were: a frame fed
             # whole must not pass where the same bytes fed one by one would not.
-            end = buf.find(_LF, 1, self._max)
-            cut = _HEADER_RE.search(buf, 1, end if end >= 0 else self._max)
+            # Bytes already searched for an LF or a header (a reply arriving a few
+            # bytes at a time) are not searched again: a 2 KiB 22DH reply fed byte
+            # by byte would otherwise cost a scan of the whole frame per byte.
+            start = max(1, self._scanned)
+            end = buf.find(_LF, start, self._max)
+            cut = _HEADER_RE.search(buf, start, end if end >= 0 else self._max)
             if cut is not None:
                 self._dropped += cut.start()
                 del buf[: cut.start()]
+                self._scanned = 0
                 continue
             if end < 0:
                 if len(buf) >= self._max:
                     head = bytes(buf[:16])
                     del buf[: self._max]
+                    self._scanned = 0
                     raise FrameError(
                         f"no LF within {self._max} bytes after {_show(head)}...: dropped"
                     )
+                self._scanned = len(buf)  # bytes 1 .. len - 1 hold no LF and no header
                 return None
             raw = bytes(buf[: end + 1])
             del buf[: end + 1]
+            self._scanned = 0
             return _parse(raw)
 
 
