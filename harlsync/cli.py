@@ -404,7 +404,8 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     p.add_argument("--format", choices=("text", "json"), default="text")
-    p.add_argument("--registers", action="store_true", help="compare registers too")
+    p.add_argument("--registers", action="store_true",
+                   help="compare runtime data too (HARL-U2 registers, IAI flags and variables)")
     p.set_defaults(func=_cmd_diff)
 
 
@@ -447,7 +448,8 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     p.add_argument("--out", metavar="PLANFILE", help="save the plan to this file")
-    p.add_argument("--registers", action="store_true", help="include registers")
+    p.add_argument("--registers", action="store_true",
+                   help="include runtime data (HARL-U2 registers, IAI flags and variables)")
     p.set_defaults(func=_cmd_plan)
 
 
@@ -492,7 +494,8 @@ def _push_args(p: argparse.ArgumentParser) -> None:
                    help="write timers and offset tables even while a task runs (the manual "
                         "allows it); programs, parameters, configuration and registers never")
     p.add_argument("--registers", action="store_true",
-                   help="write registers too (the project must keep them; HARL-U2 only)")
+                   help="write runtime data too: HARL-U2 registers, IAI flags and variables "
+                        "(the project must keep them)")
 
 
 def _confirm(the_plan: Plan) -> bool:
