@@ -30,6 +30,7 @@ from harlsync.project import load_project, save_project
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
+from harlsync.sync import git as git_ops
 
 SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
 
@@ -379,6 +380,27 @@ def test_a_dirty_project_or_one_outside_git_is_refused(served, repo, tmp_path) -
         engine.push(loose, YES, port=url)
     engine.push(project, PushOptions(yes=True, allow_dirty=True), port=url)
     assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.50"]
+
+
+@pytest.mark.parametrize("object_format", ["sha1", "sha256"])
+def test_git_tells_which_files_a_commit_holds_byte_for_byte(tmp_path, object_format) -> None:
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q", f"--object-format={object_format}")
+    names = ["a [x]*.yaml", "b.yaml", "c.yaml", "d.yaml"]  # pathspec magic is a name here
+    for name in names:
+        (root / name).write_bytes(b"same\r\n")
+    (root / ".gitignore").write_text("d.yaml\n")
+    git(root, "add", "a [x]*.yaml", "b.yaml", ".gitignore")
+    git(root, "commit", "-qm", "two")
+    files = {name: (root / name).read_bytes() for name in names}
+    files["b.yaml"] += b"x"
+    assert git_ops.not_in_commit(root, git_ops.head(root), files) == {
+        "b.yaml": "differs", "c.yaml": "missing", "d.yaml": "ignored"
+    }
+    assert git_ops.not_in_commit(root, None, {"a [x]*.yaml": b"same\r\n"}) == {
+        "a [x]*.yaml": "missing"
+    }
 
 
 def test_a_push_outside_the_maintenance_window_is_refused_unless_explained(served, repo) -> None:
