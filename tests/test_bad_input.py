@@ -258,6 +258,22 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "programs/main-00.yaml:14",
         "steps.8: step 8 is outside the configuration (allowed: 0-7)",
     ),
+    # Issue 11: values the schemas let through, but the wire cannot carry or give back.
+    ("parameters.yaml", "read back as an error status"): (
+        "format: 1\npull_limit: ",
+        "format: 1\npull_limit: E",
+        "parameters.yaml:3",
+        (
+            "would begin the LNE reply with 'E', which reads as an error status: the robot "
+            "could not be read again (allowed: one token not beginning with 'E')"
+        ),
+    ),
+    ("programs/main-00.yaml", "longer than a frame"): (
+        "  2: CALLS S00\n",
+        "  2: CALLS S" + "0" * 600 + "\n",
+        "programs/main-00.yaml:8",
+        "steps.2: 607 characters are more than a frame carries (allowed: at most 500 in this",
+    ),
 }
 FILES = [
     "robot.yaml",

@@ -126,7 +126,11 @@ def robot_data(draw: st.DrawFn) -> RobotData:
     return RobotData(
         version=draw(token),
         config=cfg,
-        parameters=Parameters(*draw(st.lists(token, min_size=13, max_size=13))),
+        # The first parameter leads the LNE reply: validate refuses one beginning with E.
+        parameters=Parameters(
+            draw(token.filter(lambda t: not t.startswith("E"))),
+            *draw(st.lists(token, min_size=12, max_size=12)),
+        ),
         programs=programs,
         offsets={n: tables.get(n, OffsetTable()) for n in range(OFFSET_TABLE_COUNT)},
         timers={n: draw(timer) for n in range(cfg.timers)},
