@@ -221,6 +221,31 @@ def test_issue_11_only_the_first_parameter_leads_the_reply_so_only_it_may_not_be
     assert validate_project(root) == []
 
 
+@pytest.mark.parametrize(
+    ("field", "old", "new", "one"),
+    [
+        ("x", "x: 120.50", "x: 0120.50", "120.50"),
+        ("x", "x: 120.50", "x: 00.50", "0.50"),
+        ("y", "y: -35.00", "y: -0035.00", "-35.00"),
+        ("y", "y: -35.00", "y: -0000.00", "0.00"),
+        ("y", "y: -35.00", "y: -0.00", "0.00"),
+        ("m", "m: 0, f: 3}", "m: 00, f: 3}", "0"),
+        ("f", "m: 0, f: 3}", "m: 0, f: 03}", "3"),
+    ],
+)
+def test_issue_11_an_offset_not_written_as_the_controller_returns_it_is_refused_with_its_one_form(
+    root: Path, field: str, old: str, new: str, one: str
+) -> None:
+    # Issue 11: 0012.50 passed validate; the controller returned 12.50, so every push
+    # wrote it again and failed its verification.
+    edit(root, "offsets.yaml", old, new)
+    written = new.split(f"{field}: ")[1].split(",")[0].rstrip("}")
+    assert only_issue(root) == (
+        f"offsets.yaml:11: tables.7.{field}: {written} is not written in its one form "
+        f"(write {one}: the controller reads it back so, and a push would never converge)"
+    )
+
+
 def with_registers(root: Path) -> None:
     project = load_project(root)
     project.robot.keep_registers = True

@@ -22,6 +22,7 @@ from ...project.files import (
     FileSet,
     build_serial,
     build_windows,
+    not_canonical,
     numbered,
     numbers,
     serial_items,
@@ -49,6 +50,8 @@ from .model import (
     ProgramType,
     RobotData,
     Step,
+    canonical_code,
+    canonical_offset,
 )
 from .protocol import commands as cmd
 from .protocol import profile
@@ -442,16 +445,31 @@ def _check_wire(
     programs: Mapping[ProgramKey, y.Parsed | None],
     issues: list[Issue],
 ) -> None:
-    """What the schemas cannot say about a value: that the wire cannot carry it or
-    give it back (:func:`.protocol.commands.read_back`).  Offsets, timers and
-    registers have a fixed length and begin with a digit or a sign, so only
-    parameters and steps can break it.
+    """What the schemas cannot say about a value: that the controller would give it
+    back in another form (a push would never converge), or that the wire cannot
+    carry it or give it back (:func:`.protocol.commands.read_back`).
+
+    Timers and registers have one form each (``d.dd``, ``dddd``) and a fixed
+    length, so only offsets, parameters and steps can break these.
     """
+    if "offsets.yaml" in valid:
+        _check_offsets(docs["offsets.yaml"], issues)
     if "parameters.yaml" in valid:
         _check_parameters(docs["parameters.yaml"], issues)
     for key, doc in programs.items():
         if doc is not None and program_path(key) in valid:
             _check_steps(key, doc, issues)
+
+
+def _check_offsets(doc: y.Parsed, issues: list[Issue]) -> None:
+    tables = doc.data["tables"]
+    for key, _ in numbers(tables):
+        for field in OFFSET_FIELDS:
+            text = text_of(tables[key][field])
+            one = canonical_code(text) if field in ("m", "f") else canonical_offset(text)
+            if one != text:
+                issues.append(Issue("offsets.yaml", doc.line(("tables", key, field)),
+                                    f"tables.{key}.{field}", not_canonical(text, one)))
 
 
 def _check_parameters(doc: y.Parsed, issues: list[Issue]) -> None:
