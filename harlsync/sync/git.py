@@ -24,7 +24,8 @@ def _git(
     """Run git in ``cwd``; with ``check``, an exit status not in ``ok`` raises SyncError."""
     try:
         result = subprocess.run(
-            ["git", *args], cwd=cwd, capture_output=True, text=True, check=False, input=stdin
+            ["git", *args], cwd=cwd, capture_output=True, text=True, check=False, input=stdin,
+            errors="surrogateescape",  # file names as os.listdir gives them, whatever bytes
         )
     except FileNotFoundError as exc:
         raise SyncError("git is not installed: install git or run without --commit") from exc
