@@ -258,6 +258,28 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "programs/main-00.yaml:14",
         "steps.8: step 8 is outside the configuration (allowed: 0-7)",
     ),
+    # Issue 11: values the schemas let through, but the wire cannot carry or give back.
+    ("parameters.yaml", "read back as an error status"): (
+        "format: 1\npull_limit: ",
+        "format: 1\npull_limit: E",
+        "parameters.yaml:3",
+        (
+            "would begin the LNE reply with 'E', which reads as an error status: the robot "
+            "could not be read again (allowed: one token not beginning with 'E')"
+        ),
+    ),
+    ("programs/main-00.yaml", "longer than a frame"): (
+        "  2: CALLS S00\n",
+        "  2: CALLS S" + "0" * 600 + "\n",
+        "programs/main-00.yaml:8",
+        "steps.2: 607 characters are more than a frame carries (allowed: at most 500 in this",
+    ),
+    ("offsets.yaml", "not as the controller gives it back"): (
+        "  3: {x: 0.00,",
+        "  3: {x: -0000.00,",
+        "offsets.yaml:7",
+        "tables.3.x: -0000.00 is not written in its one form (write 0.00: ",
+    ),
 }
 FILES = [
     "robot.yaml",
@@ -366,6 +388,91 @@ def test_a_program_outside_the_configuration_is_refused_naming_the_program_file(
     )
     assert robot.received == []
     assert tree(project) == before
+
+
+# --- what no commit holds --------------------------------------------------------------------
+
+
+def link_out(project: Path, name: str) -> str:
+    """Move ``name`` (a file or ``programs``) out of the repository, leave a symbolic
+    link in its place and commit the link: git status stays clean whatever the
+    target holds.  The message names the link and where it leads."""
+    elsewhere = project.parent.parent / "elsewhere"
+    elsewhere.mkdir()
+    (project / name).rename(elsewhere / name)
+    (project / name).symlink_to(elsewhere / name)
+    git(project.parent, "add", "-A")
+    git(project.parent, "commit", "-qm", f"{name} lives elsewhere")
+    return (f"{project / name} is a symbolic link to {(elsewhere / name).resolve()}, outside "
+            f"the git repository {project.parent.resolve()}, so no commit holds what a push "
+            "reads there: move it into the repository and commit it, or give --allow-dirty")
+
+
+def ignore(project: Path, pattern: str) -> str:
+    """Take what ``pattern`` names out of git and ignore it (.gitignore)."""
+    repo = project.parent
+    (repo / ".gitignore").write_text(pattern + "\n")
+    git(repo, "rm", "-r", "-q", "--cached", "cell" if pattern == "cell/" else f"cell/{pattern}")
+    git(repo, "add", ".gitignore")
+    git(repo, "commit", "-qm", f"ignore {pattern}")
+    first = "robot.yaml" if pattern == "cell/" else pattern
+    return (f"{project / first} is ignored by git (.gitignore), so no commit holds it: "
+            "git add -f it and commit it")
+
+
+def hide_changes(project: Path) -> str:
+    """Tell git to stop looking at timers.yaml (skip-worktree): git status stays clean."""
+    git(project.parent, "update-index", "--skip-worktree", "cell/timers.yaml")
+    return f"{project / 'timers.yaml'} differs from commit "
+
+
+def link_in_repository(project: Path) -> str:
+    """timers.yaml links to a committed file elsewhere in the repository."""
+    shared = project.parent / "shared"
+    shared.mkdir()
+    (project / "timers.yaml").rename(shared / "timers.yaml")
+    (project / "timers.yaml").symlink_to("../shared/timers.yaml")
+    git(project.parent, "add", "-A")
+    git(project.parent, "commit", "-qm", "timers shared")
+    return f"{project / 'timers.yaml'} (shared/timers.yaml in the repository) differs from commit "
+
+
+#: how the project hides an edit from git status -> (set it up: the message, the file edited)
+HIDDEN = {
+    "programs/ linked out of the repository": (lambda p: link_out(p, "programs"),
+                                               "programs/main-00.yaml"),
+    "a file linked out of the repository": (lambda p: link_out(p, "timers.yaml"), "timers.yaml"),
+    "the project directory ignored": (lambda p: ignore(p, "cell/"), "timers.yaml"),
+    "a file ignored": (lambda p: ignore(p, "timers.yaml"), "timers.yaml"),
+    "a file git was told to skip": (hide_changes, "timers.yaml"),
+    "a file linked elsewhere in the repository": (link_in_repository, "timers.yaml"),
+}
+#: file -> an edit that gives the push something to write
+EDITS = {"timers.yaml": ("  3: 0.00\n", "  3: 0.50\n"),
+         "programs/main-00.yaml": ("  2: CALLS S00\n", "  2: CALLS S01\n")}
+
+
+@pytest.mark.parametrize("how", list(HIDDEN))
+def test_issue_11_a_push_sends_only_what_the_commit_holds_whatever_hides_an_edit_from_git(
+    project: Path, sim: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str], how: str
+) -> None:
+    # Issue 11: a programs/ directory linked out of the repository, or a directory
+    # .gitignore names, hid an edit from git status: push sent it, and the audit named
+    # a commit that does not hold it.
+    robot, url = sim
+    setup, edited = HIDDEN[how]
+    says = setup(project)
+    old, new = EDITS[edited]
+    (project / edited).write_text((project / edited).read_text().replace(old, new, 1))
+    assert git(project.parent, "status", "--porcelain", "--", "cell") == ""  # hidden
+    elsewhere = project.parent.parent / "elsewhere"
+    before = tree(project.parent), tree(elsewhere)  # the repository, and what it links to
+    code, _, err = cli(capsys, "push", str(project), "--port", url, "--yes")
+    line = one_line(err)
+    assert code == 3, line
+    assert line.startswith(f"harlsync: refused: {says}"), line
+    assert robot.received == []  # the port was never opened
+    assert (tree(project.parent), tree(elsewhere)) == before
 
 
 # --- the project's own disk -------------------------------------------------------------------

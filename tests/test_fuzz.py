@@ -44,7 +44,7 @@ from harlsync.families.harl_u2.model import (
 )
 from harlsync.families.harl_u2.protocol import FrameDecoder, decode_reply, encode_frame
 from harlsync.families.harl_u2.protocol import commands as c
-from harlsync.families.harl_u2.sim import SimState
+from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.project import (
     Project,
     load_project,
@@ -204,6 +204,68 @@ def test_the_model_parsers_give_a_value_or_value_error(
             parse(numbers if parse is Config.from_numbers else values)  # type: ignore[operator]
         except ValueError as exc:
             assert "\n" not in str(exc)
+
+
+# --- what the wire gives back -------------------------------------------------------------
+
+#: Step and parameter tokens: short ones, ones beginning with E, and long ones that
+#: take a write over the frame limit.
+_TOKEN = st.one_of(
+    st.from_regex(r"[!-~]{1,8}", fullmatch=True),
+    st.sampled_from(["E", "E21", "e5", "0", "-1", "1.50"]),
+    st.integers(60, 520).map(lambda n: "P" * n),
+)
+_WIDE = Config(ProgramArea(1, 256), ProgramArea(16, 256), ProgramArea(1, 1), ProgramArea(1, 1),
+               16, 128, 64)
+_STEP_WRITES = st.builds(
+    lambda main, program, step, tokens: c.write_step(
+        ProgramType.MAIN if main else ProgramType.START, program if main else 0, step,
+        Step.from_tokens(tokens),
+    ),
+    st.booleans(), st.integers(0, 15), st.integers(0, 255), st.lists(_TOKEN, max_size=5),
+)
+_PARAMETER_WRITES = st.lists(_TOKEN, min_size=13, max_size=13).map(
+    lambda values: c.write_parameters(Parameters(*values))
+)
+
+
+def _one_frame(payload: str) -> str:
+    """``payload`` sent in a frame from station 99 and taken by the link's decoder."""
+    decoder = FrameDecoder()
+    decoder.feed(encode_frame(99, payload))
+    frame = decoder.next_frame()  # raises FrameError for a frame over the limit
+    assert frame is not None
+    return frame.payload
+
+
+def _given_back(write: c.Request[c.Ack]) -> object:
+    """The value a controller gives back for the item ``write`` writes, the request
+    and the reply each in a frame to or from station 99 through a decoder."""
+    read = c.Request("LNE") if write.letters == "SNE" else c.Request(
+        "LN" + write.letters[2], write.args[: 1 if write.letters == "SNA" else 2]
+    )
+    state = SimState.blank(_WIDE)
+    robot = Simulator(state)
+    assert robot.handle(state, _one_frame(write.payload)) == "0"
+    return read.decode_payload(_one_frame(robot.handle(state, read.payload)))
+
+
+@settings(FUZZ, max_examples=150)
+@given(st.one_of(_STEP_WRITES, _PARAMETER_WRITES))
+@example(c.write_parameters(Parameters("E12", *["0"] * 12)))  # issue 11: read as "E" + status
+@example(c.write_step(ProgramType.MAIN, 15, 255, Step("P" * 497)))  # issue 11: over the limit
+@example(c.write_step(ProgramType.MAIN, 15, 255, Step("P" * 496)))  # the longest that fits
+def test_issue_11_the_codec_refuses_exactly_the_writes_the_wire_cannot_give_back(
+    write: c.Request[c.Ack],
+) -> None:
+    written = (Parameters(*write.args) if write.letters == "SNE"
+               else Step.from_tokens(write.args[1 if write.letters == "SNA" else 2 :]))
+    try:
+        back = _given_back(write) == written
+    except ProtocolError:  # a frame over the limit, or a reply that does not fit
+        back = False
+    found = c.read_back(write)
+    assert (found.excess == 0 and found.misread is None) == back
 
 
 # --- the project loader -------------------------------------------------------------------

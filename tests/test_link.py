@@ -10,6 +10,7 @@ import os
 import socket
 import subprocess
 import sys
+import tempfile
 import termios
 import threading
 from collections.abc import Iterator
@@ -40,6 +41,7 @@ from harlsync.errors import (
     LRCError,
     PortBusyError,
     PortError,
+    ProjectError,
     WriteUnconfirmed,
 )
 from harlsync.families.harl_u2.link import Link
@@ -48,6 +50,8 @@ from harlsync.families.harl_u2.protocol import Ack, ErrorReply, encode_frame
 from harlsync.families.harl_u2.protocol import commands as cmd
 from harlsync.families.harl_u2.sim import SimState
 from harlsync.link import SerialSettings, default_lock_dir, lock_key, lock_path
+from harlsync.link import lock as lockmod
+from harlsync.project.lock import project_lock
 from harlsync.sim.serve import PtyServer, TcpServer
 
 FAST = SerialSettings(timeout=0.25, retries=3)
@@ -622,18 +626,82 @@ def test_lock_keys_name_the_line_not_the_spelling(tmp_path: Path) -> None:
     assert lock_path("loop://") is None
 
 
-def test_the_lock_directory_is_chosen_from_argument_env_and_tmp_never_the_session(
+def machine(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, *, run_lock: int | None) -> Path:
+    """A machine whose ``/run/lock`` is ``tmp_path/run-lock`` with mode ``run_lock``
+    (None: it has none), with no ``HARLSYNC_LOCK_DIR``; its ``/run/lock``."""
+    base = tmp_path / "run-lock"
+    if run_lock is not None:
+        base.mkdir()
+        base.chmod(run_lock)
+    monkeypatch.setattr(lockmod, "SYSTEM_LOCK_DIRS", (base,), raising=False)
+    monkeypatch.delenv("HARLSYNC_LOCK_DIR")
+    return base
+
+
+def another_tmpdir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str) -> None:
+    """This process now has a temporary directory of its own, as one started with
+    another TMPDIR, or by systemd with PrivateTmp, does."""
+    (tmp_path / name).mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path / name))
+    monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads TMPDIR again
+
+
+def test_the_lock_directory_is_chosen_from_argument_env_and_the_machine_never_the_session(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "env"))
     assert lock_path("COM3", tmp_path / "arg").parent == tmp_path / "arg"  # type: ignore[union-attr]
     assert default_lock_dir() == tmp_path / "env"
-    monkeypatch.delenv("HARLSYNC_LOCK_DIR")
+    # /run/lock that every user may write (Debian, Ubuntu: 1777): harlsync's directory there.
+    run_lock = machine(tmp_path, monkeypatch, run_lock=0o1777)
     monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
-    shared = default_lock_dir()
-    assert shared.name == "harlsync-locks"
+    assert default_lock_dir() == run_lock / "harlsync"
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))  # a login session: same place
-    assert default_lock_dir() == shared
+    another_tmpdir(tmp_path, monkeypatch, "tmp-1")
+    assert default_lock_dir() == run_lock / "harlsync"
+    # /run/lock only root may write (Fedora: 755): the same fixed directory for every
+    # user, root included, unless an administrator made harlsync's there.
+    run_lock.chmod(0o755)
+    assert default_lock_dir() == Path("/tmp/harlsync-locks")
+    (run_lock / "harlsync").mkdir()
+    assert default_lock_dir() == run_lock / "harlsync"
+
+
+def test_without_run_lock_the_lock_directory_is_a_fixed_one_whatever_tmpdir_says(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    machine(tmp_path, monkeypatch, run_lock=None)
+    another_tmpdir(tmp_path, monkeypatch, "tmp-1")
+    shared = default_lock_dir()
+    another_tmpdir(tmp_path, monkeypatch, "tmp-2")
+    assert default_lock_dir() == shared == Path("/tmp/harlsync-locks")
+
+
+def test_issue_11_a_harlsync_with_another_tmpdir_still_sees_the_line_and_project_locks(
+    sim: ScriptedSim, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Issue 11: the lock directory followed TMPDIR, so a cron job with another TMPDIR
+    # (or a service with systemd's PrivateTmp) took the line a push was using.  Over
+    # TCP the lock file is all that keeps a second harlsync off the line.
+    machine(tmp_path, monkeypatch, run_lock=0o1777)
+    another_tmpdir(tmp_path, monkeypatch, "tmp-shell")
+    project = tmp_path / "cell"
+
+    def backup() -> None:
+        with project_lock(project, command="backup"):
+            pass
+
+    with (
+        TcpServer(sim) as server,
+        Link(server.url, 1, FAST) as first,
+        project_lock(project, command="pull"),
+    ):
+        another_tmpdir(tmp_path, monkeypatch, "tmp-cron")
+        with pytest.raises(PortBusyError):
+            Link(server.url, 2, FAST, lock_timeout=0).open()
+        with ThreadPoolExecutor(1) as other, pytest.raises(ProjectError, match="is in use by pid"):
+            other.submit(backup).result()  # another thread: the lock is reentrant per thread
+        assert first.exchange(cmd.read_version()) == "5.00"
 
 
 @pytest.mark.parametrize("url", ["socket://gw:99999", "rfc2217://gw:x", "socket://gw"])

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from harlsync.errors import ProjectFormatError, ProjectInvalid
+from harlsync.errors import FrameError, ProjectFormatError, ProjectInvalid
+from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame
 from harlsync.link import SerialSettings
 from harlsync.project import (
     Window,
@@ -144,6 +145,105 @@ def test_a_timer_out_of_range_or_without_two_decimals_is_reported(
 def test_an_offset_out_of_range_is_reported(root: Path, old: str, new: str, expected: str) -> None:
     edit(root, "offsets.yaml", old, new)
     assert only_issue(root) == expected
+
+
+def longest_payload(station: int) -> int:
+    """The longest payload the link's frame decoder takes from ``station``, found by
+    feeding it frames one character longer each time (not from the profile's arithmetic)."""
+    length = 0
+    while True:
+        decoder = FrameDecoder()
+        decoder.feed(encode_frame(station, "A" * (length + 1)))
+        try:
+            if decoder.next_frame() is None:
+                return length
+        except FrameError:
+            return length
+        length += 1
+
+
+#: The longest step text MAIN program 0 step 1 can hold: its SNM request (longer
+#: than the LNM reply) must fit a frame to the widest station number, 99.
+LONGEST_STEP = longest_payload(99) - len("SNM 0 1 ")
+
+
+@pytest.mark.parametrize("extra", [0, 1, 400])
+def test_issue_11_a_step_longer_than_a_frame_carries_is_refused_saying_how_long_it_may_be(
+    root: Path, extra: int
+) -> None:
+    # Issue 11: such a step passed validate; once written it could never be read back.
+    text = "MOVE P" + "1" * (LONGEST_STEP + extra - len("MOVE P"))
+    edit(root, "programs/main-00.yaml", "  1: MOVE P001 S80", f"  1: {text}")
+    if extra == 0:
+        assert validate_project(root) == []
+        return
+    assert only_issue(root) == (
+        f"programs/main-00.yaml:7: steps.1: {len(text)} characters are more than a frame "
+        f"carries (allowed: at most {LONGEST_STEP} in this step, so that its SNM request "
+        "and the LNM reply fit the frame limit of 512 bytes)"
+    )
+
+
+def test_issue_11_parameters_longer_together_than_a_frame_carries_are_refused_at_the_longest(
+    root: Path,
+) -> None:
+    room = longest_payload(99) - len("SNE ")
+    others = len("80 1 0 10.00 10.00 20.00 20.00 30.00 30.00 50 0 0.00 0") - len("0.00")
+    edit(root, "parameters.yaml", "z_stop_pos: 0.00", "z_stop_pos: " + "9" * (room - others))
+    assert validate_project(root) == []
+    edit(root, "parameters.yaml", "z_stop_pos: 9", "z_stop_pos: 99")
+    assert only_issue(root) == (
+        f"parameters.yaml:14: z_stop_pos: the 13 parameters are {room + 1} characters with "
+        f"their spaces, more than a frame carries (allowed: at most {room} together, so "
+        "that the SNE request and the LNE reply fit the frame limit of 512 bytes)"
+    )
+
+
+@pytest.mark.parametrize("value", ["E12", "E", "Ex"])
+def test_issue_11_a_parameter_the_controller_would_echo_as_an_error_status_is_refused(
+    root: Path, value: str
+) -> None:
+    # Issue 11: the LNE reply begins with PULL LIMIT; one beginning with E is read as
+    # "E" + status, so once pushed the robot could never be pulled again.
+    edit(root, "parameters.yaml", "pull_limit: 80", f"pull_limit: {value}")
+    assert only_issue(root) == (
+        f"parameters.yaml:3: pull_limit: {value!r} would begin the LNE reply with 'E', "
+        "which reads as an error status: the robot could not be read again (allowed: one "
+        "token not beginning with 'E')"
+    )
+
+
+@pytest.mark.parametrize("value", ["e12", "1E", "x", "-5", "E12"])
+def test_issue_11_only_the_first_parameter_leads_the_reply_so_only_it_may_not_begin_with_e(
+    root: Path, value: str
+) -> None:
+    edit(root, "parameters.yaml", "arch_motion: 1", f"arch_motion: {value}")
+    assert validate_project(root) == []
+
+
+@pytest.mark.parametrize(
+    ("field", "old", "new", "one"),
+    [
+        ("x", "x: 120.50", "x: 0120.50", "120.50"),
+        ("x", "x: 120.50", "x: 00.50", "0.50"),
+        ("y", "y: -35.00", "y: -0035.00", "-35.00"),
+        ("y", "y: -35.00", "y: -0000.00", "0.00"),
+        ("y", "y: -35.00", "y: -0.00", "0.00"),
+        ("m", "m: 0, f: 3}", "m: 00, f: 3}", "0"),
+        ("f", "m: 0, f: 3}", "m: 0, f: 03}", "3"),
+    ],
+)
+def test_issue_11_an_offset_not_written_as_the_controller_returns_it_is_refused_with_its_one_form(
+    root: Path, field: str, old: str, new: str, one: str
+) -> None:
+    # Issue 11: 0012.50 passed validate; the controller returned 12.50, so every push
+    # wrote it again and failed its verification.
+    edit(root, "offsets.yaml", old, new)
+    written = new.split(f"{field}: ")[1].split(",")[0].rstrip("}")
+    assert only_issue(root) == (
+        f"offsets.yaml:11: tables.7.{field}: {written} is not written in its one form "
+        f"(write {one}: the controller reads it back so, and a push would never converge)"
+    )
 
 
 def with_registers(root: Path) -> None:

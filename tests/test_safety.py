@@ -9,7 +9,6 @@ task of that robot was in execution or suspended when the request arrived).
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -25,6 +24,7 @@ from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.sim import SimState
 from harlsync.link import SerialSettings
+from harlsync.link import lock as lockmod
 from harlsync.project import load_project, save_project
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
@@ -326,8 +326,9 @@ def test_a_cron_job_without_a_login_session_is_held_off_the_line_a_shell_push_ho
 ) -> None:
     commit_step(project, 1, 3, "MOVE P999 S20")
     monkeypatch.delenv("HARLSYNC_LOCK_DIR")
-    (tmp_path / "tmp").mkdir()
-    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    # A machine with no /run/lock: the fixed fallback under /tmp, whatever the session.
+    monkeypatch.setattr(lockmod, "SYSTEM_LOCK_DIRS", ())
+    monkeypatch.setattr(lockmod, "FALLBACK_LOCK_DIR", tmp_path / "tmp" / "harlsync-locks")
     (tmp_path / "run-user-1000").mkdir()
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path / "run-user-1000"))
     interactive = Link(line, 1).open()  # an engineer's push, from an SSH session

@@ -7,6 +7,7 @@ import dataclasses
 import json
 from collections.abc import Iterator
 from datetime import datetime
+from decimal import Decimal
 from pathlib import Path
 
 import pytest
@@ -20,17 +21,19 @@ from harlsync.errors import (
     PolicyError,
     PortBusyError,
     ProjectError,
+    ProjectInvalid,
     StalePlanError,
     VerifyError,
 )
 from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.sim import SimState, Simulator
-from harlsync.project import load_project, save_project
+from harlsync.project import load_project, save_project, validate_project
 from harlsync.sim import Faults, Received
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
+from harlsync.sync import git as git_ops
 
 SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
 
@@ -394,6 +397,113 @@ def test_a_dirty_project_or_one_outside_git_is_refused(served, repo, tmp_path) -
         engine.push(loose, YES, port=url)
     engine.push(project, PushOptions(yes=True, allow_dirty=True), port=url)
     assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.50"]
+
+
+@pytest.mark.parametrize("object_format", ["sha1", "sha256"])
+def test_git_tells_which_files_a_commit_holds_byte_for_byte(tmp_path, object_format) -> None:
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q", f"--object-format={object_format}")
+    names = ["a [x]*.yaml", "b.yaml", "c.yaml", "d.yaml"]  # pathspec magic is a name here
+    for name in names:
+        (root / name).write_bytes(b"same\r\n")
+    (root / ".gitignore").write_text("d.yaml\n")
+    git(root, "add", "a [x]*.yaml", "b.yaml", ".gitignore")
+    git(root, "commit", "-qm", "two")
+    files = {name: (root / name).read_bytes() for name in names}
+    files["b.yaml"] += b"x"
+    assert git_ops.not_in_commit(root, git_ops.head(root), files) == {
+        "b.yaml": "differs", "c.yaml": "missing", "d.yaml": "ignored"
+    }
+    assert git_ops.not_in_commit(root, None, {"a [x]*.yaml": b"same\r\n"}) == {
+        "a [x]*.yaml": "missing"
+    }
+
+
+class Numeric(Simulator):
+    """A controller that keeps numbers, not the text they were written in, as a real
+    one does: an offset, a timer, a register, M and F read back in their one form
+    (offsets with no leading zeros and no minus zero, registers four digits).  Steps
+    and parameters are kept as written, as the profile says.  Written by hand here,
+    not with harlsync's own functions."""
+
+    def handle(self, state: SimState, payload: str) -> str:
+        letters, *args = payload.split(" ")
+        try:
+            if letters == "SNL" and len(args) == 9:
+                args = [args[0], *map(hundredths, args[1:7]), *(str(int(a)) for a in args[7:])]
+            elif letters == "SNT" and len(args) == 2:
+                args[1] = hundredths(args[1])
+            elif letters == "SND" and len(args) == 2:
+                args[1] = f"{int(args[1]):04d}"
+        except ArithmeticError:  # not a number: the controller refuses it as before
+            pass
+        return super().handle(state, " ".join([letters, *args]))
+
+
+def hundredths(text: str) -> str:
+    n = int(Decimal(text) * 100)
+    return f"{'-' if n < 0 else ''}{abs(n) // 100}.{abs(n) % 100:02d}"
+
+
+def table_3(x: str = "0.00", y: str = "0.00", m: str = "0") -> str:
+    return f"  3: {{x: {x}, y: {y}, z: 0.00, w: 0.00, r: 0.00, c: 0.00, m: {m}, f: 0}}"
+
+
+#: an edit (file, the line that replaces the one with its key) -> the one form
+#: validate asks for instead (None: the edit is valid as written)
+EDITS = {
+    "offset 0012.50": ("offsets.yaml", table_3(x="0012.50"), "12.50"),
+    "offset 12.50": ("offsets.yaml", table_3(x="12.50"), None),
+    "offset -0000.00": ("offsets.yaml", table_3(y="-0000.00"), "0.00"),
+    "offset -0.05": ("offsets.yaml", table_3(y="-0.05"), None),
+    "M 07": ("offsets.yaml", table_3(m="07"), "7"),
+    "M 7": ("offsets.yaml", table_3(m="7"), None),
+    "timer 0.80": ("timers.yaml", "  1: 0.80", None),
+    "register 0012": ("registers.yaml", "  1: 0012", None),
+    "parameter 51": ("parameters.yaml", "pull_rate: 51", None),
+    "step": ("programs/main-00.yaml", "  1: MOVE P010 S50", None),
+}
+
+
+@pytest.mark.parametrize("edit", list(EDITS))
+def test_issue_11_a_push_of_a_validated_project_converges_on_a_controller_that_keeps_numbers(
+    repo: Path, edit: str
+) -> None:
+    # Issue 11: an offset written 0012.50 passed validate; the controller read it back
+    # as 12.50, so the push failed its verification and every rerun wrote it again.
+    sim = Numeric(SimState.generate(11, SMALL))
+    with serve(sim) as server:
+        project = pulled(repo, server.url)
+        robot_yaml = project / "robot.yaml"
+        robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
+                                                             "keep_registers: true"))
+        engine.pull(project)
+        file, line, one = EDITS[edit]
+        path = project / file
+        key = line.split(":")[0] + ":"
+        text = path.read_text()
+        assert f"\n{key} " in text, f"{key} not in {file}"
+        path.write_text("\n".join(line if old.startswith(key + " ") else old
+                                  for old in text.splitlines()) + "\n")
+        git(repo, "add", "-A")
+        git(repo, "commit", "-qm", edit)
+        issues = validate_project(project)
+        opts = PushOptions(yes=True, registers=True)
+        if not issues:  # whatever validate lets through, a push makes the robot equal
+            assert engine.push(project, opts).written
+            sent = len(sim.writes_received())
+            engine.push(project, opts)
+            assert len(sim.writes_received()) == sent  # the second push wrote nothing
+            assert engine.compare(project, registers=True).changes == []
+        if one is None:
+            assert issues == []
+        else:
+            [issue] = issues
+            assert f"is not written in its one form (write {one}: " in issue
+            with pytest.raises(ProjectInvalid):
+                engine.push(project, opts)
+            assert sim.writes_received() == []
 
 
 def test_a_push_outside_the_maintenance_window_is_refused_unless_explained(served, repo) -> None:

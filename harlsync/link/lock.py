@@ -19,7 +19,7 @@ import logging
 import os
 import re
 import socket
-import tempfile
+import stat
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -29,12 +29,16 @@ from ..errors import PortBusyError, PortError
 
 __all__ = [
     "DEFAULT_LOCK_TIMEOUT",
+    "FALLBACK_LOCK_DIR",
+    "SYSTEM_LOCK_DIRS",
     "LineLock",
     "default_lock_dir",
     "is_com_port",
     "lock_key",
     "lock_path",
     "port_number",
+    "take_lock_file",
+    "unusable_hint",
 ]
 
 log = logging.getLogger(__name__)
@@ -45,17 +49,73 @@ DEFAULT_LOCK_TIMEOUT = 10.0
 _COM_RE = re.compile(r"(?:\\\\\.\\)?(COM\d+)", re.IGNORECASE)
 
 
-def default_lock_dir() -> Path:
-    """``$HARLSYNC_LOCK_DIR``, else ``<tmp>/harlsync-locks``.
+#: Where the machine keeps lock files, in order of preference (FHS: ``/run/lock``,
+#: and ``/var/lock``, often a link to it).  Not under ``/tmp``: systemd's
+#: ``PrivateTmp`` gives a service a ``/tmp`` of its own.
+SYSTEM_LOCK_DIRS: tuple[Path, ...] = (Path("/run/lock"), Path("/var/lock"))
+#: The last resort on a POSIX machine without a usable ``/run/lock``: fixed, never
+#: ``$TMPDIR``, which differs between processes.
+FALLBACK_LOCK_DIR = Path("/tmp/harlsync-locks")
 
-    One directory for every session and user of the machine: a per-session one
-    (``$XDG_RUNTIME_DIR``) would let a cron job, which has no login session, and
-    a push from a shell lock different files and share the line.
+
+def default_lock_dir() -> Path:
+    """The directory of every harlsync lock on this machine (lines and projects).
+
+    ``$HARLSYNC_LOCK_DIR`` when set; else ``harlsync/`` under the first of
+    :data:`SYSTEM_LOCK_DIRS` that has it already or that every user may write
+    (mode o+w: it is made there, sticky and writable by all); else
+    :data:`FALLBACK_LOCK_DIR` (on Windows ``%ProgramData%\\harlsync\\locks``).
+
+    The choice depends on the machine only, never on the process: not on
+    ``$TMPDIR`` (a cron job or a service may have another one, or systemd's
+    ``PrivateTmp``), not on the session (``$XDG_RUNTIME_DIR``: cron has none),
+    not on the user (root and an engineer must meet on one line).  A ``/run/lock``
+    only root may write is therefore not used until an administrator makes
+    ``/run/lock/harlsync`` (mode 1777).
     """
     env = os.environ.get("HARLSYNC_LOCK_DIR")
     if env:
         return Path(env)
-    return Path(tempfile.gettempdir()) / "harlsync-locks"
+    if os.name == "nt":
+        return Path(os.environ.get("PROGRAMDATA") or r"C:\ProgramData") / "harlsync" / "locks"
+    for base in SYSTEM_LOCK_DIRS:
+        mine = base / "harlsync"
+        try:
+            if mine.is_dir() or (base.is_dir() and base.stat().st_mode & stat.S_IWOTH):
+                return mine
+        except OSError:
+            continue
+    return FALLBACK_LOCK_DIR
+
+
+def take_lock_file(path: Path, timeout: float) -> filelock.BaseFileLock:
+    """Hold the lock file ``path``, making its directory first if need be: one every
+    user of the machine may use (sticky and writable by all, like ``/tmp``), since
+    root's cron job and an engineer's shell must meet in it.
+
+    Raises :class:`filelock.Timeout` when another holder keeps it past ``timeout``
+    seconds, and :class:`OSError` when the directory or the file cannot be made.
+    """
+    directory = path.parent
+    if not directory.is_dir():
+        try:
+            directory.mkdir(parents=True)
+        except FileExistsError:
+            pass  # another harlsync made it meanwhile: it set the mode
+        else:
+            os.chmod(directory, 0o1777)
+    lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
+    lock.acquire(timeout=timeout)
+    return lock
+
+
+def unusable_hint(directory: Path) -> str:
+    """What to do about a lock directory this process cannot use, for a message."""
+    return (
+        f"every harlsync of this machine keeps its locks in {directory}: make it writable by "
+        "all (chmod 1777), or set HARLSYNC_LOCK_DIR to one directory every user can write, "
+        "the same for all"
+    )
 
 
 def is_com_port(url: str) -> bool:
@@ -150,18 +210,12 @@ class LineLock:
         if path is None:
             return
         try:
-            if not path.parent.is_dir():
-                path.parent.mkdir(parents=True, exist_ok=True)
-                # Shared by every user who runs harlsync (sticky, like /tmp).
-                os.chmod(path.parent, 0o1777)
-            lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
-            lock.acquire(timeout=timeout)
+            lock = take_lock_file(path, timeout)
         except filelock.Timeout as exc:
             raise PortBusyError(self._busy_message(path), port=self.url) from exc
         except OSError as exc:
             raise PortError(
-                f"cannot take the port lock {path}: {exc}; set HARLSYNC_LOCK_DIR to a writable "
-                "directory",
+                f"cannot take the port lock {path}: {exc}; {unusable_hint(path.parent)}",
                 port=self.url,
             ) from exc
         self._lock = lock

@@ -27,6 +27,7 @@ __all__ = [
     "build_serial",
     "build_windows",
     "newer_format",
+    "not_canonical",
     "numbers",
     "serial_items",
     "text_of",
@@ -168,6 +169,12 @@ def numbers(mapping: Any) -> list[tuple[str, int]]:
     if not isinstance(mapping, dict):
         return []
     return [(k, int(k) if len(k) <= 9 else HUGE) for k in mapping if _DIGITS.fullmatch(k)]
+
+
+def not_canonical(text: str, one: str) -> str:
+    """The message for a number written otherwise than as the controller gives it back."""
+    return (f"{text} is not written in its one form (write {one}: the controller reads it "
+            "back so, and a push would never converge)")
 
 
 def text_of(value: Any) -> str:

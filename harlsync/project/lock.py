@@ -33,6 +33,7 @@ import filelock
 
 from ..errors import ProjectError
 from ..link import default_lock_dir
+from ..link.lock import take_lock_file, unusable_hint
 
 __all__ = ["holding_project", "lock_path", "project_lock"]
 
@@ -100,17 +101,13 @@ def _acquire(
     project: str | os.PathLike[str], path: Path, timeout: float, command: str
 ) -> filelock.BaseFileLock:
     try:
-        if not path.parent.is_dir():
-            path.parent.mkdir(parents=True, exist_ok=True)
-            os.chmod(path.parent, 0o1777)  # shared by every user, like the line locks
-        lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
-        lock.acquire(timeout=timeout)
+        lock = take_lock_file(path, timeout)
     except filelock.Timeout as exc:
         raise ProjectError(_busy_message(project, path)) from exc
     except OSError as exc:
         raise ProjectError(
-            f"project {project}: cannot take its lock {path} ({exc.strerror or exc}); set "
-            "HARLSYNC_LOCK_DIR to a writable directory"
+            f"project {project}: cannot take its lock {path} ({exc.strerror or exc}); "
+            f"{unusable_hint(path.parent)}"
         ) from exc
     try:
         _owner_path(path).write_text(f"{os.getpid()} {socket.gethostname()} {command}\n")

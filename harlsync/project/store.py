@@ -68,6 +68,7 @@ __all__ = [
     "family_of",
     "load_project",
     "load_robot",
+    "read_project",
     "replace_file",
     "save_project",
     "validate_project",
@@ -148,6 +149,13 @@ def load_project(path: str | os.PathLike[str]) -> Project:
     format, a missing file) and ProjectInvalid (carrying every issue) when the
     files break their schemas or the configuration.
     """
+    return read_project(path)[0]
+
+
+def read_project(path: str | os.PathLike[str]) -> tuple[Project, dict[str, bytes]]:
+    """Read the project at ``path``, as :func:`load_project` does, and return the
+    exact bytes it was made from too: relative path -> content of every file read
+    (what a push must find in the commit it names).  Raises as load_project."""
     root = Path(path)
     family, files, problems = _gather(root)
     found = family.analyse(files)
@@ -158,7 +166,7 @@ def load_project(path: str | os.PathLike[str]) -> Project:
         raise ProjectFormatError(fatal[0] + more)
     if issues or found.robot is None or found.data is None:
         raise ProjectInvalid([str(i) for i in issues])
-    return Project(root, found.robot, found.data)
+    return Project(root, found.robot, found.data), files
 
 
 def load_robot(path: str | os.PathLike[str]) -> Robot:

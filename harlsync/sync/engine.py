@@ -34,7 +34,7 @@ import logging
 import os
 import re
 import shutil
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -57,7 +57,7 @@ from ..errors import (
 from ..families.base import Catalogue, Driver, Progress
 from ..project import Project, Robot, load_project, load_robot, save_project
 from ..project.lock import holding_project
-from ..project.store import disk_error, edited_since_save
+from ..project.store import disk_error, edited_since_save, read_project
 from . import audit, git, history
 from .items import Change, diff
 from .plan import Plan, PlannedWrite, make_plan
@@ -710,17 +710,26 @@ def push(
     the refusal is audited like any other.
     """
     try:
-        project = load_project(path)
+        project, files = read_project(path)
         if not opts.allow_dirty:
-            _check_committed(Path(path))
+            _check_committed(Path(path), files)
     except HarlsyncError as exc:
         _audit_refusal("push", path, opts, exc)
         raise
     return _deploy("push", project, project.data, opts, port, station)
 
 
-def _check_committed(path: Path) -> None:
-    if git.repo_root(path) is None:
+def _check_committed(path: Path, files: Mapping[str, bytes]) -> None:
+    """Refuse (PolicyError) unless git sees nothing uncommitted under ``path`` and
+    the commit checked out holds every byte of ``files`` (what the project was
+    loaded from, by path relative to ``path``), where the file really is.
+
+    git status alone is not enough: a file reached through a symbolic link out of
+    the repository or elsewhere in it, a file .gitignore names, or one git was told
+    to skip (``update-index --skip-worktree``) all look clean to it.
+    """
+    top = git.repo_root(path)
+    if top is None:
         raise PolicyError(
             f"{path} is not in a git repository, so what is pushed could not be traced: "
             "git init; git add; git commit it (or give --allow-dirty)"
@@ -728,6 +737,48 @@ def _check_committed(path: Path) -> None:
     dirty = _uncommitted(path)
     if dirty:
         raise PolicyError(f"{path} has uncommitted changes ({dirty}): commit them, or give --allow-dirty")
+    top = top.resolve()
+    inside: dict[str, str] = {}  # path in the repository -> the project's name for it
+    for name in files:
+        real = (path / name).resolve()
+        if not real.is_relative_to(top):
+            link = next((p for p in _prefixes(path, name) if p.is_symlink()), path / name)
+            raise PolicyError(
+                f"{link} is a symbolic link to {link.resolve()}, outside the git repository "
+                f"{top}, so no commit holds what a push reads there: move it into the "
+                "repository and commit it, or give --allow-dirty"
+            )
+        inside[real.relative_to(top).as_posix()] = name
+    commit = git.head(path)
+    wrong = git.not_in_commit(top, commit, {at: files[name] for at, name in inside.items()})
+    if wrong:
+        at = next(at for at in inside if at in wrong)
+        raise PolicyError(_not_committed(path, inside[at], at, wrong[at], commit, len(wrong)))
+
+
+def _prefixes(path: Path, name: str) -> list[Path]:
+    """``path/programs``, ``path/programs/main-00.yaml`` for ``programs/main-00.yaml``."""
+    parts = Path(name).parts
+    return [path.joinpath(*parts[: n + 1]) for n in range(len(parts))]
+
+
+def _not_committed(path: Path, name: str, at: str, why: str, commit: str | None,
+                   count: int) -> str:
+    """One line: the project's file ``name`` (at ``at`` in the repository) is not as
+    the commit holds it, ``why`` (see :func:`git.not_in_commit`), and what to do."""
+    file = path / name
+    linked = file.resolve() != path.resolve() / name
+    shown = f"{file} ({at} in the repository)" if linked else str(file)
+    if why == "ignored":
+        text = f"{shown} is ignored by git (.gitignore), so no commit holds it: git add -f it and commit it"
+    elif commit is None:
+        text = f"{shown} is in no commit (the repository has none yet): git add and commit it"
+    elif why == "missing":
+        text = f"{shown} is not in commit {commit[:10]}: git add and commit it"
+    else:
+        text = f"{shown} differs from commit {commit[:10]}: commit it, or restore it with git checkout"
+    more = f"; {count - 1} more file(s) likewise" if count > 1 else ""
+    return f"{text}, or give --allow-dirty{more}"
 
 
 def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:

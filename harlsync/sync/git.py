@@ -6,30 +6,38 @@ in force and adds no dependency.
 
 from __future__ import annotations
 
+import hashlib
 import subprocess
+from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import SyncError
 from ..project.store import IN_PROGRESS
 
-__all__ = ["changed_files", "commit", "head", "push", "repo_root"]
+__all__ = ["changed_files", "commit", "head", "not_in_commit", "push", "repo_root"]
 
 
-def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
+def _git(
+    cwd: Path, *args: str, check: bool = True, ok: tuple[int, ...] = (0,),
+    stdin: str | None = None,
+) -> subprocess.CompletedProcess[str]:
+    """Run git in ``cwd``; with ``check``, an exit status not in ``ok`` raises SyncError."""
     try:
         result = subprocess.run(
-            ["git", *args], cwd=cwd, capture_output=True, text=True, check=False
+            ["git", *args], cwd=cwd, capture_output=True, text=True, check=False, input=stdin,
+            errors="surrogateescape",  # file names as os.listdir gives them, whatever bytes
         )
     except FileNotFoundError as exc:
         raise SyncError("git is not installed: install git or run without --commit") from exc
-    if check and result.returncode != 0:
+    if check and result.returncode not in ok:
         lines = [ln.strip() for ln in (result.stderr or result.stdout).splitlines() if ln.strip()]
         detail = next((ln for ln in lines if ln.startswith(("fatal:", "error:"))), None)
         detail = detail or (lines[0] if lines else f"exit status {result.returncode}")
         if "index.lock" in detail:  # left by a git that was killed or crashed
             detail += " (if no git is running there, remove that file)"
         # The subcommand only: the paths of a backup's add would fill the line.
-        raise SyncError(f"git {args[0]} failed in {cwd}: {detail}")
+        command = next(a for a in args if not a.startswith("-"))
+        raise SyncError(f"git {command} failed in {cwd}: {detail}")
     return result
 
 
@@ -61,6 +69,42 @@ def head(path: str | Path) -> str | None:
         return None
     result = _git(root, "rev-parse", "HEAD", check=False)
     return result.stdout.strip() if result.returncode == 0 else None
+
+
+def not_in_commit(root: Path, rev: str | None, files: Mapping[str, bytes]) -> dict[str, str]:
+    """Which of ``files`` the commit ``rev`` does not hold byte for byte.
+
+    ``files`` maps paths relative to the work tree ``root`` to the bytes read from
+    them.  Returns path -> ``"differs"`` (the commit has other bytes there),
+    ``"ignored"`` (the commit has no such file, and .gitignore names it) or
+    ``"missing"`` (the commit has no such file); paths the commit holds as they are
+    read are left out.  ``rev`` None (no commit yet) holds nothing.
+    """
+    found: dict[str, str] = {}  # path -> object id, for the blobs the commit has
+    if rev is not None and files:
+        listing = _git(root, "--literal-pathspecs", "ls-tree", "-r", "-z", "--full-tree", rev,
+                       "--", *files).stdout
+        for entry in filter(None, listing.split("\0")):
+            meta, _, name = entry.partition("\t")
+            _mode, kind, oid = meta.split(" ")
+            if kind == "blob":
+                found[name] = oid
+    out = {name: "differs" for name, oid in found.items()
+           if name in files and _blob_id(files[name], oid) != oid}
+    missing = [name for name in files if name not in found]
+    if missing:
+        ignored = _git(root, "check-ignore", "-z", "--stdin", ok=(0, 1),  # 1: none is
+                       stdin="\0".join(missing) + "\0")
+        names = set(filter(None, ignored.stdout.split("\0")))
+        out.update({name: "ignored" if name in names else "missing" for name in missing})
+    return out
+
+
+def _blob_id(data: bytes, like: str) -> str:
+    """The id git gives ``data`` as a blob, in the hash of the object id ``like``
+    (SHA-1, or SHA-256 in a repository made with ``--object-format=sha256``)."""
+    digest = hashlib.sha256 if len(like) == 64 else hashlib.sha1
+    return digest(b"blob %d\0" % len(data) + data).hexdigest()
 
 
 #: What a save in progress leaves beside the files (harlsync.project.store): a

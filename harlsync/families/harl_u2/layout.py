@@ -22,6 +22,7 @@ from ...project.files import (
     FileSet,
     build_serial,
     build_windows,
+    not_canonical,
     numbered,
     numbers,
     serial_items,
@@ -49,7 +50,11 @@ from .model import (
     ProgramType,
     RobotData,
     Step,
+    canonical_code,
+    canonical_offset,
 )
+from .protocol import commands as cmd
+from .protocol import profile
 
 __all__ = [
     "FORMAT",
@@ -294,6 +299,7 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     if "controller.yaml" in valid:
         config = _build_config(docs["controller.yaml"].data)
         _check_against_config(config, docs, programs, issues)
+    _check_wire(docs, valid, programs, issues)
 
     if not issues and config is not None:
         result.data = _build_data(config, docs, programs)
@@ -431,6 +437,88 @@ def _check_against_config(
                     f"{program_path(key)} is missing (an empty program is written `steps: {{}}`)",
                 )
             )
+
+
+def _check_wire(
+    docs: Mapping[str, y.Parsed],
+    valid: set[str],
+    programs: Mapping[ProgramKey, y.Parsed | None],
+    issues: list[Issue],
+) -> None:
+    """What the schemas cannot say about a value: that the controller would give it
+    back in another form (a push would never converge), or that the wire cannot
+    carry it or give it back (:func:`.protocol.commands.read_back`).
+
+    Timers and registers have one form each (``d.dd``, ``dddd``) and a fixed
+    length, so only offsets, parameters and steps can break these.
+    """
+    if "offsets.yaml" in valid:
+        _check_offsets(docs["offsets.yaml"], issues)
+    if "parameters.yaml" in valid:
+        _check_parameters(docs["parameters.yaml"], issues)
+    for key, doc in programs.items():
+        if doc is not None and program_path(key) in valid:
+            _check_steps(key, doc, issues)
+
+
+def _check_offsets(doc: y.Parsed, issues: list[Issue]) -> None:
+    tables = doc.data["tables"]
+    for key, _ in numbers(tables):
+        for field in OFFSET_FIELDS:
+            text = text_of(tables[key][field])
+            one = canonical_code(text) if field in ("m", "f") else canonical_offset(text)
+            if one != text:
+                issues.append(Issue("offsets.yaml", doc.line(("tables", key, field)),
+                                    f"tables.{key}.{field}", not_canonical(text, one)))
+
+
+def _check_parameters(doc: y.Parsed, issues: list[Issue]) -> None:
+    data = doc.data
+    values = {name: text_of(data[name]) for name, _ in PARAMETER_NAMES}
+    write = cmd.write_parameters(Parameters(**values))
+    back = cmd.read_back(write)
+    if back.misread is not None:
+        first = PARAMETER_NAMES[0][0]  # the LNE reply is the values in order: it leads
+        issues.append(Issue(
+            "parameters.yaml", doc.line((first,)), first,
+            f"{show(data[first])} {back.misread}: the robot could not be read again "
+            f"(allowed: one token not beginning with {profile.ERROR_PREFIX!r})",
+        ))
+    if back.excess:
+        longest = max(values, key=lambda name: len(values[name]))
+        total = len(" ".join(values.values()))
+        issues.append(Issue(
+            "parameters.yaml", doc.line((longest,)), longest,
+            f"the {len(values)} parameters are {total} characters with their spaces, more "
+            f"than a frame carries (allowed: at most {total - back.excess} together, "
+            f"{_both_fit(write, back)})",
+        ))
+
+
+def _check_steps(key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
+    ptype, number = key
+    steps = doc.data["steps"]
+    for text, n in numbers(steps):
+        step = steps[text]
+        write = cmd.write_step(ptype, number, n, Step.parse(step))
+        back = cmd.read_back(write)
+        if not back.excess and back.misread is None:
+            continue
+        where = (program_path(key), doc.line(("steps", text)), f"steps.{text}")
+        if back.excess:
+            issues.append(Issue(
+                *where,
+                f"{len(step)} characters are more than a frame carries (allowed: at most "
+                f"{len(step) - back.excess} in this step, {_both_fit(write, back, 'its ')})",
+            ))
+        if back.misread is not None:  # the reply begins with the step number: never so far
+            issues.append(Issue(*where, f"{show(step)} {back.misread} (allowed: a step the "
+                                        f"{back.read.letters} reply gives back as written)"))
+
+
+def _both_fit(write: cmd.Request[cmd.Ack], back: cmd.ReadBack, its: str = "") -> str:
+    return (f"so that {its or 'the '}{write.letters} request and the {back.read.letters} reply "
+            f"fit the frame limit of {profile.MAX_FRAME} bytes")
 
 
 # -- building the model from valid documents ---------------------------------------------

@@ -3,7 +3,9 @@ the simulator and the sync engine.
 
 Values the controller holds (timer values, offsets, parameters, step tokens) are
 kept as their exact wire text: harlsync stores what the controller returned and
-writes exactly that back.  Numbers are parsed only to check ranges.
+writes exactly that back.  Numbers are parsed only to check ranges, and to name
+the one form the controller gives an offset back in (:func:`canonical_offset`,
+:func:`canonical_code`): a project must write it so, or a push never converges.
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ __all__ = [
     "Status",
     "Step",
     "TaskState",
+    "canonical_code",
+    "canonical_offset",
 ]
 
 #: One wire token: printable ASCII, no space (fields never contain SP, STX or ETX).
@@ -236,6 +240,30 @@ class OffsetTable:
                 allowed = "0-99" if name in ("m", "f") else "-9999.99..9999.99, two decimals"
                 out.append(f"{name.upper()} {value!r} (allowed: {allowed})")
         return out
+
+
+def canonical_offset(text: str) -> str:
+    """An offset X..C as the controller gives it back: no leading zero, no minus on
+    zero (``"0012.50"`` -> ``"12.50"``, ``"-0000.00"`` -> ``"0.00"``).
+
+    The controller keeps a number, not its text: the manual's fields are
+    "-9999.99 to 9999.99 (variable)", two decimals, never padded.  Raises
+    :class:`ValueError` for text :data:`OFFSET_RE` does not match.
+    """
+    if not OFFSET_RE.fullmatch(text):
+        raise ValueError(f"offset {text!r} (allowed: -9999.99..9999.99, two decimals)")
+    whole, _, decimals = text.lstrip("-").partition(".")
+    whole = whole.lstrip("0") or "0"
+    sign = "-" if text.startswith("-") and (whole, decimals) != ("0", "00") else ""
+    return f"{sign}{whole}.{decimals}"
+
+
+def canonical_code(text: str) -> str:
+    """M data or an F code as the controller gives it back: ``"07"`` -> ``"7"``.
+    Raises :class:`ValueError` for text :data:`CODE_RE` does not match."""
+    if not CODE_RE.fullmatch(text):
+        raise ValueError(f"code {text!r} (allowed: 0-99)")
+    return str(int(text))
 
 
 #: The 13 expanded parameters (LNE/SNE), wire order: (YAML key, manual's name).

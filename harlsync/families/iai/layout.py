@@ -43,6 +43,7 @@ from ...project.files import (
     FileSet,
     build_serial,
     build_windows,
+    not_canonical,
     numbered,
     numbers,
     serial_items,
@@ -414,8 +415,7 @@ def _canonical(
         issue(f"{text}: {exc}", *where)
         return
     if one != text:
-        issue(f"{text} is not written in its one form (write {one}: the controller reads "
-              "it back so, and a push would never converge)", *where)
+        issue(not_canonical(text, one), *where)
 
 
 def _build_version(data: Mapping[str, Any]) -> Version:

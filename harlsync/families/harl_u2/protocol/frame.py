@@ -23,7 +23,10 @@ from functools import reduce
 from ....errors import FrameError, LRCError
 from . import profile
 
-__all__ = ["Frame", "FrameDecoder", "encode_frame", "lrc"]
+__all__ = ["MAX_STATION", "Frame", "FrameDecoder", "encode_frame", "lrc", "payload_room"]
+
+#: The widest station number a frame carries (two digits).
+MAX_STATION = 99
 
 
 def lrc(body: bytes) -> int:
@@ -67,7 +70,7 @@ def encode_frame(station: int, payload: str) -> bytes:
 
     Raises :class:`FrameError` when the payload holds a byte a frame cannot carry.
     """
-    if not 0 <= station <= 99:
+    if not 0 <= station <= MAX_STATION:
         raise FrameError(f"station {station} out of range")
     try:
         raw = payload.encode("ascii")
@@ -77,6 +80,15 @@ def encode_frame(station: int, payload: str) -> bytes:
         raise FrameError(f"payload {payload!r} holds a control character")
     body = f"{station} ".encode("ascii") + raw + bytes([profile.ETX])
     return bytes([profile.STX]) + body + _lrc_bytes(lrc(body))
+
+
+def payload_room(station: int, max_frame: int = profile.MAX_FRAME) -> int:
+    """The longest payload a frame for ``station`` can carry and a :class:`FrameDecoder`
+    of ``max_frame`` still take: its ETX must come within ``max_frame`` bytes of its STX::
+
+        STX  station  SP  payload  ETX    ETX at index 1 + len(station) + 1 + len(payload)
+    """
+    return max_frame - len(f"{station} ") - 1
 
 
 class FrameDecoder:
