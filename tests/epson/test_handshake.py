@@ -226,8 +226,9 @@ def test_status_names_the_interlock_signals_and_whether_the_function_is_idle() -
     assert not status.function_idle
     assert status.describe() == "the Remote Control function is not idle (ExtCmdReset 0)"
     assert fake.writes() == []  # status sends nothing and starts nothing
-    hs.start()
+    assert hs.execute(p.read_tool()) == 0  # a command starts the function first
     assert hs.status().idle and hs.status().describe() == "idle"
+    assert handshake(fake).execute(p.read_accel_s(15)) == VALUES
     fake.set_signal("Paused", True)
     fake.set_signal("EStopOn", True)
     status = hs.status()

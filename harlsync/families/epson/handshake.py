@@ -269,6 +269,7 @@ class Handshake:
         self.clock: Clock = clock if clock is not None else SystemClock()
         #: the control holding registers as harlsync last wrote (or first read) them
         self._control: dict[int, int] | None = None
+        self._started = False
         self._pending: _Pending | None = None
 
     @property
@@ -338,14 +339,14 @@ class Handshake:
         ExtCmdSet and ExtRespGet, then raise ExtCmdReset.  A function found with
         ExtCmdReset 1 is left as it is (dropping it aborts motion, §4.1.1)."""
         self._control = None
-        self._load_control()
         if self._input(self.map.ext_cmd_reset):
             log.debug("%s: ExtCmdReset already 1: the function is kept as found", self.label)
-            return
-        self._drive(self.map.ext_cmd_set, False)
-        self._drive(self.map.ext_resp_get, False)
-        self._drive(self.map.ext_cmd_reset, True)
-        log.debug("%s: ExtCmdReset raised (§6.2)", self.label)
+        else:
+            self._drive(self.map.ext_cmd_set, False)
+            self._drive(self.map.ext_resp_get, False)
+            self._drive(self.map.ext_cmd_reset, True)
+            log.debug("%s: ExtCmdReset raised (§6.2)", self.label)
+        self._started = True
 
     def status(self) -> RemoteStatus:
         """The controller's outputs now, and the interlock's answer.  Sends no command."""
@@ -374,6 +375,7 @@ class Handshake:
         while (left := profile.FUNCTION_RESET_LOW - (self.clock.monotonic() - low_since)) > 0:
             self.clock.sleep(left)
         self._drive(self.map.ext_cmd_reset, True)
+        self._started = True
         self._pending = None
         log.info("%s: function reset (§6.5.2)", self.label)
         deadline = self.clock.monotonic() + self.deadline
@@ -406,7 +408,7 @@ class Handshake:
         self._fits(request)
         if request.is_write and self.map.unwritable is not None:
             raise InterlockError(f"{self.label}: {self.map.unwritable}")
-        if self._control is None:
+        if not self._started:
             self.start()
         deadline = self.clock.monotonic() + self.deadline
         self._settle(deadline)

@@ -261,7 +261,8 @@ class RegisterMap:
             given = {}
         for name in given:
             if name not in _SIGNAL_FIELDS:
-                issues.append(f"signals: unknown signal {name!r} (known: {', '.join(SIGNAL_NAMES)})")
+                issues.append(f"signals: unknown signal {name!r} "
+                              f"(known: {', '.join(SIGNAL_NAMES)})")
         for signal, field_name in _SIGNAL_FIELDS.items():
             is_input = signal in HANDSHAKE_INPUTS
             base = in_base if is_input else out_base
@@ -369,7 +370,8 @@ class RegisterMap:
         for name, bit in self.signals():
             if bit is None:
                 continue
-            span, what = (command, "command") if name in HANDSHAKE_INPUTS else (response, "response")
+            is_input = name in HANDSHAKE_INPUTS
+            span, what = (command, "command") if is_input else (response, "response")
             if bit.register in span:
                 issues.append(f"signals: {name} at {bit} lies in the {what} words "
                               f"(registers {span.start} to {span.stop - 1})")

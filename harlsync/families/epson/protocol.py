@@ -352,7 +352,8 @@ class CommandSpec(NamedTuple):
 
 def _specs(is_write: bool, table: Mapping[int, tuple[str, tuple[int, ...]]]
            ) -> dict[int, CommandSpec]:
-    return {n: CommandSpec(name, is_write, frozenset(counts)) for n, (name, counts) in table.items()}
+    return {number: CommandSpec(name, is_write, frozenset(counts))
+            for number, (name, counts) in table.items()}
 
 
 #: The reads a backup makes: the digest's safe-read list, only what the family uses.
@@ -691,9 +692,16 @@ def _fit(what: str, command_words: int, *forms: tuple[Request[None], ...]) -> Wr
     raise ValueError(f"{what}: needs {need} command words, the map has {command_words}")
 
 
-def _echoed(words: _Words, values: Sequence[tuple[int, str]]) -> None:
-    for value, what in values:
-        words.expect(value, what)
+def _echo_read(number: int, echoed: Sequence[tuple[int, str]], what: str, data_words: int,
+               rest: Callable[[_Words], T]) -> Request[T]:
+    """A read whose parameters (table, axis, joint ...) come back before its data."""
+
+    def parse(words: _Words) -> T:
+        for value, name in echoed:
+            words.expect(value, name)
+        return rest(words)
+
+    return _read(number, tuple(value for value, _ in echoed), what, data_words, parse)
 
 
 # --- the six tables (§10.1-10.6) -------------------------------------------------------
@@ -732,12 +740,8 @@ class SpeedReal(NamedTuple):
 def _table_read(number: int, table: int, what: str, data_words: int,
                 rest: Callable[[_Words], T]) -> Request[T]:
     table = _table(table)
-
-    def parse(words: _Words) -> T:
-        words.expect(table, "table number")
-        return rest(words)
-
-    return _read(number, (table,), f"{what} table {table}", data_words, parse)
+    return _echo_read(number, ((table, "table number"),), f"{what} table {table}", data_words,
+                      rest)
 
 
 def read_accel(table: int) -> Request[AccelPercent]:
@@ -943,12 +947,7 @@ def _arch(arch: int) -> int:
 def _arch_read(number: int, arch: int, what: str, data_words: int,
                rest: Callable[[_Words], T]) -> Request[T]:
     arch = _arch(arch)
-
-    def parse(words: _Words) -> T:
-        words.expect(arch, "arch number")
-        return rest(words)
-
-    return _read(number, (arch,), f"Arch {arch}{what}", data_words, parse)
+    return _echo_read(number, ((arch, "arch number"),), f"Arch {arch}{what}", data_words, rest)
 
 
 def read_arch(arch: int) -> Request[Distances]:
@@ -1048,12 +1047,8 @@ def _number15(value: int, what: str) -> int:
 def _box_read(number: int, area: int, axis: int, what: str, data_words: int,
               rest: Callable[[_Words], T]) -> Request[T]:
     area, axis = _number15(area, "Box area"), _check(axis, 0, 2, "Box axis")
-
-    def parse(words: _Words) -> T:
-        _echoed(words, ((area, "area number"), (axis, "axis")))
-        return rest(words)
-
-    return _read(number, (area, axis), f"Box {area} {_XYZ[axis]}{what}", data_words, parse)
+    return _echo_read(number, ((area, "area number"), (axis, "axis")),
+                      f"Box {area} {_XYZ[axis]}{what}", data_words, rest)
 
 
 def read_box(area: int, axis: int) -> Request[Limits]:
@@ -1071,7 +1066,10 @@ def read_box_upper(area: int, axis: int) -> Request[str]:
     return _box_read(605, area, axis, " upper", 4, lambda w: w.real("upper"))
 
 
-def _xyz_limits(limits: Sequence[Limits], what: str) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+_Pair = tuple[int, int]
+
+
+def _xyz_limits(limits: Sequence[Limits], what: str) -> list[tuple[_Pair, _Pair]]:
     if len(limits) != 3:
         raise ValueError(f"{what}: {len(limits)} axes given, X, Y and Z needed")
     return [(real_to_words(lim.lower), real_to_words(lim.upper)) for lim in limits]
@@ -1096,12 +1094,9 @@ def set_box(area: int, limits: Sequence[Limits], *,
 
 def _frame_read(number: int, item: str, frame: int, coord: int) -> Request[str]:
     frame, coord = _number15(frame, f"{item} number"), _check(coord, 0, 5, "coordinate")
-
-    def parse(words: _Words) -> str:
-        _echoed(words, ((frame, f"{item} number"), (coord, "coordinate")))
-        return words.real(COORDINATES[coord])
-
-    return _read(number, (frame, coord), f"{item} {frame} {COORDINATES[coord]}", 4, parse)
+    return _echo_read(number, ((frame, f"{item} number"), (coord, "coordinate")),
+                      f"{item} {frame} {COORDINATES[coord]}", 4,
+                      lambda w: w.real(COORDINATES[coord]))
 
 
 def read_plane(plane: int, coord: int) -> Request[str]:
@@ -1144,12 +1139,7 @@ def set_local(local: int, coords: Sequence[str]) -> WriteSequence:
 def _xylim_read(number: int, axis: int, what: str, data_words: int,
                 rest: Callable[[_Words], T]) -> Request[T]:
     axis = _check(axis, 0, 2, "XYLim axis")
-
-    def parse(words: _Words) -> T:
-        words.expect(axis, "axis")
-        return rest(words)
-
-    return _read(number, (axis,), f"XYLim {_XYZ[axis]}{what}", data_words, parse)
+    return _echo_read(number, ((axis, "axis"),), f"XYLim {_XYZ[axis]}{what}", data_words, rest)
 
 
 def read_xylim(axis: int) -> Request[Limits]:
@@ -1177,7 +1167,8 @@ def set_xylim(limits: Sequence[Limits], *, command_words: int = MAX_WORDS) -> Wr
                 tuple(_write(750, (axis, *low, *high), "XYLim")
                       for axis, (low, high) in enumerate(words)),
                 tuple(_write(751, (axis, *low), "XYLim") for axis, (low, _) in enumerate(words))
-                + tuple(_write(752, (axis, *high), "XYLim") for axis, (_, high) in enumerate(words)))
+                + tuple(_write(752, (axis, *high), "XYLim")
+                        for axis, (_, high) in enumerate(words)))
 
 
 def _joint(joint: int) -> int:
@@ -1187,12 +1178,8 @@ def _joint(joint: int) -> int:
 def _jrange_read(number: int, joint: int, what: str, data_words: int,
                  rest: Callable[[_Words], T]) -> Request[T]:
     joint = _joint(joint)
-
-    def parse(words: _Words) -> T:
-        words.expect(joint, "joint")
-        return rest(words)
-
-    return _read(number, (joint,), f"JRange joint {joint}{what}", data_words, parse)
+    return _echo_read(number, ((joint, "joint"),), f"JRange joint {joint}{what}", data_words,
+                      rest)
 
 
 def read_jrange(joint: int) -> Request[PulseLimits]:
@@ -1225,12 +1212,8 @@ def set_jrange(joint: int, value: PulseLimits, *,
 def read_base(coord: int) -> Request[str]:
     """851: one coordinate (0 X ... 5 W) of the Base coordinate system."""
     coord = _check(coord, 0, 5, "coordinate")
-
-    def parse(words: _Words) -> str:
-        words.expect(coord, "coordinate")
-        return words.real(COORDINATES[coord])
-
-    return _read(851, (coord,), f"Base {COORDINATES[coord]}", 3, parse)
+    return _echo_read(851, ((coord, "coordinate"),), f"Base {COORDINATES[coord]}", 3,
+                      lambda w: w.real(COORDINATES[coord]))
 
 
 def set_base(coords: Sequence[str]) -> WriteSequence:
