@@ -242,6 +242,36 @@ def test_status_names_the_interlock_signals_and_whether_the_function_is_idle() -
     assert hs.status().describe() == "Error 1 (the controller is in error)"
 
 
+@pytest.mark.parametrize("signal", ["Running", "Paused", "EStopOn", "Error"])
+def test_a_write_is_refused_while_an_interlock_signal_is_1_and_a_read_is_not(signal: str) -> None:
+    fake = controller()
+    hs = handshake(fake)
+    hs.start()
+    fake.set_signal(signal, True)
+    polls = sum(op.kind == "read_input" for op in fake.log)
+    with pytest.raises(InterlockError) as caught:
+        hs.execute(p.select_tool(5).requests[0])
+    assert f"{signal} 1 (" in one_line(caught.value)
+    assert "command 500 (Tool) not sent, nothing written" in str(caught.value)
+    with pytest.raises(InterlockError):
+        hs.execute_sequence(p.set_base(["1", "2", "3", "4"]))
+    assert fake.command_writes() == []
+    assert sum(op.kind == "read_input" for op in fake.log) == polls + 2  # the step 1 reads
+    assert hs.execute(p.read_accel_s(15)) == VALUES
+
+
+def test_a_sequence_looks_at_the_interlock_once_and_then_goes_out_back_to_back() -> None:
+    fake = controller()
+
+    def answer(words: tuple[int, ...]) -> tuple[bool, tuple[int, ...]]:
+        fake.set_signal("Running", True)  # a task starts after the first command
+        return False, (words[0], 0, 0)
+
+    fake.answer = answer
+    assert handshake(fake).execute_sequence(p.set_base(["1", "2", "3", "4"])) is None
+    assert [w[:2] for w in fake.taken] == [(0x0352, c) for c in range(4)]
+
+
 def test_a_robot_whose_map_lacks_paused_is_read_but_never_written() -> None:
     fake = controller(map=RegisterMap.from_dict({"signals": {"Paused": None}}))
     hs = handshake(fake)

@@ -23,6 +23,11 @@ never reads its own inputs back after :meth:`Handshake.start`, it keeps them.
 Bits of the control registers that are not handshake signals keep the value
 they were read with.
 
+The step 1 read is the interlock too: a write goes out only while Running,
+Paused, EStopOn and Error are 0 (a split write or Rn sequence is looked at
+once, before its first command, and then sent without a pause), and never to
+a robot whose map lacks Running, Paused or EStopOn.  Reads go out regardless.
+
 A command has one deadline for all ten steps.  When it passes, ExtCmdSet and
 ExtRespGet go low and the command stays *pending*: the next request first
 waits for its late response (and discards it) or finds it never taken, and
@@ -397,14 +402,22 @@ class Handshake:
         """Send ``request`` and return its decoded response, or the
         :class:`ErrorReply` of an error response.
 
+        A write goes out only when the step 1 read (no extra one) finds Running,
+        Paused, EStopOn and Error at 0; send a split write or an Rn sequence with
+        :meth:`execute_sequence`, which looks once, before its first command.
+
         Raises :class:`ValueError` for a request the map has too few words for,
-        :class:`InterlockError` for a write to a robot whose map is unwritable,
+        :class:`InterlockError` (nothing sent) for a write to a robot that is
+        busy or whose map is unwritable, naming the signal,
         :class:`FunctionBusy` when the function is in use, :class:`FunctionError`
         on ExtError, :class:`HandshakeTimeout` when the deadline passes (or an
         earlier command is still unanswered: nothing is sent),
         :class:`~harlsync.errors.ReplyError` for a response that does not answer
         it, and the transport's :class:`~harlsync.errors.LinkError`.
         """
+        return self._execute(request, interlock=request.is_write)
+
+    def _execute(self, request: Request[T], *, interlock: bool) -> T | ErrorReply:
         self._fits(request)
         if request.is_write and self.map.unwritable is not None:
             raise InterlockError(f"{self.label}: {self.map.unwritable}")
@@ -415,6 +428,9 @@ class Handshake:
         status = self._snapshot()
         if status["ExtError"]:
             self._function_error(status, None)
+        if interlock and status.busy:
+            raise InterlockError(f"{self.label}: {status.describe()}: command {request} not "
+                                 "sent, nothing written")
         if not status.function_idle:
             raise FunctionBusy(
                 f"the Remote Control function is in use ({status.function_signals()}): a "
@@ -446,10 +462,12 @@ class Handshake:
         return request.decode(response, error=error)
 
     def execute_sequence(self, sequence: WriteSequence) -> ErrorReply | None:
-        """Send a write's commands back to back; the first error response stops it
-        (the controller then cancels the rest anyway) and is returned."""
-        for request in sequence:
-            reply = self.execute(request)
+        """Send a write's commands back to back: the interlock is read before the
+        first (raises :class:`InterlockError`, nothing sent), the rest follow
+        without a pause.  The first error response stops it (the controller then
+        cancels the rest anyway) and is returned."""
+        for i, request in enumerate(sequence):
+            reply = self._execute(request, interlock=i == 0)
             if isinstance(reply, ErrorReply):
                 return reply
         return None
