@@ -1,0 +1,567 @@
+"""The Remote Control handshake (§6), by polling, over any register access.
+
+How this works::
+
+    harlsync (holding registers)              controller (input registers)
+    ExtCmdReset 1, held while the function is in use (§6.1-6.2: raised once,
+    after ExtCmdSet and ExtRespGet are 0; never dropped on a function found on)
+
+     1  function ready?  ExtCmdSet 0 ExtRespGet 0 | ExtCmdGet 0 ExtRespSet 0 ExtError 0
+     2  command words ------------------------->
+     3  ExtCmdSet 1 --------------------------->
+     4                                 <-------- ExtCmdGet 1     (polled)
+     5  ExtCmdSet 0 --------------------------->
+     6                                 <-------- ExtRespSet 1    (polled: the same read
+     7                                 <-------- ExtCmdResult     holds ExtCmdResult and
+     8  (response read) ExtRespGet 1 ---------->                  the response words)
+     9                                 <-------- ExtRespSet 0    (polled)
+    10  ExtRespGet 0 -------------------------->
+
+Every poll is one read of the input registers that hold all the controller's
+outputs and response words (:attr:`RegisterMap.input_span`); the handshake
+never reads its own inputs back after :meth:`Handshake.start`, it keeps them.
+Bits of the control registers that are not handshake signals keep the value
+they were read with.
+
+The step 1 read is the interlock too: a write goes out only while Running,
+Paused, EStopOn and Error are 0 (a split write or Rn sequence is looked at
+once, before its first command, and then sent without a pause), and never to
+a robot whose map lacks Running, Paused or EStopOn.  Reads go out regardless.
+
+A command has one deadline for all ten steps.  When it passes, ExtCmdSet and
+ExtRespGet go low and the command stays *pending*: the next request first
+waits for its late response (and discards it) or finds it never taken, and
+sends nothing while it may still be running (a second request halts the
+function, §6.5.1).  ExtError 1 is a function error (§6.5), raised with its
+code; only :meth:`Handshake.reset_function`, asked for, resets the function
+(§6.5.2), and only while Running is 0.
+
+The handshake does no I/O of its own: it is given a :class:`RegisterAccess`
+(Modbus TCP in :mod:`.transport`, a fake register bank in the tests) and a
+:class:`Clock` (the poll interval and deadlines; a test's clock need not wait).
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Protocol, TypeVar
+
+from ...errors import ControllerError, InterlockError, LinkError, LinkTimeout, PortBusyError
+from . import profile
+from .profile import HANDSHAKE_INPUTS, INTERLOCK_SIGNALS, Bit, RegisterMap
+from .protocol import FUNCTION_ERROR, ErrorReply, Request, WriteSequence, describe_code
+
+__all__ = [
+    "Clock",
+    "FunctionBusy",
+    "FunctionError",
+    "Handshake",
+    "HandshakeTimeout",
+    "RegisterAccess",
+    "RemoteStatus",
+    "Step",
+    "SystemClock",
+]
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+
+class RegisterAccess(Protocol):
+    """What the handshake needs of a line: read and write 16-bit registers."""
+
+    #: Where the registers are, for messages: ``"modbus://10.0.0.5:502 unit 1"``.
+    label: str
+
+    def read_holding(self, address: int, count: int) -> Sequence[int]:
+        """``count`` holding registers from ``address``."""
+        ...
+
+    def read_input(self, address: int, count: int) -> Sequence[int]:
+        """``count`` input registers from ``address``."""
+        ...
+
+    def write_holding(self, address: int, values: Sequence[int]) -> None:
+        """Write holding registers from ``address``, in one request."""
+        ...
+
+
+class Clock(Protocol):
+    """Time for polls and deadlines."""
+
+    def monotonic(self) -> float: ...
+
+    def sleep(self, seconds: float) -> None: ...
+
+
+class SystemClock:
+    """The real clock."""
+
+    def monotonic(self) -> float:
+        return time.monotonic()
+
+    def sleep(self, seconds: float) -> None:
+        time.sleep(seconds)
+
+
+class Step(enum.IntEnum):
+    """The ten steps of one command (§6.3)."""
+
+    FUNCTION_READY = 1
+    COMMAND_WORDS = 2
+    COMMAND_SET = 3
+    COMMAND_ACQUIRED = 4
+    COMMAND_SET_CLEARED = 5
+    RESPONSE_SET = 6
+    RESULT = 7
+    RESPONSE_ACQUIRED = 8
+    RESPONSE_RELEASED = 9
+    RESPONSE_GET_CLEARED = 10
+
+    @property
+    def text(self) -> str:
+        return _STEP_TEXT[self]
+
+
+_STEP_TEXT = {
+    Step.FUNCTION_READY: "the function ready: ExtCmdReset 1, every other signal 0",
+    Step.COMMAND_WORDS: "writing the command words",
+    Step.COMMAND_SET: "raising ExtCmdSet",
+    Step.COMMAND_ACQUIRED: "waiting for ExtCmdGet 1: the controller takes the command",
+    Step.COMMAND_SET_CLEARED: "clearing ExtCmdSet",
+    Step.RESPONSE_SET: "waiting for ExtRespSet 1: the command completes",
+    Step.RESULT: "reading ExtCmdResult",
+    Step.RESPONSE_ACQUIRED: "reading the response, raising ExtRespGet",
+    Step.RESPONSE_RELEASED: "waiting for ExtRespSet 0: the controller releases the response",
+    Step.RESPONSE_GET_CLEARED: "clearing ExtRespGet",
+}
+
+#: What each interlock signal at 1 means.
+_BUSY_TEXT: Mapping[str, str] = MappingProxyType({
+    "Running": "a task is executing",
+    "Paused": "a task is paused",
+    "EStopOn": "emergency stop",
+    "Error": "the controller is in error",
+})
+_FUNCTION_SIGNALS = ("ExtCmdReset", "ExtCmdSet", "ExtRespGet", "ExtCmdGet", "ExtRespSet",
+                     "ExtError")
+
+
+class HandshakeTimeout(LinkTimeout):
+    """A command's deadline passed: ``step`` is where it stopped, ``acquired`` whether
+    the controller had taken it (a write may then have taken effect)."""
+
+    def __init__(self, message: str, *, port: str, command: str, step: Step,
+                 acquired: bool) -> None:
+        self.step = step
+        self.acquired = acquired
+        super().__init__(message, port=port, command=command)
+
+
+class FunctionError(ControllerError):
+    """ExtError 1: the Remote Control function is halted (§6.5) until a function
+    reset (detail 0001) or a controller reset (9901, 9902).  ``code`` and
+    ``detail`` are Response 1 and 2 as read."""
+
+    def __init__(self, code: int, detail: int, *, port: str, command: str | None) -> None:
+        self.code = code
+        self.detail = detail
+        remedy = ("reset the function (--reset-function, on an idle robot)" if detail == 0x0001
+                  else "reset the controller")
+        super().__init__(
+            f"{code:04X}/{detail:04X}",
+            port=port,
+            command=command,
+            message=f"function error (ExtError 1): {describe_code(code, detail)}; {remedy}",
+        )
+
+
+class FunctionBusy(PortBusyError):
+    """The function is in use: a command of someone else, or left by an earlier
+    harlsync, is unanswered, so nothing may be sent."""
+
+
+@dataclass(frozen=True)
+class RemoteStatus:
+    """One read of the controller's outputs, with the handshake's own inputs.
+
+    ``signals`` holds every signal by its manual name (None: not mapped);
+    ``response`` the response words as read.  It is the interlock's answer too
+    (:class:`~harlsync.families.base.Status`).
+    """
+
+    signals: Mapping[str, bool | None]
+    response: tuple[int, ...]
+    #: why the map never allows a write (:attr:`RegisterMap.unwritable`)
+    unwritable: str | None = None
+
+    def __getitem__(self, name: str) -> bool | None:
+        return self.signals[name]
+
+    @property
+    def busy(self) -> tuple[str, ...]:
+        """The interlock signals at 1: Running, Paused, EStopOn, Error."""
+        return tuple(name for name in INTERLOCK_SIGNALS if self.signals[name])
+
+    @property
+    def function_off(self) -> tuple[str, ...]:
+        """The signals that keep the function from taking a command (step 1):
+        ExtCmdReset at 0, any other handshake signal at 1."""
+        return tuple(name for name in _FUNCTION_SIGNALS
+                     if bool(self.signals[name]) != (name == "ExtCmdReset"))
+
+    @property
+    def function_idle(self) -> bool:
+        return not self.function_off
+
+    @property
+    def idle(self) -> bool:
+        """Whether a write may go now."""
+        return self.unwritable is None and not self.busy and self.function_idle
+
+    def describe(self) -> str:
+        """``"idle"``, or what forbids a write, naming the signal."""
+        if self.unwritable is not None:
+            return self.unwritable
+        if self.busy:
+            return ", ".join(f"{name} 1 ({_BUSY_TEXT[name]})" for name in self.busy)
+        if not self.function_idle:
+            return f"the Remote Control function is not idle ({self.function_signals()})"
+        return "idle"
+
+    def function_signals(self) -> str:
+        """The handshake signals that keep the function from taking a command:
+        ``"ExtCmdReset 0, ExtRespSet 1"`` (empty when it is idle)."""
+        return ", ".join(f"{name} {int(bool(self.signals[name]))}" for name in self.function_off)
+
+
+@dataclass
+class _Pending:
+    """A command sent and not answered."""
+
+    request: Request[object]
+    step: Step
+    acquired: bool = False
+
+
+class Handshake:
+    """The §6 handshake for one controller, over ``registers`` with ``register_map``.
+
+    One command at a time: :meth:`execute` returns when the ten steps are done
+    (or raises).  Not thread-safe; one harlsync per controller is the line
+    lock's job.
+    """
+
+    def __init__(
+        self,
+        registers: RegisterAccess,
+        register_map: RegisterMap | None = None,
+        *,
+        poll_interval: float = profile.POLL_INTERVAL,
+        deadline: float = profile.COMMAND_DEADLINE,
+        clock: Clock | None = None,
+    ) -> None:
+        self.registers = registers
+        self.map = register_map if register_map is not None else RegisterMap()
+        self.poll_interval = poll_interval
+        self.deadline = deadline
+        self.clock: Clock = clock if clock is not None else SystemClock()
+        #: the control holding registers as harlsync last wrote (or first read) them
+        self._control: dict[int, int] | None = None
+        self._started = False
+        self._pending: _Pending | None = None
+
+    @property
+    def label(self) -> str:
+        return self.registers.label
+
+    @property
+    def pending(self) -> str | None:
+        """The command sent and not answered, with the step it stopped at, or None."""
+        p = self._pending
+        return None if p is None else f"{p.request} at step {p.step.value}"
+
+    # --- signals ------------------------------------------------------------------------
+
+    def _load_control(self) -> dict[int, int]:
+        if self._control is None:
+            control = {}
+            for register in self.map.control_registers:
+                values = self.registers.read_holding(register, 1)
+                if len(values) != 1:
+                    raise LinkError(f"holding register {register}: {len(values)} values "
+                                    "read, 1 asked for", port=self.label)
+                control[register] = values[0]
+            self._control = control
+        return self._control
+
+    def _input(self, bit: Bit) -> bool:
+        return bool(self._load_control()[bit.register] >> bit.bit & 1)
+
+    def _drive(self, bit: Bit, on: bool) -> None:
+        """Set one of harlsync's signals; writes its register only if it changes."""
+        control = self._load_control()
+        old = control[bit.register]
+        new = old | 1 << bit.bit if on else old & ~(1 << bit.bit)
+        if new != old:
+            try:
+                self.registers.write_holding(bit.register, [new])
+            except LinkError:
+                self._control = None  # it may or may not have taken: read them again
+                raise
+            control[bit.register] = new
+
+    def _snapshot(self) -> RemoteStatus:
+        """One read of every output signal and response word."""
+        first, count = self.map.input_span
+        values = tuple(self.registers.read_input(first, count))
+        if len(values) != count:
+            raise LinkError(f"input registers {first}-{first + count - 1}: {len(values)} "
+                            f"values read, {count} asked for", port=self.label)
+        control = self._load_control()
+        signals: dict[str, bool | None] = {}
+        for name, bit in self.map.signals():
+            if bit is None:
+                signals[name] = None
+            elif name in HANDSHAKE_INPUTS:
+                signals[name] = bool(control[bit.register] >> bit.bit & 1)
+            else:
+                signals[name] = bool(values[bit.register - first] >> bit.bit & 1)
+        start = self.map.response_base - first
+        response = values[start : start + self.map.response_words]
+        return RemoteStatus(signals, response, self.map.unwritable)
+
+    # --- start, status, reset -----------------------------------------------------------
+
+    def start(self) -> None:
+        """Make the function usable (§6.1-6.2): when ExtCmdReset is 0, clear
+        ExtCmdSet and ExtRespGet, then raise ExtCmdReset.  A function found with
+        ExtCmdReset 1 is left as it is (dropping it aborts motion, §4.1.1)."""
+        self._control = None
+        if self._input(self.map.ext_cmd_reset):
+            log.debug("%s: ExtCmdReset already 1: the function is kept as found", self.label)
+        else:
+            self._drive(self.map.ext_cmd_set, False)
+            self._drive(self.map.ext_resp_get, False)
+            self._drive(self.map.ext_cmd_reset, True)
+            log.debug("%s: ExtCmdReset raised (§6.2)", self.label)
+        self._started = True
+
+    def status(self) -> RemoteStatus:
+        """The controller's outputs now, and the interlock's answer.  Sends no command."""
+        return self._snapshot()
+
+    def reset_function(self) -> None:
+        """The §6.5.2 function reset: ExtCmdReset, ExtCmdSet, ExtRespGet low, at
+        least 30 ms, ExtCmdReset high; then wait for the function to be ready.
+
+        Raises :class:`InterlockError` (and changes nothing) when Running is 1 or
+        the map has no Running signal: dropping ExtCmdReset aborts motion.
+        Raises :class:`HandshakeTimeout` when the function is not ready again
+        within the deadline.
+        """
+        if self.map.running is None:
+            raise InterlockError(f"{self.label}: the register map has no Running signal, so "
+                                 "harlsync cannot see that the robot is idle: no function reset")
+        status = self._snapshot()
+        if status["Running"]:
+            raise InterlockError(f"{self.label}: Running 1 (a task is executing): dropping "
+                                 "ExtCmdReset would abort motion; the function is not reset")
+        self._drive(self.map.ext_cmd_reset, False)
+        self._drive(self.map.ext_cmd_set, False)
+        self._drive(self.map.ext_resp_get, False)
+        low_since = self.clock.monotonic()
+        while (left := profile.FUNCTION_RESET_LOW - (self.clock.monotonic() - low_since)) > 0:
+            self.clock.sleep(left)
+        self._drive(self.map.ext_cmd_reset, True)
+        self._started = True
+        self._pending = None
+        log.info("%s: function reset (§6.5.2)", self.label)
+        deadline = self.clock.monotonic() + self.deadline
+        while True:
+            status = self._snapshot()
+            if status.function_idle:
+                return
+            if self.clock.monotonic() >= deadline:
+                raise HandshakeTimeout(
+                    f"the function is not ready {self.deadline:g} s after its reset "
+                    f"({status.describe()}): reset the controller",
+                    port=self.label, command="function reset", step=Step.FUNCTION_READY,
+                    acquired=False)
+            self.clock.sleep(self.poll_interval)
+
+    # --- commands -----------------------------------------------------------------------
+
+    def execute(self, request: Request[T]) -> T | ErrorReply:
+        """Send ``request`` and return its decoded response, or the
+        :class:`ErrorReply` of an error response.
+
+        A write goes out only when the step 1 read (no extra one) finds Running,
+        Paused, EStopOn and Error at 0; send a split write or an Rn sequence with
+        :meth:`execute_sequence`, which looks once, before its first command.
+
+        Raises :class:`ValueError` for a request the map has too few words for,
+        :class:`InterlockError` (nothing sent) for a write to a robot that is
+        busy or whose map is unwritable, naming the signal,
+        :class:`FunctionBusy` when the function is in use, :class:`FunctionError`
+        on ExtError, :class:`HandshakeTimeout` when the deadline passes (or an
+        earlier command is still unanswered: nothing is sent),
+        :class:`~harlsync.errors.ReplyError` for a response that does not answer
+        it, and the transport's :class:`~harlsync.errors.LinkError`.
+        """
+        return self._execute(request, interlock=request.is_write)
+
+    def _execute(self, request: Request[T], *, interlock: bool) -> T | ErrorReply:
+        self._fits(request)
+        if request.is_write and self.map.unwritable is not None:
+            raise InterlockError(f"{self.label}: {self.map.unwritable}")
+        if not self._started:
+            self.start()
+        deadline = self.clock.monotonic() + self.deadline
+        self._settle(deadline)
+        status = self._snapshot()
+        if status["ExtError"]:
+            self._function_error(status, None)
+        if interlock and status.busy:
+            raise InterlockError(f"{self.label}: {status.describe()}: command {request} not "
+                                 "sent, nothing written")
+        if not status.function_idle:
+            raise FunctionBusy(
+                f"the Remote Control function is in use ({status.function_signals()}): a "
+                "command of another client, or one left by an earlier harlsync, is "
+                "unanswered; nothing sent. If no one else drives this controller, "
+                "--reset-function clears it on an idle robot",
+                port=self.label, command=str(request))
+        words = request.encode(self.map.command_words)
+        log.debug("%s: command %s", self.label, " ".join(f"{w:04X}" for w in words))
+        self._pending = _Pending(request, Step.COMMAND_WORDS)
+        self.registers.write_holding(self.map.command_base, words)
+        self._pending.step = Step.COMMAND_SET
+        self._drive(self.map.ext_cmd_set, True)
+        self._wait(deadline, Step.COMMAND_ACQUIRED, lambda s: bool(s["ExtCmdGet"]))
+        self._pending.acquired = True
+        self._pending.step = Step.COMMAND_SET_CLEARED
+        self._drive(self.map.ext_cmd_set, False)
+        status = self._wait(deadline, Step.RESPONSE_SET, lambda s: bool(s["ExtRespSet"]))
+        error = bool(status["ExtCmdResult"])
+        response = status.response
+        log.debug("%s: response %s%s", self.label, " ".join(f"{w:04X}" for w in response),
+                  " (ExtCmdResult 1)" if error else "")
+        self._pending.step = Step.RESPONSE_ACQUIRED
+        self._drive(self.map.ext_resp_get, True)
+        self._wait(deadline, Step.RESPONSE_RELEASED, lambda s: not s["ExtRespSet"])
+        self._pending.step = Step.RESPONSE_GET_CLEARED
+        self._drive(self.map.ext_resp_get, False)
+        self._pending = None
+        return request.decode(response, error=error)
+
+    def execute_sequence(self, sequence: WriteSequence) -> ErrorReply | None:
+        """Send a write's commands back to back: the interlock is read before the
+        first (raises :class:`InterlockError`, nothing sent), the rest follow
+        without a pause.  The first error response stops it (the controller then
+        cancels the rest anyway) and is returned."""
+        for i, request in enumerate(sequence):
+            reply = self._execute(request, interlock=i == 0)
+            if isinstance(reply, ErrorReply):
+                return reply
+        return None
+
+    def _fits(self, request: Request[object]) -> None:
+        for what, need, have in (("command", request.command_words, self.map.command_words),
+                                 ("response", request.response_words, self.map.response_words)):
+            if need > have:
+                raise ValueError(f"{self.label}: {request} needs {need} {what} words, the "
+                                 f"register map has {have}")
+
+    def _wait(self, deadline: float, step: Step,
+              done: Callable[[RemoteStatus], bool]) -> RemoteStatus:
+        """Poll until ``done``; on the way, ExtError raises and the deadline times out."""
+        pending = self._pending
+        assert pending is not None
+        pending.step = step
+        while True:
+            status = self._snapshot()
+            if status["ExtError"]:
+                self._function_error(status, pending.request)
+            if done(status):
+                return status
+            now = self.clock.monotonic()
+            if now >= deadline:
+                self._timeout(pending)
+            self.clock.sleep(min(self.poll_interval, deadline - now))
+
+    def _timeout(self, pending: _Pending) -> None:
+        """Leave ExtCmdSet and ExtRespGet low, keep the command pending, raise."""
+        try:
+            self._drive(self.map.ext_cmd_set, False)
+            self._drive(self.map.ext_resp_get, False)
+        except LinkError as exc:  # the timeout is the error worth raising
+            log.debug("%s: clearing the handshake inputs failed: %s", self.label, exc)
+        note = ""
+        if pending.acquired and pending.request.is_write:
+            note = "; the controller took the write: it may or may not have taken effect"
+        raise HandshakeTimeout(
+            f"no answer within {self.deadline:g} s: stopped at step {pending.step.value} of "
+            f"§6.3 ({pending.step.text}){note}",
+            port=self.label, command=str(pending.request), step=pending.step,
+            acquired=pending.acquired)
+
+    def _function_error(self, status: RemoteStatus, request: Request[object] | None) -> None:
+        """ExtError 1: the function halted and the command (if any) was aborted."""
+        self._pending = None
+        try:
+            self._drive(self.map.ext_cmd_set, False)
+            self._drive(self.map.ext_resp_get, False)
+        except LinkError as exc:
+            log.debug("%s: clearing the handshake inputs failed: %s", self.label, exc)
+        words = status.response
+        code = words[1] if len(words) > 1 else FUNCTION_ERROR
+        detail = words[2] if len(words) > 2 else 0
+        raise FunctionError(code, detail, port=self.label,
+                            command=None if request is None else str(request))
+
+    def _settle(self, deadline: float) -> None:
+        """Before a new command: finish with one left unanswered.
+
+        Its late response is acknowledged and discarded; one never taken is
+        dropped.  While it may still run, nothing is sent: the deadline times
+        out naming it.
+        """
+        pending = self._pending
+        if pending is None:
+            return
+        self._drive(self.map.ext_cmd_set, False)
+        self._drive(self.map.ext_resp_get, False)
+        while True:
+            status = self._snapshot()
+            if status["ExtError"]:
+                self._function_error(status, pending.request)
+            if status["ExtRespSet"]:
+                log.warning("%s: command %s answered late: response %s discarded", self.label,
+                            pending.request, " ".join(f"{w:04X}" for w in status.response))
+                self._drive(self.map.ext_resp_get, True)
+                self._wait(deadline, Step.RESPONSE_RELEASED, lambda s: not s["ExtRespSet"])
+                self._drive(self.map.ext_resp_get, False)
+                self._pending = None
+                return
+            if status["ExtCmdGet"]:
+                pending.acquired = True
+            elif not pending.acquired:
+                log.debug("%s: command %s was never taken: dropped", self.label, pending.request)
+                self._pending = None
+                return
+            now = self.clock.monotonic()
+            if now >= deadline:
+                raise HandshakeTimeout(
+                    f"still unanswered after {self.deadline:g} s more (stopped at step "
+                    f"{pending.step.value} of §6.3, {pending.step.text}): nothing else is sent "
+                    "while it may run (a second request halts the function, §6.5.1)",
+                    port=self.label, command=str(pending.request), step=pending.step,
+                    acquired=pending.acquired)
+            self.clock.sleep(min(self.poll_interval, deadline - now))

@@ -1,0 +1,405 @@
+"""Every choice the Epson Remote Control manual leaves open, in one place.
+
+These are the *(profile)* decisions of ``shared/spec/epson-remote-control-profile.md``.
+The manual defines the command words and the handshake; it does not say where
+the Remote I/O signals and words sit on a fieldbus (the site assigns them in
+RC+, [Setup]-[System Configuration]-[Controller]-[Remote Control]).  The
+default map is here, and every register and bit of it can be moved per robot
+(:class:`RegisterMap`, built from the plain dict robot.yaml gives)::
+
+    holding registers (harlsync writes the controller's Remote inputs)
+      in_base        bit 0 ExtCmdSet   bit 1 ExtRespGet   bit 2 ExtCmdReset
+      in_base+1..+8  ExtCmd word 0..7  (word 0 = command number)
+    input registers (harlsync reads the controller's Remote outputs)
+      out_base       bit 0 ExtCmdGet   bit 1 ExtRespSet   bit 2 ExtCmdResult
+                     bit 3 ExtError    bit 8 Ready        bit 9 Running
+                     bit 10 Paused     bit 11 Error       bit 12 EStopOn
+                     bit 13 SafeguardOn
+      out_base+1..+8 ExtResp word 0..7 (word 0 = the command number echoed)
+
+    16 Remote I/O bits a register, bit 0 = the register's lowest bit.
+
+The dict form (every key optional; a signal is a bit of its base register, a
+``{register, bit}`` pair anywhere, or ``null`` for a status signal the site did
+not map)::
+
+    in_base: 0
+    out_base: 0
+    command_base: 1          # default in_base + 1
+    command_words: 8         # 3 to 8, as assigned in RC+
+    response_base: 1         # default out_base + 1
+    response_words: 8        # 3 to 8
+    signals:
+      ExtCmdSet: 0
+      Running: {register: 20, bit: 3}
+      SafeguardOn: null
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, NamedTuple, TypeGuard
+
+__all__ = [
+    "COMMAND_DEADLINE",
+    "DEFAULT_POINT_RANGE",
+    "DEFAULT_PORT",
+    "DEFAULT_UNIT",
+    "FUNCTION_RESET_LOW",
+    "HANDSHAKE_INPUTS",
+    "HANDSHAKE_OUTPUTS",
+    "INTERLOCK_SIGNALS",
+    "MODBUS_MAX_READ",
+    "MODBUS_RETRIES",
+    "MODBUS_TIMEOUT",
+    "POLL_INTERVAL",
+    "REQUIRED_FOR_WRITES",
+    "ROBOT_AXES",
+    "SIGNAL_NAMES",
+    "STATUS_SIGNALS",
+    "TABLE_NOT_REGISTERED",
+    "TABLE_OUT_OF_RANGE",
+    "UNDEFINED_POINT",
+    "Bit",
+    "RegisterMap",
+    "RegisterMapInvalid",
+]
+
+# --- the line ------------------------------------------------------------------------
+
+#: Modbus TCP port when the URL gives none (``modbus://HOST[:PORT]``).
+DEFAULT_PORT = 502
+#: Modbus unit id when the robot file gives none.
+DEFAULT_UNIT = 1
+#: Seconds one Modbus transaction may take before it is sent again.
+MODBUS_TIMEOUT = 0.5
+#: How often a transaction is sent again after no answer.  Safe: every request
+#: harlsync makes is a read or a write of absolute register values, so a
+#: repeat changes nothing the first one did not.
+MODBUS_RETRIES = 2
+#: The most registers one Modbus read returns (the Modbus specification): the
+#: handshake reads every output signal and response word in one read.
+MODBUS_MAX_READ = 125
+
+# --- the handshake (§6) --------------------------------------------------------------
+
+#: Seconds between two reads of the controller's outputs while waiting on a step.
+POLL_INTERVAL = 0.005
+#: Seconds one command may take, all ten steps of §6.3 together.
+COMMAND_DEADLINE = 2.0
+#: Seconds all three inputs stay low in the §6.5.2 function reset (the manual: at
+#: least 30 ms, its only timing value).
+FUNCTION_RESET_LOW = 0.030
+
+# --- answers the manual leaves open ---------------------------------------------------
+
+#: Response 1 of a point that is not defined (1215-1222): parameter error.
+UNDEFINED_POINT = 0x2004
+#: Response 1 of a table entry never registered: table registration error.
+TABLE_NOT_REGISTERED = 0x2006
+#: Response 1 of a table number over 15.
+TABLE_OUT_OF_RANGE = 0x2005
+
+#: Points backed up when the robot file gives no range: P0 to P99, inclusive.
+DEFAULT_POINT_RANGE = (0, 99)
+
+#: Manipulator type (command 2153) -> its axes: the coordinates of a point, Plane,
+#: Local and Base, the joints of JRange and the words of Fine.  Types not listed
+#: (1 Joint, 2 Cartesian) need the axis count in the robot file.
+ROBOT_AXES: Mapping[int, int] = MappingProxyType({3: 4, 5: 6, 6: 4})
+
+# --- the register map -----------------------------------------------------------------
+
+#: The controller's Remote inputs harlsync drives, with their default bit of ``in_base``.
+HANDSHAKE_INPUTS: Mapping[str, int] = MappingProxyType(
+    {"ExtCmdSet": 0, "ExtRespGet": 1, "ExtCmdReset": 2}
+)
+#: The handshake's Remote outputs, default bits of ``out_base``.  All seven
+#: handshake signals must be mapped: the function does not work without them (§5.2).
+HANDSHAKE_OUTPUTS: Mapping[str, int] = MappingProxyType(
+    {"ExtCmdGet": 0, "ExtRespSet": 1, "ExtCmdResult": 2, "ExtError": 3}
+)
+#: The controller's standard Remote outputs harlsync reads for the interlock,
+#: default bits of ``out_base``; the site may leave any of them unmapped.
+STATUS_SIGNALS: Mapping[str, int] = MappingProxyType(
+    {"Ready": 8, "Running": 9, "Paused": 10, "Error": 11, "EStopOn": 12, "SafeguardOn": 13}
+)
+#: A write goes out only while all of these are 0 (those that are mapped).
+INTERLOCK_SIGNALS = ("Running", "Paused", "EStopOn", "Error")
+#: A robot whose map lacks one of these is never written.
+REQUIRED_FOR_WRITES = ("Running", "Paused", "EStopOn")
+SIGNAL_NAMES = (*HANDSHAKE_INPUTS, *HANDSHAKE_OUTPUTS, *STATUS_SIGNALS)
+_DEFAULT_BITS = {**HANDSHAKE_INPUTS, **HANDSHAKE_OUTPUTS, **STATUS_SIGNALS}
+
+IN_BASE = 0
+OUT_BASE = 0
+COMMAND_WORDS = 8
+RESPONSE_WORDS = 8
+#: Command and response words the manual allows: up to 8; at least 3 response
+#: words (§5.3.2), and the smallest read harlsync sends is 3 command words.
+WORDS_RANGE = (3, 8)
+_REGISTER_MAX = 0xFFFF
+_KEYS = ("in_base", "out_base", "command_base", "command_words", "response_base",
+         "response_words", "signals")
+
+
+class Bit(NamedTuple):
+    """Where one Remote I/O signal sits: a register and a bit of it (0 = lowest)."""
+
+    register: int
+    bit: int
+
+    def __str__(self) -> str:
+        return f"register {self.register} bit {self.bit}"
+
+
+#: The profile's map: signal name -> its register and bit.
+_DEFAULT_MAP: Mapping[str, Bit] = MappingProxyType({
+    name: Bit(IN_BASE if name in HANDSHAKE_INPUTS else OUT_BASE, bit)
+    for name, bit in _DEFAULT_BITS.items()
+})
+
+
+class RegisterMapInvalid(ValueError):
+    """A register map that cannot work; ``issues`` says every problem, one a line."""
+
+    def __init__(self, issues: list[str]) -> None:
+        self.issues = list(issues)
+        super().__init__("; ".join(self.issues))
+
+
+#: Field name -> the signal's name as the manual and RC+ write it.
+_FIELD_SIGNALS: Mapping[str, str] = MappingProxyType({
+    "ext_cmd_set": "ExtCmdSet",
+    "ext_resp_get": "ExtRespGet",
+    "ext_cmd_reset": "ExtCmdReset",
+    "ext_cmd_get": "ExtCmdGet",
+    "ext_resp_set": "ExtRespSet",
+    "ext_cmd_result": "ExtCmdResult",
+    "ext_error": "ExtError",
+    "ready": "Ready",
+    "running": "Running",
+    "paused": "Paused",
+    "error": "Error",
+    "estop_on": "EStopOn",
+    "safeguard_on": "SafeguardOn",
+})
+_SIGNAL_FIELDS = {signal: name for name, signal in _FIELD_SIGNALS.items()}
+
+
+@dataclass(frozen=True)
+class RegisterMap:
+    """Where the Remote Control signals and words sit in the Modbus registers.
+
+    Inputs (``ext_cmd_set`` ... and the command words) are holding registers
+    harlsync writes; outputs (``ext_cmd_get`` ... , the status signals and the
+    response words) are input registers it reads.  A status signal is ``None``
+    when the site did not map it.  Constructing one checks it: raises
+    :class:`RegisterMapInvalid` listing every problem.
+    """
+
+    ext_cmd_set: Bit = _DEFAULT_MAP["ExtCmdSet"]
+    ext_resp_get: Bit = _DEFAULT_MAP["ExtRespGet"]
+    ext_cmd_reset: Bit = _DEFAULT_MAP["ExtCmdReset"]
+    command_base: int = IN_BASE + 1
+    command_words: int = COMMAND_WORDS
+    ext_cmd_get: Bit = _DEFAULT_MAP["ExtCmdGet"]
+    ext_resp_set: Bit = _DEFAULT_MAP["ExtRespSet"]
+    ext_cmd_result: Bit = _DEFAULT_MAP["ExtCmdResult"]
+    ext_error: Bit = _DEFAULT_MAP["ExtError"]
+    ready: Bit | None = _DEFAULT_MAP["Ready"]
+    running: Bit | None = _DEFAULT_MAP["Running"]
+    paused: Bit | None = _DEFAULT_MAP["Paused"]
+    error: Bit | None = _DEFAULT_MAP["Error"]
+    estop_on: Bit | None = _DEFAULT_MAP["EStopOn"]
+    safeguard_on: Bit | None = _DEFAULT_MAP["SafeguardOn"]
+    response_base: int = OUT_BASE + 1
+    response_words: int = RESPONSE_WORDS
+
+    def __post_init__(self) -> None:
+        issues = self._problems()
+        if issues:
+            raise RegisterMapInvalid(issues)
+
+    # --- from and to robot.yaml ----------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, object] | None) -> RegisterMap:
+        """The map a robot file's dict describes (``None`` or ``{}``: the default).
+
+        Raises :class:`RegisterMapInvalid` naming every problem: an unknown key
+        or signal, a value of the wrong type or out of range, a handshake signal
+        left unmapped, two signals on one bit, command words over the input
+        signals, a map the handshake cannot read in one request.
+        """
+        data = data or {}
+        issues: list[str] = []
+        for key in data:
+            if key not in _KEYS:
+                issues.append(f"unknown key {key!r} (known: {', '.join(_KEYS)})")
+
+        def number(key: str, default: int) -> int:
+            value = data.get(key, default)
+            if not _whole(value):
+                issues.append(f"{key}: {value!r} is not a whole number")
+                return default
+            return value
+
+        in_base = number("in_base", IN_BASE)
+        out_base = number("out_base", OUT_BASE)
+        values: dict[str, Any] = {
+            "command_base": number("command_base", in_base + 1),
+            "command_words": number("command_words", COMMAND_WORDS),
+            "response_base": number("response_base", out_base + 1),
+            "response_words": number("response_words", RESPONSE_WORDS),
+        }
+        given = data.get("signals", {})
+        if not isinstance(given, Mapping):
+            issues.append(f"signals: {given!r} is not a mapping of signal names")
+            given = {}
+        for name in given:
+            if name not in _SIGNAL_FIELDS:
+                issues.append(f"signals: unknown signal {name!r} "
+                              f"(known: {', '.join(SIGNAL_NAMES)})")
+        for signal, field_name in _SIGNAL_FIELDS.items():
+            is_input = signal in HANDSHAKE_INPUTS
+            base = in_base if is_input else out_base
+            if signal not in given:
+                values[field_name] = Bit(base, _DEFAULT_BITS[signal])
+                continue
+            values[field_name] = _signal(signal, given[signal], base, issues,
+                                         Bit(base, _DEFAULT_BITS[signal]))
+        try:
+            built = cls(**values)
+        except RegisterMapInvalid as exc:
+            raise RegisterMapInvalid(issues + exc.issues) from None
+        if issues:
+            raise RegisterMapInvalid(issues)
+        return built
+
+    def to_dict(self) -> dict[str, object]:
+        """The map in its robot-file form, every register and bit spelt out
+        (``from_dict(m.to_dict()) == m``)."""
+        signals: dict[str, object] = {}
+        for signal, bit in self.signals():
+            signals[signal] = None if bit is None else {"register": bit.register, "bit": bit.bit}
+        return {
+            "command_base": self.command_base,
+            "command_words": self.command_words,
+            "response_base": self.response_base,
+            "response_words": self.response_words,
+            "signals": signals,
+        }
+
+    # --- what the handshake and the interlock need ---------------------------------
+
+    def signals(self) -> Iterator[tuple[str, Bit | None]]:
+        """Every signal by its manual name, inputs first."""
+        for name, signal in _FIELD_SIGNALS.items():
+            bit: Bit | None = getattr(self, name)
+            yield signal, bit
+
+    def signal(self, name: str) -> Bit | None:
+        """The bit of signal ``name`` (manual spelling); None when it is not mapped.
+
+        Raises :class:`KeyError` for a name that is no signal.
+        """
+        bit: Bit | None = getattr(self, _SIGNAL_FIELDS[name])
+        return bit
+
+    @property
+    def unwritable(self) -> str | None:
+        """Why harlsync never writes to this robot, or None when it may."""
+        missing = [name for name in REQUIRED_FOR_WRITES if self.signal(name) is None]
+        if not missing:
+            return None
+        return (
+            f"the register map has no {', '.join(missing)} signal: harlsync cannot see "
+            "whether the robot is busy, so it never writes to it (map the signal in RC+ "
+            "and in robot.yaml)"
+        )
+
+    @property
+    def control_registers(self) -> tuple[int, ...]:
+        """The holding registers that hold ExtCmdSet, ExtRespGet and ExtCmdReset."""
+        return tuple(sorted({self.ext_cmd_set.register, self.ext_resp_get.register,
+                             self.ext_cmd_reset.register}))
+
+    @property
+    def input_span(self) -> tuple[int, int]:
+        """(first register, count): the one read that gets every output signal and
+        every response word."""
+        registers = self._output_registers()
+        first = min(registers)
+        return first, max(registers) - first + 1
+
+    def _output_registers(self) -> set[int]:
+        registers = {bit.register for name, bit in self.signals()
+                     if bit is not None and name not in HANDSHAKE_INPUTS}
+        registers.update(range(self.response_base, self.response_base + self.response_words))
+        return registers
+
+    def _problems(self) -> list[str]:
+        issues: list[str] = []
+        low, high = WORDS_RANGE
+        for what, words, base in (("command", self.command_words, self.command_base),
+                                  ("response", self.response_words, self.response_base)):
+            if not low <= words <= high:
+                issues.append(f"{what}_words: {words} out of range (allowed: {low} to {high})")
+            if not 0 <= base <= _REGISTER_MAX - max(words, 1) + 1:
+                issues.append(f"{what}_base: {base} out of range (allowed: 0 to "
+                              f"{_REGISTER_MAX - max(words, 1) + 1} for {words} words)")
+        seen: dict[tuple[bool, Bit], str] = {}
+        for name, bit in self.signals():
+            if bit is None:
+                if name not in STATUS_SIGNALS:
+                    issues.append(f"signals: {name} must be mapped: the Remote Control "
+                                  "function needs all seven handshake signals")
+                continue
+            if not (0 <= bit.register <= _REGISTER_MAX and 0 <= bit.bit <= 15):
+                issues.append(f"signals: {name} at {bit}: out of range (allowed: register 0 "
+                              f"to {_REGISTER_MAX}, bit 0 to 15)")
+            key = (name in HANDSHAKE_INPUTS, bit)
+            if key in seen:
+                issues.append(f"signals: {seen[key]} and {name} are both at {bit}")
+            seen[key] = name
+        command = range(self.command_base, self.command_base + self.command_words)
+        response = range(self.response_base, self.response_base + self.response_words)
+        for name, bit in self.signals():
+            if bit is None:
+                continue
+            is_input = name in HANDSHAKE_INPUTS
+            span, what = (command, "command") if is_input else (response, "response")
+            if bit.register in span:
+                issues.append(f"signals: {name} at {bit} lies in the {what} words "
+                              f"(registers {span.start} to {span.stop - 1})")
+        if not issues:
+            first, count = self.input_span
+            if count > MODBUS_MAX_READ:
+                issues.append(f"the output signals and response words span {count} input "
+                              f"registers from {first}: more than one Modbus read "
+                              f"({MODBUS_MAX_READ})")
+        return issues
+
+
+def _whole(value: object) -> TypeGuard[int]:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _signal(name: str, value: object, base: int, issues: list[str], default: Bit) -> Bit | None:
+    """One signal of the dict form: a bit of ``base``, ``{register, bit}`` or None
+    (``default`` after an issue, so that the map's own checks can still run)."""
+    if value is None:
+        return None  # a handshake signal left out is reported by the map's own check
+    if _whole(value):
+        return Bit(base, value)
+    if isinstance(value, Mapping) and set(value) <= {"register", "bit"}:
+        register, bit = value.get("register", base), value.get("bit")
+        if _whole(register) and _whole(bit):
+            return Bit(register, bit)
+    issues.append(f"signals: {name}: {value!r} is not a bit number, "
+                  "{register: N, bit: B} or null")
+    return default
+

@@ -1,0 +1,1 @@
+"""Tests of the Epson RC+ Remote Control family."""
