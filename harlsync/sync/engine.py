@@ -168,6 +168,12 @@ class PullResult:
     earlier: list[str] = field(default_factory=list)
 
     @property
+    def changed(self) -> bool:
+        """Whether the backup in git changes: a first backup, a change, or an earlier
+        pull's files still to commit."""
+        return self.changes is None or bool(self.changes) or bool(self.earlier)
+
+    @property
     def summary(self) -> str:
         said = "first backup" if self.changes is None else change_summary(self.changes)
         if self.earlier:
@@ -270,13 +276,15 @@ def pull(
     _, live, _ = read_live(robot, port, station, registers=robot.keep_registers,
                            progress=progress, lock_timeout=lock_timeout)
     save_project(path, Project(path, robot, live))
-    history.record(path, ok=True)
     changes = None if previous is None else diff(
         catalogue(robot), previous, live, registers=robot.keep_registers
     )
     result = PullResult(path, robot, changes, earlier=earlier)
-    if commit and (changes is None or changes or earlier):
+    history.record(path, ok=True, changed=result.changed, changes=result.summary)
+    if commit and result.changed:
         result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
+        if result.commit:
+            history.committed(path, result.commit)
     return result
 
 

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import subprocess
 from pathlib import Path
+from typing import NamedTuple
 
 from ..errors import SyncError
 from ..project.store import IN_PROGRESS
 
-__all__ = ["changed_files", "commit", "head", "push", "repo_root"]
+__all__ = ["Commit", "changed_files", "commit", "head", "log", "push", "repo_root"]
 
 
 def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
@@ -96,3 +97,25 @@ def push(path: str | Path, remote: str | None = None) -> None:
     if root is None:
         raise SyncError(f"{path}: not inside a git repository")
     _git(root, "push", *([remote] if remote else []))
+
+
+class Commit(NamedTuple):
+    """One commit, as a history shows it."""
+
+    sha: str
+    time: str  # the committer's, ISO 8601
+    subject: str
+
+
+def log(path: str | Path, limit: int = 10) -> list[Commit]:
+    """The commits that changed files under ``path``, newest first (none outside git
+    or before the first commit)."""
+    root = repo_root(path)
+    if root is None:
+        return []
+    result = _git(root, "log", f"-n{limit}", "--format=%H%x1f%cI%x1f%s", "--",
+                  str(Path(path).resolve()), check=False)
+    if result.returncode != 0:
+        return []
+    return [Commit(*line.split("\x1f", 2)) for line in result.stdout.splitlines() if line]
+
