@@ -1,7 +1,8 @@
 """The ``harlsync`` command: parse arguments, call the library, print.
 
 Exit codes: 0 success, 1 a negative answer (``diff``: different; ``validate``:
-invalid), 2 an error, 3 refused for safety (interlock or policy).
+invalid; ``backup``: a robot failed; ``status``: a robot needs looking at), 2 an
+error, 3 refused for safety (interlock or policy).
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import signal
 import sys
 import threading
@@ -216,6 +218,13 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 # --- backup -----------------------------------------------------------------------------
 
 
+def _plant_args(p: argparse.ArgumentParser) -> None:
+    """The robots of a plant, as backup and status find and judge them."""
+    p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
+    p.add_argument("--stale-after", type=float, default=36.0, metavar="HOURS",
+                   help="flag robots with no good backup for this long (default 36)")
+
+
 def _add_backup(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "backup", help="back up every robot of a plant (for cron and systemd)",
@@ -225,7 +234,7 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
                     "go on. Exit 0 when every robot was backed up, 1 when any failed or the git "
                     "commit or push failed, 2 on an error before any robot ran.",
     )
-    p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
+    _plant_args(p)
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="lines read at once (default: every line at once)")
     p.add_argument("--commit", action="store_true",
@@ -234,8 +243,6 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--quiet", action="store_true",
                    help="print the summary only when a robot failed (for cron mail)")
-    p.add_argument("--stale-after", type=float, default=36.0, metavar="HOURS",
-                   help="flag robots with no good backup for this long (default 36)")
     p.add_argument("--attempts", type=int, default=2, metavar="N",
                    help="tries per robot when the line fails (default 2)")
     p.add_argument("--lock-timeout", type=float, default=60.0, metavar="SECONDS",
@@ -279,6 +286,49 @@ def _cmd_backup(args: argparse.Namespace) -> int:
     if unwritten is not None:
         raise unwritten
     return EXIT_OK if report.ok else EXIT_NO
+
+
+# --- status -----------------------------------------------------------------------------
+
+
+def _format_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="text for people (default), json for scripts")
+
+
+def _add_status(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "status", help="the state of every robot, from what backups and pushes recorded",
+        description="Show every robot project found in PATH: its family, port and station, "
+                    "its last good backup (time and commit), its last attempt and result, what "
+                    "the last backup changed, its last push (who, when, reason, result) and any "
+                    "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
+                    "and git only: no robot is contacted. A robot's state is the most urgent "
+                    "of: unfinished push, never backed up, failed, stale, changed, ok. Exit 0 "
+                    "when every robot is ok or changed, 1 when any is failed, stale, never "
+                    "backed up or has an unfinished push, 2 on an error (no project found).",
+    )
+    _plant_args(p)
+    _format_arg(p)
+    p.set_defaults(func=_cmd_status)
+
+
+def _color() -> bool:
+    """Colour on a terminal, unless NO_COLOR is set (https://no-color.org)."""
+    return sys.stdout.isatty() and not os.environ.get("NO_COLOR")
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    from datetime import timedelta
+
+    from .sync import status
+
+    plant = status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
+    if args.format == "json":
+        _print(json.dumps(plant.to_json(), indent=2))
+    else:
+        sys.stdout.write(plant.render(color=_color()))
+    return EXIT_OK if plant.ok else EXIT_NO
 
 
 # --- validate ---------------------------------------------------------------------------
@@ -605,8 +655,8 @@ def _cmd_rollback(args: argparse.Namespace) -> int:
 # --- main -------------------------------------------------------------------------------
 
 _COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_pull, _add_diff, _add_plan, _add_push, _add_rollback, _add_backup, _add_validate,
-    _add_sim,
+    _add_pull, _add_diff, _add_plan, _add_push, _add_rollback, _add_backup, _add_status,
+    _add_validate, _add_sim,
 ]
 
 

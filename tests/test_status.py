@@ -4,21 +4,68 @@ touching a robot."""
 from __future__ import annotations
 
 import json
+import os
+import pty
+import re
+import subprocess
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
+import serial
 from conftest import git
+from plantsim import IAI_STATION, MARKUP, SMALL, STATES, SimPlant, build
 
-from harlsync.families.harl_u2.model import Config, ProgramArea
+from harlsync.cli import main
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim import Faults
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import engine
 from harlsync.sync.backup import backup
 
-SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
+HARLSYNC = str(Path(sys.executable).parent / "harlsync")
+
+
+@pytest.fixture(scope="module")
+def plant(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimPlant]:
+    """The plant of plantsim.STATES, its robots then taken off the line: any port a
+    command opened would fail."""
+    root = tmp_path_factory.mktemp("status")
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("HARLSYNC_LOCK_DIR", str(root / "locks"))
+        env.setenv("HARLSYNC_AUDIT_LOG", str(root / "audit.jsonl"))
+        built = build(root / "plant")
+    built.close()
+    yield built
+
+
+@pytest.fixture
+def records(plant: SimPlant, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The plant's audit log for this test, and no port that opens."""
+    log = plant.root.parent / "audit.jsonl"
+    monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(log))
+
+    def no_port(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError(f"a port was opened: {args}")
+
+    monkeypatch.setattr(serial, "serial_for_url", no_port)
+    monkeypatch.setattr(serial, "Serial", no_port)
+    return log
+
+
+def rows_of(text: str) -> dict[str, list[str]]:
+    """The status table: robot -> its cells (split on runs of two spaces or more)."""
+    lines = text.splitlines()
+    table = lines[1:lines.index("")]
+    return {cells[0]: cells for cells in (re.split(r"\s{2,}", line) for line in table)}
+
+
+def status_json(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict[str, Any]]:
+    code = main(["status", *args, "--format", "json"])
+    return code, json.loads(capsys.readouterr().out)
 
 
 # --- what the engine records --------------------------------------------------------
@@ -72,3 +119,114 @@ def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(robot,
     assert {k: failed[k] for k in ("last_success", "last_changes", "last_commit")} == {
         k: state[k] for k in ("last_success", "last_changes", "last_commit")
     }
+
+
+def test_a_backup_nobody_committed_is_uncommitted_until_someone_commits_it(robot, repo,
+                                                                           capsys) -> None:
+    sim, project = robot.sim, robot.project
+    sim.stations[1].data.timers[2] = "2.22"
+    engine.pull(project)  # no --commit
+    main(["status", str(project)])
+    assert rows_of(capsys.readouterr().out)["cell-1"][6] == "uncommitted"
+    git(repo, "commit", "-qam", "by hand")
+    code, seen = status_json(capsys, str(project))
+    assert code == 0 and seen["robots"][0]["last_commit"] == head(repo)
+    assert seen["robots"][0]["state"] == "changed"
+
+
+# --- status -------------------------------------------------------------------------
+
+
+def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(plant, records,
+                                                                     capsys) -> None:
+    code = main(["status", str(plant.root)])
+    out = capsys.readouterr().out
+    assert code == 1  # failed, stale, never backed up, unfinished push
+    rows = rows_of(out)
+    assert {name: cells[1] for name, cells in rows.items()} == STATES
+    assert rows["cell-9"][2:5] == ["iai", plant.urls["cell-9"], "1A"]  # hex, as IAI writes it
+    assert rows["press"][2:5] == ["harl-u2", plant.urls["press"], "1"]
+    last = git(plant.root, "log", "-1", "--format=%H", "--", "press").strip()
+    assert rows["press"][6] == last[:10] and rows["press"][7] == "1 program (1 step)"
+    assert rows["cell-9"][7] == "1 position"
+    assert rows["spare"][5] == "never"
+    assert rows["welder"][8].endswith("failed") and rows["loader"][9].endswith("push ok")
+    assert "welder: failed: port " + plant.urls["welder"] in out
+    assert "gripper: an earlier push to this robot did not finish" in out
+    assert 'loader: last push ok ' in out and f'"faster pick {MARKUP}"' in out
+    assert out.rstrip().endswith(
+        "7 robot(s): 1 unfinished push, 1 never backed up, 1 failed, 1 stale, 2 changed, 1 ok")
+    assert "\x1b[" not in out  # no colour off a terminal
+
+
+def test_status_json_carries_the_last_push_and_the_unfinished_one(plant, records, capsys) -> None:
+    code, seen = status_json(capsys, str(plant.root))
+    robots = {r["name"]: r for r in seen["robots"]}
+    assert code == 1 and seen["ok"] is False
+    assert seen["counts"] == {"unfinished push": 1, "never backed up": 1, "failed": 1,
+                              "stale": 1, "changed": 2, "ok": 1}
+    push = robots["loader"]["last_push"]
+    assert push["action"] == "push" and push["result"] == "ok"
+    assert push["reason"] == f"faster pick {MARKUP}" and push["user"] and push["host"]
+    assert [w["item"] for w in push["written"]] == ["timer 1"]
+    gripper = robots["gripper"]
+    assert gripper["station"] == f"{IAI_STATION:X}" and gripper["last_push"]["result"] == "unfinished"
+    assert "new tool" in gripper["unfinished"][0]
+    assert robots["old-press"]["stale"] and robots["spare"]["never_backed_up"]
+    assert robots["welder"]["last_result"] == "failed" and robots["welder"]["last_success"]
+    assert robots["loader"]["snapshots"] == 1
+
+
+def test_status_exits_0_when_every_robot_is_ok_or_changed(plant, records, capsys) -> None:
+    code, seen = status_json(capsys, str(plant.root / "loader"), str(plant.root / "press"))
+    assert code == 0 and seen["counts"] == {"changed": 1, "ok": 1}
+    # A robot is stale by the hours the caller gives, as backup's --stale-after.
+    code, seen = status_json(capsys, str(plant.root / "loader"), "--stale-after", "0")
+    assert code == 1 and seen["robots"][0]["state"] == "stale"
+
+
+def run_on_a_terminal(args: list[str], env: dict[str, str]) -> str:
+    """Run harlsync with its standard output on a pty; what it printed."""
+    main_end, child_end = pty.openpty()
+    child = subprocess.Popen([HARLSYNC, *args], stdout=child_end, stderr=subprocess.DEVNULL,
+                             env=env)
+    os.close(child_end)
+    out = b""
+    try:
+        while chunk := os.read(main_end, 65536):
+            out += chunk
+    except OSError:  # EIO: the child closed its end and everything was read
+        pass
+    finally:
+        os.close(main_end)
+    assert child.wait(timeout=60) == 1
+    return out.decode()
+
+
+def test_status_colours_the_states_on_a_terminal_unless_no_color(plant, records) -> None:
+    env = {k: v for k, v in os.environ.items() if k != "NO_COLOR"}
+    coloured = run_on_a_terminal(["status", str(plant.root)], env)
+    assert "\x1b[1;31mfailed" in coloured and "\x1b[32mok" in coloured
+    plain = run_on_a_terminal(["status", str(plant.root)], {**env, "NO_COLOR": "1"})
+    assert "\x1b[" not in plain and "failed" in plain
+
+
+def test_a_project_that_cannot_be_read_is_failed_and_the_others_are_still_shown(
+    robot, repo, capsys
+) -> None:
+    broken = repo / "broken"
+    broken.mkdir()
+    (broken / "robot.yaml").write_text("family: [unclosed\n")
+    assert main(["status", str(repo)]) == 1
+    out = capsys.readouterr().out
+    rows = rows_of(out)
+    assert rows["broken"][1:5] == ["failed", "?", "?", "?"]
+    assert rows["cell-1"][1] == "changed"  # its first backup
+    [said] = [line for line in out.splitlines() if line.startswith("broken: failed: ")]
+    assert "robot.yaml" in said
+
+
+def test_a_path_without_a_project_is_one_line_exit_2(tmp_path, capsys) -> None:
+    assert main(["status", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no robot project here" in err
