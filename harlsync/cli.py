@@ -254,6 +254,9 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
                    help="run CMD (through the shell, summary on stdin) when a robot failed")
     p.add_argument("--metrics", metavar="FILE",
                    help="write a Prometheus textfile with per-robot results")
+    p.add_argument("--html", metavar="FILE",
+                   help="write the fleet report page (as 'harlsync status --html') at the end "
+                        "of the run, atomically")
     p.set_defaults(func=_cmd_backup)
 
 
@@ -279,6 +282,15 @@ def _cmd_backup(args: argparse.Namespace) -> int:
             backup.write_metrics(args.metrics, report)
         except HarlsyncError as exc:  # the hooks still run: they may be the only alarm
             unwritten = exc
+    if args.html:
+        from .sync import report as page
+        from .sync import status
+
+        try:
+            page.write_html(args.html, status.collect(
+                args.paths, stale_after=timedelta(hours=args.stale_after)))
+        except HarlsyncError as exc:
+            unwritten = unwritten or exc
     if args.on_change and report.changed:
         backup.run_hook(args.on_change, report, "change")
     if args.on_failure and not report.ok:
@@ -310,6 +322,8 @@ def _add_status(sub: argparse._SubParsersAction) -> None:
     )
     _plant_args(p)
     _format_arg(p)
+    p.add_argument("--html", metavar="FILE",
+                   help="also write the fleet report page: one self-contained HTML file")
     p.set_defaults(func=_cmd_status)
 
 
@@ -324,6 +338,10 @@ def _cmd_status(args: argparse.Namespace) -> int:
     from .sync import status
 
     plant = status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
+    if args.html:
+        from .sync import report
+
+        report.write_html(args.html, plant)
     if args.format == "json":
         _print(json.dumps(plant.to_json(), indent=2))
     else:

@@ -1,5 +1,5 @@
-"""What each pull and backup records, and harlsync status, which shows it without
-touching a robot."""
+"""What each pull and backup records, and harlsync status and its report page, which
+show it without touching a robot."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from typing import Any
 
 import pytest
 import serial
+from browser import BROWSER, Table, dump_dom
 from conftest import git
 from plantsim import IAI_STATION, MARKUP, SMALL, STATES, SimPlant, build
 
@@ -230,3 +231,57 @@ def test_a_path_without_a_project_is_one_line_exit_2(tmp_path, capsys) -> None:
     assert main(["status", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no robot project here" in err
+
+
+# --- the report page ----------------------------------------------------------------
+
+
+def test_the_page_is_self_contained_and_shows_markup_as_text(plant, records, tmp_path,
+                                                             capsys) -> None:
+    page = tmp_path / "status.html"
+    assert main(["status", str(plant.root), "--html", str(page)]) == 1
+    html = page.read_text()
+    assert "<script" not in html and "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    assert not re.search(r"""(src|href)=["']?(https?:|//)""", html)  # no external asset
+    assert "<link" not in html
+    # The changes: the step changed on the pendant, the position, what the push wrote.
+    assert "+  2: MOVE &lt;script&gt;" in html and "cell-9/positions.yaml" in html
+    assert "timer 1: SNT 1 0.80" in html
+    assert "position " in html and "may or may not have been written" in html
+
+
+@pytest.mark.skipif(BROWSER is None, reason="no headless browser (apt-get install chromium)")
+def test_a_browser_shows_every_robot_in_its_state(plant, records, tmp_path) -> None:
+    page = tmp_path / "status.html"
+    assert main(["status", str(plant.root), "--html", str(page)]) == 1
+    dom = Table(dump_dom(page), "robots")
+    header, *rows = dom.rows
+    assert header[:5] == ["robot", "state", "family", "port", "station"]
+    assert {r[0]: r[1] for r in rows} == STATES
+    by_name = {r[0]: r for r in rows}
+    assert by_name["cell-9"][2:5] == ["iai", plant.urls["cell-9"], "1A"]
+    assert " push ok by " in by_name["loader"][9]
+    assert by_name["loader"][9].endswith(f": “faster pick {MARKUP}”")
+    # The reason and the step were shown as text: the browser made no element of them.
+    assert "script" not in dom.elements
+    text = "".join(dom.text)
+    assert f"2: MOVE {MARKUP}" in text and f"faster pick {MARKUP}" in text
+
+
+def test_backup_writes_the_page_at_the_end_of_its_run(robot, tmp_path) -> None:
+    sim, project = robot.sim, robot.project
+    sim.stations[1].data.timers[3] = "3.33"
+    page = tmp_path / "share" / "plant.html"
+    page.parent.mkdir()
+    assert main(["backup", str(project), "--commit", "--html", str(page)]) == 0
+    html = page.read_text()
+    assert ">changed<" in html and "1 timer" in html and "+  3: 3.33" in html
+    assert [p.name for p in page.parent.iterdir()] == ["plant.html"]  # no temporary left
+
+
+def test_a_page_that_cannot_be_written_is_one_line_exit_2(plant, records, tmp_path,
+                                                          capsys) -> None:
+    target = tmp_path / "no-such-dir" / "status.html"
+    assert main(["status", str(plant.root), "--html", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"cannot write the report page {target}" in err

@@ -13,7 +13,7 @@ from typing import NamedTuple
 from ..errors import SyncError
 from ..project.store import IN_PROGRESS
 
-__all__ = ["Commit", "changed_files", "commit", "head", "log", "push", "repo_root"]
+__all__ = ["Commit", "changed_files", "commit", "head", "log", "push", "repo_root", "show"]
 
 
 def _git(cwd: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
@@ -119,3 +119,13 @@ def log(path: str | Path, limit: int = 10) -> list[Commit]:
         return []
     return [Commit(*line.split("\x1f", 2)) for line in result.stdout.splitlines() if line]
 
+
+def show(commit: str, path: str | Path) -> str:
+    """The diff ``commit`` made to the files under ``path``, as git prints it ('' when
+    it made none, or git cannot tell)."""
+    root = repo_root(path)
+    if root is None:
+        return ""
+    result = _git(root, "show", "--format=", "--no-color", "--no-ext-diff", commit, "--",
+                  str(Path(path).resolve()), check=False)
+    return result.stdout if result.returncode == 0 else ""
