@@ -15,6 +15,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import __version__
@@ -300,7 +301,7 @@ def _cmd_backup(args: argparse.Namespace) -> int:
     return EXIT_OK if report.ok else EXIT_NO
 
 
-# --- status -----------------------------------------------------------------------------
+# --- status, log, snapshots -------------------------------------------------------------
 
 
 def _format_arg(p: argparse.ArgumentParser) -> None:
@@ -347,6 +348,106 @@ def _cmd_status(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(plant.render(color=_color()))
     return EXIT_OK if plant.ok else EXIT_NO
+
+
+def _add_log(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "log", help="the pushes and rollbacks the audit log recorded, the latest first",
+        description="Print the audit log's pushes and rollbacks (refused and unfinished ones "
+                    "too) of the robot of DIR, whatever project pushed to it, or of every "
+                    "robot without DIR, the latest first: time, robot, action, result, user and "
+                    "host, git commit, reason and each item written (old -> new). The log is "
+                    "$HARLSYNC_AUDIT_LOG, or $XDG_STATE_HOME/harlsync/audit.jsonl.",
+    )
+    p.add_argument("dir", nargs="?", metavar="DIR", help="robot project directory (default: all)")
+    p.add_argument("-n", "--max-count", type=int, default=None, metavar="N",
+                   help="only the latest N")
+    _format_arg(p)
+    p.set_defaults(func=_cmd_log)
+
+
+def _project_dir(path: str) -> Path:
+    """``path``, which must hold a robot project.  Raises ProjectError naming it."""
+    from .errors import ProjectError
+
+    if not (Path(path) / "robot.yaml").is_file():
+        raise ProjectError(f"{path}: not a robot project (no robot.yaml)")
+    return Path(path)
+
+
+def _cmd_log(args: argparse.Namespace) -> int:
+    from .project import load_robot
+    from .sync import audit
+    from .sync.status import PushRecord, local_time
+
+    if args.max_count is not None and args.max_count < 1:
+        return _usage("log: -n/--max-count must be 1 or more")
+    records = audit.results()
+    if args.dir:
+        robot = load_robot(_project_dir(args.dir))
+        records = audit.of_robot(records, robot.port, robot.station, Path(args.dir))
+    records = records[::-1][:args.max_count]
+    if args.format == "json":
+        _print(json.dumps(records, indent=2, default=str))
+        return EXIT_OK
+    if not records:
+        _print(f"no push or rollback recorded in {audit.audit_path()}")
+    for record in records:
+        r = PushRecord.from_record(record)
+        head = (f"{local_time(r.time)}  {r.robot or '?'}  {r.action} {r.result}  "
+                f"by {r.user}@{r.host}")
+        _print(head + (f"  commit {r.commit[:10]}" if r.commit else ""))
+        if r.reason:
+            _print(f"    reason: {r.reason}")
+        for w in r.written:
+            _print(f"    wrote {w.get('item')}: {w.get('old')} -> {w.get('new')}")
+        if r.failed_item:
+            _print(f"    unknown: {r.failed_item} (may or may not have been written)")
+        if r.error and r.result != "ok":
+            _print(f"    error: {r.error}")
+    return EXIT_OK
+
+
+def _add_snapshots(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "snapshots", help="the snapshots a rollback can restore, the latest first",
+        description="List the snapshots of DIR/.harlsync/snapshots, the latest first: number, "
+                    "time, the action it was taken before, and its path. 'rollback DIR' "
+                    "restores the one marked; 'rollback DIR --snapshot PATH' any other.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    _format_arg(p)
+    p.set_defaults(func=_cmd_snapshots)
+
+
+def _cmd_snapshots(args: argparse.Namespace) -> int:
+    from .sync import engine
+    from .sync.status import local_time
+
+    taken = engine.all_snapshots(_project_dir(args.dir))
+    pushes = engine.snapshots(args.dir)
+    chosen = pushes[-1] if pushes else None
+    latest_first = [(s, s.time.isoformat() if s.time else None) for s in reversed(taken)]
+    if args.format == "json":
+        _print(json.dumps([
+            {"number": s.number, "time": when, "action": s.action, "path": str(s.path),
+             "rollback_restores": s.path == chosen}
+            for s, when in latest_first
+        ], indent=2))
+        return EXIT_OK
+    if not taken:
+        _print(f"no snapshot in {args.dir}: a push takes one before its first write")
+        return EXIT_OK
+    rows = [("number", "time", "action", "path")] + [
+        (str(s.number), local_time(when), s.action,
+         str(s.path) + ("  <- rollback restores this" if s.path == chosen else ""))
+        for s, when in latest_first
+    ]
+    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    for row in rows:
+        _print("  ".join([row[0].rjust(widths[0]), *(c.ljust(w) for c, w in
+                                                     zip(row[1:3], widths[1:])), row[3]]))
+    return EXIT_OK
 
 
 # --- validate ---------------------------------------------------------------------------
@@ -674,7 +775,7 @@ def _cmd_rollback(args: argparse.Namespace) -> int:
 
 _COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
     _add_pull, _add_diff, _add_plan, _add_push, _add_rollback, _add_backup, _add_status,
-    _add_validate, _add_sim,
+    _add_log, _add_snapshots, _add_validate, _add_sim,
 ]
 
 

@@ -1,5 +1,5 @@
-"""What each pull and backup records, and harlsync status and its report page, which
-show it without touching a robot."""
+"""What each pull and backup records, and the commands that show it without touching a
+robot: status and its report page, log and snapshots."""
 
 from __future__ import annotations
 
@@ -22,10 +22,12 @@ from plantsim import IAI_STATION, MARKUP, SMALL, STATES, SimPlant, build
 
 from harlsync.cli import main
 from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.project import load_project
 from harlsync.sim import Faults
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import engine
 from harlsync.sync.backup import backup
+from harlsync.sync.engine import PushOptions
 
 HARLSYNC = str(Path(sys.executable).parent / "harlsync")
 
@@ -285,3 +287,67 @@ def test_a_page_that_cannot_be_written_is_one_line_exit_2(plant, records, tmp_pa
     assert main(["status", str(plant.root), "--html", str(target)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"cannot write the report page {target}" in err
+
+
+# --- log and snapshots ----------------------------------------------------------------
+
+
+def test_log_prints_a_robots_pushes_the_latest_first(plant, records, capsys) -> None:
+    assert main(["log", str(plant.root / "loader")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    commit = git(plant.root, "log", "-1", "--format=%H", "--", "loader").strip()
+    assert re.fullmatch(rf"\S+ \S+  loader  push ok  by \S+@\S+  commit {commit[:10]}", out[0])
+    assert out[1] == f"    reason: faster pick {MARKUP}"
+    assert re.fullmatch(r"    wrote timer 1: \S+ -> 0\.80", out[2])
+    assert len(out) == 3  # the other robots' pushes are not this robot's
+
+
+def test_log_of_every_robot_and_as_json(plant, records, capsys) -> None:
+    assert main(["log"]) == 0
+    out = capsys.readouterr().out
+    assert out.index("gripper  push unfinished") < out.index("loader  push ok")
+    assert "    unknown: position " in out
+    assert main(["log", "--format", "json", "-n", "1"]) == 0
+    [latest] = json.loads(capsys.readouterr().out)
+    assert latest["robot"]["name"] == "gripper" and latest["result"] == "unfinished"
+    assert latest["reason"] == "new tool" and latest["user"] and latest["host"]
+
+
+def test_log_without_records_says_so(tmp_path, capsys) -> None:
+    assert main(["log"]) == 0
+    assert capsys.readouterr().out.startswith("no push or rollback recorded in ")
+
+
+def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(robot, repo,
+                                                                             capsys) -> None:
+    sim, project = robot.sim, robot.project
+    for value in ("1.11", "2.22"):
+        timers = project / "timers.yaml"
+        timers.write_text(re.sub(r"(?m)^  1: .*$", f"  1: {value}", timers.read_text()))
+        git(repo, "commit", "-qam", f"timer 1 {value}")
+        engine.push(project, PushOptions(yes=True))
+    engine.rollback(project, PushOptions(yes=True))
+    assert main(["snapshots", str(project)]) == 0
+    header, *rows = capsys.readouterr().out.splitlines()
+    assert header.split() == ["number", "time", "action", "path"]
+    assert [r.split()[0] for r in rows] == ["3", "2", "1"]
+    assert [r.split()[3] for r in rows] == ["rollback", "push", "push"]
+    [marked] = [r for r in rows if r.endswith("<- rollback restores this")]
+    chosen = Path(marked.split()[4])
+    assert marked.split()[0] == "2"
+    sim.stations[1].data.timers[1] = "9.99"  # changed on the pendant since
+    engine.rollback(project, PushOptions(yes=True))  # it restores the marked one
+    assert sim.stations[1].data.timers[1] == load_project(chosen).data.timers[1] == "1.11"
+    assert main(["snapshots", str(project), "--format", "json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert [s["number"] for s in listed] == [4, 3, 2, 1]
+    assert [s["rollback_restores"] for s in listed] == [False, False, True, False]
+
+
+@pytest.mark.parametrize("command", ["snapshots", "log"])
+def test_snapshots_and_log_of_a_directory_that_is_not_a_project_is_one_line_exit_2(
+    command, tmp_path, capsys
+) -> None:
+    assert main([command, str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(tmp_path) in err
