@@ -1,7 +1,8 @@
 """The ``harlsync`` command: parse arguments, call the library, print.
 
 Exit codes: 0 success, 1 a negative answer (``diff``: different; ``validate``:
-invalid), 2 an error, 3 refused for safety (interlock or policy).
+invalid; ``backup``: a robot failed; ``status``: a robot needs looking at), 2 an
+error, 3 refused for safety (interlock or policy).
 """
 
 from __future__ import annotations
@@ -9,10 +10,12 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import signal
 import sys
 import threading
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import __version__
@@ -216,6 +219,13 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 # --- backup -----------------------------------------------------------------------------
 
 
+def _plant_args(p: argparse.ArgumentParser) -> None:
+    """The robots of a plant, as backup and status find and judge them."""
+    p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
+    p.add_argument("--stale-after", type=float, default=36.0, metavar="HOURS",
+                   help="flag robots with no good backup for this long (default 36)")
+
+
 def _add_backup(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "backup", help="back up every robot of a plant (for cron and systemd)",
@@ -225,7 +235,7 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
                     "go on. Exit 0 when every robot was backed up, 1 when any failed or the git "
                     "commit or push failed, 2 on an error before any robot ran.",
     )
-    p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
+    _plant_args(p)
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="lines read at once (default: every line at once)")
     p.add_argument("--commit", action="store_true",
@@ -234,8 +244,6 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--quiet", action="store_true",
                    help="print the summary only when a robot failed (for cron mail)")
-    p.add_argument("--stale-after", type=float, default=36.0, metavar="HOURS",
-                   help="flag robots with no good backup for this long (default 36)")
     p.add_argument("--attempts", type=int, default=2, metavar="N",
                    help="tries per robot when the line fails (default 2)")
     p.add_argument("--lock-timeout", type=float, default=60.0, metavar="SECONDS",
@@ -247,6 +255,9 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
                    help="run CMD (through the shell, summary on stdin) when a robot failed")
     p.add_argument("--metrics", metavar="FILE",
                    help="write a Prometheus textfile with per-robot results")
+    p.add_argument("--html", metavar="FILE",
+                   help="write the fleet report page (as 'harlsync status --html') at the end "
+                        "of the run, atomically")
     p.set_defaults(func=_cmd_backup)
 
 
@@ -272,6 +283,15 @@ def _cmd_backup(args: argparse.Namespace) -> int:
             backup.write_metrics(args.metrics, report)
         except HarlsyncError as exc:  # the hooks still run: they may be the only alarm
             unwritten = exc
+    if args.html:
+        from .sync import report as page
+        from .sync import status
+
+        try:
+            page.write_html(args.html, status.collect(
+                args.paths, stale_after=timedelta(hours=args.stale_after)))
+        except HarlsyncError as exc:
+            unwritten = unwritten or exc
     if args.on_change and report.changed:
         backup.run_hook(args.on_change, report, "change")
     if args.on_failure and not report.ok:
@@ -279,6 +299,155 @@ def _cmd_backup(args: argparse.Namespace) -> int:
     if unwritten is not None:
         raise unwritten
     return EXIT_OK if report.ok else EXIT_NO
+
+
+# --- status, log, snapshots -------------------------------------------------------------
+
+
+def _format_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="text for people (default), json for scripts")
+
+
+def _add_status(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "status", help="the state of every robot, from what backups and pushes recorded",
+        description="Show every robot project found in PATH: its family, port and station, "
+                    "its last good backup (time and commit), its last attempt and result, what "
+                    "the last backup changed, its last push (who, when, reason, result) and any "
+                    "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
+                    "and git only: no robot is contacted. A robot's state is the most urgent "
+                    "of: unfinished push, never backed up, failed, stale, changed, ok. Exit 0 "
+                    "when every robot is ok or changed, 1 when any is failed, stale, never "
+                    "backed up or has an unfinished push, 2 on an error (no project found).",
+    )
+    _plant_args(p)
+    _format_arg(p)
+    p.add_argument("--html", metavar="FILE",
+                   help="also write the fleet report page: one self-contained HTML file")
+    p.set_defaults(func=_cmd_status)
+
+
+def _color() -> bool:
+    """Colour on a terminal, unless NO_COLOR is set (https://no-color.org)."""
+    return sys.stdout.isatty() and not os.environ.get("NO_COLOR")
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    from datetime import timedelta
+
+    from .sync import status
+
+    plant = status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
+    if args.html:
+        from .sync import report
+
+        report.write_html(args.html, plant)
+    if args.format == "json":
+        _print(json.dumps(plant.to_json(), indent=2))
+    else:
+        sys.stdout.write(plant.render(color=_color()))
+    return EXIT_OK if plant.ok else EXIT_NO
+
+
+def _add_log(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "log", help="the pushes and rollbacks the audit log recorded, the latest first",
+        description="Print the audit log's pushes and rollbacks (refused and unfinished ones "
+                    "too) of the robot of DIR, whatever project pushed to it, or of every "
+                    "robot without DIR, the latest first: time, robot, action, result, user and "
+                    "host, git commit, reason and each item written (old -> new). The log is "
+                    "$HARLSYNC_AUDIT_LOG, or $XDG_STATE_HOME/harlsync/audit.jsonl.",
+    )
+    p.add_argument("dir", nargs="?", metavar="DIR", help="robot project directory (default: all)")
+    p.add_argument("-n", "--max-count", type=int, default=None, metavar="N",
+                   help="only the latest N")
+    _format_arg(p)
+    p.set_defaults(func=_cmd_log)
+
+
+def _project_dir(path: str) -> Path:
+    """``path``, which must hold a robot project.  Raises ProjectError naming it."""
+    from .errors import ProjectError
+
+    if not (Path(path) / "robot.yaml").is_file():
+        raise ProjectError(f"{path}: not a robot project (no robot.yaml)")
+    return Path(path)
+
+
+def _cmd_log(args: argparse.Namespace) -> int:
+    from .project import load_robot
+    from .sync import audit
+    from .sync.status import PushRecord, local_time
+
+    if args.max_count is not None and args.max_count < 1:
+        return _usage("log: -n/--max-count must be 1 or more")
+    records = audit.results()
+    if args.dir:
+        robot = load_robot(_project_dir(args.dir))
+        records = audit.of_robot(records, robot.port, robot.station, Path(args.dir))
+    records = records[::-1][:args.max_count]
+    if args.format == "json":
+        _print(json.dumps(records, indent=2, default=str))
+        return EXIT_OK
+    if not records:
+        _print(f"no push or rollback recorded in {audit.audit_path()}")
+    for record in records:
+        r = PushRecord.from_record(record)
+        head = (f"{local_time(r.time)}  {r.robot or '?'}  {r.action} {r.result}  "
+                f"by {r.user}@{r.host}")
+        _print(head + (f"  commit {r.commit[:10]}" if r.commit else ""))
+        if r.reason:
+            _print(f"    reason: {r.reason}")
+        for w in r.written:
+            _print(f"    wrote {w.get('item')}: {w.get('old')} -> {w.get('new')}")
+        if r.failed_item:
+            _print(f"    unknown: {r.failed_item} (may or may not have been written)")
+        if r.error and r.result != "ok":
+            _print(f"    error: {r.error}")
+    return EXIT_OK
+
+
+def _add_snapshots(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "snapshots", help="the snapshots a rollback can restore, the latest first",
+        description="List the snapshots of DIR/.harlsync/snapshots, the latest first: number, "
+                    "time, the action it was taken before, and its path. 'rollback DIR' "
+                    "restores the one marked; 'rollback DIR --snapshot PATH' any other.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    _format_arg(p)
+    p.set_defaults(func=_cmd_snapshots)
+
+
+def _cmd_snapshots(args: argparse.Namespace) -> int:
+    from .sync import engine
+    from .sync.status import local_time
+
+    taken = engine.all_snapshots(_project_dir(args.dir))
+    pushes = engine.snapshots(args.dir)
+    chosen = pushes[-1] if pushes else None
+    latest_first = [(s, s.time.isoformat() if s.time else None) for s in reversed(taken)]
+    if args.format == "json":
+        _print(json.dumps([
+            {"number": s.number, "time": when, "action": s.action, "path": str(s.path),
+             "rollback_restores": s.path == chosen}
+            for s, when in latest_first
+        ], indent=2))
+        return EXIT_OK
+    if not taken:
+        _print(f"no snapshot in {args.dir}: a push takes one before its first write")
+        return EXIT_OK
+    rows = [("number", "time", "action", "path")] + [
+        (str(s.number), local_time(when), s.action,
+         str(s.path) + ("  <- rollback restores this" if s.path == chosen else ""))
+        for s, when in latest_first
+    ]
+    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    for row in rows:
+        _print("  ".join([row[0].rjust(widths[0]), *(c.ljust(w) for c, w in
+                                                     zip(row[1:3], widths[1:])), row[3]]))
+    return EXIT_OK
 
 
 # --- validate ---------------------------------------------------------------------------
@@ -612,8 +781,8 @@ def _cmd_rollback(args: argparse.Namespace) -> int:
 # --- main -------------------------------------------------------------------------------
 
 _COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_pull, _add_diff, _add_plan, _add_push, _add_rollback, _add_backup, _add_validate,
-    _add_sim,
+    _add_pull, _add_diff, _add_plan, _add_push, _add_rollback, _add_backup, _add_status,
+    _add_log, _add_snapshots, _add_validate, _add_sim,
 ]
 
 

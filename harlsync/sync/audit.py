@@ -37,6 +37,7 @@ import logging
 import os
 import secrets
 import socket
+from collections.abc import Iterable
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -48,9 +49,11 @@ __all__ = [
     "audit_path",
     "base_record",
     "describe_unfinished",
+    "of_robot",
     "read",
     "results",
     "unfinished",
+    "unsettled",
 ]
 
 log = logging.getLogger(__name__)
@@ -175,18 +178,32 @@ def _same_robot(record: dict[str, Any], port: str, station: int) -> bool:
     return isinstance(other, str) and (other == port or lock_key(other) == lock_key(port))
 
 
-def unfinished(port: str, station: int, path: Path | None = None) -> list[dict[str, Any]]:
-    """The unfinished pushes and rollbacks of the robot at ``port``/``station``
-    that no later push or rollback of it has settled (see :func:`results`)."""
+def of_robot(
+    records: Iterable[dict[str, Any]], port: str, station: int, project: Path | None = None
+) -> list[dict[str, Any]]:
+    """The records of the robot at ``port``/``station``, whatever project pushed to it,
+    and those of ``project`` (a push refused before it named its robot)."""
+    where = str(project.resolve()) if project is not None else None
+    return [r for r in records
+            if _same_robot(r, port, station) or (where is not None and r.get("project") == where)]
+
+
+def unsettled(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The unfinished pushes and rollbacks among one robot's ``records`` (from
+    :func:`results`) that no later one has settled."""
     found: list[dict[str, Any]] = []
-    for record in results(path):
-        if not _same_robot(record, port, station):
-            continue
+    for record in records:
         if record.get("result") == "unfinished":
             found.append(record)
         elif record.get("result") in SETTLED:
             found = []
     return found
+
+
+def unfinished(port: str, station: int, path: Path | None = None) -> list[dict[str, Any]]:
+    """The unfinished pushes and rollbacks of the robot at ``port``/``station``
+    that no later push or rollback of it has settled (see :func:`results`)."""
+    return unsettled(of_robot(results(path), port, station))
 
 
 def describe_unfinished(record: dict[str, Any]) -> str:

@@ -199,7 +199,7 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
             outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
         outcome.ok, outcome.error = True, None
-        outcome.changed = result.changes is None or bool(result.changes) or bool(result.earlier)
+        outcome.changed = result.changed
         outcome.summary = result.summary
         outcome.counts = summarize(catalogue(robot), result.changes or [])
         break
@@ -248,6 +248,16 @@ def _record(outcome: RobotOutcome, now: datetime) -> RobotOutcome:
     return outcome
 
 
+def _record_commit(paths: list[Path], commit: str) -> None:
+    """Record in each robot's history the commit that holds its backup.  A history
+    that cannot be written costs only the commit shown by ``harlsync status``."""
+    for path in paths:
+        try:
+            history.committed(path, commit)
+        except HarlsyncError as exc:
+            log.warning("%s: %s", path.name, exc)
+
+
 def backup(
     paths: Iterable[str | Path],
     *,
@@ -287,8 +297,7 @@ def backup(
 
     for outcome in outcomes:
         outcome.never_backed_up = outcome.last_success is None
-        if outcome.last_success:
-            outcome.stale = now - datetime.fromisoformat(outcome.last_success) > stale_after
+        outcome.stale = history.stale(outcome.last_success, now, stale_after)
 
     report = BackupReport(outcomes, started=now.isoformat(timespec="seconds"))
     if commit:
@@ -298,6 +307,8 @@ def backup(
                 report.commit = git.commit(done, report.commit_message())
             except HarlsyncError as exc:  # the night's report, metrics and hooks still come
                 report.commit_error = str(exc)
+            if report.commit:
+                _record_commit(done, report.commit)
         if push:
             # Push even when nothing changed tonight: it catches up a failed push.
             try:

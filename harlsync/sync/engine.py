@@ -38,7 +38,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from .. import families
 from ..errors import (
@@ -68,6 +68,8 @@ __all__ = [
     "PushFailed",
     "PushOptions",
     "PushResult",
+    "Snapshot",
+    "all_snapshots",
     "change_summary",
     "compare",
     "connect",
@@ -166,6 +168,12 @@ class PullResult:
     #: Files an earlier pull saved and nobody touched since, still uncommitted (its
     #: commit failed or was killed): this pull's save and commit take them over.
     earlier: list[str] = field(default_factory=list)
+
+    @property
+    def changed(self) -> bool:
+        """Whether the backup in git changes: a first backup, a change, or an earlier
+        pull's files still to commit."""
+        return self.changes is None or bool(self.changes) or bool(self.earlier)
 
     @property
     def summary(self) -> str:
@@ -270,13 +278,15 @@ def pull(
     _, live, _ = read_live(robot, port, station, registers=robot.keep_registers,
                            progress=progress, lock_timeout=lock_timeout)
     save_project(path, Project(path, robot, live))
-    history.record(path, ok=True)
     changes = None if previous is None else diff(
         catalogue(robot), previous, live, registers=robot.keep_registers
     )
     result = PullResult(path, robot, changes, earlier=earlier)
-    if commit and (changes is None or changes or earlier):
+    history.record(path, ok=True, changed=result.changed, changes=result.summary)
+    if commit and result.changed:
         result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
+        if result.commit:
+            history.committed(path, result.commit)
     return result
 
 
@@ -433,7 +443,9 @@ def _interlock(driver: Driver, robot: Robot, before: str) -> None:
 #: did between two pushes, then the time (for people) and the action:
 #: ``000012-20261124T202350.294650Z-push``.  Names an older harlsync gave have no
 #: number (``20261124T202350.294650Z-push``): they come before every numbered one.
-_SNAPSHOT_NAME = re.compile(r"(?:(?P<number>[0-9]+)-)?[0-9]{8}T[0-9.]+Z-[a-z]+")
+_SNAPSHOT_NAME = re.compile(
+    r"(?:(?P<number>[0-9]+)-)?(?P<time>[0-9]{8}T[0-9.]+Z)-(?P<action>[a-z]+)"
+)
 
 
 def _snapshot_number(snapshot: Path) -> int:
@@ -442,13 +454,38 @@ def _snapshot_number(snapshot: Path) -> int:
     return int(match["number"]) if match and match["number"] else 0
 
 
-def snapshots(path: str | Path, action: str = "push") -> list[Path]:
-    """The snapshots taken before each ``action`` (push or rollback), oldest first."""
+class Snapshot(NamedTuple):
+    """A snapshot, as its name tells it."""
+
+    number: int  # 0 for a name an older harlsync gave
+    time: datetime | None  # UTC; None in a name harlsync did not give
+    action: str  # what it was taken before: push or rollback
+    path: Path
+
+
+def all_snapshots(path: str | Path) -> list[Snapshot]:
+    """Every snapshot of the project (before pushes and rollbacks), oldest first."""
     root = Path(path) / SNAPSHOT_DIR
     if not root.is_dir():
         return []
-    taken = [p for p in root.iterdir() if p.is_dir() and p.name.endswith(f"-{action}")]
-    return sorted(taken, key=lambda p: (_snapshot_number(p), p.name))
+    found = []
+    for taken in root.iterdir():
+        match = _SNAPSHOT_NAME.fullmatch(taken.name)
+        if match and taken.is_dir():
+            try:
+                when = datetime.strptime(match["time"], "%Y%m%dT%H%M%S.%fZ")
+            except ValueError:  # not a time harlsync wrote: the number still orders it
+                when = None
+            found.append(Snapshot(int(match["number"] or 0),
+                                  when and when.replace(tzinfo=timezone.utc),
+                                  match["action"], taken))
+    return sorted(found, key=lambda s: (s.number, s.path.name))
+
+
+def snapshots(path: str | Path, action: str = "push") -> list[Path]:
+    """The snapshots taken before each ``action`` (push or rollback), oldest first:
+    rollback restores the last of the pushes'."""
+    return [s.path for s in all_snapshots(path) if s.action == action]
 
 
 def _save_snapshot(path: Path, robot: Robot, live: Any, action: str) -> Path:

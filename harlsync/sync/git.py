@@ -10,11 +10,15 @@ import hashlib
 import subprocess
 from collections.abc import Mapping
 from pathlib import Path
+from typing import NamedTuple
 
 from ..errors import SyncError
 from ..project.store import IN_PROGRESS
 
-__all__ = ["changed_files", "commit", "head", "not_in_commit", "push", "repo_root"]
+__all__ = [
+    "Commit", "changed_files", "commit", "head", "log", "not_in_commit", "push", "repo_root",
+    "show",
+]
 
 
 def _git(
@@ -140,3 +144,35 @@ def push(path: str | Path, remote: str | None = None) -> None:
     if root is None:
         raise SyncError(f"{path}: not inside a git repository")
     _git(root, "push", *([remote] if remote else []))
+
+
+class Commit(NamedTuple):
+    """One commit, as a history shows it."""
+
+    sha: str
+    time: str  # the committer's, ISO 8601
+    subject: str
+
+
+def log(path: str | Path, limit: int = 10) -> list[Commit]:
+    """The commits that changed files under ``path``, newest first (none outside git
+    or before the first commit)."""
+    root = repo_root(path)
+    if root is None:
+        return []
+    result = _git(root, "log", f"-n{limit}", "--format=%H%x1f%cI%x1f%s", "--",
+                  str(Path(path).resolve()), check=False)
+    if result.returncode != 0:
+        return []
+    return [Commit(*line.split("\x1f", 2)) for line in result.stdout.splitlines() if line]
+
+
+def show(commit: str, path: str | Path) -> str:
+    """The diff ``commit`` made to the files under ``path``, as git prints it ('' when
+    it made none, or git cannot tell)."""
+    root = repo_root(path)
+    if root is None:
+        return ""
+    result = _git(root, "show", "--format=", "--no-color", "--no-ext-diff", commit, "--",
+                  str(Path(path).resolve()), check=False)
+    return result.stdout if result.returncode == 0 else ""

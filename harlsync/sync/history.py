@@ -1,21 +1,35 @@
 """When each robot was last backed up, kept beside its project.
 
-``DIR/.harlsync/backup.json`` (ignored by git) records the time of the last
-good pull or backup, and the last error.  Every successful pull updates it, so
-a robot set up with ``harlsync pull`` is not reported as never backed up.
+``DIR/.harlsync/backup.json`` (ignored by git) records every pull's and backup's
+outcome, so that ``harlsync status`` can tell the state of a plant without
+touching a robot::
+
+    {"last_attempt":  "2026-11-25T02:00:41+00:00",  the last pull or backup of this robot
+     "last_result":   "ok" | "failed",               how it ended
+     "last_error":    "port ... no reply",           why it failed (only while it has)
+     "last_success":  "2026-11-25T02:00:41+00:00",  the last good one
+     "last_changed":  true,                          whether that one changed the backup
+     "last_changes":  "2 programs (5 steps)",        what it changed, in the family's words
+     "last_commit":   "3f9a1c2e4b..." | null}        the git commit that holds it (null:
+                                                     not committed by harlsync)
+
+Every successful pull updates it, so a robot set up with ``harlsync pull`` is
+not reported as never backed up.  A failed attempt keeps what the last good
+one recorded.
 """
 
 from __future__ import annotations
 
 import json
-from datetime import datetime, timezone
+from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
 from ..project import store
 from ..project.store import disk_error, replace_file
+from . import git
 
-__all__ = ["LOCAL_DIR", "ensure_local_dir", "read", "record"]
+__all__ = ["LOCAL_DIR", "committed", "ensure_local_dir", "read", "record", "stale"]
 
 #: harlsync's local, unversioned state inside a project.
 LOCAL_DIR = Path(store.LOCAL_DIR)
@@ -45,21 +59,53 @@ def read(project: Path) -> dict[str, Any]:
         return {}
 
 
+def stale(last_success: str | None, now: datetime, after: timedelta) -> bool:
+    """Whether a good backup at ``last_success`` (as recorded) is older than ``after``
+    at ``now``; a robot never backed up is not stale but worse, and said so apart."""
+    return last_success is not None and now - datetime.fromisoformat(last_success) > after
+
+
 def record(project: Path, *, ok: bool, error: str | None = None,
-           now: datetime | None = None) -> dict[str, Any]:
-    """Record one attempt; return the updated state.  Raises ProjectError when the
-    disk refuses (read-only, full): the previous record is then kept."""
+           now: datetime | None = None, changed: bool | None = None,
+           changes: str | None = None) -> dict[str, Any]:
+    """Record one attempt; return the updated state.
+
+    A good one that says what it ``changed`` (``changes``, in the family's words)
+    replaces what the previous good one said; one that changed anything is not
+    committed until :func:`committed` says so.  Raises ProjectError when the
+    disk refuses (read-only, full): the previous record is then kept.
+    """
     stamp = (now or datetime.now(timezone.utc)).isoformat(timespec="seconds")
     state = read(project)
     if ok:
         state["last_success"] = stamp
         state.pop("last_error", None)
+        if changed is not None:
+            state["last_changed"] = changed
+            state["last_changes"] = changes
+            # A backup that changed nothing is what git already holds: the last commit
+            # of the project; one that changed anything is not committed yet.
+            found = [] if changed else git.log(project, 1)
+            state["last_commit"] = found[0].sha if found else None
     else:
         state["last_error"] = error
     state["last_attempt"] = stamp
+    state["last_result"] = "ok" if ok else "failed"
+    return _write(project, state, "record the backup")
+
+
+def committed(project: Path, commit: str) -> dict[str, Any]:
+    """Record that ``commit`` holds the last good backup; the updated state.
+    Raises ProjectError when the disk refuses."""
+    state = read(project)
+    state["last_commit"] = commit
+    return _write(project, state, "record the backup's commit")
+
+
+def _write(project: Path, state: dict[str, Any], what: str) -> dict[str, Any]:
     target = ensure_local_dir(project) / _FILE.name
     try:
         replace_file(target, (json.dumps(state, indent=2, sort_keys=True) + "\n").encode())
     except OSError as exc:
-        raise disk_error(exc, target, "record the backup") from exc
+        raise disk_error(exc, target, what) from exc
     return state

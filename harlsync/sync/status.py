@@ -1,0 +1,331 @@
+"""The plant at a glance, from what pulls, backups and pushes recorded: no robot is touched.
+
+For each robot project it reads ``robot.yaml`` (family, port, station, as the
+family writes them), ``DIR/.harlsync/backup.json`` (:mod:`.history`: the last
+attempt, the last good backup, what it changed and its commit), the audit log
+(:mod:`.audit`: pushes, rollbacks, and those that never ended), git (the commit
+that holds a backup harlsync did not commit itself) and the snapshots.
+
+A robot's state is the first of these that applies::
+
+    unfinished push   a push or rollback of it never ended (killed part way)
+    never backed up   no good backup recorded (on this machine: .harlsync is local)
+    failed            its last pull or backup failed, or its project cannot be read
+    stale             its last good backup is older than stale_after
+    changed           its last good backup changed what git holds
+    ok
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+from typing import Any
+
+from .. import families
+from ..errors import HarlsyncError
+from ..project import load_robot
+from . import audit, git, history
+from .backup import find_projects
+from .engine import snapshots
+
+__all__ = [
+    "ATTENTION",
+    "STATES",
+    "PlantStatus",
+    "PushRecord",
+    "RobotStatus",
+    "collect",
+    "local_time",
+]
+
+log = logging.getLogger(__name__)
+
+#: Every state, the most urgent first.
+STATES = ("unfinished push", "never backed up", "failed", "stale", "changed", "ok")
+#: The states someone must look at: ``harlsync status`` exits 1 when a robot is in one.
+ATTENTION = frozenset(("unfinished push", "never backed up", "failed", "stale"))
+
+
+@dataclass
+class PushRecord:
+    """One push or rollback, as the audit log tells it (see :func:`.audit.results`)."""
+
+    action: str
+    time: str | None
+    user: str | None
+    host: str | None
+    commit: str | None
+    reason: str | None
+    result: str
+    error: str | None
+    robot: str | None
+    #: ``{"item", "command", "old", "new"}`` for each item written and verified.
+    written: list[dict[str, Any]]
+    #: The item whose write may or may not have happened (a push stopped there).
+    failed_item: str | None
+    #: How many writes it planned.
+    planned: int
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any]) -> PushRecord:
+        robot = record.get("robot")
+        name = robot.get("name") if isinstance(robot, dict) else None
+        if name is None and record.get("project"):
+            name = Path(str(record["project"])).name
+        return cls(
+            action=str(record.get("action", "push")),
+            time=record.get("time"),
+            user=record.get("user"),
+            host=record.get("host"),
+            commit=record.get("commit"),
+            reason=record.get("reason"),
+            result=str(record.get("result", "unknown")),
+            error=record.get("error"),
+            robot=name,
+            written=[w for w in record.get("written") or [] if isinstance(w, dict)],
+            failed_item=record.get("failed_item"),
+            planned=len(record.get("plan") or []),
+        )
+
+    def describe(self) -> str:
+        """One line: ``push ok 2026-11-24 20:23 by alice@pc, wrote 2 of 2 item(s): "faster pick"``."""
+        return f"{self.action} {self.result} {local_time(self.time)} {self.details()}"
+
+    def details(self) -> str:
+        """Who, what it wrote, why: ``by alice@pc, wrote 2 of 2 item(s): "faster pick"``."""
+        text = f"by {self.user}@{self.host}"
+        if self.written or self.planned:
+            text += f", wrote {len(self.written)} of {self.planned} item(s)"
+        if self.failed_item:
+            text += f", {self.failed_item} unknown"
+        if self.reason:
+            text += f': "{self.reason}"'
+        if self.error and self.result != "ok":
+            text += f" ({self.error})"
+        return text
+
+
+@dataclass
+class RobotStatus:
+    """One robot's state, and what it comes from."""
+
+    name: str
+    path: str
+    family: str | None
+    port: str | None
+    #: As its family writes it (IAI: hex).
+    station: str | None
+    state: str = "ok"
+    last_attempt: str | None = None
+    last_result: str | None = None
+    last_error: str | None = None
+    last_success: str | None = None
+    #: The commit that holds the last good backup; None when it is not committed.
+    last_commit: str | None = None
+    changed: bool = False
+    changes: str | None = None
+    stale: bool = False
+    never_backed_up: bool = False
+    last_push: PushRecord | None = None
+    #: Pushes and rollbacks of this robot that never ended, with what they wrote.
+    unfinished: list[str] = field(default_factory=list)
+    #: How many snapshots a rollback can restore.
+    snapshots: int = 0
+    #: Every push and rollback of this robot the audit log holds, oldest first.
+    pushes: list[PushRecord] = field(default_factory=list, repr=False)
+
+    @property
+    def attention(self) -> bool:
+        return self.state in ATTENTION
+
+    @property
+    def commit_text(self) -> str:
+        """The last good backup's commit as a table shows it."""
+        if self.last_commit:
+            return self.last_commit[:10]
+        return "uncommitted" if self.last_success else "-"
+
+    @property
+    def changes_text(self) -> str:
+        """What the last good backup changed, as a table shows it."""
+        return (self.changes or "-") if self.last_success else "-"
+
+    def to_json(self) -> dict[str, Any]:
+        data = asdict(self)
+        del data["pushes"]
+        return data
+
+
+@dataclass
+class PlantStatus:
+    robots: list[RobotStatus]
+    generated: str
+    stale_after_hours: float
+    audit_log: str
+    #: What could not be read (the audit log), said once for the plant.
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """No robot needs someone to look at it."""
+        return not any(r.attention for r in self.robots)
+
+    def counts(self) -> dict[str, int]:
+        """How many robots are in each state, most urgent first (states with none left out)."""
+        found = {state: sum(r.state == state for r in self.robots) for state in STATES}
+        return {state: n for state, n in found.items() if n}
+
+    def summary(self) -> str:
+        """``"5 robot(s): 1 failed, 1 changed, 3 ok"``."""
+        parts = [f"{n} {state}" for state, n in self.counts().items()]
+        return f"{len(self.robots)} robot(s): {', '.join(parts) or 'none'}"
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "ok": self.ok,
+            "generated": self.generated,
+            "stale_after_hours": self.stale_after_hours,
+            "audit_log": self.audit_log,
+            "warnings": self.warnings,
+            "counts": self.counts(),
+            "robots": [r.to_json() for r in self.robots],
+        }
+
+    def render(self, *, color: bool = False) -> str:
+        """The table a person reads, a line per robot, then what needs saying at length."""
+        rows = [("robot", "state", "family", "port", "station", "last good backup", "commit",
+                 "changes", "last attempt", "last push")]
+        notes = []
+        for r in self.robots:
+            push = r.last_push
+            rows.append((
+                r.name, r.state, r.family or "?", r.port or "?", r.station or "?",
+                local_time(r.last_success) if r.last_success else "never",
+                r.commit_text,
+                r.changes_text,
+                f"{local_time(r.last_attempt)} {r.last_result}" if r.last_attempt else "-",
+                f"{local_time(push.time)} {push.action} {push.result}" if push else "-",
+            ))
+            if r.last_result == "failed":
+                notes.append(f"{r.name}: failed: {r.last_error}")
+            notes += [f"{r.name}: {text}" for text in r.unfinished]
+            if push is not None:
+                notes.append(f"{r.name}: last {push.describe()}")
+        widths = [min(max(len(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
+        lines = []
+        for row in rows:
+            cells = [cell.ljust(widths[i]) for i, cell in enumerate(row)]
+            if color and row is not rows[0]:
+                cells[1] = _paint(row[1], cells[1])
+            lines.append("  ".join(cells).rstrip())
+        tail = [""] + notes if notes else []
+        tail += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines + tail + ["", self.summary()]) + "\n"
+
+
+#: ANSI colours of the states on a terminal.
+_COLOURS = {
+    "ok": "32",  # green
+    "changed": "36",  # cyan
+    "stale": "33",  # yellow
+    "never backed up": "33",
+    "failed": "1;31",  # bold red
+    "unfinished push": "1;35",  # bold magenta
+}
+
+
+def _paint(state: str, text: str) -> str:
+    return f"\x1b[{_COLOURS.get(state, '0')}m{text}\x1b[0m"
+
+
+def local_time(stamp: str | None) -> str:
+    """A recorded time (ISO 8601, UTC) as this machine's wall clock: ``2026-11-24 21:23``."""
+    if not stamp:
+        return "-"
+    try:
+        return datetime.fromisoformat(stamp).astimezone().strftime("%Y-%m-%d %H:%M")
+    except ValueError:
+        return stamp
+
+
+def _audit_records(warnings: list[str]) -> list[dict[str, Any]]:
+    try:
+        return audit.results()
+    except (OSError, ValueError) as exc:
+        warnings.append(f"cannot read the audit log {audit.audit_path()} ({exc}): "
+                        "pushes are not shown")
+        return []
+
+
+def _robot_status(path: Path, records: list[dict[str, Any]], now: datetime,
+                  stale_after: timedelta) -> RobotStatus:
+    try:
+        robot = load_robot(path)
+    except HarlsyncError as exc:  # that robot cannot be read: the others still are
+        return RobotStatus(path.name, str(path), None, None, None, state="failed",
+                           last_result="failed", last_error=str(exc))
+    station = families.get(robot.family).format_station(robot.station)
+    state = history.read(path)
+    status = RobotStatus(
+        robot.name, str(path), robot.family, robot.port, station,
+        last_attempt=state.get("last_attempt"),
+        last_result=state.get("last_result") or (
+            ("failed" if "last_error" in state else "ok") if state.get("last_attempt") else None
+        ),
+        last_error=state.get("last_error"),
+        last_success=state.get("last_success"),
+        last_commit=state.get("last_commit"),
+        changed=bool(state.get("last_changed")),
+        changes=state.get("last_changes"),
+        snapshots=len(snapshots(path)),
+    )
+    if status.last_success and status.last_commit is None and not git.changed_files(path):
+        # Committed, though not by harlsync (by hand, or by a harlsync that did not
+        # record commits): the last commit of the directory holds it.
+        found = git.log(path, 1)
+        status.last_commit = found[0].sha if found else None
+    status.never_backed_up = status.last_success is None
+    status.stale = history.stale(status.last_success, now, stale_after)
+    mine = audit.of_robot(records, robot.port, robot.station, path)
+    status.pushes = [PushRecord.from_record(r) for r in mine]
+    status.last_push = status.pushes[-1] if status.pushes else None
+    status.unfinished = [audit.describe_unfinished(r) for r in audit.unsettled(mine)]
+    status.state = _state(status)
+    return status
+
+
+def _state(r: RobotStatus) -> str:
+    if r.unfinished:
+        return "unfinished push"
+    if r.never_backed_up:
+        return "never backed up"
+    if r.last_result == "failed":
+        return "failed"
+    if r.stale:
+        return "stale"
+    return "changed" if r.changed else "ok"
+
+
+def collect(
+    paths: Iterable[str | Path],
+    *,
+    stale_after: timedelta = timedelta(hours=36),
+    now: datetime | None = None,
+) -> PlantStatus:
+    """The state of every robot project under ``paths``, sorted by name.
+
+    Reads files, the audit log and git only: no port is opened.  Raises
+    ProjectError for a PATH that holds no project.
+    """
+    now = now or datetime.now(timezone.utc)
+    projects = find_projects(paths)
+    warnings: list[str] = []
+    records = _audit_records(warnings)
+    robots = sorted((_robot_status(p, records, now, stale_after) for p in projects),
+                    key=lambda r: (r.name, r.path))
+    return PlantStatus(robots, now.isoformat(timespec="seconds"),
+                       stale_after.total_seconds() / 3600, str(audit.audit_path()), warnings)
