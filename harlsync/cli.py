@@ -88,7 +88,9 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
             "Serve a simulated controller of one family. It prints the pty device path and the "
             "socket:// URL to connect to, then reads control commands on standard input "
             f"(STATION as the family writes it, default the lowest): {_SimHelp.VERBS}. "
-            "Stop it with Ctrl-C or end of input."
+            "Stop it with Ctrl-C, SIGTERM or end of input. In the background (&, a service) "
+            "give --no-input: it then serves until SIGTERM; started with & from a terminal it "
+            "reads no commands either."
         ),
         formatter_class=_SimHelp,
     )
@@ -106,6 +108,10 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
     p.add_argument("--no-pty", action="store_true", help="do not open a pty (needs --listen)")
+    p.add_argument("--no-input", action="store_true",
+                   help="read no commands: serve until SIGTERM or Ctrl-C, to run in the "
+                        "background or under a service manager (the mode then changes only "
+                        "through --auto and --auto-after-writes)")
     p.add_argument(
         "--baud", type=int, default=9600,
         help="delay each reply by its time on the wire at this speed; 0 turns it off (default 9600)",
@@ -144,6 +150,10 @@ def _cmd_sim(args: argparse.Namespace) -> int:
     if args.no_pty and not args.listen:
         return _usage("sim: --no-pty needs --listen HOST:PORT")
     try:
+        listen = _listen_address(args.listen) if args.listen else None
+    except ValueError as exc:
+        return _usage(f"sim: --listen: {exc}")
+    try:
         faults = Faults.parse(args.faults)
     except ValueError as exc:
         return _usage(f"sim: --faults: {exc}")
@@ -181,39 +191,78 @@ def _cmd_sim(args: argparse.Namespace) -> int:
             record.flush()
 
         sim.listeners.append(log_request)
+    stopped = threading.Event()  # from here on SIGTERM stops it cleanly, exit 0
+    signal.signal(signal.SIGTERM, lambda *_: stopped.set())
     servers: list[PtyServer | TcpServer] = []
+    try:  # before the pty: an address in use is one line, with nothing left serving
+        tcp = TcpServer(sim, *listen) if listen else None
+    except OSError as exc:
+        # socket.create_server appends the address we already name to strerror
+        why = (exc.strerror or str(exc)).split(" (while attempting")[0]
+        return _usage(f"sim: --listen {args.listen}: cannot listen there: {why}")
     if not args.no_pty:
         pty = PtyServer(sim)
         _print(f"pty: {pty.start()}")
         servers.append(pty)
-    if args.listen:
-        host, _, port = args.listen.rpartition(":")
-        tcp = TcpServer(sim, host or "127.0.0.1", int(port))
+    if tcp is not None:
         _print(f"tcp: {tcp.start()}")
         servers.append(tcp)
     _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
+    _serve(servers, stopped,
+           (lambda line: apply_command(sim, line)) if _reads_input(args) else None)
+    return EXIT_OK
 
-    done = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: done.set())
 
-    def control() -> None:
+def _listen_address(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` (``:PORT`` is 127.0.0.1) as a socket address.  Raises ValueError."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not (port.isascii() and port.isdigit()) or int(port) > 65535:
+        raise ValueError(f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:5020; port 0 picks a "
+                         "free one)")
+    return host or "127.0.0.1", int(port)
+
+
+def _reads_input(args: argparse.Namespace) -> bool:
+    """Whether ``harlsync sim`` reads control commands on its standard input: not
+    with --no-input, nor when started in the background of a terminal (``&``), where
+    a read would stop it (SIGTTIN)."""
+    if args.no_input:
+        return False
+    try:
+        background = os.isatty(0) and os.tcgetpgrp(0) != os.getpgrp()
+    except OSError:  # no controlling terminal: stdin is what it is
+        background = False
+    if background:
+        print("harlsync sim: started in the background: not reading commands; stop it with "
+              "kill (SIGTERM)", file=sys.stderr, flush=True)
+    return not background
+
+
+def _serve(servers: Sequence[Any], done: threading.Event,
+           control: Callable[[str], str] | None) -> None:
+    """Serve until ``done`` is set (SIGTERM), Ctrl-C, or the end of the input
+    ``control`` takes its commands from (every line, its answer printed); without
+    ``control``, until one of the first two."""
+    def read_commands(run: Callable[[str], str]) -> None:
         for line in sys.stdin:
             try:
-                answer = apply_command(sim, line)
+                answer = run(line)
             except (ValueError, IndexError) as exc:
                 answer = f"error: {exc}"
             if answer:
                 _print(answer)
+        print("harlsync sim: end of input: stopping (--no-input serves until SIGTERM)",
+              file=sys.stderr, flush=True)
         done.set()
 
-    threading.Thread(target=control, daemon=True).start()
+    if control is not None:
+        threading.Thread(target=read_commands, args=(control,), daemon=True).start()
     try:
         done.wait()
     except KeyboardInterrupt:
         pass
     for server in servers:
         server.stop()
-    return EXIT_OK
 
 
 # --- backup -----------------------------------------------------------------------------

@@ -124,11 +124,14 @@ def test_several_stations_share_one_line() -> None:
 
 def test_lnr_shows_tasks_started_suspended_and_stopped(sim: Simulator) -> None:
     assert ask(sim, "LNR") == " ".join(["0 START 0 0"] * 5)
+    assert apply_command(sim, "status").startswith("station 1: idle;")
     apply_command(sim, "auto 1 2")
     assert ask(sim, "LNR").split()[8:12] == ["1", "MAIN", "0", "0"]
+    assert "station 1: task 2 in execution: MAIN program 0 step 0;" in apply_command(sim, "status")
     apply_command(sim, "suspend 1 2")
     assert ask(sim, "LNR").split()[8] == "2"
-    assert "station 1: automatic" in apply_command(sim, "status")
+    # Issue 14: a suspended task is called suspended, as LNR says it, never "automatic".
+    assert "station 1: task 2 suspended: MAIN program 0 step 0;" in apply_command(sim, "status")
     apply_command(sim, "stop")
     fields = ask(sim, "LNR").split()
     assert fields[0::4] == ["0"] * 5  # every task stopped
@@ -286,7 +289,7 @@ def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Pa
             assert exchange(port, "LNR").startswith("0 START")
             proc.stdin.write("auto 1 0\n")
             proc.stdin.flush()
-            assert proc.stdout.readline().startswith("station 1: automatic")
+            assert proc.stdout.readline().startswith("station 1: task 0 in execution: MAIN program 0 step 0")
             assert exchange(port, "LNR").startswith("1 MAIN 0 0")
     records = [json.loads(line) for line in record.read_text().splitlines()]
     assert [(r["station"], r["payload"], r["busy"]) for r in records] == [

@@ -31,6 +31,7 @@ from ..model import (
     OffsetTable,
     Parameters,
     ProgramType,
+    Status,
     Step,
 )
 from ..protocol import Frame, FrameDecoder, Request, encode_frame, parse_request, profile
@@ -116,7 +117,9 @@ class Simulator(device.Simulator[SimState, Frame]):
             raise ValueError(f"unknown command {verb!r}")
 
     def describe(self, state: SimState) -> str:
-        return "automatic" if state.automatic else "idle"
+        """As a client's LNR read says it: ``idle``, or each task in execution
+        (automatic operation) or suspended, with its program and step."""
+        return Status(tuple(state.tasks)).describe()
 
     def save_station(self, station: int, directory: Path) -> None:
         """Save the station as the robot project ``directory`` (atomically, as a pull does)."""

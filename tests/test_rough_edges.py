@@ -1,0 +1,150 @@
+"""Issue 14, item 6: the rough edges a new user hits, each through the real command.
+
+Every error is one line on stderr and the documented exit code; nothing waits with
+a sleep (``until`` polls a condition against a deadline).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import signal
+import socket
+import subprocess
+import sys
+import termios
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from harlsync.families.harl_u2.controller import Controller
+from harlsync.settings import SerialSettings
+
+HARLSYNC = [sys.executable, "-m", "harlsync"]
+DEADLINE = 30.0
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="ptys, job control and signals are POSIX")
+
+
+def until(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> None:
+    """Wait for ``condition`` to hold, polling; fail naming ``what`` after ``deadline`` s."""
+    end = time.monotonic() + deadline
+    while not condition():
+        if time.monotonic() > end:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.005)
+
+
+def run(*args: str, stdin: int | None = subprocess.DEVNULL) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([*HARLSYNC, *args], check=False, capture_output=True, text=True,
+                          stdin=stdin, timeout=DEADLINE)
+
+
+def one_line(text: str) -> str:
+    """The only line of ``text`` (an error must be one line, never a traceback)."""
+    lines = text.splitlines()
+    assert len(lines) == 1, text
+    return lines[0]
+
+
+def version_at(url: str) -> str:
+    """LNV from the simulated HARL-U2 at ``url``: proof that it serves."""
+    controller = Controller.from_url(url, 1, SerialSettings(timeout=2.0, retries=0))
+    try:
+        return controller.version()
+    finally:
+        controller.close()
+
+
+# --- harlsync sim ------------------------------------------------------------------------
+
+
+@pytest.fixture
+def port_in_use() -> Iterator[int]:
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        yield taken.getsockname()[1]
+
+
+def test_issue_14_sim_listen_on_an_address_in_use_is_one_line_and_exit_2(port_in_use: int) -> None:
+    done = run("sim", "--listen", f"127.0.0.1:{port_in_use}")
+    assert done.returncode == 2
+    assert one_line(done.stderr) == (
+        f"harlsync sim: --listen 127.0.0.1:{port_in_use}: cannot listen there: "
+        "Address already in use"
+    )
+    assert done.stdout == ""  # no pty was opened and left behind
+
+
+@pytest.mark.parametrize("listen", ["localhost", "127.0.0.1:", "127.0.0.1:http", ":70000"])
+def test_issue_14_sim_listen_without_a_port_is_one_line_and_exit_2(listen: str) -> None:
+    done = run("sim", "--listen", listen)
+    assert done.returncode == 2
+    assert one_line(done.stderr) == (
+        f"harlsync sim: --listen: {listen!r} is not HOST:PORT (e.g. 127.0.0.1:5020; port 0 "
+        "picks a free one)"
+    )
+
+
+def _served_url(read: Callable[[], str]) -> str:
+    """The ``socket://`` URL a starting ``harlsync sim`` prints."""
+    lines: list[str] = []
+
+    def has_url() -> bool:
+        lines.append(read())
+        return any(line.startswith("tcp: ") for line in lines)
+
+    until(has_url, "the sim's tcp: line")
+    return next(line for line in lines if line.startswith("tcp: "))[len("tcp: "):].strip()
+
+
+def test_issue_14_sim_no_input_serves_without_a_terminal_until_sigterm() -> None:
+    proc = subprocess.Popen(
+        [*HARLSYNC, "sim", "--no-pty", "--listen", "127.0.0.1:0", "--baud", "0", "--no-input"],
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        url = _served_url(proc.stdout.readline)
+        assert version_at(url) == "5.00"  # its input is long over: it still serves
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=DEADLINE) == 0
+    finally:
+        proc.kill()
+
+
+def test_issue_14_sim_started_with_ampersand_from_a_terminal_is_not_stopped_by_it(
+    tmp_path: Path,
+) -> None:
+    """A shell with job control on a real pty runs ``harlsync sim ... &``: a read of the
+    terminal by a background job stops it (SIGTTIN), so it must not read."""
+    out = tmp_path / "sim.out"
+    pid_file = tmp_path / "sim.pid"
+    sim = " ".join([*HARLSYNC, "sim", "--no-pty", "--listen", "127.0.0.1:0", "--baud", "0"])
+    script = f"set -m; {sim} > {out} 2>&1 & echo $! > {pid_file}; wait"
+    controller, terminal = os.openpty()
+
+    def take_the_terminal() -> None:  # the shell's controlling terminal: the pty
+        fcntl.ioctl(0, termios.TIOCSCTTY, 0)
+
+    shell = subprocess.Popen(["bash", "-c", script], stdin=terminal, stdout=terminal,
+                             stderr=terminal, start_new_session=True,
+                             preexec_fn=take_the_terminal)
+    os.close(terminal)
+    try:
+        url = _served_url(lambda: out.read_text() if out.exists() else "")
+        until(lambda: "started in the background: not reading commands" in out.read_text(),
+              "the sim to say it reads no commands")
+        assert version_at(url) == "5.00"
+        os.kill(int(pid_file.read_text()), signal.SIGTERM)
+        assert shell.wait(timeout=DEADLINE) == 0
+    finally:
+        if pid_file.exists():
+            try:
+                os.kill(int(pid_file.read_text()), signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        shell.kill()
+        os.close(controller)
