@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from . import __version__
 from .errors import HarlsyncError, InterlockError, PolicyError
+from .robotlog import RobotFilter
 
 if TYPE_CHECKING:
     from .sync.engine import PushOptions, PushResult
@@ -867,7 +868,10 @@ def _setup_logging(verbose: int) -> None:
     else:
         # Quiet under cron: only errors when nobody is watching.
         level = logging.WARNING if sys.stderr.isatty() else logging.ERROR
-    logging.basicConfig(level=level, format="harlsync: %(levelname)s: %(message)s")
+    logging.basicConfig(level=level, format="harlsync: %(levelname)s: %(robot)s%(message)s")
+    for handler in logging.getLogger().handlers:  # %(robot)s: which robot, under backup
+        if not any(isinstance(f, RobotFilter) for f in handler.filters):
+            handler.addFilter(RobotFilter())
     logging.getLogger("filelock").setLevel(max(level, logging.INFO))  # its debug lines are noise
 
 

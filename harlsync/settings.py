@@ -30,3 +30,11 @@ class SerialSettings:
     rtscts: bool = False
     timeout: float = 1.0
     retries: int = 3
+
+    def __str__(self) -> str:
+        """As robot.yaml's reader would say it: ``9600 8N1, no flow control, reply
+        timeout 1.0 s, 3 retries``."""
+        stop = f"{self.stopbits:g}"
+        flow = "RTS/CTS" if self.rtscts else "no flow control"
+        return (f"{self.baudrate} {self.bytesize}{self.parity}{stop}, {flow}, "
+                f"reply timeout {self.timeout:g} s, {self.retries} retries")

@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+from conftest import git
 
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.settings import SerialSettings
@@ -148,3 +149,33 @@ def test_issue_14_sim_started_with_ampersand_from_a_terminal_is_not_stopped_by_i
                 pass
         shell.kill()
         os.close(controller)
+
+
+# --- -v ---------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def plant(tmp_path: Path) -> Path:
+    """Two robots, each its own simulated line (sim://?seed=N, made again by every
+    process that opens it), backed up and committed."""
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q")
+    for seed, name in ((1, "loader"), (2, "press")):
+        done = run("pull", str(root / name), "--port", f"sim://?seed={seed}&baud=0")
+        assert done.returncode == 0, done.stderr
+    git(root, "add", "-A")
+    git(root, "commit", "-qm", "first backup")
+    return root
+
+
+def test_issue_14_backup_v_names_the_robot_of_every_line_and_no_python_repr(plant: Path) -> None:
+    done = run("backup", str(plant), "-v")
+    assert done.returncode == 0, done.stderr
+    lines = done.stderr.splitlines()
+    assert lines
+    for line in lines:
+        assert line.startswith(("harlsync: INFO: loader: ", "harlsync: INFO: press: ")), line
+        assert "SerialSettings(" not in line
+    assert ("harlsync: INFO: press: opened sim://?seed=2&baud=0 (station 1, 9600 8N1, no flow "
+            "control, reply timeout 1 s, 3 retries)") in lines

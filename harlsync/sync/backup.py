@@ -30,6 +30,7 @@ from ..link import lock_key
 from ..project import load_robot
 from ..project.lock import project_lock
 from ..project.store import replace_file
+from ..robotlog import about
 from . import git, history
 from .engine import catalogue, pull
 from .items import summarize
@@ -187,14 +188,14 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
         except LinkError as exc:  # the line may recover: try again, bounded
             outcome.attempts.append(f"attempt {attempt}: {exc}")
             outcome.error = str(exc)
-            log.warning("%s: %s", robot.name, exc)
+            log.warning("%s", exc)
             continue
         except HarlsyncError as exc:  # garbage, bad project: trying again will not help
             outcome.attempts.append(f"attempt {attempt}: {exc}")
             outcome.error = str(exc)
             break
         except Exception as exc:  # a bug must cost one robot, never the night's backup
-            log.exception("%s: unexpected error", robot.name)
+            log.exception("unexpected error")
             outcome.attempts.append(f"attempt {attempt}: unexpected {type(exc).__name__}: {exc}")
             outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
@@ -208,13 +209,23 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
 
 
 def _backup_one(path: Path, attempts: int, lock_timeout: float, now: datetime) -> RobotOutcome:
-    """Back up one robot, holding its project from the pull to the record of it."""
+    """Back up one robot, holding its project from the pull to the record of it.
+    Every log line meanwhile names the robot (:mod:`harlsync.robotlog`)."""
     with ExitStack() as held:
+        held.enter_context(about(_name_of(path)))
         try:
             held.enter_context(project_lock(path, timeout=lock_timeout, command="backup"))
         except ProjectError as exc:  # another harlsync is saving it: one line, that robot
             return _not_backed_up(path, exc)
         return _record(_pull_one(path, attempts, lock_timeout), now)
+
+
+def _name_of(path: Path) -> str:
+    """The robot's name as robot.yaml gives it, else its directory's."""
+    try:
+        return load_robot(path).name
+    except HarlsyncError:
+        return path.name
 
 
 def _not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
@@ -240,7 +251,7 @@ def _record(outcome: RobotOutcome, now: datetime) -> RobotOutcome:
     try:
         state = history.record(path, ok=outcome.ok, error=outcome.error, now=now)
     except HarlsyncError as exc:
-        log.warning("%s: %s", outcome.name, exc)
+        log.warning("%s", exc)
         if outcome.ok:
             outcome.ok, outcome.error = False, str(exc)
         state = history.read(path)
