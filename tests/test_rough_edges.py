@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -16,12 +17,24 @@ import termios
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import git
 
+from harlsync import families
+from harlsync.cli import main
+from harlsync.errors import ProjectError
 from harlsync.families.harl_u2.controller import Controller
+from harlsync.families.harl_u2.model import Config, ProgramArea
+from harlsync.families.harl_u2.sim import SimState as HarlState
+from harlsync.families.harl_u2.sim import Simulator as HarlSimulator
+from harlsync.families.iai.sim import SimState as IaiState
+from harlsync.families.iai.sim import Simulator as IaiSimulator
+from harlsync.project import load_robot, validate_project
 from harlsync.settings import SerialSettings
+from harlsync.sim.protocol_sim import register, unregister
+from harlsync.sync import engine
 
 HARLSYNC = [sys.executable, "-m", "harlsync"]
 DEADLINE = 30.0
@@ -179,3 +192,73 @@ def test_issue_14_backup_v_names_the_robot_of_every_line_and_no_python_repr(plan
         assert "SerialSettings(" not in line
     assert ("harlsync: INFO: press: opened sim://?seed=2&baud=0 (station 1, 9600 8N1, no flow "
             "control, reply timeout 1 s, 3 retries)") in lines
+
+
+# --- --station --------------------------------------------------------------------------
+
+SMALL = Config(ProgramArea(1, 4), ProgramArea(2, 6), ProgramArea(1, 4), ProgramArea(1, 2), 4, 16, 4)
+
+
+@pytest.fixture(params=["harl-u2", "iai"])
+def robot(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[Path, Any]]:
+    """A committed backup of a robot of each family, and its simulator (served as
+    ``sim://@name`` in this process, so what it receives can be counted)."""
+    sim: Any
+    if request.param == "iai":
+        sim = IaiSimulator({0x99: IaiState.generate(3, position_range=(1, 10))})
+    else:
+        sim = HarlSimulator({1: HarlState.generate(3, SMALL)})
+    url = register(sim, f"rough-{request.param}")
+    repo = tmp_path / "plant"
+    repo.mkdir()
+    git(repo, "init", "-q")
+    try:
+        engine.pull(repo / "cell", port=url, family=request.param)
+        git(repo, "add", "-A")
+        git(repo, "commit", "-qm", "backup")
+        sim.received.clear()
+        yield repo / "cell", sim
+    finally:
+        unregister(url)
+
+
+BAD_STATIONS = {"harl-u2": ["0", "100", " 1", "+1", "x"], "iai": ["9", "100", "G1", "-1"]}
+
+
+def test_issue_14_a_bad_station_is_refused_by_every_command_with_robot_yamls_message(
+    robot: tuple[Path, Any], capsys: pytest.CaptureFixture[str],
+) -> None:
+    project, sim = robot
+    family = families.get(load_robot(project).family)
+    robot_yaml = project / "robot.yaml"
+    original = robot_yaml.read_text()
+    for text in BAD_STATIONS[family.name]:
+        with pytest.raises(ValueError) as refused:
+            family.parse_station(text)
+        message = str(refused.value)
+        if text in ("0", "100", "x") or family.name == "iai":  # YAML reads " 1" as 1
+            # robot.yaml holding the same value says the same, with the same range
+            shown = f'"{text}"' if family.name == "iai" else text
+            robot_yaml.write_text(re.sub(r"station: .*", f"station: {shown}", original))
+            found = validate_project(project)
+            robot_yaml.write_text(original)
+            assert len(found) == 1, found
+            assert found[0].endswith(message[message.index(" (allowed: "):])
+            if text != "x":  # the schema says 'x' is not an integer
+                assert found[0].endswith(f"connection.station: {message}"), (found, message)
+        for command in (["pull"], ["diff"], ["plan"], ["push", "--yes"],
+                        ["rollback", "--yes"]):
+            code = main([*command, str(project), "--station", text])
+            err = capsys.readouterr().err
+            assert (code, err) == (2, f"harlsync: error: --station: {message}\n"), command
+    assert sim.received == []  # not one byte for a station that is not one
+
+
+def test_issue_14_a_station_in_range_is_read_as_its_family_writes_it() -> None:
+    assert families.get("harl-u2").parse_station("07") == 7
+    assert families.get("iai").parse_station("1a") == 0x1A
+    with pytest.raises(ValueError, match=r"^0 is out of range \(allowed: 1-99\)$"):
+        families.get("harl-u2").parse_station("0")
+    with pytest.raises(ProjectError, match=r"^station: 0 is out of range \(allowed: 1-99\)$"):
+        engine.station_number("harl-u2", 0)  # a number from a library caller too
+    assert engine.station_number("iai", 0x99) == 0x99

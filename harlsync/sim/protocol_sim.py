@@ -146,11 +146,15 @@ def simulator_from_url(url: str) -> Simulator[Any, Any]:
         )
         stations = opts.get("stations")
         notation = families.get(sim_side.name)
+        try:
+            numbers = [notation.parse_station(s) for s in stations.split(",")] if stations else None
+        except ValueError as exc:
+            raise ValueError(f"stations: {exc}") from None
         return build_simulator(
             family=sim_side.name,
             project=path or None,
             seed=int(opts.get("seed", 0)),
-            stations=[notation.parse_station(s) for s in stations.split(",")] if stations else None,
+            stations=numbers,
             baudrate=int(opts["baud"]) if "baud" in opts else None,
             turnaround=float(opts.get("turnaround", 0)),
             faults=faults,

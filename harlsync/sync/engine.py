@@ -103,14 +103,18 @@ Station = int | str | None
 
 
 def station_number(family: str | None, station: Station) -> int | None:
-    """``station`` as a number; text is read by the family (``"99"`` is 0x99 for IAI).
-    Raises ProjectError naming the allowed range."""
-    if not isinstance(station, str):
-        return station
+    """``station`` as a number; text is read by the family (``"99"`` is 0x99 for IAI),
+    and a number must be in the family's range too.  Raises ProjectError naming the
+    range, as robot.yaml's check does."""
+    if station is None:
+        return None
+    the_family = families.get(family)
+    text = station if isinstance(station, str) else the_family.format_station(station)
     try:
-        return families.get(family).parse_station(station)
+        return the_family.parse_station(text)
     except ValueError as exc:
-        raise ProjectError(f"--station: {exc}") from None
+        raise ProjectError(f"--station: {exc}" if isinstance(station, str)
+                           else f"station: {exc}") from None
 
 
 def read_live(
@@ -748,6 +752,7 @@ def push(
     """
     try:
         project, files = read_project(path)
+        station = station_number(project.robot.family, station)
         if not opts.allow_dirty:
             _check_committed(Path(path), files)
     except HarlsyncError as exc:
@@ -843,6 +848,7 @@ def rollback(
     again still restores the state before the last push, never the rollback's.
     """
     project = load_project(path)
+    station = station_number(project.robot.family, station)
     taken = snapshots(path)
     chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
     if chosen is None:

@@ -73,13 +73,13 @@ class HarlU2Family:
         return Robot(name=name, port=port, station=1 if station is None else station, **options)
 
     def parse_station(self, text: str) -> int:
-        try:
-            station = int(text, 10)
-        except ValueError:
-            station = -1
-        if not 1 <= station <= 99:
-            raise ValueError(f"station {text!r} is out of range (allowed: 1-99, as set on the "
-                             "pendant: SYSTEM GENERATION > MAINTENANCE > STATION NO.)")
+        """Decimal digits in robot.yaml's range, with its message (its schema's
+        ``x-allowed``): ``0 is out of range (allowed: 1-99)``."""
+        if not (text.isascii() and text.isdigit()):
+            raise ValueError(f"{text!r} is not a station (allowed: {layout.STATION_ALLOWED})")
+        station = int(text)
+        if not layout.FIRST_STATION <= station <= layout.LAST_STATION:
+            raise ValueError(f"{station} is out of range (allowed: {layout.STATION_ALLOWED})")
         return station
 
     def format_station(self, station: int) -> str:

@@ -57,13 +57,16 @@ from .protocol import commands as cmd
 from .protocol import profile
 
 __all__ = [
+    "FIRST_STATION",
     "FORMAT",
     "KINDS",
+    "LAST_STATION",
     "MIGRATIONS",
     "PROGRAMS_DIR",
     "ROOT_FILES",
     "SCHEMAS",
     "SCHEMAS_DIR",
+    "STATION_ALLOWED",
     "Analysis",
     "analyse",
     "program_key",
@@ -80,6 +83,11 @@ __all__ = [
 
 #: The format number this harlsync reads and writes.
 FORMAT = 1
+
+#: The stations robot.yaml's schema allows (``connection.station``), as its
+#: ``x-allowed`` says them: --station is checked against the same.
+FIRST_STATION, LAST_STATION = 1, 99
+STATION_ALLOWED = f"{FIRST_STATION}-{LAST_STATION}"
 
 #: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind
 #: ``kind`` into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).

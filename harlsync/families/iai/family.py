@@ -72,14 +72,11 @@ class IaiFamily:
         )
 
     def parse_station(self, text: str) -> int:
-        try:
-            station = int(text, 16) if len(text) <= 2 else -1
-        except ValueError:
-            station = -1
-        if not 0 <= station <= 0xFF:
-            raise ValueError(f"station {text!r} is out of range (allowed: two hex digits, "
-                             "00-FF; 99 by default)")
-        return station
+        """Two hex digits, as robot.yaml holds them: ``--station 9`` is refused as
+        robot.yaml's ``station: "9"`` is."""
+        if not layout.STATION.fullmatch(text):
+            raise ValueError(f"{text!r} is not a station (allowed: {profile.STATION_ALLOWED})")
+        return int(text, 16)
 
     def format_station(self, station: int) -> str:
         return f"{station:02X}"

@@ -71,6 +71,7 @@ __all__ = [
     "FILES",
     "FORMAT",
     "ROOT_FILES",
+    "STATION",
     "VARIABLES_FILE",
     "IaiData",
     "analyse",
@@ -98,7 +99,8 @@ SCHEMAS = SchemaSet(
 FILES = FileSet(SCHEMAS, FORMAT)
 
 _ARMS = {name: n for n, name in ARM_NAMES.items()}
-_STATION = re.compile(r"[0-9A-Fa-f]{2}")
+#: A station as robot.yaml and --station write it (profile.STATION_ALLOWED).
+STATION = re.compile(r"[0-9A-Fa-f]{2}")
 
 
 @dataclass
@@ -304,11 +306,10 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     data = doc.data
     connection = data["connection"]
     station = text_of(connection.get("station", f"{profile.DEFAULT_STATION:02X}"))
-    if not _STATION.fullmatch(station):
+    if not STATION.fullmatch(station):
         issues.append(Issue(
             "robot.yaml", doc.line(("connection", "station")), "connection.station",
-            f"{show(connection['station'])} is not a station (allowed: two hex digits, 00-FF; "
-            "99 by default)",
+            f"{show(connection['station'])} is not a station (allowed: {profile.STATION_ALLOWED})",
         ))
         return None
     controller = data.get("controller", {})

@@ -24,6 +24,7 @@ __all__ = [
     "DEFAULT_MODEL",
     "DEFAULT_POSITION_RANGE",
     "DEFAULT_STATION",
+    "STATION_ALLOWED",
     "DEFAULT_VARIABLE_RANGES",
     "FLAG_QUERY_ALIGNMENT",
     "INTER_COMMAND_GAP",
@@ -50,6 +51,8 @@ __all__ = [
 
 #: Station when the robot file gives none: 99h, written and shown as hex.
 DEFAULT_STATION = 0x99
+#: What a station may be, as every message about one says it (robot.yaml, --station).
+STATION_ALLOWED = "two hex digits, 00-FF; 99 by default"
 
 #: Serial settings when the robot file gives none: 9600 8N1, no flow control.
 BAUDRATE = 9600
