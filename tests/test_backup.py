@@ -320,7 +320,7 @@ def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
     assert git(plant.root, "status", "--porcelain") == ""
 
 
-def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten(
+def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten_and_14_says_how(
     plant: Plant,
 ) -> None:
     plant.sims["loader"].stations[1].data.timers[1] = "6.66"
@@ -333,4 +333,8 @@ def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwr
     assert not loader.ok
     assert "uncommitted changes a pull would overwrite (loader/programs/main-00.yaml)" in (
         loader.error or "")
+    # Issue 14: what to do, in words backup can take: it has no --allow-dirty itself.
+    assert loader.error.endswith(
+        f"commit or stash them, or overwrite them with 'harlsync pull {plant.root / 'loader'} "
+        "--allow-dirty'")
     assert files_of(plant.root / "loader") == edited

@@ -273,7 +273,7 @@ def pull(
     if dirty:
         raise PolicyError(
             f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
-            "commit or stash them, or give --allow-dirty"
+            f"commit or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
         )
     try:
         previous: Any = load_project(path).data
