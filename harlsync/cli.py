@@ -718,11 +718,8 @@ def _push_args(p: argparse.ArgumentParser) -> None:
 
 
 def _confirm(the_plan: Plan) -> bool:
+    """Show the plan and ask on the terminal (only given when stdin is one)."""
     _show_plan(the_plan)
-    if not sys.stdin.isatty():
-        print("harlsync: no terminal to ask on: review with 'harlsync plan' and pass --yes",
-              file=sys.stderr)
-        return False
     answer = input(f"Write these {len(the_plan.writes)} item(s) to {the_plan.robot}? [y/N] ")
     return answer.strip().lower() in ("y", "yes")
 
@@ -757,7 +754,7 @@ def _push_options(args: argparse.Namespace) -> PushOptions:
     from .sync.engine import PushOptions
 
     return PushOptions(
-        yes=args.yes, confirm=_confirm, reason=args.reason,
+        yes=args.yes, confirm=_confirm if sys.stdin.isatty() else None, reason=args.reason,
         allow_dirty=getattr(args, "allow_dirty", False), outside_window=args.outside_window,
         allow_reconfigure=args.allow_reconfigure, allow_live_tuning=args.allow_live_tuning,
         registers=args.registers, plan_file=getattr(args, "plan", None),

@@ -583,14 +583,24 @@ def test_the_lock_holds_a_second_harlsync_off_the_line(served, repo) -> None:
     assert sim.writes_received() == []
 
 
-def test_push_without_yes_and_without_a_terminal_refuses(served, repo, capsys, monkeypatch) -> None:
+@pytest.mark.parametrize("command", ["push", "rollback"])
+def test_push_without_yes_and_without_a_terminal_refuses_before_reading_the_robot(
+    served, repo, capsys, monkeypatch, command,
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "0.50", repo)
+    assert main(["push", str(project), "--port", url, "--yes"]) == 0  # a snapshot to roll back to
+    edit_timer(project, 0, "0.60", repo)
+    capsys.readouterr()
+    sim.received.clear()
     monkeypatch.setattr("sys.stdin.isatty", lambda: False)
-    assert main(["push", str(project), "--port", url]) == 3
-    assert "pass --yes" in capsys.readouterr().err
-    assert sim.writes_received() == []
+    assert main([command, str(project), "--port", url]) == 3
+    review = f"review it with 'harlsync plan {project}', then " * (command == "push")
+    assert capsys.readouterr().err == (
+        f"harlsync: refused: nobody to confirm the {command} (no terminal to ask on) and no "
+        f"--yes: nothing was read or written; {review}give --yes\n")
+    assert sim.received == []  # issue 14: not minutes of reading the robot first
 
 
 def test_pull_commit_says_what_changed_and_skips_an_empty_commit(served, repo) -> None:

@@ -356,6 +356,8 @@ class PushOptions:
     """Everything a person decides for one push or rollback."""
 
     yes: bool = False
+    #: Asks a person to confirm the plan; without it and without ``yes`` the push is
+    #: refused before the robot is read.
     confirm: Callable[[Plan], bool] | None = None
     reason: str | None = None
     allow_dirty: bool = False
@@ -543,6 +545,10 @@ def _deploy(
     )
     driver: Driver | None = None
     try:
+        if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
+            review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
+            raise PolicyError(f"nobody to confirm the {action} (no terminal to ask on) and no "
+                              f"--yes: nothing was read or written; {review}give --yes")
         _check_window(robot, opts)
         driver = connect(robot, port, station, lock_timeout=opts.lock_timeout)
         result.warnings = _unfinished(robot, port, station)
