@@ -151,6 +151,26 @@ def test_the_json_report_records_attempts_staleness_and_never_backed_up(plant: P
     assert silent["never_backed_up"] and silent["last_success"] is None
 
 
+def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run_began(
+    plant: Plant, tmp_path: Path, capsys,
+) -> None:
+    from datetime import datetime
+
+    plant.sims["loader"].faults = Faults(slow=1.0, slow_delay=0.05)  # 49 replies: 2.5 s
+    metrics = tmp_path / "backup.prom"
+    assert main(["backup", str(plant.root / "loader"), "--format", "json",
+                 "--metrics", str(metrics)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    [loader] = report["robots"]
+    took = datetime.fromisoformat(loader["last_success"]) - datetime.fromisoformat(report["started"])
+    assert took.total_seconds() >= 2, (report["started"], loader["last_success"])
+    stamp = datetime.fromisoformat(loader["last_success"]).timestamp()
+    assert f'harlsync_backup_last_success_timestamp_seconds{{robot="loader"}} {stamp:.0f}' in (
+        metrics.read_text().splitlines())
+    recorded = json.loads((plant.root / "loader" / ".harlsync" / "backup.json").read_text())
+    assert recorded["last_success"] == loader["last_success"]
+
+
 def test_a_robot_with_no_good_backup_for_too_long_is_flagged_stale(plant: Plant) -> None:
     from datetime import datetime, timedelta, timezone
 

@@ -17,7 +17,7 @@ import logging
 import os
 import subprocess
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
@@ -208,16 +208,20 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
     return outcome
 
 
-def _backup_one(path: Path, attempts: int, lock_timeout: float, now: datetime) -> RobotOutcome:
-    """Back up one robot, holding its project from the pull to the record of it.
-    Every log line meanwhile names the robot (:mod:`harlsync.robotlog`)."""
+def _backup_one(
+    path: Path, attempts: int, lock_timeout: float, clock: Callable[[], datetime]
+) -> RobotOutcome:
+    """Back up one robot, holding its project from the pull to the record of it,
+    which says when it ended (``clock()``).  Every log line meanwhile names the
+    robot (:mod:`harlsync.robotlog`)."""
     with ExitStack() as held:
         held.enter_context(about(_name_of(path)))
         try:
             held.enter_context(project_lock(path, timeout=lock_timeout, command="backup"))
         except ProjectError as exc:  # another harlsync is saving it: one line, that robot
             return _not_backed_up(path, exc)
-        return _record(_pull_one(path, attempts, lock_timeout), now)
+        outcome = _pull_one(path, attempts, lock_timeout)
+        return _record(outcome, clock())
 
 
 def _name_of(path: Path) -> str:
@@ -282,6 +286,10 @@ def backup(
 ) -> BackupReport:
     """Pull every robot under ``paths``; commit and push once when asked.
 
+    ``now`` is the time the run starts (default: the clock's); staleness is judged
+    at it, and each robot's good backup is recorded as ``now`` plus the time the
+    run took until that robot was done.
+
     ``jobs`` is how many lines are read at once (default: all of them).  Each
     line spends nearly all its time waiting for the wire, so a worker per line
     costs a thread, not a core: a fixed pool of 4 made 32 robots take 8 times
@@ -289,6 +297,12 @@ def backup(
     """
     started = time.monotonic()
     now = now or datetime.now(timezone.utc)
+
+    def clock() -> datetime:
+        """The run's clock: ``now`` at its start, then as time passes (a robot's
+        good backup is recorded when it ended, not when the run began)."""
+        return now + timedelta(seconds=time.monotonic() - started)
+
     projects = find_projects(paths)
     lines: dict[str, list[Path]] = {}
     for path in projects:
@@ -299,7 +313,7 @@ def backup(
         lines.setdefault(line_of(port), []).append(path)
 
     def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
-        return [_backup_one(p, attempts, lock_timeout, now) for p in paths_on_line]
+        return [_backup_one(p, attempts, lock_timeout, clock) for p in paths_on_line]
 
     workers = len(lines) if jobs is None else jobs
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
