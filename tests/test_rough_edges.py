@@ -6,14 +6,12 @@ a sleep (``until`` polls a condition against a deadline).
 
 from __future__ import annotations
 
-import fcntl
 import os
 import re
 import signal
 import socket
 import subprocess
 import sys
-import termios
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -101,6 +99,14 @@ def test_issue_14_sim_listen_without_a_port_is_one_line_and_exit_2(listen: str) 
     )
 
 
+#: Run ``bash -c ARGV[1]`` with standard input (a pty) as its controlling terminal, as a
+#: login shell has it: a new session (start_new_session) takes it with TIOCSCTTY.
+IN_A_SHELL_ON_THIS_TERMINAL = (
+    "import fcntl, os, sys, termios; fcntl.ioctl(0, termios.TIOCSCTTY, 0); "
+    "os.execvp('bash', ['bash', '-c', sys.argv[1]])"
+)
+
+
 def _served_url(read: Callable[[], str]) -> str:
     """The ``socket://`` URL a starting ``harlsync sim`` prints."""
     lines: list[str] = []
@@ -139,13 +145,9 @@ def test_issue_14_sim_started_with_ampersand_from_a_terminal_is_not_stopped_by_i
     sim = " ".join([*HARLSYNC, "sim", "--no-pty", "--listen", "127.0.0.1:0", "--baud", "0"])
     script = f"set -m; {sim} > {out} 2>&1 & echo $! > {pid_file}; wait"
     controller, terminal = os.openpty()
-
-    def take_the_terminal() -> None:  # the shell's controlling terminal: the pty
-        fcntl.ioctl(0, termios.TIOCSCTTY, 0)
-
-    shell = subprocess.Popen(["bash", "-c", script], stdin=terminal, stdout=terminal,
-                             stderr=terminal, start_new_session=True,
-                             preexec_fn=take_the_terminal)
+    shell = subprocess.Popen([sys.executable, "-c", IN_A_SHELL_ON_THIS_TERMINAL, script],
+                             stdin=terminal, stdout=terminal, stderr=terminal,
+                             start_new_session=True)
     os.close(terminal)
     try:
         url = _served_url(lambda: out.read_text() if out.exists() else "")
