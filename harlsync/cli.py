@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 from . import __version__
 from .errors import HarlsyncError, InterlockError, PolicyError
 from .robotlog import RobotFilter
+from .terminal import BackupDisplay, Feedback
 
 if TYPE_CHECKING:
     from .sync.engine import PushOptions, PushResult
@@ -318,11 +319,16 @@ def _cmd_backup(args: argparse.Namespace) -> int:
 
     if args.push and not args.commit:
         return _usage("backup: --push needs --commit")
-    report = backup.backup(
-        args.paths, jobs=args.jobs, commit=args.commit, push=args.push,
-        stale_after=timedelta(hours=args.stale_after), attempts=args.attempts,
-        lock_timeout=args.lock_timeout,
-    )
+    display = BackupDisplay()
+    try:
+        report = backup.backup(
+            args.paths, jobs=args.jobs, commit=args.commit, push=args.push,
+            stale_after=timedelta(hours=args.stale_after), attempts=args.attempts,
+            lock_timeout=args.lock_timeout,
+            watch=display if display.live and not args.quiet else None,
+        )
+    finally:  # Ctrl-C too: no bar left on the screen
+        display.close()
     if args.format == "json":
         _print(json.dumps(report.to_json(), indent=2))
     elif not args.quiet or not report.ok:
@@ -541,35 +547,6 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
                         "(default 10)")
 
 
-class _Progress:
-    """A progress bar on a terminal (done/total, rate, time left); nothing otherwise."""
-
-    def __init__(self, what: str) -> None:
-        self.bar: Any = None
-        self.what = what
-        self.finished = False
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.finished:
-            return
-        if self.bar is None:
-            if not sys.stderr.isatty():
-                return
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=total, desc=self.what, unit="item", file=sys.stderr, leave=False)
-        self.bar.total = total
-        self.bar.update(done - self.bar.n)
-        if done >= total:  # clear the line before anything else is printed (a plan, a prompt)
-            self.close()
-
-    def close(self) -> None:
-        self.finished = True
-        if self.bar is not None:
-            self.bar.close()
-            self.bar = None
-
-
 def _family_names() -> tuple[str, ...]:
     from .families import names
 
@@ -599,13 +576,14 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
 def _cmd_pull(args: argparse.Namespace) -> int:
     from .sync import engine
 
-    progress = _Progress("pull")
+    progress = Feedback("pull")
     try:
         result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
                              progress=progress, lock_timeout=args.lock_timeout,
                              allow_dirty=args.allow_dirty, family=args.family)
     finally:
         progress.close()
+    progress.summary(result.robot.name, result.contents)
     if sys.stdout.isatty():
         committed = f", committed {result.commit[:10]}" if result.commit else ""
         _print(f"{result.robot.name}: {result.summary}{committed}")
@@ -632,7 +610,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     from .sync import engine
     from .sync.items import render_text, to_json
 
-    progress = _Progress("diff")
+    progress = Feedback("diff")
     try:
         result = engine.compare(args.dir, port=args.port, station=args.station,
                                 progress=progress, registers=args.registers,
@@ -640,6 +618,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     _warn(result.warnings)
+    progress.summary(result.project.robot.name, result.contents, _differ(result.changes))
     if args.format == "json":
         _print(json.dumps({
             "robot": result.project.robot.name,
@@ -653,6 +632,16 @@ def _cmd_diff(args: argparse.Namespace) -> int:
         sys.stdout.write(render_text(result.changes, f"robot {result.target}",
                                      f"project {result.project.path}"))
     return EXIT_NO if result.changes else EXIT_OK
+
+
+def _differ(changes: Sequence[Any]) -> str:
+    """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
+    from .sync.engine import change_summary
+
+    if not changes:
+        return "; no differences"
+    return (f"; {len(changes)} item{'s' * (len(changes) != 1)} "
+            f"differ{'s' * (len(changes) == 1)} ({change_summary(list(changes))})")
 
 
 def _add_plan(sub: argparse._SubParsersAction) -> None:
@@ -686,17 +675,20 @@ def _show_plan(the_plan: Plan) -> None:
 def _cmd_plan(args: argparse.Namespace) -> int:
     from .sync import engine
 
-    progress = _Progress("plan")
+    progress = Feedback("plan")
     try:
-        the_plan = engine.plan(args.dir, port=args.port, station=args.station,
+        found = engine.compare(args.dir, port=args.port, station=args.station,
                                progress=progress, registers=args.registers,
                                lock_timeout=args.lock_timeout)
     finally:
         progress.close()
+    _warn(found.warnings)
+    the_plan = found.plan()
     _show_plan(the_plan)
     if args.out:
         the_plan.save(args.out)
         _print(f"# plan saved to {args.out}")
+    progress.summary(found.project.robot.name, found.contents, _differ(found.changes))
     return EXIT_OK
 
 
@@ -750,7 +742,7 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_push)
 
 
-def _push_options(args: argparse.Namespace) -> PushOptions:
+def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
     from .sync.engine import PushOptions
 
     return PushOptions(
@@ -758,16 +750,17 @@ def _push_options(args: argparse.Namespace) -> PushOptions:
         allow_dirty=getattr(args, "allow_dirty", False), outside_window=args.outside_window,
         allow_reconfigure=args.allow_reconfigure, allow_live_tuning=args.allow_live_tuning,
         registers=args.registers, plan_file=getattr(args, "plan", None),
-        lock_timeout=args.lock_timeout, progress=_Progress("read"),
+        lock_timeout=args.lock_timeout, progress=progress,
     )
 
 
-def _report(action: str, run: Callable[[], PushResult]) -> int:
+def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> int:
     from .sync.engine import PushFailed
 
     try:
         result = run()
     except PushFailed as failed:
+        progress.close()
         r = failed.result
         _warn(r.warnings)
         if r.plan is not None and (r.written or r.failed):
@@ -784,7 +777,11 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
             print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
         for note in r.notes:
             print(f"harlsync: note: {note}", file=sys.stderr)
+        if isinstance(failed.__cause__, KeyboardInterrupt):
+            raise KeyboardInterrupt from failed  # exit 130, as any command interrupted
         raise failed.cause from failed
+    finally:  # Ctrl-C too: no bar left on the screen
+        progress.close()
     _warn(result.warnings)
     if result.plan is None or result.plan.empty:
         _print(f"{action}: robot already matches; nothing written")
@@ -799,8 +796,10 @@ def _report(action: str, run: Callable[[], PushResult]) -> int:
 def _cmd_push(args: argparse.Namespace) -> int:
     from .sync import engine
 
-    opts = _push_options(args)
-    return _report("push", lambda: engine.push(args.dir, opts, port=args.port, station=args.station))
+    progress = Feedback("read")
+    opts = _push_options(args, progress)
+    return _report("push", lambda: engine.push(args.dir, opts, port=args.port, station=args.station),
+                   progress)
 
 
 def _add_rollback(sub: argparse._SubParsersAction) -> None:
@@ -820,9 +819,11 @@ def _add_rollback(sub: argparse._SubParsersAction) -> None:
 def _cmd_rollback(args: argparse.Namespace) -> int:
     from .sync import engine
 
-    opts = _push_options(args)
+    progress = Feedback("read")
+    opts = _push_options(args, progress)
     return _report("rollback", lambda: engine.rollback(
-        args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station))
+        args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station),
+        progress)
 
 
 # --- main -------------------------------------------------------------------------------

@@ -163,6 +163,11 @@ class Catalogue(Protocol):
         """The controller's version text (fingerprinted, never compared)."""
         ...
 
+    def contents(self, data: Any, *, registers: bool) -> str:
+        """What ``data`` holds, in the family's words, for the line a pull or diff
+        ends with: ``"7 programs (120 steps used), 10 offset tables, 8 timers"``."""
+        ...
+
     def plan(self, live: Any, project: Any, changes: list[tuple[Any, Any, Any]], *,
              registers: bool) -> PlanShape:
         """The writes that turn ``live`` into ``project`` given their differences."""

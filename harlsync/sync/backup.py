@@ -16,6 +16,7 @@ import json
 import logging
 import os
 import subprocess
+import threading
 import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
@@ -23,9 +24,10 @@ from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
+from ..families.base import Progress
 from ..link import lock_key
 from ..project import load_robot
 from ..project.lock import project_lock
@@ -37,6 +39,7 @@ from .items import summarize
 
 __all__ = [
     "BackupReport",
+    "BackupWatch",
     "RobotOutcome",
     "backup",
     "find_projects",
@@ -65,6 +68,15 @@ class RobotOutcome:
     last_success: str | None = None
     stale: bool = False
     never_backed_up: bool = False
+
+    def line(self) -> str:
+        """One line as it finishes: ``press: ok, changed: 1 program (1 step) (4.0 s)``."""
+        took = f" ({self.duration:.1f} s)"
+        if not self.ok:
+            tries = f" after {len(self.attempts)} attempts" if len(self.attempts) > 1 else ""
+            return f"{self.name}: FAILED{tries}: {self.error}{took}"
+        said = f"changed: {self.summary}" if self.changed else self.summary or "no change"
+        return f"{self.name}: ok, {said}{took}"
 
 
 @dataclass
@@ -175,7 +187,38 @@ def line_of(port: str) -> str:
     return lock_key(port) or port
 
 
-def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
+class BackupWatch(Protocol):
+    """What a backup tells while it runs, for a live display (the CLI's, on a
+    terminal).  Called from the worker threads, one per line.  Progress is in
+    exchanges with the controller, as a pull's."""
+
+    def started(self, path: Path, name: str) -> None:
+        """Robot ``name`` (project ``path``) is being backed up."""
+
+    def progress(self, path: Path, done: int, total: int) -> None:
+        """``done`` of ``total`` exchanges of its read (a new attempt starts at 0)."""
+
+    def finished(self, outcome: RobotOutcome) -> None:
+        """It is done: :meth:`RobotOutcome.line` says how."""
+
+
+class _Unwatched:
+    def started(self, path: Path, name: str) -> None:
+        pass
+
+    def progress(self, path: Path, done: int, total: int) -> None:
+        pass
+
+    def finished(self, outcome: RobotOutcome) -> None:
+        pass
+
+
+class _Stopped(Exception):
+    """The run was interrupted (Ctrl-C): a robot's read stops at its next exchange."""
+
+
+def _pull_one(path: Path, attempts: int, lock_timeout: float,
+              progress: Progress | None = None) -> RobotOutcome:
     start = time.monotonic()
     try:
         robot = load_robot(path)
@@ -184,7 +227,9 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
     outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
     for attempt in range(1, attempts + 1):
         try:
-            result = pull(path, lock_timeout=lock_timeout)
+            result = pull(path, lock_timeout=lock_timeout, progress=progress)
+        except _Stopped:
+            raise
         except LinkError as exc:  # the line may recover: try again, bounded
             outcome.attempts.append(f"attempt {attempt}: {exc}")
             outcome.error = str(exc)
@@ -209,19 +254,30 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float) -> RobotOutcome:
 
 
 def _backup_one(
-    path: Path, attempts: int, lock_timeout: float, clock: Callable[[], datetime]
+    path: Path, attempts: int, lock_timeout: float, clock: Callable[[], datetime],
+    watch: BackupWatch, stop: threading.Event,
 ) -> RobotOutcome:
     """Back up one robot, holding its project from the pull to the record of it,
     which says when it ended (``clock()``).  Every log line meanwhile names the
-    robot (:mod:`harlsync.robotlog`)."""
+    robot (:mod:`harlsync.robotlog`).  Raises _Stopped once ``stop`` is set."""
+
+    def progress(done: int, total: int) -> None:
+        if stop.is_set():
+            raise _Stopped
+        watch.progress(path, done, total)
+
+    name = _name_of(path)
     with ExitStack() as held:
-        held.enter_context(about(_name_of(path)))
+        held.enter_context(about(name))
+        watch.started(path, name)
         try:
             held.enter_context(project_lock(path, timeout=lock_timeout, command="backup"))
         except ProjectError as exc:  # another harlsync is saving it: one line, that robot
-            return _not_backed_up(path, exc)
-        outcome = _pull_one(path, attempts, lock_timeout)
-        return _record(outcome, clock())
+            outcome = _not_backed_up(path, exc)
+        else:
+            outcome = _record(_pull_one(path, attempts, lock_timeout, progress), clock())
+    watch.finished(outcome)
+    return outcome
 
 
 def _name_of(path: Path) -> str:
@@ -283,6 +339,7 @@ def backup(
     attempts: int = 2,
     lock_timeout: float = 60.0,
     now: datetime | None = None,
+    watch: BackupWatch | None = None,
 ) -> BackupReport:
     """Pull every robot under ``paths``; commit and push once when asked.
 
@@ -293,7 +350,9 @@ def backup(
     ``jobs`` is how many lines are read at once (default: all of them).  Each
     line spends nearly all its time waiting for the wire, so a worker per line
     costs a thread, not a core: a fixed pool of 4 made 32 robots take 8 times
-    as long as one.
+    as long as one.  ``watch`` hears of each robot as it starts, reads and ends.
+    Interrupted (KeyboardInterrupt), every robot's read stops at its next exchange,
+    leaving its previous backup as it was, before the interruption goes on.
     """
     started = time.monotonic()
     now = now or datetime.now(timezone.utc)
@@ -312,12 +371,21 @@ def backup(
             port = f"unreadable:{path}"
         lines.setdefault(line_of(port), []).append(path)
 
+    watching: BackupWatch = watch or _Unwatched()
+    stop = threading.Event()
+
     def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
-        return [_backup_one(p, attempts, lock_timeout, clock) for p in paths_on_line]
+        return [_backup_one(p, attempts, lock_timeout, clock, watching, stop)
+                for p in paths_on_line if not stop.is_set()]
 
     workers = len(lines) if jobs is None else jobs
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-        outcomes = [o for group in pool.map(run_line, lines.values()) for o in group]
+        try:
+            outcomes = [o for group in pool.map(run_line, lines.values()) for o in group]
+        except BaseException:  # Ctrl-C: every read stops at its next exchange, none starts
+            stop.set()
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
     outcomes.sort(key=lambda o: o.name)
 
     for outcome in outcomes:

@@ -64,6 +64,7 @@ from .plan import Plan, PlannedWrite, make_plan
 
 __all__ = [
     "Comparison",
+    "LiveRead",
     "PullResult",
     "PushFailed",
     "PushOptions",
@@ -117,6 +118,19 @@ def station_number(family: str | None, station: Station) -> int | None:
                            else f"station: {exc}") from None
 
 
+class LiveRead(NamedTuple):
+    """What :func:`read_live` found."""
+
+    #: closed: it still names the robot and builds commands
+    driver: Driver
+    #: everything the robot holds, as the family's data
+    live: Any
+    #: a warning for each earlier push to it that did not finish
+    warnings: list[str]
+    #: when asked and the robot is not idle: why a push would be refused now
+    busy: str | None = None
+
+
 def read_live(
     robot: Robot,
     port: str | None,
@@ -125,18 +139,26 @@ def read_live(
     registers: bool,
     progress: Progress | None,
     lock_timeout: float,
-) -> tuple[Driver, Any, list[str]]:
-    """Everything the robot holds, read over a line opened and closed for it, and
-    a warning for each earlier push to it that did not finish.
-
-    The driver is returned closed: it still names the robot and builds commands.
-    """
+    idle_check: bool = False,
+) -> LiveRead:
+    """Everything the robot holds, read over a line opened and closed for it; with
+    ``idle_check`` its state after the read too (what the interlock reads)."""
     driver = connect(robot, port, station, lock_timeout=lock_timeout)
     try:
         warnings = _unfinished(robot, port, station)
-        return driver, driver.read_all(registers=registers, progress=progress), warnings
+        live = driver.read_all(registers=registers, progress=progress)
+        return LiveRead(driver, live, warnings, _busy(driver) if idle_check else None)
     finally:
         driver.close()
+
+
+def _busy(driver: Driver) -> str | None:
+    """Why the interlock would refuse a write now (None: the robot is idle)."""
+    try:
+        status = driver.status()
+    except HarlsyncError as exc:
+        return f"cannot read its state ({exc})"
+    return None if status.idle else status.describe()
 
 
 def _unfinished(robot: Robot, port: str | None, station: int | None) -> list[str]:
@@ -172,6 +194,8 @@ class PullResult:
     #: Files an earlier pull saved and nobody touched since, still uncommitted (its
     #: commit failed or was killed): this pull's save and commit take them over.
     earlier: list[str] = field(default_factory=list)
+    #: What was read, in the family's words (Catalogue.contents).
+    contents: str = ""
 
     @property
     def changed(self) -> bool:
@@ -279,13 +303,14 @@ def pull(
         previous: Any = load_project(path).data
     except ProjectError:
         previous = None
-    _, live, _ = read_live(robot, port, station, registers=robot.keep_registers,
-                           progress=progress, lock_timeout=lock_timeout)
+    live = read_live(robot, port, station, registers=robot.keep_registers,
+                     progress=progress, lock_timeout=lock_timeout).live
     save_project(path, Project(path, robot, live))
     changes = None if previous is None else diff(
         catalogue(robot), previous, live, registers=robot.keep_registers
     )
-    result = PullResult(path, robot, changes, earlier=earlier)
+    result = PullResult(path, robot, changes, earlier=earlier,
+                        contents=catalogue(robot).contents(live, registers=robot.keep_registers))
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
         result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
@@ -308,10 +333,21 @@ class Comparison:
     changes: list[Change]
     #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
     warnings: list[str] = field(default_factory=list)
+    #: With ``idle_check``, when the robot is not idle: why a push would be refused now.
+    busy: str | None = None
+    #: What was read, in the family's words (Catalogue.contents).
+    contents: str = ""
+    #: Whether runtime data was compared.
+    registers: bool = False
 
     @property
     def target(self) -> str:
         return self.driver.label
+
+    def plan(self) -> Plan:
+        """The plan a push would carry out, from this comparison."""
+        return make_plan(catalogue(self.project.robot), self.live, self.project.data,
+                         self.driver, robot=self.project.robot.name, registers=self.registers)
 
 
 def compare(
@@ -322,14 +358,18 @@ def compare(
     progress: Progress | None = None,
     registers: bool = False,
     lock_timeout: float = 10.0,
+    idle_check: bool = False,
 ) -> Comparison:
-    """Read the live robot and compare it with the project, item by item."""
+    """Read the live robot and compare it with the project, item by item; with
+    ``idle_check`` also say whether a push would be refused now (robot not idle)."""
     project = load_project(path)
     station = station_number(project.robot.family, station)
-    driver, live, warnings = read_live(project.robot, port, station, registers=registers,
-                                       progress=progress, lock_timeout=lock_timeout)
-    changes = diff(catalogue(project.robot), live, project.data, registers=registers)
-    return Comparison(project, driver, live, changes, warnings)
+    read = read_live(project.robot, port, station, registers=registers, progress=progress,
+                     lock_timeout=lock_timeout, idle_check=idle_check)
+    things = catalogue(project.robot)
+    changes = diff(things, read.live, project.data, registers=registers)
+    return Comparison(project, read.driver, read.live, changes, read.warnings, read.busy,
+                      things.contents(read.live, registers=registers), registers)
 
 
 def plan(
@@ -341,11 +381,9 @@ def plan(
     registers: bool = False,
     lock_timeout: float = 10.0,
 ) -> Plan:
-    """The plan a push would carry out now; sends no SN command."""
-    c = compare(path, port=port, station=station, progress=progress, registers=registers,
-                lock_timeout=lock_timeout)
-    return make_plan(catalogue(c.project.robot), c.live, c.project.data, c.driver,
-                     robot=c.project.robot.name, registers=registers)
+    """The plan a push would carry out now; sends no write."""
+    return compare(path, port=port, station=station, progress=progress, registers=registers,
+                   lock_timeout=lock_timeout).plan()
 
 
 # --- push and rollback --------------------------------------------------------------

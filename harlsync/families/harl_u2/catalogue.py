@@ -162,6 +162,14 @@ class HarlU2Catalogue:
     def version(self, data: RobotData) -> str:
         return data.version
 
+    def contents(self, data: RobotData, *, registers: bool) -> str:
+        steps = sum(not step.empty for steps in data.programs.values() for step in steps.values())
+        parts = [f"{_many(len(data.programs), 'program')} ({_many(steps, 'step')} used)",
+                 _many(len(data.offsets), "offset table"), _many(len(data.timers), "timer")]
+        if registers and data.registers is not None:
+            parts.append(_many(len(data.registers), "register"))
+        return ", ".join(parts)
+
     def plan(self, live: RobotData, project: RobotData, changes: list[tuple[Any, Any, Any]],
              *, registers: bool) -> PlanShape:
         unwritable = [
@@ -212,6 +220,10 @@ class HarlU2Catalogue:
 
 
 CATALOGUE = HarlU2Catalogue()
+
+
+def _many(count: int, one: str) -> str:
+    return f"{count} {one}{'s' * (count != 1)}"
 
 
 def _config_field(cfg: Config | None, name: str) -> str | None:

@@ -179,6 +179,15 @@ class IaiCatalogue:
         ]
         return ", ".join(parts) or "no change"
 
+    def contents(self, data: IaiData, *, registers: bool) -> str:
+        """Positions, and the flags and variables read with them."""
+        kept = data.variables() if registers else {}
+        held = {"positions": data.positions, **kept}
+        return ", ".join(
+            f"{len(held[section])} {one if len(held[section]) == 1 else several}"
+            for section, one, several in _KINDS.values() if section in held
+        )
+
     def version(self, data: IaiData) -> str:
         v = data.version
         return f"model {v.model_code} unit {v.unit_code} version {v.version} built {v.built}"

@@ -1,0 +1,219 @@
+"""What a person at a terminal sees while harlsync works, on stderr; nothing off one.
+
+The command line's side of feedback (the library only reports ``progress(done,
+total)`` and outcomes).  Progress is counted in *exchanges with the controller*:
+one request and its reply, the unit every family's read advances by.
+
+:class:`Feedback` is one robot's bar (pull, diff, plan, push) and the summary
+line a command ends with.  :class:`BackupDisplay` is the live block of
+``harlsync backup``, one line per robot being read, redrawn in place, with a
+result line printed above it as each robot finishes::
+
+    loader: ok, no change (3.2 s)                       <- printed once, scrolls up
+    press: 41%|████▏     | 70/171 exchanges with the controller [00:02<00:03, 31.0/s]
+    welder: connecting                                  <- the block, redrawn in place
+
+Whatever stops them (the end, an error, Ctrl-C), :meth:`close` takes every bar
+off the screen: nothing is left half drawn under the next line printed.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TextIO
+
+if TYPE_CHECKING:
+    from .sync.backup import RobotOutcome
+
+__all__ = ["UNIT", "BackupDisplay", "Feedback", "is_terminal"]
+
+#: The progress unit, as every bar and summary says it.
+UNIT = "exchanges with the controller"
+_BAR = "{l_bar}{bar}| {n_fmt}/{total_fmt} " + UNIT + " [{elapsed}<{remaining}, {rate_fmt}]"
+#: Redraw the backup's block at most this often (progress comes per exchange).
+_REDRAW = 0.1
+
+
+def is_terminal(stream: TextIO | None = None) -> bool:
+    """Whether ``stream`` (default stderr) is a terminal a person watches."""
+    stream = stream if stream is not None else sys.stderr
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):  # closed or not a real stream
+        return False
+
+
+def seconds(elapsed: float) -> str:
+    """``0.4 s``, ``12.3 s``, ``3 min 05 s``."""
+    if elapsed < 60:
+        return f"{elapsed:.1f} s"
+    minutes, secs = divmod(round(elapsed), 60)
+    return f"{minutes} min {secs:02d} s"
+
+
+class Feedback:
+    """One robot's progress bar on a terminal, and the line a command ends with.
+
+    Call it as ``progress(done, total)``; :meth:`close` clears the bar (also when
+    the command failed or was interrupted); :meth:`summary` prints one line, only
+    on a terminal, with the time since the start and the exchanges counted.
+    """
+
+    def __init__(self, what: str) -> None:
+        self.what = what
+        self.started = time.monotonic()
+        self.exchanges = 0
+        self._bar: Any = None
+        self._drawn = False
+        self._finished = False
+
+    def __call__(self, done: int, total: int) -> None:
+        self.exchanges = done
+        if self._finished:
+            return
+        if self._bar is None:
+            if not is_terminal():
+                return
+            from tqdm import tqdm
+
+            # Narrower than the terminal by the "^C" it echoes: a wrapped line could
+            # not be cleared any more.
+            width = _width_height(sys.stderr)[0] - len("^C") - 1
+            self._drawn = True  # before: a ^C may stop tqdm() after it drew the bar
+            self._bar = tqdm(total=total, desc=self.what, unit="", bar_format=_BAR,
+                             file=sys.stderr, leave=False, ncols=width)
+        self._bar.total = total
+        self._bar.update(done - self._bar.n)
+        if done >= total:  # clear the line before anything else is printed (a plan, a prompt)
+            self.close()
+
+    def close(self) -> None:
+        self._finished = True
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        if self._drawn:
+            self._drawn = False
+            sys.stderr.write("\r\x1b[K")  # whatever is left, and a "^C" echoed after it
+            sys.stderr.flush()
+
+    def summary(self, robot: str, contents: str, tail: str = "") -> None:
+        """``harlsync: diff cell-1: read CONTENTS in 12.3 s (1160 exchanges with the
+        controller); no differences`` on a terminal; nothing off one (cron)."""
+        self.close()
+        if not is_terminal():
+            return
+        counted = f" ({self.exchanges} {UNIT})" if self.exchanges else ""
+        elapsed = seconds(time.monotonic() - self.started)
+        print(f"harlsync: {self.what} {robot}: read {contents} in {elapsed}{counted}{tail}",
+              file=sys.stderr, flush=True)
+
+
+def _width_height(stream: TextIO) -> tuple[int, int]:
+    try:
+        size = os.get_terminal_size(stream.fileno())
+        return size.columns, size.lines
+    except (OSError, ValueError, AttributeError):
+        return 80, 24
+
+
+class _Row:
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.started = time.monotonic()
+        self.done = 0
+        self.total = 0
+
+
+class BackupDisplay:
+    """The live block of ``harlsync backup`` on a terminal (see the module's text):
+    a :class:`~harlsync.sync.backup.BackupWatch`.
+
+    Its methods are called from the backup's worker threads, one per line; off a
+    terminal they do nothing.  The block is never taller than the terminal: the
+    robots beyond it are counted on its last line.
+    """
+
+    def __init__(self, stream: TextIO | None = None) -> None:
+        self.stream = stream if stream is not None else sys.stderr
+        self.live = is_terminal(self.stream)
+        self._rows: dict[Path, _Row] = {}
+        self._drawn = 0
+        self._last_draw = 0.0
+        self._lock = threading.Lock()
+        self._closed = False
+
+    # --- what the backup reports -------------------------------------------------------
+
+    def started(self, path: Path, name: str) -> None:
+        with self._lock:
+            self._rows[path] = _Row(name)
+            self._redraw(force=True)
+
+    def progress(self, path: Path, done: int, total: int) -> None:
+        with self._lock:
+            row = self._rows.get(path)
+            if row is None:
+                return
+            if done < row.done:  # a new attempt starts over
+                row.started = time.monotonic()
+            row.done, row.total = done, total
+            self._redraw()
+
+    def finished(self, outcome: RobotOutcome) -> None:
+        """The robot is done: its block line goes, its result line is printed for good."""
+        with self._lock:
+            self._rows.pop(Path(outcome.path), None)
+            if not self.live or self._closed:
+                return
+            self._clear()
+            self.stream.write(outcome.line() + "\n")
+            self._redraw(force=True)
+
+    def close(self) -> None:
+        """Take the block off the screen; later reports are ignored."""
+        with self._lock:
+            if self.live and not self._closed:
+                self._clear()
+            self._closed = True
+
+    # --- drawing -----------------------------------------------------------------------
+
+    def _clear(self) -> None:
+        if self._drawn:
+            # to the start of the block's first line, then erase to the end of the screen
+            self.stream.write(f"\x1b[{self._drawn}F\x1b[J")
+            self._drawn = 0
+        self.stream.flush()
+
+    def _redraw(self, *, force: bool = False) -> None:
+        if not self.live or self._closed:
+            return
+        now = time.monotonic()
+        if not force and now - self._last_draw < _REDRAW:
+            return
+        self._last_draw = now
+        width, height = _width_height(self.stream)
+        rows = list(self._rows.values())
+        room = max(1, height - 2)
+        shown = rows if len(rows) <= room else rows[: room - 1]
+        lines = [self._line(row, now, width) for row in shown]
+        if len(shown) < len(rows):
+            lines.append(f"... and {len(rows) - len(shown)} more robot(s) being read"[: width - 1])
+        self._clear()
+        self.stream.write("".join(line + "\n" for line in lines))
+        self.stream.flush()
+        self._drawn = len(lines)
+
+    @staticmethod
+    def _line(row: _Row, now: float, width: int) -> str:
+        if not row.total:
+            return f"{row.name}: connecting"[: width - 1]
+        from tqdm import tqdm
+
+        return str(tqdm.format_meter(row.done, row.total, now - row.started, ncols=width - 1,
+                                     prefix=row.name, unit="", bar_format=_BAR))
