@@ -584,7 +584,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     progress.summary(result.robot.name, result.contents)
-    if sys.stdout.isatty():
+    if result.commit or sys.stdout.isatty():  # a commit is always said: cron logs it
         committed = f", committed {result.commit[:10]}" if result.commit else ""
         _print(f"{result.robot.name}: {result.summary}{committed}")
     return EXIT_OK
