@@ -679,7 +679,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     try:
         found = engine.compare(args.dir, port=args.port, station=args.station,
                                progress=progress, registers=args.registers,
-                               lock_timeout=args.lock_timeout)
+                               lock_timeout=args.lock_timeout, idle_check=True)
     finally:
         progress.close()
     _warn(found.warnings)
@@ -689,6 +689,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         the_plan.save(args.out)
         _print(f"# plan saved to {args.out}")
     progress.summary(found.project.robot.name, found.contents, _differ(found.changes))
+    if found.busy is not None:  # a push reads the state before anything else
+        _warn([(f"robot {found.project.robot.name} ({found.target}) is not idle: "
+                f"{found.busy}; a push would be refused now")])
     return EXIT_OK
 
 

@@ -264,3 +264,37 @@ def test_issue_14_a_station_in_range_is_read_as_its_family_writes_it() -> None:
     with pytest.raises(ProjectError, match=r"^station: 0 is out of range \(allowed: 1-99\)$"):
         engine.station_number("harl-u2", 0)  # a number from a library caller too
     assert engine.station_number("iai", 0x99) == 0x99
+
+
+# --- plan while the robot runs; pull --commit off a terminal -------------------------------
+
+
+def test_issue_14_plan_warns_that_a_push_would_be_refused_while_the_robot_runs(
+    robot: tuple[Path, Any], capsys: pytest.CaptureFixture[str],
+) -> None:
+    project, sim = robot
+    assert main(["plan", str(project)]) == 0
+    assert capsys.readouterr().err == ""  # idle: nothing to warn about
+    for state in sim.stations.values():
+        sim.control(sim.family.busy_verb, state, ())
+    assert main(["plan", str(project)]) == 0
+    out, err = capsys.readouterr()
+    assert out.splitlines()[-1].startswith("# 0 write(s) to cell (port sim://@rough-")
+    assert re.fullmatch(r"harlsync: warning: robot cell \(port sim://@rough-\S+ station \w+\) is not "
+                        r"idle: .+; a push would be refused now\n", err), err
+    assert main(["push", str(project), "--yes"]) == 3  # as the warning said
+
+
+def test_issue_14_pull_commit_off_a_terminal_still_prints_the_commit(
+    robot: tuple[Path, Any], capsys: pytest.CaptureFixture[str],
+) -> None:
+    project, _ = robot
+    family = load_robot(project).family
+    again = project.parent / "again"
+    assert main(["pull", str(again), "--port", load_robot(project).port, "--family", family,
+                 "--commit"]) == 0
+    out, err = capsys.readouterr()
+    head = git(project.parent, "rev-parse", "HEAD").strip()
+    assert (out, err) == (f"again: first backup, committed {head[:10]}\n", "")
+    assert main(["pull", str(again), "--commit"]) == 0  # nothing changed: no commit, quiet
+    assert capsys.readouterr() == ("", "")
