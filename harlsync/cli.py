@@ -424,10 +424,9 @@ def _add_log(sub: argparse._SubParsersAction) -> None:
 
 def _project_dir(path: str) -> Path:
     """``path``, which must hold a robot project.  Raises ProjectError naming it."""
-    from .errors import ProjectError
+    from .project.store import require_project
 
-    if not (Path(path) / "robot.yaml").is_file():
-        raise ProjectError(f"{path}: not a robot project (no robot.yaml)")
+    require_project(Path(path))
     return Path(path)
 
 

@@ -7,6 +7,7 @@ and offsets.yaml hold timer/table n on line 4 + n, program files step n on line
 
 from __future__ import annotations
 
+import re
 import shutil
 from datetime import datetime, time
 from pathlib import Path
@@ -472,9 +473,16 @@ def test_a_path_that_is_not_a_directory_cannot_be_validated(tmp_path: Path) -> N
         validate_project(tmp_path / "nowhere")
 
 
-def test_an_empty_directory_is_reported_file_by_file(tmp_path: Path) -> None:
+def test_issue_14_a_directory_without_robot_yaml_is_named_as_not_a_project(tmp_path: Path) -> None:
+    with pytest.raises(ProjectFormatError, match=(
+            rf"^{re.escape(str(tmp_path))}: not a robot project \(no robot.yaml\); a first "
+            r"'harlsync pull DIR --port URL' makes one$")):
+        validate_project(tmp_path)
+
+
+def test_a_project_missing_its_other_files_is_reported_file_by_file(tmp_path: Path) -> None:
+    shutil.copy(EXAMPLE / "robot.yaml", tmp_path / "robot.yaml")
     assert validate_project(tmp_path) == [
-        "robot.yaml: missing",
         "controller.yaml: missing",
         "parameters.yaml: missing",
         "offsets.yaml: missing",

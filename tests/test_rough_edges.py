@@ -298,3 +298,14 @@ def test_issue_14_pull_commit_off_a_terminal_still_prints_the_commit(
     assert (out, err) == (f"again: first backup, committed {head[:10]}\n", "")
     assert main(["pull", str(again), "--commit"]) == 0  # nothing changed: no commit, quiet
     assert capsys.readouterr() == ("", "")
+
+
+@pytest.mark.parametrize("command", ["diff", "validate", "plan", "push", "snapshots", "log"])
+def test_issue_14_a_directory_that_is_not_a_project_is_named(
+    tmp_path: Path, command: str, capsys: pytest.CaptureFixture[str],
+) -> None:
+    (tmp_path / "notes.txt").write_text("not a robot\n")
+    assert main([command, str(tmp_path)]) == 2
+    assert capsys.readouterr() == ("", (
+        f"harlsync: error: {tmp_path}: not a robot project (no robot.yaml); a first "
+        "'harlsync pull DIR --port URL' makes one\n"))

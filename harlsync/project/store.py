@@ -70,6 +70,7 @@ __all__ = [
     "load_robot",
     "read_project",
     "replace_file",
+    "require_project",
     "save_project",
     "validate_project",
 ]
@@ -112,12 +113,7 @@ def _gather(
     root: Path, *, robot_only: bool = False
 ) -> tuple[Family, dict[str, bytes], list[Issue]]:
     """The project's family and YAML files by relative path (``.schemas/`` is never read)."""
-    if not root.is_dir():
-        raise ProjectFormatError(
-            f"{root}: not a project directory (no such directory); "
-            "a first 'harlsync pull DIR --port URL' makes one"
-        )
-    recover(root)
+    require_project(root)
     family = family_of(root)
     names = family.project_files(root)
     if robot_only:
@@ -132,11 +128,27 @@ def _gather(
     return family, files, problems
 
 
+def require_project(root: Path) -> None:
+    """Finish an interrupted save in ``root`` (which may bring robot.yaml back), then
+    raise ProjectFormatError, naming ``root``, unless it holds a robot project."""
+    if not root.is_dir():
+        raise ProjectFormatError(
+            f"{root}: not a project directory (no such directory); "
+            "a first 'harlsync pull DIR --port URL' makes one"
+        )
+    recover(root)
+    if not (root / "robot.yaml").exists():
+        raise ProjectFormatError(
+            f"{root}: not a robot project (no robot.yaml); "
+            "a first 'harlsync pull DIR --port URL' makes one"
+        )
+
+
 def validate_project(path: str | os.PathLike[str]) -> list[str]:
     """Every issue of the project at ``path``, as ``file:line: field: message`` lines.
 
     An empty list means the project is valid.  Raises ProjectFormatError only when
-    ``path`` is not a directory.
+    ``path`` is not a project directory (none, or no robot.yaml in it).
     """
     family, files, problems = _gather(Path(path))
     return [str(issue) for issue in problems + family.analyse(files).issues]
