@@ -270,6 +270,11 @@ def _serve(servers: Sequence[Any], done: threading.Event,
 # --- backup -----------------------------------------------------------------------------
 
 
+def _format_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="text for people (default), json for scripts")
+
+
 def _plant_args(p: argparse.ArgumentParser) -> None:
     """The robots of a plant, as backup and status find and judge them."""
     p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
@@ -292,7 +297,7 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--commit", action="store_true",
                    help="one git commit for the run, listing which robots changed and how much")
     p.add_argument("--push", action="store_true", help="git push after committing (needs --commit)")
-    p.add_argument("--format", choices=("text", "json"), default="text")
+    _format_arg(p)
     p.add_argument("--quiet", action="store_true",
                    help="print the summary only when a robot failed (for cron mail)")
     p.add_argument("--attempts", type=int, default=2, metavar="N",
@@ -358,11 +363,6 @@ def _cmd_backup(args: argparse.Namespace) -> int:
 
 
 # --- status, log, snapshots -------------------------------------------------------------
-
-
-def _format_arg(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--format", choices=("text", "json"), default="text",
-                   help="text for people (default), json for scripts")
 
 
 def _add_status(sub: argparse._SubParsersAction) -> None:
@@ -599,7 +599,7 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
-    p.add_argument("--format", choices=("text", "json"), default="text")
+    _format_arg(p)
     p.add_argument("--registers", action="store_true",
                    help="compare runtime data too (HARL-U2 registers, IAI flags and variables)")
     p.set_defaults(func=_cmd_diff)
@@ -836,6 +836,10 @@ _COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
 ]
 
 
+#: Commands that open no line to a robot: -v has no traffic to show for them.
+_NO_LINE = frozenset({"validate", "status", "log", "snapshots"})
+
+
 def _one_line(exc: BaseException) -> str:
     """An error as one line for stderr and cron mail, whatever text it carries
     (an OS message, a file name with a newline in it)."""
@@ -850,13 +854,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"harlsync {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0,
-                        help="more output: -v progress details, -vv raw traffic as hex")
+                        help="more output: -v what it does, -vv raw traffic on a robot's line "
+                             "as hex")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in _COMMANDS:
         add(sub)
-    for command in sub.choices.values():  # -v works after the command too
+    for name, command in sub.choices.items():  # -v works after the command too
+        traffic = ", -vv raw traffic as hex" if name not in _NO_LINE else ""
         command.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
-                             help="more output: -v what it does, -vv raw traffic as hex")
+                             help=f"more output: -v what it does{traffic}")
     return parser
 
 

@@ -309,3 +309,36 @@ def test_issue_14_a_directory_that_is_not_a_project_is_named(
     assert capsys.readouterr() == ("", (
         f"harlsync: error: {tmp_path}: not a robot project (no robot.yaml); a first "
         "'harlsync pull DIR --port URL' makes one\n"))
+
+
+# --- --help -----------------------------------------------------------------------------
+
+
+def help_of(command: str, capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit) as done:
+        main([command, "--help"])
+    assert done.value.code == 0
+    return " ".join(capsys.readouterr().out.split())  # argparse wraps at the terminal width
+
+
+@pytest.mark.parametrize("command", ["diff", "backup", "status", "log", "snapshots"])
+def test_issue_14_format_says_what_each_choice_is_for(
+    command: str, capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert "--format {text,json} text for people (default), json for scripts" in help_of(
+        command, capsys)
+
+
+@pytest.mark.parametrize("command", ["validate", "status", "log", "snapshots"])
+def test_issue_14_v_promises_no_wire_traffic_where_no_line_is_opened(
+    command: str, capsys: pytest.CaptureFixture[str],
+) -> None:
+    text = help_of(command, capsys)
+    assert "-v, --verbose more output: -v what it does" in text and "traffic" not in text
+
+
+@pytest.mark.parametrize("command", ["pull", "diff", "plan", "push", "rollback", "backup", "sim"])
+def test_v_on_a_command_that_opens_a_line_offers_its_traffic(
+    command: str, capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert "-v what it does, -vv raw traffic as hex" in help_of(command, capsys)
