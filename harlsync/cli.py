@@ -555,10 +555,14 @@ def _family_names() -> tuple[str, ...]:
 def _add_pull(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "pull", help="read everything from the robot into a project directory",
-        description="Read the configuration, every program step, the parameters, the offset "
-                    "tables and the timers (and registers if the project keeps them) and write "
-                    "the project atomically: a pull that fails leaves the previous files as they "
-                    "were. DIR is created if missing; a first pull needs --port.",
+        description="Read everything the robot holds that the project keeps (HARL-U2: the "
+                    "configuration, every program step, the parameters, the offset tables and "
+                    "the timers; IAI: the position table; registers or variables if the project "
+                    "keeps them) and write the project atomically: a pull that fails leaves the "
+                    "previous files as they were. DIR is created if missing; a first pull needs "
+                    "--port. A controller that does not look like the robot backed up in DIR "
+                    "(another version or program configuration, or most of the backup would "
+                    "change) is refused (exit 3) until --new-robot.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
@@ -569,6 +573,10 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
                    help="commit the change to git, with a message that says what changed")
     p.add_argument("--allow-dirty", action="store_true",
                    help="pull even over uncommitted edits in DIR (they are overwritten)")
+    p.add_argument("--new-robot", action="store_true",
+                   help="accept a controller that does not look like the robot backed up in "
+                        "DIR (another version or program configuration, or most of the "
+                        "backup changed): a replaced, reconfigured or updated robot")
     p.set_defaults(func=_cmd_pull)
 
 
@@ -579,7 +587,8 @@ def _cmd_pull(args: argparse.Namespace) -> int:
     try:
         result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
                              progress=progress, lock_timeout=args.lock_timeout,
-                             allow_dirty=args.allow_dirty, family=args.family)
+                             allow_dirty=args.allow_dirty, family=args.family,
+                             new_robot=args.new_robot)
     finally:
         progress.close()
     progress.summary(result.robot.name, result.contents)

@@ -163,6 +163,13 @@ class Catalogue(Protocol):
         """The controller's version text (fingerprinted, never compared)."""
         ...
 
+    def robot_identity(self, data: Any) -> dict[str, str]:
+        """What tells this robot from another of its family, by a person's name for
+        each part (``{"version": "5.00", "program configuration": "..."}``): a pull
+        whose controller answers otherwise than the backup refuses (another robot on
+        the line, a wrong port or station) until told it is a new robot."""
+        ...
+
     def contents(self, data: Any, *, registers: bool) -> str:
         """What ``data`` holds, in the family's words, for the line a pull or diff
         ends with: ``"7 programs (120 steps used), 10 offset tables, 8 timers"``."""

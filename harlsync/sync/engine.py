@@ -280,8 +280,14 @@ def pull(
     lock_timeout: float = 10.0,
     allow_dirty: bool = False,
     family: str | None = None,
+    new_robot: bool = False,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
+
+    A controller that does not look like the robot of the backup in ``path``
+    (another version or program configuration, or most of the backup would
+    change) is refused with PolicyError and the backup left as it was, unless
+    ``new_robot`` (see :func:`_same_robot`).
 
     A pull that fails leaves the previous files untouched.  A project with
     uncommitted edits (other than robot.yaml, which a pull never rewrites) is
@@ -303,8 +309,11 @@ def pull(
         previous: Any = load_project(path).data
     except ProjectError:
         previous = None
-    live = read_live(robot, port, station, registers=robot.keep_registers,
-                     progress=progress, lock_timeout=lock_timeout).live
+    read = read_live(robot, port, station, registers=robot.keep_registers,
+                     progress=progress, lock_timeout=lock_timeout)
+    live = read.live
+    if previous is not None and not new_robot:
+        _same_robot(path, catalogue(robot), previous, live, read.driver.label)
     save_project(path, Project(path, robot, live))
     changes = None if previous is None else diff(
         catalogue(robot), previous, live, registers=robot.keep_registers
@@ -317,6 +326,44 @@ def pull(
         if result.commit:
             history.committed(path, result.commit)
     return result
+
+
+#: A pull that would change more than this share of the items of one kind (steps,
+#: positions...) looks like another robot ...
+MOST = 0.5
+#: ... when there are at least this many: a small table re-taught is the same robot.
+FEW_ITEMS = 10
+
+
+def _same_robot(path: Path, things: Catalogue, backup: Any, live: Any, where: str) -> None:
+    """Raise PolicyError unless the controller read (``live``) looks like the robot
+    backed up in ``path``: the same identity (the family's: version, configuration,
+    model), and not most items of a kind changed at once (runtime data aside), which
+    a wrong port or station, a swapped controller or a lost memory would do.
+
+    Each kind is judged alone: the HARL-U2's 100 offset tables, most of them unused
+    and alike on every robot, must not hide that every program step changed."""
+    was, now = things.robot_identity(backup), things.robot_identity(live)
+    differ = [f"{name} {now.get(name)!r} (the backup has {value!r})"
+              for name, value in was.items() if now.get(name) != value]
+    if not differ:
+        held = things.items(backup, registers=False).keys() | things.items(live, registers=False)
+        changes = diff(things, backup, live)
+        for kind in sorted({key.kind for key in held}):
+            of_kind = [c for c in changes if c.key.kind == kind]
+            count = sum(key.kind == kind for key in held)
+            if count >= FEW_ITEMS and len(of_kind) > MOST * count:
+                differ = [(f"{change_summary(of_kind)} would change, {len(of_kind)} of the "
+                           f"{count} items of that kind: it looks like another robot, or one "
+                           "whose memory was lost")]
+                break
+    if differ:
+        raise PolicyError(
+            f"{path}: the controller at {where} does not look like the robot backed up "
+            f"here: {'; '.join(differ)}. The backup was left as it was. If this is the "
+            f"robot (replaced, reconfigured, updated), accept it with "
+            f"'harlsync pull {path} --new-robot'"
+        )
 
 
 # --- diff and plan ------------------------------------------------------------------

@@ -162,6 +162,19 @@ class HarlU2Catalogue:
     def version(self, data: RobotData) -> str:
         return data.version
 
+    def robot_identity(self, data: RobotData) -> dict[str, str]:
+        """The version (LNV) and the program configuration (LNX)."""
+        cfg = data.config
+        areas = ", ".join(f"{t.value} {cfg.area(t).count}x{cfg.area(t).steps}"
+                          for t in ProgramType)
+        return {
+            "version": data.version,
+            "program configuration": (
+                f"{areas} (programs x steps), {_many(cfg.timers, 'timer')}, "
+                f"{_many(cfg.memory_bits, 'memory bit')}, {_many(cfg.registers, 'register')}"
+            ),
+        }
+
     def contents(self, data: RobotData, *, registers: bool) -> str:
         steps = sum(not step.empty for steps in data.programs.values() for step in steps.values())
         parts = [f"{_many(len(data.programs), 'program')} ({_many(steps, 'step')} used)",

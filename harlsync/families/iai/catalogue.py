@@ -179,6 +179,11 @@ class IaiCatalogue:
         ]
         return ", ".join(parts) or "no change"
 
+    def robot_identity(self, data: IaiData) -> dict[str, str]:
+        """What 201H says the unit is: its model and unit codes and its version."""
+        v = data.version
+        return {"model code": v.model_code, "unit code": v.unit_code, "version": v.version}
+
     def contents(self, data: IaiData, *, registers: bool) -> str:
         """Positions, and the flags and variables read with them."""
         kept = data.variables() if registers else {}
