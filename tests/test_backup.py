@@ -340,7 +340,7 @@ def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
     assert git(plant.root, "status", "--porcelain") == ""
 
 
-def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten_and_14_says_how(
+def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten(
     plant: Plant,
 ) -> None:
     plant.sims["loader"].stations[1].data.timers[1] = "6.66"
