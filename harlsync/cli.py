@@ -2,7 +2,7 @@
 
 Exit codes: 0 success, 1 a negative answer (``diff``: different; ``validate``:
 invalid; ``backup``: a robot failed; ``status``: a robot needs looking at), 2 an
-error, 3 refused for safety (interlock or policy).
+error, 3 refused for safety (interlock or policy), 130 interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -288,8 +288,10 @@ def _add_backup(sub: argparse._SubParsersAction) -> None:
         description="Pull every robot project found in PATH (a project directory, or a directory "
                     "of projects): in parallel across separate lines, one at a time for stations "
                     "that share a line. A robot that fails keeps its previous backup and the others "
-                    "go on. Exit 0 when every robot was backed up, 1 when any failed or the git "
-                    "commit or push failed, 2 on an error before any robot ran.",
+                    "go on. On a terminal it shows a live line per robot (exchanges with the "
+                    "controller, rate, time left) and a result line as each ends. Exit 0 when "
+                    "every robot was backed up, 1 when any failed or the git commit or push "
+                    "failed, 2 on an error before any robot ran, 130 interrupted.",
     )
     _plant_args(p)
     p.add_argument("--jobs", type=int, default=None, metavar="N",
@@ -601,8 +603,10 @@ def _cmd_pull(args: argparse.Namespace) -> int:
 def _add_diff(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "diff", help="compare the project with the live robot",
-        description="Compare the project with the live robot, item by item (program, step, "
-                    "table, field, timer). '-' lines are the robot, '+' lines the project. "
+        description="Read the whole robot, as a pull does, and compare it with the project, "
+                    "item by item (program, step, table, field, timer; IAI: position). '-' "
+                    "lines are the robot, '+' lines the project. On a terminal it ends with "
+                    "what was read, how long it took and how many items differ. "
                     "Warns when the audit log shows an earlier push to this robot that never "
                     "finished (killed part way). Exit 0 identical, 1 different, 2 error.",
     )
@@ -655,11 +659,13 @@ def _differ(changes: Sequence[Any]) -> str:
 def _add_plan(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "plan", help="print the commands a push would send, and send none",
-        description="Read the robot, compare it with the project and print, in order, the exact "
-                    "commands a push would send (HARL-U2: SN commands; IAI: each 291H, field by "
-                    "field). Nothing is written. --out saves the plan "
+        description="Read the whole robot, compare it with the project and print, in order, "
+                    "the exact commands a push would send (HARL-U2: SN commands; IAI: each "
+                    "291H, field by field). Nothing is written. Warns when the robot is not "
+                    "idle: a push would be refused now. --out saves the plan "
                     "with a fingerprint of the robot and the project; push --plan refuses it "
-                    "if either changed since.",
+                    "if either changed since. The plan file is not part of the project: "
+                    "delete it after the push, or keep it outside the repository.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
@@ -730,7 +736,8 @@ def _confirm(the_plan: Plan) -> bool:
 def _add_push(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "push", help="write what differs to the robot, safely",
-        description="Write only what differs, in the family's safe order (HARL-U2: "
+        description="Read the whole robot and write only what differs, in the family's safe "
+                    "order (HARL-U2: "
                     "configuration, parameters, tables, timers, programs; IAI: positions). "
                     "Refuses a project that is invalid, has "
                     "uncommitted changes, or is outside its maintenance window; stops before "
@@ -742,7 +749,9 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
                     "snapshots the robot "
                     "first (see rollback) and records everything in the audit log, each write "
                     "before it is sent, so the next push or diff can name what a push killed "
-                    "part way had written. Exit 0 done, 2 failed, 3 refused for safety.",
+                    "part way had written. Without a terminal to ask on, --yes is needed (it is "
+                    "refused before the robot is read). Exit 0 done, 2 failed, 3 refused for "
+                    "safety, 130 interrupted (what was written is listed and audited).",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _push_args(p)
@@ -818,7 +827,8 @@ def _add_rollback(sub: argparse._SubParsersAction) -> None:
         "rollback", help="restore the snapshot taken before the last push",
         description="Write back the robot's state as it was before the last push (or the "
                     "snapshot named by --snapshot), under the same interlocks, verification "
-                    "and audit as push.",
+                    "and audit as push. The project in git then still holds what was pushed: "
+                    "revert that commit, or push again once fixed.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _push_args(p)
@@ -860,6 +870,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog="harlsync",
         description="Keep robot programs and settings under version control "
                     "(Hirata HARL-U2, IAI protocol B).",
+        epilog="Exit codes: 0 success, 1 a negative answer (diff: different, validate: "
+               "invalid, backup: a robot failed, status: a robot needs looking at), 2 an "
+               "error, 3 refused for safety, 130 interrupted (Ctrl-C). On a terminal, "
+               "progress is counted in exchanges with the controller.",
     )
     parser.add_argument("--version", action="version", version=f"harlsync {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0,
