@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import subprocess
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -14,6 +16,16 @@ def git(repo: Path, *args: str) -> str:
         ["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
         cwd=repo, check=True, capture_output=True, text=True,
     ).stdout
+
+
+def until(condition: Callable[[], object], what: str, deadline: float = 30.0) -> None:
+    """Wait for ``condition`` to hold, polling; fail naming ``what`` after ``deadline`` s
+    (tests never sleep to wait for something)."""
+    end = time.monotonic() + deadline
+    while not condition():
+        if time.monotonic() > end:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.005)
 
 
 @pytest.fixture(autouse=True)

@@ -31,13 +31,12 @@ import select
 import signal
 import subprocess
 import sys
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from conftest import git
+from conftest import git, until
 
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.protocol import Request
@@ -53,15 +52,6 @@ HARLSYNC = [sys.executable, "-m", "harlsync"]
 DEADLINE = 30.0
 #: Names a save, the history file or a snapshot give their temporary files.
 TEMP_MARKS = (".harlsync-new-", ".harlsync-old-", ".tmp", ".harlsync-save")
-
-
-def until(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> None:
-    """Wait for ``condition`` to hold, polling; fail naming ``what`` after ``deadline`` s."""
-    end = time.monotonic() + deadline
-    while not condition():
-        if time.monotonic() > end:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.005)
 
 
 def run(*args: str, timeout: float = DEADLINE) -> subprocess.CompletedProcess[str]:

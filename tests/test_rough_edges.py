@@ -12,13 +12,12 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import git
+from conftest import git, until
 
 from harlsync import families
 from harlsync.cli import main
@@ -38,15 +37,6 @@ HARLSYNC = [sys.executable, "-m", "harlsync"]
 DEADLINE = 30.0
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="ptys, job control and signals are POSIX")
-
-
-def until(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> None:
-    """Wait for ``condition`` to hold, polling; fail naming ``what`` after ``deadline`` s."""
-    end = time.monotonic() + deadline
-    while not condition():
-        if time.monotonic() > end:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.005)
 
 
 def run(*args: str, stdin: int | None = subprocess.DEVNULL) -> subprocess.CompletedProcess[str]:
