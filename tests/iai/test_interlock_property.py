@@ -1,0 +1,868 @@
+"""Property test of the IAI push interlock (issue 12, "the interlock property test
+extended to IAI").
+
+Over 1,000 random pushes in every CI run (plus 20 more through ``harlsync push``
+on a project on disk), each case drawn from one seed, it proves, from the
+simulated controller's own record of what arrived and of what the controller was
+doing when it arrived (``Simulator.received``, and :attr:`Operator.arrival`, the
+reasons it was not idle), never from what harlsync believed:
+
+1. every 291H arrived straight after a 215H and a 212H (for the robot's axes),
+   with nothing between the three; the 215H found the controller idle (AUTO
+   mode, no program running, no flash write, no emergency stop, ready), and the
+   212H found none of the robot's axes in use.  That holds for a re-send after a
+   lost reply too: it follows a fresh 215H and 212H;
+2. hence no 291H arrived while the controller was not idle (a program running,
+   MANUAL mode, a flash write, an emergency stop, not ready, an axis in use),
+   except in the one window no client can close (below);
+3. no message off the profile's allow-list arrived, in any case;
+4. a push that returns has made the robot equal the project (converged), and read
+   215H and 212H once more after its last write;
+5. a push that raises PushFailed says why in one line; its result, its audit
+   record and (on disk) what ``harlsync push`` prints name exactly the 291H the
+   controller received; each position holds its old or its new value (the new
+   one for every write reported written); no position outside the plan changed;
+   no 291H was sent twice without reading its positions back in between;
+6. the snapshot taken before the first write is what the robot held;
+7. once the operator stops and the line is clean, the same push converges (or is
+   refused again, writing nothing, when the project lacks a position the robot
+   has: no message of protocol B clears one).
+
+A case is: a random IAI robot (its model, a small-buffer one like the TT among
+them so that runs split; its axes; its position range; ``SimState.generate`` or a
+table of its own); a project made from it by a random diff (positions changed and
+added, scattered and in runs, sometimes a run long enough for several 291H,
+rarely one left out); and, at random moments (after the controller has answered
+the k-th request, most of them while the push writes), an operator who starts a
+program, switches MANUAL, presses the emergency stop, starts a flash write, holds
+an axis, takes the system out of ready, or stops (idle again); and a line that
+goes bad: faults on the replies (noise, drops, bad SC, fragments, late replies),
+requests lost on their way in, one 291H lost, a short burst of faults.  The reply
+to the request after which the operator acts is often late, lost or garbled: the
+operator acts while it is on the wire.
+
+The window no client can close: the operator acting after the 215H that found
+the controller idle was answered and before the 291H it cleared arrives (MANUAL
+mode or an emergency stop between 215H and 212H are not in 212H's reply).  Such a
+291H is counted (``race``) only when the operator's own log shows a change in
+that window; checks 3-7 still hold for its case.  (The simulated controller
+refuses it, as the profile's interlock says; a real one may not.)
+
+To replay or explore: ``HARLSYNC_PROPERTY_SEEDS=7,8,9`` runs only those seeds
+(a failure names its seed); ``HARLSYNC_PROPERTY_BASE=N`` moves every chunk.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pytest
+from conftest import git
+
+from harlsync import cli, families
+from harlsync.errors import InterlockError, PolicyError
+from harlsync.families.iai import profile
+from harlsync.families.iai.catalogue import CATALOGUE, PositionRun
+from harlsync.families.iai.codec import CODEC
+from harlsync.families.iai.layout import IaiData
+from harlsync.families.iai.model import Position
+from harlsync.families.iai.protocol import (
+    Frame,
+    max_positions_per_read,
+    system_status,
+    write_positions,
+)
+from harlsync.families.iai.sim import SimState, Simulator
+from harlsync.project import Project, Robot, load_project, save_project
+from harlsync.settings import SerialSettings
+from harlsync.sim import Faults, Received
+from harlsync.sim.protocol_sim import register, unregister
+from harlsync.sync import PushFailed, PushOptions, PushResult, engine
+from harlsync.sync import audit as audit_log
+from harlsync.sync import items as sync_items
+
+CHUNKS = 10
+PER_CHUNK = 100
+BASE = int(os.environ.get("HARLSYNC_PROPERTY_BASE", "700000"))
+ONLY = [int(s) for s in os.environ.get("HARLSYNC_PROPERTY_SEEDS", "").split(",") if s.strip()]
+
+#: The reply deadline while faults are on: short, so a lost reply costs little.  The
+#: baud rate only sets how much wire time the codec adds to it (nothing is paced:
+#: the simulator emulates no wire time), so in memory it is set high enough that
+#: a long 22DH reply's deadline stays short too.
+FAST = SerialSettings(baudrate=10_000_000, timeout=0.02, retries=2)
+#: The same on disk, where robot.yaml takes only the controller's baud rates.
+FAST_ON_DISK = SerialSettings(baudrate=115200, timeout=0.02, retries=2)
+#: The deadline for the re-run on a clean line: long, so a busy CI machine is no fault.
+CALM = SerialSettings(baudrate=115200, timeout=1.0, retries=3)
+#: Controller models: mostly the small-buffer TT (a 291H takes 12 positions, a 22DH
+#: asks for 12) and the TTA (25 and 24); the others have the same two buffer sizes.
+MODELS = ["TT", "TT", "TTA", "TTA", "XSEL-JK", "PSEL"]
+
+
+def deadline(settings: SerialSettings) -> float:
+    """The reply deadline of 215H: what a late reply is measured against."""
+    return CODEC.reply_timeout(system_status(), settings)
+
+
+# --- the operator at the controller ----------------------------------------------------
+
+
+Change = Callable[[Simulator, SimState], str]
+
+
+class Operator(Simulator):
+    """A simulated IAI controller with a schedule: after answering the k-th request,
+    make a change.
+
+    A change puts the controller out of idle (or back), or changes the line's
+    faults.  The record says whether the controller was idle when each request
+    arrived (``received[i].busy``); :attr:`arrival` says why not, and :attr:`acted`
+    after which requests the operator changed what the controller does, so a
+    change made after request k shows from request k+1 on.
+    """
+
+    def __init__(
+        self, state: SimState, schedule: list[tuple[int, Change]], *, seed: int,
+        deadline: float, lose_writes: set[int] | None = None,
+    ) -> None:
+        super().__init__(state)
+        self.schedule = sorted(schedule, key=lambda entry: entry[0])
+        self.done: list[str] = []
+        #: The index in :attr:`received` of each request after which the operator
+        #: changed what the controller does.
+        self.acted: set[int] = set()
+        #: For each request in :attr:`received`: why the controller was not idle
+        #: when it arrived (``SimState.not_idle``), empty when it was.
+        self.arrival: list[tuple[str, ...]] = []
+        self._arriving: tuple[str, ...] = ()
+        self.listeners.append(lambda record: self.arrival.append(self._arriving))
+        #: The rate of requests garbled on their way in (never carried out, never answered).
+        self.lose = 0.0
+        #: Which 291H requests (0: the first one sent) are garbled on their way in.
+        self.lose_writes = lose_writes or set()
+        self.writes_sent = 0
+        self.lost_writes = 0
+        #: The chance that the reply to the request after which the operator acts is
+        #: late, lost or garbled: the operator acts while it is on the wire.
+        self.hiccup = 0.4
+        #: The reply deadline of a status read: a late reply is measured against it.
+        self.deadline = deadline
+        self._restore: Faults | None = None
+        self._rng = random.Random(seed)
+
+    @property
+    def state(self) -> SimState:
+        return self.stations[profile.DEFAULT_STATION]
+
+    def calm(self) -> None:
+        """The operator stops the controller and leaves it alone; the line is mended."""
+        self.schedule, self.lose_writes = [], set()
+        self.faults, self._restore, self.lose, self.hiccup = Faults(), None, 0.0, 0.0
+        self.state.stop()
+
+    def busy(self, state: SimState) -> bool:
+        # Called as each request arrives, before it is carried out: keep why.
+        self._arriving = tuple(state.not_idle())
+        return super().busy(state)
+
+    def receive(
+        self, data: bytes, decoder: Any = None, client: str = ""
+    ) -> list[tuple[float, bytes]]:
+        write = data[:1] == b"!" and data[3:6] == b"291"  # the link sends a frame a write
+        lost = self.lose and self._rng.random() < self.lose
+        if write:
+            lost = lost or self.writes_sent in self.lose_writes
+            self.writes_sent += 1
+        if data and lost:
+            data = self.corrupt_checksum(data)  # a bad SC: the controller drops it
+            self.lost_writes += write
+        return super().receive(data, decoder, client)
+
+    def handle(self, state: SimState, frame: Frame) -> str:
+        if self._restore is not None:
+            self.faults, self._restore = self._restore, None
+        handled = len(self.received)  # this request's index in the record
+        try:
+            return super().handle(state, frame)
+        finally:
+            acted = False
+            while self.schedule and self.schedule[0][0] <= handled:
+                _, change = self.schedule.pop(0)
+                before = state.not_idle()
+                said = change(self, state)
+                self.done.append(f"after request {handled} ({frame.payload[:3]}H): {said}")
+                if state.not_idle() != before:
+                    self.acted.add(handled)
+                acted = True
+            if acted and self._rng.random() < self.hiccup:
+                self._restore = self.faults
+                # Late within the link's late window (a reply later than that is beyond
+                # what any link without sequence numbers can place).
+                self.faults = self._rng.choice([
+                    Faults(slow=1.0, slow_delay=self.deadline * 1.5), Faults(drop=1.0),
+                    Faults(bad_checksum=1.0),
+                ])
+                self.done.append(f"  and the reply to it: {self.faults}")
+
+
+def verb(name: str, *args: str) -> Change:
+    """One of the simulator's control verbs (``harlsync sim``'s run, manual, estop ...)."""
+    def change(sim: Simulator, state: SimState) -> str:
+        sim.control(name, state, args)
+        return " ".join([name, *args])
+    return change
+
+
+def not_ready(sim: Simulator, state: SimState) -> str:
+    state.ready = False
+    return "system not ready"
+
+
+def line(faults: Faults, lose: float) -> Change:
+    def change(sim: Simulator, state: SimState) -> str:
+        assert isinstance(sim, Operator)
+        sim.faults, sim.lose = faults, lose
+        return f"faults now {faults}, requests lost {lose}"
+    return change
+
+
+# --- one random case ----------------------------------------------------------------------
+
+
+@dataclass
+class Case:
+    seed: int
+    model: str
+    axes: tuple[int, ...]
+    #: the robot's axes as robot.yaml gives them; None: every axis 212H reports
+    robot_axes: tuple[int, ...] | None
+    position_range: tuple[int, int]
+    before: IaiData
+    target: IaiData
+    sim: Operator
+    story: list[str] = field(default_factory=list)
+
+    def why(self, message: str) -> str:
+        return (f"case seed {self.seed} (HARLSYNC_PROPERTY_SEEDS={self.seed} to replay): "
+                f"{message}\n  " + "\n  ".join(self.story + self.sim.done))
+
+    @property
+    def pattern(self) -> int:
+        """The axis pattern the interlock's 212H asks for."""
+        if self.robot_axes is None:
+            return 0xFF
+        return sum(1 << (a - 1) for a in self.robot_axes)
+
+
+def coordinate(rng: random.Random) -> str:
+    units = rng.choice([
+        rng.randint(-300_000, 600_000), rng.randint(-300_000, 600_000), rng.randint(-999, 999),
+        rng.choice([-(2**31), 2**31 - 1, 0, -1]),  # the wire's ends: two's complement
+    ])
+    sign = "-" if units < 0 else ""
+    return f"{sign}{abs(units) // 1000}.{abs(units) % 1000:03d}"
+
+
+def g(rng: random.Random) -> str:
+    hundredths = rng.choice([0, rng.randint(1, 150), rng.randint(0, 0xFFFF)])
+    return f"{hundredths // 100}.{hundredths % 100:02d}"
+
+
+def random_position(rng: random.Random, number: int, axes: tuple[int, ...]) -> Position:
+    used = axes if rng.random() < 0.6 else tuple(
+        sorted(rng.sample(axes, rng.randint(1, len(axes))))
+    )
+    return Position(
+        number, used, g(rng), g(rng), rng.choice([0, 100, rng.randint(0, 0xFFFF)]),
+        tuple(coordinate(rng) for _ in used), rng.choice([0, 0, 1, 2]), rng.choice([0, 0, 1, 2]),
+    )
+
+
+def edited(rng: random.Random, p: Position, axes: tuple[int, ...]) -> Position:
+    """``p`` with one to three of its fields changed."""
+    for _ in range(rng.randint(1, 3)):
+        what = rng.randrange(6)
+        if what == 0:
+            new = random_position(rng, p.number, axes)
+            p = Position(p.number, new.axes, p.acc, p.dec, p.speed, new.coords, p.arm1, p.arm2)
+        elif what == 1:
+            i = rng.randrange(len(p.coords))
+            coords = list(p.coords)
+            coords[i] = coordinate(rng)
+            p = Position(p.number, p.axes, p.acc, p.dec, p.speed, tuple(coords), p.arm1, p.arm2)
+        elif what == 2:
+            p = Position(p.number, p.axes, g(rng), p.dec, p.speed, p.coords, p.arm1, p.arm2)
+        elif what == 3:
+            p = Position(p.number, p.axes, p.acc, g(rng), p.speed, p.coords, p.arm1, p.arm2)
+        elif what == 4:
+            p = Position(p.number, p.axes, p.acc, p.dec, rng.randint(0, 0xFFFF), p.coords,
+                         p.arm1, p.arm2)
+        else:
+            p = Position(p.number, p.axes, p.acc, p.dec, p.speed, p.coords,
+                         rng.choice([0, 1, 2]), rng.choice([0, 1, 2]))
+    return p
+
+
+def random_robot(rng: random.Random, story: list[str]) -> SimState:
+    model = rng.choice(MODELS)
+    first = rng.randint(1, 40)
+    last = first + rng.randint(20, 220)
+    if rng.random() < 0.6:
+        state = SimState.generate(rng.randrange(2**31), model=model, position_range=(first, last))
+    else:  # a table of its own: any axes, 1 to 8 of them, denser or sparser
+        axes = tuple(sorted(rng.sample(range(1, 9), rng.choice([1, 2, 3, 4, 6, 8]))))
+        density = rng.choice([0.1, 0.4, 0.8])
+        positions = [random_position(rng, n, axes)
+                     for n in range(first, last + 1) if rng.random() < density]
+        state = SimState.from_positions(positions, axes=axes, model=model,
+                                        position_range=(first, last))
+    story.append(f"robot: {model}, axes {list(state.axes)}, positions {first}-{last}, "
+                 f"{len(state.positions)} defined")
+    return state
+
+
+def random_target(rng: random.Random, state: SimState, story: list[str]) -> dict[int, Position]:
+    """The robot's table with a random diff applied."""
+    table = dict(state.positions)
+    first, last = state.position_range
+    numbers = range(first, last + 1)
+    axes = state.axes
+    if rng.random() < 0.05:
+        story.append("no change")
+        return table
+    if table and rng.random() < 0.7:
+        picked = rng.sample(sorted(table), k=min(len(table), rng.randint(1, 8)))
+        for n in picked:
+            table[n] = edited(rng, table[n], axes)
+        story.append(f"positions edited, scattered: {sorted(picked)}")
+    if rng.random() < 0.5:
+        free = [n for n in numbers if n not in table]
+        added = rng.sample(free, k=min(len(free), rng.randint(1, 5)))
+        for n in added:
+            table[n] = random_position(rng, n, axes)
+        story.append(f"positions added, scattered: {sorted(added)}")
+    if rng.random() < 0.5:
+        # A run: changed and new positions side by side, sometimes longer than one
+        # 291H can carry (TT: 12, TTA: 25), so it takes several.
+        size = rng.choice([rng.randint(2, 10), rng.randint(10, 40), rng.randint(30, 70)])
+        start = rng.randint(first, max(first, last - size + 1))
+        run = range(start, min(last, start + size - 1) + 1)
+        for n in run:
+            table[n] = edited(rng, table[n], axes) if n in table else random_position(rng, n, axes)
+        story.append(f"positions changed in a run: {run.start}-{run.stop - 1}")
+    if table and rng.random() < 0.04:
+        gone = rng.choice(sorted(table))
+        del table[gone]
+        story.append(f"position {gone} left out of the project (no write can clear it)")
+    return table
+
+
+def random_faults(rng: random.Random, deadline: float) -> tuple[Faults, float]:
+    """Faults on the replies, and the rate of requests lost on the way in."""
+    faults = Faults(
+        noise=rng.choice([0.0, 0.02, 0.1]),
+        drop=rng.choice([0.0, 0.005, 0.01, 0.03]),
+        bad_checksum=rng.choice([0.0, 0.005, 0.01, 0.03]),
+        fragment=rng.choice([0.0, 0.05, 0.2]),
+        slow=rng.choice([0.0, 0.005, 0.01, 0.03]),
+        slow_delay=deadline * rng.choice([1.2, 1.8]),
+        fragment_gap=0.001,
+        seed=rng.randrange(2**32),
+    )
+    return faults, rng.choice([0.0, 0.005, 0.01, 0.03])
+
+
+def random_change(rng: random.Random, axes: tuple[int, ...]) -> Change:
+    return rng.choices(
+        [verb("run"), verb("manual"), verb("estop"), verb("flash"),
+         verb("hold", str(rng.choice(axes))), not_ready, verb("stop")],
+        weights=[4, 3, 1, 1, 2, 1, 4],
+    )[0]
+
+
+def random_schedule(
+    rng: random.Random, reads: int, horizon: int, axes: tuple[int, ...], deadline: float
+) -> list[tuple[int, Change]]:
+    """Changes and line faults at random moments: most of them while the push
+    writes (request ``reads`` on), the rest at any time."""
+
+    def moment() -> int:
+        return rng.randrange(horizon) if rng.random() < 0.15 else rng.randrange(reads, horizon)
+
+    out = [(moment(), random_change(rng, axes))
+           for _ in range(rng.choice([0, 1, 1, 2, 2, 3, 5]))]
+    if rng.random() < 0.6:
+        out.append((moment(), line(*random_faults(rng, deadline))))
+    if rng.random() < 0.15:
+        at = moment()
+        bad = Faults(drop=rng.choice([0.2, 0.5]), bad_checksum=0.1, slow=0.1, noise=0.2,
+                     slow_delay=deadline * 1.5, seed=rng.randrange(2**32))
+        out += [(at, line(bad, rng.choice([0.2, 0.4]))), (at + rng.randint(2, 5), line(Faults(), 0.0))]
+    return out
+
+
+def make_case(seed: int, settings: SerialSettings) -> Case:
+    rng = random.Random(seed)
+    story: list[str] = []
+    state = random_robot(rng, story)
+    before = IaiData(version=state.versions[(0, 0)], positions=dict(state.positions),
+                     model=state.model)
+    target = IaiData(version=before.version, positions=random_target(rng, state, story),
+                     model=state.model)
+    robot_axes = state.axes if rng.random() < 0.7 else None
+    if robot_axes is None:
+        story.append("robot.yaml names no axes: the interlock checks every axis 212H reports")
+    busy = random_change(rng, state.axes) if rng.random() < 0.08 else None
+    first, last = state.position_range
+    step = max_positions_per_read(state.model)
+    reads = 3 + -(-(last - first + 1) // step)  # 215H, 212H, 201H, the 22DH pages
+    changes = sync_items.diff(CATALOGUE, before, target)
+    horizon = reads + 6 * len(changes) + 8
+    wait = deadline(settings)
+    plan = CATALOGUE.plan(before, target, [(c.key, c.old, c.new) for c in changes],
+                          registers=False)
+    writes = len(plan.wanted)
+    lose_writes = {rng.randrange(writes)} if writes and rng.random() < 0.3 else set()
+    if lose_writes:
+        story.append(f"291H requests lost on the way in: {sorted(lose_writes)}")
+    schedule = random_schedule(rng, reads, horizon, state.axes, wait)
+    sim = Operator(state, schedule, seed=rng.randrange(2**32), deadline=wait,
+                   lose_writes=lose_writes)
+    if busy is not None:
+        story.append(f"when the push starts: {busy(sim, state)}")
+    return Case(seed, state.model, state.axes, robot_axes, state.position_range, before,
+                target, sim, story)
+
+
+def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
+    robot = families.get("iai").new_robot(f"case-{case.seed}", url, None)
+    robot.serial = settings
+    robot.options.update(model=case.model, first=case.position_range[0],
+                         last=case.position_range[1])
+    if case.robot_axes is not None:
+        robot.options["axes"] = case.robot_axes
+    return robot
+
+
+# --- running it -------------------------------------------------------------------------
+
+
+@dataclass
+class Outcome:
+    result: PushResult
+    failed: PushFailed | None
+    #: where this push's requests start in the controller's record
+    first: int
+    received: list[Received]
+    snapshot: IaiData | None
+
+
+Deploy = Callable[[Case, SerialSettings], Outcome]
+
+
+def spy_on_push(monkeypatch: pytest.MonkeyPatch) -> list[PushResult | PushFailed]:
+    """What each ``engine.push`` returned or raised, in order."""
+    real = engine.push
+    seen: list[PushResult | PushFailed] = []
+
+    def spy(*args: Any, **kwargs: Any) -> PushResult:
+        try:
+            result = real(*args, **kwargs)
+        except PushFailed as exc:
+            seen.append(exc)
+            raise
+        seen.append(result)
+        return result
+
+    monkeypatch.setattr(engine, "push", spy)
+    return seen
+
+
+class WithoutFsync:
+    """The :mod:`os` module as the audit log sees it, with ``fsync`` a no-op."""
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(os, name)
+
+    @staticmethod
+    def fsync(fd: int) -> None:
+        pass
+
+
+@pytest.fixture
+def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
+    """Push a case through ``engine.push`` with its project held in memory and its
+    snapshot kept in memory.
+
+    Saving the project, loading it and saving the snapshot cost three times the
+    rest of a case; :func:`test_the_cli_on_a_project_on_disk_keeps_the_same_promises`
+    shows that they change nothing the checks look at.  So do, at a quarter of a
+    case, what only the disk has: the audit log's fsync (each case keeps its own
+    log, which the checks read back), asking git for the commit of a project that
+    is not in a repository, and the controller's 1 ms pause after each reply, which
+    the simulator does not ask for.
+    """
+    taken: list[IaiData] = []
+    projects: dict[Path, Project] = {}
+
+    def keep(path: Path, robot: Robot, live: IaiData, action: str) -> Path:
+        taken.append(live)
+        return path / "snapshot"
+
+    monkeypatch.setattr(engine, "_save_snapshot", keep)
+    monkeypatch.setattr(engine, "load_project", lambda path: projects[Path(path)])
+    monkeypatch.setattr(engine.git, "head", lambda path: None)
+    monkeypatch.setattr(audit_log, "os", WithoutFsync())
+    monkeypatch.setattr(CODEC, "reply_gap", 0.0)
+
+    def deploy(case: Case, settings: SerialSettings) -> Outcome:
+        url = register(case.sim)
+        monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / f"audit-{case.seed}.jsonl"))
+        try:
+            path = tmp_path / f"case-{case.seed}"
+            projects[path] = Project(path, robot_for(case, url, settings), case.target)
+            first, before = len(case.sim.received), len(taken)
+            try:
+                result = engine.push(path, PushOptions(yes=True, allow_dirty=True))
+                failed = None
+            except PushFailed as exc:
+                result, failed = exc.result, exc
+            snapshot = taken[before] if len(taken) > before else None
+            return Outcome(result, failed, first, case.sim.received[first:], snapshot)
+        finally:
+            unregister(url)
+
+    return deploy
+
+
+@pytest.fixture
+def on_disk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> Deploy:
+    """Push a case as a person does: the project on disk and committed to git,
+    ``harlsync push DIR --yes``, the snapshot written and read back; the exit status
+    and what the command printed are checked here (the result is taken from
+    ``engine.push`` on its way out)."""
+    seen = spy_on_push(monkeypatch)
+
+    def deploy(case: Case, settings: SerialSettings) -> Outcome:
+        url = register(case.sim)
+        try:
+            path = tmp_path / f"case-{case.seed}"
+            save_project(path, Project(path, robot_for(case, url, settings), case.target),
+                         rewrite_robot=True)
+            if not (path / ".git").exists():
+                git(path, "init", "-q")
+            git(path, "add", "-A")
+            git(path, "commit", "-q", "--allow-empty", "-m", "the project")
+            first = len(case.sim.received)
+            capsys.readouterr()
+            code = cli.main(["push", str(path), "--yes"])
+            printed = capsys.readouterr().err
+            outcome = seen.pop()
+            failed = outcome if isinstance(outcome, PushFailed) else None
+            result = outcome.result if isinstance(outcome, PushFailed) else outcome
+            refused = failed is not None and isinstance(failed.cause, InterlockError | PolicyError)
+            assert code == (0 if failed is None else 3 if refused else 2), case.why(
+                f"exit status {code}: {printed}"
+            )
+            if failed is not None:
+                assert str(failed.cause) in printed, case.why(f"cause not shown: {printed}")
+                for w in result.written:
+                    assert f"written:     {w.name}: {w.command}" in printed, case.why(printed)
+                if result.failed is not None:
+                    assert f"unknown:     {result.failed.name}: {result.failed.command}" in (
+                        printed), case.why(printed)
+            snapshot = load_project(result.snapshot).data if result.snapshot else None
+            return Outcome(result, failed, first, case.sim.received[first:], snapshot)
+        finally:
+            unregister(url)
+
+    return deploy
+
+
+@dataclass
+class Tally:
+    cases: int = 0
+    ok: int = 0
+    failed: int = 0
+    refused_before_writing: int = 0
+    race: int = 0
+    lost_writes: int = 0
+    several_runs: int = 0
+    causes: dict[str, int] = field(default_factory=dict)
+
+
+def wire(write: Any) -> str:
+    """The payload of the 291H a planned write sends, as the controller records it."""
+    key: PositionRun = write.key
+    return write_positions(key.start, write.new).payload
+
+
+def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
+    received, arrival = got.received, case.sim.arrival[got.first:]
+    assert not case.sim.off_list(), case.why(f"off the allow-list: {case.sim.off_list()}")
+    for i, r in enumerate(received):
+        assert r.command in ("201", "215", "212", "22D", "291"), case.why(
+            f"{r.payload[:12]!r} (request {i}) is no message a position push sends"
+        )
+        if r.command != "291":
+            continue
+        status, axes = (received[i - 2], received[i - 1]) if i >= 2 else (None, None)
+        assert status is not None and axes is not None and status.command == "215" and (
+            axes.command == "212"), case.why(
+            f"291H (request {i}) did not follow a 215H and a 212H straight "
+            f"(before it: {received[max(0, i - 2):i]})"
+        )
+        assert axes.payload == f"212{case.pattern:02X}", case.why(
+            f"291H (request {i}) was cleared by {axes.payload}, not by the robot's axes"
+        )
+        # Each read answers for its part: 215H for the mode and the status bytes,
+        # 212H for the axes (an axis held at the 215H and let go before the 212H is
+        # no reason to refuse).
+        shown = [why for why in arrival[i - 2] if not why.endswith(" in use")]
+        assert not shown, case.why(
+            f"291H (request {i}) followed a 215H that found the controller not idle: {shown}"
+        )
+        held = [why for why in arrival[i - 1] if why.endswith(" in use") and (
+            case.robot_axes is None or int(why.split()[1]) in case.robot_axes)]
+        assert not held, case.why(f"291H (request {i}) followed a 212H that found {held}")
+        window = {got.first + i - 2, got.first + i - 1} & case.sim.acted
+        if axes.busy or r.busy:
+            # Started (or switched) after that 215H was answered: see the docstring.
+            assert window, case.why(
+                f"291H (request {i}) or its 212H found the controller not idle "
+                f"({arrival[i - 1] or arrival[i]}) with no change by the operator after the 215H"
+            )
+            tally.race += 1
+    if got.failed is None and got.result.written:
+        last = max(i for i, r in enumerate(received) if r.command == "291")
+        after = [r.command for r in received[last:]]
+        unread = any(w.startswith("cannot read the task states after the last write")
+                     for w in got.result.warnings)
+        assert ("215" in after and "212" in after) or unread, case.why(
+            "neither a 215H and a 212H after the last write, nor a warning that says why not"
+        )
+
+
+def check_writes(case: Case, got: Outcome, final: dict[int, Position]) -> None:
+    """The result names exactly what the controller received; each position holds
+    its old or its new value."""
+    result = got.result
+    sent = [r for r in got.received if r.command == "291"]
+    written = {wire(w) for w in result.written}
+    maybe = written | ({wire(result.failed)} if result.failed else set())
+    for r in sent:
+        assert r.payload in maybe, case.why(
+            f"the controller received {r.payload[:16]}..., which the result does not name as "
+            "written or unknown"
+        )
+    payloads = [r.payload for r in sent]
+    for payload in written:
+        assert payload in payloads, case.why(f"reported written but never sent: {payload[:16]}")
+    for payload in set(payloads):
+        at = [i for i, r in enumerate(got.received) if r.payload == payload]
+        assert len(at) <= 2, case.why(f"{payload[:16]}... sent {len(at)} times")
+        if len(at) == 2:
+            start, count = int(payload[5:9], 16), int(payload[9:13], 16)
+            between = got.received[at[0] + 1 : at[1]]
+            assert any(
+                r.command == "22D" and int(r.payload[5:9], 16) <= start
+                and start + count <= int(r.payload[5:9], 16) + int(r.payload[9:13], 16)
+                for r in between
+            ) or all(  # read back in pages: each of its positions
+                any(r.command == "22D" and int(r.payload[5:9], 16) <= n
+                    < int(r.payload[5:9], 16) + int(r.payload[9:13], 16) for r in between)
+                for n in range(start, start + count)
+            ), case.why(f"{payload[:16]}... sent twice without reading it back in between")
+    plan = result.plan
+    if plan is None:
+        assert not sent, case.why("writes without a plan")
+        return
+    old = case.before.positions
+    planned = {n: w for w in plan.writes for n in w.key.numbers}
+    done = {n for w in result.written for n in w.key.numbers}
+    failed = set(result.failed.key.numbers) if result.failed else set()
+    for n in old.keys() | final.keys() | planned.keys():
+        was, now = old.get(n), final.get(n)
+        w = planned.get(n)
+        if n in done:
+            assert w is not None and now == w.new[n - w.key.start], case.why(
+                f"position {n} was reported written but holds {now}"
+            )
+        elif n in failed:
+            assert w is not None and now in (was, w.new[n - w.key.start]), case.why(
+                f"position {n}, whose write failed, holds {now}: neither old nor new"
+            )
+        else:
+            assert now == was, case.why(f"position {n} was not written but changed: {was} -> {now}")
+
+
+def check_failure(case: Case, got: Outcome) -> None:
+    assert got.failed is not None
+    message = str(got.failed)
+    assert message and "\n" not in message, case.why(f"not one line: {message!r}")
+    result = got.result
+    plan = result.plan
+    if plan is not None:
+        # written, the one unknown, and not written: the plan, each write once.
+        named = [w.command for w in result.written] + [w.command for w in result.not_written]
+        assert sorted(named) == sorted(plan.commands), case.why("result does not cover the plan")
+        if result.failed is not None:
+            assert result.failed in result.not_written, case.why("unknown write not listed")
+    record = audit_log.read()[-1]
+    assert record["error"] == result.error, case.why("audit record is not this push's")
+    assert [w["command"] for w in record["written"]] == [w.command for w in result.written]
+    assert record.get("failed_item") == (result.failed.name if result.failed else None)
+
+
+def check_converged(case: Case, final: dict[int, Position]) -> None:
+    left = sync_items.diff(CATALOGUE, IaiData(case.before.version, final), case.target)
+    assert not left, case.why(f"push returned but the robot still differs: {left[:3]}")
+
+
+def check_case(case: Case, deploy: Deploy, tally: Tally, settings: SerialSettings) -> None:
+    got = deploy(case, settings)
+    final = case.sim.state.positions
+    tally.cases += 1
+    tally.lost_writes += case.sim.lost_writes
+    if got.result.plan is not None and len(got.result.plan.writes) > 1:
+        tally.several_runs += 1
+    check_interlock(case, got, tally)
+    check_writes(case, got, final)
+    if got.snapshot is not None:
+        assert got.snapshot.positions == case.before.positions, case.why(
+            "the snapshot is not what the robot held before the push"
+        )
+    if got.failed is None:
+        tally.ok += 1
+        check_converged(case, final)
+        return
+    tally.failed += 1
+    cause = type(got.failed.cause).__name__
+    tally.causes[cause] = tally.causes.get(cause, 0) + 1
+    check_failure(case, got)
+    if not [r for r in got.received if r.command == "291"]:
+        tally.refused_before_writing += 1
+    if isinstance(got.failed.cause, PolicyError):
+        assert not [r for r in got.received if r.is_write], case.why("refused, yet wrote")
+        return
+    # The operator stops the controller and the line is mended: the same push finishes.
+    case.sim.calm()
+    case.before = IaiData(case.before.version, dict(final), case.before.model)
+    again = deploy(case, CALM)
+    check_interlock(case, again, tally)
+    check_writes(case, again, final)
+    if any(n not in case.target.positions for n in case.before.positions):
+        assert again.failed is not None and isinstance(again.failed.cause, PolicyError), (
+            case.why(f"the re-run was not refused: {again.failed}")
+        )
+        assert not [r for r in again.received if r.is_write], case.why("refused, yet wrote")
+        return
+    assert again.failed is None, case.why(f"the re-run failed: {again.failed}")
+    check_converged(case, final)
+
+
+def seeds(chunk: int) -> Iterator[int]:
+    if ONLY:
+        yield from (ONLY if chunk == 0 else [])
+        return
+    yield from range(BASE + chunk * PER_CHUNK, BASE + (chunk + 1) * PER_CHUNK)
+
+
+@pytest.mark.parametrize("chunk", range(CHUNKS))
+def test_no_write_reaches_a_controller_that_is_not_idle_and_every_push_converges_or_names_its_writes(
+    chunk: int, in_memory: Deploy
+) -> None:
+    tally = Tally()
+    for seed in seeds(chunk):
+        check_case(make_case(seed, FAST), in_memory, tally, FAST)
+    print(json.dumps(tally.__dict__))
+    if not ONLY:  # the cases still reach what they are meant to (a generator can rot)
+        assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 10, tally
+        assert tally.lost_writes >= 5 and tally.several_runs >= 25, tally
+
+
+#: Seeds for the on-disk run: enough to meet every kind of outcome, few enough to be quick.
+ON_DISK = range(BASE - 20, BASE)
+
+
+def test_the_cli_on_a_project_on_disk_keeps_the_same_promises(on_disk: Deploy) -> None:
+    tally = Tally()
+    for seed in ONLY or ON_DISK:
+        check_case(make_case(seed, FAST_ON_DISK), on_disk, tally, FAST_ON_DISK)
+    print(json.dumps(tally.__dict__))
+
+
+# --- a refusal, through the command, names the bit ------------------------------------------
+
+
+class Pendant(Simulator):
+    """A controller whose operator does ``change`` once ``after_writes`` writes are
+    carried out (0: before the push)."""
+
+    def __init__(self, state: SimState, change: Change, after_writes: int) -> None:
+        super().__init__(state)
+        self.change, self.after_writes = change, after_writes
+        if not after_writes:
+            change(self, state)
+
+    def wrote(self, state: SimState) -> None:
+        super().wrote(state)
+        if self.writes == self.after_writes:
+            self.change(self, state)
+
+
+@pytest.mark.parametrize("after_writes", [0, 1], ids=["before the push", "after a write"])
+@pytest.mark.parametrize(("change", "bit"), [
+    (verb("run"), "program running (215H status byte 2 bit 5)"),
+    (verb("manual"), "MANUAL mode (215H mode 2)"),
+    (verb("estop"), "emergency stop (215H status byte 1 bit 3)"),
+    (verb("flash"), "flash ROM write in progress (215H status byte 2 bit 0)"),
+    (verb("hold", "2"), "axis 2 servo axis in use (212H axis status bit 0)"),
+    (not_ready, "system not ready (215H status byte 3 bit 2)"),
+], ids=["run", "manual", "estop", "flash", "hold 2", "not ready"])
+def test_a_refusal_exits_3_naming_the_bit_and_writes_nothing_more(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: Change, bit: str,
+    after_writes: int,
+) -> None:
+    axes = (1, 2, 3)
+    table = {n: random_position(random.Random(n), n, axes) for n in range(1, 13)}
+    state = SimState.from_positions(table, axes=axes, model="TT", position_range=(1, 40))
+    sim = Pendant(state, change, after_writes)
+    url = register(sim)
+    try:
+        robot = families.get("iai").new_robot("cell", url, None)
+        robot.serial = CALM
+        robot.options.update(model="TT", axes=axes, first=1, last=40)
+        target = dict(table)
+        for n in (3, 20):  # two 291H: one run each
+            target[n] = random_position(random.Random(1000 + n), n, axes)
+        path = tmp_path / "cell"
+        save_project(path, Project(path, robot, IaiData(state.versions[(0, 0)], target, "TT")))
+        git(path, "init", "-q")
+        git(path, "add", "-A")
+        git(path, "commit", "-q", "-m", "two positions changed")
+        capsys.readouterr()
+
+        code = cli.main(["push", str(path), "--yes"])
+    finally:
+        unregister(url)
+
+    err = capsys.readouterr().err
+    refusal = [line for line in err.splitlines() if line.startswith("harlsync: refused: ")]
+    assert code == 3, err
+    assert len(refusal) == 1 and bit in refusal[0], err
+    assert not sim.off_list()
+    assert not sim.writes_while_busy()
+    assert len(sim.writes_received()) == after_writes
+    assert state.positions == {**table, **{n: target[n] for n in (3,) if after_writes}}
+    if after_writes:
+        assert "harlsync: push stopped: wrote 1 of 2 item(s)" in err
