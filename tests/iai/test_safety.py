@@ -4,6 +4,7 @@ controller's own record."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from harlsync import families
@@ -24,17 +25,18 @@ TABLE = {n: Position(n, AXES, "0.30", "0.30", 100, ("1.000", "2.000", "3.000")) 
 QUICK = SerialSettings(baudrate=115200, timeout=0.05, retries=2)
 
 
-class SwitchedWhile212HIsLost(Simulator):
-    """A controller whose operator switches it to MANUAL right after answering the
-    ``nth`` 212H, whose reply is lost on the line.
+class AxisRepliesLost(Simulator):
+    """A controller whose replies to the 212H numbered in ``lost`` (1: the first) are
+    lost on the line, and whose operator switches it to MANUAL right after answering
+    212H number ``manual`` (0: never).
 
-    MANUAL mode is in 215H's reply, not in 212H's: the 212H the client sends
-    again finds every axis idle.
+    MANUAL mode is in 215H's reply, not in 212H's: a 212H sent again finds every
+    axis idle.
     """
 
-    def __init__(self, state: SimState, nth: int) -> None:
+    def __init__(self, state: SimState, lost: Callable[[int], bool], manual: int = 0) -> None:
         super().__init__(state)
-        self.nth = nth
+        self.lost, self.manual = lost, manual
         self.axis_reads = 0
 
     def handle(self, state: SimState, frame: Frame) -> str:
@@ -42,10 +44,15 @@ class SwitchedWhile212HIsLost(Simulator):
         self.faults = Faults()
         if frame.message_id == 0x212:
             self.axis_reads += 1
-            if self.axis_reads == self.nth:
+            if self.axis_reads == self.manual:
                 state.mode = MANUAL
+            if self.lost(self.axis_reads):
                 self.faults = Faults(drop=1.0)
         return reply
+
+
+def controller() -> SimState:
+    return SimState.from_positions(TABLE, axes=AXES, position_range=(1, 20))
 
 
 def push(tmp_path: Path, sim: Simulator, target: dict[int, Position]) -> PushFailed | None:
@@ -73,8 +80,7 @@ def test_issue_12_a_212h_sent_again_makes_the_interlock_read_215h_again_before_t
     # the long read).  Its reply is lost and the controller goes MANUAL meanwhile:
     # the 215H before it is stale by a whole deadline.  A 291H must not follow the
     # 212H sent again without a 215H after it.
-    sim = SwitchedWhile212HIsLost(SimState.from_positions(TABLE, axes=AXES, position_range=(1, 20)),
-                                  nth=2)
+    sim = AxisRepliesLost(controller(), lambda n: n == 2, manual=2)
     target = dict(TABLE)
     target[2] = Position(2, AXES, "0.30", "0.30", 100, ("9.000", "2.000", "3.000"))
 
@@ -91,22 +97,7 @@ def test_issue_12_a_212h_sent_again_makes_the_interlock_read_215h_again_before_t
 def test_issue_12_a_line_that_never_answers_215h_and_212h_back_to_back_is_not_idle(
     tmp_path: Path,
 ) -> None:
-    class EveryOther212HReplyLost(Simulator):
-        def __init__(self, state: SimState) -> None:
-            super().__init__(state)
-            self.axis_reads = 0
-
-        def handle(self, state: SimState, frame: Frame) -> str:
-            reply = super().handle(state, frame)
-            self.faults = Faults()
-            if frame.message_id == 0x212:
-                self.axis_reads += 1
-                if self.axis_reads % 2:
-                    self.faults = Faults(drop=1.0)
-            return reply
-
-    sim = EveryOther212HReplyLost(SimState.from_positions(TABLE, axes=AXES,
-                                                          position_range=(1, 20)))
+    sim = AxisRepliesLost(controller(), lambda n: n % 2 == 1)  # the first of each pair
     target = dict(TABLE)
     target[3] = Position(3, AXES, "0.30", "0.30", 100, ("1.000", "9.000", "3.000"))
 
