@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import random
 import resource
 import subprocess
 import sys
@@ -17,6 +18,8 @@ from typing import Any
 
 from harlsync.families.harl_u2.model import Config, ProgramArea, Step
 from harlsync.families.harl_u2.sim import DEFAULT_CONFIG, SimState
+from harlsync.families.iai.model import Position
+from harlsync.families.iai.sim import SimState as IaiState
 
 BENCH = Path(__file__).resolve().parent
 BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
@@ -101,14 +104,66 @@ ROBOTS: dict[str, Callable[[], SimState]] = {
 }
 
 
+# --- IAI robots --------------------------------------------------------------------------
+
+#: Position numbers an IAI bench table defines: all of the default range 1-1000.
+IAI_POSITIONS = 1000
+
+
+def _iai_coord(rng: random.Random, low: int, high: int) -> str:
+    units = rng.randint(low, high)  # 0.001 mm (or deg)
+    sign = "-" if units < 0 else ""
+    return f"{sign}{abs(units) // 1000}.{abs(units) % 1000:03d}"
+
+
+def _iai_g(rng: random.Random) -> str:
+    hundredths = 0 if rng.random() < 0.2 else rng.randint(10, 100)
+    return f"{hundredths // 100}.{hundredths % 100:02d}"
+
+
+def iai_table(axes: int, model: str = "TTA", seed: int = 1) -> IaiState:
+    """An IAI controller with every position of 1-1000 defined (the largest table a
+    default range holds: the most 22DH records a pull reads).
+
+    ``axes=4``: the realistic mix, a 4-axis robot (X, Y, Z, R) whose positions use 3
+    axes (X, Y, Z: 44-byte records) or all 4 with the SCARA arm system set (52 bytes),
+    about half each.  ``axes=8``: every position on 8 axes, 84-byte records, the worst
+    case the 22DH queries are sized for.  ``model`` sets the buffers (TTA 2048-byte
+    send buffer, TT 1024).
+    """
+    rng = random.Random(seed)
+    robot_axes = tuple(range(1, axes + 1))
+    positions = []
+    for number in range(1, IAI_POSITIONS + 1):
+        used = robot_axes if axes != 4 or rng.random() < 0.5 else robot_axes[:3]
+        coords = tuple(
+            _iai_coord(rng, -180_000, 180_000) if axes == 4 and a == 4
+            else _iai_coord(rng, -300_000, 600_000)
+            for a in used
+        )
+        speed = 0 if rng.random() < 0.2 else rng.choice((50, 100, 200, 300, 500, 800, 1000))
+        arm1 = rng.choice((1, 2)) if len(used) == 4 else 0
+        positions.append(Position(number, used, _iai_g(rng), _iai_g(rng), speed, coords, arm1))
+    return IaiState.from_positions(positions, axes=robot_axes, model=model)
+
+
+IAI_ROBOTS: dict[str, Callable[[], IaiState]] = {
+    "iai-mix": lambda: iai_table(4),
+    "iai-8axis": lambda: iai_table(8),
+    "iai-mix-tt": lambda: iai_table(4, "TT"),
+    "iai-8axis-tt": lambda: iai_table(8, "TT"),
+}
+
+
 # --- a simulator in its own process -----------------------------------------------------
 
 
 class SimProcess:
     """``bench/simserver.py`` in a child process: ``lines`` simulated robots, each on
     its own pty (or TCP port), so that the client under test and the simulator do
-    not share a GIL.  ``ports`` are what the client opens; :meth:`stats` is what
-    each line's simulator counted so far, :meth:`reset` zeroes it.
+    not share a GIL.  ``robot`` names a HARL-U2 robot of :data:`ROBOTS` or an IAI
+    one of :data:`IAI_ROBOTS`.  ``ports`` are what the client opens; :meth:`stats`
+    is what each line's simulator counted so far, :meth:`reset` zeroes it.
     """
 
     def __init__(
@@ -138,7 +193,9 @@ class SimProcess:
         return self._answer()
 
     def stats(self) -> list[dict[str, int]]:
-        """Per line: ``exchanges``, ``bytes_in``, ``bytes_out``, ``letters`` (request counts)."""
+        """Per line: ``exchanges``, ``bytes_in``, ``bytes_out``, ``letters`` (request counts),
+        ``first_in`` and ``last_due`` (``time.monotonic``: the first request byte read,
+        the last reply byte due), and on a pty ``late_mean``/``late_worst``."""
         result: list[dict[str, int]] = self._ask("stats")
         return result
 

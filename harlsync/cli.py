@@ -404,7 +404,8 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     p.add_argument("--format", choices=("text", "json"), default="text")
-    p.add_argument("--registers", action="store_true", help="compare registers too")
+    p.add_argument("--registers", action="store_true",
+                   help="compare runtime data too (HARL-U2 registers, IAI flags and variables)")
     p.set_defaults(func=_cmd_diff)
 
 
@@ -437,16 +438,18 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 
 def _add_plan(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "plan", help="print the SN commands a push would send, and send none",
+        "plan", help="print the commands a push would send, and send none",
         description="Read the robot, compare it with the project and print, in order, the exact "
-                    "SN commands a push would send. Nothing is written. --out saves the plan "
+                    "commands a push would send (HARL-U2: SN commands; IAI: each 291H, field by "
+                    "field). Nothing is written. --out saves the plan "
                     "with a fingerprint of the robot and the project; push --plan refuses it "
                     "if either changed since.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     p.add_argument("--out", metavar="PLANFILE", help="save the plan to this file")
-    p.add_argument("--registers", action="store_true", help="include registers")
+    p.add_argument("--registers", action="store_true",
+                   help="include runtime data (HARL-U2 registers, IAI flags and variables)")
     p.set_defaults(func=_cmd_plan)
 
 
@@ -491,7 +494,8 @@ def _push_args(p: argparse.ArgumentParser) -> None:
                    help="write timers and offset tables even while a task runs (the manual "
                         "allows it); programs, parameters, configuration and registers never")
     p.add_argument("--registers", action="store_true",
-                   help="write registers too (the project must keep them)")
+                   help="write runtime data too: HARL-U2 registers, IAI flags and variables "
+                        "(the project must keep them)")
 
 
 def _confirm(the_plan: Plan) -> bool:
@@ -507,10 +511,13 @@ def _confirm(the_plan: Plan) -> bool:
 def _add_push(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "push", help="write what differs to the robot, safely",
-        description="Write only what differs (configuration, parameters, tables, timers, "
-                    "programs, in that order). Refuses a project that is invalid, has "
+        description="Write only what differs, in the family's safe order (HARL-U2: "
+                    "configuration, parameters, tables, timers, programs; IAI: positions). "
+                    "Refuses a project that is invalid, has "
                     "uncommitted changes, or is outside its maintenance window; stops before "
-                    "any write while a task is in execution or suspended (LNR, read before "
+                    "any write while the robot runs (HARL-U2: a task in execution or suspended, "
+                    "LNR; IAI: a program running, MANUAL, emergency stop, an axis in use, 215H "
+                    "and 212H; read before "
                     "every write and after the last: a robot started while a write was on the "
                     "wire is named in a warning); verifies each write by reading it back; "
                     "snapshots the robot "
@@ -619,7 +626,8 @@ def _one_line(exc: BaseException) -> str:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="harlsync",
-        description="Keep Hirata HARL-U2 robot programs under version control.",
+        description="Keep robot programs and settings under version control "
+                    "(Hirata HARL-U2, IAI protocol B).",
     )
     parser.add_argument("--version", action="version", version=f"harlsync {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0,

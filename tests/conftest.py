@@ -23,3 +23,12 @@ def lock_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(path))
     monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / "audit.jsonl"))
     return path
+
+
+@pytest.fixture
+def repo(tmp_path: Path) -> Path:
+    """An empty git repository, as a plant's backups live in."""
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q")
+    return root

@@ -112,3 +112,22 @@ class ScriptedSim(Simulator):
                 for r in self.received
                 if r.payload == payload or r.payload.startswith(payload + " ")
             ]
+
+
+class EchoingLine(Simulator):
+    """A simulator on a line that echoes every byte sent, before the reply (a 2-wire
+    RS-485 adapter does: its receiver hears its own transmitter)."""
+
+    def receive(self, data: bytes, *args: object, **kwargs: object) -> Chunks:
+        return [(0.0, data), *super().receive(data, *args, **kwargs)]  # type: ignore[arg-type]
+
+
+class DuplicatingLine(Simulator):
+    """A simulator on a line that delivers every reply twice, ``gap`` seconds apart
+    (two devices answering, a device server that retransmits, a reflection)."""
+
+    gap = 0.003
+
+    def receive(self, data: bytes, *args: object, **kwargs: object) -> Chunks:
+        chunks = super().receive(data, *args, **kwargs)  # type: ignore[arg-type]
+        return [*chunks, *((delay + self.gap, chunk) for delay, chunk in chunks)]

@@ -8,14 +8,15 @@ error replies, status, and a full read under random line faults.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from simline import LOSE, SMALL, Act, ScriptedSim, drop
+from simline import LOSE, SMALL, Act, DuplicatingLine, EchoingLine, ScriptedSim, drop
 
-from harlsync.errors import ControllerError, LinkTimeout, WriteUnconfirmed
+from harlsync.errors import ControllerError, LinkError, LinkTimeout, WriteUnconfirmed
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import (
@@ -133,6 +134,34 @@ def test_read_all_comes_through_random_line_faults_unchanged(tmp_path: Path) -> 
     assert got == expected(sim.stations[1], True)
     assert stats.retries > 0 and stats.noise_bytes > 0
     assert len(stats.reasons) == stats.retries
+
+
+def test_issue_11_read_all_over_a_line_that_echoes_every_request_is_unchanged() -> None:
+    sim = EchoingLine(SimState.generate(4, SMALL))
+    with PtyServer(sim) as server, Controller.from_url(server.device, 1, FAST) as robot:
+        got = robot.read_all(include_registers=True)
+        stats = robot.link.stats
+    assert got == expected(sim.stations[1], True)
+    assert got.version != "LNV"
+    assert stats.echoes == len(sim.received) and stats.retries == 0
+
+
+def test_issue_11_read_all_over_a_line_that_repeats_every_reply_fails_with_one_clear_line() -> None:
+    # Each reply twice, 3 ms apart: the repeat answered the next request, and a pull
+    # saved hundreds of wrong timers and offsets with exit 0.
+    sim = DuplicatingLine(SimState.generate(4, SMALL))
+    with (
+        PtyServer(sim) as server,
+        Controller.from_url(server.device, 1, FAST) as robot,
+        pytest.raises(LinkError) as info,
+    ):
+        robot.read_all(include_registers=True)
+    assert re.fullmatch(
+        rf"port {server.device}, station 1: the line delivers replies nobody asked for "
+        r"\(\d+ unrequested frames\): two devices answering, or a device server "
+        r"retransmitting; fix the line",
+        str(info.value),
+    )
 
 
 def test_one_link_carries_a_controller_per_station(device: str) -> None:

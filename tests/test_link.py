@@ -204,6 +204,27 @@ def test_a_frame_for_another_station_is_ignored(link: Link, sim: ScriptedSim) ->
     assert link.stats.other_station == 1 and link.stats.retries == 0
 
 
+def test_issue_11_an_echo_of_our_request_is_never_taken_for_the_reply(
+    link: Link, sim: ScriptedSim, caplog: pytest.LogCaptureFixture
+) -> None:
+    # A 2-wire RS-485 adapter hears its own transmitter: "1 LNV" comes back before the
+    # reply, and as a version it is a valid token ("version: LNV" in controller.yaml).
+    sent = b"\x021 LNV\x03\x46"  # the golden LNV request, LRC worked by hand
+    sim.plan("LNV", Act(wire=preceded_by(sent)))
+    with caplog.at_level(logging.INFO, logger="harlsync.link"):
+        assert link.exchange(cmd.read_version()) == "5.00"
+        sim.plan("LND 1", Act(wire=preceded_by(encode_frame(1, "LND 1"))))
+        assert link.exchange(cmd.read_register(1)) == "1001"
+    assert (link.stats.echoes, link.stats.unfitting, link.stats.retries) == (2, 0, 0)
+    said = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
+    assert [m for m in said if "echo" in m] == [
+        (
+            f"{link.url} station 1: skipped the echo of our own request LNV (the line echoes "
+            "what we send, as 2-wire RS-485 adapters do)"
+        )
+    ]  # said once at -v, not once per request
+
+
 def test_a_reply_that_does_not_fit_is_discarded_and_the_real_one_taken(
     link: Link, sim: ScriptedSim
 ) -> None:
@@ -212,6 +233,43 @@ def test_a_reply_that_does_not_fit_is_discarded_and_the_real_one_taken(
     sim.plan("LNM 1 5", Act(wire=preceded_by(stale)))
     assert link.exchange(cmd.read_step(ProgramType.MAIN, 1, 5)) == Step.parse("MOVE P005 S50")
     assert link.stats.unfitting == 1 and link.stats.retries == 0
+
+
+def test_issue_11_a_second_frame_nobody_asked_for_fails_the_read_and_nothing_more_is_sent(
+    link: Link, sim: ScriptedSim
+) -> None:
+    # One stray frame is tolerated (the test above); a second says the line repeats
+    # replies, and a repeated reply could answer the next request.
+    sim.plan("LNT 2", Act(wire=preceded_by(encode_frame(1, "4 MOVE P004 S20"))))
+    assert link.exchange(cmd.read_timer(2)) == "3.20"
+    sim.plan("LNT 3", Act(wire=preceded_by(encode_frame(1, "1 MOVE P001 S20"))))
+    with pytest.raises(LinkError) as info:
+        link.exchange(cmd.read_timer(3))
+    assert str(info.value) == (
+        f"port {link.url}, station 1: the line delivers replies nobody asked for (2 unrequested "
+        "frames): two devices answering, or a device server retransmitting; fix the line"
+    )
+    assert not isinstance(info.value, LinkTimeout)
+    with pytest.raises(LinkError, match="nobody asked for"):
+        link.exchange(cmd.write_timer(1, "1.11"))
+    assert sim.sent("SNT") == [] and link.stats.unrequested == 2
+
+
+def test_issue_11_replies_later_than_their_window_are_late_replies_not_unrequested(
+    device: str, sim: ScriptedSim
+) -> None:
+    # A slow line is not a repeating one: a write's "0" that comes after its late
+    # window is still the answer to a request of ours, however late, and the read
+    # back that it lands in is answered by its own reply.
+    settings = SerialSettings(timeout=0.5, retries=3)
+    with Link(device, 1, settings, late_window=0.05) as link:
+        for n, value in ((2, "5.55"), (3, "6.66")):
+            sim.plan(f"SNT {n}", Act(wire=slow(0.8)))  # after 0.5 s + 0.05 s, within the next
+            with pytest.raises(WriteUnconfirmed):
+                link.exchange(cmd.write_timer(n, value))
+            assert link.exchange(cmd.read_timer(n)) == value
+        assert link.exchange(cmd.read_version()) == "5.00"
+    assert (link.stats.late_replies, link.stats.unrequested, link.stats.retries) == (2, 0, 0)
 
 
 def test_a_slow_reply_is_never_taken_for_the_answer_to_the_next_request(

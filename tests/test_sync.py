@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
+from simline import DuplicatingLine
 
 from harlsync.cli import main
 from harlsync.errors import (
@@ -48,14 +49,6 @@ def served(request: pytest.FixtureRequest) -> Iterator[tuple[Simulator, str]]:
     url = server.start()
     yield sim, url
     server.stop()
-
-
-@pytest.fixture
-def repo(tmp_path: Path) -> Path:
-    root = tmp_path / "plant"
-    root.mkdir()
-    git(root, "init", "-q")
-    return root
 
 
 def pulled(repo: Path, url: str) -> Path:
@@ -252,6 +245,28 @@ def test_a_pull_that_fails_leaves_the_previous_backup_untouched(tmp_path) -> Non
         with pytest.raises(LinkTimeout):
             engine.pull(project, port=server.url)
     assert {p: p.read_bytes() for p in project.rglob("*.yaml")} == before
+
+
+def test_issue_11_a_pull_over_a_line_that_repeats_replies_fails_and_the_backup_stays(
+    tmp_path, capsys
+) -> None:
+    sim = Simulator(SimState.generate(3, SMALL))
+    project = tmp_path / "cell"
+    with serve(sim) as server:
+        engine.pull(project, port=server.url)
+    before = every_file(project)
+    sim.stations[1].data.timers[0] = "9.99"
+    with serve(DuplicatingLine(sim.stations[1])) as server:
+        assert main(["pull", str(project), "--port", server.url]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"harlsync: error: port {server.url}, station 1: the line delivers "
+                          "replies nobody asked for (")
+    assert every_file(project) == before
+
+
+def every_file(project: Path) -> dict[Path, bytes]:
+    return {p: p.read_bytes() for p in project.rglob("*") if p.is_file()}
 
 
 @pytest.mark.parametrize(

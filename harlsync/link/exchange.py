@@ -13,8 +13,9 @@ How this works::
       |                                                                         |
     read in short polls into the codec's decoder  <-----------------------  reply
       |   bad frame, noise            : log, keep reading (the reply may follow)
+      |   our own request, echoed     : skip (2-wire RS-485 adapters echo what we send)
       |   frame for another station   : ignore
-      |   frame that does not fit     : discard (a late reply), keep reading
+      |   frame that does not fit     : discard (a late reply, or one nobody asked for)
       v   deadline (codec.reply_timeout) passes without a fitting reply
     read  : drain input, re-send; after settings.retries re-sends -> LinkTimeout
     write : never re-sent here -> WriteUnconfirmed (the controller reads the item back)
@@ -30,10 +31,20 @@ that was really lost, and never returns a value that answers another request.
 
 A retry of the same read may take the earlier attempt's late reply as its own
 answer: the value is the same.  Not so for a volatile read (HARL-U2 LNR, I/O and
-memory bits; IAI status): the task states may have changed between the two attempts, and a late
-"idle" must never pass for the retry's "in execution".  Before re-sending a
-volatile read the link therefore waits out owed replies too, as before a new
-request.
+memory bits; IAI status): the task states may have changed between the two
+attempts, and a late "idle" must never pass for the retry's "in execution".
+Before re-sending a volatile read the link therefore waits out owed replies too,
+as before a new request.
+
+Replies nobody asked for.  A frame for our station that answers nothing we sent
+(not the reply, not one still owed, not one past its late window) means the
+line delivers replies twice (two devices answering, a device server that
+retransmits, a reflection), and a repeated reply that fits would pass for the
+answer to the next request: a wrong value, no error.  Replies echo too little
+to be bound to their request (IAI: station and message id; HARL-U2: the step
+number at most), so the link counts these frames, and from the second in one
+session (:data:`UNREQUESTED_LIMIT`) it fails every read and sends nothing more:
+a :class:`LinkError` that names the port and station and says to fix the line.
 
 Errors.  Whatever a pyserial call on the port raises (SerialException, OSError,
 but also termios.error from a pty that went away, or TypeError from a port
@@ -72,6 +83,11 @@ log = logging.getLogger(__name__)
 
 #: Retry reasons kept in :attr:`LinkStats.reasons` (the oldest are dropped).
 MAX_REASONS = 500
+#: Frames nobody asked for, in one session, that make the link refuse the line.  One
+#: is tolerated (the last reply to a program killed mid-request); a second says the
+#: line repeats replies, and a repeated reply may pass for the answer to the next
+#: request.
+UNREQUESTED_LIMIT = 2
 
 
 @dataclass
@@ -92,6 +108,10 @@ class LinkStats:
     unfitting: int = 0
     #: replies to earlier attempts that arrived after their deadline, discarded
     late_replies: int = 0
+    #: well-formed frames for our station that no request of ours can explain, discarded
+    unrequested: int = 0
+    #: frames byte for byte the request we sent last (a line that echoes), skipped
+    echoes: int = 0
     #: writes whose reply was lost (WriteUnconfirmed)
     unconfirmed_writes: int = 0
     #: one line per retry or unconfirmed write: "port, station, command: reason"
@@ -153,7 +173,10 @@ class Link(Generic[F]):
         self._rx = bytearray()  # received bytes not yet logged; ends with the decoder's
         self._dropped_seen = 0
         self._owed: dict[int, tuple[int, float]] = {}  # station -> (replies, due by)
+        self._overdue: dict[int, int] = {}  # station -> owed replies past their late window
+        self._unrequested = 0  # frames nobody asked for since open()
         self._replied_at = 0.0  # when the last reply was taken, for the codec's reply_gap
+        self._sent = b""  # the last frame sent, to know its echo
 
     # --- open / close ---------------------------------------------------------------
 
@@ -182,7 +205,15 @@ class Link(Generic[F]):
             self._rx.clear()
             self._dropped_seen = 0
             self._owed.clear()
-            log.info("opened %s (station %d, %s)", self.url, self.station, self.settings)
+            self._overdue.clear()
+            self._unrequested = 0
+            self._sent = b""
+            log.info(
+                "opened %s (station %s, %s)",
+                self.url,
+                self.codec.station_text(self.station),
+                self.settings,
+            )
         return self
 
     def close(self) -> None:
@@ -237,6 +268,7 @@ class Link(Generic[F]):
                                 station_text=self.codec.station_text(st))
             self.stats.exchanges += 1
             self._settle(port, st, command, wait=True)
+            self._check_line(st)
             attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
             failure = _Failure("not sent")
             for attempt in range(attempts):
@@ -249,6 +281,7 @@ class Link(Generic[F]):
                         f"retry {attempt}/{attempts - 1} after {failure.reason}",
                     )
                     self._settle(port, st, command, wait=request.volatile)
+                    self._check_line(st)
                 sent = self._send(port, frame, st, command)
                 # A reply still owed may be this attempt's (the earlier one's was taken):
                 # it can come until this attempt's late window ends.
@@ -258,6 +291,8 @@ class Link(Generic[F]):
                     self._owed[st] = (count, max(due, due_by))
                 result = self._await(port, request, st, timeout)
                 if not isinstance(result, _Failure):
+                    if not request.is_write:  # a write's ack stands: it was sent, it took
+                        self._check_line(st)
                     return result.value
                 failure = result
                 self.stats.timeouts += 1
@@ -282,7 +317,10 @@ class Link(Generic[F]):
             ) from failure.cause
 
     def _note(self, level: int, station: int, command: str, reason: str) -> None:
-        line = f"port {self.url}, station {station}, command {command}: {reason}"
+        line = (
+            f"port {self.url}, station {self.codec.station_text(station)}, command {command}: "
+            f"{reason}"
+        )
         self.stats.note(line)
         log.log(level, "%s", line)
 
@@ -296,6 +334,7 @@ class Link(Generic[F]):
             time.sleep(gap)
         if log.isEnabledFor(logging.DEBUG):
             log.debug("%s -> %s", self.url, _hex(frame))
+        self._sent = frame
         # No flush(): tcdrain waits, without any timeout, until the UART has sent the
         # frame (for ever if flow control holds it), and the reply deadline is far
         # longer than a request's time on the wire (1 s against 12 ms at 9600 baud).
@@ -340,17 +379,21 @@ class Link(Generic[F]):
             command=command,
         )
 
-    def _log_rx(self) -> None:
-        """Log, as one hex line, the received bytes the decoder is done with.
+    def _log_rx(self) -> bytes:
+        """Log, as one hex line, the received bytes the decoder is done with; return them.
 
         Called after each frame (or bad frame, or noise) is taken from the
-        decoder, so a reply that came in single bytes is still one line.
+        decoder, so a reply that came in single bytes is still one line, and
+        what it returns ends with that frame's bytes.
         """
         done = len(self._rx) - self._decoder.pending
-        if done > 0:
-            if log.isEnabledFor(logging.DEBUG):
-                log.debug("%s <- %s", self.url, _hex(bytes(self._rx[:done])))
-            del self._rx[:done]
+        if done <= 0:
+            return b""
+        consumed = bytes(self._rx[:done])
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("%s <- %s", self.url, _hex(consumed))
+        del self._rx[:done]
+        return consumed
 
     def _count_noise(self) -> None:
         self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
@@ -362,9 +405,13 @@ class Link(Generic[F]):
             count, due = self._owed.get(station, (0, 0.0))
             if count and time.monotonic() >= due:
                 log.debug(
-                    "%s station %d: %d missed reply(ies) never came", self.url, station, count
+                    "%s station %s: %d missed reply(ies) never came",
+                    self.url,
+                    self.codec.station_text(station),
+                    count,
                 )
                 del self._owed[station]
+                self._overdue[station] = self._overdue.get(station, 0) + count
                 count = 0
             data = self._read(port, station, command, block=wait and count > 0)
             self._discard_frames(station)
@@ -386,26 +433,80 @@ class Link(Generic[F]):
                 self.stats.bad_frames += 1
                 yield exc
                 continue
-            self._log_rx()
+            consumed = self._log_rx()
             if frame is None:
                 return
+            if self._sent and consumed.endswith(self._sent):
+                self._echo(frame)
+                continue
             if frame.station != station:
                 self.stats.other_station += 1
-                log.debug("%s: ignored a frame for station %d", self.url, frame.station)
+                log.debug(
+                    "%s: ignored a frame for station %s",
+                    self.url,
+                    self.codec.station_text(frame.station),
+                )
                 continue
             yield frame
+
+    def _echo(self, frame: F) -> None:
+        """Count and skip a frame byte for byte what we sent last: the line echoes us."""
+        self.stats.echoes += 1
+        level = logging.INFO if self.stats.echoes == 1 else logging.DEBUG
+        log.log(
+            level,
+            "%s station %s: skipped the echo of our own request %s (the line echoes what "
+            "we send, as 2-wire RS-485 adapters do)",
+            self.url,
+            self.codec.station_text(frame.station),
+            frame.payload,
+        )
 
     def _discard_frames(self, station: int) -> None:
         for item in self._frames(station):
             if isinstance(item, ProtocolError):
                 log.info("%s: discarded bad frame: %s", self.url, item)
             else:
-                self._late_reply(station, item.payload)
+                self._stray(station, item.payload)
+
+    def _stray(self, station: int, payload: str) -> None:
+        """Discard a frame for ``station`` that answers no request now: a reply still
+        owed, or one past its late window, else a frame nobody asked for."""
+        if station in self._owed:
+            self._late_reply(station, payload)
+        elif self._overdue.get(station):
+            self._overdue[station] -= 1
+            self.stats.late_replies += 1
+            self._discarded(station, "a reply later than its window", payload)
+        else:
+            self._unrequested += 1
+            self.stats.unrequested += 1
+            self._discarded(station, "a frame nobody asked for", payload)
+
+    def _discarded(self, station: int, what: str, payload: str) -> None:
+        log.info(
+            "%s station %s: discarded %s %r",
+            self.url,
+            self.codec.station_text(station),
+            what,
+            payload,
+        )
+
+    def _check_line(self, station: int) -> None:
+        """Raise LinkError once the line has delivered too many frames nobody asked for."""
+        if self._unrequested >= UNREQUESTED_LIMIT:
+            raise LinkError(
+                f"the line delivers replies nobody asked for ({self._unrequested} unrequested "
+                "frames): two devices answering, or a device server retransmitting; fix the line",
+                port=self.url,
+                station=station,
+                station_text=self.codec.station_text(station),
+            )
 
     def _late_reply(self, station: int, payload: str) -> None:
         count, due = self._owed.get(station, (0, 0.0))
         self.stats.late_replies += 1
-        log.info("%s station %d: discarded late reply %r", self.url, station, payload)
+        self._discarded(station, "late reply", payload)
         if count > 1:
             self._owed[station] = (count - 1, due)
         else:
@@ -418,20 +519,20 @@ class Link(Generic[F]):
         deadline = time.monotonic() + timeout
         failure = _Failure(f"no reply within {timeout:g} s")
         command = request.payload
+        shown = self.codec.station_text(station)
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
-                    log.info("%s station %d %s: bad frame: %s", self.url, station, command, frame)
+                    log.info("%s station %s %s: bad frame: %s", self.url, shown, command, frame)
                     failure = _Failure(f"bad frame: {frame}", frame)
                     continue
                 try:
                     value = request.decode(frame)
                 except ReplyError as exc:
                     self.stats.unfitting += 1
-                    log.info("%s station %d %s: discarded: %s", self.url, station, command, exc)
+                    log.info("%s station %s %s: discarded: %s", self.url, shown, command, exc)
                     failure = _Failure(f"reply does not fit: {exc}", exc)
-                    if station in self._owed:
-                        self._late_reply(station, frame.payload)
+                    self._stray(station, frame.payload)
                     continue
                 self._count_noise()
                 self._replied_at = time.monotonic()

@@ -126,8 +126,7 @@ def open_error(url: str, exc: Exception) -> LinkError:
     scheme = url.split("://", 1)[0].lower() if "://" in url else ""
     if scheme in ("socket", "rfc2217") and not port_number(url):
         return PortError(
-            f"not a {scheme}:// address; give {scheme}://HOST:PORT, PORT a number from "
-            "1 to 65535",
+            f"not a {scheme}:// address; give {scheme}://HOST:PORT, PORT a number from 1 to 65535",
             port=url,
         )
     if "exclusively lock" in text:

@@ -88,7 +88,7 @@ from pushproperty import (
 from harlsync import cli, families
 from harlsync.errors import PolicyError
 from harlsync.families.iai import profile
-from harlsync.families.iai.catalogue import CATALOGUE, PositionRun
+from harlsync.families.iai.catalogue import CATALOGUE, Run
 from harlsync.families.iai.codec import CODEC
 from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.model import Position
@@ -498,7 +498,7 @@ class IaiTally(Tally):
 
 def wire(write: PlannedWrite) -> str:
     """The payload of the 291H a planned write sends, as the controller records it."""
-    key: PositionRun = write.key
+    key: Run = write.key
     return write_positions(key.start, write.new).payload
 
 

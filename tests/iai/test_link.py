@@ -3,16 +3,17 @@ HARL-U2, over a real pty served by a scripted IAI controller."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 
 import pytest
 
-from harlsync.errors import LinkTimeout, ProtocolError
+from harlsync.errors import LinkError, LinkTimeout, ProtocolError
 from harlsync.families.iai import profile
 from harlsync.families.iai import protocol as p
 from harlsync.families.iai.codec import CODEC, SETTINGS
-from harlsync.families.iai.model import SystemStatus
+from harlsync.families.iai.model import SystemStatus, Version
 from harlsync.link import Link, SerialSettings
 from harlsync.sim.serve import PtyServer
 
@@ -21,6 +22,7 @@ STATION = 0x99
 # Golden frames, from the digest (§2.5) and written by hand (SC summed by hand).
 SYSTEM_STATUS_Q = b"!992152B" + CRLF
 STATUS_IDLE = b"#9921510000000000040002" + CRLF  # AUTO, no error, ready
+VERSION_REPLY = b"#992010001234004107E303050E070933" + CRLF
 ERROR_REPLY = b"&990A13A" + CRLF
 
 Chunks = list[tuple[float, bytes]]
@@ -37,24 +39,28 @@ def bad_sc(frame: bytes) -> Chunks:
 
 
 class ScriptedIai:
-    """An IAI controller at station 99 that answers 215H idle, on the wire as
-    :class:`~harlsync.sim.serve.PtyServer` serves a simulator; ``plan`` shapes the
-    next replies (dropped, corrupted ...), ``reply`` replaces what it answers."""
+    """An IAI controller at station 99 that answers 215H idle and 201H its version,
+    on the wire as :class:`~harlsync.sim.serve.PtyServer` serves a simulator; ``plan``
+    shapes the next replies (dropped, corrupted ...), ``reply`` replaces what it
+    answers.  ``echo`` sends every byte back first (2-wire RS-485), ``repeat`` sends
+    every reply twice, 3 ms apart."""
 
     char_time = 0.0
 
-    def __init__(self) -> None:
+    def __init__(self, *, echo: bool = False, repeat: bool = False) -> None:
         self.decoder = p.FrameDecoder()
         self.received: list[bytes] = []
         self.acts: list[Act] = []
-        self.reply = STATUS_IDLE
+        self.reply: bytes | None = None
+        self.echo = echo
+        self.repeat = repeat
 
     def plan(self, *acts: Act) -> None:
         self.acts += acts
 
     def receive(self, data: bytes, client: str = "") -> Chunks:
         self.decoder.feed(data)
-        out: Chunks = []
+        out: Chunks = [(0.0, data)] if self.echo else []
         while True:
             try:
                 frame = self.decoder.next_frame()
@@ -65,8 +71,11 @@ class ScriptedIai:
             if frame.kind != "!" or frame.station != STATION:
                 continue
             self.received.append(frame.encode())
+            reply = self.reply or {0x215: STATUS_IDLE, 0x201: VERSION_REPLY}[frame.message_id]
             act = self.acts.pop(0) if self.acts else None
-            out += act(self.reply) if act else [(0.0, self.reply)]
+            out += act(reply) if act else [(0.0, reply)]
+            if self.repeat:
+                out.append((0.003, reply))
 
 
 @pytest.fixture
@@ -140,3 +149,32 @@ def test_the_reply_deadline_grows_with_the_longest_reply_a_request_can_get() -> 
     )
     at_115200 = replace(SETTINGS, baudrate=115200)
     assert CODEC.reply_timeout(positions, at_115200) < CODEC.reply_timeout(positions, SETTINGS)
+
+
+def test_issue_11_a_line_that_echoes_commands_is_recognised_not_taken_for_a_misfit() -> None:
+    device = ScriptedIai(echo=True)
+    with PtyServer(device) as server, open_link(server, fast()) as link:
+        assert isinstance(link.exchange(p.system_status()), SystemStatus)
+        assert isinstance(link.exchange(p.system_status()), SystemStatus)
+    assert (link.stats.echoes, link.stats.unfitting, link.stats.retries) == (2, 0, 0)
+
+
+def test_issue_11_a_line_that_repeats_replies_fails_the_read_on_the_iai_too() -> None:
+    # The reply's message id binds it to its kind of request, so a repeated version
+    # never answers a status read; the frames it leaves over still fail the read.
+    device = ScriptedIai(repeat=True)
+    with (
+        PtyServer(device) as server,
+        open_link(server, fast()) as link,
+        pytest.raises(LinkError) as info,
+    ):
+        for _ in range(20):
+            assert isinstance(link.exchange(p.version()), Version)
+            assert isinstance(link.exchange(p.system_status()), SystemStatus)
+    assert re.fullmatch(
+        rf"port {server.device}, station 99: the line delivers replies nobody asked for "
+        r"\(\d+ unrequested frames\): two devices answering, or a device server "
+        r"retransmitting; fix the line",
+        str(info.value),
+    )
+    assert link.stats.unrequested >= 2

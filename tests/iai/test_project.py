@@ -64,6 +64,17 @@ def _edit(project: Path, old: str, new: str, file: str = "positions.yaml") -> No
     path.write_text(text.replace(old, new, 1))
 
 
+def assert_issue_after_edit(
+    project: Path, old: str, new: str, expected: str, file: str = "positions.yaml"
+) -> None:
+    """Replace ``old`` by ``new`` in ``file``: validate finds an issue that starts with
+    ``expected``, and every issue is one line."""
+    _edit(project, old, new, file)
+    issues = validate_project(project)
+    assert any(issue.startswith(expected) for issue in issues), issues
+    assert all("\n" not in issue for issue in issues)
+
+
 BAD = [
     ("coords: [100.000, -1.000, 0.000]", "coords: [100.000, -1.000, 99999999.000]",
      ("positions.yaml:4: positions.1.coords.2: 99999999.000 is out of range "
@@ -96,10 +107,7 @@ BAD = [
 def test_a_bad_positions_file_names_file_line_field_and_what_is_allowed(
     project: Path, old: str, new: str, expected: str
 ) -> None:
-    _edit(project, old, new)
-    issues = validate_project(project)
-    assert any(issue.startswith(expected) for issue in issues), issues
-    assert all("\n" not in issue for issue in issues)
+    assert_issue_after_edit(project, old, new, expected)
 
 
 def test_a_station_that_is_not_two_hex_digits_is_refused_with_the_range(project: Path) -> None:

@@ -269,11 +269,13 @@ def test_a_frame_of_exactly_the_limit_passes_and_one_byte_more_does_not() -> Non
         dec.next_frame()
 
 
-def test_the_default_limit_holds_the_largest_frame_of_any_model() -> None:
+@THREE_WAYS
+def test_the_default_limit_holds_the_largest_frame_of_any_model(feed: Feed) -> None:
     largest = max(max(b) for b in profile.BUFFERS.values())
-    dec = FrameDecoder()
-    dec.feed(with_sc(b"#9922D" + b"0" * (largest - 10)))
-    assert dec.next_frame() is not None
+    raw = with_sc(b"#9922D" + b"0" * (largest - 10))
+    assert frames_of(raw + SERVO_REPLY, feed) == [
+        Frame("#", 0x99, 0x22D, "0" * (largest - 10)), Frame("#", 0x99, 0x232, "")
+    ]
 
 
 def test_clear_drops_the_buffer_and_counts_it() -> None:

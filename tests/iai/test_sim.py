@@ -69,6 +69,7 @@ STATUS_FLASH = b"#9921510000000001040003" + CRLF  # byte 2 bit 0
 FOREIGN_Q = b"!982152A" + CRLF  # 215H to station 98
 SERVO_Q = b"!99232071C2" + CRLF  # 232H servo ON, axes 1-3: off the allow-list
 PROGRAM_RUN_Q = b"!99253018E" + CRLF  # 253H run program 1: off the allow-list
+FLAGS_605_Q = b"!9920D00025D00083C" + CRLF  # 20DH 8 flags from 605: not a multiple of 8
 PAGE_20_Q = b"!9922D000001001421" + CRLF  # 22DH positions 1-20
 PAGE_12_Q = b"!9922D000001000C2F" + CRLF  # 22DH positions 1-12
 # 291H positions 5 and 6: 5 = axis 1 at 1.000, then 6 as each case says.
@@ -258,6 +259,10 @@ def test_the_opt_in_flags_read_back_as_written(line: Line) -> None:
     assert line.ask(FLAGS_Q) == b"#9920D00000000102000DE" + CRLF  # flags 0-15: 20h, 00h
 
 
+def test_a_flag_query_that_starts_between_multiples_of_8_is_refused(line: Line) -> None:
+    assert line.ask(FLAGS_605_Q) == error(codes.BAD_DATA)  # p.22: category head + 8n
+
+
 # --- what gets no reply, and what gets an error ------------------------------------------------
 
 
@@ -335,6 +340,10 @@ def test_a_generated_controller_is_realistic_and_reproducible() -> None:
     assert any(y - x > 1 for x, y in pairwise(numbers))  # gaps
     assert all(not a.position_problems(pos) for pos in a.positions.values())
     assert SimState.generate(6).positions != a.positions
+    assert (a.flags, a.integers, a.reals) == (b.flags, b.integers, b.reals)
+    assert a.flags and min(a.flags) >= 600 and max(a.flags) <= 899
+    assert a.integers and all(200 <= n <= 299 for n in a.integers)
+    assert a.reals and all(300 <= n <= 399 for n in a.reals)
 
 
 def test_a_controller_refuses_positions_it_could_not_hold() -> None:

@@ -33,13 +33,13 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable
-from types import TracebackType
 from typing import TypeVar
 
 from ...errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
 from ...link import Link as SharedLink
 from ...link.confirm import confirmed_write
+from ...link.owner import OnLink
 from ...settings import SerialSettings
 from .link import Link
 from .model import (
@@ -66,13 +66,12 @@ Progress = Callable[[int, int], None]
 T = TypeVar("T")
 
 
-class Controller:
+class Controller(OnLink):
     """One robot (``station``, default the link's) on an open HARL-U2 link."""
 
     def __init__(self, link: SharedLink[Frame], station: int | None = None) -> None:
         self.link = link
         self.station = link.station if station is None else station
-        self._owns_link = False
 
     @classmethod
     def from_url(
@@ -93,25 +92,9 @@ class Controller:
         controller._owns_link = True
         return controller
 
-    @property
-    def port(self) -> str:
-        return self.link.url
 
-    def close(self) -> None:
-        """Close the link if this controller opened it (``from_url``)."""
-        if self._owns_link:
-            self.link.close()
 
-    def __enter__(self) -> Controller:
-        return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # --- the one place requests go through ----------------------------------------
 

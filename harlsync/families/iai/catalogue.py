@@ -1,31 +1,39 @@
-"""An IAI robot's items: its positions, their keys, names and how a plan writes them.
+"""An IAI robot's items: its positions, and its global flags and variables when the
+project keeps them; their keys, names and how a plan writes them.
 
 ::
 
     PositionKey("position", 12)          one position of the table (diff, read, verify)
-    PositionRun("positions", 12, 4)      positions 12-15 written by one 291H (plans only)
+    VariableKey("flag", 600)             one global flag (diff, and its own 24BH write)
+    VariableKey("integer", 200)          one global integer variable (diff, read, verify)
+    VariableKey("real", 300)             one global real variable (diff, read, verify)
+    Run("positions", 12, 4)              positions 12-15 written by one 291H (plans only)
+    Run("integers", 200, 3)              integer variables 200-202 by one 24CH (plans only)
+    Run("reals", 300, 2)                 real variables 300-301 by one 24DH (plans only)
 
-A diff compares positions one by one.  A plan writes each run of consecutive
-changed positions with one 291H, as long as the controller's receive buffer
-takes it, and never a position that did not change.  A position the robot has
-and the project lacks cannot be written: no message of protocol B clears a
-position, so such a plan is refused with what to do.
+A diff compares items one by one; flags and variables only when asked
+(``registers``: runtime data, like the HARL-U2's registers).  A plan writes each
+run of consecutive changed positions, integer or real variables with one
+command, as long as the controller's receive buffer takes it, each changed flag
+with its own 24BH, and never an item that did not change.  Push order:
+positions, integer variables, real variables, then flags (a flag is often the
+signal that the data beside it is ready).  A position the robot has and the
+project lacks cannot be written: no message of protocol B clears a position, so
+such a plan is refused with what to do; so is a plan with flags and variables
+for a project that does not keep them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
 from ..base import PlanShape
-from . import profile
 from .layout import IaiData
-from .model import ARM_NAMES, Position
+from .model import ARM_NAMES, VARIABLE_SECTIONS, Position
+from .protocol import max_positions_per_write, max_variables_per_write
 
-__all__ = ["CATALOGUE", "IaiCatalogue", "Key", "PositionKey", "PositionRun", "max_run"]
-
-#: Bytes of a 291H frame around its records: ! station id, 00 start count, SC CR LF.
-_WRITE_OVERHEAD = 1 + 2 + 3 + 2 + 4 + 4 + 2 + 2
+__all__ = ["CATALOGUE", "IaiCatalogue", "Key", "PositionKey", "Run", "VariableKey", "runs"]
 
 
 class PositionKey(NamedTuple):
@@ -35,10 +43,17 @@ class PositionKey(NamedTuple):
     number: int
 
 
-class PositionRun(NamedTuple):
-    """Consecutive positions ``start`` .. ``start + count - 1``, written by one 291H."""
+class VariableKey(NamedTuple):
+    """One global flag, integer variable or real variable."""
 
-    kind: str  # "positions"
+    kind: str  # "flag" | "integer" | "real"
+    number: int
+
+
+class Run(NamedTuple):
+    """Consecutive items ``start`` .. ``start + size - 1`` written by one command."""
+
+    kind: str  # "positions" (291H) | "integers" (24CH) | "reals" (24DH)
     start: int
     size: int
 
@@ -47,13 +62,42 @@ class PositionRun(NamedTuple):
         return range(self.start, self.start + self.size)
 
 
-Key = PositionKey | PositionRun
+Key = PositionKey | VariableKey | Run
+
+#: Item kind -> (the section of the data it is kept in, a person's name for one, for several).
+_KINDS = {
+    "position": ("positions", "position", "positions"),
+    "integer": ("integers", "integer variable", "integer variables"),
+    "real": ("reals", "real variable", "real variables"),
+    "flag": ("flags", "flag", "flags"),
+}
+#: The safe push order, by item kind; a run sorts with its items.
+_ORDER = {kind: i for i, kind in enumerate(_KINDS)}
+#: A run's kind -> its items' kind.
+_ITEM_OF_RUN = {section: kind for kind, (section, _, _) in _KINDS.items()}
 
 
-def max_run(model: str) -> int:
-    """The most positions one 291H may carry to a controller of ``model``."""
-    receive = profile.BUFFERS[model].receive
-    return (receive - _WRITE_OVERHEAD) // profile.WRITE_RECORD_MAX
+def _item_kind(key: Key) -> str:
+    return _ITEM_OF_RUN[key.kind] if isinstance(key, Run) else key.kind
+
+
+def runs(
+    kind: str, numbers: Iterable[int], limit: int, live: Mapping[int, Any],
+    project: Mapping[int, Any],
+) -> list[tuple[Run, tuple[Any, ...], tuple[Any, ...]]]:
+    """The writes of ``numbers`` (changed items of run kind ``kind``): one per run
+    of consecutive numbers of at most ``limit``, as (run, old values, new values)."""
+    found: list[list[int]] = []
+    for n in sorted(numbers):
+        if found and found[-1][-1] == n - 1 and len(found[-1]) < limit:
+            found[-1].append(n)
+        else:
+            found.append([n])
+    return [
+        (Run(kind, run[0], len(run)), tuple(live.get(n) for n in run),
+         tuple(project[n] for n in run))
+        for run in found
+    ]
 
 
 def position_text(position: Position | None) -> str | None:
@@ -71,31 +115,49 @@ def position_text(position: Position | None) -> str | None:
     return text
 
 
+def value_text(value: object) -> str | None:
+    """A flag or variable as variables.yaml writes it: ``true``, ``-1000``, ``0.1``."""
+    if value is None:
+        return None
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
+
+
 class IaiCatalogue:
     #: No IAI write is allowed while a program runs.
     live_tuning: frozenset[str] = frozenset()
 
     def items(self, data: IaiData, *, registers: bool = False) -> dict[Key, Any]:
-        return {PositionKey("position", n): p for n, p in data.positions.items()}
+        out: dict[Key, Any] = {PositionKey("position", n): p for n, p in data.positions.items()}
+        if registers:
+            kept = data.variables()
+            for kind, (section, _, _) in _KINDS.items():
+                for n, value in kept.get(section, {}).items():
+                    out[VariableKey(kind, n)] = value
+        return out
 
     def order(self, key: Key) -> tuple[Any, ...]:
-        return (key.number,) if isinstance(key, PositionKey) else (key.start,)
+        number = key.start if isinstance(key, Run) else key.number
+        return (_ORDER[_item_kind(key)], number)
 
     def describe(self, key: Key) -> str:
-        if isinstance(key, PositionKey):
-            return f"position {key.number}"
+        _, one, several = _KINDS[_item_kind(key)]
+        if not isinstance(key, Run):
+            return f"{one} {key.number}"
         if key.size == 1:
-            return f"position {key.start}"
-        return f"positions {key.start}-{key.start + key.size - 1}"
+            return f"{one} {key.start}"
+        return f"{several} {key.start}-{key.start + key.size - 1}"
 
     def group(self, key: Key) -> str:
-        return "positions"
+        return _KINDS[_item_kind(key)][2]
 
     def label(self, key: Key, field: str) -> str:
-        return str(key.number if isinstance(key, PositionKey) else key.start)
+        return str(key.start if isinstance(key, Run) else key.number)
 
     def fields(self, key: Key, old: Any, new: Any) -> list[tuple[str, str | None, str | None]]:
-        a, b = position_text(old), position_text(new)
+        show = position_text if _item_kind(key) == "position" else value_text
+        a, b = show(old), show(new)
         return [] if a == b else [("", a, b)]
 
     def identity(self, key: Key) -> dict[str, Any]:
@@ -103,11 +165,19 @@ class IaiCatalogue:
         return ident
 
     def counts(self, changes: Iterable[tuple[Any, Any, Any]]) -> dict[str, int]:
-        return {"positions": sum(1 for _ in changes)}
+        """Positions always; flags, integers and reals when any changed."""
+        count = {section: 0 for section, _, _ in _KINDS.values()}
+        for key, _, _ in changes:
+            count[_KINDS[_item_kind(key)][0]] += 1
+        return {name: n for name, n in count.items() if n or name == "positions"}
 
     def summary(self, changes: Iterable[tuple[Any, Any, Any]]) -> str:
-        n = self.counts(changes)["positions"]
-        return f"{n} position{'s' * (n != 1)}" if n else "no change"
+        count = self.counts(changes)
+        parts = [
+            f"{count[section]} {one if count[section] == 1 else several}"
+            for section, one, several in _KINDS.values() if count.get(section)
+        ]
+        return ", ".join(parts) or "no change"
 
     def version(self, data: IaiData) -> str:
         v = data.version
@@ -115,27 +185,42 @@ class IaiCatalogue:
 
     def plan(self, live: IaiData, project: IaiData, changes: list[tuple[Any, Any, Any]], *,
              registers: bool) -> PlanShape:
-        unwritable = [
-            f"{self.describe(key)}: defined on the robot but not in the project, and no IAI "
-            "protocol B message clears a position; clear it with the controller's own tools "
-            "(or add it to the project) and run again"
-            for key, _, new in changes if new is None
-        ]
-        changed = sorted(key.number for key, _, new in changes if new is not None)
-        limit = max_run(project.model)
-        runs: list[list[int]] = []
-        for n in changed:
-            if runs and runs[-1][-1] == n - 1 and len(runs[-1]) < limit:
-                runs[-1].append(n)
-            else:
-                runs.append([n])
-        wanted = [
-            (
-                PositionRun("positions", run[0], len(run)),
-                tuple(live.positions.get(n) for n in run),
-                tuple(project.positions[n] for n in run),
+        kept = project.variables()
+        unwritable = []
+        lacking = [section for section in VARIABLE_SECTIONS if section not in kept]
+        if registers and lacking:
+            unwritable.append(
+                f"{', '.join(lacking)}: the project does not keep them; set keep_registers: true "
+                "in robot.yaml and pull, or push without --registers"
             )
-            for run in runs
+        for key, _, new in changes:
+            if new is not None:
+                continue
+            if key.kind == "position":
+                unwritable.append(
+                    f"{self.describe(key)}: defined on the robot but not in the project, and no "
+                    "IAI protocol B message clears a position; clear it with the controller's own "
+                    "tools (or add it to the project) and run again"
+                )
+            elif _KINDS[key.kind][0] in kept:
+                section = _KINDS[key.kind][0]
+                unwritable.append(
+                    f"{self.describe(key)}: on the robot but not in variables.yaml; pull to take "
+                    f"it in, or narrow robot.yaml controller.{section}"
+                )
+        changed: dict[str, list[int]] = {section: [] for section, _, _ in _KINDS.values()}
+        for key, _, new in changes:
+            if new is not None:
+                changed[_KINDS[key.kind][0]].append(key.number)
+        wanted: list[tuple[Any, Any, Any]] = []
+        wanted += runs("positions", changed["positions"], max_positions_per_write(project.model),
+                       live.positions, project.positions)
+        for section in ("integers", "reals"):
+            limit = max_variables_per_write(project.model, section)
+            wanted += runs(section, changed[section], limit,
+                           live.variables().get(section, {}), kept.get(section, {}))
+        wanted += [
+            (key, old, new) for key, old, new in changes if key.kind == "flag" and new is not None
         ]
         return PlanShape(wanted=wanted, unwritable=unwritable)
 

@@ -1,5 +1,5 @@
 """What an IAI controller can do for harlsync, as methods: version, status, read and
-write positions.
+write positions, and the global flags and integer and real variables.
 
 A :class:`Controller` talks to one station through the shared
 :class:`~harlsync.link.Link` with the IAI codec, and sends only what the codec
@@ -9,9 +9,12 @@ station (in hex) and the message: an ``&`` reply raises
 
 Reading the table walks the robot's position range with 22DH queries sized so
 that no reply can be cut by the controller's send buffer (it could not be told
-from undefined positions).  Writes (291H) are confirmed, never blindly
-repeated (:func:`~harlsync.link.confirm.confirmed_write`): after a lost reply the
-run is read back, and a second send first checks that the robot is still idle.
+from undefined positions).  Flags (20DH) and integer and real variables (20EH,
+20FH) are read the same way, each query sized to the send buffer, flag queries
+starting at a multiple of 8 (p.22).  Writes (291H, 24BH, 24CH, 24DH) are
+confirmed, never blindly repeated (:func:`~harlsync.link.confirm.confirmed_write`):
+after a lost reply what was written is read back, and a second send first
+checks that the robot is still idle.
 
 The interlock (:meth:`Controller.status`) is 215H and 212H together, as the
 profile says: AUTO mode, no program running, no flash write, system ready, no
@@ -22,29 +25,45 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from types import TracebackType
 from typing import TypeVar
 
 from ...errors import ControllerError, HarlsyncError, InterlockError, ReplyError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT, Link
 from ...link.confirm import confirmed_write
+from ...link.owner import OnLink
 from ...settings import SerialSettings
 from ..base import Progress
 from . import profile
 from .codec import CODEC
 from .layout import IaiData
-from .model import AxisStatus, Position, SystemStatus, Version, axes_refusal
+from .model import (
+    AxisStatus,
+    Position,
+    SystemStatus,
+    Version,
+    axes_refusal,
+    real_text,
+    real_value,
+)
 from .protocol import (
     ErrorReply,
     Frame,
     Request,
+    max_flags_per_read,
     max_positions_per_read,
+    max_variables_per_read,
+    read_flags,
+    read_integers,
     read_positions,
+    read_reals,
     system_status,
     version,
+    write_flag,
+    write_integers,
     write_positions,
+    write_reals,
 )
 from .protocol import axis_status as axis_status_request
 
@@ -56,6 +75,11 @@ T = TypeVar("T")
 
 #: 212H for every axis the controller has (it reports only those connected).
 ALL_AXES = 0xFF
+
+
+def _chunks(first: int, last: int, step: int) -> list[tuple[int, int]]:
+    """``first`` .. ``last`` as (start, count) pieces of at most ``step`` numbers."""
+    return [(start, min(step, last + 1 - start)) for start in range(first, last + 1, step)]
 
 
 @dataclass(frozen=True)
@@ -74,12 +98,14 @@ class IaiStatus:
         return "idle" if self.refusal is None else self.refusal
 
 
-class Controller:
+class Controller(OnLink):
     """One IAI controller on a link.
 
     ``axes`` are the robot's axes (robot.yaml); ``None`` checks every axis the
     controller reports.  ``first``/``last`` bound the position table; ``model``
-    sizes the queries (its send and receive buffers).
+    sizes the queries (its send and receive buffers).  ``variables`` are the
+    flags and variables :meth:`read_all` reads when asked, by section
+    (``flags``, ``integers``, ``reals``) -> (first, last); the profile's by default.
     """
 
     def __init__(
@@ -90,13 +116,14 @@ class Controller:
         axes: tuple[int, ...] | None = None,
         first: int = profile.DEFAULT_POSITION_RANGE[0],
         last: int = profile.DEFAULT_POSITION_RANGE[1],
+        variables: Mapping[str, tuple[int, int]] = profile.DEFAULT_VARIABLE_RANGES,
     ) -> None:
         self.link = link
         self.station = link.station
         self.model = model
         self.axes = axes
         self.first, self.last = first, last
-        self._owns_link = False
+        self.variables = dict(variables)
 
     @classmethod
     def from_url(
@@ -119,26 +146,13 @@ class Controller:
         controller._owns_link = True
         return controller
 
-    @property
-    def port(self) -> str:
-        return self.link.url
 
     @property
     def label(self) -> str:
         return f"port {self.port} station {self.station:02X}"
 
-    def close(self) -> None:
-        if self._owns_link:
-            self.link.close()
 
-    def __enter__(self) -> Controller:
-        return self
 
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # --- the one place requests go through ---------------------------------------
 
@@ -189,10 +203,8 @@ class Controller:
     def read_positions(self, head: int, count: int) -> dict[int, Position]:
         """The defined positions among ``head`` .. ``head + count - 1``, in queries
         that fit the send buffer."""
-        step = max_positions_per_read(self.model)
         out: dict[int, Position] = {}
-        for start in range(head, head + count, step):
-            n = min(step, head + count - start)
+        for start, n in _chunks(head, head + count - 1, max_positions_per_read(self.model)):
             for position in self.request(read_positions(start, n)):
                 out[position.number] = position
         return out
@@ -202,20 +214,69 @@ class Controller:
         found = self.read_positions(start, size)
         return tuple(found.get(n) for n in range(start, start + size))
 
-    def read_all(self, progress: Progress | None = None) -> IaiData:
-        """The version and every defined position of the robot's range."""
-        step = max_positions_per_read(self.model)
-        starts = range(self.first, self.last + 1, step)
-        total = 1 + len(starts)
-        data = IaiData(version=self.version(), model=self.model)
-        if progress is not None:
-            progress(1, total)
-        for i, start in enumerate(starts, 2):
-            n = min(step, self.last + 1 - start)
-            for position in self.request(read_positions(start, n)):
-                data.positions[position.number] = position
+    def _read_numbered(
+        self, first: int, last: int, step: int, query: Callable[[int, int], Request[tuple[T, ...]]],
+        align: int = 1,
+    ) -> dict[int, T]:
+        """Values ``first`` .. ``last`` by number, in queries of at most ``step``
+        starting at a multiple of ``align`` (the numbers before ``first`` dropped)."""
+        out: dict[int, T] = {}
+        for start, n in _chunks(first - first % align, last, step):
+            values = self.request(query(start, n))
+            out.update((start + i, v) for i, v in enumerate(values) if start + i >= first)
+        return out
+
+    def read_flags(self, first: int, last: int) -> dict[int, bool]:
+        """Global flags ``first`` .. ``last`` (20DH)."""
+        return self._read_numbered(first, last, max_flags_per_read(self.model), read_flags,
+                                   profile.FLAG_QUERY_ALIGNMENT)
+
+    def read_integers(self, first: int, last: int) -> dict[int, int]:
+        """Global integer variables ``first`` .. ``last`` (20EH)."""
+        step = max_variables_per_read(self.model, "integers")
+        return self._read_numbered(first, last, step, read_integers)
+
+    def read_reals(self, first: int, last: int) -> dict[int, str]:
+        """Global real variables ``first`` .. ``last`` (20FH), as their exact text."""
+        step = max_variables_per_read(self.model, "reals")
+        values = self._read_numbered(first, last, step, read_reals)
+        return {n: real_text(v) for n, v in values.items()}
+
+    def read_variables(self, section: str, first: int, last: int) -> dict[int, object]:
+        """Global ``flags``, ``integers`` or ``reals`` ``first`` .. ``last``."""
+        readers: dict[str, Callable[[int, int], Mapping[int, object]]] = {
+            "flags": self.read_flags, "integers": self.read_integers, "reals": self.read_reals,
+        }
+        return dict(readers[section](first, last))
+
+    def read_all(self, progress: Progress | None = None, *, variables: bool = False) -> IaiData:
+        """The version and every defined position of the robot's range, and with
+        ``variables`` the flags and variables of their ranges.
+
+        ``progress(done, total)`` after each position query and each section.
+        """
+        chunks = _chunks(self.first, self.last, max_positions_per_read(self.model))
+        total = 1 + len(chunks) + (3 if variables else 0)
+        done = 0
+
+        def tick() -> None:
+            nonlocal done
+            done += 1
             if progress is not None:
-                progress(i, total)
+                progress(done, total)
+
+        data = IaiData(version=self.version(), model=self.model)
+        tick()
+        for start, n in chunks:
+            data.positions.update((p.number, p) for p in self.request(read_positions(start, n)))
+            tick()
+        if variables:
+            data.flags = self.read_flags(*self.variables["flags"])
+            tick()
+            data.integers = self.read_integers(*self.variables["integers"])
+            tick()
+            data.reals = self.read_reals(*self.variables["reals"])
+            tick()
         return data
 
     # --- writes ---------------------------------------------------------------------
@@ -228,31 +289,61 @@ class Controller:
         Raises InterlockError instead of sending it again after a lost reply when
         the robot is not idle, WriteUnconfirmed when the read-back is neither.
         """
-        request = write_positions(start, positions)
+        self._confirmed(
+            write_positions(start, positions), len(positions),
+            lambda: self.read_run(start, len(positions)), tuple(positions), tuple(old),
+            f"positions {start}-{start + len(positions) - 1}",
+        )
+
+    def write_flag(self, number: int, on: bool, old: bool) -> None:
+        """Set or clear one global flag with 24BH and confirm it, as :meth:`write_run`."""
+        self._confirmed(write_flag(number, on), None,
+                        lambda: self.read_flags(number, number)[number], on, old, f"flag {number}")
+
+    def write_integers(self, start: int, values: Sequence[int], old: Sequence[int]) -> None:
+        """Write consecutive global integer variables with one 24CH and confirm it,
+        as :meth:`write_run`."""
+        last = start + len(values) - 1
+        self._confirmed(
+            write_integers(start, values), len(values),
+            lambda: tuple(self.read_integers(start, last).values()), tuple(values), tuple(old),
+            f"integer variables {start}-{last}",
+        )
+
+    def write_reals(self, start: int, values: Sequence[str], old: Sequence[str]) -> None:
+        """Write consecutive global real variables (exact text) with one 24DH and
+        confirm it, as :meth:`write_run`.  Raises ValueError for NaN or an infinity."""
+        last = start + len(values) - 1
+        self._confirmed(
+            write_reals(start, [real_value(v) for v in values]), len(values),
+            lambda: tuple(self.read_reals(start, last).values()), tuple(values), tuple(old),
+            f"real variables {start}-{last}",
+        )
+
+    def _confirmed(
+        self, request: Request[int | None], count: int | None, readback: Callable[[], T],
+        wanted: T, old: T, what: str,
+    ) -> None:
+        """Send one write, ``count`` items when its reply says how many, and confirm it."""
         if request.frame_size > profile.BUFFERS[self.model].receive:
             raise ReplyError(f"{request.payload[:12]}...: {request.frame_size} bytes do not fit "
                              f"the {self.model}'s receive buffer")
-        wanted = tuple(positions)
 
         def sent() -> None:
             written = self.request(request)
-            if written != len(positions):
+            if count is not None and written != count:
                 raise ControllerError(
                     str(written), port=self.port, station=self.station,
                     command=request.payload[:12], station_text=f"{self.station:02X}",
-                    message=f"291H wrote {written} of {len(positions)} positions",
+                    message=f"{request.message_id:03X}H wrote {written} of {count} ({what})",
                 )
 
         confirmed_write(
-            sent,
-            lambda: self.read_run(start, len(positions)),
-            wanted,
-            tuple(old),
-            before_resend=lambda lost: self._idle_before_resend(request, lost),
-            what=f"positions {start}-{start + len(positions) - 1}",
+            sent, readback, wanted, old,
+            before_resend=lambda lost: self._idle_before_resend(request, lost), what=what,
         )
 
-    def _idle_before_resend(self, request: Request[int], lost: WriteUnconfirmed) -> None:
+    def _idle_before_resend(self, request: Request[object], lost: WriteUnconfirmed) -> None:
         try:
             status = self.status()
         except HarlsyncError as exc:
@@ -262,6 +353,6 @@ class Controller:
                 return
             why = f"the robot is not idle: {status.describe()}"
         raise InterlockError(
-            f"{self.label}, message 291H: the write did not take and {why}; "
-            "not sending it again"
+            f"{self.label}, message {request.message_id:03X}H: the write did not take and "
+            f"{why}; not sending it again"
         ) from lost

@@ -1,17 +1,22 @@
 """An IAI controller as the engine's :class:`~harlsync.families.base.Driver`: read
-everything, read a position or a run, write a run (291H), status (215H + 212H)."""
+everything, read or write an item or a run (291H positions, 24BH a flag, 24CH/24DH
+integer and real variables), status (215H + 212H)."""
 
 from __future__ import annotations
 
 from typing import Any
 
 from ..base import Progress
-from .catalogue import Key, PositionKey, PositionRun
+from .catalogue import Key, PositionKey, Run, VariableKey
 from .controller import Controller, IaiStatus
 from .layout import IaiData
-from .protocol import position_fields, write_positions
+from .model import real_value
+from .protocol import position_fields, write_flag, write_integers, write_positions, write_reals
 
 __all__ = ["IaiDriver"]
+
+#: An item kind (a flag, an integer, a real) -> the section the controller reads it by.
+_SECTIONS = {"flag": "flags", "integer": "integers", "real": "reals"}
 
 
 class IaiDriver:
@@ -20,33 +25,60 @@ class IaiDriver:
         self.label = controller.label
 
     def read_all(self, *, registers: bool, progress: Progress | None = None) -> IaiData:
-        return self.controller.read_all(progress)
+        return self.controller.read_all(progress, variables=registers)
 
     def status(self) -> IaiStatus:
         return self.controller.status()
 
     def read(self, key: Key) -> Any:
+        c = self.controller
         if isinstance(key, PositionKey):
-            return self.controller.read_run(key.number, 1)[0]
-        return self.controller.read_run(key.start, key.size)
+            return c.read_run(key.number, 1)[0]
+        if isinstance(key, VariableKey):
+            return c.read_variables(_SECTIONS[key.kind], key.number, key.number)[key.number]
+        if key.kind == "positions":
+            return c.read_run(key.start, key.size)
+        last = key.start + key.size - 1
+        return tuple(c.read_variables(key.kind, key.start, last).values())
 
     def write(self, key: Key, value: Any, old: Any = None, *, needs_idle: bool = True) -> None:
-        if not isinstance(key, PositionRun):
-            raise TypeError(f"no write for item {key}: positions are written in runs")
         if old is None:
-            old = self.controller.read_run(key.start, key.size)
-        self.controller.write_run(key.start, value, old)
+            old = self.read(key)
+        c = self.controller
+        if isinstance(key, VariableKey) and key.kind == "flag":
+            c.write_flag(key.number, value, old)
+        elif isinstance(key, Run) and key.kind == "positions":
+            c.write_run(key.start, value, old)
+        elif isinstance(key, Run) and key.kind == "integers":
+            c.write_integers(key.start, value, old)
+        elif isinstance(key, Run) and key.kind == "reals":
+            c.write_reals(key.start, value, old)
+        else:
+            raise TypeError(f"no write for item {key}: positions and variables are written in runs")
 
     def command(self, key: Key, value: Any) -> str:
-        """The 291H a write sends, its fields spaced and its records split by ``|``
-        so a person can read it: ``291H 00 0004 0002 | 07 001D 001D 03E8 ... 00 | ...``."""
-        if not isinstance(key, PositionRun):
-            raise TypeError(f"no write for item {key}: positions are written in runs")
-        request = write_positions(key.start, value)  # refuses what the wire cannot carry
-        head = f"{request.message_id:03X}H 00 {key.start:04X} {len(value):04X}"
-        return " | ".join(
-            [head, *(" ".join(position_fields(p, numbered=False)) for p in value)]
-        )
+        """The command a write sends, its fields spaced and its records or values split
+        by ``|`` so a person can read it: ``291H 00 0004 0002 | 07 001D 001D 03E8 ... 00
+        | ...``, ``24BH 00 0258 1``, ``24CH 00 0C8 02 | FFFFFC18 | 00000005``."""
+        # Each request is built first: it refuses what the wire cannot carry.
+        if isinstance(key, VariableKey) and key.kind == "flag":
+            data = write_flag(key.number, value).data  # program, flag, change type
+            return f"24BH {data[:2]} {data[2:6]} {data[6:]}"
+        if isinstance(key, Run) and key.kind == "positions":
+            write_positions(key.start, value)
+            head = f"291H 00 {key.start:04X} {len(value):04X}"
+            return " | ".join(
+                [head, *(" ".join(position_fields(p, numbered=False)) for p in value)]
+            )
+        if isinstance(key, Run) and key.kind == "integers":
+            request, width = write_integers(key.start, value), 8
+        elif isinstance(key, Run) and key.kind == "reals":
+            request, width = write_reals(key.start, [real_value(v) for v in value]), 16
+        else:
+            raise TypeError(f"no write for item {key}: positions and variables are written in runs")
+        data = request.data  # program, start, count, then the values
+        head = f"{request.message_id:03X}H {data[:2]} {data[2:5]} {data[5:7]}"
+        return " | ".join([head, *(data[i : i + width] for i in range(7, len(data), width))])
 
     def unsafe(self, key: Key) -> bool:
         return True  # every IAI write needs an idle robot

@@ -11,6 +11,7 @@ from ..base import Analysis, Driver
 from . import layout, profile
 from .catalogue import CATALOGUE
 from .codec import SETTINGS
+from .model import VARIABLE_SECTIONS, variable_problem
 
 __all__ = ["FAMILY", "IaiFamily"]
 
@@ -30,19 +31,32 @@ class IaiFamily:
         return layout.render_files(robot, data)
 
     def data_problems(self, data: layout.IaiData) -> list[str]:
-        return [
+        problems = [
             f"position {n}: {problem}"
             for n, position in sorted(data.positions.items())
             for problem in position.problems()
         ]
+        for section, values in data.variables().items():
+            for n, value in sorted(values.items()):
+                problem = variable_problem(section, value)
+                if problem is not None:  # read so from the controller: say what to do there
+                    problems.append(f"{VARIABLE_SECTIONS[section]} {n}: {problem}; change it on "
+                                    f"the controller or leave it out of robot.yaml "
+                                    f"controller.{section}")
+        return problems
 
     def project_files(self, root: Path) -> list[str]:
-        return [name for name in layout.ROOT_FILES if (root / name).is_file()]
+        names = [*layout.ROOT_FILES, layout.VARIABLES_FILE]
+        return [name for name in names if (root / name).is_file()]
 
     def stale_files(
         self, root: Path, texts: Mapping[str, str], robot: Robot, data: layout.IaiData
     ) -> list[str]:
-        return []
+        """variables.yaml when the robot does not keep registers (a robot that keeps
+        them but was read without them keeps its file)."""
+        if layout.VARIABLES_FILE in texts or (robot.keep_registers and not data.variables()):
+            return []
+        return [layout.VARIABLES_FILE] if (root / layout.VARIABLES_FILE).is_file() else []
 
     def schemas(self) -> dict[str, str]:
         return layout.SCHEMAS.files()
@@ -86,6 +100,7 @@ class IaiFamily:
             axes=robot.options.get("axes"),
             first=first,
             last=last,
+            variables=layout.variable_ranges(robot),
         )
         return IaiDriver(controller)
 

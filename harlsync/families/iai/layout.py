@@ -3,7 +3,8 @@
 ::
 
     robot.yaml         family: iai, connection (station in hex), controller model,
-                       axes and position range, maintenance windows (user-edited)
+                       axes, position range and the flag and variable ranges,
+                       maintenance windows, keep_registers (user-edited)
     controller.yaml    what 201H reports (model and unit codes, version, build date)
     positions.yaml     the position table, one defined position per line:
 
@@ -11,10 +12,22 @@
           1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, speed: 100}
           7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, arm1: right}
 
+    variables.yaml     only when robot.yaml says keep_registers: true (runtime data):
+                       global flags, integer and real variables, one per line
+
+        flags:
+          600: false
+          601: true
+        integers:
+          200: -1000
+        reals:
+          300: 0.1
+
 Numbers are kept as the exact decimal text the controller's units give
-(coordinates three decimals, acc/dec two), so a review reads what the robot
-holds.  A number written any other way (``0012.5``, ``-0.000``) is refused with
-its one form in the message, so a push always converges.
+(coordinates three decimals, acc/dec two, a real the shortest text of its
+double), so a review reads what the robot holds.  A number written any other
+way (``0012.5``, ``-0.000``, a real ``0.10``) is refused with its one form in
+the message, so a push always converges.
 """
 
 from __future__ import annotations
@@ -26,6 +39,7 @@ from typing import Any
 
 from ...project import yamlio as y
 from ...project.files import (
+    HUGE,
     FileSet,
     build_serial,
     build_windows,
@@ -41,15 +55,26 @@ from ...project.schema import Issue, SchemaSet, show
 from ..base import Analysis
 from . import profile
 from .codec import SETTINGS
-from .model import ARM_NAMES, Position, Version, canonical_coord, canonical_g
+from .model import (
+    ARM_NAMES,
+    VARIABLE_SECTIONS,
+    Position,
+    Version,
+    canonical_coord,
+    canonical_g,
+    canonical_integer,
+    canonical_real,
+)
 
 __all__ = [
     "FILES",
     "FORMAT",
     "ROOT_FILES",
+    "VARIABLES_FILE",
     "IaiData",
     "analyse",
     "render_files",
+    "variable_ranges",
 ]
 
 #: The format number this harlsync reads and writes for IAI projects.
@@ -59,9 +84,11 @@ ROOT_FILES = {
     "controller.yaml": "controller",
     "positions.yaml": "positions",
 }
+#: Only when robot.yaml keeps registers.
+VARIABLES_FILE = "variables.yaml"
 SCHEMAS = SchemaSet(
     f"{__package__}.schemas",
-    ROOT_FILES.values(),
+    [*ROOT_FILES.values(), "variables"],
     {
         "iai-coord": re.compile(r"[-+]?[0-9]+(\.[0-9]+)?"),
         "iai-g": re.compile(r"[0-9]+(\.[0-9]+)?"),
@@ -75,15 +102,27 @@ _STATION = re.compile(r"[0-9A-Fa-f]{2}")
 
 @dataclass
 class IaiData:
-    """What a backup of an IAI controller holds: its version and its position table.
+    """What a backup of an IAI controller holds: its version and its position table,
+    and its global flags and variables when the project keeps them.
 
     ``model`` is the controller model the buffer sizes come from (robot.yaml's,
-    not read from the controller); it sizes the writes of a plan.
+    not read from the controller); it sizes the writes of a plan.  ``flags``,
+    ``integers`` and ``reals`` (exact text, see :func:`~.model.canonical_real`)
+    are by number, each None when not kept or not read.
     """
 
     version: Version
     positions: dict[int, Position] = field(default_factory=dict)
     model: str = profile.DEFAULT_MODEL
+    flags: dict[int, bool] | None = None
+    integers: dict[int, int] | None = None
+    reals: dict[int, str] | None = None
+
+    def variables(self) -> dict[str, dict[int, Any]]:
+        """The kept sections of runtime data by name (``flags``, ``integers``,
+        ``reals``); empty when none is kept."""
+        sections = {"flags": self.flags, "integers": self.integers, "reals": self.reals}
+        return {name: values for name, values in sections.items() if values is not None}
 
 
 # -- rendering --------------------------------------------------------------------------
@@ -108,6 +147,11 @@ def render_robot(robot: Robot) -> str:
         ("first_position", y.num(str(first))),
         ("last_position", y.num(str(last))),
     ]
+    controller += [
+        (section, y.mapping([("first", y.num(str(options[section][0]))),
+                             ("last", y.num(str(options[section][1])))], flow=True))
+        for section in VARIABLE_SECTIONS if section in options
+    ]
     items: list[tuple[str, Any]] = [("family", y.text("iai")), ("name", y.text(robot.name))]
     if robot.description is not None:
         items.append(("description", y.text(robot.description)))
@@ -116,6 +160,8 @@ def render_robot(robot: Robot) -> str:
         ("controller", y.mapping(controller)),
         ("maintenance_windows", window_nodes(robot)),
     ]
+    if robot.keep_registers:  # absent when false: a positions-only robot.yaml as before
+        items.append(("keep_registers", y.boolean(True)))
     return FILES.document("robot", "robot.yaml", items)
 
 
@@ -153,19 +199,52 @@ def render_positions(positions: Mapping[int, Position]) -> str:
     )
 
 
+_VARIABLE_NODES = {
+    "flags": y.boolean,
+    "integers": lambda value: y.num(str(value)),
+    "reals": y.scalar_for,  # NaN as text: the check names it rather than a crash here
+}
+
+
+def render_variables(data: IaiData) -> str:
+    """variables.yaml: each kept section, one value per line by number."""
+    return FILES.document(
+        "variables",
+        VARIABLES_FILE,
+        [(name, numbered(values, _VARIABLE_NODES[name]))
+         for name, values in data.variables().items()],
+    )
+
+
 def render_files(robot: Robot, data: IaiData) -> dict[str, str]:
-    """Every file of the project, by relative path, in a fixed order."""
-    return {
+    """Every file of the project, by relative path, in a fixed order.
+
+    variables.yaml only when the robot keeps registers and the data has them.
+    """
+    out = {
         "robot.yaml": render_robot(robot),
         "controller.yaml": render_controller(data.version),
         "positions.yaml": render_positions(data.positions),
     }
+    if robot.keep_registers and data.variables():
+        out[VARIABLES_FILE] = render_variables(data)
+    return out
 
 
 def position_range(robot: Robot) -> tuple[int, int]:
     """The first and last position number of the robot's table."""
     first, last = profile.DEFAULT_POSITION_RANGE
     return int(robot.options.get("first", first)), int(robot.options.get("last", last))
+
+
+def variable_ranges(robot: Robot) -> dict[str, tuple[int, int]]:
+    """The flags and variables a robot that keeps them backs up: section -> (first,
+    last), robot.yaml's or the profile's default."""
+    out = {}
+    for section, default in profile.DEFAULT_VARIABLE_RANGES.items():
+        first, last = robot.options.get(section, default)
+        out[section] = (int(first), int(last))
+    return out
 
 
 # -- reading and checking ---------------------------------------------------------------
@@ -175,34 +254,48 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     """Read and check an IAI project's files (path relative to the project -> content).
 
     Every file is checked even when others are broken; the positions are checked
-    against the robot's axes and position range when robot.yaml is valid.
-    ``data`` is set only when there is no issue at all.
+    against the robot's axes and position range, and the flags and variables
+    against its ranges, when robot.yaml is valid.  variables.yaml is read only
+    when the robot keeps registers (or robot.yaml is too broken to say); a
+    project that keeps them without a variables.yaml yet is valid.  ``data`` is
+    set only when there is no issue at all.
     """
     issues: list[Issue] = []
     docs: dict[str, y.Parsed] = {}
     valid: set[str] = set()
-    for name, kind in ROOT_FILES.items():
-        if name not in files:
-            issues.append(Issue(name, None, None, "missing", fatal=True))
-            continue
+
+    def read(name: str, kind: str) -> None:
         doc, ok = FILES.read(name, kind, files[name], issues)
         if doc is not None:
             docs[name] = doc
         if ok:
             valid.add(name)
 
+    for name, kind in ROOT_FILES.items():
+        if name not in files:
+            issues.append(Issue(name, None, None, "missing", fatal=True))
+            continue
+        read(name, kind)
+
     result = Analysis(issues=issues)
     if "robot.yaml" in valid:
         result.robot = _build_robot(docs["robot.yaml"], issues)
+    keep = result.robot is None or result.robot.keep_registers
+    if keep and VARIABLES_FILE in files:
+        read(VARIABLES_FILE, "variables")
     if "positions.yaml" in valid:
         _check_positions(docs["positions.yaml"], result.robot, issues)
+    if VARIABLES_FILE in valid:
+        _check_variables(docs[VARIABLES_FILE], result.robot, issues)
     if not issues and result.robot is not None:
         result.data = IaiData(
             version=_build_version(docs["controller.yaml"].data["version"]),
             positions=_build_positions(docs["positions.yaml"].data["positions"]),
             model=str(result.robot.options.get("model", profile.DEFAULT_MODEL)),
         )
-    result.issues = unique(issues, list(ROOT_FILES))
+        if VARIABLES_FILE in docs:
+            _build_variables(docs[VARIABLES_FILE].data, result.data)
+    result.issues = unique(issues, [*ROOT_FILES, VARIABLES_FILE])
     return result
 
 
@@ -225,12 +318,20 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     first, last = profile.DEFAULT_POSITION_RANGE
     options["first"] = int(controller.get("first_position", first))
     options["last"] = int(controller.get("last_position", last))
-    if options["first"] > options["last"]:
-        issues.append(Issue(
-            "robot.yaml", doc.line(("controller", "last_position")), "controller.last_position",
-            f"{options['last']} is before first_position {options['first']} "
-            "(allowed: a number at or after first_position)",
-        ))
+    ranges = [(("controller", "last_position"), options["first"], options["last"],
+               "first_position")]
+    for section in VARIABLE_SECTIONS:
+        if section in controller:
+            bounds = controller[section]
+            options[section] = (int(bounds["first"]), int(bounds["last"]))
+            ranges.append((("controller", section, "last"), *options[section], "first"))
+    backwards = [
+        Issue("robot.yaml", doc.line(path), ".".join(path),
+              f"{last} is before {before} {first} (allowed: a number at or after {before})")
+        for path, first, last, before in ranges if first > last
+    ]
+    if backwards:
+        issues += backwards
         return None
     return Robot(
         family="iai",
@@ -239,6 +340,7 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
         station=int(station, 16),
         serial=build_serial(connection, SETTINGS),
         windows=build_windows(data),
+        keep_registers=bool(data.get("keep_registers", False)),
         description=data.get("description"),
         options=options,
     )
@@ -282,6 +384,27 @@ def _check_positions(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) ->
             _canonical(issue, text_of(entry[name]), canonical_g, name)
 
 
+def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> None:
+    """What the schema cannot say: each number within the robot's range for it,
+    and integers and reals in their one form."""
+    ranges = variable_ranges(robot) if robot is not None else {}
+    canonical = {"integers": canonical_integer, "reals": canonical_real}
+    for section, called in VARIABLE_SECTIONS.items():
+        table = doc.data.get(section)
+        first, last = ranges.get(section, (0, HUGE))
+        for key, n in numbers(table):
+            at = (section, key)
+
+            def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
+                issues.append(Issue(VARIABLES_FILE, doc.line(at), ".".join(at), message))
+
+            if not first <= n <= last:
+                issue(f"{called} {show(y.Number(key))} is outside the robot's range "
+                      f"(allowed: {first}-{last}, robot.yaml controller.{section})")
+            if section in canonical:
+                _canonical(issue, text_of(table[key]), canonical[section])
+
+
 def _canonical(
     issue: Callable[..., None], text: str, canonical: Callable[[str], str], *where: Any
 ) -> None:
@@ -321,3 +444,16 @@ def _build_positions(table: Mapping[str, Any]) -> dict[int, Position]:
             arm2=_ARMS[entry.get("arm2", "none")],
         )
     return out
+
+
+def _build_variables(doc: Mapping[str, Any], data: IaiData) -> None:
+    if (flags := doc.get("flags")) is not None:
+        data.flags = {int(n): bool(v) for n, v in sorted(flags.items(), key=_by_number)}
+    if (integers := doc.get("integers")) is not None:
+        data.integers = {int(n): int(v) for n, v in sorted(integers.items(), key=_by_number)}
+    if (reals := doc.get("reals")) is not None:
+        data.reals = {int(n): text_of(v) for n, v in sorted(reals.items(), key=_by_number)}
+
+
+def _by_number(item: tuple[str, Any]) -> int:
+    return int(item[0])

@@ -12,6 +12,10 @@ acc / dec, 0.01 G       ``001E``         ``0.30`` (0.00 = the parameter's value)
 speed, mm/s             ``0064``         ``100`` (an int; 0 = the parameter's)
 axis pattern            ``05``           axes ``(1, 3)`` (bit n = axis n+1)
 extended data           ``90``           arm1 1, arm2 2 (bits 4-5, 6-7)
+integer variable        ``FFFFFC18``     ``-1000`` (an int, 32-bit two's complement)
+real variable           ``3FB99999...``  ``0.1`` (the shortest text that reads back
+                                         as the same IEEE double, Python's repr)
+flag                    a bit of 20DH    ``True`` / ``False``
 ======================  ===============  ==================================
 
 A value the wire cannot carry is a :class:`ValueError` from the conversion, or a
@@ -20,7 +24,9 @@ line of :meth:`Position.problems` for the project validator.
 
 from __future__ import annotations
 
+import math
 import re
+import sys
 from dataclasses import dataclass
 
 __all__ = [
@@ -29,9 +35,13 @@ __all__ = [
     "COORD_MAX",
     "COORD_MIN",
     "G_MAX",
+    "INTEGER_MAX",
+    "INTEGER_MIN",
     "MODE_NAMES",
     "POSITION_NUMBER_MAX",
+    "REAL_MAX",
     "SPEED_MAX",
+    "VARIABLE_SECTIONS",
     "AxisStatus",
     "Position",
     "SystemStatus",
@@ -41,14 +51,19 @@ __all__ = [
     "axes_refusal",
     "canonical_coord",
     "canonical_g",
+    "canonical_integer",
+    "canonical_real",
     "coord_from_wire",
     "coord_to_wire",
     "extended_from_arms",
     "g_from_wire",
     "g_to_wire",
     "pattern_from_axes",
+    "real_text",
+    "real_value",
     "speed_from_wire",
     "speed_to_wire",
+    "variable_problem",
 ]
 
 #: Axes 1-8: one bit each in an axis pattern.
@@ -63,6 +78,15 @@ SPEED_MAX = 0xFFFF
 #: Position numbers: 4 hex digits (the robot's own range is a per-robot setting).
 POSITION_NUMBER_MAX = 0xFFFF
 
+#: Integer variables: 32-bit two's complement (profile: 20EH's page is missing; 24CH's).
+INTEGER_MIN = -(2**31)
+INTEGER_MAX = 2**31 - 1
+#: Real variables: IEEE doubles, finite only (a NaN never equals itself).
+REAL_MAX = sys.float_info.max
+#: The opt-in runtime data, as robot.yaml and variables.yaml name its sections,
+#: and what one of each is called: global flags, integer and real variables.
+VARIABLE_SECTIONS = {"flags": "flag", "integers": "integer variable", "reals": "real variable"}
+
 #: SCARA arm system codes in the extended data.
 ARM_NAMES = {0: "none", 1: "right", 2: "left"}
 #: 215H system mode codes (p.30).
@@ -70,6 +94,9 @@ MODE_NAMES = {0: "indeterminable", 1: "AUTO", 2: "MANUAL", 3: "slave update", 4:
 
 _DECIMAL_RE = re.compile(r"([+-]?)([0-9]*)(?:\.([0-9]*))?")
 _HEX_RE = re.compile(r"[0-9A-Fa-f]+")
+_INTEGER_RE = re.compile(r"[-+]?[0-9]+")
+_REAL_RE = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+_NOT_FINITE_RE = re.compile(r"[-+]?\.?(nan|inf|infinity)", re.IGNORECASE)
 
 
 # --- numbers: text <-> units <-> wire ------------------------------------------------
@@ -205,6 +232,74 @@ def arms_from_extended(extended: int) -> tuple[int, int]:
     if extended & 0x0F:
         raise ValueError(f"extended data {extended:02X}h has spare bits 0-3 set")
     return extended >> 4 & 3, extended >> 6 & 3
+
+
+# --- global flags and variables -------------------------------------------------------
+
+
+def canonical_integer(text: str) -> str:
+    """Integer variable text in its one form: ``"+007"`` -> ``"7"``.
+
+    Raises :class:`ValueError` for anything but an integer within 32 bits.
+    """
+    if not _INTEGER_RE.fullmatch(text):
+        raise ValueError(f"integer {text!r} is not a whole number")
+    value = int(text)
+    if not INTEGER_MIN <= value <= INTEGER_MAX:
+        raise ValueError(f"integer {text} out of range (allowed: {INTEGER_MIN} to {INTEGER_MAX})")
+    return str(value)
+
+
+def canonical_real(text: str) -> str:
+    """Real variable text in its one form: the shortest text that reads back as the
+    same double (``"0.10"`` -> ``"0.1"``, ``"3"`` -> ``"3.0"``, ``"1e16"`` -> ``"1e+16"``).
+
+    Raises :class:`ValueError` for NaN, an infinity, a number beyond the double's
+    range, or anything but decimal text.
+    """
+    finite = f"allowed: a finite real, -{REAL_MAX!r} to {REAL_MAX!r}"
+    if _NOT_FINITE_RE.fullmatch(text):
+        raise ValueError(f"{text} is not kept: a NaN never equals itself and an infinity "
+                         f"is no number to compare, so a diff of it never converges ({finite})")
+    if not _REAL_RE.fullmatch(text):
+        raise ValueError(f"real {text!r} is not a decimal number")
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"real {text} out of range ({finite})")
+    return repr(value)
+
+
+def real_text(value: float) -> str:
+    """A double as its shortest round-trip text, as the project keeps it: ``0.1``.
+    NaN and the infinities come out as ``nan``, ``inf``, ``-inf``, which
+    :func:`canonical_real` refuses."""
+    return repr(value)
+
+
+def real_value(text: str) -> float:
+    """The double of real variable text.  Raises :class:`ValueError` as
+    :func:`canonical_real` does."""
+    return float(canonical_real(text))
+
+
+def variable_problem(section: str, value: object) -> str | None:
+    """Why ``value`` cannot be a value of ``section`` (flags, integers, reals) or be
+    kept as it is; None when it can."""
+    if section == "flags":
+        return None if isinstance(value, bool) else f"{value!r} is not true or false"
+    if section == "integers":
+        if isinstance(value, bool) or not isinstance(value, int):
+            return f"{value!r} is not an integer"
+        if not INTEGER_MIN <= value <= INTEGER_MAX:
+            return f"{value} out of range (allowed: {INTEGER_MIN} to {INTEGER_MAX})"
+        return None
+    if not isinstance(value, str):
+        return f"{value!r} is not real text"
+    try:
+        one = canonical_real(value)
+    except ValueError as exc:
+        return str(exc)
+    return None if one == value else f"{value} is not in its one form ({one})"
 
 
 # --- positions ----------------------------------------------------------------------

@@ -24,6 +24,8 @@ __all__ = [
     "DEFAULT_MODEL",
     "DEFAULT_POSITION_RANGE",
     "DEFAULT_STATION",
+    "DEFAULT_VARIABLE_RANGES",
+    "FLAG_QUERY_ALIGNMENT",
     "INTER_COMMAND_GAP",
     "MAX_FRAME",
     "OPT_IN_MESSAGE_IDS",
@@ -141,6 +143,24 @@ POSITION_RECORD_HAS_NUMBER = False
 WRITE_RECORD_MAX = 80
 #: 22DH records carry the 4-digit number in front: at most 84 bytes.
 READ_RECORD_MAX = 84
+
+# --- global flags and variables (kept only when the project opts in) --------------
+
+#: The global flags and integer and real variables a project that keeps them
+#: (robot.yaml ``keep_registers: true``) backs up when robot.yaml gives no range:
+#: robot.yaml key -> (first, last), inclusive.  The manual pages we have do not
+#: number flags or variables (digest 4.10): these are the X-SEL's usual global
+#: ranges (its programming manual, not our pages).  A controller whose global
+#: ranges differ, or that has more of them, gives its ranges in robot.yaml.
+DEFAULT_VARIABLE_RANGES: Mapping[str, tuple[int, int]] = MappingProxyType(
+    {"flags": (600, 899), "integers": (200, 299), "reals": (300, 399)}
+)
+
+#: 20DH must start at "a category's head flag + a multiple of 8" (p.22), and the
+#: category heads are not on our pages: the global flags start at 600, a multiple
+#: of 8, so every flag query starts at a multiple of 8 (below the first flag kept,
+#: the extra flags read and dropped).
+FLAG_QUERY_ALIGNMENT = 8
 
 # --- messages -----------------------------------------------------------------------
 

@@ -49,6 +49,8 @@ from typing import Generic, Literal, TypeVar
 from ...errors import FrameError, ReplyError
 from . import profile
 from .model import (
+    INTEGER_MAX,
+    INTEGER_MIN,
     AxisStatus,
     Position,
     SystemStatus,
@@ -74,7 +76,11 @@ __all__ = [
     "Request",
     "axis_status",
     "encode_frame",
+    "max_flags_per_read",
     "max_positions_per_read",
+    "max_positions_per_write",
+    "max_variables_per_read",
+    "max_variables_per_write",
     "parse_write_positions",
     "position_fields",
     "position_record",
@@ -112,7 +118,17 @@ _REPLY_DATA_RE = re.compile(r"[\x20\x22\x24\x25\x27-\x7e]*")
 _FRAME_OVERHEAD = 10
 #: A 22DH reply around its records: the frame, reserved 00 and the record count.
 _READ_OVERHEAD = _FRAME_OVERHEAD + 2 + 4
-_INT32_MIN, _INT32_MAX = -(2**31), 2**31 - 1
+#: A 291H command around its records: the frame, reserved 00, start and count.
+_WRITE_OVERHEAD = _FRAME_OVERHEAD + 2 + 4 + 4
+#: A 20DH reply around its flag bytes: the frame, program, start flag and count.
+_FLAGS_OVERHEAD = _FRAME_OVERHEAD + 2 + 4 + 4
+#: A 20EH/20FH reply or 24CH/24DH command around its values: the frame, program,
+#: start variable and count.
+_VARIABLES_OVERHEAD = _FRAME_OVERHEAD + 2 + 3 + 2
+#: Hex digits of one value: integer variables (20EH, 24CH), real variables (20FH, 24DH).
+_VARIABLE_WIDTH = {"integers": 8, "reals": 16}
+#: The most variables the 2-hex count field carries.
+_VARIABLES_MAX = 0xFF
 
 
 class ChecksumError(FrameError):
@@ -205,6 +221,8 @@ class FrameDecoder:
         self._buf = bytearray()
         self._max = max_frame
         self._dropped = 0
+        #: bytes at the front of the buffer already searched for an LF and a header
+        self._scanned = 0
 
     def feed(self, data: bytes) -> None:
         self._buf += data
@@ -221,6 +239,7 @@ class FrameDecoder:
         """Drop every buffered byte (counted in ``dropped``)."""
         self._dropped += len(self._buf)
         self._buf.clear()
+        self._scanned = 0
 
     def next_frame(self) -> Frame | None:
         """The next complete frame, or None when more bytes are needed.
@@ -234,28 +253,38 @@ class FrameDecoder:
             if found is None:
                 self._dropped += len(buf)
                 buf.clear()
+                self._scanned = 0
                 return None
             if found.start():
                 self._dropped += found.start()
                 del buf[: found.start()]
+                self._scanned = 0
             # The limit counts from the header whatever the chunks were: a frame fed
             # whole must not pass where the same bytes fed one by one would not.
-            end = buf.find(_LF, 1, self._max)
-            cut = _HEADER_RE.search(buf, 1, end if end >= 0 else self._max)
+            # Bytes already searched for an LF or a header (a reply arriving a few
+            # bytes at a time) are not searched again: a 2 KiB 22DH reply fed byte
+            # by byte would otherwise cost a scan of the whole frame per byte.
+            start = max(1, self._scanned)
+            end = buf.find(_LF, start, self._max)
+            cut = _HEADER_RE.search(buf, start, end if end >= 0 else self._max)
             if cut is not None:
                 self._dropped += cut.start()
                 del buf[: cut.start()]
+                self._scanned = 0
                 continue
             if end < 0:
                 if len(buf) >= self._max:
                     head = bytes(buf[:16])
                     del buf[: self._max]
+                    self._scanned = 0
                     raise FrameError(
                         f"no LF within {self._max} bytes after {_show(head)}...: dropped"
                     )
+                self._scanned = len(buf)  # bytes 1 .. len - 1 hold no LF and no header
                 return None
             raw = bytes(buf[: end + 1])
             del buf[: end + 1]
+            self._scanned = 0
             return _parse(raw)
 
 
@@ -483,16 +512,48 @@ def axis_status(pattern: int) -> Request[tuple[AxisStatus, ...]]:
 # --- 22DH, 291H: positions ----------------------------------------------------------
 
 
+def _buffers(model: str) -> profile.Buffers:
+    buffers = profile.BUFFERS.get(model)
+    if buffers is None:
+        raise ValueError(f"unknown IAI model {model!r} (known: {', '.join(profile.BUFFERS)})")
+    return buffers
+
+
 def max_positions_per_read(model: str) -> int:
     """How many position numbers one 22DH may ask for on ``model``: as many as fit
     the send buffer if every one held 8 axes.
 
-    Raises :class:`ValueError` for a model the profile does not know.
+    Raises :class:`ValueError` for a model the profile does not know (so do the
+    other ``max_*`` functions).
     """
-    buffers = profile.BUFFERS.get(model)
-    if buffers is None:
-        raise ValueError(f"unknown IAI model {model!r} (known: {', '.join(profile.BUFFERS)})")
-    return (buffers.send - _READ_OVERHEAD) // profile.READ_RECORD_MAX
+    return (_buffers(model).send - _READ_OVERHEAD) // profile.READ_RECORD_MAX
+
+
+def max_positions_per_write(model: str) -> int:
+    """The most positions one 291H may carry to ``model``'s receive buffer, if every
+    one held 8 axes."""
+    return (_buffers(model).receive - _WRITE_OVERHEAD) // profile.WRITE_RECORD_MAX
+
+
+def max_flags_per_read(model: str) -> int:
+    """How many flags one 20DH may ask for on ``model``: the whole bytes of 8 flags
+    its reply can carry in the send buffer (a multiple of 8, so that queries which
+    follow one another stay aligned)."""
+    return (_buffers(model).send - _FLAGS_OVERHEAD) // 2 * 8
+
+
+def max_variables_per_read(model: str, kind: str) -> int:
+    """How many ``kind`` (``"integers"`` or ``"reals"``) variables one 20EH/20FH
+    reply can carry in ``model``'s send buffer (at most 255)."""
+    room = _buffers(model).send - _VARIABLES_OVERHEAD
+    return min(_VARIABLES_MAX, room // _VARIABLE_WIDTH[kind])
+
+
+def max_variables_per_write(model: str, kind: str) -> int:
+    """How many ``kind`` (``"integers"`` or ``"reals"``) variables one 24CH/24DH may
+    carry to ``model``'s receive buffer (at most 255)."""
+    room = _buffers(model).receive - _VARIABLES_OVERHEAD
+    return min(_VARIABLES_MAX, room // _VARIABLE_WIDTH[kind])
 
 
 def position_fields(position: Position, *, numbered: bool) -> list[str]:
@@ -633,14 +694,14 @@ def read_flags(start: int, count: int, program: int = 0) -> Request[tuple[bool, 
         f.end()
         return tuple(bool(octets[i // 8] >> (i % 8) & 1) for i in range(count))
 
-    reply = _FRAME_OVERHEAD + 10 + 2 * ((count + 7) // 8)
+    reply = _FLAGS_OVERHEAD + 2 * ((count + 7) // 8)
     return Request(0x20D, f"{program:02X}{start:04X}{count:04X}", False, True, parse, reply)
 
 
 def _variable_args(program: int, start: int, count: int) -> str:
     _check(program, 0, 0xFF, "program number")
     _check(start, 0, 0xFFF, "start variable")
-    _check(count, 1, 0xFF, "variable count")
+    _check(count, 1, _VARIABLES_MAX, "variable count")
     return f"{program:02X}{start:03X}{count:02X}"
 
 
@@ -658,7 +719,7 @@ def _read_variables(
         f.end()
         return values
 
-    reply_bytes = _FRAME_OVERHEAD + 7 + width * count
+    reply_bytes = _VARIABLES_OVERHEAD + width * count
     return Request(message_id, data, False, True, parse, reply_bytes)
 
 
@@ -720,7 +781,7 @@ def write_integers(start: int, values: Sequence[int], program: int = 0) -> Reque
     Raises :class:`ValueError` for no values, more than 255, or one outside 32 bits.
     """
     for i, value in enumerate(values):
-        _check(value, _INT32_MIN, _INT32_MAX, f"integer variable {start + i}")
+        _check(value, INTEGER_MIN, INTEGER_MAX, f"integer variable {start + i}")
     return _write_variables(0x24C, start, [f"{v & 0xFFFFFFFF:08X}" for v in values], program)
 
 

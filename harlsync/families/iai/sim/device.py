@@ -20,6 +20,8 @@ the placeholder codes of :mod:`~harlsync.families.iai.sim.codes`:
 - 291H with a record of axis pattern 00, a coordinate for an axis the robot does
   not have, extended bits 0-3 set, or a number outside the position range:
   nothing of it is written (a 291H is applied whole or not at all);
+- a 20DH whose start flag is not a multiple of 8 (the profile's reading of
+  "a category's head flag + a multiple of 8", p.22);
 - a command larger than the model's receive buffer, or a read whose reply would
   not fit its send buffer; a 22DH reply is cut to the whole records that fit
   instead, its count saying how many.
@@ -45,7 +47,7 @@ from ....sim import device
 from ....sim.device import Refused
 from ....sim.family import Verb
 from .. import profile
-from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes
+from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes, real_value
 from ..protocol import (
     _FRAME_OVERHEAD,
     Frame,
@@ -103,6 +105,10 @@ class IaiSimFamily:
                 )
                 for number in stations or [robot.station]
             }
+            for state in states.values():  # the flags and variables, when the project keeps them
+                state.flags = {n for n, on in (data.flags or {}).items() if on}
+                state.integers = dict(data.integers or {})
+                state.reals = {n: real_value(text) for n, text in (data.reals or {}).items()}
         except ValueError as exc:
             raise ProjectError(f"{project}: the simulator cannot hold this robot: {exc}") from exc
         return Simulator(states)
@@ -292,6 +298,8 @@ class Simulator(device.Simulator[SimState, Frame]):
         program, start, count = f.hex(2, "program"), f.hex(4, "start flag"), f.hex(4, "count")
         f.end()
         _global(program, count)
+        if start % profile.FLAG_QUERY_ALIGNMENT:
+            raise ValueError("20DH starts at a category's head flag + a multiple of 8 (p.22)")
         octets = (
             sum(1 << i for i in range(8) if k + i < count and start + k + i in state.flags)
             for k in range(0, count, 8)

@@ -126,7 +126,8 @@ class SimState:
         position_range: tuple[int, int] = profile.DEFAULT_POSITION_RANGE,
     ) -> SimState:
         """A controller with a realistic table drawn from ``seed``: 3 or 4 axes (4 a
-        SCARA with arm systems), positions in runs of 2-30 with gaps of 1-60."""
+        SCARA with arm systems), positions in runs of 2-30 with gaps of 1-60, and
+        some global flags and variables set (:meth:`seed_variables`)."""
         rng = random.Random(seed)
         axes = tuple(range(1, rng.choice((3, 4)) + 1))
         scara = len(axes) == 4
@@ -139,7 +140,22 @@ class SimState:
             number = max(positions) + 1 + rng.randint(1, 60)
         state = cls(positions, axes=axes, model=model, position_range=position_range)
         state.current = {a: _coordinate(rng.randint(-100_000, 400_000)) for a in axes}
+        state.seed_variables(random.Random(~seed))
         return state
+
+    def seed_variables(self, rng: random.Random) -> None:
+        """Global flags and variables as a program leaves them, in the profile's
+        default ranges: a few flags on, counters and a few measured reals, the
+        rest 0."""
+        ranges = profile.DEFAULT_VARIABLE_RANGES
+        first, last = ranges["flags"]
+        self.flags = set(rng.sample(range(first, last + 1), 12))
+        first, last = ranges["integers"]
+        numbers = rng.sample(range(first, last + 1), 20)
+        self.integers = {n: rng.randint(-5000, 5000) for n in numbers}
+        first, last = ranges["reals"]
+        self.reals = {n: round(rng.uniform(-500, 500), rng.randint(0, 6))
+                      for n in rng.sample(range(first, last + 1), 10)}
 
     def position_problems(self, position: Position) -> list[str]:
         """Why this robot cannot hold ``position``, one line each; empty if it can."""
