@@ -7,22 +7,24 @@ simulated controller's own record of what arrived and of what the controller was
 doing when it arrived (``Simulator.received``, and :attr:`Operator.arrival`, the
 reasons it was not idle), never from what harlsync believed:
 
-1. every 291H arrived straight after a 215H and a 212H (for the robot's axes),
-   with nothing between the three; the 215H found the controller idle (AUTO
-   mode, no program running, no flash write, no emergency stop, ready), and the
-   212H found none of the robot's axes in use.  That holds for a re-send after a
-   lost reply too: it follows a fresh 215H and 212H;
-2. hence no 291H arrived while the controller was not idle (a program running,
+1. every write (291H positions and, with ``--registers``, 24BH a flag, 24CH
+   integer and 24DH real variables) arrived straight after a 215H and a 212H
+   (for the robot's axes), with nothing between the three; the 215H found the
+   controller idle (AUTO mode, no program running, no flash write, no emergency
+   stop, ready), and the 212H found none of the robot's axes in use.  That holds
+   for a re-send after a lost reply too: it follows a fresh 215H and 212H;
+2. hence no write arrived while the controller was not idle (a program running,
    MANUAL mode, a flash write, an emergency stop, not ready, an axis in use),
    except in the one window no client can close (below);
 3. no message off the profile's allow-list arrived, in any case;
 4. a push that returns has made the robot equal the project (converged), and read
-   215H and 212H once more after its last write;
+   215H and 212H once more after its last write (or says why it could not);
 5. a push that raises PushFailed says why in one line; its result, its audit
-   record and (on disk) what ``harlsync push`` prints name exactly the 291H the
-   controller received; each position holds its old or its new value (the new
-   one for every write reported written); no position outside the plan changed;
-   no 291H was sent twice without reading its positions back in between;
+   record and (on disk) what ``harlsync push`` prints name exactly the writes the
+   controller received; each position, flag and variable holds its old or its
+   new value (the new one for every write reported written); nothing outside the
+   plan changed; no write was sent twice without reading back in between all it
+   wrote;
 6. the snapshot taken before the first write is what the robot held;
 7. once the operator stops and the line is clean, the same push converges (or is
    refused again, writing nothing, when the project lacks a position the robot
@@ -30,21 +32,23 @@ reasons it was not idle), never from what harlsync believed:
 
 A case is: a random IAI robot (its model, a small-buffer one like the TT among
 them so that runs split; its axes; its position range; ``SimState.generate`` or a
-table of its own); a project made from it by a random diff (positions changed and
+table of its own; in about a third of the cases global flags and variables that
+robot.yaml keeps); a project made from it by a random diff (positions changed and
 added, scattered and in runs, sometimes a run long enough for several 291H,
-rarely one left out); and, at random moments (after the controller has answered
-the k-th request, most of them while the push writes), an operator who starts a
-program, switches MANUAL, presses the emergency stop, starts a flash write, holds
-an axis, takes the system out of ready, or stops (idle again); and a line that
-goes bad: faults on the replies (noise, drops, bad SC, fragments, late replies),
-requests lost on their way in, one 291H lost, a short burst of faults.  The reply
-to the request after which the operator acts is often late, lost or garbled: the
-operator acts while it is on the wire.
+rarely one left out; flags set and cleared, integer and real variables changed,
+pushed with ``--registers``); and, at random moments (after the controller has
+answered the k-th request, most of them while the push writes), an operator who
+starts a program, switches MANUAL, presses the emergency stop, starts a flash
+write, holds an axis, takes the system out of ready, or stops (idle again); and a
+line that goes bad: faults on the replies (noise, drops, bad SC, fragments, late
+replies), requests lost on their way in, one write lost, a short burst of faults.
+The reply to the request after which the operator acts is often late, lost or
+garbled: the operator acts while it is on the wire.
 
 The window no client can close: the operator acting after the 215H that found
-the controller idle was answered and before the 291H it cleared arrives (MANUAL
+the controller idle was answered and before the write it cleared arrives (MANUAL
 mode or an emergency stop between 215H and 212H are not in 212H's reply).  Such a
-291H is counted (``race``) only when the operator's own log shows a change in
+write is counted (``race``) only when the operator's own log shows a change in
 that window; checks 3-7 still hold for its case.  (The simulated controller
 refuses it, as the profile's interlock says; a real one may not.)
 
@@ -88,15 +92,18 @@ from pushproperty import (
 from harlsync import cli, families
 from harlsync.errors import PolicyError
 from harlsync.families.iai import profile
-from harlsync.families.iai.catalogue import CATALOGUE, Run
+from harlsync.families.iai.catalogue import CATALOGUE, Key, PositionKey, Run, VariableKey
 from harlsync.families.iai.codec import CODEC
 from harlsync.families.iai.layout import IaiData
-from harlsync.families.iai.model import Position
+from harlsync.families.iai.model import Position, real_text, real_value
 from harlsync.families.iai.protocol import (
     Frame,
     max_positions_per_read,
     system_status,
+    write_flag,
+    write_integers,
     write_positions,
+    write_reals,
 )
 from harlsync.families.iai.sim import SimState, Simulator
 from harlsync.project import Project, Robot, load_project, save_project
@@ -122,6 +129,19 @@ CALM = SerialSettings(baudrate=115200, timeout=1.0, retries=3)
 #: Controller models: mostly the small-buffer TT (a 291H takes 12 positions, a 22DH
 #: asks for 12) and the TTA (25 and 24); the others have the same two buffer sizes.
 MODELS = ["TT", "TT", "TTA", "TTA", "XSEL-JK", "PSEL"]
+
+
+#: The writes (291H positions; 24BH a flag, 24CH integer and 24DH real variables) and,
+#: for each, the read that reads it back, and where start and count sit in both.
+READ_BACK = {
+    "291": ("22D", slice(5, 9), slice(9, 13)),
+    "24C": ("20E", slice(5, 8), slice(8, 10)),
+    "24D": ("20F", slice(5, 8), slice(8, 10)),
+    "24B": ("20D", slice(5, 9), slice(9, 13)),  # one flag: no count in the write
+}
+WRITES = {command.encode() for command in READ_BACK}
+#: Every message a push of positions, flags and variables sends.
+PUSHED = {"201", "215", "212", *READ_BACK, *(read for read, _, _ in READ_BACK.values())}
 
 
 def deadline(settings: SerialSettings) -> float:
@@ -176,7 +196,7 @@ class Operator(Scheduled, Simulator):
     def receive(
         self, data: bytes, decoder: Any = None, client: str = ""
     ) -> list[tuple[float, bytes]]:
-        write = data[:1] == b"!" and data[3:6] == b"291"  # the link sends a frame a write
+        write = data[:1] == b"!" and data[3:6] in WRITES  # the link sends a frame a write
         # A bad SC: the controller drops it.
         return super().receive(self.on_the_way_in(data, write), decoder, client)
 
@@ -223,6 +243,10 @@ class Case:
     before: IaiData
     target: IaiData
     sim: Operator
+    #: the flags' and variables' ranges when robot.yaml keeps them (keep_registers)
+    keeps: dict[str, tuple[int, int]] | None = None
+    #: whether the push writes them too (--registers)
+    registers: bool = False
     story: list[str] = field(default_factory=list)
 
     def why(self, message: str) -> str:
@@ -361,14 +385,85 @@ def random_schedule(
     return out + line_changes(rng, moment, deadline)
 
 
+def real(rng: random.Random) -> float:
+    return rng.choice([round(rng.uniform(-500, 500), rng.randint(0, 6)), 0.0,
+                       rng.choice([1e300, -2.5e-300, 0.1, 2.0**53 + 2])])
+
+
+def random_variables(
+    rng: random.Random, state: SimState, story: list[str]
+) -> dict[str, tuple[int, int]]:
+    """Flags and variables on the controller, in small ranges robot.yaml keeps (a
+    first flag off the 20DH alignment of 8 among them)."""
+    keeps = {
+        "flags": (600 + rng.randrange(20), 0),
+        "integers": (200 + rng.randrange(10), 0),
+        "reals": (300 + rng.randrange(10), 0),
+    }
+    keeps = {section: (first, first + rng.randint(2, 30)) for section, (first, _) in keeps.items()}
+    flags, integers, reals = (range(a, b + 1) for a, b in keeps.values())
+    state.flags = {n for n in flags if rng.random() < 0.3}
+    state.integers = {n: rng.randint(-5000, 5000) for n in integers if rng.random() < 0.5}
+    state.reals = {n: real(rng) for n in reals if rng.random() < 0.5}
+    story.append(f"flags and variables kept: {keeps}")
+    return keeps
+
+
+def held(state: SimState, keeps: dict[str, tuple[int, int]] | None) -> IaiData:
+    """What the controller holds: its table, and the flags and variables robot.yaml
+    keeps (every number of their ranges: an unset one is off, or 0)."""
+    data = IaiData(state.versions[(0, 0)], dict(state.positions), state.model)
+    if keeps is not None:
+        flags, integers, reals = (range(a, b + 1) for a, b in keeps.values())
+        data.flags = {n: n in state.flags for n in flags}
+        data.integers = {n: state.integers.get(n, 0) for n in integers}
+        data.reals = {n: real_text(state.reals.get(n, 0.0)) for n in reals}
+    return data
+
+
+def random_variable_edits(
+    rng: random.Random, data: IaiData, keeps: dict[str, tuple[int, int]], story: list[str]
+) -> None:
+    """Flags set and cleared, integer and real variables changed, scattered and in runs."""
+    assert data.flags is not None and data.integers is not None and data.reals is not None
+    changed: list[str] = []
+    if rng.random() < 0.6:
+        for n in rng.sample(sorted(data.flags), k=rng.randint(1, 4)):
+            data.flags[n] = not data.flags[n]
+        changed.append("flags")
+    if rng.random() < 0.6:
+        first, last = keeps["integers"]
+        start = rng.randint(first, last)
+        for n in range(start, min(last, start + rng.randint(0, 8)) + 1):
+            data.integers[n] = rng.choice([rng.randint(-9999, 9999), -(2**31), 2**31 - 1])
+        changed.append("integers")
+    if rng.random() < 0.6:
+        for n in rng.sample(sorted(data.reals), k=rng.randint(1, 5)):
+            data.reals[n] = real_text(real(rng))
+        changed.append("reals")
+    story.append(f"variables edited: {', '.join(changed) or 'none'}")
+
+
 def make_case(seed: int, settings: SerialSettings) -> Case:
     rng = random.Random(seed)
     story: list[str] = []
     state = random_robot(rng, story)
-    before = IaiData(version=state.versions[(0, 0)], positions=dict(state.positions),
+    target = IaiData(version=state.versions[(0, 0)], positions=random_target(rng, state, story),
                      model=state.model)
-    target = IaiData(version=before.version, positions=random_target(rng, state, story),
-                     model=state.model)
+    # Flags and variables from a generator of their own: the table and the rest of
+    # a case stay what they were before variables were in the test.
+    vrng = random.Random(f"variables {seed}")
+    keeps = random_variables(vrng, state, story) if vrng.random() < 0.3 else None
+    registers = keeps is not None and vrng.random() < 0.85
+    before = held(state, keeps)
+    if keeps is not None:
+        variables = held(state, keeps)
+        target.flags, target.integers, target.reals = (
+            variables.flags, variables.integers, variables.reals)
+        if registers:
+            random_variable_edits(vrng, target, keeps, story)
+        else:
+            story.append("pushed without --registers: the flags and variables stay")
     robot_axes = state.axes if rng.random() < 0.7 else None
     if robot_axes is None:
         story.append("robot.yaml names no axes: the interlock checks every axis 212H reports")
@@ -376,22 +471,23 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     first, last = state.position_range
     step = max_positions_per_read(state.model)
     reads = 3 + -(-(last - first + 1) // step)  # 215H, 212H, 201H, the 22DH pages
-    changes = sync_items.diff(CATALOGUE, before, target)
+    reads += 3 * registers  # the flags and variables, usually one query each
+    changes = sync_items.diff(CATALOGUE, before, target, registers=registers)
     horizon = reads + 6 * len(changes) + 8
     wait = deadline(settings)
     plan = CATALOGUE.plan(before, target, [(c.key, c.old, c.new) for c in changes],
-                          registers=False)
+                          registers=registers)
     writes = len(plan.wanted)
     lose_writes = {rng.randrange(writes)} if writes and rng.random() < 0.3 else set()
     if lose_writes:
-        story.append(f"291H requests lost on the way in: {sorted(lose_writes)}")
+        story.append(f"write requests lost on the way in: {sorted(lose_writes)}")
     schedule = random_schedule(rng, reads, horizon, state.axes, wait)
     sim = Operator(state, schedule, seed=rng.randrange(2**32), deadline=wait,
                    lose_writes=lose_writes)
     if busy is not None:
         story.append(f"when the push starts: {busy(sim, state)}")
     return Case(seed, state.model, state.axes, robot_axes, state.position_range, before,
-                target, sim, story)
+                target, sim, keeps, registers, story)
 
 
 def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
@@ -401,6 +497,9 @@ def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
                          last=case.position_range[1])
     if case.robot_axes is not None:
         robot.options["axes"] = case.robot_axes
+    if case.keeps is not None:
+        robot.keep_registers = True
+        robot.options.update(case.keeps)
     return robot
 
 
@@ -449,7 +548,8 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
             projects[path] = Project(path, robot_for(case, url, settings), case.target)
             first, before = len(case.sim.received), len(taken)
             try:
-                result = engine.push(path, PushOptions(yes=True, allow_dirty=True))
+                result = engine.push(path, PushOptions(yes=True, allow_dirty=True,
+                                                       registers=case.registers))
                 failed = None
             except PushFailed as exc:
                 result, failed = exc.result, exc
@@ -482,7 +582,8 @@ def on_disk(
             git(path, "add", "-A")
             git(path, "commit", "-q", "--allow-empty", "-m", "the project")
             first = len(case.sim.received)
-            result, failed = push_command(case.why, ["push", str(path), "--yes"], seen, capsys)
+            argv = ["push", str(path), "--yes", *["--registers"] * case.registers]
+            result, failed = push_command(case.why, argv, seen, capsys)
             snapshot = load_project(result.snapshot).data if result.snapshot else None
             return Outcome(result, failed, case.sim.received[first:], snapshot, first)
         finally:
@@ -494,20 +595,31 @@ def on_disk(
 @dataclass
 class IaiTally(Tally):
     several_runs: int = 0
+    #: pushes that wrote a flag or a variable
+    variables_written: int = 0
 
 
 def wire(write: PlannedWrite) -> str:
-    """The payload of the 291H a planned write sends, as the controller records it."""
-    key: Run = write.key
-    return write_positions(key.start, write.new).payload
+    """The payload of the write a planned write sends, as the controller records it."""
+    key = write.key
+    if not isinstance(key, Run):
+        return write_flag(key.number, write.new).payload
+    if key.kind == "positions":
+        return write_positions(key.start, write.new).payload
+    if key.kind == "integers":
+        return write_integers(key.start, write.new).payload
+    return write_reals(key.start, [real_value(v) for v in write.new]).payload
 
 
 def reads_back(payload: str, between: list[Received]) -> bool:
-    """Whether the 22DH among ``between`` read every position the 291H wrote (a run
-    longer than one 22DH asks for is read in two)."""
-    start, count = int(payload[5:9], 16), int(payload[9:13], 16)
-    pages = [range(int(r.payload[5:9], 16), int(r.payload[5:9], 16) + int(r.payload[9:13], 16))
-             for r in between if r.command == "22D"]
+    """Whether the reads among ``between`` read every item the write wrote (a run
+    longer than one query asks for is read in two)."""
+    read, start_at, count_at = READ_BACK[payload[:3]]
+    start = int(payload[start_at], 16)
+    count = 1 if read == "20D" else int(payload[count_at], 16)
+    pages = [range(int(r.payload[start_at], 16),
+                   int(r.payload[start_at], 16) + int(r.payload[count_at], 16))
+             for r in between if r.command == read]
     return all(any(n in page for page in pages) for n in range(start, start + count))
 
 
@@ -515,40 +627,41 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
     received, arrival = got.received, case.sim.arrival[got.first:]
     assert not case.sim.off_list(), case.why(f"off the allow-list: {case.sim.off_list()}")
     for i, r in enumerate(received):
-        assert r.command in ("201", "215", "212", "22D", "291"), case.why(
-            f"{r.payload[:12]!r} (request {i}) is no message a position push sends"
+        assert r.command in PUSHED, case.why(
+            f"{r.payload[:12]!r} (request {i}) is no message a push sends"
         )
-        if r.command != "291":
+        if not r.is_write:
             continue
+        name = f"{r.command}H (request {i})"
         status, axes = (received[i - 2], received[i - 1]) if i >= 2 else (None, None)
         assert status is not None and axes is not None and status.command == "215" and (
             axes.command == "212"), case.why(
-            f"291H (request {i}) did not follow a 215H and a 212H straight "
+            f"{name} did not follow a 215H and a 212H straight "
             f"(before it: {received[max(0, i - 2):i]})"
         )
         assert axes.payload == f"212{case.pattern:02X}", case.why(
-            f"291H (request {i}) was cleared by {axes.payload}, not by the robot's axes"
+            f"{name} was cleared by {axes.payload}, not by the robot's axes"
         )
         # Each read answers for its part: 215H for the mode and the status bytes,
         # 212H for the axes (an axis held at the 215H and let go before the 212H is
         # no reason to refuse).
         shown = [why for why in arrival[i - 2] if not why.endswith(" in use")]
         assert not shown, case.why(
-            f"291H (request {i}) followed a 215H that found the controller not idle: {shown}"
+            f"{name} followed a 215H that found the controller not idle: {shown}"
         )
-        held = [why for why in arrival[i - 1] if why.endswith(" in use") and (
+        in_use = [why for why in arrival[i - 1] if why.endswith(" in use") and (
             case.robot_axes is None or int(why.split()[1]) in case.robot_axes)]
-        assert not held, case.why(f"291H (request {i}) followed a 212H that found {held}")
+        assert not in_use, case.why(f"{name} followed a 212H that found {in_use}")
         window = {got.first + i - 2, got.first + i - 1} & case.sim.acted
         if axes.busy or r.busy:
             # Started (or switched) after that 215H was answered: see the docstring.
             assert window, case.why(
-                f"291H (request {i}) or its 212H found the controller not idle "
+                f"{name} or its 212H found the controller not idle "
                 f"({arrival[i - 1] or arrival[i]}) with no change by the operator after the 215H"
             )
             tally.race += 1
     if got.failed is None and got.result.written:
-        last = max(i for i, r in enumerate(received) if r.command == "291")
+        last = max(i for i, r in enumerate(received) if r.is_write)
         after = [r.command for r in received[last:]]
         unread = any(w.startswith("cannot read the task states after the last write")
                      for w in got.result.warnings)
@@ -557,52 +670,65 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
         )
 
 
-def check_writes(case: Case, got: Outcome, final: dict[int, Position]) -> None:
-    """The result names exactly what the controller received; each position holds
-    its old or its new value."""
+#: A run's kind -> the kind of the items it writes.
+ITEM_OF_RUN = {"positions": "position", "integers": "integer", "reals": "real"}
+
+
+def items(write: PlannedWrite) -> dict[Key, Any]:
+    """The items a planned write writes, each with its new value."""
+    key = write.key
+    if not isinstance(key, Run):
+        return {key: write.new}  # a flag
+    kind = ITEM_OF_RUN[key.kind]
+    make = PositionKey if kind == "position" else VariableKey
+    return {make(kind, n): new for n, new in zip(key.numbers, write.new)}
+
+
+def check_writes(case: Case, got: Outcome, final: IaiData) -> None:
+    """The result names exactly what the controller received; each position, flag and
+    variable holds its old or its new value."""
     result = got.result
     sent = check_sent(case.why, got, wire, reads_back)
     plan = result.plan
     if plan is None:
         assert not sent, case.why("writes without a plan")
         return
-    old = case.before.positions
-    planned = {n: w for w in plan.writes for n in w.key.numbers}
-    done = {n for w in result.written for n in w.key.numbers}
-    failed = set(result.failed.key.numbers) if result.failed else set()
-    for n in old.keys() | final.keys() | planned.keys():
-        was, now = old.get(n), final.get(n)
-        w = planned.get(n)
-        if n in done:
-            assert w is not None and now == w.new[n - w.key.start], case.why(
-                f"position {n} was reported written but holds {now}"
-            )
-        elif n in failed:
-            assert w is not None and now in (was, w.new[n - w.key.start]), case.why(
-                f"position {n}, whose write failed, holds {now}: neither old nor new"
+    old = CATALOGUE.items(case.before, registers=True)
+    now = CATALOGUE.items(final, registers=True)
+    planned = {key: new for w in plan.writes for key, new in items(w).items()}
+    done = {key for w in result.written for key in items(w)}
+    failed = set(items(result.failed)) if result.failed else set()
+    for key in old.keys() | now.keys() | planned.keys():
+        was, holds = old.get(key), now.get(key)
+        if key in done:
+            assert holds == planned[key], case.why(f"{key} was reported written but holds {holds}")
+        elif key in failed:
+            assert holds in (was, planned[key]), case.why(
+                f"{key}, whose write failed, holds {holds}: neither old nor new"
             )
         else:
-            assert now == was, case.why(f"position {n} was not written but changed: {was} -> {now}")
+            assert holds == was, case.why(f"{key} was not written but changed: {was} -> {holds}")
 
 
-def check_converged(case: Case, final: dict[int, Position]) -> None:
-    left = sync_items.diff(CATALOGUE, IaiData(case.before.version, final), case.target)
+def check_converged(case: Case, final: IaiData) -> None:
+    left = sync_items.diff(CATALOGUE, final, case.target, registers=case.registers)
     assert not left, case.why(f"push returned but the robot still differs: {left[:3]}")
 
 
 def check_case(case: Case, deploy: Deploy, tally: IaiTally, settings: SerialSettings) -> None:
     got = deploy(case, settings)
-    final = case.sim.state.positions
+    final = held(case.sim.state, case.keeps)
     tally.cases += 1
     tally.lost_writes += case.sim.lost_writes
     if got.result.plan is not None and len(got.result.plan.writes) > 1:
         tally.several_runs += 1
+    tally.variables_written += any(r.is_write and r.command != "291" for r in got.received)
     check_interlock(case, got, tally)
     check_writes(case, got, final)
     if got.snapshot is not None:
-        assert got.snapshot.positions == case.before.positions, case.why(
-            "the snapshot is not what the robot held before the push"
-        )
+        assert not sync_items.diff(
+            CATALOGUE, got.snapshot, case.before, registers=case.registers
+        ), case.why("the snapshot is not what the robot held before the push")
     if got.failed is None:
         tally.ok += 1
         check_converged(case, final)
@@ -614,8 +740,9 @@ def check_case(case: Case, deploy: Deploy, tally: IaiTally, settings: SerialSett
         return
     # The operator stops the controller and the line is mended: the same push finishes.
     case.sim.calm()
-    case.before = IaiData(case.before.version, dict(final), case.before.model)
+    case.before = final
     again = deploy(case, CALM)
+    final = held(case.sim.state, case.keeps)
     check_interlock(case, again, tally)
     check_writes(case, again, final)
     # No message clears a position: a project that lacks one is refused every time.
@@ -636,6 +763,7 @@ def test_no_write_reaches_a_controller_that_is_not_idle_and_every_push_converges
     if not ONLY:  # the cases still reach what they are meant to (a generator can rot)
         assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 10, tally
         assert tally.lost_writes >= 5 and tally.several_runs >= 25, tally
+        assert tally.variables_written >= 8, tally
 
 
 #: Seeds for the on-disk run: enough to meet every kind of outcome, few enough to be quick.
