@@ -522,8 +522,9 @@ class WithoutFsync:
 
 @pytest.fixture
 def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
-    """Push a case through ``engine.push`` with its project held in memory and its
-    snapshot kept in memory.
+    """Push a case with its project held in memory and its snapshot kept in memory:
+    the engine's deploy, which ``engine.push`` runs once it has read and checked the
+    project on disk.
 
     Saving the project, loading it and saving the snapshot cost three times the
     rest of a case; :func:`test_the_cli_on_a_project_on_disk_keeps_the_same_promises`
@@ -534,8 +535,6 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     the simulator does not ask for.
     """
     taken = keep_snapshots(monkeypatch)
-    projects: dict[Path, Project] = {}
-    monkeypatch.setattr(engine, "load_project", lambda path: projects[Path(path)])
     monkeypatch.setattr(engine.git, "head", lambda path: None)
     monkeypatch.setattr(audit_log, "os", WithoutFsync())
     monkeypatch.setattr(CODEC, "reply_gap", 0.0)
@@ -545,11 +544,11 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
         monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / f"audit-{case.seed}.jsonl"))
         try:
             path = tmp_path / f"case-{case.seed}"
-            projects[path] = Project(path, robot_for(case, url, settings), case.target)
+            project = Project(path, robot_for(case, url, settings), case.target)
+            opts = PushOptions(yes=True, allow_dirty=True, registers=case.registers)
             first, before = len(case.sim.received), len(taken)
             try:
-                result = engine.push(path, PushOptions(yes=True, allow_dirty=True,
-                                                       registers=case.registers))
+                result = engine._deploy("push", project, case.target, opts, None, None)
                 failed = None
             except PushFailed as exc:
                 result, failed = exc.result, exc
