@@ -62,13 +62,18 @@ class IaiFamily:
         return layout.SCHEMAS.files()
 
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
+        """``options`` are :class:`Robot` fields (``serial``, ``windows``, ``description``,
+        ``keep_registers``, ``options``: model, axes, first, last), over the profile's."""
+        fields: dict[str, Any] = {
+            "serial": SETTINGS,
+            "options": {"model": profile.DEFAULT_MODEL,
+                        "first": profile.DEFAULT_POSITION_RANGE[0],
+                        "last": profile.DEFAULT_POSITION_RANGE[1]},
+        }
+        fields.update(options)
         return Robot(
             family=self.name, name=name, port=port,
-            station=profile.DEFAULT_STATION if station is None else station,
-            serial=SETTINGS,
-            options={"model": profile.DEFAULT_MODEL, "first": profile.DEFAULT_POSITION_RANGE[0],
-                     "last": profile.DEFAULT_POSITION_RANGE[1]},
-            **options,
+            station=profile.DEFAULT_STATION if station is None else station, **fields,
         )
 
     def parse_station(self, text: str) -> int:
