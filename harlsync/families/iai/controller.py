@@ -27,11 +27,11 @@ import logging
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
-from ...errors import ControllerError, HarlsyncError, InterlockError, ReplyError, WriteUnconfirmed
+from ...errors import ControllerError, ReplyError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT, Link
-from ...link.confirm import confirmed_write
+from ...link.confirm import confirmed_write, refuse_unless_idle
 from ...link.owner import OnLink
 from ...settings import SerialSettings
 from ..base import Progress
@@ -343,16 +343,6 @@ class Controller(OnLink):
             before_resend=lambda lost: self._idle_before_resend(request, lost), what=what,
         )
 
-    def _idle_before_resend(self, request: Request[object], lost: WriteUnconfirmed) -> None:
-        try:
-            status = self.status()
-        except HarlsyncError as exc:
-            why = f"cannot read the status ({exc})"
-        else:
-            if status.idle:
-                return
-            why = f"the robot is not idle: {status.describe()}"
-        raise InterlockError(
-            f"{self.label}, message {request.message_id:03X}H: the write did not take and "
-            f"{why}; not sending it again"
-        ) from lost
+    def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
+        """Raise InterlockError unless the status, read now, shows the robot idle."""
+        refuse_unless_idle(self.status, lost, where=f"{self.label}, message {request.message_id:03X}H", reading="the status")
