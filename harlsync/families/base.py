@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from ..errors import HarlsyncError, InterlockError, WriteUnconfirmed
+
 if TYPE_CHECKING:
     from ..project.robot import Robot
     from ..project.schema import Issue
@@ -39,6 +41,7 @@ __all__ = [
     "PlanShape",
     "Progress",
     "Status",
+    "idle_before_resend",
 ]
 
 #: ``progress(done, total)`` while reading everything (exchanges with the controller).
@@ -115,6 +118,9 @@ class PlanShape:
     reconfigure: str | None = None
     #: ... and the line a printed plan starts with
     reconfigure_note: str | None = None
+    #: what a printed plan, a push's result and its audit record must tell about
+    #: these writes (Epson: the persistent items it writes to the memory card)
+    notes: list[str] = field(default_factory=list)
 
 
 class Catalogue(Protocol):
@@ -192,6 +198,9 @@ class Family(Protocol):
     directories: tuple[str, ...]
     #: what a push's result and audit record must tell (e.g. positions not in flash)
     deploy_notes: tuple[str, ...]
+    #: the options :meth:`connect` takes beyond port and station (Epson:
+    #: ``reset_function``); the engine refuses any other before connecting
+    connect_options: frozenset[str]
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         """Read and check a project's files (path relative to the project -> content)."""
@@ -232,6 +241,25 @@ class Family(Protocol):
         ...
 
     def connect(self, robot: Robot, port: str | None, station: int | None, *,
-                lock_timeout: float) -> Driver:
-        """Open the robot's line (``port``/``station`` override robot.yaml)."""
+                lock_timeout: float, **options: Any) -> Driver:
+        """Open the robot's line (``port``/``station`` override robot.yaml); ``options``
+        are some of :attr:`connect_options`."""
         ...
+
+
+def idle_before_resend(status: Callable[[], Status], where: str, lost: WriteUnconfirmed, *,
+                       reading: str = "the status", note: str = "") -> None:
+    """The ``before_resend`` of a confirmed write
+    (:func:`~harlsync.link.confirm.confirmed_write`) that needs an idle robot: return
+    when ``status()``, read now, is idle; else raise InterlockError naming ``where``
+    and why (the robot's state, or that ``reading`` failed), and ``note``."""
+    try:
+        now = status()
+    except HarlsyncError as exc:
+        why = f"cannot read {reading} ({exc})"
+    else:
+        if now.idle:
+            return
+        why = f"the robot is not idle: {now.describe()}"
+    raise InterlockError(
+        f"{where}: the write did not take and {why}; not sending it again{note}") from lost

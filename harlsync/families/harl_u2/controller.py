@@ -35,12 +35,13 @@ import os
 from collections.abc import Callable
 from typing import TypeVar
 
-from ...errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
+from ...errors import ControllerError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
 from ...link import Link as SharedLink
 from ...link.confirm import confirmed_write
 from ...link.owner import OnLink
 from ...settings import SerialSettings
+from ..base import idle_before_resend
 from .link import Link
 from .model import (
     OFFSET_TABLE_COUNT,
@@ -143,18 +144,9 @@ class Controller(OnLink):
 
     def _idle_before_resend(self, request: Request[Ack], lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless LNR, read now, shows every task known and idle."""
-        try:
-            status = self.status()
-        except HarlsyncError as exc:
-            why = f"cannot read the task states ({exc})"
-        else:
-            if status.idle:
-                return
-            why = f"the robot is not idle: {status.describe()}"
-        raise InterlockError(
-            f"port {self.port}, station {self.station}, command {request.payload}: the write did "
-            f"not take and {why}; not sending it again (it needs an idle robot)"
-        ) from lost
+        idle_before_resend(
+            self.status, f"port {self.port}, station {self.station}, command {request.payload}",
+            lost, reading="the task states", note=" (it needs an idle robot)")
 
     # --- programs -----------------------------------------------------------------
 

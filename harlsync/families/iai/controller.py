@@ -29,12 +29,12 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
-from ...errors import ControllerError, HarlsyncError, InterlockError, ReplyError, WriteUnconfirmed
+from ...errors import ControllerError, ReplyError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT, Link
 from ...link.confirm import confirmed_write
 from ...link.owner import OnLink
 from ...settings import SerialSettings
-from ..base import Progress
+from ..base import Progress, idle_before_resend
 from . import profile
 from .codec import CODEC
 from .layout import IaiData
@@ -328,15 +328,4 @@ class Controller(OnLink):
         )
 
     def _idle_before_resend(self, request: Request[object], lost: WriteUnconfirmed) -> None:
-        try:
-            status = self.status()
-        except HarlsyncError as exc:
-            why = f"cannot read the status ({exc})"
-        else:
-            if status.idle:
-                return
-            why = f"the robot is not idle: {status.describe()}"
-        raise InterlockError(
-            f"{self.label}, message {request.message_id:03X}H: the write did not take and "
-            f"{why}; not sending it again"
-        ) from lost
+        idle_before_resend(self.status, f"{self.label}, message {request.message_id:03X}H", lost)
