@@ -482,13 +482,25 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 def _connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="URL",
                    help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
-                        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR")
+                        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR; an Epson "
+                        "controller's Modbus TCP slave: modbus://HOST[:PORT]")
     p.add_argument("--station", metavar="N",
                    help="station number instead of the robot file's (HARL-U2: 1-99, as set "
-                        "on the pendant; IAI: two hex digits, 99 by default)")
+                        "on the pendant; IAI: two hex digits, 99 by default; Epson: the "
+                        "Modbus unit id, 0-255, 1 by default)")
     p.add_argument("--lock-timeout", type=float, default=10.0, metavar="SECONDS",
                    help="how long to wait for another harlsync using the same line or project "
                         "(default 10)")
+    p.add_argument("--reset-function", action="store_true",
+                   help="Epson: when the Remote Control function is found in use or halted "
+                        "(a command left unanswered, a function error), reset it first "
+                        "(section 6.5.2), and only while the robot is not Running; other "
+                        "families refuse it")
+
+
+def _connect_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The family options of the connection, as the engine takes them."""
+    return {"reset_function": args.reset_function}
 
 
 class _Progress:
@@ -537,8 +549,9 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     p.add_argument("--family", choices=_family_names(), default=None,
-                   help="the controller family of a first pull (default harl-u2); later "
-                        "commands read it from robot.yaml")
+                   help="the controller family of a first pull (default harl-u2; iai, or "
+                        "epson with --port modbus://HOST:PORT); later commands read it from "
+                        "robot.yaml")
     p.add_argument("--commit", action="store_true",
                    help="commit the change to git, with a message that says what changed")
     p.add_argument("--allow-dirty", action="store_true",
@@ -553,7 +566,8 @@ def _cmd_pull(args: argparse.Namespace) -> int:
     try:
         result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
                              progress=progress, lock_timeout=args.lock_timeout,
-                             allow_dirty=args.allow_dirty, family=args.family)
+                             allow_dirty=args.allow_dirty, family=args.family,
+                             connect_options=_connect_options(args))
     finally:
         progress.close()
     if sys.stdout.isatty():
@@ -586,7 +600,8 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     try:
         result = engine.compare(args.dir, port=args.port, station=args.station,
                                 progress=progress, registers=args.registers,
-                                lock_timeout=args.lock_timeout)
+                                lock_timeout=args.lock_timeout,
+                                connect_options=_connect_options(args))
     finally:
         progress.close()
     _warn(result.warnings)
@@ -610,7 +625,8 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         "plan", help="print the commands a push would send, and send none",
         description="Read the robot, compare it with the project and print, in order, the exact "
                     "commands a push would send (HARL-U2: SN commands; IAI: each 291H, field by "
-                    "field). Nothing is written. --out saves the plan "
+                    "field; Epson: each Remote Control command's words in hex). Nothing is "
+                    "written. --out saves the plan "
                     "with a fingerprint of the robot and the project; push --plan refuses it "
                     "if either changed since.",
     )
@@ -627,6 +643,8 @@ def _show_plan(the_plan: Plan) -> None:
         _print(f"# cannot write: {line}")
     if the_plan.reconfiguration_note:
         _print(f"# {the_plan.reconfiguration_note}")
+    for note in the_plan.notes:
+        _print(f"# note: {note}")
     for write in the_plan.writes:
         flag = "  # unsafe in automatic operation" if write.unsafe else ""
         _print(f"{write.command}{flag}")
@@ -640,7 +658,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     try:
         the_plan = engine.plan(args.dir, port=args.port, station=args.station,
                                progress=progress, registers=args.registers,
-                               lock_timeout=args.lock_timeout)
+                               lock_timeout=args.lock_timeout,
+                               connect_options=_connect_options(args))
     finally:
         progress.close()
     _show_plan(the_plan)
@@ -681,12 +700,14 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "push", help="write what differs to the robot, safely",
         description="Write only what differs, in the family's safe order (HARL-U2: "
-                    "configuration, parameters, tables, timers, programs; IAI: positions). "
+                    "configuration, parameters, tables, timers, programs; IAI: positions; "
+                    "Epson: load, limits, frames, tool, arch, fine, LimZ, tables, points). "
                     "Refuses a project that is invalid, has "
                     "uncommitted changes, or is outside its maintenance window; stops before "
                     "any write while the robot runs (HARL-U2: a task in execution or suspended, "
                     "LNR; IAI: a program running, MANUAL, emergency stop, an axis in use, 215H "
-                    "and 212H; read before "
+                    "and 212H; Epson: Running, Paused, EStopOn, Error or the Remote Control "
+                    "function in use; read before "
                     "every write and after the last: a robot started while a write was on the "
                     "wire is named in a warning); verifies each write by reading it back; "
                     "snapshots the robot "
@@ -712,6 +733,7 @@ def _push_options(args: argparse.Namespace) -> PushOptions:
         allow_reconfigure=args.allow_reconfigure, allow_live_tuning=args.allow_live_tuning,
         registers=args.registers, plan_file=getattr(args, "plan", None),
         lock_timeout=args.lock_timeout, progress=_Progress("read"),
+        connect_options=_connect_options(args),
     )
 
 
@@ -796,7 +818,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="harlsync",
         description="Keep robot programs and settings under version control "
-                    "(Hirata HARL-U2, IAI protocol B).",
+                    "(Hirata HARL-U2, IAI protocol B, Epson RC+ Remote Control).",
     )
     parser.add_argument("--version", action="version", version=f"harlsync {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0,
@@ -820,6 +842,10 @@ def _setup_logging(verbose: int) -> None:
         level = logging.WARNING if sys.stderr.isatty() else logging.ERROR
     logging.basicConfig(level=level, format="harlsync: %(levelname)s: %(message)s")
     logging.getLogger("filelock").setLevel(max(level, logging.INFO))  # its debug lines are noise
+    # pymodbus logs its own ERROR lines (a refused connection, a timeout) above the one
+    # line harlsync says of the same failure; -vv shows its warnings, our own hex
+    # lines show the traffic.
+    logging.getLogger("pymodbus").setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -86,10 +86,24 @@ SNAPSHOT_DIR = history.LOCAL_DIR / "snapshots"
 
 
 def connect(
-    robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0
+    robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0,
+    options: Mapping[str, Any] | None = None,
 ) -> Driver:
-    """Open the robot's line (``port``/``station`` override the robot file)."""
-    return families.get(robot.family).connect(robot, port, station, lock_timeout=lock_timeout)
+    """Open the robot's line (``port``/``station`` override the robot file).
+
+    ``options`` are family options of the connection (``reset_function``), each
+    given when true.  Raises ProjectError, before anything is opened, for one the
+    robot's family does not take.
+    """
+    family = families.get(robot.family)
+    given = {name: value for name, value in (options or {}).items() if value}
+    for name in sorted(set(given) - family.connect_options):
+        takers = [n for n in families.names() if name in families.get(n).connect_options]
+        raise ProjectError(
+            f"--{name.replace('_', '-')}: the {family.name} family has no such option "
+            f"(only {', '.join(takers) or 'no family'}); leave it out"
+        )
+    return family.connect(robot, port, station, lock_timeout=lock_timeout, **given)
 
 
 def catalogue(robot: Robot) -> Catalogue:
@@ -121,13 +135,15 @@ def read_live(
     registers: bool,
     progress: Progress | None,
     lock_timeout: float,
+    options: Mapping[str, Any] | None = None,
 ) -> tuple[Driver, Any, list[str]]:
     """Everything the robot holds, read over a line opened and closed for it, and
     a warning for each earlier push to it that did not finish.
 
     The driver is returned closed: it still names the robot and builds commands.
+    ``options`` are the connection's (see :func:`connect`).
     """
-    driver = connect(robot, port, station, lock_timeout=lock_timeout)
+    driver = connect(robot, port, station, lock_timeout=lock_timeout, options=options)
     try:
         warnings = _unfinished(robot, port, station)
         return driver, driver.read_all(registers=registers, progress=progress), warnings
@@ -252,6 +268,7 @@ def pull(
     lock_timeout: float = 10.0,
     allow_dirty: bool = False,
     family: str | None = None,
+    connect_options: Mapping[str, Any] | None = None,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
@@ -260,7 +277,8 @@ def pull(
     refused unless ``allow_dirty``: the pull would overwrite them.  Files an
     earlier pull saved, untouched since, are not edits: this pull takes them over
     (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
-    names the controller family of a first pull (default: HARL-U2).
+    names the controller family of a first pull (default: HARL-U2);
+    ``connect_options`` are the connection's (see :func:`connect`).
     """
     path = Path(path)
     robot = _robot_for(path, port, station, family)
@@ -276,7 +294,8 @@ def pull(
     except ProjectError:
         previous = None
     _, live, _ = read_live(robot, port, station, registers=robot.keep_registers,
-                           progress=progress, lock_timeout=lock_timeout)
+                           progress=progress, lock_timeout=lock_timeout,
+                           options=connect_options)
     save_project(path, Project(path, robot, live))
     changes = None if previous is None else diff(
         catalogue(robot), previous, live, registers=robot.keep_registers
@@ -318,12 +337,14 @@ def compare(
     progress: Progress | None = None,
     registers: bool = False,
     lock_timeout: float = 10.0,
+    connect_options: Mapping[str, Any] | None = None,
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item."""
     project = load_project(path)
     station = station_number(project.robot.family, station)
     driver, live, warnings = read_live(project.robot, port, station, registers=registers,
-                                       progress=progress, lock_timeout=lock_timeout)
+                                       progress=progress, lock_timeout=lock_timeout,
+                                       options=connect_options)
     changes = diff(catalogue(project.robot), live, project.data, registers=registers)
     return Comparison(project, driver, live, changes, warnings)
 
@@ -336,10 +357,11 @@ def plan(
     progress: Progress | None = None,
     registers: bool = False,
     lock_timeout: float = 10.0,
+    connect_options: Mapping[str, Any] | None = None,
 ) -> Plan:
-    """The plan a push would carry out now; sends no SN command."""
+    """The plan a push would carry out now; sends no write."""
     c = compare(path, port=port, station=station, progress=progress, registers=registers,
-                lock_timeout=lock_timeout)
+                lock_timeout=lock_timeout, connect_options=connect_options)
     return make_plan(catalogue(c.project.robot), c.live, c.project.data, c.driver,
                      robot=c.project.robot.name, registers=registers)
 
@@ -363,6 +385,8 @@ class PushOptions:
     lock_timeout: float = 10.0
     now: datetime | None = None
     progress: Progress | None = None
+    #: the connection's family options (see :func:`connect`): ``reset_function``
+    connect_options: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -540,7 +564,8 @@ def _deploy(
     driver: Driver | None = None
     try:
         _check_window(robot, opts)
-        driver = connect(robot, port, station, lock_timeout=opts.lock_timeout)
+        driver = connect(robot, port, station, lock_timeout=opts.lock_timeout,
+                         options=opts.connect_options)
         result.warnings = _unfinished(robot, port, station)
         if not opts.allow_live_tuning:
             _interlock(driver, robot, "reading the robot")
@@ -593,7 +618,8 @@ def _deploy(
         if result.warnings:
             record["warnings"] = result.warnings
         if result.written or result.failed is not None:
-            result.notes = list(families.get(robot.family).deploy_notes)
+            planned = result.plan.notes if result.plan is not None else []
+            result.notes = [*planned, *families.get(robot.family).deploy_notes]
             if result.notes:
                 record["notes"] = result.notes
         if driver is not None:

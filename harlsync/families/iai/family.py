@@ -23,6 +23,7 @@ class IaiFamily:
     format = layout.FORMAT
     directories: tuple[str, ...] = ()
     deploy_notes = (profile.PERSISTENCE_NOTICE,)
+    connect_options: frozenset[str] = frozenset()
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
@@ -90,7 +91,8 @@ class IaiFamily:
         return f"{station:02X}"
 
     def connect(
-        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float
+        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float,
+        **options: Any,
     ) -> Driver:
         from .controller import Controller
         from .driver import IaiDriver
