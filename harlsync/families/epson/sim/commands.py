@@ -615,6 +615,17 @@ def _parts(first: int, words: int, read: Parted,
     return {first + i: (words, part(which)) for i, which in enumerate(parts)}
 
 
+#: Command words, word 0 included: a number, or one a robot's axes give.
+WordCount = int | Callable[[int], int]
+
+
+def _with_halves(first: int, words: tuple[WordCount, WordCount, WordCount], whole: Handler,
+                 half: Handler) -> dict[int, tuple[WordCount, Handler]]:
+    """A write in one command (``first``) and in two halves (``first + 1``, ``+ 2``:
+    53 an AccelS entry, 54 its accel, 55 its decel)."""
+    return {first: (words[0], whole), first + 1: (words[1], half), first + 2: (words[2], half)}
+
+
 def _commands() -> dict[int, _Spec]:
     S = Session
     reads: dict[int, tuple[int, Handler]] = {
@@ -642,42 +653,28 @@ def _commands() -> dict[int, _Spec]:
         2153: (1, S._robot_type),
         2154: (2, S._model_name),
     }
-    writes: dict[int, tuple[int | Callable[[int], int], Handler]] = {
+    writes: dict[int, tuple[WordCount, Handler]] = {
         1: (4, S._register_accel),
-        53: (6, lambda s, st, p: s._real_pair_write(st.accel_s, p)),
-        54: (4, lambda s, st, p: s._real_pair_split("AccelS", st.accel_s, 54, p)),
-        55: (4, lambda s, st, p: s._real_pair_split("AccelS", st.accel_s, 54, p)),
-        103: (6, lambda s, st, p: s._real_pair_write(st.accel_r, p)),
-        104: (4, lambda s, st, p: s._real_pair_split("AccelR", st.accel_r, 104, p)),
-        105: (4, lambda s, st, p: s._real_pair_split("AccelR", st.accel_r, 104, p)),
+        **_with_halves(53, (6, 4, 4), lambda s, st, p: s._real_pair_write(st.accel_s, p),
+                       lambda s, st, p: s._real_pair_split("AccelS", st.accel_s, 54, p)),
+        **_with_halves(103, (6, 4, 4), lambda s, st, p: s._real_pair_write(st.accel_r, p),
+                       lambda s, st, p: s._real_pair_split("AccelR", st.accel_r, 104, p)),
         151: (5, S._register_speed),
-        203: (8, S._register_speed_s),
-        204: (6, S._register_speed_s_split),
-        205: (4, S._register_speed_s_split),
+        **_with_halves(203, (8, 6, 4), S._register_speed_s, S._register_speed_s_split),
         251: (4, S._register_speed_r),
         300: (5, S._set_weight),
         301: (3, S._set_weight),
-        350: (5, S._set_inertia),  # its body's 5 words, not the 3 of the §8 list
-        351: (3, S._set_inertia_split),
-        352: (3, S._set_inertia_split),
-        400: (6, S._set_arch),  # its body's 6 words, not the 4 of the §8 list
-        401: (4, S._set_arch_split),
-        402: (4, S._set_arch_split),
-        450: (lambda axes: 1 + axes, S._set_fine),
-        451: (4, S._set_fine_split),
-        452: (lambda axes: axes - 2, S._set_fine_split),
+        # 350 and 400: their bodies' 5 and 6 words, not the 3 and 4 of the §8 list
+        **_with_halves(350, (5, 3, 3), S._set_inertia, S._set_inertia_split),
+        **_with_halves(400, (6, 4, 4), S._set_arch, S._set_arch_split),
+        **_with_halves(450, (lambda axes: 1 + axes, 4, lambda axes: axes - 2), S._set_fine,
+                       S._set_fine_split),
         500: (2, S._select_tool),
-        600: (7, S._set_box),
-        601: (5, S._set_box_split),
-        602: (5, S._set_box_split),
+        **_with_halves(600, (7, 5, 5), S._set_box, S._set_box_split),
         650: (5, lambda s, st, p: s._set_frame("Plane", st.planes, st, p)),
         700: (5, lambda s, st, p: s._set_frame("Local", st.locals, st, p)),
-        750: (6, S._set_xylim),
-        751: (4, S._set_xylim_split),
-        752: (4, S._set_xylim_split),
-        800: (6, S._set_jrange),
-        801: (4, S._set_jrange_split),
-        802: (4, S._set_jrange_split),
+        **_with_halves(750, (6, 4, 4), S._set_xylim, S._set_xylim_split),
+        **_with_halves(800, (6, 4, 4), S._set_jrange, S._set_jrange_split),
         850: (4, S._set_base),
         1204: (5, S._set_point_coord),
         1206: (2, _set_point_flag("hand", 1)),  # Righty
