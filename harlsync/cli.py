@@ -83,10 +83,12 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser(
         "sim",
-        help="run a simulated controller (HARL-U2, IAI) on a pty and/or a TCP port",
+        help="run a simulated controller (HARL-U2, IAI on a pty and/or a TCP port; Epson over "
+             "Modbus TCP)",
         description=(
             "Serve a simulated controller of one family. It prints the pty device path and the "
-            "socket:// URL to connect to, then reads control commands on standard input "
+            "socket:// URL to connect to (an Epson controller: the modbus:// URL of its Modbus "
+            "TCP server, --listen only), then reads control commands on standard input "
             f"(STATION as the family writes it, default the lowest): {_SimHelp.VERBS}. "
             "Stop it with Ctrl-C or end of input."
         ),
@@ -101,8 +103,9 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
                      help="generate a realistic robot (programs, positions) from SEED")
     p.add_argument(
         "--stations", default=None, metavar="N[,N...]",
-        help="stations on the line, in the family's notation: decimal for harl-u2, hex for iai "
-             "(default: the project's station, or 1 for harl-u2 and 99 for iai)",
+        help="stations on the line, in the family's notation: decimal for harl-u2, hex for iai, "
+             "the Modbus unit id for epson (default: the project's station, or 1 for harl-u2 "
+             "and epson and 99 for iai)",
     )
     p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
     p.add_argument("--no-pty", action="store_true", help="do not open a pty (needs --listen)")
@@ -136,8 +139,9 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_sim(args: argparse.Namespace) -> int:
     from .families import get
-    from .sim import Faults, Received, project_family
+    from .sim import Faults, Received, ServedFamily, Simulator, project_family
     from .sim.control import apply_command
+    from .sim.family import SimServer
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer
 
@@ -181,16 +185,28 @@ def _cmd_sim(args: argparse.Namespace) -> int:
             record.flush()
 
         sim.listeners.append(log_request)
-    servers: list[PtyServer | TcpServer] = []
-    if not args.no_pty:
-        pty = PtyServer(sim)
-        _print(f"pty: {pty.start()}")
-        servers.append(pty)
-    if args.listen:
-        host, _, port = args.listen.rpartition(":")
-        tcp = TcpServer(sim, host or "127.0.0.1", int(port))
-        _print(f"tcp: {tcp.start()}")
-        servers.append(tcp)
+    servers: list[PtyServer | TcpServer | SimServer] = []
+    host, _, port = (args.listen or "").rpartition(":")
+    if isinstance(sim.family, ServedFamily):  # its own protocol and server (Epson: Modbus TCP)
+        if not args.listen:
+            return _usage(f"sim: the {sim.family.name} simulator is served over TCP only: "
+                          "give --listen HOST:PORT")
+        try:
+            served = sim.family.serve(sim, host or "127.0.0.1", int(port))
+        except ValueError as exc:  # a fault its protocol cannot have
+            return _usage(f"sim: {exc}")
+        _print(f"tcp: {served.url}")
+        servers.append(served)
+    else:
+        assert isinstance(sim, Simulator)  # a line family's simulator is a serial line
+        if not args.no_pty:
+            pty = PtyServer(sim)
+            _print(f"pty: {pty.start()}")
+            servers.append(pty)
+        if args.listen:
+            tcp = TcpServer(sim, host or "127.0.0.1", int(port))
+            _print(f"tcp: {tcp.start()}")
+            servers.append(tcp)
     _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
 
     done = threading.Event()
