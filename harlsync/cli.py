@@ -85,10 +85,12 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser(
         "sim",
-        help="run a simulated controller (HARL-U2, IAI) on a pty and/or a TCP port",
+        help="run a simulated controller (HARL-U2, IAI on a pty and/or a TCP port; Epson over "
+             "Modbus TCP)",
         description=(
             "Serve a simulated controller of one family. It prints the pty device path and the "
-            "socket:// URL to connect to, then reads control commands on standard input "
+            "socket:// URL to connect to (an Epson controller: the modbus:// URL of its Modbus "
+            "TCP server, --listen only), then reads control commands on standard input "
             f"(STATION as the family writes it, default the lowest): {_SimHelp.VERBS}. "
             "Stop it with Ctrl-C, SIGTERM or end of input. In the background (&, a service) "
             "give --no-input: it then serves until SIGTERM; started with & from a terminal it "
@@ -105,8 +107,9 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
                      help="generate a realistic robot (programs, positions) from SEED")
     p.add_argument(
         "--stations", default=None, metavar="N[,N...]",
-        help="stations on the line, in the family's notation: decimal for harl-u2, hex for iai "
-             "(default: the project's station, or 1 for harl-u2 and 99 for iai)",
+        help="stations on the line, in the family's notation: decimal for harl-u2, hex for iai, "
+             "the Modbus unit id for epson (default: the project's station, or 1 for harl-u2 "
+             "and epson and 99 for iai)",
     )
     p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
     p.add_argument("--no-pty", action="store_true", help="do not open a pty (needs --listen)")
@@ -144,8 +147,9 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_sim(args: argparse.Namespace) -> int:
     from .families import get
-    from .sim import Faults, Received, project_family
+    from .sim import Faults, Received, ServedFamily, Simulator, project_family
     from .sim.control import apply_command
+    from .sim.family import SimServer
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer
 
@@ -195,19 +199,29 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         sim.listeners.append(log_request)
     stopped = threading.Event()  # from here on SIGTERM stops it cleanly, exit 0
     signal.signal(signal.SIGTERM, lambda *_: stopped.set())
-    servers: list[PtyServer | TcpServer] = []
+    servers: list[PtyServer | TcpServer | SimServer] = []
+    tcp: TcpServer | SimServer | None = None
     try:  # before the pty: an address in use is one line, with nothing left serving
-        tcp = TcpServer(sim, *listen) if listen else None
+        if isinstance(sim.family, ServedFamily):  # its own protocol and server (Epson: Modbus TCP)
+            if listen is None:
+                return _usage(f"sim: the {sim.family.name} simulator is served over TCP only: "
+                              "give --listen HOST:PORT")
+            tcp = sim.family.serve(sim, *listen)
+        elif listen is not None:
+            assert isinstance(sim, Simulator)  # a line family's simulator is a serial line
+            tcp = TcpServer(sim, *listen)
+    except ValueError as exc:  # a fault its protocol cannot have
+        return _usage(f"sim: {exc}")
     except OSError as exc:
         # socket.create_server appends the address we already name to strerror
         why = (exc.strerror or str(exc)).split(" (while attempting")[0]
         return _usage(f"sim: --listen {args.listen}: cannot listen there: {why}")
-    if not args.no_pty:
+    if isinstance(sim, Simulator) and not args.no_pty:
         pty = PtyServer(sim)
         _print(f"pty: {pty.start()}")
         servers.append(pty)
     if tcp is not None:
-        _print(f"tcp: {tcp.start()}")
+        _print(f"tcp: {tcp.start() if isinstance(tcp, TcpServer) else tcp.url}")
         servers.append(tcp)
     _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
     _serve(servers, stopped,
@@ -539,13 +553,25 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 def _connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="URL",
                    help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
-                        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR")
+                        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR; an Epson "
+                        "controller's Modbus TCP slave: modbus://HOST[:PORT]")
     p.add_argument("--station", metavar="N",
                    help="station number instead of the robot file's (HARL-U2: 1-99, as set "
-                        "on the pendant; IAI: two hex digits, 99 by default)")
+                        "on the pendant; IAI: two hex digits, 99 by default; Epson: the "
+                        "Modbus unit id, 0-255, 1 by default)")
     p.add_argument("--lock-timeout", type=float, default=10.0, metavar="SECONDS",
                    help="how long to wait for another harlsync using the same line or project "
                         "(default 10)")
+    p.add_argument("--reset-function", action="store_true",
+                   help="Epson: when the Remote Control function is found in use or halted "
+                        "(a command left unanswered, a function error), reset it first "
+                        "(section 6.5.2), and only while the robot is not Running; other "
+                        "families refuse it")
+
+
+def _connect_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The family options of the connection, as the engine takes them."""
+    return {"reset_function": args.reset_function}
 
 
 def _family_names() -> tuple[str, ...]:
@@ -569,8 +595,9 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     p.add_argument("--family", choices=_family_names(), default=None,
-                   help="the controller family of a first pull (default harl-u2); later "
-                        "commands read it from robot.yaml")
+                   help="the controller family of a first pull (default harl-u2; iai, or "
+                        "epson with --port modbus://HOST:PORT); later commands read it from "
+                        "robot.yaml")
     p.add_argument("--commit", action="store_true",
                    help="commit the change to git, with a message that says what changed")
     p.add_argument("--allow-dirty", action="store_true",
@@ -590,7 +617,8 @@ def _cmd_pull(args: argparse.Namespace) -> int:
         result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
                              progress=progress, lock_timeout=args.lock_timeout,
                              allow_dirty=args.allow_dirty, family=args.family,
-                             new_robot=args.new_robot)
+                             new_robot=args.new_robot,
+                             connect_options=_connect_options(args))
     finally:
         progress.close()
     progress.summary(result.robot.name, result.contents)
@@ -626,7 +654,8 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     try:
         result = engine.compare(args.dir, port=args.port, station=args.station,
                                 progress=progress, registers=args.registers,
-                                lock_timeout=args.lock_timeout)
+                                lock_timeout=args.lock_timeout,
+                                connect_options=_connect_options(args))
     finally:
         progress.close()
     _warn(result.warnings)
@@ -661,8 +690,9 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         "plan", help="print the commands a push would send, and send none",
         description="Read the whole robot, compare it with the project and print, in order, "
                     "the exact commands a push would send (HARL-U2: SN commands; IAI: each "
-                    "291H, field by field). Nothing is written. Warns when the robot is not "
-                    "idle: a push would be refused now. --out saves the plan "
+                    "291H, field by field; Epson: each Remote Control command's words in hex). "
+                    "Nothing is written. Warns when the robot is not idle: a push would be "
+                    "refused now. --out saves the plan "
                     "with a fingerprint of the robot and the project; push --plan refuses it "
                     "if either changed since. The plan file is not part of the project: "
                     "delete it after the push, or keep it outside the repository.",
@@ -680,6 +710,8 @@ def _show_plan(the_plan: Plan) -> None:
         _print(f"# cannot write: {line}")
     if the_plan.reconfiguration_note:
         _print(f"# {the_plan.reconfiguration_note}")
+    for note in the_plan.notes:
+        _print(f"# note: {note}")
     for write in the_plan.writes:
         flag = "  # unsafe in automatic operation" if write.unsafe else ""
         _print(f"{write.command}{flag}")
@@ -693,7 +725,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     try:
         found = engine.compare(args.dir, port=args.port, station=args.station,
                                progress=progress, registers=args.registers,
-                               lock_timeout=args.lock_timeout, idle_check=True)
+                               lock_timeout=args.lock_timeout, idle_check=True,
+                               connect_options=_connect_options(args))
     finally:
         progress.close()
     _warn(found.warnings)
@@ -738,12 +771,14 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
         "push", help="write what differs to the robot, safely",
         description="Read the whole robot and write only what differs, in the family's safe "
                     "order (HARL-U2: "
-                    "configuration, parameters, tables, timers, programs; IAI: positions). "
+                    "configuration, parameters, tables, timers, programs; IAI: positions; "
+                    "Epson: load, limits, frames, tool, arch, fine, LimZ, tables, points). "
                     "Refuses a project that is invalid, has "
                     "uncommitted changes, or is outside its maintenance window; stops before "
                     "any write while the robot runs (HARL-U2: a task in execution or suspended, "
                     "LNR; IAI: a program running, MANUAL, emergency stop, an axis in use, 215H "
-                    "and 212H; read before "
+                    "and 212H; Epson: Running, Paused, EStopOn, Error or the Remote Control "
+                    "function in use; read before "
                     "every write and after the last: a robot started while a write was on the "
                     "wire is named in a warning); verifies each write by reading it back; "
                     "snapshots the robot "
@@ -771,6 +806,7 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
         allow_reconfigure=args.allow_reconfigure, allow_live_tuning=args.allow_live_tuning,
         registers=args.registers, plan_file=getattr(args, "plan", None),
         lock_timeout=args.lock_timeout, progress=progress,
+        connect_options=_connect_options(args),
     )
 
 
@@ -869,7 +905,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="harlsync",
         description="Keep robot programs and settings under version control "
-                    "(Hirata HARL-U2, IAI protocol B).",
+                    "(Hirata HARL-U2, IAI protocol B, Epson RC+ Remote Control).",
         epilog="Exit codes: 0 success, 1 a negative answer (diff: different, validate: "
                "invalid, backup: a robot failed, status: a robot needs looking at), 2 an "
                "error, 3 refused for safety, 130 interrupted (Ctrl-C). On a terminal, "
@@ -902,6 +938,10 @@ def _setup_logging(verbose: int) -> None:
         if not any(isinstance(f, RobotFilter) for f in handler.filters):
             handler.addFilter(RobotFilter())
     logging.getLogger("filelock").setLevel(max(level, logging.INFO))  # its debug lines are noise
+    # pymodbus logs its own ERROR lines (a refused connection, a timeout) above the one
+    # line harlsync says of the same failure; -vv shows its warnings, our own hex
+    # lines show the traffic.
+    logging.getLogger("pymodbus").setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

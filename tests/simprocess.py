@@ -9,9 +9,11 @@ from contextlib import contextmanager
 
 
 @contextmanager
-def harlsync_sim(*args: str) -> Iterator[tuple[subprocess.Popen[str], dict[str, str]]]:
+def harlsync_sim(*args: str, lines: int = 3,
+                 ) -> Iterator[tuple[subprocess.Popen[str], dict[str, str]]]:
     """Run ``harlsync sim ARGS`` serving a pty and TCP; yield the process and the
-    three lines it prints first, by name (``pty``, ``tcp``, ``stations``).
+    ``lines`` lines it prints first, by name (``pty``, ``tcp``, ``stations``; an
+    Epson simulator has no pty line).
 
     Leaving the block ends its input, and it must then exit 0.
     """
@@ -21,7 +23,7 @@ def harlsync_sim(*args: str) -> Iterator[tuple[subprocess.Popen[str], dict[str, 
     )
     assert proc.stdin is not None and proc.stdout is not None
     try:
-        yield proc, dict(proc.stdout.readline().strip().split(": ", 1) for _ in range(3))
+        yield proc, dict(proc.stdout.readline().strip().split(": ", 1) for _ in range(lines))
         proc.stdin.close()
         assert proc.wait(timeout=10) == 0
     finally:

@@ -46,17 +46,34 @@ To replay or explore: ``HARLSYNC_PROPERTY_SEEDS=7,8,9`` runs only those seeds
 from __future__ import annotations
 
 import json
-import os
 import random
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 import pytest
+from pushproperty import (
+    CHUNKS,
+    ONLY,
+    Change,
+    Outcome,
+    Scheduled,
+    base,
+    check_failure,
+    check_rerun,
+    check_sent,
+    check_wrote_nothing,
+    count_failure,
+    explain,
+    keep_snapshots,
+    line_changes,
+    push_command,
+    seeds,
+    spy_on_push,
+)
+from pushproperty import Tally as BaseTally
 
-from harlsync import cli
-from harlsync.errors import InterlockError, PolicyError
+from harlsync.errors import PolicyError
 from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.families.harl_u2.model import (
     OFFSET_TABLE_COUNT,
@@ -70,16 +87,13 @@ from harlsync.families.harl_u2.protocol import FrameDecoder
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.link import SerialSettings
 from harlsync.project import Project, load_project, new_robot, save_project
-from harlsync.sim import Faults, Received
+from harlsync.sim import Received
 from harlsync.sim.protocol_sim import register, unregister
-from harlsync.sync import PushFailed, PushOptions, PushResult, engine
-from harlsync.sync import audit as audit_log
+from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import items as sync_items
+from harlsync.sync.plan import PlannedWrite
 
-CHUNKS = 10
-PER_CHUNK = 100
-BASE = int(os.environ.get("HARLSYNC_PROPERTY_BASE", "600000"))
-ONLY = [int(s) for s in os.environ.get("HARLSYNC_PROPERTY_SEEDS", "").split(",") if s.strip()]
+BASE = base(600000)
 
 #: The reply deadline while faults are on: short, so a lost reply costs little.
 FAST = SerialSettings(timeout=0.02, retries=2)
@@ -91,11 +105,10 @@ LIVE = ("SNT", "SNL")
 
 # --- the operator at the pendant ------------------------------------------------------------
 
-Change = Callable[[Simulator, SimState], str]
 
-
-class Operator(Simulator):
-    """A simulator with a schedule: after answering the k-th request, make a change.
+class Operator(Scheduled, Simulator):
+    """A simulator with a schedule (:class:`pushproperty.Scheduled`): after answering
+    the k-th request, make a change.
 
     A change puts tasks into or out of automatic operation, or changes the line's
     faults.  :attr:`received` records the task states when each request arrived,
@@ -107,58 +120,23 @@ class Operator(Simulator):
         lose_writes: set[int] | None = None,
     ) -> None:
         super().__init__(state)
-        self.schedule = sorted(schedule, key=lambda entry: entry[0])
-        self.done: list[str] = []
-        self.handled = 0
-        #: The rate of requests garbled on their way in (never carried out, never answered).
-        self.lose = 0.0
-        #: Which SN requests (0: the first one sent) are garbled on their way in.
-        self.lose_writes = lose_writes or set()
-        self.writes_sent = 0
-        self.lost_writes = 0
-        #: The chance that the reply to the request after which the operator acts is
-        #: late, lost or garbled: the operator acts while it is on the wire.
-        self.hiccup = 0.4
-        self._restore: Faults | None = None
-        self._rng = random.Random(seed)
+        self.start_schedule(schedule, seed=seed, deadline=FAST.timeout, lose_writes=lose_writes)
 
     def calm(self) -> None:
         """The operator stops the robot and leaves it alone; the line is mended."""
-        self.schedule, self.lose_writes = [], set()
-        self.faults, self._restore, self.lose, self.hiccup = Faults(), None, 0.0, 0.0
+        self.mend()
         for state in self.stations.values():
             state.stop_all()
 
     def receive(self, data: bytes, decoder: FrameDecoder | None = None) -> list[tuple[float, bytes]]:
-        write = b" SN" in data
-        lost = self.lose and self._rng.random() < self.lose
-        if write:
-            lost = lost or self.writes_sent in self.lose_writes
-            self.writes_sent += 1
-        if data and lost:
-            data = data[:-1] + bytes([data[-1] ^ 0x5A])  # a bad LRC: the robot drops it
-            self.lost_writes += write
-        return super().receive(data, decoder)
+        # A bad LRC: the robot drops it.
+        return super().receive(self.on_the_way_in(data, b" SN" in data), decoder)
 
     def handle(self, state: SimState, payload: str) -> str:
-        if self._restore is not None:
-            self.faults, self._restore = self._restore, None
+        self.before_request()
+        handled = len(self.received)  # this request's index in the record
         reply = super().handle(state, payload)
-        acted = False
-        while self.schedule and self.schedule[0][0] <= self.handled:
-            _, change = self.schedule.pop(0)
-            self.done.append(f"after request {self.handled} ({payload}): {change(self, state)}")
-            acted = True
-        if acted and self._rng.random() < self.hiccup:
-            self._restore = self.faults
-            # Late within the link's late window (a reply later than that is beyond
-            # what any link without sequence numbers can place).
-            self.faults = self._rng.choice([
-                Faults(slow=1.0, slow_delay=FAST.timeout * 1.5), Faults(drop=1.0),
-                Faults(bad_checksum=1.0),
-            ])
-            self.done.append(f"  and the reply to it: {self.faults}")
-        self.handled += 1
+        self.act(state, handled, payload)
         return reply
 
 
@@ -188,14 +166,6 @@ def stop_all(sim: Simulator, state: SimState) -> str:
     return "all tasks stopped"
 
 
-def line(faults: Faults, lose: float) -> Change:
-    def change(sim: Simulator, state: SimState) -> str:
-        assert isinstance(sim, Operator)
-        sim.faults, sim.lose = faults, lose
-        return f"faults now {faults}, requests lost {lose}"
-    return change
-
-
 # --- one random case ------------------------------------------------------------------------
 
 
@@ -209,8 +179,7 @@ class Case:
     story: list[str] = field(default_factory=list)
 
     def why(self, message: str) -> str:
-        return (f"case seed {self.seed} (HARLSYNC_PROPERTY_SEEDS={self.seed} to replay): "
-                f"{message}\n  " + "\n  ".join(self.story + self.sim.done))
+        return explain(self.seed, self.story + self.sim.done, message)
 
 
 def copy_data(data: RobotData) -> RobotData:
@@ -289,21 +258,6 @@ def random_target(rng: random.Random, live: RobotData, story: list[str]) -> Robo
     return data
 
 
-def random_faults(rng: random.Random, deadline: float) -> tuple[Faults, float]:
-    """Faults on the replies, and the rate of requests lost on the way in."""
-    faults = Faults(
-        noise=rng.choice([0.0, 0.02, 0.1]),
-        drop=rng.choice([0.0, 0.005, 0.01, 0.03]),
-        bad_checksum=rng.choice([0.0, 0.005, 0.01, 0.03]),
-        fragment=rng.choice([0.0, 0.05, 0.2]),
-        slow=rng.choice([0.0, 0.005, 0.01, 0.03]),
-        slow_delay=deadline * rng.choice([1.2, 1.8]),
-        fragment_gap=0.001,
-        seed=rng.randrange(2**32),
-    )
-    return faults, rng.choice([0.0, 0.005, 0.01, 0.03])
-
-
 def random_schedule(
     rng: random.Random, reads: int, horizon: int, deadline: float
 ) -> list[tuple[int, Change]]:
@@ -324,15 +278,7 @@ def random_schedule(
             weights=[4, 2, 3, 1, 1],
         )[0]
         out.append((moment(), change))
-    if rng.random() < 0.6:
-        out.append((moment(), line(*random_faults(rng, deadline))))
-    if rng.random() < 0.15:
-        at = moment()
-        bad = Faults(drop=rng.choice([0.2, 0.5]), bad_checksum=0.1, slow=0.1, noise=0.2,
-                     slow_delay=deadline * 1.5, seed=rng.randrange(2**32))
-        out += [(at, line(bad, rng.choice([0.2, 0.4]))),
-                (at + rng.randint(2, 5), line(Faults(), 0.0))]
-    return out
+    return out + line_changes(rng, moment, deadline)
 
 
 def make_case(seed: int) -> Case:
@@ -367,14 +313,6 @@ def make_case(seed: int) -> Case:
 # --- running it -----------------------------------------------------------------------------
 
 
-@dataclass
-class Outcome:
-    result: PushResult
-    failed: PushFailed | None
-    received: list[Received]
-    snapshot: RobotData | None
-
-
 Deploy = Callable[[Case, SerialSettings], Outcome]
 
 
@@ -386,13 +324,7 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     the rest of a case; :func:`test_the_cli_on_a_project_on_disk_keeps_the_same_promises`
     shows that they change nothing the checks look at.
     """
-    taken: list[RobotData] = []
-
-    def keep(path: Path, robot: object, live: RobotData, action: str) -> Path:
-        taken.append(live)
-        return path / "snapshot"
-
-    monkeypatch.setattr(engine, "_save_snapshot", keep)
+    taken = keep_snapshots(monkeypatch)
 
     def deploy(case: Case, settings: SerialSettings) -> Outcome:
         url = register(case.sim)
@@ -421,19 +353,7 @@ def on_disk(
     """Push a case as a person does: the project on disk, ``harlsync push DIR --yes``,
     the snapshot written and read back; the exit status and what the command printed
     are checked here (the result is taken from ``engine.push`` on its way out)."""
-    real = engine.push
-    seen: list[PushResult | PushFailed] = []
-
-    def spy(*args: Any, **kwargs: Any) -> PushResult:
-        try:
-            result = real(*args, **kwargs)
-        except PushFailed as exc:
-            seen.append(exc)
-            raise
-        seen.append(result)
-        return result
-
-    monkeypatch.setattr(engine, "push", spy)
+    seen = spy_on_push(monkeypatch)
 
     def deploy(case: Case, settings: SerialSettings) -> Outcome:
         url = register(case.sim)
@@ -446,23 +366,9 @@ def on_disk(
                                            ("--allow-reconfigure", case.opts.allow_reconfigure),
                                            ("--registers", case.opts.registers)) if on]
             first = len(case.sim.received)
-            capsys.readouterr()
-            code = cli.main(["push", str(path), "--yes", "--allow-dirty", *flags])
-            printed = capsys.readouterr().err
-            outcome = seen.pop()
-            failed = outcome if isinstance(outcome, PushFailed) else None
-            result = outcome.result if isinstance(outcome, PushFailed) else outcome
-            refused = failed is not None and isinstance(failed.cause, InterlockError | PolicyError)
-            assert code == (0 if failed is None else 3 if refused else 2), case.why(
-                f"exit status {code}: {printed}"
+            result, failed = push_command(
+                case.why, ["push", str(path), "--yes", "--allow-dirty", *flags], seen, capsys
             )
-            if failed is not None:
-                assert str(failed.cause) in printed, case.why(f"cause not shown: {printed}")
-                for w in result.written:
-                    assert f"written:     {w.name}: {w.command}" in printed, case.why(printed)
-                if result.failed is not None:
-                    assert f"unknown:     {result.failed.name}: {result.failed.command}" in (
-                        printed), case.why(printed)
             snapshot = load_project(result.snapshot).data if result.snapshot else None
             return Outcome(result, failed, case.sim.received[first:], snapshot)
         finally:
@@ -481,15 +387,8 @@ def readback_letters(letters: str) -> str:
 
 
 @dataclass
-class Tally:
-    cases: int = 0
-    ok: int = 0
-    failed: int = 0
-    refused_before_writing: int = 0
-    race: int = 0
+class Tally(BaseTally):
     live_in_automatic: int = 0
-    lost_writes: int = 0
-    causes: dict[str, int] = field(default_factory=dict)
 
 
 def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
@@ -519,29 +418,20 @@ def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
             )
 
 
+def wire(write: PlannedWrite) -> str:
+    """The payload a write arrives as: its command is the wire's."""
+    return write.command
+
+
+def reads_back(payload: str, between: list[Received]) -> bool:
+    readback = readback_letters(payload.split(" ")[0])
+    return any(r.command == readback for r in between)
+
+
 def check_writes(case: Case, got: Outcome, final: RobotData) -> None:
     """The result names exactly what the simulator received; the robot holds old or new."""
     result = got.result
-    sent = [r for r in got.received if r.is_write]
-    written = {w.command for w in result.written}
-    maybe = written | ({result.failed.command} if result.failed else set())
-    for r in sent:
-        assert r.payload in maybe, case.why(
-            f"the robot received {r.payload!r}, which the result does not name as written "
-            f"or unknown"
-        )
-    payloads = [r.payload for r in sent]
-    for command in written:
-        assert command in payloads, case.why(f"reported written but never sent: {command!r}")
-    for command in set(payloads):
-        at = [i for i, r in enumerate(got.received) if r.payload == command]
-        assert len(at) <= 2, case.why(f"{command!r} sent {len(at)} times")
-        if len(at) == 2:
-            between = got.received[at[0] + 1 : at[1]]
-            readback = readback_letters(command.split(" ")[0])
-            assert any(r.command == readback for r in between), case.why(
-                f"{command!r} sent twice without reading the item back in between"
-            )
+    sent = check_sent(case.why, got, wire, reads_back)
     plan = result.plan
     if plan is None:
         assert not sent, case.why("writes without a plan")
@@ -567,24 +457,6 @@ def check_writes(case: Case, got: Outcome, final: RobotData) -> None:
             )
 
 
-def check_failure(case: Case, got: Outcome) -> None:
-    assert got.failed is not None
-    message = str(got.failed)
-    assert message and "\n" not in message, case.why(f"not one line: {message!r}")
-    result = got.result
-    plan = result.plan
-    if plan is not None:
-        # written, the one unknown, and not written: the plan, each write once.
-        named = [w.command for w in result.written] + [w.command for w in result.not_written]
-        assert sorted(named) == sorted(plan.commands), case.why("result does not cover the plan")
-        if result.failed is not None:
-            assert result.failed in result.not_written, case.why("unknown write not listed")
-    record = audit_log.read()[-1]
-    assert record["error"] == result.error, case.why("audit record is not this push's")
-    assert [w["command"] for w in record["written"]] == [w.command for w in result.written]
-    assert record.get("failed_item") == (result.failed.name if result.failed else None)
-
-
 def check_converged(case: Case, final: RobotData) -> None:
     left = sync_items.diff(CATALOGUE, final, case.target, registers=case.opts.registers)
     assert not left, case.why(f"push returned but the robot still differs: {left[:3]}")
@@ -605,14 +477,10 @@ def check_case(case: Case, deploy: Deploy, tally: Tally) -> None:
         tally.ok += 1
         check_converged(case, final)
         return
-    tally.failed += 1
-    cause = type(got.failed.cause).__name__
-    tally.causes[cause] = tally.causes.get(cause, 0) + 1
-    check_failure(case, got)
-    if not [r for r in got.received if r.is_write]:
-        tally.refused_before_writing += 1
+    count_failure(tally, got)
+    check_failure(case.why, got)
     if isinstance(got.failed.cause, PolicyError):
-        assert not [r for r in got.received if r.is_write], case.why("refused, yet wrote")
+        check_wrote_nothing(case.why, got)
         return
     # The operator stops the robot and the line is mended: the same push finishes.
     case.sim.calm()
@@ -620,14 +488,10 @@ def check_case(case: Case, deploy: Deploy, tally: Tally) -> None:
     again = deploy(case, CALM)
     check_interlock(case, again, tally)
     check_writes(case, again, final)
-    if refused_by_policy(case):
-        assert again.failed is not None and isinstance(again.failed.cause, PolicyError), (
-            case.why(f"the re-run was not refused: {again.failed}")
-        )
-        assert not [r for r in again.received if r.is_write], case.why("refused, yet wrote")
-        return
-    assert again.failed is None, case.why(f"the re-run failed: {again.failed}")
-    check_converged(case, final)
+    refused = refused_by_policy(case)
+    check_rerun(case.why, again, refused=refused)
+    if not refused:
+        check_converged(case, final)
 
 
 def refused_by_policy(case: Case) -> bool:
@@ -638,19 +502,12 @@ def refused_by_policy(case: Case) -> bool:
     return not live.same_programs(target) and not case.opts.allow_reconfigure
 
 
-def seeds(chunk: int) -> Iterator[int]:
-    if ONLY:
-        yield from (ONLY if chunk == 0 else [])
-        return
-    yield from range(BASE + chunk * PER_CHUNK, BASE + (chunk + 1) * PER_CHUNK)
-
-
 @pytest.mark.parametrize("chunk", range(CHUNKS))
 def test_no_unsafe_write_reaches_a_running_robot_and_every_push_converges_or_names_its_writes(
     chunk: int, in_memory: Deploy
 ) -> None:
     tally = Tally()
-    for seed in seeds(chunk):
+    for seed in seeds(chunk, BASE):
         check_case(make_case(seed), in_memory, tally)
     print(json.dumps(tally.__dict__))
     if not ONLY:  # the cases still reach what they are meant to (a generator can rot)

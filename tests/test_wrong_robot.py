@@ -144,3 +144,16 @@ def test_issue_14_backup_reports_a_controller_that_is_not_the_robot_as_failed(
         outcomes["cell"].error or "")
     assert (outcomes["cell"].error or "").endswith(f"'harlsync pull {cell} --new-robot'")
     assert files_of(cell) == before
+
+
+def test_an_epson_robot_is_its_manipulator_and_a_read_says_its_tables_settings_and_points() -> None:
+    from harlsync.families.epson.catalogue import CATALOGUE as EPSON
+    from harlsync.families.epson.model import EpsonData, PointKey, SettingKey, TableKey
+
+    data = EpsonData(robot_type=1, axes=4, model="LS3-B401S", items={
+        TableKey("accel_s", 3): None, SettingKey("weight"): None, SettingKey("box", 5): None,
+        PointKey("point", 1): None,
+    })
+    assert EPSON.robot_identity(data) == {"robot type": data.type_name, "axes": "4",
+                                          "model": "LS3-B401S"}
+    assert EPSON.contents(data, registers=False) == "1 table entry, 2 settings, 1 point"

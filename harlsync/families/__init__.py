@@ -27,6 +27,7 @@ __all__ = ["DEFAULT", "FAMILIES", "get", "names", "simulator_module"]
 FAMILIES: dict[str, str] = {
     "harl-u2": "harl_u2",
     "iai": "iai",
+    "epson": "epson",
 }
 DEFAULT = "harl-u2"
 

@@ -115,6 +115,9 @@ class PlanShape:
     reconfigure: str | None = None
     #: ... and the line a printed plan starts with
     reconfigure_note: str | None = None
+    #: what a printed plan, a push's result and its audit record must tell about
+    #: these writes (Epson: the persistent items it writes to the memory card)
+    notes: list[str] = field(default_factory=list)
 
 
 class Catalogue(Protocol):
@@ -204,6 +207,9 @@ class Family(Protocol):
     directories: tuple[str, ...]
     #: what a push's result and audit record must tell (e.g. positions not in flash)
     deploy_notes: tuple[str, ...]
+    #: the options :meth:`connect` takes beyond port and station (Epson:
+    #: ``reset_function``); the engine refuses any other before connecting
+    connect_options: frozenset[str]
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         """Read and check a project's files (path relative to the project -> content)."""
@@ -244,6 +250,7 @@ class Family(Protocol):
         ...
 
     def connect(self, robot: Robot, port: str | None, station: int | None, *,
-                lock_timeout: float) -> Driver:
-        """Open the robot's line (``port``/``station`` override robot.yaml)."""
+                lock_timeout: float, **options: Any) -> Driver:
+        """Open the robot's line (``port``/``station`` override robot.yaml); ``options``
+        are some of :attr:`connect_options`."""
         ...

@@ -16,11 +16,14 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
-from ..errors import WriteUnconfirmed
+from ..errors import HarlsyncError, InterlockError, WriteUnconfirmed
 
-__all__ = ["confirmed_write"]
+if TYPE_CHECKING:
+    from ..families.base import Status
+
+__all__ = ["confirmed_write", "refuse_unless_idle"]
 
 log = logging.getLogger(__name__)
 
@@ -65,3 +68,26 @@ def confirmed_write(
                 f"write not confirmed: {why}", port=exc.port, station=exc.station,
                 command=exc.command, station_text=exc.station_text,
             ) from exc
+
+
+def refuse_unless_idle(
+    status: Callable[[], Status], lost: WriteUnconfirmed, *, where: str, reading: str
+) -> None:
+    """Read the status now (``before_resend`` of a write that needs an idle robot):
+    return when it is idle, else raise InterlockError, so the write is not sent again.
+
+    ``where`` names the write for the message (port, station, command); ``reading``
+    what the status is (``"the task states"``).
+    """
+    try:
+        now = status()
+    except HarlsyncError as exc:
+        why = f"cannot read {reading} ({exc})"
+    else:
+        if now.idle:
+            return
+        why = f"the robot is not idle: {now.describe()}"
+    raise InterlockError(
+        f"{where}: the write did not take and {why}; not sending it again "
+        "(it needs an idle robot)"
+    ) from lost

@@ -30,6 +30,7 @@ from ..errors import PortBusyError, PortError
 __all__ = [
     "DEFAULT_LOCK_TIMEOUT",
     "FALLBACK_LOCK_DIR",
+    "MODBUS_PORT",
     "SYSTEM_LOCK_DIRS",
     "LineLock",
     "default_lock_dir",
@@ -47,6 +48,8 @@ log = logging.getLogger(__name__)
 DEFAULT_LOCK_TIMEOUT = 10.0
 
 _COM_RE = re.compile(r"(?:\\\\\.\\)?(COM\d+)", re.IGNORECASE)
+#: The Modbus TCP port of a ``modbus://`` URL that names none (the Modbus specification's).
+MODBUS_PORT = 502
 
 
 #: Where the machine keeps lock files, in order of preference (FHS: ``/run/lock``,
@@ -129,8 +132,10 @@ def lock_key(url: str) -> str | None:
     Device paths resolve symlinks (``/dev/serial/by-id/...`` and ``/dev/ttyUSB0``
     are one line), ``COM3`` is upper-cased, ``spy://`` is the port it wraps,
     ``socket://`` and ``rfc2217://`` are host:port without options, the host
-    resolved (``localhost`` and ``127.0.0.1`` are one machine), ``loop://``
-    is private to its process (None), any other URL is taken as it is.
+    resolved (``localhost`` and ``127.0.0.1`` are one machine), ``modbus://`` is
+    the ``socket://`` line of its host:port (port 502 when it has none: one
+    harlsync per controller, whatever speaks to it), ``loop://`` is private to its
+    process (None), any other URL is taken as it is.
     """
     if "://" not in url:
         com = _COM_RE.fullmatch(url)
@@ -143,8 +148,12 @@ def lock_key(url: str) -> str | None:
         return None
     if scheme == "spy":
         return lock_key(parts.netloc + parts.path)
-    if scheme in ("socket", "rfc2217"):
+    if scheme in ("socket", "rfc2217", "modbus"):
         port = port_number(url)
+        if scheme == "modbus":
+            scheme = "socket"  # one TCP endpoint, one controller
+            if port is None and ":" not in parts.netloc.rpartition("]")[2]:
+                port = MODBUS_PORT
         if port is None:  # not a port number: opening it will say so
             return f"{scheme}://{parts.netloc.lower()}"
         return f"{scheme}://{_host_key(parts.hostname or '')}:{port}"
@@ -152,7 +161,8 @@ def lock_key(url: str) -> str | None:
 
 
 def port_number(url: str) -> int | None:
-    """The TCP port of a ``socket://`` or ``rfc2217://`` URL, or None if it has none."""
+    """The TCP port of a ``socket://``, ``rfc2217://`` or ``modbus://`` URL, or None
+    if it has none."""
     try:
         return urlsplit(url).port
     except ValueError:

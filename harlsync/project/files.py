@@ -26,9 +26,12 @@ __all__ = [
     "FileSet",
     "build_serial",
     "build_windows",
+    "canonical_integer",
+    "check_canonical",
     "newer_format",
     "not_canonical",
     "numbers",
+    "robot_items",
     "serial_items",
     "text_of",
     "window_nodes",
@@ -41,6 +44,7 @@ SCHEMAS_DIR = ".schemas"
 Migrations = dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]]
 
 _DIGITS = re.compile(r"[0-9]+")
+_INTEGER = re.compile(r"[-+]?[0-9]+")
 #: Stands for a numbered key too long to be any item (and to convert with int()).
 HUGE = 10**9
 
@@ -53,12 +57,25 @@ class FileSet:
     format: int
     migrations: Migrations = field(default_factory=dict)
 
-    def document(self, kind: str, path: str, items: Iterable[tuple[str, Any]]) -> str:
-        """A file's text: the schema comment, ``format:``, then ``items``."""
+    def document(
+        self, kind: str, path: str, items: Iterable[tuple[str, Any]],
+        comments: Mapping[str, str] | None = None,
+    ) -> str:
+        """A file's text: the schema comment, ``format:``, then ``items``; each
+        top-level key named in ``comments`` gets its comment at the end of its line
+        (``accel:  # volatile: ...``)."""
         up = "../" * path.count("/")
         header = f"# yaml-language-server: $schema={up}{SCHEMAS_DIR}/{kind}.schema.json\n"
         node = y.mapping([("format", y.num(str(self.format))), *items])
-        return y.dump(node, header=header)
+        text = y.dump(node, header=header)
+        if not comments:
+            return text
+        lines = text.split("\n")
+        for i, line in enumerate(lines):
+            key = line.split(":", 1)[0]
+            if key in comments and line.startswith(f"{key}:"):
+                lines[i] = f"{line}  # {comments[key]}"
+        return "\n".join(lines)
 
     def read(
         self, name: str, kind: str, raw: bytes, issues: list[Issue]
@@ -177,6 +194,27 @@ def not_canonical(text: str, one: str) -> str:
             "back so, and a push would never converge)")
 
 
+def check_canonical(
+    issue: Callable[..., None], text: str, canonical: Callable[[str], str], *where: Any
+) -> None:
+    """Report ``text`` through ``issue(message, *where)`` unless it is in its one
+    form: what ``canonical`` makes of it (a ValueError it raises is the message)."""
+    try:
+        one = canonical(text)
+    except ValueError as exc:
+        issue(f"{text}: {exc}", *where)
+        return
+    if one != text:
+        issue(not_canonical(text, one), *where)
+
+
+def canonical_integer(text: str) -> str:
+    """A whole number in its one form: ``"0012"`` -> ``"12"``, ``"+5"`` -> ``"5"``."""
+    if not _INTEGER.fullmatch(text):
+        raise ValueError("not a whole number")
+    return str(int(text))
+
+
 def text_of(value: Any) -> str:
     """A scalar as its exact text (a number as written)."""
     return value.text if isinstance(value, y.Number) else str(value)
@@ -214,6 +252,22 @@ def build_serial(connection: Mapping[str, Any], defaults: SerialSettings) -> Ser
         timeout=float(connection.get("timeout", defaults.timeout)),
         retries=int(connection.get("retries", defaults.retries)),
     )
+
+
+def robot_items(robot: Robot, connection: list[tuple[str, Any]],
+                controller: list[tuple[str, Any]]) -> list[tuple[str, Any]]:
+    """robot.yaml's items for a family that names itself: ``family``, ``name``,
+    ``description`` (when there is one), ``connection``, ``controller`` and
+    ``maintenance_windows``, in that order."""
+    items: list[tuple[str, Any]] = [("family", y.text(robot.family)),
+                                    ("name", y.text(robot.name))]
+    if robot.description is not None:
+        items.append(("description", y.text(robot.description)))
+    return items + [
+        ("connection", y.mapping(connection)),
+        ("controller", y.mapping(controller)),
+        ("maintenance_windows", window_nodes(robot)),
+    ]
 
 
 def window_nodes(robot: Robot) -> Any:

@@ -51,6 +51,7 @@ __all__ = [
     "boolean",
     "dump",
     "mapping",
+    "null",
     "num",
     "parse",
     "quoted",
@@ -354,6 +355,11 @@ def quoted(value: str) -> ScalarNode:
 
 def boolean(value: bool) -> ScalarNode:
     return ScalarNode(BOOL, "true" if value else "false")
+
+
+def null() -> ScalarNode:
+    """Nothing: ``null`` (a setting deliberately left out, such as an unmapped signal)."""
+    return ScalarNode(NULL, "null")
 
 
 def scalar_for(value: str) -> ScalarNode:

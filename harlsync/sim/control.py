@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .device import Simulator
+from .device import Device
 
 __all__ = ["after_writes_verb", "apply_command", "describe"]
 
@@ -26,7 +26,7 @@ def after_writes_verb(busy_verb: str) -> str:
     return f"{busy_verb}-after-writes"
 
 
-def describe(sim: Simulator[Any, Any]) -> str:
+def describe(sim: Device[Any]) -> str:
     with sim.lock:
         return "; ".join(
             f"station {sim.show_station(n)}: {sim.describe(s)}"
@@ -34,7 +34,7 @@ def describe(sim: Simulator[Any, Any]) -> str:
         ) + f"; {sim.writes} writes received"
 
 
-def apply_command(sim: Simulator[Any, Any], line: str) -> str:
+def apply_command(sim: Device[Any], line: str) -> str:
     """Carry out one control command; return what to show.  Raises ValueError."""
     words = line.split()
     if not words:

@@ -17,10 +17,17 @@ whether that station was busy (not idle) when it arrived, so a test can assert
 exactly what was and was not sent, and when.
 
 A family subclasses :class:`Simulator` with what only it knows: its decoder
-(through its :class:`~harlsync.sim.family.SimFamily`), how one request is
+(through its :class:`~harlsync.sim.family.LineFamily`), how one request is
 carried out on one station's state and its reply encoded (:meth:`respond`),
 which requests are writes, when a station is busy, its control verbs, where its
 checksum sits, and how a station is kept in battery-backed memory.
+
+What is not about bytes on a line is :class:`Device`, the base of every
+family's simulator: the stations, the record of what was asked of them, the
+faults, the busy-after-writes schedule, the control verbs and the
+battery-backed memory.  A family whose controllers are reached another way
+(Epson: registers over Modbus TCP, served by its own server through a
+:class:`~harlsync.sim.family.ServedFamily`) subclasses :class:`Device` alone.
 """
 
 from __future__ import annotations
@@ -39,9 +46,9 @@ from .. import families
 from ..errors import ProtocolError
 
 if TYPE_CHECKING:
-    from .family import SimFamily
+    from .family import LineFamily, SimFamily
 
-__all__ = ["Decoder", "Faults", "Received", "Refused", "RequestFrame", "Simulator"]
+__all__ = ["Decoder", "Device", "Faults", "Received", "Refused", "RequestFrame", "Simulator"]
 
 log = logging.getLogger(__name__)
 
@@ -168,6 +175,11 @@ class Faults:
         pairs = (item.partition("=") for item in filter(None, text.split(",")))
         return cls.from_settings({k.strip().replace("-", "_"): v for k, _, v in pairs})
 
+    def chance(self, rate: float) -> bool:
+        """One draw from the seeded generator: True with probability ``rate``
+        (for a family that applies a fault its own way)."""
+        return bool(rate) and self._rng.random() < rate
+
     def shape(
         self, frame: bytes, corrupt: Callable[[bytes], bytes]
     ) -> list[tuple[float, bytes]]:
@@ -192,21 +204,117 @@ class Faults:
         return [(delay, bytes(data))]
 
 
-class Simulator(ABC, Generic[S, F]):
+class Device(ABC, Generic[S]):
+    """Simulated controllers of one family, each a station holding a family state
+    ``S``, whatever carries the requests to them.
+
+    ``busy_after_writes`` makes the written station busy (the family's
+    :attr:`~SimFamily.busy_verb`: a HARL-U2 task in automatic operation, an IAI
+    program running) once that many writes have been carried out (0 = never),
+    so that interlocks can be tested mid-push.  Every request a station takes
+    is recorded in :attr:`received` (:meth:`record`), with whether that station
+    was busy (not idle) when it arrived.
+    """
+
+    #: The family this simulator belongs to: its stations and verbs.
+    family: ClassVar[SimFamily]
+
+    def __init__(
+        self,
+        stations: Mapping[int, S] | S,
+        *,
+        faults: Faults | None = None,
+        busy_after_writes: int = 0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if isinstance(stations, Mapping):
+            self.stations: dict[int, S] = dict(stations)
+        else:
+            self.stations = {self.family.default_station: stations}
+        self.faults = faults or Faults()
+        self.busy_after_writes = busy_after_writes
+        self.received: list[Received] = []
+        #: Called with each :class:`Received` as it is recorded (``harlsync sim --record``).
+        self.listeners: list[Callable[[Received], None]] = []
+        #: writes carried out (a refused write is received, not carried out)
+        self.writes = 0
+        self._clock = clock
+        self.lock = threading.RLock()
+
+    def record(self, request: Received) -> None:
+        """Keep ``request`` in :attr:`received` and tell the listeners."""
+        self.received.append(request)
+        for listener in self.listeners:
+            listener(request)
+
+    def parse_station(self, text: str) -> int:
+        """A station as the family's people write it (``99`` is 99h for IAI).  Raises ValueError."""
+        return families.get(self.family.name).parse_station(text)
+
+    def show_station(self, number: int) -> str:
+        return families.get(self.family.name).format_station(number)
+
+    # --- what the family plugs in -----------------------------------------------------
+
+    @abstractmethod
+    def busy(self, state: S) -> bool:
+        """Whether the station is not idle: a write now is one the interlock forbids."""
+
+    @abstractmethod
+    def control(self, verb: str, state: S, args: Sequence[str]) -> None:
+        """Carry out one of the family's :attr:`~SimFamily.verbs` on a station.
+
+        ``args`` are the words after the station.  Raises ValueError for bad ones.
+        """
+
+    @abstractmethod
+    def describe(self, state: S) -> str:
+        """The station's mode in a few words (``idle``, ``automatic``, ``MANUAL``)."""
+
+    @abstractmethod
+    def save_station(self, station: int, directory: Path) -> None:
+        """Keep the station's battery-backed memory in ``directory``."""
+
+    @abstractmethod
+    def load_station(self, station: int, directory: Path) -> bool:
+        """Restore the station from ``directory``; False when nothing is kept there.
+
+        Raises :class:`~harlsync.errors.ProjectError` for an unreadable memory.
+        """
+
+    # --- for the family and for tests --------------------------------------------------
+
+    def wrote(self, state: S) -> None:
+        """Count one write carried out on ``state``, and make the station busy when
+        :attr:`busy_after_writes` is reached.  A family calls it after each write."""
+        self.writes += 1
+        due = self.busy_after_writes and self.writes >= self.busy_after_writes
+        if due and not self.busy(state):
+            log.info("sim: scheduled switch after %d writes: %s", self.writes,
+                     self.family.busy_verb)
+            self.control(self.family.busy_verb, state, ())
+
+    def writes_received(self, station: int | None = None) -> list[Received]:
+        with self.lock:
+            return [
+                r
+                for r in self.received
+                if r.is_write and (station is None or r.station == station)
+            ]
+
+
+class Simulator(Device[S], Generic[S, F]):
     """A simulated serial line and the stations (robots) on it, each holding a
     family state ``S``; requests arrive as the family's frames ``F``.
 
     ``baudrate`` turns on wire-time emulation: each reply's last byte is due after
     the time the request and the reply take on the wire at that speed, plus
     ``turnaround`` (the servers pace the bytes before it, see
-    :class:`~harlsync.sim.serve.ReplyScheduler`).  ``busy_after_writes`` makes the
-    written station busy (the family's :attr:`~SimFamily.busy_verb`: a HARL-U2
-    task in automatic operation, an IAI program running) once that many writes
-    have been carried out (0 = never), so that interlocks can be tested mid-push.
+    :class:`~harlsync.sim.serve.ReplyScheduler`).
     """
 
     #: The family this simulator belongs to: its decoder, stations and verbs.
-    family: ClassVar[SimFamily]
+    family: ClassVar[LineFamily]
 
     def __init__(
         self,
@@ -219,28 +327,17 @@ class Simulator(ABC, Generic[S, F]):
         busy_after_writes: int = 0,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
-        if isinstance(stations, Mapping):
-            self.stations: dict[int, S] = dict(stations)
-        else:
-            self.stations = {self.family.default_station: stations}
+        super().__init__(stations, faults=faults, busy_after_writes=busy_after_writes,
+                         clock=clock)
         self.baudrate = baudrate
         self.bits_per_char = bits_per_char
         self.turnaround = turnaround
-        self.faults = faults or Faults()
-        self.busy_after_writes = busy_after_writes
-        self.received: list[Received] = []
-        #: Called with each :class:`Received` as it is recorded (``harlsync sim --record``).
-        self.listeners: list[Callable[[Received], None]] = []
         self.ignored = 0  # frames with a bad checksum, for another station, or malformed
-        #: writes carried out (a refused write is received, not carried out)
-        self.writes = 0
         #: bytes received from the client, and reply bytes sent (before the server
         #: writes them): what crossed the line each way
         self.bytes_in = 0
         self.bytes_out = 0
-        self._clock = clock
         self._decoder = self.new_decoder()
-        self.lock = threading.RLock()
 
     # --- the wire ---------------------------------------------------------------------
 
@@ -294,18 +391,9 @@ class Simulator(ABC, Generic[S, F]):
             frame.station, frame.payload, self.command(frame), self.is_write(frame),
             self._clock(), bool(chunks), busy, client,
         )
-        self.received.append(record)
-        for listener in self.listeners:
-            listener(record)
+        self.record(record)
         self.bytes_out += sum(len(chunk) for _, chunk in chunks)
         return [(wire + extra, chunk) for extra, chunk in chunks]
-
-    def parse_station(self, text: str) -> int:
-        """A station as the family's people write it (``99`` is 99h for IAI).  Raises ValueError."""
-        return families.get(self.family.name).parse_station(text)
-
-    def show_station(self, number: int) -> str:
-        return families.get(self.family.name).format_station(number)
 
     @property
     def char_time(self) -> float:
@@ -331,51 +419,5 @@ class Simulator(ABC, Generic[S, F]):
         """The request's name in the record."""
 
     @abstractmethod
-    def busy(self, state: S) -> bool:
-        """Whether the station is not idle: a write now is one the interlock forbids."""
-
-    @abstractmethod
     def corrupt_checksum(self, frame: bytes) -> bytes:
         """``frame`` with a wrong checksum and every other byte as it was."""
-
-    @abstractmethod
-    def control(self, verb: str, state: S, args: Sequence[str]) -> None:
-        """Carry out one of the family's :attr:`~SimFamily.verbs` on a station.
-
-        ``args`` are the words after the station.  Raises ValueError for bad ones.
-        """
-
-    @abstractmethod
-    def describe(self, state: S) -> str:
-        """The station's mode in a few words (``idle``, ``automatic``, ``MANUAL``)."""
-
-    @abstractmethod
-    def save_station(self, station: int, directory: Path) -> None:
-        """Keep the station's battery-backed memory in ``directory``."""
-
-    @abstractmethod
-    def load_station(self, station: int, directory: Path) -> bool:
-        """Restore the station from ``directory``; False when nothing is kept there.
-
-        Raises :class:`~harlsync.errors.ProjectError` for an unreadable memory.
-        """
-
-    # --- for the family and for tests --------------------------------------------------
-
-    def wrote(self, state: S) -> None:
-        """Count one write carried out on ``state``, and make the station busy when
-        :attr:`busy_after_writes` is reached.  A family calls it after each write."""
-        self.writes += 1
-        due = self.busy_after_writes and self.writes >= self.busy_after_writes
-        if due and not self.busy(state):
-            log.info("sim: scheduled switch after %d writes: %s", self.writes,
-                     self.family.busy_verb)
-            self.control(self.family.busy_verb, state, ())
-
-    def writes_received(self, station: int | None = None) -> list[Received]:
-        with self.lock:
-            return [
-                r
-                for r in self.received
-                if r.is_write and (station is None or r.station == station)
-            ]

@@ -1,6 +1,14 @@
 """How the simulator framework reaches a family: the :class:`SimFamily` each
 family's ``sim`` package exports as ``SIM_FAMILY``, found through the registry
-(:func:`harlsync.families.simulator_module`), never by importing a family."""
+(:func:`harlsync.families.simulator_module`), never by importing a family.
+
+A family's controllers are reached one of two ways.  A :class:`LineFamily`
+(HARL-U2, IAI) has a sans-I/O decoder for the bytes on a serial line, and the
+framework serves its :class:`~harlsync.sim.device.Simulator` on a pty, TCP and
+``sim://``.  A :class:`ServedFamily` (Epson: registers over Modbus TCP) serves
+its :class:`~harlsync.sim.device.Device` itself, with the protocol's own
+library, and ``harlsync sim`` asks it to.
+"""
 
 from __future__ import annotations
 
@@ -8,13 +16,22 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 from .. import families
 from ..errors import ProjectError, ProjectFormatError
-from .device import Decoder, RequestFrame, Simulator
+from .device import Decoder, Device, RequestFrame
 
-__all__ = ["SimFamily", "Verb", "project_family", "sim_family"]
+__all__ = [
+    "LineFamily",
+    "ServedFamily",
+    "SimFamily",
+    "SimServer",
+    "Verb",
+    "line_family",
+    "project_family",
+    "sim_family",
+]
 
 
 @dataclass(frozen=True)
@@ -57,17 +74,46 @@ class SimFamily(Protocol):
         :class:`~harlsync.families.base.Family`'s, not repeated here.)"""
         ...
 
+    def generate(self, seed: int, stations: Sequence[int]) -> Device[Any]:
+        """Realistic robots drawn from seeds ``seed``, ``seed + 1`` ..., one a station."""
+        ...
+
+    def from_project(self, project: Path, stations: Sequence[int] | None) -> Device[Any]:
+        """The robot of a project directory, on its own station or on each of
+        ``stations``.  Raises :class:`~harlsync.errors.ProjectError`."""
+        ...
+
+
+@runtime_checkable
+class LineFamily(SimFamily, Protocol):
+    """A family whose controllers sit on a serial line: the framework serves its
+    :class:`~harlsync.sim.device.Simulator` (pty, TCP, ``sim://``)."""
+
     def decoder(self) -> Decoder[RequestFrame]:
         """A new decoder for the requests a client sends this family's controllers."""
         ...
 
-    def generate(self, seed: int, stations: Sequence[int]) -> Simulator[Any, Any]:
-        """A line of realistic robots drawn from seeds ``seed``, ``seed + 1`` ..., one a station."""
+
+class SimServer(Protocol):
+    """A running server of a :class:`ServedFamily`."""
+
+    @property
+    def url(self) -> str:
+        """Where clients connect (``modbus://127.0.0.1:5020``)."""
         ...
 
-    def from_project(self, project: Path, stations: Sequence[int] | None) -> Simulator[Any, Any]:
-        """A line holding the robot of a project directory, on its own station or on
-        each of ``stations``.  Raises :class:`~harlsync.errors.ProjectError`."""
+    def stop(self) -> None: ...
+
+
+@runtime_checkable
+class ServedFamily(SimFamily, Protocol):
+    """A family that serves its simulated controllers itself, over its own
+    protocol (Epson: a Modbus TCP server)."""
+
+    def serve(self, sim: Device[Any], host: str, port: int) -> SimServer:
+        """Serve ``sim`` on ``host:port`` (port 0: a free one) in the background;
+        the server is listening when this returns.  Raises OSError when it cannot
+        listen."""
         ...
 
 
@@ -77,6 +123,19 @@ def sim_family(name: str | None) -> SimFamily:
     Raises :class:`~harlsync.errors.ProjectError` for an unknown family.
     """
     family: SimFamily = families.simulator_module(name).SIM_FAMILY
+    return family
+
+
+def line_family(name: str | None) -> LineFamily:
+    """The simulated side of a family on a serial line (None: the default).
+
+    Raises :class:`~harlsync.errors.ProjectError` for an unknown family, or one
+    whose controllers are not on a serial line.
+    """
+    family = sim_family(name)
+    if not isinstance(family, LineFamily):
+        raise ProjectError(f"the {family.name} simulator is not a serial line: serve it with "
+                           f"harlsync sim --family {family.name} --listen HOST:PORT")
     return family
 
 

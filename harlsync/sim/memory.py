@@ -15,14 +15,14 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from .device import Received, Simulator
+from .device import Device, Received
 
 __all__ = ["keep_state"]
 
 log = logging.getLogger(__name__)
 
 
-def keep_state(sim: Simulator[Any, Any], directory: str | Path) -> None:
+def keep_state(sim: Device[Any], directory: str | Path) -> None:
     """Load ``sim``'s stations from ``directory`` (those saved there) and save each
     after every write it receives.  Raises ProjectError for an unreadable state."""
     root = Path(directory)

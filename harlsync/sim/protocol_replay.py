@@ -24,7 +24,7 @@ from serial.serialutil import SerialException
 
 from ..errors import ProjectError
 from . import protocol_sim
-from .family import sim_family
+from .family import line_family
 from .replay import Replay, ReplayMismatch, load_spy_log
 
 __all__ = ["Serial", "register", "replay_from_url", "unregister"]
@@ -54,7 +54,7 @@ def replay_from_url(url: str) -> Replay:
     except (OSError, ValueError) as exc:
         raise SerialException(f"cannot replay {path}: {exc}") from exc
     try:
-        decoder = sim_family(opts.get("family")).decoder
+        decoder = line_family(opts.get("family")).decoder
     except ProjectError as exc:
         raise SerialException(f"{url}: {exc}") from exc
     return Replay(chunks, timing=opts.get("timing", "1") == "1", decoder=decoder)

@@ -30,8 +30,8 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
 from .. import families
 from ..errors import ProjectError
-from .device import Decoder, Faults, Simulator
-from .family import project_family, sim_family
+from .device import Decoder, Device, Faults, Simulator
+from .family import line_family, project_family, sim_family
 
 __all__ = [
     "Peer",
@@ -93,12 +93,14 @@ def build_simulator(
     turnaround: float = 0.0,
     faults: Faults | None = None,
     busy_after_writes: int = 0,
-) -> Simulator[Any, Any]:
-    """A simulated line: the robot of a project directory, or generated robots.
+) -> Device[Any]:
+    """A simulated controller: the robot of a project directory, or generated robots.
 
     ``family`` defaults to the one the project's robot.yaml names, or to the
-    default family.  Raises :class:`~harlsync.errors.ProjectError` for an
-    unreadable project, an unknown family, or a project of another family.
+    default family.  ``baudrate`` and ``turnaround`` are a serial line's (a
+    :class:`Simulator`'s); other families have no wire time.  Raises
+    :class:`~harlsync.errors.ProjectError` for an unreadable project, an
+    unknown family, or a project of another family.
     """
     if project:
         named = project_family(project)
@@ -110,8 +112,9 @@ def build_simulator(
         sim = sim_side.from_project(Path(project), stations)
     else:
         sim = sim_side.generate(seed or 0, stations or [sim_side.default_station])
-    sim.baudrate = baudrate
-    sim.turnaround = turnaround
+    if isinstance(sim, Simulator):
+        sim.baudrate = baudrate
+        sim.turnaround = turnaround
     sim.faults = faults or Faults()
     sim.busy_after_writes = busy_after_writes
     return sim
@@ -134,7 +137,10 @@ def simulator_from_url(url: str) -> Simulator[Any, Any]:
         return _simulators.get(path)
     opts = {k: v[-1] for k, v in parse_qs(query, keep_blank_values=True).items()}
     family = opts.get("family") or (project_family(path) if path else None)
-    sim_side = sim_family(family)
+    try:
+        sim_side = line_family(family)
+    except ProjectError as exc:
+        raise SerialException(f"{url}: {exc}") from exc
     after_writes = f"{sim_side.busy_verb}_after_writes"
     known = {"family", "seed", "stations", "baud", "turnaround", after_writes}
     unknown = set(opts) - known - set(_FAULT_KEYS)
@@ -150,7 +156,7 @@ def simulator_from_url(url: str) -> Simulator[Any, Any]:
             numbers = [notation.parse_station(s) for s in stations.split(",")] if stations else None
         except ValueError as exc:
             raise ValueError(f"stations: {exc}") from None
-        return build_simulator(
+        sim = build_simulator(
             family=sim_side.name,
             project=path or None,
             seed=int(opts.get("seed", 0)),
@@ -162,6 +168,8 @@ def simulator_from_url(url: str) -> Simulator[Any, Any]:
         )
     except ValueError as exc:
         raise SerialException(f"{url}: bad sim:// option: {exc}") from exc
+    assert isinstance(sim, Simulator)  # a line family's simulator is a line
+    return sim
 
 
 class Serial(SerialBase):

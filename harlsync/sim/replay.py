@@ -41,7 +41,7 @@ from typing import Any, Literal
 
 from ..errors import ProtocolError
 from .device import Decoder, RequestFrame
-from .family import sim_family
+from .family import line_family
 
 __all__ = ["Chunk", "Replay", "ReplayMismatch", "load_spy_log", "parse_spy_log"]
 
@@ -162,7 +162,7 @@ class Replay:
     ) -> None:
         self.chunks = list(chunks)
         self.timing = timing
-        self.new_decoder = decoder or sim_family(None).decoder
+        self.new_decoder = decoder or line_family(None).decoder
         #: the first error; once set, every further write fails
         self.mismatch: ReplayMismatch | None = None
         self._next = 0  # the next chunk to play

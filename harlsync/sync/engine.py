@@ -87,10 +87,24 @@ SNAPSHOT_DIR = history.LOCAL_DIR / "snapshots"
 
 
 def connect(
-    robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0
+    robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0,
+    options: Mapping[str, Any] | None = None,
 ) -> Driver:
-    """Open the robot's line (``port``/``station`` override the robot file)."""
-    return families.get(robot.family).connect(robot, port, station, lock_timeout=lock_timeout)
+    """Open the robot's line (``port``/``station`` override the robot file).
+
+    ``options`` are family options of the connection (``reset_function``), each
+    given when true.  Raises ProjectError, before anything is opened, for one the
+    robot's family does not take.
+    """
+    family = families.get(robot.family)
+    given = {name: value for name, value in (options or {}).items() if value}
+    for name in sorted(set(given) - family.connect_options):
+        takers = [n for n in families.names() if name in families.get(n).connect_options]
+        raise ProjectError(
+            f"--{name.replace('_', '-')}: the {family.name} family has no such option "
+            f"(only {', '.join(takers) or 'no family'}); leave it out"
+        )
+    return family.connect(robot, port, station, lock_timeout=lock_timeout, **given)
 
 
 def catalogue(robot: Robot) -> Catalogue:
@@ -140,10 +154,12 @@ def read_live(
     progress: Progress | None,
     lock_timeout: float,
     idle_check: bool = False,
+    options: Mapping[str, Any] | None = None,
 ) -> LiveRead:
     """Everything the robot holds, read over a line opened and closed for it; with
-    ``idle_check`` its state after the read too (what the interlock reads)."""
-    driver = connect(robot, port, station, lock_timeout=lock_timeout)
+    ``idle_check`` its state after the read too (what the interlock reads).
+    ``options`` are the connection's (see :func:`connect`)."""
+    driver = connect(robot, port, station, lock_timeout=lock_timeout, options=options)
     try:
         warnings = _unfinished(robot, port, station)
         live = driver.read_all(registers=registers, progress=progress)
@@ -281,6 +297,7 @@ def pull(
     allow_dirty: bool = False,
     family: str | None = None,
     new_robot: bool = False,
+    connect_options: Mapping[str, Any] | None = None,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
@@ -294,7 +311,8 @@ def pull(
     refused unless ``allow_dirty``: the pull would overwrite them.  Files an
     earlier pull saved, untouched since, are not edits: this pull takes them over
     (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
-    names the controller family of a first pull (default: HARL-U2).
+    names the controller family of a first pull (default: HARL-U2);
+    ``connect_options`` are the connection's (see :func:`connect`).
     """
     path = Path(path)
     robot = _robot_for(path, port, station, family)
@@ -310,7 +328,7 @@ def pull(
     except ProjectError:
         previous = None
     read = read_live(robot, port, station, registers=robot.keep_registers,
-                     progress=progress, lock_timeout=lock_timeout)
+                     progress=progress, lock_timeout=lock_timeout, options=connect_options)
     live = read.live
     if previous is not None and not new_robot:
         _same_robot(path, catalogue(robot), previous, live, read.driver.label)
@@ -406,13 +424,14 @@ def compare(
     registers: bool = False,
     lock_timeout: float = 10.0,
     idle_check: bool = False,
+    connect_options: Mapping[str, Any] | None = None,
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item; with
     ``idle_check`` also say whether a push would be refused now (robot not idle)."""
     project = load_project(path)
     station = station_number(project.robot.family, station)
     read = read_live(project.robot, port, station, registers=registers, progress=progress,
-                     lock_timeout=lock_timeout, idle_check=idle_check)
+                     lock_timeout=lock_timeout, idle_check=idle_check, options=connect_options)
     things = catalogue(project.robot)
     changes = diff(things, read.live, project.data, registers=registers)
     return Comparison(project, read.driver, read.live, changes, read.warnings, read.busy,
@@ -427,10 +446,11 @@ def plan(
     progress: Progress | None = None,
     registers: bool = False,
     lock_timeout: float = 10.0,
+    connect_options: Mapping[str, Any] | None = None,
 ) -> Plan:
     """The plan a push would carry out now; sends no write."""
     return compare(path, port=port, station=station, progress=progress, registers=registers,
-                   lock_timeout=lock_timeout).plan()
+                   lock_timeout=lock_timeout, connect_options=connect_options).plan()
 
 
 # --- push and rollback --------------------------------------------------------------
@@ -454,6 +474,8 @@ class PushOptions:
     lock_timeout: float = 10.0
     now: datetime | None = None
     progress: Progress | None = None
+    #: the connection's family options (see :func:`connect`): ``reset_function``
+    connect_options: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -635,7 +657,8 @@ def _deploy(
             raise PolicyError(f"nobody to confirm the {action} (no terminal to ask on) and no "
                               f"--yes: nothing was read or written; {review}give --yes")
         _check_window(robot, opts)
-        driver = connect(robot, port, station, lock_timeout=opts.lock_timeout)
+        driver = connect(robot, port, station, lock_timeout=opts.lock_timeout,
+                         options=opts.connect_options)
         result.warnings = _unfinished(robot, port, station)
         if not opts.allow_live_tuning:
             _interlock(driver, robot, "reading the robot")
@@ -688,7 +711,8 @@ def _deploy(
         if result.warnings:
             record["warnings"] = result.warnings
         if result.written or result.failed is not None:
-            result.notes = list(families.get(robot.family).deploy_notes)
+            planned = result.plan.notes if result.plan is not None else []
+            result.notes = [*planned, *families.get(robot.family).deploy_notes]
             if result.notes:
                 record["notes"] = result.notes
         if driver is not None:

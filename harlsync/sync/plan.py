@@ -58,6 +58,9 @@ class Plan:
     reconfiguration_note: str | None = None
     #: Differences no write can fix (timer, memory bit, register counts).
     unwritable: list[str] = field(default_factory=list)
+    #: What the family says of these writes (Epson: the items that go to the
+    #: controller's memory card); a push's result and audit record carry it too.
+    notes: list[str] = field(default_factory=list)
 
     @property
     def reconfigure(self) -> bool:
@@ -80,6 +83,7 @@ class Plan:
             "project_fingerprint": self.project_fingerprint,
             "reconfigure": self.reconfigure,
             "unwritable": self.unwritable,
+            "notes": self.notes,
             "commands": self.commands,
         }
 
@@ -145,4 +149,5 @@ def make_plan(
         reconfiguration=shape.reconfigure,
         reconfiguration_note=shape.reconfigure_note,
         unwritable=shape.unwritable,
+        notes=shape.notes,
     )

@@ -12,6 +12,7 @@ from harlsync.families.epson.handshake import Handshake
 from harlsync.families.epson.profile import RegisterMap
 from harlsync.families.epson.protocol import AccelReal
 from harlsync.families.epson.transport import ModbusLink, ModbusRefused, parse_url
+from harlsync.link.lock import lock_key
 
 from .fakebank import FakeController
 from .modbus_server import ModbusServer, SilentServer, free_port
@@ -114,3 +115,11 @@ def test_a_url_that_is_no_modbus_address_is_one_line(url: str) -> None:
 def test_a_unit_id_out_of_range_is_refused_before_connecting() -> None:
     with pytest.raises(PortError, match=r"unit id 256 out of range \(allowed: 0 to 255\)"):
         ModbusLink(f"modbus://127.0.0.1:{free_port()}", 256)
+
+
+def test_every_name_of_one_controllers_host_and_port_is_one_line_lock() -> None:
+    same = ["modbus://127.0.0.1:502", "modbus://localhost", "modbus://LOCALHOST:502",
+            "socket://127.0.0.1:502", "modbus://[::1]:502"]
+    assert {lock_key(url) for url in same} == {"socket://loopback:502"}
+    assert lock_key("modbus://127.0.0.1:5020") != lock_key("modbus://127.0.0.1:502")
+

@@ -128,5 +128,5 @@ def test_a_project_without_family_is_a_harl_u2_project_and_an_unknown_family_is_
     with pytest.raises(Exception) as info:
         validate_project(project)
     assert str(info.value).endswith(
-        "robot.yaml:3: family: unknown controller family 'fanuc' (known: harl-u2, iai)"
+        "robot.yaml:3: family: unknown controller family 'fanuc' (known: harl-u2, iai, epson)"
     )

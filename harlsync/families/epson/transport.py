@@ -109,8 +109,8 @@ class ModbusLink:
         self.timeout, self.retries = timeout, retries
         #: where the registers are, for messages
         self.label = f"{self.url} unit {unit}"
-        # One lock per controller endpoint, shared with any socket:// line to it.
-        self._lock = LineLock(self.url, lock_path(f"socket://{shown}:{self.port}", lock_dir))
+        # One lock per controller endpoint (lock_key: the socket:// line of host:port).
+        self._lock = LineLock(self.url, lock_path(self.url, lock_dir))
         self._lock.acquire(lock_timeout)
         self._client = ModbusTcpClient(self.host, port=self.port, timeout=timeout,
                                        retries=retries, reconnect_delay=0)

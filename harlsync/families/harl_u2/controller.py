@@ -33,12 +33,12 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable
-from typing import TypeVar
+from typing import Any, TypeVar
 
-from ...errors import ControllerError, HarlsyncError, InterlockError, WriteUnconfirmed
+from ...errors import ControllerError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
 from ...link import Link as SharedLink
-from ...link.confirm import confirmed_write
+from ...link.confirm import confirmed_write, refuse_unless_idle
 from ...link.owner import OnLink
 from ...settings import SerialSettings
 from .link import Link
@@ -141,20 +141,9 @@ class Controller(OnLink):
             what=readback.payload,
         )
 
-    def _idle_before_resend(self, request: Request[Ack], lost: WriteUnconfirmed) -> None:
-        """Raise InterlockError unless LNR, read now, shows every task known and idle."""
-        try:
-            status = self.status()
-        except HarlsyncError as exc:
-            why = f"cannot read the task states ({exc})"
-        else:
-            if status.idle:
-                return
-            why = f"the robot is not idle: {status.describe()}"
-        raise InterlockError(
-            f"port {self.port}, station {self.station}, command {request.payload}: the write did "
-            f"not take and {why}; not sending it again (it needs an idle robot)"
-        ) from lost
+    def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
+        """Raise InterlockError unless the status, read now, shows the robot idle."""
+        refuse_unless_idle(self.status, lost, where=f"port {self.port}, station {self.station}, command {request.payload}", reading="the task states")
 
     # --- programs -----------------------------------------------------------------
 

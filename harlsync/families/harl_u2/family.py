@@ -22,6 +22,7 @@ class HarlU2Family:
     format = layout.FORMAT
     directories = (layout.PROGRAMS_DIR,)
     deploy_notes: tuple[str, ...] = ()
+    connect_options: frozenset[str] = frozenset()
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
@@ -86,7 +87,8 @@ class HarlU2Family:
         return str(station)
 
     def connect(
-        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float
+        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float,
+        **options: Any,
     ) -> Driver:
         from .controller import Controller
         from .driver import HarlU2Driver

@@ -27,11 +27,11 @@ import logging
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
-from ...errors import ControllerError, HarlsyncError, InterlockError, ReplyError, WriteUnconfirmed
+from ...errors import ControllerError, ReplyError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT, Link
-from ...link.confirm import confirmed_write
+from ...link.confirm import confirmed_write, refuse_unless_idle
 from ...link.owner import OnLink
 from ...settings import SerialSettings
 from ..base import Progress
@@ -174,10 +174,26 @@ class Controller(OnLink):
         return self.request(version())
 
     def status(self) -> IaiStatus:
-        """215H and 212H: whether a write may go now, and if not, which bit says no."""
-        system = self.request(system_status())
+        """215H and 212H: whether a write may go now, and if not, which bit says no.
+
+        The two must be answered back to back.  A 212H sent again (its reply lost or
+        garbled) leaves the 215H before it stale by a whole deadline or more, and
+        MANUAL mode or an emergency stop since then are not in 212H's reply: both
+        are read again.  When they cannot be read back to back, that is not idle.
+        """
         pattern = ALL_AXES if self.axes is None else sum(1 << (a - 1) for a in self.axes)
-        axes = self.request(axis_status_request(pattern))
+        rounds = 1 + max(0, self.link.settings.retries)
+        for _ in range(rounds):
+            system = self.request(system_status())
+            retries = self.link.stats.retries
+            axes = self.request(axis_status_request(pattern))
+            if self.link.stats.retries == retries:
+                break
+            log.info("%s: 212H was sent again, so the 215H before it is stale: reading both "
+                     "again", self.label)
+        else:
+            return IaiStatus(system, axes, f"215H and 212H could not be read back to back "
+                                           f"({rounds} times 212H had to be sent again)")
         refusal = system.refusal
         if refusal is None:
             wanted = self.axes if self.axes is not None else tuple(s.axis for s in axes)
@@ -327,16 +343,6 @@ class Controller(OnLink):
             before_resend=lambda lost: self._idle_before_resend(request, lost), what=what,
         )
 
-    def _idle_before_resend(self, request: Request[object], lost: WriteUnconfirmed) -> None:
-        try:
-            status = self.status()
-        except HarlsyncError as exc:
-            why = f"cannot read the status ({exc})"
-        else:
-            if status.idle:
-                return
-            why = f"the robot is not idle: {status.describe()}"
-        raise InterlockError(
-            f"{self.label}, message {request.message_id:03X}H: the write did not take and "
-            f"{why}; not sending it again"
-        ) from lost
+    def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
+        """Raise InterlockError unless the status, read now, shows the robot idle."""
+        refuse_unless_idle(self.status, lost, where=f"{self.label}, message {request.message_id:03X}H", reading="the status")

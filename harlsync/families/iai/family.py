@@ -23,6 +23,7 @@ class IaiFamily:
     format = layout.FORMAT
     directories: tuple[str, ...] = ()
     deploy_notes = (profile.PERSISTENCE_NOTICE,)
+    connect_options: frozenset[str] = frozenset()
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
@@ -62,13 +63,18 @@ class IaiFamily:
         return layout.SCHEMAS.files()
 
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
+        """``options`` are :class:`Robot` fields (``serial``, ``windows``, ``description``,
+        ``keep_registers``, ``options``: model, axes, first, last), over the profile's."""
+        fields: dict[str, Any] = {
+            "serial": SETTINGS,
+            "options": {"model": profile.DEFAULT_MODEL,
+                        "first": profile.DEFAULT_POSITION_RANGE[0],
+                        "last": profile.DEFAULT_POSITION_RANGE[1]},
+        }
+        fields.update(options)
         return Robot(
             family=self.name, name=name, port=port,
-            station=profile.DEFAULT_STATION if station is None else station,
-            serial=SETTINGS,
-            options={"model": profile.DEFAULT_MODEL, "first": profile.DEFAULT_POSITION_RANGE[0],
-                     "last": profile.DEFAULT_POSITION_RANGE[1]},
-            **options,
+            station=profile.DEFAULT_STATION if station is None else station, **fields,
         )
 
     def parse_station(self, text: str) -> int:
@@ -82,7 +88,8 @@ class IaiFamily:
         return f"{station:02X}"
 
     def connect(
-        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float
+        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float,
+        **options: Any,
     ) -> Driver:
         from .controller import Controller
         from .driver import IaiDriver

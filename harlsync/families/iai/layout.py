@@ -33,7 +33,7 @@ the message, so a push always converges.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,13 +43,13 @@ from ...project.files import (
     FileSet,
     build_serial,
     build_windows,
-    not_canonical,
+    check_canonical,
     numbered,
     numbers,
+    robot_items,
     serial_items,
     text_of,
     unique,
-    window_nodes,
 )
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
@@ -155,14 +155,7 @@ def render_robot(robot: Robot) -> str:
                              ("last", y.num(str(options[section][1])))], flow=True))
         for section in VARIABLE_SECTIONS if section in options
     ]
-    items: list[tuple[str, Any]] = [("family", y.text("iai")), ("name", y.text(robot.name))]
-    if robot.description is not None:
-        items.append(("description", y.text(robot.description)))
-    items += [
-        ("connection", y.mapping(connection)),
-        ("controller", y.mapping(controller)),
-        ("maintenance_windows", window_nodes(robot)),
-    ]
+    items = robot_items(robot, connection, controller)
     if robot.keep_registers:  # absent when false: a positions-only robot.yaml as before
         items.append(("keep_registers", y.boolean(True)))
     return FILES.document("robot", "robot.yaml", items)
@@ -381,9 +374,9 @@ def _check_positions(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) ->
             issue(f"{len(coords)} coordinate(s) for {len(axes)} axis/axes "
                             "(allowed: one coordinate per axis in axes)", "coords")
         for i, value in enumerate(coords):
-            _canonical(issue, text_of(value), canonical_coord, "coords", i)
+            check_canonical(issue, text_of(value), canonical_coord, "coords", i)
         for name in ("acc", "dec"):
-            _canonical(issue, text_of(entry[name]), canonical_g, name)
+            check_canonical(issue, text_of(entry[name]), canonical_g, name)
 
 
 def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> None:
@@ -404,19 +397,7 @@ def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) ->
                 issue(f"{called} {show(y.Number(key))} is outside the robot's range "
                       f"(allowed: {first}-{last}, robot.yaml controller.{section})")
             if section in canonical:
-                _canonical(issue, text_of(table[key]), canonical[section])
-
-
-def _canonical(
-    issue: Callable[..., None], text: str, canonical: Callable[[str], str], *where: Any
-) -> None:
-    try:
-        one = canonical(text)
-    except ValueError as exc:
-        issue(f"{text}: {exc}", *where)
-        return
-    if one != text:
-        issue(not_canonical(text, one), *where)
+                check_canonical(issue, text_of(table[key]), canonical[section])
 
 
 def _build_version(data: Mapping[str, Any]) -> Version:

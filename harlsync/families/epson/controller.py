@@ -1,0 +1,517 @@
+"""What an Epson controller can do for harlsync, as methods: the manipulator, every
+setting, the points, status, and writing an item.
+
+A :class:`Controller` sends Remote Control commands through the §6
+:class:`~.handshake.Handshake` over the Modbus TCP :class:`~.transport.ModbusLink`,
+one at a time, and only what the codec can encode (the allow-list).  Each read
+asks for the most a command answers within the map's words: 59 (an AccelS entry,
+6 response words), or its two halves 60 and 61 when RC+ assigned fewer.  A
+table entry that is not registered (error 2006) or a point that is not defined
+(2004) is absent; any other error response raises
+:class:`~harlsync.errors.ControllerError` with its §7.1 meaning.
+
+A write is the item's write sequence(s): one command, or a split or Rn
+sequence whose commands go out back to back (:meth:`.Handshake.execute_sequence`
+reads the interlock before the first).  A point is one 1204 per coordinate that
+changed, then one of 1206-1214 per attribute.  Each sequence is confirmed
+(:func:`~harlsync.link.confirm.confirmed_write`): a command taken but not
+answered in time (the handshake's deadline, or Modbus silence) is a lost
+reply; what it was meant to change is read back, and it is sent once more only
+when that still holds the old value and the robot is idle.
+
+The interlock (:meth:`Controller.status`) is one read of the controller's
+outputs: Running, Paused, EStopOn and Error at 0, the function idle, and a map
+that has Running, Paused and EStopOn at all.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from functools import partial
+from typing import Any, TypeVar
+
+from ...errors import (
+    ControllerError,
+    LinkTimeout,
+    ProjectError,
+    WriteUnconfirmed,
+)
+from ...link.confirm import confirmed_write, refuse_unless_idle
+from ..base import Progress
+from . import profile
+from . import protocol as p
+from .handshake import Handshake, RemoteStatus
+from .layout import Connection
+from .model import (
+    ATTRIBUTE_OF,
+    ATTRIBUTES,
+    KINDS,
+    EpsonData,
+    Key,
+    Point,
+    PointKey,
+    SettingKey,
+    TableKey,
+    axes_of_type,
+    coordinate_names,
+)
+from .protocol import ErrorReply, Limits, Request, WriteSequence
+from .transport import ModbusLink
+
+__all__ = ["Controller", "WriteStep", "item_keys"]
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+A = TypeVar("A")
+B = TypeVar("B")
+
+#: Error responses that mean "not there": a table entry never registered, a Box
+#: area the controller calls undefined, a point not defined.
+_ABSENT = {
+    "table": frozenset({profile.TABLE_NOT_REGISTERED}),
+    "box": frozenset({0x2009}),
+    "point": frozenset({profile.UNDEFINED_POINT}),
+}
+#: The longest model name read, in characters (2154 sends one a call).
+MODEL_NAME_MAX = 64
+
+
+@dataclass(frozen=True)
+class WriteStep:
+    """One write sequence of an item, how to read back what it changes, and which
+    part of the item's value that is."""
+
+    sequence: WriteSequence
+    readback: Callable[[], object]
+    part: Callable[[Any], object]
+
+
+def item_keys(axes: int) -> Iterator[TableKey | SettingKey]:
+    """Every setting of a robot with ``axes`` axes, in settings.yaml's order."""
+    for kind in KINDS.values():
+        if kind.numbers is None:
+            yield SettingKey(kind.key)
+            continue
+        first, last = kind.numbers
+        if kind.key == "jrange":
+            last = axes
+        for n in range(first, last + 1):
+            yield TableKey(kind.key, n) if kind.table else SettingKey(kind.key, n)
+
+
+def _whole(value: Any) -> object:
+    return value
+
+
+def _coord_of(axis: int, point: Point) -> object:
+    return point.coords[axis]
+
+
+def _attribute_of(name: str, point: Point) -> object:
+    return point.attribute(name)
+
+
+def _words(request: Request[object]) -> str:
+    return " ".join(f"{w:04X}" for w in request.command.words)
+
+
+class Controller:
+    """One Epson controller behind a handshake.
+
+    ``robot_type`` (a 2153 type name) is what robot.yaml says the robot is, checked
+    before anything is read; ``axes`` its axes when robot.yaml gives them.
+    ``first``/``last`` bound the points read.
+    """
+
+    def __init__(
+        self,
+        handshake: Handshake,
+        *,
+        robot_type: str | None = None,
+        axes: int | None = None,
+        first: int = profile.DEFAULT_POINT_RANGE[0],
+        last: int = profile.DEFAULT_POINT_RANGE[1],
+    ) -> None:
+        self.handshake = handshake
+        self.map = handshake.map
+        self.robot_type = robot_type
+        self.configured_axes = axes
+        self._axes: int | None = None
+        self.first, self.last = first, last
+        self._link: ModbusLink | None = None
+
+    @classmethod
+    def open(
+        cls,
+        url: str,
+        unit: int,
+        line: Connection,
+        *,
+        lock_timeout: float,
+        reset_function: bool = False,
+        **options: Any,
+    ) -> Controller:
+        """Connect (taking the line lock) and make the Remote Control function
+        usable (§6.2).  With ``reset_function``, a function found in use or halted
+        is reset first (§6.5.2), and only while Running is 0.
+
+        Raises :class:`~harlsync.errors.PortError`, PortBusyError, LinkTimeout, and
+        InterlockError for a reset asked of a robot that runs.
+        """
+        link = ModbusLink(url, unit, timeout=line.timeout, retries=line.retries,
+                          lock_timeout=lock_timeout)
+        try:
+            handshake = Handshake(link, line.register_map, poll_interval=line.poll_interval,
+                                  deadline=line.deadline)
+            handshake.start()
+            if reset_function:
+                status = handshake.status()
+                if status.function_idle and not status["ExtError"]:
+                    log.info("%s: the function is idle: no reset needed", link.label)
+                else:
+                    handshake.reset_function()
+            controller = cls(handshake, **options)
+        except BaseException:
+            link.close()
+            raise
+        controller._link = link
+        return controller
+
+    @property
+    def label(self) -> str:
+        return self.handshake.label
+
+    def close(self) -> None:
+        """Disconnect and give the line lock back, when :meth:`open` made the link."""
+        if self._link is not None:
+            self._link.close()
+
+    # --- the one place commands go through -------------------------------------------
+
+    def _fits(self, request: Request[object]) -> bool:
+        return (request.command_words <= self.map.command_words
+                and request.response_words <= self.map.response_words)
+
+    def _error(self, request: Request[object], reply: ErrorReply) -> ControllerError:
+        return ControllerError(
+            f"{reply.code:04X}", port=self.label, command=str(request),
+            message=f"controller answered error {p.describe_code(reply.code, reply.detail)} "
+                    f"({reply.remedy})",
+        )
+
+    def _execute(self, request: Request[T]) -> T | ErrorReply:
+        try:
+            return self.handshake.execute(request)
+        except ValueError as exc:  # more words than RC+ assigned: nothing was sent
+            raise ProjectError(f"{exc}: assign more words in RC+ and in robot.yaml "
+                               "connection.map") from exc
+
+    def ask(self, request: Request[T]) -> T:
+        """Send one read and return its value; an error response raises ControllerError.
+
+        Raises ProjectError for a read the register map has too few words for.
+        """
+        reply = self._execute(request)
+        if isinstance(reply, ErrorReply):
+            raise self._error(request, reply)
+        return reply
+
+    def ask_if_there(self, request: Request[T], absent: frozenset[int]) -> T | None:
+        """As :meth:`ask`, but None for an error response whose code is in ``absent``."""
+        reply = self._execute(request)
+        if isinstance(reply, ErrorReply):
+            if reply.code in absent:
+                return None
+            raise self._error(request, reply)
+        return reply
+
+    def _either(self, full: Request[T], first: Request[A], second: Request[B],
+                join: Callable[[A, B], T], absent: frozenset[int] = frozenset()) -> T | None:
+        """``full`` when the map has the words for it, else its two halves joined."""
+        if self._fits(full):
+            return self.ask_if_there(full, absent)
+        a = self.ask_if_there(first, absent)
+        return None if a is None else join(a, self.ask(second))
+
+    # --- the robot ---------------------------------------------------------------------
+
+    def status(self) -> RemoteStatus:
+        """The interlock: one read of the controller's outputs."""
+        return self.handshake.status()
+
+    def read_model_name(self) -> str:
+        """2154, one character a call, until the status says it was the last."""
+        chars: list[str] = []
+        start = True
+        while len(chars) < MODEL_NAME_MAX:
+            answer = self.ask(p.read_model_name_char(start))
+            start = False
+            if answer.status == 2:
+                break
+            chars.append(answer.char)
+            if answer.status == 0:
+                break
+        return "".join(chars)
+
+    def identify(self) -> tuple[int, int, str]:
+        """(manipulator type, axes, model name).  Raises ProjectError when the type
+        is not robot.yaml's, or says no axis count and robot.yaml gives none."""
+        code = self.ask(p.read_robot_type())
+        name = p.ROBOT_TYPES[code]
+        if self.robot_type is not None and self.robot_type != name:
+            raise ProjectError(
+                f"{self.label}: the controller reports a {name} robot (2153), robot.yaml "
+                f"controller.type says {self.robot_type}: the wrong controller, or robot.yaml "
+                "is wrong")
+        axes = axes_of_type(code)
+        if axes is None:
+            if self.configured_axes is None:
+                raise ProjectError(
+                    f"{self.label}: the controller reports a {name} robot (2153), which says "
+                    "nothing of its axes: give them in robot.yaml controller.axes (4 or 6)")
+            axes = self.configured_axes
+        elif self.configured_axes is not None and self.configured_axes != axes:
+            raise ProjectError(
+                f"{self.label}: the controller reports a {name} robot ({axes} axes), "
+                f"robot.yaml controller.axes says {self.configured_axes}")
+        self._axes = axes
+        return code, axes, self.read_model_name()
+
+    @property
+    def axes(self) -> int:
+        if self._axes is None:
+            self.identify()
+        assert self._axes is not None
+        return self._axes
+
+    # --- reads -------------------------------------------------------------------------
+
+    def read_table(self, kind: str, n: int) -> Any:
+        """One table entry, None when it is not registered."""
+        absent = _ABSENT["table"]
+        if kind == "accel":
+            return self.ask_if_there(p.read_accel(n), absent)
+        if kind in ("accel_s", "accel_r"):
+            s = kind == "accel_s"
+            return self._either(
+                p.read_accel_s(n) if s else p.read_accel_r(n),
+                p.read_accel_s_accel(n) if s else p.read_accel_r_accel(n),
+                p.read_accel_s_decel(n) if s else p.read_accel_r_decel(n), p.AccelReal, absent)
+        if kind == "speed":
+            return self.ask_if_there(p.read_speed(n), absent)
+        if kind == "speed_s":
+            return self._either(p.read_speed_s(n), p.read_speed_s_speed_depart(n),
+                                p.read_speed_s_approach(n),
+                                lambda sd, a: p.SpeedReal(*sd, a), absent)
+        return self.ask_if_there(p.read_speed_r(n), absent)
+
+    def _limits(self, full: Callable[[int], Request[Limits]],
+                lower: Callable[[int], Request[str]], upper: Callable[[int], Request[str]],
+                absent: frozenset[int] = frozenset()) -> tuple[Limits, ...] | None:
+        found = []
+        for axis in range(3):
+            limits = self._either(full(axis), lower(axis), upper(axis), Limits, absent)
+            if limits is None:
+                return None
+            found.append(limits)
+        return tuple(found)
+
+    def read_setting(self, kind: str, n: int | None = None) -> Any:
+        """One setting (``n`` for a numbered one); None for a Box the controller
+        calls undefined."""
+        if kind == "arch":
+            assert n is not None
+            return self._either(p.read_arch(n), p.read_arch_depart(n), p.read_arch_approach(n),
+                                p.Distances)
+        if kind == "fine":
+            if self._fits(p.read_fine(self.axes)):
+                return self.ask(p.read_fine(self.axes))
+            return self.ask(p.read_fine_123()) + self.ask(p.read_fine_456(self.axes))
+        if kind == "weight":
+            return self.ask(p.read_weight())
+        if kind == "inertia":
+            return self._either(p.read_inertia(), p.read_inertia_load(),
+                                p.read_inertia_eccentricity(), p.Inertia)
+        if kind == "tool":
+            return self.ask(p.read_tool())
+        if kind == "box":
+            assert n is not None
+            area = n
+            return self._limits(lambda a: p.read_box(area, a), lambda a: p.read_box_lower(area, a),
+                                lambda a: p.read_box_upper(area, a), _ABSENT["box"])
+        if kind in ("plane", "local"):
+            assert n is not None
+            read = p.read_plane if kind == "plane" else p.read_local
+            return tuple(self.ask(read(n, c)) for c in range(self.axes))
+        if kind == "xylim":
+            return self._limits(p.read_xylim, p.read_xylim_lower, p.read_xylim_upper)
+        if kind == "jrange":
+            assert n is not None
+            return self._either(p.read_jrange(n), p.read_jrange_lower(n), p.read_jrange_upper(n),
+                                p.PulseLimits)
+        if kind == "base":
+            return tuple(self.ask(p.read_base(c)) for c in range(self.axes))
+        if kind == "limz":
+            return self.ask(p.read_limz())
+        raise KeyError(f"no setting {kind!r}")
+
+    def read_point(self, number: int) -> Point | None:
+        """One point: 1222 per axis, then 1215-1220; None when it is not defined."""
+        first = self.ask_if_there(p.read_point_coord(number, 0), _ABSENT["point"])
+        if first is None:
+            return None
+        coords = (first, *(self.ask(p.read_point_coord(number, axis))
+                           for axis in range(1, self.axes)))
+        attributes = {name: self.ask(p.read_point_attribute(name, number))
+                      for name in ATTRIBUTES}
+        return Point(coords, **attributes)
+
+    def read_item(self, key: Key) -> Any:
+        """One item's value (None when it is absent)."""
+        if isinstance(key, TableKey):
+            return self.read_table(key.kind, key.number)
+        if isinstance(key, PointKey):
+            return self.read_point(key.number)
+        return self.read_setting(key.kind, key.number)
+
+    def read_all(self, progress: Progress | None = None) -> EpsonData:
+        """The manipulator, every setting and every defined point of the range.
+
+        ``progress(done, total)`` after each item.
+        """
+        code, axes, model = self.identify()
+        data = EpsonData(code, axes, model, unwritable=self.map.unwritable)
+        keys: list[Key] = [*item_keys(axes)]
+        keys += [PointKey("point", n) for n in range(self.first, self.last + 1)]
+        total = len(keys) + 1
+        if progress is not None:
+            progress(1, total)
+        for done, key in enumerate(keys, 2):
+            value = self.read_item(key)
+            if value is not None:
+                data.items[key] = value
+            if progress is not None:
+                progress(done, total)
+        return data
+
+    # --- writes ------------------------------------------------------------------------
+
+    def write_steps(self, key: Key, value: Any, fields: tuple[str, ...] = ()) -> list[WriteStep]:
+        """The write sequences that make ``key`` hold ``value`` (a point: its
+        ``fields``, coordinates first), each with its read-back.
+
+        Raises ValueError for a value the wire cannot carry.
+        """
+        if isinstance(key, PointKey):
+            return self._point_steps(key.number, value, fields)
+        return [WriteStep(self._sequence(key, value), partial(self.read_item, key), _whole)]
+
+    def _sequence(self, key: TableKey | SettingKey, value: Any) -> WriteSequence:
+        cw = self.map.command_words
+        n = key.number
+        kind = key.kind
+        if isinstance(key, TableKey):
+            assert n is not None
+            if kind == "accel":
+                return p.register_accel(n, value.accel, value.decel)
+            if kind == "accel_s":
+                return p.register_accel_s(n, value, command_words=cw)
+            if kind == "accel_r":
+                return p.register_accel_r(n, value, command_words=cw)
+            if kind == "speed":
+                return p.register_speed(n, value)
+            if kind == "speed_s":
+                return p.register_speed_s(n, value, command_words=cw)
+            return p.register_speed_r(n, value)
+        numbered: dict[str, Callable[[int], WriteSequence]] = {
+            "arch": lambda n: p.set_arch(n, value, command_words=cw),
+            "box": lambda n: p.set_box(n, value, command_words=cw),
+            "plane": lambda n: p.set_plane(n, value),
+            "local": lambda n: p.set_local(n, value),
+            "jrange": lambda n: p.set_jrange(n, value, command_words=cw),
+        }
+        if kind in numbered:
+            assert n is not None
+            return numbered[kind](n)
+        single: dict[str, Callable[[], WriteSequence]] = {
+            "fine": lambda: p.set_fine(value, command_words=cw),
+            "weight": lambda: p.set_weight(value.weight, value.arm_length),
+            "inertia": lambda: p.set_inertia(value, command_words=cw),
+            "tool": lambda: p.select_tool(value),
+            "xylim": lambda: p.set_xylim(value, command_words=cw),
+            "base": lambda: p.set_base(value),
+            "limz": lambda: p.set_limz(value),
+        }
+        return single[kind]()
+
+    def _point_steps(self, number: int, point: Point, fields: tuple[str, ...]) -> list[WriteStep]:
+        names = coordinate_names(len(point.coords))
+        steps = []
+        for name in fields:
+            if name in names:
+                axis = names.index(name)
+                steps.append(WriteStep(p.set_point_coord(number, axis, point.coords[axis]),
+                                       partial(self._point_coord, number, axis),
+                                       partial(_coord_of, axis)))
+            else:
+                attribute = ATTRIBUTE_OF[name]
+                steps.append(WriteStep(
+                    p.set_point_attribute(attribute, number, point.attribute(attribute)),
+                    partial(self.ask, p.read_point_attribute(attribute, number)),
+                    partial(_attribute_of, attribute)))
+        return steps
+
+    def _point_coord(self, number: int, axis: int) -> str | None:
+        return self.ask_if_there(p.read_point_coord(number, axis), _ABSENT["point"])
+
+    @staticmethod
+    def command_text(steps: list[WriteStep]) -> str:
+        """The commands of ``steps`` as sent, in order: each run of one command number
+        as the number, the manual's name and each command's words in hex split by
+        ``|``; runs split by ``;``::
+
+            53 register AccelS table entry: 0035 0003 0001 871B 0003 0D40
+            600 set Box, one axis (Rn): 0258 0005 0000 ... | 0258 0005 0001 ... | ...
+        """
+        runs: list[list[Request[None]]] = []
+        for request in (r for step in steps for r in step.sequence):
+            if runs and runs[-1][0].number == request.number:
+                runs[-1].append(request)
+            else:
+                runs.append([request])
+        return "; ".join(
+            f"{run[0].number} {p.COMMANDS[run[0].number].name}: "
+            + " | ".join(_words(r) for r in run) for run in runs)
+
+    def write(self, steps: list[WriteStep], value: Any, old: Any) -> None:
+        """Send each step and confirm it.
+
+        Raises InterlockError (nothing sent) when the robot is not idle before a
+        sequence, or before sending one again after a lost reply;
+        WriteUnconfirmed when the read-back is neither the new nor the old value;
+        ControllerError for an error response.
+        """
+        for step in steps:
+            self._confirmed(step, step.part(value), None if old is None else step.part(old))
+
+    def _confirmed(self, step: WriteStep, wanted: object, old: object) -> None:
+        sequence = step.sequence
+
+        def send() -> None:
+            try:
+                reply = self.handshake.execute_sequence(sequence)
+            except LinkTimeout as exc:  # the handshake's deadline, or Modbus silence
+                raise WriteUnconfirmed(
+                    f"{sequence.what}: the write may or may not have taken ({exc.message})",
+                    port=self.label, command=exc.command) from exc
+            if reply is not None:
+                request = next(r for r in sequence if r.number == reply.number)
+                raise self._error(request, reply)
+
+        confirmed_write(send, step.readback, wanted, old, what=sequence.what,
+                        before_resend=partial(refuse_unless_idle, self.status,
+                                              where=f"{self.label}, {sequence.what}",
+                                              reading="the status"))

@@ -1,0 +1,64 @@
+"""An Epson controller as the engine's :class:`~harlsync.families.base.Driver`: read
+everything, read or write one item (a table entry, a setting, the fields of a
+point a plan writes), and the interlock (the handshake's :class:`RemoteStatus`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ...errors import ProjectError
+from ..base import Progress
+from .catalogue import CATALOGUE, Key, PointWrite
+from .controller import Controller, WriteStep
+from .handshake import RemoteStatus
+from .model import EpsonData, PointKey
+
+__all__ = ["EpsonDriver"]
+
+
+class EpsonDriver:
+    def __init__(self, controller: Controller) -> None:
+        self.controller = controller
+        self.label = controller.label
+
+    def read_all(self, *, registers: bool, progress: Progress | None = None) -> EpsonData:
+        """Every setting and point (an Epson robot has no runtime data to add)."""
+        return self.controller.read_all(progress)
+
+    def status(self) -> RemoteStatus:
+        return self.controller.status()
+
+    def read(self, key: Key) -> Any:
+        if isinstance(key, PointWrite):
+            return self.controller.read_point(key.number)
+        return self.controller.read_item(key)
+
+    def _steps(self, key: Key, value: Any) -> list[WriteStep]:
+        """Raises ProjectError for a value the wire cannot carry, or a write the
+        register map has too few command words for."""
+        try:
+            if isinstance(key, PointWrite):
+                return self.controller.write_steps(PointKey("point", key.number), value,
+                                                   key.fields)
+            return self.controller.write_steps(key, value)
+        except ValueError as exc:
+            raise ProjectError(f"{CATALOGUE.describe(key)}: cannot be written: {exc}") from exc
+
+    def write(self, key: Key, value: Any, old: Any = None, *, needs_idle: bool = True) -> None:
+        """Write one item; every Epson write needs an idle robot, so ``needs_idle``
+        changes nothing."""
+        if old is None:
+            old = self.read(key)
+        self.controller.write(self._steps(key, value), value, old)
+
+    def command(self, key: Key, value: Any) -> str:
+        """The commands a write sends, by number and name, with each one's words in
+        hex: ``53 register AccelS table entry: 0035 0003 0001 871B 0003 0D40``
+        (see :meth:`Controller.command_text`)."""
+        return Controller.command_text(self._steps(key, value))
+
+    def unsafe(self, key: Key) -> bool:
+        return True  # every Epson write needs an idle robot
+
+    def close(self) -> None:
+        self.controller.close()

@@ -1,0 +1,425 @@
+"""What one simulated Epson controller holds: the robot's settings and points, as
+the Remote Control commands read and write them, and what the robot is doing.
+
+Values are kept as the controller carries them on the wire, not as text:
+real values in thousandths (``100.123`` is ``100123``), JRange limits in
+encoder pulses, percentages and attributes as integers.  The state is a plain
+dataclass: a test builds one field by field, :meth:`SimState.generate` draws a
+realistic robot from a seed, and :meth:`SimState.from_memory` restores what
+:meth:`SimState.memory` kept.
+
+Volatility, as the manual says (digest §2): the six speed/accel tables
+(§9.1) and LimZ (§10.26) are cleared when the controller is turned off or
+reset (:meth:`SimState.power_cycle`); everything else here is kept (the
+memory card, or nothing stated).  What the robot is doing (Running, Paused
+...) is not kept: a controller comes up idle.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+
+from .. import profile
+
+__all__ = [
+    "DEFAULT_ARCH",
+    "MAX_POINT",
+    "SCARA",
+    "SIX_AXIS",
+    "Limits",
+    "Point",
+    "SimState",
+]
+
+#: 2153 manipulator types the simulator builds robots of (the manual's codes).
+SCARA = 3
+SIX_AXIS = 5
+#: Types whose Weight has an arm length (§10.7: SCARA robots, the RS series too).
+_ARM_LENGTH_TYPES = (3, 6)
+#: The highest point number a robot holds **(simulator)**: P0-P999.
+MAX_POINT = 999
+#: Arch 0-6 as a new controller has them, depart and approach distance in
+#: thousandths of a mm **(simulator)**: the SPEL defaults, 30 mm to 90 mm.
+DEFAULT_ARCH: Mapping[int, tuple[int, int]] = {n: (30_000 + 10_000 * n,) * 2 for n in range(7)}
+_DEFAULT_FINE = 10
+_DEFAULT_WEIGHT = (2_000, 0)  # 2 kg, no arm length
+_DEFAULT_INERTIA = (5, 0)  # 0.005 kg m², no eccentricity
+_TABLES = ("accel", "accel_s", "accel_r", "speed", "speed_s", "speed_r")
+
+_SCARA_MODELS = ("G6-551S", "G3-301S", "LS6-B602S", "T6-B602S", "GX8-A652S", "LS3-B401S")
+_SIX_AXIS_MODELS = ("C4-A601S", "C8-A1401S", "VT6-A901S", "C12-A1401S", "C4-A901S")
+
+#: (lower, upper) of one axis: a Box area's or XYLim's in thousandths, a JRange
+#: joint's in pulses.
+Limits = tuple[int, int]
+
+
+@dataclass
+class Point:
+    """One point: a coordinate a robot axis (thousandths; X, Y, Z, U, then V, W on
+    a six-axis robot) and its attributes as 1215-1220 read them."""
+
+    coords: tuple[int, ...]
+    hand: int = 1  # 0 Lefty, 1 Righty
+    elbow: int = 0  # 0 Above, 1 Below
+    wrist: int = 0  # 0 NoFlip, 1 Flip
+    j4flag: int = 0
+    j6flag: int = 0
+    local: int = 0  # 0: none
+
+    def problems(self, axes: int) -> list[str]:
+        out = []
+        if len(self.coords) != axes:
+            out.append(f"{len(self.coords)} coordinates on a {axes}-axis robot")
+        for name, value, high in (("hand", self.hand, 1), ("elbow", self.elbow, 1),
+                                  ("wrist", self.wrist, 1), ("j4flag", self.j4flag, 1),
+                                  ("j6flag", self.j6flag, 127), ("local", self.local, 15)):
+            if not 0 <= value <= high:
+                out.append(f"{name} {value} out of range (0 to {high})")
+        out += [f"coordinate {c} does not fit 32 bits" for c in self.coords if not _fits(c)]
+        return out
+
+
+@dataclass
+class SimState:
+    """One simulated Epson controller and its robot.
+
+    Tables hold only their registered entries (an entry never registered answers
+    2006); Box, Plane and Local hold the numbers that are not all 0, the rest
+    read as 0 (off, as a new controller has them).  Raises :class:`ValueError`
+    naming every problem for a robot the controller could not hold.
+    """
+
+    robot_type: int = SCARA
+    model: str = _SCARA_MODELS[0]
+    # --- volatile: cleared by a power cycle ------------------------------------------
+    #: table 0-15 -> (accel %, decel %)
+    accel: dict[int, tuple[int, int]] = field(default_factory=dict)
+    #: table -> (accel, decel) in thousandths of mm/s² (AccelS) or deg/s² (AccelR)
+    accel_s: dict[int, tuple[int, int]] = field(default_factory=dict)
+    accel_r: dict[int, tuple[int, int]] = field(default_factory=dict)
+    #: table -> (speed, depart speed, approach speed) %
+    speed: dict[int, tuple[int, int, int]] = field(default_factory=dict)
+    #: table -> (speed, depart speed, approach speed) in thousandths of mm/s
+    speed_s: dict[int, tuple[int, int, int]] = field(default_factory=dict)
+    #: table -> speed in thousandths of deg/s
+    speed_r: dict[int, int] = field(default_factory=dict)
+    limz: int = 0
+    # --- kept ------------------------------------------------------------------------
+    #: arch 0-6 -> (depart, approach) in thousandths of a mm
+    arch: dict[int, tuple[int, int]] = field(default_factory=lambda: dict(DEFAULT_ARCH))
+    #: one word a joint; empty: the default for every joint
+    fine: tuple[int, ...] = ()
+    #: (hand weight, arm length), thousandths
+    weight: tuple[int, int] = _DEFAULT_WEIGHT
+    #: (load inertia, eccentricity), thousandths
+    inertia: tuple[int, int] = _DEFAULT_INERTIA
+    tool: int = 0
+    #: area 1-15 -> (X, Y, Z) limits
+    boxes: dict[int, tuple[Limits, Limits, Limits]] = field(default_factory=dict)
+    #: plane 1-15 -> a coordinate an axis
+    planes: dict[int, tuple[int, ...]] = field(default_factory=dict)
+    locals: dict[int, tuple[int, ...]] = field(default_factory=dict)
+    #: X, Y, Z limits; all 0: off
+    xylim: tuple[Limits, Limits, Limits] = ((0, 0), (0, 0), (0, 0))
+    #: one (lower, upper) pulse pair a joint; empty: the default range
+    jrange: tuple[Limits, ...] = ()
+    #: a coordinate an axis; empty: all 0
+    base: tuple[int, ...] = ()
+    points: dict[int, Point] = field(default_factory=dict)
+    # --- what the robot is doing: a controller comes up idle ---------------------------
+    running: bool = False
+    paused: bool = False
+    estop: bool = False
+    error: bool = False
+    safeguard: bool = False
+
+    def __post_init__(self) -> None:
+        if self.robot_type not in profile.ROBOT_AXES:
+            raise ValueError(f"manipulator type {self.robot_type}: the simulator builds "
+                             f"types {sorted(profile.ROBOT_AXES)} (3 SCARA, 5 6-AXIS, 6 RS)")
+        axes = self.axes
+        self.fine = self.fine or (_DEFAULT_FINE,) * axes
+        self.jrange = self.jrange or _default_jrange(axes)
+        self.base = self.base or (0,) * axes
+        problems = self.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    @property
+    def axes(self) -> int:
+        """4 (SCARA, RS) or 6: coordinates of a point, Plane, Local, Base; joints."""
+        return profile.ROBOT_AXES[self.robot_type]
+
+    @property
+    def has_arm_length(self) -> bool:
+        return self.robot_type in _ARM_LENGTH_TYPES
+
+    def problems(self) -> list[str]:
+        """Why the controller could not hold this robot, one line each; empty if it can."""
+        axes, out = self.axes, []
+        if not self.model or not all(0x20 <= ord(c) <= 0x7E for c in self.model):
+            out.append(f"model name {self.model!r}: printable ASCII, at least one character")
+        for name in _TABLES:
+            table: dict[int, object] = getattr(self, name)
+            out += [f"{name} table {t}: not 0 to 15" for t in table if not 0 <= t <= 15]
+        out += [f"accel table {t}: {v} (each 1 or more)" for t, v in self.accel.items()
+                if min(v) < 1]
+        out += [f"speed table {t}: {v} (each 1 to 100)" for t, v in self.speed.items()
+                if not all(1 <= s <= 100 for s in v)]
+        for name in ("accel_s", "accel_r", "speed_s"):
+            table2: dict[int, tuple[int, ...]] = getattr(self, name)
+            out += [f"{name} table {t}: {v} (each more than 0)" for t, v in table2.items()
+                    if min(v) <= 0 or not all(_fits(x) for x in v)]
+        out += [f"speed_r table {t}: {v} (more than 0)" for t, v in self.speed_r.items()
+                if not 0 < v < 2**31]
+        if sorted(self.arch) != list(range(7)):
+            out.append(f"arch {sorted(self.arch)}: 0 to 6, each once")
+        if len(self.fine) != axes or not all(0 <= f <= 0xFFFF for f in self.fine):
+            out.append(f"fine {self.fine}: {axes} words")
+        if not 0 <= self.tool <= 15:
+            out.append(f"tool {self.tool}: 0 to 15")
+        out += [f"box {n}: not 1 to 15" for n in self.boxes if not 1 <= n <= 15]
+        for name in ("planes", "locals"):
+            frames: dict[int, tuple[int, ...]] = getattr(self, name)
+            out += [f"{name} {n}: not 1 to 15" for n in frames if not 1 <= n <= 15]
+            out += [f"{name} {n}: {len(c)} coordinates on a {axes}-axis robot"
+                    for n, c in frames.items() if len(c) != axes]
+        if len(self.jrange) != axes:
+            out.append(f"jrange: {len(self.jrange)} joints on a {axes}-axis robot")
+        if len(self.base) != axes:
+            out.append(f"base: {len(self.base)} coordinates on a {axes}-axis robot")
+        for number, point in sorted(self.points.items()):
+            if not 0 <= number <= MAX_POINT:
+                out.append(f"point {number}: not 0 to {MAX_POINT}")
+            out += [f"point {number}: {p}" for p in point.problems(axes)]
+        return out
+
+    # --- what the robot is doing ----------------------------------------------------------
+
+    def not_idle(self) -> list[str]:
+        """The profile's interlock signals at 1, by their names; empty when idle."""
+        return [name for name, on in (("Running", self.running), ("Paused", self.paused),
+                                      ("EStopOn", self.estop), ("Error", self.error)) if on]
+
+    @property
+    def idle(self) -> bool:
+        return not self.not_idle()
+
+    def signals(self) -> dict[str, bool]:
+        """The controller's standard Remote outputs: Ready (started up, no task
+        running or paused, no error, no emergency stop) and the five states."""
+        return {
+            "Ready": not (self.running or self.paused or self.error or self.estop),
+            "Running": self.running,
+            "Paused": self.paused,
+            "Error": self.error,
+            "EStopOn": self.estop,
+            "SafeguardOn": self.safeguard,
+        }
+
+    def stop(self) -> None:
+        """Idle: no task running or paused, no emergency stop, error or open safeguard."""
+        self.running = self.paused = self.estop = self.error = self.safeguard = False
+
+    def power_cycle(self) -> None:
+        """The controller turned off and on: the six tables and LimZ cleared
+        (§9.1, §10.26), the robot idle; everything else kept."""
+        for name in _TABLES:
+            getattr(self, name).clear()
+        self.limz = 0
+        self.stop()
+
+    # --- battery-backed memory -------------------------------------------------------------
+
+    def memory(self) -> dict[str, object]:
+        """What survives a power cycle, as JSON data (the tables and LimZ do not)."""
+        return {
+            "robot_type": self.robot_type,
+            "model": self.model,
+            "arch": {str(n): list(v) for n, v in sorted(self.arch.items())},
+            "fine": list(self.fine),
+            "weight": list(self.weight),
+            "inertia": list(self.inertia),
+            "tool": self.tool,
+            "boxes": {str(n): [list(a) for a in v] for n, v in sorted(self.boxes.items())},
+            "planes": {str(n): list(v) for n, v in sorted(self.planes.items())},
+            "locals": {str(n): list(v) for n, v in sorted(self.locals.items())},
+            "xylim": [list(a) for a in self.xylim],
+            "jrange": [list(a) for a in self.jrange],
+            "base": list(self.base),
+            "points": {str(n): {"coords": list(p.coords), "hand": p.hand, "elbow": p.elbow,
+                                "wrist": p.wrist, "j4flag": p.j4flag, "j6flag": p.j6flag,
+                                "local": p.local}
+                       for n, p in sorted(self.points.items())},
+        }
+
+    @classmethod
+    def from_memory(cls, doc: Mapping[str, object]) -> SimState:
+        """The controller :meth:`memory` kept, as it comes up after a power cycle:
+        tables empty, LimZ 0, idle.  Raises ValueError, KeyError or TypeError for
+        a document that is not one."""
+
+        def mapping(key: str) -> Mapping[str, object]:
+            value = doc[key]
+            if not isinstance(value, Mapping):
+                raise TypeError(f"{key} is not a mapping")
+            return value
+
+        def ints(value: object) -> tuple[int, ...]:
+            if not isinstance(value, list):
+                raise TypeError(f"{value!r} is not a list")
+            return tuple(_integer(v) for v in value)
+
+        def pairs(value: object) -> tuple[Limits, ...]:
+            if not isinstance(value, list):
+                raise TypeError(f"{value!r} is not a list")
+            return tuple(_pair(ints(v)) for v in value)
+
+        points = {}
+        for number, item in mapping("points").items():
+            if not isinstance(item, Mapping):
+                raise TypeError(f"point {number} is not a mapping")
+            points[int(number)] = Point(ints(item["coords"]), *(
+                _integer(item[k]) for k in ("hand", "elbow", "wrist", "j4flag", "j6flag",
+                                            "local")))
+        return cls(
+            robot_type=_integer(doc["robot_type"]),
+            model=str(doc["model"]),
+            arch={int(n): _pair(ints(v)) for n, v in mapping("arch").items()},
+            fine=ints(doc["fine"]),
+            weight=_pair(ints(doc["weight"])),
+            inertia=_pair(ints(doc["inertia"])),
+            tool=_integer(doc["tool"]),
+            boxes={int(n): _triple(pairs(v)) for n, v in mapping("boxes").items()},
+            planes={int(n): ints(v) for n, v in mapping("planes").items()},
+            locals={int(n): ints(v) for n, v in mapping("locals").items()},
+            xylim=_triple(pairs(doc["xylim"])),
+            jrange=pairs(doc["jrange"]),
+            base=ints(doc["base"]),
+            points=points,
+        )
+
+    def copy(self) -> SimState:
+        """An independent copy (the tables and points are not shared)."""
+        return replace(
+            self, accel=dict(self.accel), accel_s=dict(self.accel_s),
+            accel_r=dict(self.accel_r), speed=dict(self.speed), speed_s=dict(self.speed_s),
+            speed_r=dict(self.speed_r), arch=dict(self.arch), boxes=dict(self.boxes),
+            planes=dict(self.planes), locals=dict(self.locals),
+            points={n: replace(p) for n, p in self.points.items()},
+        )
+
+    # --- a realistic robot -----------------------------------------------------------------
+
+    @classmethod
+    def generate(cls, seed: int, *, robot_type: int | None = None,
+                 point_range: tuple[int, int] = (0, 119)) -> SimState:
+        """A robot drawn from ``seed``: a SCARA (4 axes) or a six-axis arm unless
+        ``robot_type`` says which, some entries of each table registered, the
+        settings a plant leaves (arches, Fine, Weight, boxes, planes, locals,
+        limits), and points in runs with gaps over ``point_range`` (by default
+        beyond the P0-P99 a project backs up)."""
+        rng = random.Random(seed)
+        kind = robot_type if robot_type is not None else rng.choice((SCARA, SIX_AXIS))
+        axes = profile.ROBOT_AXES[kind]
+        scara = axes == 4
+
+        def real(low: float, high: float) -> int:
+            return rng.randint(round(low * 1000), round(high * 1000))
+
+        def some(count: tuple[int, int], numbers: Iterable[int]) -> list[int]:
+            pool = list(numbers)
+            return sorted(rng.sample(pool, rng.randint(*count)))
+
+        state = cls(
+            robot_type=kind,
+            model=rng.choice(_SCARA_MODELS if scara else _SIX_AXIS_MODELS),
+            accel={t: (rng.randint(10, 120), rng.randint(10, 120)) for t in some((2, 8), range(16))},
+            accel_s={t: (real(100, 25000), real(100, 25000)) for t in some((1, 6), range(16))},
+            accel_r={t: (real(100, 5000), real(100, 5000)) for t in some((0, 4), range(16))},
+            speed={t: (rng.randint(1, 100), rng.randint(1, 100), rng.randint(1, 100))
+                   for t in some((2, 8), range(16))},
+            speed_s={t: (real(10, 2000), real(10, 2000), real(10, 2000))
+                     for t in some((1, 6), range(16))},
+            speed_r={t: real(10, 1000) for t in some((0, 4), range(16))},
+            limz=0 if rng.random() < 0.5 else -real(0, 80),
+            arch={**DEFAULT_ARCH, **{a: (real(0, 100), real(0, 100)) for a in some((0, 3), range(7))}},
+            fine=tuple(rng.choice((10, 10, 10, 20, 50, 100, 1000)) for _ in range(axes)),
+            weight=(real(0.5, 6), real(0, 150) if scara else 0),
+            inertia=(real(0.001, 0.1), real(0, 150)),
+            tool=rng.choice((0, 0, 1, 2, 3)),
+            boxes={n: _box(rng) for n in some((0, 3), range(1, 16))},
+            planes={n: _frame(rng, axes) for n in some((0, 2), range(1, 16))},
+            locals={n: _frame(rng, axes) for n in some((0, 4), range(1, 16))},
+            xylim=((0, 0), (0, 0), (0, 0)) if rng.random() < 0.6 else (
+                (-real(100, 600), real(100, 600)), (-real(100, 600), real(100, 600)),
+                (-real(0, 300), real(0, 100))),
+            jrange=tuple((-rng.randint(500_000, 4_000_000), rng.randint(500_000, 7_000_000))
+                         for _ in range(axes)),
+            base=(0,) * axes if rng.random() < 0.7 else _frame(rng, axes),
+        )
+        first, last = point_range
+        number = first + rng.randrange(3)
+        while number <= last:
+            for n in range(number, min(number + rng.randint(2, 20), last + 1)):
+                state.points[n] = _point(rng, axes, sorted(state.locals))
+            number = max(state.points) + 1 + rng.randint(1, 15)
+        return state
+
+
+def _fits(value: int) -> bool:
+    return -(2**31) <= value < 2**31
+
+
+def _integer(value: object) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{value!r} is not a whole number")
+    return value
+
+
+def _pair(values: tuple[int, ...]) -> tuple[int, int]:
+    if len(values) != 2:
+        raise ValueError(f"{list(values)} is not a pair")
+    return values[0], values[1]
+
+
+def _triple(values: tuple[Limits, ...]) -> tuple[Limits, Limits, Limits]:
+    if len(values) != 3:
+        raise ValueError(f"{len(values)} axes, X, Y and Z needed")
+    return values[0], values[1], values[2]
+
+
+def _default_jrange(axes: int) -> tuple[Limits, ...]:
+    return tuple((-2_000_000, 2_000_000) for _ in range(axes))
+
+
+def _box(rng: random.Random) -> tuple[Limits, Limits, Limits]:
+    def axis() -> Limits:
+        low = rng.randint(-400_000, 300_000)
+        return low, low + rng.randint(10_000, 300_000)
+
+    return axis(), axis(), axis()
+
+
+def _frame(rng: random.Random, axes: int) -> tuple[int, ...]:
+    """X, Y, Z in thousandths of a mm, then U (V, W) in thousandths of a degree."""
+    xyz = tuple(rng.randint(-300_000, 300_000) for _ in range(3))
+    return xyz + tuple(rng.choice((0, 0, rng.randint(-180_000, 180_000)))
+                       for _ in range(axes - 3))
+
+
+def _point(rng: random.Random, axes: int, locals_defined: list[int]) -> Point:
+    if axes == 4:
+        coords: tuple[int, ...] = (rng.randint(-500_000, 500_000), rng.randint(100_000, 600_000),
+                                   rng.randint(-200_000, 0), rng.randint(-180_000, 180_000))
+        return Point(coords, hand=rng.randint(0, 1),
+                     local=rng.choice([0, 0, 0, *locals_defined]))
+    coords = (rng.randint(-700_000, 700_000), rng.randint(-700_000, 700_000),
+              rng.randint(-100_000, 900_000),
+              *(rng.randint(-180_000, 180_000) for _ in range(3)))
+    return Point(coords, hand=rng.randint(0, 1), elbow=rng.randint(0, 1),
+                 wrist=rng.randint(0, 1), j4flag=rng.choice((0, 0, 1)),
+                 j6flag=rng.choice((0, 0, 0, 1, 2)), local=rng.choice([0, 0, 0, *locals_defined]))
