@@ -94,8 +94,20 @@ SMALL_CONFIG = Config(
     registers=64,
 )
 
+#: About 500 exchanges (535): issue 15's mid-size robot, its programs as generated.
+MEDIUM_CONFIG = Config(
+    start=ProgramArea(1, 32),
+    main=ProgramArea(3, 64),
+    sub=ProgramArea(4, 32),
+    hand=ProgramArea(4, 16),
+    timers=16,
+    memory_bits=128,
+    registers=64,
+)
+
 ROBOTS: dict[str, Callable[[], SimState]] = {
     "default": lambda: SimState.generate(1, DEFAULT_CONFIG),
+    "medium": lambda: SimState.generate(1, MEDIUM_CONFIG),
     "maximum": lambda: SimState.generate(1, MAX_CONFIG),
     "max-full": every_step_used,
     # Every step used, smaller configurations: quick stand-ins for max-full.

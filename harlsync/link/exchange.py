@@ -11,7 +11,7 @@ How this works::
       v
     write  request.encode(station)  -------------------------------------->  controller
       |                                                                         |
-    read in short polls into the codec's decoder  <-----------------------  reply
+    wait for the reply's bytes, feed them to the codec's decoder  <-------  reply
       |   bad frame, noise            : log, keep reading (the reply may follow)
       |   our own request, echoed     : skip (2-wire RS-485 adapters echo what we send)
       |   frame for another station   : ignore
@@ -46,6 +46,27 @@ number at most), so the link counts these frames, and from the second in one
 session (:data:`UNREQUESTED_LIMIT`) it fails every read and sends nothing more:
 a :class:`LinkError` that names the port and station and says to fix the line.
 
+Waiting.  The link sleeps until bytes arrive or a deadline passes, never in
+polls.  On a port with a descriptor (a device, a pty, ``socket://``) it waits in
+``poll``, woken by the bytes.  A reply paced by a slow line comes a byte or a few
+at a time (a 30-byte reply at 9600 baud is some 30 arrivals, a 2 KiB IAI reply
+2,000), and waking for each costs more CPU than the rest of the exchange.  So
+when the recent exchanges of the same kind (the same command, and for IAI the
+same longest reply) say that the reply's last bytes come later than
+:data:`MIN_SLEEP` after the request, the link sleeps until just before the
+soonest of them, then waits in ``poll`` for the rest::
+
+    send                      (asleep: the reply is on the wire)       last bytes
+    |-------------------------------------------------------------|~~~~|
+                                                         wake 1 (timer)  wake 2 (poll)
+
+A reply as long as the shortest recent one is two wake-ups, one longer is read
+as it comes.  Only a reply quicker than all of them (an END after full steps) is
+taken late, when the timer wakes, and the next of its kind is timed afresh.  Fast
+lines and whole replies are read as they come, one wake-up a piece.  Ports
+without a descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read
+with pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
+
 Errors.  Whatever a pyserial call on the port raises (SerialException, OSError,
 but also termios.error from a pty that went away, or TypeError from a port
 closed under it) leaves the link as :class:`PortError`, one line that names the
@@ -64,10 +85,12 @@ import os
 import select
 import threading
 import time
+from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from math import ceil
 from types import TracebackType
-from typing import Generic, TypeVar
+from typing import Generic, NamedTuple, TypeVar
 
 import serial
 
@@ -75,7 +98,7 @@ from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyErro
 from ..settings import SerialSettings
 from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
-from .port import POLL_INTERVAL, SerialPort, describe, fileno, gone_hint, open_port
+from .port import SerialPort, describe, fileno, gone_hint, open_port
 
 __all__ = ["Link", "LinkStats"]
 
@@ -88,6 +111,16 @@ MAX_REASONS = 500
 #: line repeats replies, and a repeated reply may pass for the answer to the next
 #: request.
 UNREQUESTED_LIMIT = 2
+#: Seconds before the last bytes of a reply are due that the link stops sleeping and
+#: waits for them in ``poll`` (on top of half a character time): a timer may wake a
+#: little late, and the reply comes when it comes.
+WAKE_GUARD = 0.0001
+#: The shortest sleep worth a timer.  Below it the few arrivals of a reply cost less
+#: than waking from a sleep with cold caches (about 0.1 ms of CPU on a VM).
+MIN_SLEEP = 0.005
+#: Exchanges of a kind whose durations the link keeps: it sleeps for the quickest,
+#: so that a reply is taken late only when it is quicker than all of them.
+RECENT = 64
 
 
 @dataclass
@@ -166,7 +199,8 @@ class Link(Generic[F]):
         self.late_window = late_window
         self.stats = LinkStats()
         self._port: SerialPort | None = None
-        self._fd: int | None = None  # the port's file descriptor, when select() can wait on it
+        self._fd: int | None = None  # the port's file descriptor, when poll() can wait on it
+        self._poll = select.poll()
         self._line_lock = LineLock(url, self.lock_path)
         self._lock = threading.RLock()
         self._decoder: Decoder[F] = codec.decoder()
@@ -177,6 +211,14 @@ class Link(Generic[F]):
         self._unrequested = 0  # frames nobody asked for since open()
         self._replied_at = 0.0  # when the last reply was taken, for the codec's reply_gap
         self._sent = b""  # the last frame sent, to know its echo
+        # Pacing the wait for a reply (module docstring, "Waiting").
+        self._char = _char_time(self.settings)
+        self._guard = self._char / 2 + WAKE_GUARD
+        self._took: dict[_Kind, _Took] = {}
+        self._frame_bytes = 0  # bytes of the last frame taken from the decoder
+        self._sent_at = 0.0  # when the request was sent
+        self._got_at = 0.0  # when bytes were last read
+        self._polled = False  # ... and whether poll woke for them (not a timer)
 
     # --- open / close ---------------------------------------------------------------
 
@@ -201,6 +243,9 @@ class Link(Generic[F]):
                 raise
             self._port = port
             self._fd = fileno(port)
+            self._poll = select.poll()
+            if self._fd is not None:
+                self._poll.register(self._fd, select.POLLIN)
             self._decoder = self.codec.decoder()
             self._rx.clear()
             self._dropped_seen = 0
@@ -350,26 +395,70 @@ class Link(Generic[F]):
             ) from exc
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, " while sending") from exc
-        return time.monotonic()
+        self._sent_at = time.monotonic()
+        return self._sent_at
 
-    def _read(self, port: SerialPort, station: int, command: str, *, block: bool) -> bytes:
-        """Whatever input is there; with ``block``, wait up to one poll for a byte."""
+    def _take(self, port: SerialPort, station: int, command: str, *, ready: bool = False) -> bytes:
+        """Whatever input is there, without waiting.  ``ready``: ``poll`` said there
+        is some, so at least a byte is read (or pyserial says the port is gone)."""
         try:
-            if block and self._fd is not None:
-                # One select, then one read of all that came: a blocking read(1) and a
-                # second read of the rest would cost two more syscalls per wake-up.
-                select.select([self._fd], [], [], POLL_INTERVAL)
-                block = False
             waiting = port.in_waiting
-            data: bytes = port.read(waiting or 1) if waiting or block else b""
+            data: bytes = port.read(waiting or 1) if waiting or ready else b""
+        except Exception as exc:  # any failure of pyserial; see the module docstring
+            raise self._gone(exc, station, command, "") from exc
+        return self._fed(data)
+
+    def _wait(self, port: SerialPort, station: int, command: str, until: float) -> bytes:
+        """Wait until input arrives or ``until`` (``time.monotonic``) passes; what came.
+
+        A port without a descriptor is read with pyserial's timeout instead, at most
+        :data:`~harlsync.link.port.POLL_INTERVAL` at a time.
+        """
+        if self._fd is None:
+            return self._read_polled(port, station, command)
+        try:  # poll, not select: a fleet's descriptors may pass select's 1024
+            ready = self._poll.poll(max(0.0, until - time.monotonic()) * 1000)
+        except Exception as exc:  # a descriptor closed under us; see the module docstring
+            raise self._gone(exc, station, command, "") from exc
+        if not ready:
+            return b""
+        data = self._take(port, station, command, ready=True)
+        self._polled = True
+        return data
+
+    def _read_polled(self, port: SerialPort, station: int, command: str) -> bytes:
+        """A port without a descriptor: wait up to one pyserial timeout for a byte,
+        then take all that came."""
+        try:
+            waiting = port.in_waiting
+            data: bytes = port.read(waiting or 1)
             if data and not waiting and port.in_waiting:  # the rest of what arrived with it
                 data += port.read(port.in_waiting)
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, "") from exc
+        return self._fed(data)
+
+    def _fed(self, data: bytes) -> bytes:
+        """``data`` counted and given to the decoder."""
         if data:
+            self._got_at = time.monotonic()
+            self._polled = False
             self._rx += data
             self._decoder.feed(data)
         return data
+
+    def _learn(self, kind: _Kind) -> None:
+        """Remember how long the exchange just done took, when that is known: when poll
+        woke for the reply's last bytes.  A reply found whole on waking from the timer
+        was shorter than the recent ones and may have waited: the next of its kind is
+        timed afresh, by poll."""
+        if self._polled:
+            sent, got = len(self._sent), self._frame_bytes
+            took = self._took.get(kind) or self._took.setdefault(kind, _Took())
+            took.turnaround.append(self._got_at - self._sent_at - (sent + got) * self._char)
+            took.longer.append(got - sent)
+        else:
+            self._took.pop(kind, None)
 
     def _gone(self, exc: Exception, station: int, command: str, doing: str) -> PortError:
         return PortError(
@@ -413,7 +502,10 @@ class Link(Generic[F]):
                 del self._owed[station]
                 self._overdue[station] = self._overdue.get(station, 0) + count
                 count = 0
-            data = self._read(port, station, command, block=wait and count > 0)
+            if wait and count:
+                data = self._wait(port, station, command, due)
+            else:
+                data = self._take(port, station, command)
             self._discard_frames(station)
             if not data and not (wait and count):
                 break
@@ -436,6 +528,7 @@ class Link(Generic[F]):
             consumed = self._log_rx()
             if frame is None:
                 return
+            self._frame_bytes = len(consumed)
             if self._sent and consumed.endswith(self._sent):
                 self._echo(frame)
                 continue
@@ -520,6 +613,12 @@ class Link(Generic[F]):
         failure = _Failure(f"no reply within {timeout:g} s")
         command = request.payload
         shown = self.codec.station_text(station)
+        kind = _Kind(command[:3], getattr(request, "reply_bytes", None))
+        took = self._took.get(kind)
+        # When to look first: just before the reply's last bytes are due, if the
+        # recent exchanges of this kind say when that is.
+        look = self._sent_at + took.shortest(len(self._sent), self._char) - self._guard if took \
+            else 0.0
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
@@ -535,12 +634,19 @@ class Link(Generic[F]):
                     self._stray(station, frame.payload)
                     continue
                 self._count_noise()
-                self._replied_at = time.monotonic()
+                self._learn(kind)
+                self._replied_at = self._got_at
                 return _Reply(value)
-            if time.monotonic() >= deadline:
+            now = time.monotonic()
+            if now >= deadline:
                 self._count_noise()
                 return failure
-            self._read(port, station, command, block=True)
+            pause, look = min(look, deadline) - now, 0.0
+            if pause >= MIN_SLEEP:
+                time.sleep(pause)
+                if self._take(port, station, command):
+                    continue
+            self._wait(port, station, command, deadline)
 
 
 @dataclass(frozen=True)
@@ -548,6 +654,40 @@ class _Reply(Generic[T]):
     """The value an attempt got (a reply may decode to None, so it is wrapped)."""
 
     value: T
+
+
+class _Took:
+    """How the recent exchanges of one kind went: the turnaround (from the request's
+    last byte to the reply's first, on the line) and how many bytes the reply was
+    longer than its request (the same for ``LNM 0 9`` and ``LNM 0 10``: the reply
+    repeats the step number).  Times on the line are at robot.yaml's baud rate."""
+
+    def __init__(self) -> None:
+        self.turnaround: deque[float] = deque(maxlen=RECENT)
+        self.longer: deque[int] = deque(maxlen=RECENT)
+
+    def __bool__(self) -> bool:
+        return bool(self.turnaround)
+
+    def shortest(self, request: int, char: float) -> float:
+        """Seconds from sending a ``request``-byte request to the last byte of its
+        reply, for the quickest of the recent exchanges."""
+        return min(self.turnaround) + (2 * request + min(self.longer)) * char
+
+
+class _Kind(NamedTuple):
+    """Requests whose exchanges take about as long as each other's: the same command,
+    and the same longest reply where the request gives one (IAI's ``reply_bytes``:
+    a 22DH of 16 positions is not one of 24)."""
+
+    command: str
+    longest: int | None
+
+
+def _char_time(settings: SerialSettings) -> float:
+    """Seconds a character takes on the line: start bit, data bits, parity, stop bits."""
+    bits = 1 + settings.bytesize + (settings.parity != "N") + ceil(settings.stopbits)
+    return bits / max(settings.baudrate, 1)
 
 
 def _hex(data: bytes) -> str:

@@ -19,6 +19,7 @@ import os
 import re
 import socket
 import stat
+import sys
 import time
 from collections.abc import Iterator
 from typing import ClassVar, Protocol
@@ -42,6 +43,14 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+try:
+    import fcntl
+    import termios
+except ImportError:  # Windows: pyserial's in_waiting for sockets
+    _FIONREAD: int | None = None
+else:
+    _FIONREAD = termios.FIONREAD
 
 #: pyserial read timeout: how often the link looks at its own deadline.
 POLL_INTERVAL = 0.02
@@ -75,6 +84,8 @@ def open_port(url: str, settings: SerialSettings, write_timeout: float) -> Seria
             port.port = url
         else:
             port = serial.serial_for_url(url, do_not_open=True)
+            if _PosixSerial is not None and type(port) is _PosixSerial:
+                port.__class__ = _DevicePort
     except Exception as exc:  # ValueError for an unknown scheme, SerialException for a bad URL
         raise open_error(url, exc) from exc
     try:
@@ -173,15 +184,28 @@ def open_error(url: str, exc: Exception) -> LinkError:
 
 
 class _SocketPort(protocol_socket.Serial):  # type: ignore[misc]
-    """pyserial's ``socket://`` port, whose close() does not sleep.
+    """pyserial's ``socket://`` port, whose close() does not sleep and which says
+    how many bytes are waiting.
 
     pyserial sleeps 0.3 s after every close, "in case of quick reconnects, give
     the server some time": every command, and every robot of a backup, paid it.
     Here only a reconnect to the same address within that time waits for the rest.
+
+    pyserial's ``in_waiting`` is 1 when anything is waiting, so a reader that reads
+    what is waiting took a reply a byte per wake-up; here it is the byte count
+    (``FIONREAD``, where the platform has it).
     """
 
     REOPEN_GAP = 0.3
     _closed_at: ClassVar[dict[str, float]] = {}  # address -> when last closed
+
+    @property
+    def in_waiting(self) -> int:
+        if _FIONREAD is None or not self.is_open:
+            waiting: int = super().in_waiting
+            return waiting
+        count = fcntl.ioctl(self.fileno(), _FIONREAD, b"\0\0\0\0")
+        return int.from_bytes(count, sys.byteorder)
 
     def open(self) -> None:
         address = lock_key(self.portstr or "") or ""
@@ -202,6 +226,49 @@ class _SocketPort(protocol_socket.Serial):  # type: ignore[misc]
             self._socket = None
             self._closed_at[lock_key(self.portstr or "") or ""] = time.monotonic()
         self.is_open = False
+
+
+if os.name == "posix":
+    from serial.serialposix import Serial as _PosixSerial
+
+    class _DevicePort(_PosixSerial):  # type: ignore[misc]
+        """pyserial's port on a device path (a USB adapter, a pty), written and read
+        with one system call each where one does.
+
+        pyserial's ``write`` waits in ``select`` after every ``os.write`` and its
+        ``read`` before every ``os.read``, with a timer object each: the link only
+        reads what ``in_waiting`` or ``poll`` says is there and writes frames the
+        kernel's buffer takes whole, so those calls cost more than the I/O.  Anything
+        else (a partial write, a read that finds less than asked, an error) goes to
+        pyserial's own, which waits, times out and words its errors as before.
+        """
+
+        def write(self, data: bytes, /) -> int:
+            if self.is_open:
+                try:
+                    done = os.write(self.fd, data)
+                except OSError:
+                    done = 0  # pyserial's write tells EAGAIN from a port gone
+                if done == len(data):
+                    return done
+                data = data[done:]
+            written: int = super().write(data)
+            return written
+
+        def read(self, size: int = 1) -> bytes:
+            data = b""
+            if self.is_open:
+                try:
+                    data = os.read(self.fd, size)
+                except OSError:
+                    pass  # nothing there, or the port gone: pyserial's read tells which
+                if len(data) == size:
+                    return data
+            rest: bytes = super().read(size - len(data))
+            return data + rest
+
+else:
+    _PosixSerial = None
 
 
 def fileno(port: object) -> int | None:

@@ -1,0 +1,90 @@
+"""The link's paced wait (harlsync/link/exchange.py, "Waiting"): asleep while a reply
+is on the wire, it still takes every reply whole and answers every request with its
+own reply, whatever the reply's length against the recent ones of its kind.
+
+Over a real pty and a real TCP socket to a simulator that emulates a 9600-baud line
+(each reply's bytes paced at the character rate), so that the link does sleep.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+from simline import SMALL, Act, ScriptedSim, slow
+
+from harlsync.families.harl_u2.link import Link
+from harlsync.families.harl_u2.model import ProgramType, Step
+from harlsync.families.harl_u2.protocol import commands as cmd
+from harlsync.families.harl_u2.sim import SimState
+from harlsync.link import SerialSettings
+from harlsync.link.exchange import MIN_SLEEP
+from harlsync.sim.serve import PtyServer, TcpServer
+
+LINE = SerialSettings(baudrate=9600, timeout=0.5, retries=3)
+
+#: Steps of MAIN 0: long ones, then a short one (END), a long one, and empty steps.
+STEPS = {
+    0: Step("MOVE", ("P001", "S100")),
+    1: Step("MOVE", ("P002", "S100")),
+    2: Step("MOVE", ("P003", "S100")),
+    3: Step("END"),
+    4: Step("WAIT", ("DI02", "ON")),
+}
+
+
+@pytest.fixture
+def sim() -> ScriptedSim:
+    state = SimState.generate(3, SMALL)
+    state.data.programs[(ProgramType.MAIN, 0)] = dict(STEPS)
+    return ScriptedSim(state, baudrate=LINE.baudrate)
+
+
+@pytest.fixture(params=["pty", "tcp"])
+def link(request: pytest.FixtureRequest, sim: ScriptedSim) -> Iterator[Link]:
+    server = PtyServer(sim) if request.param == "pty" else TcpServer(sim)
+    with server:
+        url = server.device if isinstance(server, PtyServer) else server.url
+        link = Link(url, 1, LINE)
+        with link:
+            yield link
+
+
+def test_a_reply_is_long_enough_on_the_wire_for_the_link_to_sleep(link: Link) -> None:
+    # The premise of the other tests: a step's exchange takes longer than MIN_SLEEP.
+    link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0))
+    assert min(next(iter(link._took.values()))) > 2 * MIN_SLEEP
+
+
+def test_replies_shorter_and_longer_than_the_recent_ones_are_each_read_whole(
+    link: Link,
+) -> None:
+    for _ in range(2):
+        for n, step in STEPS.items():
+            assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, n)) == step
+        empty = link.exchange(cmd.read_step(ProgramType.MAIN, 0, 7))
+        assert isinstance(empty, Step) and empty.empty
+    assert link.stats.retries == 0 and link.stats.timeouts == 0
+    assert link.stats.late_replies == 0 and link.stats.unrequested == 0
+
+
+def test_a_reply_slower_than_the_recent_ones_is_still_its_own(
+    link: Link, sim: ScriptedSim
+) -> None:
+    for n in range(3):
+        link.exchange(cmd.read_step(ProgramType.MAIN, 0, n))
+    sim.plan("LNM 0 4", Act(wire=slow(0.1)))
+    assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 4)) == STEPS[4]
+    assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0)) == STEPS[0]
+    assert link.stats.retries == 0 and link.stats.late_replies == 0
+
+
+def test_a_reply_missing_after_a_sleep_is_retried_and_the_late_one_discarded(
+    link: Link, sim: ScriptedSim
+) -> None:
+    for n in range(3):
+        link.exchange(cmd.read_step(ProgramType.MAIN, 0, n))
+    sim.plan("LNM 0 1", Act(wire=slow(0.7)))  # after its 0.5 s deadline
+    assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 1)) == STEPS[1]
+    assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 2)) == STEPS[2]
+    assert link.stats.retries == 1
