@@ -28,6 +28,7 @@ from __future__ import annotations
 import decimal
 import io
 import re
+import threading
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
@@ -210,6 +211,9 @@ def parse(source: str) -> Parsed:
     Raises :class:`YamlSyntaxError` for a syntax error, several documents, an
     unknown tag, a non-scalar mapping key or a recursive alias.
     """
+    written = _recall(source)
+    if written is not None:
+        return written
     node = None
     if _FastLoader is not None:
         try:
@@ -336,10 +340,11 @@ def _key(node: ScalarNode) -> str:
 
 def num(value: str) -> ScalarNode:
     """A number written exactly as ``value`` (which must be a decimal number)."""
-    if not is_number_text(value):
+    if _DECIMAL_INT.fullmatch(value):
+        return ScalarNode(INT, value)
+    if not _DECIMAL_FLOAT.fullmatch(value):
         raise ValueError(f"not a decimal number: {value!r}")
-    tag = INT if _DECIMAL_INT.fullmatch(value) else FLOAT
-    return ScalarNode(tag, value)
+    return ScalarNode(FLOAT, value)
 
 
 def text(value: str) -> ScalarNode:
@@ -394,7 +399,25 @@ class _Dumper(_IndentingEmitter, Serializer, CoreResolver):
 
 
 def dump(node: Node, *, header: str = "") -> str:
-    """Serialize ``node`` as one YAML document, after the ``header`` comment lines."""
+    """Serialize ``node`` as one YAML document, after the ``header`` comment lines.
+
+    The project files' own layouts (block mappings of plain scalars, flow mappings
+    and sequences of them: a step a line, a table a line) are written by
+    :class:`_Writer`, which also keeps what :func:`parse` would read back from the
+    text, so that a save checks its files without parsing them again.  Anything
+    else goes through PyYAML's emitter, which the writer matches byte for byte
+    (tests/test_yaml_writer.py proves it against the emitter).
+    """
+    fast = _Writer(header).document(node)
+    if fast is not None:
+        text, parsed = fast
+        _remember(text, parsed)
+        return text
+    return _emit(node, header)
+
+
+def _emit(node: Node, header: str) -> str:
+    """``node`` as PyYAML's emitter writes it, after ``header``."""
     stream = io.StringIO()
     dumper = _Dumper(stream)
     try:
@@ -404,3 +427,194 @@ def dump(node: Node, *, header: str = "") -> str:
     finally:
         dumper.dispose()
     return header + stream.getvalue()
+
+
+# -- the writer of our own layouts ---------------------------------------------------
+
+
+class _Bail(Exception):
+    """The node holds something :class:`_Writer` leaves to PyYAML's emitter."""
+
+
+#: A scalar the emitter writes as it is (plain), in a block or a flow: letters,
+#: digits, punctuation that means nothing to YAML anywhere in a scalar, inner spaces;
+#: not ``-`` alone or before a space (a list item), nor ``---`` or ``...`` first.
+_PLAIN = re.compile(
+    r"(?!-(?: |$)|---|\.\.\.)[A-Za-z0-9_./+=$^;~(-][A-Za-z0-9 _./+=$^;~()<-]*(?<! )"
+)
+#: What a ``'...'`` scalar holds as it is, but for its quotes, written twice.
+_SINGLE_QUOTABLE = re.compile(r"[\x20-\x7e]+")
+#: What a ``"..."`` scalar holds as it is (no quote, no backslash: nothing to escape).
+_DOUBLE_QUOTABLE = re.compile(r"[\x20-\x21\x23-\x5b\x5d-\x7e]*")
+_RESOLVERS = CoreResolver.yaml_implicit_resolvers
+
+
+def _implicit(value: str) -> str:
+    """The tag a plain ``value`` reads back as (CoreResolver.resolve, for plain text)."""
+    for tag, regexp in _RESOLVERS.get(value[:1], ()):
+        if regexp.match(value):
+            return tag
+    return STR
+
+
+class _Writer:
+    """Writes a document of the project files' layouts exactly as PyYAML's emitter
+    (``_Dumper``: indent 2, no line width) does, and builds what :func:`parse` makes
+    of the result: the data and the line of every path.
+
+    Handled: a block mapping at the top; in block mappings, scalars, non-empty block
+    mappings, and flow mappings and sequences of scalars (empty ones as ``{}`` and
+    ``[]``); scalars that the emitter writes plain or quoted without escapes or line
+    breaks.  Anything else (block sequences, keys to quote, duplicate keys, non-ASCII
+    text, tags to write) raises :class:`_Bail` inside and gives ``None``: the caller
+    uses the emitter.
+    """
+
+    def __init__(self, header: str) -> None:
+        self.header = header
+        self.out: list[str] = []
+        self.line = header.count("\n") + 1  # the line the next output line is on
+        self.parsed = Parsed(None)
+        # Every node written (ids): one met twice would be written as an anchor and an
+        # alias.  Checked once at the end.
+        self.nodes: list[int] = []
+
+    def document(self, node: Node) -> tuple[str, Parsed] | None:
+        if not (isinstance(node, MappingNode) and node.tag == MAP and node.value
+                and not node.flow_style):
+            return None
+        try:
+            self.parsed.data = self._block(node, "", ())
+        except _Bail:
+            return None
+        if len(set(self.nodes)) != len(self.nodes):
+            return None
+        self.out.append("")
+        return self.header + "\n".join(self.out), self.parsed
+
+    def _block(self, node: MappingNode, indent: str, path: KeyPath) -> dict[str, Any]:
+        self.nodes.append(id(node))
+        lines = self.parsed.lines
+        lines.setdefault(path, self.line)
+        result: dict[str, Any] = {}
+        for key_node, value in node.value:
+            shown, key = self._key(key_node)
+            if key in result:
+                raise _Bail  # parse reports it: leave the lines to parse
+            at = (*path, key)
+            lines[at] = self.line
+            if isinstance(value, ScalarNode):
+                text, result[key] = self._scalar(value)
+                self._emit(f"{indent}{shown}: {text}")
+            elif isinstance(value, MappingNode) and value.tag == MAP:
+                if value.value and not value.flow_style:
+                    self._emit(f"{indent}{shown}:")
+                    result[key] = self._block(value, indent + "  ", at)
+                else:
+                    text, result[key] = self._flow_mapping(value, at)
+                    self._emit(f"{indent}{shown}: {text}")
+            elif isinstance(value, SequenceNode) and value.tag == SEQ and (
+                value.flow_style or not value.value
+            ):
+                text, result[key] = self._flow_sequence(value, at)
+                self._emit(f"{indent}{shown}: {text}")
+            else:
+                raise _Bail
+        return result
+
+    def _flow_mapping(self, node: MappingNode, path: KeyPath) -> tuple[str, dict[str, Any]]:
+        self.nodes.append(id(node))
+        lines, line = self.parsed.lines, self.line
+        lines.setdefault(path, line)
+        parts, result = [], {}
+        for key_node, value in node.value:
+            shown, key = self._key(key_node)
+            if key in result or not isinstance(value, ScalarNode):
+                raise _Bail
+            at = (*path, key)
+            lines[at] = line
+            text, result[key] = self._scalar(value)
+            parts.append(f"{shown}: {text}")
+        return "{" + ", ".join(parts) + "}", result
+
+    def _flow_sequence(self, node: SequenceNode, path: KeyPath) -> tuple[str, list[Any]]:
+        self.nodes.append(id(node))
+        lines, line = self.parsed.lines, self.line
+        lines.setdefault(path, line)
+        parts, result = [], []
+        for i, value in enumerate(node.value):
+            if not isinstance(value, ScalarNode):
+                raise _Bail
+            at = (*path, i)
+            lines.setdefault(at, line)
+            text, data = self._scalar(value)
+            parts.append(text)
+            result.append(data)
+        return "[" + ", ".join(parts) + "]", result
+
+    def _emit(self, text: str) -> None:
+        self.out.append(text)
+        self.line += 1
+
+    def _key(self, node: Node) -> tuple[str, str]:
+        """How a key is written, and its text as parse gives it."""
+        if not isinstance(node, ScalarNode) or node.style or len(node.value) >= 128:
+            raise _Bail
+        self.nodes.append(id(node))
+        value = node.value
+        if node.tag == INT and value.isascii() and value.isdigit() and (
+            value[0] != "0" or value == "0"
+        ):
+            return value, value  # a step or table number: plain, and parse keeps it so
+        if not _PLAIN.fullmatch(value) or _implicit(value) != node.tag:
+            raise _Bail
+        return value, _key(node)
+
+    def _scalar(self, node: ScalarNode) -> tuple[str, Any]:
+        """How a scalar is written, and its value as parse gives it (the same in a
+        block and in a flow: the plain scalars written hold no flow indicator)."""
+        self.nodes.append(id(node))
+        value, tag = node.value, node.tag
+        if node.style == '"':
+            if tag != STR or not _DOUBLE_QUOTABLE.fullmatch(value):
+                raise _Bail
+            return f'"{value}"', value
+        if node.style:
+            raise _Bail
+        implicit = _implicit(value)
+        if implicit == tag and _PLAIN.fullmatch(value):
+            if tag == STR:
+                return value, value
+            if tag in (INT, FLOAT) and is_number_text(value):
+                return value, Number(value)
+            if tag == BOOL and value in ("true", "false"):
+                return value, value == "true"
+            if tag == NULL and value == "null":
+                return value, None
+            raise _Bail
+        # Text that would read back as another type ('5.00', 'true'): the emitter quotes
+        # it, in single quotes when nothing in it needs escaping.
+        if tag == STR and implicit != STR and _SINGLE_QUOTABLE.fullmatch(value):
+            return "'" + value.replace("'", "''") + "'", value
+        raise _Bail
+
+
+#: What :func:`dump` wrote and :func:`parse` will be asked to read back, with what
+#: it holds: save renders every file and checks it before writing it.  Bounded:
+#: a rendering nobody checks is forgotten soon.
+_WRITTEN: dict[str, Parsed] = {}
+_WRITTEN_MAX = 256
+_WRITTEN_LOCK = threading.Lock()
+
+
+def _remember(text: str, parsed: Parsed) -> None:
+    with _WRITTEN_LOCK:
+        _WRITTEN[text] = parsed
+        while len(_WRITTEN) > _WRITTEN_MAX:
+            del _WRITTEN[next(iter(_WRITTEN))]
+
+
+def _recall(text: str) -> Parsed | None:
+    """What :func:`dump` knew ``text`` holds, once (the next parse of it parses)."""
+    with _WRITTEN_LOCK:
+        return _WRITTEN.pop(text, None)
