@@ -14,20 +14,20 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from decimal import Decimal
+from functools import cache
 from importlib.resources import files
-from typing import Any
-
-from jsonschema import Draft202012Validator, FormatChecker, ValidationError
-from jsonschema.protocols import Validator
-from jsonschema.validators import extend
+from typing import TYPE_CHECKING, Any
 
 from .yamlio import Number, Parsed
 
-__all__ = ["Issue", "SchemaSet", "show"]
+if TYPE_CHECKING:
+    from jsonschema import ValidationError
+    from jsonschema.protocols import Validator
 
+__all__ = ["Issue", "SchemaSet", "show"]
 
 @dataclass(frozen=True)
 class Issue:
@@ -76,72 +76,83 @@ def _text_matches(pattern: re.Pattern[str]) -> Any:
     return check
 
 
-def _is_integer(checker: Any, instance: object) -> bool:
-    if isinstance(instance, Number):
-        return instance.integral
-    return bool(Draft202012Validator.TYPE_CHECKER.is_type(instance, "integer"))
+@cache
+def _jsonschema() -> Any:
+    """jsonschema's validator class, as harlsync uses it; imported when first needed
+    (a file the fast check cannot pass), not by every command that reads robot.yaml.
 
+    A program file holds up to 256 steps, and jsonschema's keywords check each one
+    through ``descend``, which builds a new validator per value: that, not the
+    checks themselves, was most of a full-size project's load time.  The two
+    keywords here first check every value (or key) with one validator, and only when
+    one fails run jsonschema's own keyword, which then finds and words the errors
+    exactly as before.  The short cut applies where ``descend`` adds nothing to
+    ``evolve``: a subschema without ``$id`` (which would move the base URI), and,
+    for additionalProperties, an object without properties or patternProperties
+    (so every key is an "additional" one).
+    """
+    from jsonschema import Draft202012Validator
+    from jsonschema.validators import extend
 
-# A program file holds up to 256 steps, and jsonschema's keywords check each one
-# through ``descend``, which builds a new validator per value: that, not the
-# checks themselves, was most of a full-size project's load time.  These two
-# keywords first check every value (or key) with one validator, and only when
-# one fails run jsonschema's own keyword, which then finds and words the errors
-# exactly as before.  The short cut applies where ``descend`` adds nothing to
-# ``evolve``: a subschema without ``$id`` (which would move the base URI), and,
-# for additionalProperties, an object without properties or patternProperties
-# (so every key is an "additional" one).
-_BASE_KEYWORDS = Draft202012Validator.VALIDATORS
+    base = Draft202012Validator.VALIDATORS
 
+    def is_integer(checker: Any, instance: object) -> bool:
+        if isinstance(instance, Number):
+            return instance.integral
+        return bool(Draft202012Validator.TYPE_CHECKER.is_type(instance, "integer"))
 
-def _one_validator_passes(validator: Any, subschema: Any, instances: Iterable[Any]) -> bool:
-    if not isinstance(subschema, dict) or "$id" in subschema:
-        return False
-    one = validator.evolve(schema=subschema)
-    return all(one.is_valid(instance) for instance in instances)
+    def one_validator_passes(validator: Any, subschema: Any, instances: Iterable[Any]) -> bool:
+        if not isinstance(subschema, dict) or "$id" in subschema:
+            return False
+        one = validator.evolve(schema=subschema)
+        return all(one.is_valid(instance) for instance in instances)
 
+    def additional_properties(validator: Any, aP: Any, instance: Any, schema: Any) -> Any:
+        if (
+            "properties" not in schema
+            and "patternProperties" not in schema
+            and validator.is_type(instance, "object")
+            and one_validator_passes(validator, aP, instance.values())
+        ):
+            return
+        yield from base["additionalProperties"](validator, aP, instance, schema)
 
-def _additional_properties(validator: Any, aP: Any, instance: Any, schema: Any) -> Any:
-    if (
-        "properties" not in schema
-        and "patternProperties" not in schema
-        and validator.is_type(instance, "object")
-        and _one_validator_passes(validator, aP, instance.values())
-    ):
-        return
-    yield from _BASE_KEYWORDS["additionalProperties"](validator, aP, instance, schema)
+    def property_names(validator: Any, names: Any, instance: Any, schema: Any) -> Any:
+        if validator.is_type(instance, "object") and one_validator_passes(
+            validator, names, instance
+        ):
+            return
+        yield from base["propertyNames"](validator, names, instance, schema)
 
-
-def _property_names(validator: Any, names: Any, instance: Any, schema: Any) -> Any:
-    if validator.is_type(instance, "object") and _one_validator_passes(validator, names, instance):
-        return
-    yield from _BASE_KEYWORDS["propertyNames"](validator, names, instance, schema)
-
-
-_Validator = extend(
-    Draft202012Validator,
-    validators={
-        "additionalProperties": _additional_properties,
-        "propertyNames": _property_names,
-    },
-    type_checker=Draft202012Validator.TYPE_CHECKER.redefine("integer", _is_integer),
-)
+    return extend(
+        Draft202012Validator,
+        validators={
+            "additionalProperties": additional_properties,
+            "propertyNames": property_names,
+        },
+        type_checker=Draft202012Validator.TYPE_CHECKER.redefine("integer", is_integer),
+    )
 
 
 class SchemaSet:
     """One family's schemas: ``<kind>.schema.json`` files in the Python package
-    ``package``, and the text formats (name -> exact pattern) they use."""
+    ``package``, and the text formats (name -> exact pattern) they use.
+
+    A file is checked first by :func:`_compile`'s check of its schema, which passes
+    a valid file in a fraction of jsonschema's time; a file it does not pass (or a
+    schema it cannot compile) goes to jsonschema, which finds and words the errors.
+    """
 
     def __init__(
         self, package: str, kinds: Iterable[str], formats: Mapping[str, re.Pattern[str]]
     ) -> None:
         self.package = package
         self.kinds = tuple(kinds)
-        self._formats = FormatChecker(formats=())
-        for name, pattern in formats.items():
-            self._formats.checks(name)(_text_matches(pattern))
+        self._patterns = dict(formats)
+        self._formats: Any = None  # jsonschema's FormatChecker, once needed
         self._schemas: dict[str, dict[str, Any]] = {}
         self._validators: dict[str, Validator] = {}
+        self._fast: dict[str, _Check | None] = {}
 
     def text(self, kind: str) -> str:
         """The schema file's exact text (copied into each project's ``.schemas/``)."""
@@ -161,15 +172,192 @@ class SchemaSet:
 
     def check(self, kind: str, file: str, doc: Parsed) -> list[Issue]:
         """Every schema violation of one parsed file, one issue per field, by line."""
-        if kind not in self._validators:
-            self._validators[kind] = _Validator(self.schema(kind), format_checker=self._formats)
+        if kind not in self._fast:
+            schema = self.schema(kind)
+            self._fast[kind] = _compile(schema, schema, self._patterns)
+        fast = self._fast[kind]
+        if fast is not None and fast(doc.data):
+            return []
         issues: dict[tuple[Any, ...], tuple[int, Issue]] = {}
-        for error in self._validators[kind].iter_errors(doc.data):
+        for error in self._validator(kind).iter_errors(doc.data):
             for rank, path, issue in _issues(error, file, doc):
                 old = issues.get(path)
                 if old is None or rank < old[0]:
                     issues[path] = (rank, issue)
         return sorted((issue for _, issue in issues.values()), key=lambda i: i.line or 0)
+
+    def _validator(self, kind: str) -> Validator:
+        if self._formats is None:
+            from jsonschema import FormatChecker
+
+            self._formats = FormatChecker(formats=())
+            for name, pattern in self._patterns.items():
+                self._formats.checks(name)(_text_matches(pattern))
+        if kind not in self._validators:
+            self._validators[kind] = _jsonschema()(self.schema(kind), format_checker=self._formats)
+        return self._validators[kind]
+
+
+# -- the fast check ---------------------------------------------------------------------
+
+#: A compiled schema: True only when jsonschema would find no error in the instance.
+_Check = Callable[[Any], bool]
+
+#: Keywords that say nothing about validity.
+_ANNOTATIONS = frozenset({
+    "$schema", "$defs", "$comment", "title", "description", "default", "examples",
+    "x-allowed", "x-volatility",
+})
+_TYPES: dict[str, Callable[[Any], bool]] = {
+    "object": lambda v: isinstance(v, dict),
+    "array": lambda v: isinstance(v, list),
+    "string": lambda v: isinstance(v, str),
+    "boolean": lambda v: isinstance(v, bool),
+    "null": lambda v: v is None,
+    # Numbers come from yamlio.parse as Number only: anything else is left to jsonschema.
+    "number": lambda v: isinstance(v, Number),
+    "integer": lambda v: isinstance(v, Number) and v.integral,
+}
+
+
+def _other_number(value: Any) -> bool:
+    """A number that is not a :class:`Number` (never from parse): left to jsonschema."""
+    return isinstance(value, (int, float, Decimal)) and not isinstance(value, bool)
+
+
+def _compile(schema: Any, root: dict[str, Any], formats: Mapping[str, re.Pattern[str]],
+             depth: int = 0) -> _Check | None:
+    """A check of ``schema`` (``root`` resolves ``$ref``) that passes an instance only
+    when jsonschema, with harlsync's types and formats, would find no error in it: it
+    may refuse a valid one (jsonschema then has the last word), never pass an invalid
+    one.  None when the schema uses a keyword this does not know.
+
+    The keywords are those of the project schemas, with jsonschema's meaning: a
+    keyword about one type ignores instances of another; ``pattern`` searches,
+    ``format`` is the family's exact text of a number; ``enum`` and ``const`` compare
+    text with text and numbers with numbers (refusing anything else).
+    """
+    if schema is True:
+        return lambda v: True
+    if schema is False or not isinstance(schema, dict) or depth > 32:
+        return None
+    rules = {k: v for k, v in schema.items() if k not in _ANNOTATIONS}
+    if rules.keys() == {"type", "pattern"} and rules["type"] == "string":
+        # The commonest leaf (a step, a token): one test, as jsonschema's two.
+        text = re.compile(rules["pattern"])
+        return lambda v: isinstance(v, str) and text.search(v) is not None
+    if rules.keys() == {"pattern"}:  # a property name, always text
+        name = re.compile(rules["pattern"])
+        return lambda v: not isinstance(v, str) or name.search(v) is not None
+    checks: list[_Check] = []
+    for keyword, value in schema.items():
+        if keyword in _ANNOTATIONS:
+            continue
+        check = _keyword(keyword, value, schema, root, formats, depth)
+        if check is None:
+            return None
+        checks.append(check)
+    if not checks:
+        return lambda v: True
+    if len(checks) == 1:
+        return checks[0]
+    if len(checks) == 2:
+        first, second = checks
+        return lambda v: first(v) and second(v)
+    return lambda v: all(check(v) for check in checks)
+
+
+def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, Any],
+             formats: Mapping[str, re.Pattern[str]], depth: int) -> _Check | None:
+    def sub(subschema: Any) -> _Check | None:
+        return _compile(subschema, root, formats, depth + 1)
+
+    if keyword == "type":
+        kinds = [value] if isinstance(value, str) else value
+        if not all(kind in _TYPES for kind in kinds):
+            return None
+        tests = [_TYPES[kind] for kind in kinds]
+        return lambda v: any(test(v) for test in tests)
+    if keyword in ("enum", "const"):
+        members = value if keyword == "enum" else [value]
+        texts = {m for m in members if isinstance(m, str)}
+        numbers = [m for m in members if isinstance(m, (int, Decimal)) and not isinstance(m, bool)]
+        return lambda v: (v in texts if isinstance(v, str)
+                          else isinstance(v, Number) and any(v == n for n in numbers))
+    if keyword == "pattern":
+        pattern = re.compile(value)
+        return lambda v: not isinstance(v, str) or pattern.search(v) is not None
+    if keyword == "format":
+        exact = formats.get(value)
+        if exact is None:
+            return lambda v: True  # a format the checker does not know passes there too
+        return lambda v: not isinstance(v, Number) or exact.fullmatch(v.text) is not None
+    if keyword in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
+        if isinstance(value, bool) or not isinstance(value, (int, Decimal)):
+            return None
+        limit = value
+        compare = {
+            "minimum": lambda v: v >= limit, "maximum": lambda v: v <= limit,
+            "exclusiveMinimum": lambda v: v > limit, "exclusiveMaximum": lambda v: v < limit,
+        }[keyword]
+        return lambda v: compare(v) if isinstance(v, Number) else not _other_number(v)
+    if keyword in ("minLength", "maxLength", "minItems", "maxItems"):
+        if isinstance(value, bool) or not isinstance(value, int):
+            return None
+        size = value
+        fits: Callable[[int], bool] = (
+            (lambda n: n >= size) if keyword.startswith("min") else (lambda n: n <= size))
+        if keyword.endswith("Length"):
+            return lambda v: not isinstance(v, str) or fits(len(v))
+        return lambda v: not isinstance(v, list) or fits(len(v))
+    if keyword == "uniqueItems":
+        if value is not True:
+            return (lambda v: True) if value is False else None
+        # Items all text, or all numbers (compared by value, as jsonschema does: 1 and
+        # 1.0 are the same item); anything else is left to jsonschema.
+        return lambda v: not isinstance(v, list) or (
+            (all(isinstance(item, str) for item in v)
+             or all(isinstance(item, Number) for item in v))
+            and len(set(v)) == len(v))
+    if keyword == "items":
+        item = sub(value)
+        if item is None:
+            return None
+        return lambda v: not isinstance(v, list) or all(item(each) for each in v)
+    if keyword == "required":
+        names = list(value)
+        return lambda v: not isinstance(v, dict) or all(name in v for name in names)
+    if keyword == "properties":
+        props = {name: sub(subschema) for name, subschema in value.items()}
+        if any(check is None for check in props.values()):
+            return None
+        pairs = [(name, check) for name, check in props.items() if check is not None]
+        return lambda v: not isinstance(v, dict) or all(
+            check(v[name]) for name, check in pairs if name in v)
+    if keyword == "additionalProperties":
+        if "patternProperties" in schema:
+            return None
+        known = frozenset(schema.get("properties", ()))
+        if value is False:
+            return lambda v: not isinstance(v, dict) or all(name in known for name in v)
+        extra = sub(value)
+        if extra is None:
+            return None
+        if not known:  # every value is an additional one (a program's steps)
+            return lambda v: not isinstance(v, dict) or all(map(extra, v.values()))
+        return lambda v: not isinstance(v, dict) or all(
+            extra(each) for name, each in v.items() if name not in known)
+    if keyword == "propertyNames":
+        name_check = sub(value)
+        if name_check is None:
+            return None
+        return lambda v: not isinstance(v, dict) or all(map(name_check, v))
+    if keyword == "$ref":
+        if not isinstance(value, str) or not value.startswith("#/$defs/"):
+            return None
+        target = root.get("$defs", {}).get(value[len("#/$defs/"):])
+        return None if target is None else sub(target)
+    return None
 
 
 # -- turning jsonschema errors into issues ------------------------------------------
