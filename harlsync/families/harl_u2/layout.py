@@ -18,6 +18,7 @@ from typing import Any
 
 from ...project import yamlio as y
 from ...project.files import (
+    HUGE,
     SCHEMAS_DIR,
     FileSet,
     build_serial,
@@ -55,6 +56,7 @@ from .model import (
 )
 from .protocol import commands as cmd
 from .protocol import profile
+from .protocol.frame import MAX_STATION, payload_room
 
 __all__ = [
     "FIRST_STATION",
@@ -503,11 +505,22 @@ def _check_parameters(doc: y.Parsed, issues: list[Issue]) -> None:
         ))
 
 
+#: What an SN step write holds besides the step, at most (two-digit program, a step
+#: number as long as :func:`numbers` gives one).
+_STEP_WRITE_PREFIX = len(f"SNM 99 {HUGE} ")
+
+
 def _check_steps(key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
     ptype, number = key
     steps = doc.data["steps"]
+    # A step this short fits a frame in its write, and in the reply that reads it back
+    # (the step number, then the step: shorter than the write); that reply begins with
+    # the step number, never with the error prefix.  Only longer steps are worked out.
+    surely_fits = payload_room(MAX_STATION) - _STEP_WRITE_PREFIX
     for text, n in numbers(steps):
         step = steps[text]
+        if len(step) <= surely_fits:
+            continue
         write = cmd.write_step(ptype, number, n, Step.parse(step))
         back = cmd.read_back(write)
         if not back.excess and back.misread is None:
