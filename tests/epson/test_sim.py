@@ -852,3 +852,21 @@ def test_harlsync_sim_epson_needs_listen() -> None:
 def test_a_sim_port_refuses_the_epson_simulator_it_is_no_serial_line() -> None:
     with pytest.raises(SerialException, match="not a serial line"):
         simulator_from_url("sim://?family=epson")
+
+
+def test_after_a_power_cycle_the_same_handshake_starts_the_function_again(sim: Simulator) -> None:
+    """Regression: the handshake kept its inputs as it last wrote them, and after a
+    power cycle (every register 0 again) its next write raised ExtCmdSet together
+    with ExtCmdReset, which the controller ignores: a timeout at step 4.  It now
+    reads them back before each command's step 1 and starts the function again."""
+    with connected(sim, deadline=0.5) as (hs, _):
+        assert hs.execute(p.read_accel(4)) == AccelPercent(90, 70)
+        apply_command(sim, "power-cycle")
+        assert sim.remote().read_holding(RegisterMap().ext_cmd_reset.register, 1) == [0]
+        assert error_code(hs.execute(p.read_accel(4))) == 0x2006  # no timeout
+        hs.execute_sequence(p.register_accel(4, 90, 70))  # a write too
+        assert hs.execute(p.read_accel(4)) == AccelPercent(90, 70)
+        apply_command(sim, "power-cycle")
+        hs.execute_sequence(p.set_weight("3.25", "50"))
+        assert hs.execute(p.read_weight()) == Weight("3.250", "50.000")
+    no_function_error(sim)

@@ -18,8 +18,12 @@ How this works::
     10  ExtRespGet 0 -------------------------->
 
 Every poll is one read of the input registers that hold all the controller's
-outputs and response words (:attr:`RegisterMap.input_span`); the handshake
-never reads its own inputs back after :meth:`Handshake.start`, it keeps them.
+outputs and response words (:attr:`RegisterMap.input_span`).  The handshake
+keeps its own inputs as it wrote them, and reads them back once before each
+command's step 1 (one holding register read in the profile's map): a
+controller that restarted has them at 0 again, and driving a signal from a
+stale copy would raise ExtCmdSet together with ExtCmdReset, which the
+controller ignores; found at 0, the function is started again (§6.2).
 Bits of the control registers that are not handshake signals keep the value
 they were read with.
 
@@ -353,6 +357,25 @@ class Handshake:
             log.debug("%s: ExtCmdReset raised (§6.2)", self.label)
         self._started = True
 
+    def _refresh(self) -> None:
+        """Before a command's step 1: read the control registers again (one read in
+        the profile's map, where the three inputs share a register).
+
+        The cache is stale when the controller restarted (a power cycle sets
+        every register harlsync writes back to 0): driving a signal from the
+        cache would then raise ExtCmdSet together with ExtCmdReset, which the
+        controller ignores.  Found so, the function is started again (§6.2) and
+        a command left unanswered is dropped (the restart aborted it)."""
+        self._control = None
+        if self._input(self.map.ext_cmd_reset):
+            return
+        log.warning("%s: ExtCmdReset found 0 (the controller restarted?): the function is "
+                    "started again%s", self.label,
+                    f"; command {self._pending.request} left unanswered is dropped"
+                    if self._pending is not None else "")
+        self._pending = None
+        self.start()
+
     def status(self) -> RemoteStatus:
         """The controller's outputs now, and the interlock's answer.  Sends no command."""
         return self._snapshot()
@@ -423,6 +446,8 @@ class Handshake:
             raise InterlockError(f"{self.label}: {self.map.unwritable}")
         if not self._started:
             self.start()
+        else:
+            self._refresh()
         deadline = self.clock.monotonic() + self.deadline
         self._settle(deadline)
         status = self._snapshot()
