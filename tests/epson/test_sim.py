@@ -870,3 +870,21 @@ def test_after_a_power_cycle_the_same_handshake_starts_the_function_again(sim: S
         hs.execute_sequence(p.set_weight("3.25", "50"))
         assert hs.execute(p.read_weight()) == Weight("3.250", "50.000")
     no_function_error(sim)
+
+
+def test_a_command_left_running_at_a_timeout_is_answered_before_the_line_is_let_go() -> None:
+    """Regression (found by the interlock property test): a command that ran past the
+    deadline was left running when the run ended; the controller's outputs then look
+    idle (ExtCmdGet falls with ExtCmdSet), so the next run's first request halted the
+    function (§6.5.1).  Closing now waits for it once more and takes its response."""
+    sim = Simulator(robot(), execution_time=0.3)
+    with connected(sim, deadline=0.2) as (hs, link):
+        with pytest.raises(HandshakeTimeout) as caught:
+            hs.execute(p.read_tool())
+        assert caught.value.step == Step.RESPONSE_SET
+        hs.finish()  # what Controller.close does before letting go
+        assert hs.pending is None
+        sim.execution_time = 0.0
+        fresh = Handshake(link, sim.register_map)  # as the next harlsync run
+        assert fresh.execute(p.read_tool()) == sim.stations[1].tool
+    no_function_error(sim)

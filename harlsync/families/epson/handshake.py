@@ -551,6 +551,24 @@ class Handshake:
         raise FunctionError(code, detail, port=self.label,
                             command=None if request is None else str(request))
 
+    def finish(self) -> None:
+        """Before the line is let go: a command left unanswered (its deadline passed)
+        is waited for once more, up to the deadline, and its late response taken,
+        so that the next client (the next harlsync run) finds the function idle.
+        A controller's outputs while a command executes look idle once ExtCmdSet
+        is 0 (ExtCmdGet falls with it), so a new client could not tell, and its
+        first request would halt the function (§6.5.1).  What still fails is
+        logged; the error that ended the run is the one worth raising."""
+        if self._pending is None:
+            return
+        log.info("%s: waiting for command %s, left unanswered, before letting go", self.label,
+                 self._pending.request)
+        try:
+            self._settle(self.clock.monotonic() + self.deadline)
+        except (LinkError, ControllerError) as exc:
+            log.warning("%s: command %s is still unanswered: %s", self.label,
+                        self._pending.request if self._pending else "", exc)
+
     def _settle(self, deadline: float) -> None:
         """Before a new command: finish with one left unanswered.
 
