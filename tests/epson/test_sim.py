@@ -888,3 +888,46 @@ def test_a_command_left_running_at_a_timeout_is_answered_before_the_line_is_let_
         fresh = Handshake(link, sim.register_map)  # as the next harlsync run
         assert fresh.execute(p.read_tool()) == sim.stations[1].tool
     no_function_error(sim)
+
+
+class LoseOneReply:
+    """A line whose reply to the next write raising ExtCmdSet is lost (the write
+    takes effect: the controller takes the command)."""
+
+    def __init__(self, link: ModbusLink, register_map: RegisterMap) -> None:
+        self.link, self.map, self.label = link, register_map, link.label
+        self.armed = False
+
+    def read_holding(self, address: int, count: int) -> list[int]:
+        return self.link.read_holding(address, count)
+
+    def read_input(self, address: int, count: int) -> list[int]:
+        return self.link.read_input(address, count)
+
+    def write_holding(self, address: int, values: list[int]) -> None:
+        self.link.write_holding(address, values)
+        bit = self.map.ext_cmd_set
+        if self.armed and address == bit.register and values[0] >> bit.bit & 1:
+            self.armed = False
+            raise LinkTimeout("write: no answer", port=self.label)
+
+
+def test_a_command_taken_when_its_reply_was_lost_is_waited_for_not_sent_over() -> None:
+    """Regression (found by the interlock property test, seed 900837): the reply to
+    the write raising ExtCmdSet was lost, so the handshake never saw ExtCmdGet; once
+    ExtCmdSet fell, the command running looked like one never taken (ExtCmdGet 0,
+    ExtRespSet 0) and was dropped at once, and the next request halted the function
+    (§6.5.1).  Now only a deadline without an answer drops it."""
+    sim = Simulator(robot(), execution_time=0.0)
+    with connected(sim, deadline=1.0) as (_, link):
+        line = LoseOneReply(link, sim.register_map)
+        hs = Handshake(line, sim.register_map, deadline=1.0)
+        assert hs.execute(p.read_tool()) == sim.stations[1].tool
+        sim.execution_time = 0.3
+        line.armed = True
+        with pytest.raises(LinkTimeout):
+            hs.execute(p.read_limz())
+        sim.execution_time = 0.0
+        assert hs.execute(p.read_tool()) == sim.stations[1].tool  # after 1251's answer
+    no_function_error(sim)
+    assert [c.number for c in sim.commands()] == [501, 1251, 501]

@@ -563,11 +563,21 @@ class Handshake:
             return
         log.info("%s: waiting for command %s, left unanswered, before letting go", self.label,
                  self._pending.request)
-        try:
-            self._settle(self.clock.monotonic() + self.deadline)
-        except (LinkError, ControllerError) as exc:
-            log.warning("%s: command %s is still unanswered: %s", self.label,
-                        self._pending.request if self._pending else "", exc)
+        end = self.clock.monotonic() + self.deadline
+        while self._pending is not None:
+            try:
+                self._settle(end)
+            except (HandshakeTimeout, ControllerError) as exc:
+                log.warning("%s: command %s is still unanswered: %s", self.label,
+                            self._pending.request if self._pending else "", exc)
+                return
+            except LinkError as exc:  # a request lost: again, until the deadline
+                self._control = None
+                if self.clock.monotonic() >= end:
+                    log.warning("%s: command %s is still unanswered: %s", self.label,
+                                self._pending.request if self._pending else "", exc)
+                    return
+                self.clock.sleep(self.poll_interval)
 
     def _settle(self, deadline: float) -> None:
         """Before a new command: finish with one left unanswered.
@@ -595,11 +605,15 @@ class Handshake:
                 return
             if status["ExtCmdGet"]:
                 pending.acquired = True
-            elif not pending.acquired:
+            now = self.clock.monotonic()
+            if not pending.acquired and now >= deadline:
+                # ExtCmdGet falls with ExtCmdSet, and ExtRespSet is 0 while a command
+                # runs: one taken just before ExtCmdSet fell (or whose ExtCmdGet the
+                # client never saw, a reply lost) looks the same as one never taken
+                # until it answers.  Only a deadline without an answer tells.
                 log.debug("%s: command %s was never taken: dropped", self.label, pending.request)
                 self._pending = None
                 return
-            now = self.clock.monotonic()
             if now >= deadline:
                 raise HandshakeTimeout(
                     f"still unanswered after {self.deadline:g} s more (stopped at step "
