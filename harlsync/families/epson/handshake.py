@@ -564,16 +564,18 @@ class Handshake:
         log.info("%s: waiting for command %s, left unanswered, before letting go", self.label,
                  self._pending.request)
         end = self.clock.monotonic() + self.deadline
+        attempts = 0
         while self._pending is not None:
+            attempts += 1
             try:
                 self._settle(end)
             except (HandshakeTimeout, ControllerError) as exc:
                 log.warning("%s: command %s is still unanswered: %s", self.label,
                             self._pending.request if self._pending else "", exc)
                 return
-            except LinkError as exc:  # a request lost: again, until the deadline
-                self._control = None
-                if self.clock.monotonic() >= end:
+            except LinkError as exc:  # a request lost: again, until the deadline (and
+                self._control = None  # at least three times: a lost request costs retries)
+                if attempts >= 3 and self.clock.monotonic() >= end:
                     log.warning("%s: command %s is still unanswered: %s", self.label,
                                 self._pending.request if self._pending else "", exc)
                     return
