@@ -852,3 +852,82 @@ def test_harlsync_sim_epson_needs_listen() -> None:
 def test_a_sim_port_refuses_the_epson_simulator_it_is_no_serial_line() -> None:
     with pytest.raises(SerialException, match="not a serial line"):
         simulator_from_url("sim://?family=epson")
+
+
+def test_after_a_power_cycle_the_same_handshake_starts_the_function_again(sim: Simulator) -> None:
+    """Regression: the handshake kept its inputs as it last wrote them, and after a
+    power cycle (every register 0 again) its next write raised ExtCmdSet together
+    with ExtCmdReset, which the controller ignores: a timeout at step 4.  It now
+    reads them back before each command's step 1 and starts the function again."""
+    with connected(sim, deadline=0.5) as (hs, _):
+        assert hs.execute(p.read_accel(4)) == AccelPercent(90, 70)
+        apply_command(sim, "power-cycle")
+        assert sim.remote().read_holding(RegisterMap().ext_cmd_reset.register, 1) == [0]
+        assert error_code(hs.execute(p.read_accel(4))) == 0x2006  # no timeout
+        hs.execute_sequence(p.register_accel(4, 90, 70))  # a write too
+        assert hs.execute(p.read_accel(4)) == AccelPercent(90, 70)
+        apply_command(sim, "power-cycle")
+        hs.execute_sequence(p.set_weight("3.25", "50"))
+        assert hs.execute(p.read_weight()) == Weight("3.250", "50.000")
+    no_function_error(sim)
+
+
+def test_a_command_left_running_at_a_timeout_is_answered_before_the_line_is_let_go() -> None:
+    """Regression (found by the interlock property test): a command that ran past the
+    deadline was left running when the run ended; the controller's outputs then look
+    idle (ExtCmdGet falls with ExtCmdSet), so the next run's first request halted the
+    function (§6.5.1).  Closing now waits for it once more and takes its response."""
+    sim = Simulator(robot(), execution_time=0.3)
+    with connected(sim, deadline=0.2) as (hs, link):
+        with pytest.raises(HandshakeTimeout) as caught:
+            hs.execute(p.read_tool())
+        assert caught.value.step == Step.RESPONSE_SET
+        hs.finish()  # what Controller.close does before letting go
+        assert hs.pending is None
+        sim.execution_time = 0.0
+        fresh = Handshake(link, sim.register_map)  # as the next harlsync run
+        assert fresh.execute(p.read_tool()) == sim.stations[1].tool
+    no_function_error(sim)
+
+
+class LoseOneReply:
+    """A line whose reply to the next write raising ExtCmdSet is lost (the write
+    takes effect: the controller takes the command)."""
+
+    def __init__(self, link: ModbusLink, register_map: RegisterMap) -> None:
+        self.link, self.map, self.label = link, register_map, link.label
+        self.armed = False
+
+    def read_holding(self, address: int, count: int) -> list[int]:
+        return self.link.read_holding(address, count)
+
+    def read_input(self, address: int, count: int) -> list[int]:
+        return self.link.read_input(address, count)
+
+    def write_holding(self, address: int, values: list[int]) -> None:
+        self.link.write_holding(address, values)
+        bit = self.map.ext_cmd_set
+        if self.armed and address == bit.register and values[0] >> bit.bit & 1:
+            self.armed = False
+            raise LinkTimeout("write: no answer", port=self.label)
+
+
+def test_a_command_taken_when_its_reply_was_lost_is_waited_for_not_sent_over() -> None:
+    """Regression (found by the interlock property test, seed 900837): the reply to
+    the write raising ExtCmdSet was lost, so the handshake never saw ExtCmdGet; once
+    ExtCmdSet fell, the command running looked like one never taken (ExtCmdGet 0,
+    ExtRespSet 0) and was dropped at once, and the next request halted the function
+    (§6.5.1).  Now only a deadline without an answer drops it."""
+    sim = Simulator(robot(), execution_time=0.0)
+    with connected(sim, deadline=1.0) as (_, link):
+        line = LoseOneReply(link, sim.register_map)
+        hs = Handshake(line, sim.register_map, deadline=1.0)
+        assert hs.execute(p.read_tool()) == sim.stations[1].tool
+        sim.execution_time = 0.3
+        line.armed = True
+        with pytest.raises(LinkTimeout):
+            hs.execute(p.read_limz())
+        sim.execution_time = 0.0
+        assert hs.execute(p.read_tool()) == sim.stations[1].tool  # after 1251's answer
+    no_function_error(sim)
+    assert [c.number for c in sim.commands()] == [501, 1251, 501]

@@ -187,7 +187,10 @@ class Controller:
     def close(self) -> None:
         """Disconnect and give the line lock back, when :meth:`open` made the link."""
         if self._link is not None:
-            self._link.close()
+            try:
+                self.handshake.finish()  # a command left unanswered: answered, if it can be
+            finally:
+                self._link.close()
 
     # --- the one place commands go through -------------------------------------------
 

@@ -18,8 +18,12 @@ How this works::
     10  ExtRespGet 0 -------------------------->
 
 Every poll is one read of the input registers that hold all the controller's
-outputs and response words (:attr:`RegisterMap.input_span`); the handshake
-never reads its own inputs back after :meth:`Handshake.start`, it keeps them.
+outputs and response words (:attr:`RegisterMap.input_span`).  The handshake
+keeps its own inputs as it wrote them, and reads them back once before each
+command's step 1 (one holding register read in the profile's map): a
+controller that restarted has them at 0 again, and driving a signal from a
+stale copy would raise ExtCmdSet together with ExtCmdReset, which the
+controller ignores; found at 0, the function is started again (§6.2).
 Bits of the control registers that are not handshake signals keep the value
 they were read with.
 
@@ -353,6 +357,25 @@ class Handshake:
             log.debug("%s: ExtCmdReset raised (§6.2)", self.label)
         self._started = True
 
+    def _refresh(self) -> None:
+        """Before a command's step 1: read the control registers again (one read in
+        the profile's map, where the three inputs share a register).
+
+        The cache is stale when the controller restarted (a power cycle sets
+        every register harlsync writes back to 0): driving a signal from the
+        cache would then raise ExtCmdSet together with ExtCmdReset, which the
+        controller ignores.  Found so, the function is started again (§6.2) and
+        a command left unanswered is dropped (the restart aborted it)."""
+        self._control = None
+        if self._input(self.map.ext_cmd_reset):
+            return
+        log.warning("%s: ExtCmdReset found 0 (the controller restarted?): the function is "
+                    "started again%s", self.label,
+                    f"; command {self._pending.request} left unanswered is dropped"
+                    if self._pending is not None else "")
+        self._pending = None
+        self.start()
+
     def status(self) -> RemoteStatus:
         """The controller's outputs now, and the interlock's answer.  Sends no command."""
         return self._snapshot()
@@ -423,6 +446,8 @@ class Handshake:
             raise InterlockError(f"{self.label}: {self.map.unwritable}")
         if not self._started:
             self.start()
+        else:
+            self._refresh()
         deadline = self.clock.monotonic() + self.deadline
         self._settle(deadline)
         status = self._snapshot()
@@ -526,6 +551,36 @@ class Handshake:
         raise FunctionError(code, detail, port=self.label,
                             command=None if request is None else str(request))
 
+    def finish(self) -> None:
+        """Before the line is let go: a command left unanswered (its deadline passed)
+        is waited for once more, up to the deadline, and its late response taken,
+        so that the next client (the next harlsync run) finds the function idle.
+        A controller's outputs while a command executes look idle once ExtCmdSet
+        is 0 (ExtCmdGet falls with it), so a new client could not tell, and its
+        first request would halt the function (§6.5.1).  What still fails is
+        logged; the error that ended the run is the one worth raising."""
+        if self._pending is None:
+            return
+        log.info("%s: waiting for command %s, left unanswered, before letting go", self.label,
+                 self._pending.request)
+        end = self.clock.monotonic() + self.deadline
+        attempts = 0
+        while self._pending is not None:
+            attempts += 1
+            try:
+                self._settle(end)
+            except (HandshakeTimeout, ControllerError) as exc:
+                log.warning("%s: command %s is still unanswered: %s", self.label,
+                            self._pending.request if self._pending else "", exc)
+                return
+            except LinkError as exc:  # a request lost: again, until the deadline (and
+                self._control = None  # at least three times: a lost request costs retries)
+                if attempts >= 3 and self.clock.monotonic() >= end:
+                    log.warning("%s: command %s is still unanswered: %s", self.label,
+                                self._pending.request if self._pending else "", exc)
+                    return
+                self.clock.sleep(self.poll_interval)
+
     def _settle(self, deadline: float) -> None:
         """Before a new command: finish with one left unanswered.
 
@@ -552,11 +607,15 @@ class Handshake:
                 return
             if status["ExtCmdGet"]:
                 pending.acquired = True
-            elif not pending.acquired:
+            now = self.clock.monotonic()
+            if not pending.acquired and now >= deadline:
+                # ExtCmdGet falls with ExtCmdSet, and ExtRespSet is 0 while a command
+                # runs: one taken just before ExtCmdSet fell (or whose ExtCmdGet the
+                # client never saw, a reply lost) looks the same as one never taken
+                # until it answers.  Only a deadline without an answer tells.
                 log.debug("%s: command %s was never taken: dropped", self.label, pending.request)
                 self._pending = None
                 return
-            now = self.clock.monotonic()
             if now >= deadline:
                 raise HandshakeTimeout(
                     f"still unanswered after {self.deadline:g} s more (stopped at step "

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from types import MappingProxyType
 from typing import Any, NamedTuple, TypeGuard
 
@@ -297,9 +298,12 @@ class RegisterMap:
 
     def signals(self) -> Iterator[tuple[str, Bit | None]]:
         """Every signal by its manual name, inputs first."""
-        for name, signal in _FIELD_SIGNALS.items():
-            bit: Bit | None = getattr(self, name)
-            yield signal, bit
+        return iter(self._signal_bits)
+
+    @cached_property
+    def _signal_bits(self) -> tuple[tuple[str, Bit | None], ...]:
+        # once a map: the handshake asks at every poll
+        return tuple((signal, getattr(self, name)) for name, signal in _FIELD_SIGNALS.items())
 
     def signal(self, name: str) -> Bit | None:
         """The bit of signal ``name`` (manual spelling); None when it is not mapped.
@@ -327,7 +331,7 @@ class RegisterMap:
         return tuple(sorted({self.ext_cmd_set.register, self.ext_resp_get.register,
                              self.ext_cmd_reset.register}))
 
-    @property
+    @cached_property
     def input_span(self) -> tuple[int, int]:
         """(first register, count): the one read that gets every output signal and
         every response word."""

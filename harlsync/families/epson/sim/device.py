@@ -100,8 +100,24 @@ class EpsonSimFamily:
         return Simulator({n: SimState.generate(seed + i) for i, n in enumerate(stations)})
 
     def from_project(self, project: Path, stations: Sequence[int] | None) -> Simulator:
-        raise ProjectError(f"{project}: the Epson simulator cannot load a project yet (its "
-                           "layout is being written); generate a robot with --seed")
+        """The robot of an Epson project: its manipulator type and model, settings
+        and points, on the unit robot.yaml names (or each of ``stations``), with
+        robot.yaml's register map."""
+        from ....project import load_project
+        from ..layout import connection
+        from ..model import EpsonData
+
+        loaded = load_project(project)
+        robot, data = loaded.robot, loaded.data
+        if not isinstance(data, EpsonData):
+            raise ProjectError(f"{project}: not an Epson project (family {robot.family})")
+        try:
+            register_map = connection(robot).register_map
+            state = SimState.from_data(data)
+        except ValueError as exc:
+            raise ProjectError(f"{project}: the simulator cannot hold this robot: {exc}") from exc
+        return Simulator({n: state.copy() for n in stations or [robot.station]},
+                         register_map=register_map)
 
     def serve(self, sim: device.Device[Any], host: str, port: int) -> ModbusServer:
         """Serve ``sim`` (an Epson :class:`Simulator`) over Modbus TCP.  Raises

@@ -170,7 +170,8 @@ class RemoteIO:
 
     def read_input(self, address: int, count: int) -> list[int]:
         self.advance()
-        return [self._input_register(address + i) for i in range(count)]
+        levels = self.levels()
+        return [self._input_register(address + i, levels) for i in range(count)]
 
     def write_holding(self, address: int, values: list[int]) -> None:
         self.advance()
@@ -180,9 +181,9 @@ class RemoteIO:
         self._react(before, self._inputs())
         self.advance()
 
-    def _input_register(self, address: int) -> int:
+    def _input_register(self, address: int, levels: Mapping[str, bool] | None = None) -> int:
         value = 0
-        levels = self.levels()
+        levels = self.levels() if levels is None else levels
         for name, bit in self._outputs:
             if bit.register == address and levels[name]:
                 value |= 1 << bit.bit

@@ -22,6 +22,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 
 from .. import profile
+from ..model import EpsonData
+from ..protocol import real_units
 
 __all__ = [
     "DEFAULT_ARCH",
@@ -301,6 +303,68 @@ class SimState:
             base=ints(doc["base"]),
             points=points,
         )
+
+    @classmethod
+    def from_data(cls, data: EpsonData) -> SimState:
+        """The controller a backup describes (a project's settings and points, or a
+        pull's data), on the wire as the controller holds it: what the backup lacks
+        is as a new controller has it (a table entry, Box, Plane or Local absent
+        is not registered or off).  Raises ValueError for a robot the simulator
+        cannot hold or a value that is not exact decimal text."""
+        u = real_units
+        state = cls(robot_type=data.robot_type, model=data.model)
+        jrange: dict[int, Limits] = {}
+        for key, value in data.items.items():
+            kind, number = key.kind, key.number or 0
+            if kind == "point":
+                state.points[number] = Point(tuple(u(c) for c in value.coords), value.hand,
+                                             value.elbow, value.wrist, value.j4flag,
+                                             value.j6flag, value.local)
+            elif kind == "accel":
+                state.accel[number] = (int(value.accel), int(value.decel))
+            elif kind in ("accel_s", "accel_r"):
+                getattr(state, kind)[number] = (u(value.accel), u(value.decel))
+            elif kind == "speed":
+                state.speed[number] = (int(value.speed), int(value.depart), int(value.approach))
+            elif kind == "speed_s":
+                state.speed_s[number] = (u(value.speed), u(value.depart), u(value.approach))
+            elif kind == "speed_r":
+                state.speed_r[number] = u(value)
+            elif kind == "limz":
+                state.limz = u(value)
+            elif kind == "arch":
+                state.arch[number] = (u(value.depart), u(value.approach))
+            elif kind == "fine":
+                state.fine = tuple(int(v) for v in value)
+            elif kind == "weight":
+                state.weight = (u(value.weight), u(value.arm_length))
+            elif kind == "inertia":
+                state.inertia = (u(value.inertia), u(value.eccentricity))
+            elif kind == "tool":
+                state.tool = int(value)
+            elif kind in ("box", "xylim"):
+                limits = _triple(tuple((u(a.lower), u(a.upper)) for a in value))
+                if kind == "xylim":
+                    state.xylim = limits
+                elif any(v for axis in limits for v in axis):
+                    state.boxes[number] = limits
+            elif kind in ("plane", "local"):
+                coords = tuple(u(c) for c in value)
+                if any(coords):
+                    (state.planes if kind == "plane" else state.locals)[number] = coords
+            elif kind == "base":
+                state.base = tuple(u(c) for c in value)
+            elif kind == "jrange":
+                jrange[number] = (int(value.lower), int(value.upper))
+            else:  # pragma: no cover - every kind is above
+                raise ValueError(f"{kind}: not a setting the simulator holds")
+        if jrange:
+            default = _default_jrange(state.axes)
+            state.jrange = tuple(jrange.get(j, default[j - 1]) for j in range(1, state.axes + 1))
+        problems = state.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+        return state
 
     def copy(self) -> SimState:
         """An independent copy (the tables and points are not shared)."""

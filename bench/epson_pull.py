@@ -1,0 +1,148 @@
+"""An Epson pull of every setting and the points P0-P99 against the Epson simulator over
+Modbus TCP: Modbus round trips per item, against the minimum the handshake allows, and
+the time per command against the simulator's execution time.
+
+    python bench/epson_pull.py                    a SCARA and a six-axis robot, 3 runs each (~30 s)
+    python bench/epson_pull.py --exec 0,0.002,0.010 --repeat 1
+
+The robots are ``SimState.generate`` robots (seeds 5 and 6, points spread over P0-P119,
+so part of P0-P99 is defined and part is not).  Each is served by ``harlsync sim
+--family epson --listen 127.0.0.1:0`` in a process of its own, except that the
+simulator is started here in a child process with the execution time asked for
+(``--exec``: seconds from ExtCmdGet to ExtRespSet; the default 0.002 is the
+simulator's own).  The pull is the family's Controller.read_all over its ModbusLink
+and Handshake, as ``harlsync pull`` runs it, with the link wrapped to count its
+requests.
+
+The minimum the §6.3 handshake allows for one command, when the controller is quick
+enough that every poll finds what it waits for at the first read: the step-1 status
+read, the command words, ExtCmdSet 1, one read for ExtCmdGet (step 4), ExtCmdSet 0,
+one read for ExtRespSet with the response (steps 6-8), ExtRespGet 1, one read for
+ExtRespSet 0 (step 9), ExtRespGet 0: 9 round trips (5 writes, 4 reads).  harlsync
+adds one: it reads its own control register back before each command's step 1 (a
+restarted controller has it at 0 again), so 10 is its floor.  Items: a table entry
+is read by one command (two for AccelS/AccelR/SpeedS, which need more response
+words than some maps have: the profile's 8 words read them whole), a Box, XYLim in
+Rn sequences of one command an axis; an undefined point costs one command (its first
+coordinate answers 2004), a defined one a command a coordinate and attribute.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import statistics
+import time
+from collections import Counter
+from collections.abc import Sequence
+from typing import Any
+
+from harlsync.families.epson.controller import Controller
+from harlsync.families.epson.handshake import Handshake
+from harlsync.families.epson.sim import SimState, Simulator
+from harlsync.families.epson.transport import ModbusLink
+
+MINIMUM = 9
+HARLSYNC_FLOOR = MINIMUM + 1
+
+
+def serve(seed: int, robot_type: int, execution: float, conn: Any) -> None:
+    sim = Simulator(SimState.generate(seed, robot_type=robot_type), execution_time=execution)
+    with sim.serve("127.0.0.1", 0) as server:
+        conn.send(server.url)
+        conn.recv()  # until the parent is done
+        conn.send(len(sim.commands()))
+
+
+class Counting:
+    """A RegisterAccess that counts the requests of each command."""
+
+    def __init__(self, link: ModbusLink) -> None:
+        self.link, self.label = link, link.label
+        self.requests = 0
+        self.reads = 0
+        self.writes = 0
+
+    def read_holding(self, address: int, count: int) -> list[int]:
+        self.requests += 1
+        self.reads += 1
+        return self.link.read_holding(address, count)
+
+    def read_input(self, address: int, count: int) -> list[int]:
+        self.requests += 1
+        self.reads += 1
+        return self.link.read_input(address, count)
+
+    def write_holding(self, address: int, values: Sequence[int]) -> None:
+        self.requests += 1
+        self.writes += 1
+        self.link.write_holding(address, values)
+
+
+def one_pull(seed: int, robot_type: int, execution: float) -> dict[str, Any]:
+    parent, child = mp.Pipe()
+    proc = mp.Process(target=serve, args=(seed, robot_type, execution, child), daemon=True)
+    proc.start()
+    url = parent.recv()
+    try:
+        with ModbusLink(url, lock_dir=None) as link:
+            counting = Counting(link)
+            hs = Handshake(counting)
+            commands = Counter[str]()
+            execute = hs.execute
+
+            def counted(request: Any) -> Any:
+                commands["all"] += 1
+                return execute(request)
+
+            hs.execute = counted  # type: ignore[method-assign]
+            controller = Controller(hs, first=0, last=99)
+            start = time.perf_counter()
+            data = controller.read_all()
+            took = time.perf_counter() - start
+        parent.send("done")
+        served = parent.recv()
+    finally:
+        proc.join(5)
+    n = commands["all"]
+    items = len(data.items)
+    points = len(data.points())
+    return {
+        "robot": f"type {data.robot_type} ({data.axes} axes)",
+        "execution_s": execution,
+        "items": items,
+        "points_defined": points,
+        "keys_read": items + (100 - points),
+        "commands": n,
+        "commands_served": served,
+        "round_trips": counting.requests,
+        "reads": counting.reads,
+        "writes": counting.writes,
+        "round_trips_per_command": round(counting.requests / n, 2),
+        "round_trips_per_key": round(counting.requests / (items + 100 - points), 2),
+        "seconds": round(took, 3),
+        "ms_per_command": round(took / n * 1000, 3),
+        "ms_per_round_trip": round(took / counting.requests * 1000, 3),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--exec", default="0.002", help="execution times, seconds, comma-separated")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    mp.set_start_method("spawn")
+    print(f"minimum per command (§6.3): {MINIMUM} round trips; harlsync's floor "
+          f"{HARLSYNC_FLOOR} (the control register read back before step 1)")
+    for execution in (float(x) for x in args.exec.split(",")):
+        for seed, robot_type in ((5, 3), (6, 5)):
+            runs = [one_pull(seed, robot_type, execution) for _ in range(args.repeat)]
+            best = min(runs, key=lambda r: r["seconds"])
+            best["seconds_median"] = round(statistics.median(r["seconds"] for r in runs), 3)
+            best["execution_share"] = round(execution * best["commands"] / best["seconds"], 3)
+            print(json.dumps(best))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,404 @@
+"""An Epson robot through the whole workflow over real TCP against the Epson
+simulator (harlsync.families.epson.sim, a pymodbus server running the §6
+handshake): pull, diff, plan, push, rollback, backup (a mixed plant too), the
+interlock, volatile tables after a power cycle, split writes, points, the register
+map and the function reset.
+
+Every check of what reached the robot reads the simulator's own record; every
+test of a correct client ends asserting that the record holds no command off the
+lists, no function error and no write while the robot was busy.  One test
+drives the Remote I/O wrongly on purpose and does see a function error."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from conftest import git
+
+from harlsync import cli
+from harlsync.families.epson.model import SettingKey, TableKey
+from harlsync.families.epson.protocol import AccelReal, Limits, SpeedReal
+from harlsync.families.epson.sim import CommandReceived, SimState, Simulator
+from harlsync.families.epson.transport import ModbusLink
+from harlsync.families.harl_u2.model import Config, ProgramArea
+from harlsync.families.harl_u2.sim import SimState as HarlState
+from harlsync.families.harl_u2.sim import Simulator as HarlSimulator
+from harlsync.families.iai.sim import SimState as IaiState
+from harlsync.families.iai.sim import Simulator as IaiSimulator
+from harlsync.project import load_project
+from harlsync.sim.control import apply_command
+from harlsync.sim.serve import PtyServer, TcpServer
+from harlsync.sync import engine
+from harlsync.sync.backup import backup
+
+from .sample import sample_data
+
+SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
+
+
+def clean(sim: Simulator) -> None:
+    """What a correct client leaves in the record: nothing off the lists, no
+    function error, no write while the robot was not idle."""
+    assert sim.off_list() == []
+    assert sim.function_errors == []
+    assert sim.writes_while_busy() == []
+
+
+@pytest.fixture
+def robot() -> Iterator[tuple[Simulator, str]]:
+    """The sample robot (tests/epson/sample.py) on the simulator, served over TCP."""
+    sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
+    with sim.serve() as server:
+        yield sim, server.url
+    clean(sim)
+
+
+def pulled(repo: Path, url: str, name: str = "cell-3") -> Path:
+    project = repo / name
+    assert cli.main(["pull", str(project), "--family", "epson", "--port", url]) == 0
+    path = project / "robot.yaml"
+    path.write_text(path.read_text().replace("last_point: 99", "last_point: 29"))
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "backup")
+    return project
+
+
+def edit(project: Path, repo: Path, file: str, old: str, new: str) -> None:
+    path = project / file
+    text = path.read_text()
+    assert old in text, old
+    path.write_text(text.replace(old, new, 1))
+    git(repo, "commit", "-qam", f"edit {file}")
+
+
+def written(sim: Simulator, since: int = 0) -> list[CommandReceived]:
+    """The writes the simulator took (each command of a split or Rn write once)."""
+    return [c for c in sim.commands()[since:] if c.is_write]
+
+
+def numbers(commands: list[CommandReceived]) -> list[int]:
+    return [c.number for c in commands]
+
+
+def test_a_pull_backs_up_every_setting_and_point_exactly_and_diff_finds_no_difference(
+    robot, repo
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    loaded = load_project(project)
+    assert loaded.robot.family == "epson" and loaded.robot.port == url
+    data = loaded.data
+    assert (data.type_name, data.axes, data.model) == ("SCARA", 4, "LS6-B602S")
+    assert data.items == sample_data().items  # every item, exactly
+    assert data.items[TableKey("accel_s", 3)] == AccelReal("100.123", "200.000")
+    assert data.items[TableKey("speed_s", 2)] == SpeedReal("2000.000", "1500.500", "1000.000")
+    assert TableKey("accel_s", 4) not in data.items  # not registered: absent
+    assert data.items[SettingKey("box", 5)] == (
+        Limits("-10.000", "10.000"), Limits("-20.000", "20.000"), Limits("0.000", "50.000"))
+    assert numbers(sim.commands()[:2]) == [2153, 2154]
+    assert cli.main(["diff", str(project)]) == 0
+    assert written(sim) == []
+
+
+def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsys) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "settings.yaml", "3: {accel: 100.123, decel: 200.000}",
+         "3: {accel: 100.123, decel: 250.000}")
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 1
+    assert capsys.readouterr().out == (
+        f"--- robot {url} unit 1\n+++ project {project}\n"
+        "@@ AccelS (volatile) @@\n"
+        "-AccelS 3 decel: 200.000\n"
+        "+AccelS 3 decel: 250.000\n"
+    )
+    assert cli.main(["plan", str(project)]) == 0
+    assert capsys.readouterr().out.splitlines() == [
+        ("53 register AccelS table entry: 0035 0003 0001 871B 0003 D090  # unsafe in automatic "
+         "operation"),
+        f"# 1 write(s) to cell-3 ({url} unit 1)",
+    ]
+    assert written(sim) == []
+    before = dict(sim.stations[1].accel_s)
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0
+    assert "memory card" not in capsys.readouterr().out  # a table is volatile
+    assert [c.payload for c in written(sim, taken)] == ["0035 0003 0001 871B 0003 D090 0000 0000"]
+    assert sim.stations[1].accel_s[3] == (100123, 250000)
+    assert cli.main(["diff", str(project)]) == 0
+    assert cli.main(["rollback", str(project), "--yes"]) == 0
+    assert sim.stations[1].accel_s == before
+    assert cli.main(["diff", str(project)]) == 1  # the project still says 250.000
+
+
+def test_a_power_cycle_shows_the_tables_cleared_and_push_registers_them_again(
+    robot, repo, capsys
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    st = sim.stations[1]
+    held = (dict(st.accel), dict(st.accel_s), dict(st.speed), dict(st.speed_s),
+            dict(st.speed_r), st.limz)
+    apply_command(sim, "power-cycle")
+    assert (st.accel, st.accel_s, st.limz) == ({}, {}, 0)
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 1
+    out = capsys.readouterr().out
+    assert ("@@ AccelS (volatile) @@\n"
+            "-AccelS 3: not registered: cleared, e.g. by a power cycle\n"
+            "+AccelS 3: {accel: 100.123, decel: 200.000}\n") in out
+    assert "@@ LimZ (volatile) @@\n-LimZ: 0.000\n+LimZ: -10.000\n" in out
+    assert cli.main(["diff", str(project), "--format", "json"]) == 1
+    changes = json.loads(capsys.readouterr().out)["changes"]
+    cleared = next(c for c in changes if c["item"] == "AccelS 3")
+    assert cleared["kind"] == "accel_s" and cleared["number"] == 3
+    assert cleared["fields"] == [{"field": None,
+                                  "old": "not registered: cleared, e.g. by a power cycle",
+                                  "new": "{accel: 100.123, decel: 200.000}"}]
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0
+    assert "memory card" not in capsys.readouterr().out  # volatile items only
+    assert sorted(numbers(written(sim, taken))) == [1, 53, 151, 203, 251, 1250]
+    assert (st.accel, st.accel_s, st.speed, st.speed_s, st.speed_r, st.limz) == held
+    assert cli.main(["diff", str(project)]) == 0
+
+
+def test_push_writes_only_what_differs_and_names_the_persistent_items(
+    robot, repo, capsys, tmp_path
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "settings.yaml", "5: {x: [-10.000, 10.000]", "5: {x: [-10.000, 12.000]")
+    edit(project, repo, "settings.yaml", "weight: {weight: 2.000,", "weight: {weight: 2.500,")
+    capsys.readouterr()
+    assert cli.main(["plan", str(project)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    note = ("note: written to the controller's memory card (persistent; its life shortens "
+            "with each write): Weight, Box 5")
+    assert lines[0] == f"# {note}"
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0
+    assert note in capsys.readouterr().out.splitlines()
+    assert numbers(written(sim, taken)) == [300, 600, 600, 600]
+    st = sim.stations[1]
+    assert st.boxes[5][0] == (-10000, 12000) and st.weight[0] == 2500
+    audit = [json.loads(line) for line in (tmp_path / "audit.jsonl").read_text().splitlines()]
+    assert audit[-1]["result"] == "ok" and audit[-1]["notes"] == [note[len("note: "):]]
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0  # again: nothing differs
+    assert written(sim, taken) == []
+
+
+@pytest.mark.parametrize(("verb", "named"), [
+    ("run", "Running 1 (a task is executing)"),
+    ("pause", "Paused 1 (a task is paused)"),
+    ("estop", "EStopOn 1 (emergency stop)"),
+    ("error", "Error 1 (the controller is in error)"),
+])
+def test_a_push_to_a_robot_that_is_not_idle_is_refused_naming_the_signal(
+    robot, repo, capsys, verb, named
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "settings.yaml", "limz: -10.000", "limz: -12.000")
+    apply_command(sim, verb)
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert named in err and len(err.strip().splitlines()) == 1
+    assert written(sim) == [] and sim.stations[1].limz == -10000
+    apply_command(sim, "stop")
+
+
+def test_a_program_started_mid_push_gets_no_write_after_it(robot, repo, capsys) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "settings.yaml", "limz: -10.000", "limz: -12.000")
+    edit(project, repo, "settings.yaml", "  0: 720.000", "  0: 700.000")
+    edit(project, repo, "points.yaml", "12: {x: 1.000", "12: {x: 2.000")
+    sim.busy_after_writes = sim.writes + 1
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert "Running 1 (a task is executing)" in err
+    assert "wrote 1 of 3 item(s)" in err
+    assert numbers(written(sim)) == [1250]
+    sim.busy_after_writes = 0
+    apply_command(sim, "stop")
+
+
+def test_a_robot_whose_map_lacks_running_paused_or_estop_is_read_but_never_written(
+    robot, repo, capsys
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "settings.yaml", "limz: -10.000", "limz: -12.000")
+    for signal, line in (("Running", "Running: {register: 0, bit: 9}"),
+                         ("Paused", "Paused: {register: 0, bit: 10}"),
+                         ("EStopOn", "EStopOn: {register: 0, bit: 12}")):
+        robot_yaml = (project / "robot.yaml").read_text()
+        assert line in robot_yaml, line
+        edit(project, repo, "robot.yaml", line, f"{signal}: null")
+        assert cli.main(["diff", str(project)]) == 1  # read: LimZ differs
+        capsys.readouterr()
+        assert cli.main(["push", str(project), "--yes"]) == 3
+        assert f"the register map has no {signal} signal" in capsys.readouterr().err
+        assert written(sim) == []
+        edit(project, repo, "robot.yaml", f"{signal}: null", line)
+
+
+def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(
+    robot, repo
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "command_words: 8", "command_words: 5")
+    edit(project, repo, "settings.yaml", "3: {accel: 100.123, decel: 200.000}",
+         "3: {accel: 1.000, decel: 2.000}")
+    edit(project, repo, "settings.yaml", "5: {x: [-10.000, 10.000]", "5: {x: [-10.000, 11.000]")
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0
+    sent = numbers(sim.commands()[taken:])
+    assert [601, 601, 601, 602, 602, 602] == sent[sent.index(601):sent.index(601) + 6]
+    assert [54, 55] == sent[sent.index(54):sent.index(54) + 2]
+    assert 53 not in sent and 600 not in sent
+    st = sim.stations[1]
+    assert st.accel_s[3] == (1000, 2000) and st.boxes[5][0] == (-10000, 11000)
+
+
+def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(
+    robot, repo
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "points.yaml", "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, "
+         "hand: Lefty", "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty")
+    edit(project, repo, "points.yaml", "  13: {", "  20: {x: 5.000, y: 6.000, z: 0.000, u: 0.000, "
+         "hand: Lefty, elbow: Below, wrist: NoFlip, j4flag: 0, j6flag: 3, local: 2}\n  13: {")
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0
+    st = sim.stations[1]
+    assert st.points[12].coords[2] == -10750 and st.points[12].hand == 1
+    new = st.points[20]
+    assert (new.coords, new.hand, new.elbow, new.j6flag, new.local) == (
+        (5000, 6000, 0, 0), 0, 1, 3, 2)
+    assert numbers(written(sim, taken)) == [1204, 1206, 1204, 1204, 1204, 1204, 1207, 1209,
+                                            1211, 1212, 1213, 1214]
+    assert cli.main(["diff", str(project)]) == 0
+
+
+def test_an_item_on_the_robot_the_project_lacks_is_shown_and_refused(robot, repo,
+                                                                    capsys) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    sim.stations[1].accel[7] = (10, 20)
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 1
+    assert "@@ Accel (volatile) @@\n-Accel 7: {accel: 10, decel: 20}\n" in capsys.readouterr().out
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    assert "Accel 7: registered on the robot but not in the project" in capsys.readouterr().err
+    assert written(sim) == []
+
+
+def test_a_function_halted_by_a_client_driving_it_wrongly_is_seen_and_reset_when_asked(
+    robot, repo, capsys
+) -> None:
+    """On purpose: a second request while a command runs (§6.5.1) halts the function;
+    the simulator records the function error, harlsync reports it and resets it only
+    when asked, on an idle robot."""
+    sim, url = robot
+    project = pulled(repo, url)
+    m = sim.register_map
+    reset, cmd_set = 1 << m.ext_cmd_reset.bit, 1 << m.ext_cmd_set.bit
+    with ModbusLink(url) as link:  # someone else's client, doing it wrong
+        link.write_holding(m.command_base, [59, 4, 0, 0, 0, 0, 0, 0])
+        link.write_holding(m.ext_cmd_set.register, [reset | cmd_set])
+        sim.execution_time = 5.0  # still running when the second request comes
+        link.write_holding(m.ext_cmd_set.register, [reset])
+        link.write_holding(m.command_base, [3, 4, 0, 0, 0, 0, 0, 0])
+        link.write_holding(m.ext_cmd_set.register, [reset | cmd_set])
+        link.write_holding(m.ext_cmd_set.register, [reset])
+    sim.execution_time = 0.0
+    assert [f.detail for f in sim.function_errors] == [0x0001]
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 2
+    err = capsys.readouterr().err
+    assert "function error (ExtError 1): 9999 function error, detail 0001" in err
+    assert cli.main(["diff", str(project)]) == 2  # nothing resets it unasked
+    apply_command(sim, "run")
+    assert cli.main(["diff", str(project), "--reset-function"]) == 3
+    assert "dropping ExtCmdReset would abort motion" in capsys.readouterr().err
+    apply_command(sim, "stop")
+    assert cli.main(["diff", str(project), "--reset-function"]) == 0
+    assert len(sim.function_errors) == 1  # the one caused on purpose, no other
+    assert sim.off_list() == [] and sim.writes_while_busy() == []
+    sim.remote().faults.clear()  # the teardown checks the correct client's run
+
+
+def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(
+    robot, repo
+) -> None:
+    sim, url = robot
+    iai = IaiSimulator({0x99: IaiState.generate(9, position_range=(1, 60))})
+    harl = HarlSimulator(HarlState.generate(3, SMALL))
+    servers = [TcpServer(iai), PtyServer(harl)]
+    try:
+        iai_url, harl_url = (s.start() for s in servers)
+        pulled(repo, url, "epson-cell")
+        assert cli.main(["pull", str(repo / "iai-cell"), "--family", "iai", "--port", iai_url,
+                         "--station", "99"]) == 0
+        robot_yaml = repo / "iai-cell" / "robot.yaml"
+        robot_yaml.write_text(robot_yaml.read_text().replace("last_position: 1000",
+                                                             "last_position: 60"))
+        engine.pull(repo / "press", port=harl_url)
+        git(repo, "add", "-A")
+        git(repo, "commit", "-qm", "first backup")
+        apply_command(sim, "power-cycle")  # the Epson tables are gone
+        first = min(iai.stations[0x99].positions)
+        iai.stations[0x99].positions.pop(first)
+        report = backup([repo], commit=True)
+        assert report.ok, report.render()
+        by_name = {r.name: r for r in report.robots}
+        assert sorted(by_name) == ["epson-cell", "iai-cell", "press"]
+        assert by_name["epson-cell"].changed and by_name["iai-cell"].changed
+        assert not by_name["press"].changed
+        assert by_name["epson-cell"].summary == "5 table entries, 1 setting"
+        message = git(repo, "log", "-1", "--format=%B")
+        assert "epson-cell" in message and "iai-cell" in message
+        assert "accel_s: {}" in (repo / "epson-cell" / "settings.yaml").read_text()
+        assert not iai.writes_while_busy() and not iai.off_list()
+    finally:
+        for server in servers:
+            server.stop()
+
+
+def test_a_robot_of_another_type_than_robot_yaml_says_is_refused(robot, repo, capsys) -> None:
+    _sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "type: SCARA", "type: RS")
+    capsys.readouterr()
+    assert cli.main(["pull", str(project)]) == 2
+    assert ("the controller reports a SCARA robot (2153), robot.yaml controller.type says RS"
+            in capsys.readouterr().err)
+
+
+def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
+    robot, repo, capsys
+) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "response_words: 8", "response_words: 5")
+    taken = len(sim.commands())
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"harlsync: error: {url} unit 1: 210 (SpeedS speed and depart table 0) needs 6 response "
+        "words, the register map has 5: assign more words in RC+ and in robot.yaml "
+        "connection.map")
+    sent = set(numbers(sim.commands()[taken:]))
+    assert {60, 61} <= sent and 59 not in sent  # AccelS was read in halves
+    assert 210 not in sent
