@@ -35,7 +35,15 @@ import tempfile
 import time
 from typing import Any
 
-from machine import BITS_PER_BYTE, IAI_ROBOTS, ROBOTS, SimProcess, describe, minutes
+from machine import (
+    BITS_PER_BYTE,
+    IAI_ROBOTS,
+    ROBOTS,
+    SimProcess,
+    bench_robot,
+    describe,
+    minutes,
+)
 
 CPU_TARGET_US = 100
 WAKE_TARGET = 3
@@ -45,16 +53,9 @@ OVER_TARGET_MS = 0.1
 def child(robot: str, port: str, baud: int) -> None:
     """Read everything from ``port`` as a pull does; print one JSON line."""
     from harlsync import families
-    from harlsync.settings import SerialSettings
 
-    iai = robot in IAI_ROBOTS
-    family = families.get("iai" if iai else "harl-u2")
-    options: dict[str, Any] = {"serial": SerialSettings(baudrate=baud, timeout=0.5 if iai else 1.0)}
-    if iai:
-        model = "TT" if robot.endswith("-tt") else "TTA"
-        options["options"] = {"model": model, "first": 1, "last": 1000}
-    station = 0x99 if iai else 1
-    bot = family.new_robot("bench", port, station, **options)
+    bot = bench_robot(robot, port, baud)
+    family = families.get(bot.family)
     driver = family.connect(bot, None, None, lock_timeout=5)
     try:
         before, start = resource.getrusage(resource.RUSAGE_SELF), time.monotonic()

@@ -38,9 +38,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import re
-import resource
 import shutil
 import subprocess
 import sys
@@ -49,7 +47,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from machine import BITS_PER_BYTE, IAI_ROBOTS, SimProcess, describe, minutes
+from machine import (
+    IAI_ROBOTS,
+    SimProcess,
+    describe,
+    harlsync_command,
+    minutes,
+    process_env,
+    timed_process,
+)
 
 from harlsync.families.iai import layout, profile
 from harlsync.families.iai.family import FAMILY
@@ -88,12 +94,6 @@ maintenance_windows: []
 """
 
 
-def harlsync_command() -> list[str]:
-    """The ``harlsync`` script of this interpreter's environment (``-m`` without one)."""
-    script = Path(sys.executable).with_name("harlsync")
-    return [str(script)] if script.exists() else [sys.executable, "-m", "harlsync"]
-
-
 def minimum_requests(model: str) -> tuple[int, int]:
     """(records per 22DH reply in the worst case, fewest requests for a whole pull)."""
     per_reply = (profile.BUFFERS[model].send - READ_REPLY_OVERHEAD) // RECORD_8_AXES
@@ -102,40 +102,18 @@ def minimum_requests(model: str) -> tuple[int, int]:
 
 def pull_once(sim: SimProcess, baud: int, model: str, project: Path) -> dict[str, Any]:
     """``harlsync pull`` as a process of its own, timed against the simulator's clock."""
-    sim.reset()
     project.mkdir()
     (project / "robot.yaml").write_text(
         ROBOT_YAML.format(port=sim.ports[0], baud=baud, model=model, last=POSITIONS)
     )
     command = [*harlsync_command(), "pull", str(project), "--family", "iai",
                "--port", sim.ports[0], "--station", "99"]
-    env = dict(os.environ, HARLSYNC_LOCK_DIR=str(project.parent / "locks"))
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.monotonic()
-    done = subprocess.run(command, capture_output=True, text=True, env=env, check=False)
-    end = time.monotonic()
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if done.returncode:
-        sys.exit(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr}")
-    counted = sim.stats()[0]
+    result = timed_process(sim, baud, command, process_env(project.parent / "locks"))
     text = (project / "positions.yaml").read_text()
     pulled = len(re.findall(r"^  [0-9]+: \{", text, re.MULTILINE))
     if pulled != POSITIONS:
         sys.exit(f"{project}: {pulled} positions pulled, not {POSITIONS}")
-    nbytes = counted["bytes_in"] + counted["bytes_out"]
-    return {
-        "exchanges": counted["exchanges"],
-        "letters": counted["letters"],
-        "bytes": nbytes,
-        "limit": nbytes * BITS_PER_BYTE / baud,
-        "startup": counted["first_in"] - start,
-        "read": counted["last_due"] - counted["first_in"],
-        "save": end - counted["last_due"],
-        "whole": end - start,
-        "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
-        "late_mean": counted.get("late_mean", 0.0),
-        "late_worst": counted.get("late_worst", 0.0),
-    }
+    return result
 
 
 def bare_start(repeat: int = 3) -> tuple[float, float]:
@@ -149,7 +127,8 @@ def bare_start(repeat: int = 3) -> tuple[float, float]:
         best = math.inf
         for _ in range(repeat):
             start = time.monotonic()
-            subprocess.run([sys.executable, "-c", code], check=True)
+            subprocess.run([sys.executable, "-c", code], check=True,
+                           env=process_env(Path(tempfile.gettempdir())))
             best = min(best, time.monotonic() - start)
         out.append(best)
     return out[0], out[1]

@@ -10,6 +10,7 @@ import random
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from datetime import datetime
@@ -20,6 +21,7 @@ from harlsync.families.harl_u2.model import Config, ProgramArea, Step
 from harlsync.families.harl_u2.sim import DEFAULT_CONFIG, SimState
 from harlsync.families.iai.model import Position
 from harlsync.families.iai.sim import SimState as IaiState
+from harlsync.project.robot import Robot
 
 BENCH = Path(__file__).resolve().parent
 BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
@@ -179,12 +181,15 @@ class SimProcess:
     """
 
     def __init__(
-        self, robot: str, *, baud: int = 0, lines: int = 1, tcp: bool = False, tick: float = 0.0
+        self, robot: str, *, baud: int = 0, lines: int = 1, tcp: bool = False, tick: float = 0.0,
+        loop: bool = False,
     ) -> None:
         command = [sys.executable, str(BENCH / "simserver.py"), robot, "--baud", str(baud),
                    "--lines", str(lines)]
         if tcp:
             command.append("--tcp")
+        if loop:
+            command.append("--loop")
         if tick:
             command += ["--tick", str(tick)]
         self._proc = subprocess.Popen(
@@ -245,6 +250,76 @@ def timed_pull(port: str, into: Path) -> tuple[float, float]:
     start = time.perf_counter()
     pull(into, port=port, progress=progress)
     return read_done - start, time.perf_counter() - start
+
+
+def harlsync_command() -> list[str]:
+    """The ``harlsync`` script of this interpreter's environment (``-m`` without one)."""
+    script = Path(sys.executable).with_name("harlsync")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "harlsync"]
+
+
+#: Where the harlsync processes the benches start keep their compiled bytecode.
+PYCACHE = Path(tempfile.gettempdir()) / "harlsync-bench-pycache"
+
+
+def process_env(locks: Path, **more: str) -> dict[str, str]:
+    """The environment of a harlsync process a bench starts: its own lock directory
+    and audit log, and bytecode cached as after ``pip install`` (a shell that sets
+    PYTHONDONTWRITEBYTECODE makes every process compile harlsync's 90 modules
+    again, about 0.1 s of start-up no installed harlsync pays; the cache goes to
+    :data:`PYCACHE`, not into the worktree)."""
+    env = dict(os.environ, HARLSYNC_LOCK_DIR=str(locks),
+               HARLSYNC_AUDIT_LOG=str(locks / "audit.jsonl"), PYTHONPYCACHEPREFIX=str(PYCACHE),
+               **more)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
+def bench_robot(robot: str, port: str, baud: int) -> Robot:
+    """The robot of :data:`ROBOTS` or :data:`IAI_ROBOTS` called ``robot`` on ``port`` at
+    ``baud``, as a site writes its robot.yaml (IAI: station 99, the table's model)."""
+    from harlsync import families
+    from harlsync.settings import SerialSettings
+
+    iai = robot in IAI_ROBOTS
+    options: dict[str, Any] = {"serial": SerialSettings(baudrate=baud, timeout=0.5 if iai else 1.0)}
+    if iai:
+        model = "TT" if robot.endswith("-tt") else "TTA"
+        options["options"] = {"model": model, "first": 1, "last": IAI_POSITIONS}
+    return families.get("iai" if iai else "harl-u2").new_robot(
+        "bench", port, 0x99 if iai else 1, **options)
+
+
+def timed_process(sim: SimProcess, baud: int, command: list[str], env: dict[str, str]
+                  ) -> dict[str, Any]:
+    """``command`` (a harlsync pull) run to its end against ``sim``'s line, timed on the
+    clock every process shares: ``startup`` (to the first request byte the simulator
+    read), ``read`` (to the last reply byte due on the line), ``save`` (to the exit),
+    ``whole``; ``limit`` (bytes both ways x 10 / baud), ``cpu`` (the process's user +
+    system time), and what the simulator counted.  Exits the bench if the pull fails."""
+    sim.reset()
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.monotonic()
+    done = subprocess.run(command, capture_output=True, text=True, env=env, check=False)
+    end = time.monotonic()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode:
+        sys.exit(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr}")
+    counted = sim.stats()[0]
+    nbytes = counted["bytes_in"] + counted["bytes_out"]
+    return {
+        "exchanges": counted["exchanges"],
+        "letters": counted["letters"],
+        "bytes": nbytes,
+        "limit": nbytes * BITS_PER_BYTE / baud,
+        "startup": counted["first_in"] - start,
+        "read": counted["last_due"] - counted["first_in"],
+        "save": end - counted["last_due"],
+        "whole": end - start,
+        "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
+        "late_mean": counted.get("late_mean", 0.0),
+        "late_worst": counted.get("late_worst", 0.0),
+    }
 
 
 def run_child(command: list[str], what: str) -> dict[str, Any]:
