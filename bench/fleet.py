@@ -1,84 +1,151 @@
-"""Fleet: a nightly backup of 32 robots, each on its own line, against the slowest one alone.
+"""Fleet: a nightly backup of many robots, each on its own line, against the slowest alone.
 
-    python bench/fleet.py                    32 default-full robots at 19200 baud: ~1 min
-    python bench/fleet.py --quick            8 small-full robots: ~15 s
-    python bench/fleet.py --robot max-full   the full-size robot: ~9 min (2 x 4.3 min)
+    python bench/fleet.py                    128 default-full robots at 19200 baud, all
+                                             served by one simulator thread: ~1 min
+    python bench/fleet.py --quick            32 small-full robots: ~15 s
+    python bench/fleet.py --robots 32 --processes 4     the simulators as before issue
+                                             15: 8 lines a process, two threads a line
 
-Simulator processes (bench/simserver.py, 8 lines each, every line its own pty
-with wire-time emulation) serve the robots; each robot is a project directory
-whose robot.yaml names its pty, holding what the robot holds (a nightly backup
-with no change).  First one robot alone is backed up (harlsync.sync.backup.backup),
-then all of them at once, with --jobs as given (default: the backup's own
-default).  Every robot reads the same bytes, so the one alone is the slowest
-single robot; the target is a fleet time at most 1.2 x that.
+A simulator (bench/simserver.py) serves every robot on a pty of its own, with wire-time
+emulation at the baud rate.  By default one process serves all of them from one
+thread and one event loop (``--loop``), so that the simulated lines take as little of
+the machine's CPU as they can: ``--processes N`` splits them over N processes of the
+framework's servers instead (two threads a line).  Each robot is a project directory
+whose robot.yaml names its pty and the baud rate, holding what the robot holds (a
+nightly backup with no change).  First one robot alone is backed up
+(harlsync.sync.backup.backup), then all of them at once, every line at once (the
+backup's default) or ``--jobs``.  Every robot reads the same bytes, so the one alone
+is the slowest single robot.
+
+Printed beside the times: harlsync's CPU during the fleet backup (this process: the
+backup runs in it) and its share of one core; the simulator's CPU and how late its
+replies were (the emulation's own error, on top of the figures); the load average.
+
+Target (issue 15): 128 robots at 19200 baud in at most 1.10 x one robot alone.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import select
 import tempfile
 import time
+import tty
 from contextlib import ExitStack
 from pathlib import Path
 
 from machine import BITS_PER_BYTE, ROBOTS, SimProcess, describe, minutes
 
+from harlsync.families.harl_u2.layout import render_robot
+from harlsync.families.harl_u2.model import ProgramType
+from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_frame
 from harlsync.project import Project, new_robot, save_project
+from harlsync.settings import SerialSettings
 from harlsync.sync.backup import backup
 
-LINES_PER_PROCESS = 8
-TARGET = 1.2
+TARGET = 1.10
+
+
+def one_thread_floor(ports: list[str], seconds: float) -> tuple[int, float, float]:
+    """What one thread that drives every line from one epoll loop gets through: each
+    line reads MAIN 0's steps in turn (request, wait for the whole reply frame, next),
+    raw frames and the codec, no link.  (exchanges, seconds, CPU seconds)."""
+    fds = [os.open(port, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK) for port in ports]
+    for fd in fds:
+        tty.setraw(fd)
+    decoders = {fd: FrameDecoder() for fd in fds}
+    frames = [encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload)
+              for n in range(64)]
+    poller = select.epoll()
+    sent = dict.fromkeys(fds, 0)
+    for fd in fds:
+        poller.register(fd, select.EPOLLIN)
+        os.write(fd, frames[0])
+    done, start, cpu = 0, time.perf_counter(), os.times()
+    while time.perf_counter() - start < seconds:
+        for fd, _ in poller.poll(1.0):
+            decoder = decoders[fd]
+            decoder.feed(os.read(fd, 4096))
+            if decoder.next_frame() is not None:
+                done += 1
+                sent[fd] += 1
+                os.write(fd, frames[sent[fd] % 64])
+    took, used = time.perf_counter() - start, sum(os.times()[:2]) - sum(cpu[:2])
+    time.sleep(0.2)  # the replies still on the wire
+    for fd in fds:
+        os.close(fd)
+    return done, took, used
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="8 small-full robots")
+    parser.add_argument("--quick", action="store_true", help="32 small-full robots")
     parser.add_argument("--robot", choices=sorted(ROBOTS), help="default: default-full")
-    parser.add_argument("--robots", type=int, help="how many (default 32)")
+    parser.add_argument("--robots", type=int, help="how many (default 128)")
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--jobs", type=int, help="backup's --jobs (default: its default)")
+    parser.add_argument("--processes", type=int, default=0,
+                        help="simulator processes of two threads a line (default: one "
+                             "process, one event loop)")
+    parser.add_argument("--floor", action="store_true",
+                        help="then drive every line from one thread with raw frames, for scale")
     parser.add_argument("--tick", type=float, default=0.0,
                         help="the simulators' pacing tick in seconds (default 0.001; a USB "
                              "adapter's latency timer delivers bytes every 1-16 ms)")
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "default-full")
-    count = args.robots or (8 if args.quick else 32)
+    count = args.robots or (32 if args.quick else 128)
     jobs = {} if args.jobs is None else {"jobs": args.jobs}
+    processes = args.processes or 1
+    per_process = -(-count // processes)
 
     print(f"harlsync fleet bench: {describe()}")
-    print(f"{count} {robot} robots on separate lines at {args.baud} baud, "
-          f"backup jobs: {args.jobs or 'default'}\n")
+    print(f"{count} {robot} robots on separate lines at {args.baud} baud, backup jobs: "
+          f"{args.jobs or 'default'}; simulated by "
+          + ("one process, one event loop" if not args.processes else
+             f"{processes} processes of {per_process} lines, two threads a line")
+          + f", pacing tick {(args.tick or 0.001) * 1e3:g} ms\n")
     with tempfile.TemporaryDirectory() as tmp, ExitStack() as stack:
         os.environ["HARLSYNC_LOCK_DIR"] = str(Path(tmp) / "locks")
-        sims = [stack.enter_context(SimProcess(robot, baud=args.baud, tick=args.tick, lines=min(
-            LINES_PER_PROCESS, count - i))) for i in range(0, count, LINES_PER_PROCESS)]
+        os.environ["HARLSYNC_AUDIT_LOG"] = str(Path(tmp) / "audit.jsonl")
+        sims = [stack.enter_context(SimProcess(
+            robot, baud=args.baud, tick=args.tick, lines=min(per_process, count - i),
+            loop=not args.processes)) for i in range(0, count, per_process)]
         ports = [port for sim in sims for port in sim.ports]
         data = ROBOTS[robot]().data
         plant = Path(tmp) / "plant"
         for n, port in enumerate(ports):
-            path = plant / f"robot-{n:02d}"
-            save_project(path, Project(path, new_robot(path.name, port), data))
+            path = plant / f"robot-{n:03d}"
+            bot = new_robot(path.name, port, serial=SerialSettings(baudrate=args.baud))
+            save_project(path, Project(path, bot, data))
+            assert f"baudrate: {args.baud}" in render_robot(bot)
 
         start = time.perf_counter()
-        alone = backup([plant / "robot-00"], **jobs)
+        alone = backup([plant / "robot-000"], **jobs)
         single = time.perf_counter() - start
         counted = sims[0].stats()[0]
         limit = (counted["bytes_in"] + counted["bytes_out"]) * BITS_PER_BYTE / args.baud
         for sim in sims:
             sim.reset()
+        sim_before = sum(sim.stats()[0]["cpu"] for sim in sims)
 
+        load_before = os.getloadavg()
         start, cpu = time.perf_counter(), os.times()
         fleet = backup([plant], **jobs)
         total = time.perf_counter() - start
         client_cpu = sum(os.times()[:2]) - sum(cpu[:2])
-        stats = [line for sim in sims for line in sim.stats()]
-    sims_cpu = sum(os.times()[2:4])  # the simulator processes, now ended: both phases
+        load_after = os.getloadavg()
+        stats = [sim.stats() for sim in sims]
+        sim_cpu = sum(s[0]["cpu"] for s in stats) - sim_before
+        lines = [line for s in stats for line in s]
+        floor = one_thread_floor(ports, min(single, 10.0)) if args.floor else None
 
     assert alone.ok and fleet.ok, (alone.render(), fleet.render())
     durations = sorted(r.duration for r in fleet.robots)
-    late = max(s.get("late_worst", 0.0) for s in stats)
-    late_mean = sum(s.get("late_mean", 0.0) for s in stats) / len(stats)
+    exchanges = sum(s["exchanges"] for s in lines)
+    late = max(s.get("late_worst", 0.0) for s in lines)
+    late_mean = sum(s.get("late_mean", 0.0) for s in lines) / len(lines)
     print(f"{'':34} {'seconds':>9} {'/ alone':>8} {'/ limit':>8}")
     print(f"{'line limit of one robot':34} {limit:>9.1f} {limit / single:>8.2f} {1:>8.2f}")
     print(f"{'one robot alone':34} {single:>9.1f} {1:>8.2f} {single / limit:>8.2f}")
@@ -87,12 +154,18 @@ def main() -> None:
           f"{durations[len(durations) // 2] / single:>8.2f}")
     print(f"{'fleet: slowest robot':34} {durations[-1]:>9.1f} {durations[-1] / single:>8.2f}")
     print(f"{'fleet: total':34} {total:>9.1f} {total / single:>8.2f} {total / limit:>8.2f}")
-    print(f"\n{sum(s['exchanges'] for s in stats):,} exchanges; simulator replies late by "
-          f"{late_mean * 1e6:.0f} us on average, {late * 1e3:.1f} ms at worst")
-    print(f"CPU: harlsync {client_cpu:.1f} s during the fleet backup ({client_cpu / total:.0%} of "
-          f"one core); the simulator processes {sims_cpu:.1f} s over both phases "
-          f"({sims_cpu / (single + total):.0%} of one core), on {os.cpu_count()} cores")
+    print(f"\n{exchanges:,} exchanges in the fleet backup ({exchanges / total:,.0f}/s); simulator "
+          f"replies late by {late_mean * 1e6:.0f} us on average, {late * 1e3:.1f} ms at worst")
+    print(f"CPU during the fleet backup: harlsync {client_cpu:.1f} s ({client_cpu / total:.0%} of "
+          f"one core, {client_cpu / exchanges * 1e6:.0f} us an exchange); the simulator "
+          f"{sim_cpu:.1f} s ({sim_cpu / total:.0%} of one core), on {os.cpu_count()} cores; "
+          f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after")
     print(f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}).")
+    if floor:
+        done, took, used = floor
+        print(f"\nOne thread, one epoll loop, every line (raw frames, no link): {done / took:,.0f} "
+              f"exchanges/s, {used / took:.0%} of one core, {used / done * 1e6:.0f} us an "
+              f"exchange; the fleet needs {exchanges / single:,.0f}/s to keep every line busy")
 
 
 if __name__ == "__main__":
