@@ -11,7 +11,8 @@ family's driver on it, as a pull does, and reads everything (``read_all``).  The
 child measures itself with ``getrusage`` around the read, so imports and the save
 are not in these figures (bench/line.py has the whole process):
 
-- CPU us/exch: user + system time of the process, from the OS, per exchange;
+- CPU us/exch: user + system time of the process, from the OS, per exchange; ``of
+  it sys``: the system (kernel) part: the port's writes, reads and waits;
 - wake-ups/exch: voluntary context switches (``ru_nvcsw``) per exchange: each time
   the process blocked and the kernel woke it, for bytes or for a timer;
 - over ms/exch: (read - line limit) / exchanges, the line limit being what the
@@ -109,7 +110,8 @@ def main() -> None:
     print(f"harlsync CPU per exchange bench: {describe()}")
     print(f"robot {robot}; a fresh process reads it (read_all), measured with getrusage\n")
     print(f"{'baud':>6} {'over':4} {'exch':>6} {'limit':>8} {'read':>8} {'read/lim':>8} "
-          f"{'over ms/exch':>12} {'CPU us/exch':>11} {'wake-ups/exch':>13} {'sim late us':>11}")
+          f"{'over ms/exch':>12} {'CPU us/exch':>11} {'of it sys':>9} {'wake-ups/exch':>13} "
+          f"{'sim late us':>11}")
     began = time.monotonic()
     with tempfile.TemporaryDirectory() as locks:
         for baud in (int(b) for b in args.baud.split(",")):
@@ -119,7 +121,8 @@ def main() -> None:
                 over = (r["read"] - r["limit"]) / n * 1e3
                 print(f"{baud:>6} {transport:4} {n:>6,} {minutes(r['limit']):>8} "
                       f"{minutes(r['read']):>8} {r['read'] / r['limit']:>8.3f} {over:>12.3f} "
-                      f"{r['cpu'] / n * 1e6:>11.1f} {r['wakeups'] / n:>13.2f} "
+                      f"{r['cpu'] / n * 1e6:>11.1f} {(r['cpu'] - r['user']) / n * 1e6:>9.1f} "
+                      f"{r['wakeups'] / n:>13.2f} "
                       f"{r['late'] * 1e6:>11.0f}", flush=True)
     print(f"\nTargets: CPU at most {CPU_TARGET_US} us per exchange, at most {WAKE_TARGET} "
           f"wake-ups per exchange, over at most {OVER_TARGET_MS} ms per exchange at 115200.")
