@@ -8,6 +8,7 @@ Over a real pty and a real TCP socket to a simulator that emulates a 9600-baud l
 
 from __future__ import annotations
 
+import select
 from collections.abc import Iterator
 
 import pytest
@@ -80,3 +81,34 @@ def test_a_reply_slower_than_the_recent_ones_is_its_own_or_retried_past_its_dead
     assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 4)) == STEPS[4]
     assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0)) == STEPS[0]
     assert link.stats.retries == retries and link.stats.unrequested == 0
+
+
+class _CountedPoll:
+    """The link's poll object, counting how often the link waits in it."""
+
+    def __init__(self, poll: select.poll) -> None:
+        self._poll, self.calls = poll, 0
+
+    def poll(self, timeout: float) -> list[tuple[int, int]]:
+        self.calls += 1
+        return self._poll.poll(timeout)
+
+
+def test_replies_a_little_shorter_each_time_keep_the_link_asleep_while_on_the_wire(
+    link: Link, sim: ScriptedSim
+) -> None:
+    # Each reply a little shorter than every one before it (as IAI positions with
+    # fewer digits are): each is whole before the link wakes, and the next is still
+    # timed from the kind's history, not read a byte per wake-up (some 20 at 9600).
+    params = [("P001", "S100", "A12"), ("P001", "S100", "A1"), ("P001", "S100"),
+              ("P001", "S10"), ("P01", "S10"), ("P1", "S10"), ("P1", "S1"), ("P1",)]
+    program = sim.stations[1].data.programs[(ProgramType.MAIN, 0)]
+    program.update((n, Step("MOVE", p)) for n, p in enumerate(params))
+    assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0)) == program[0]  # by poll
+    counted = link._poll = _CountedPoll(link._poll)
+    for n in range(1, len(params)):
+        assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, n)) == program[n]
+    (took,) = link._took.values()
+    assert len(took.turnaround) == len(params)  # every exchange timed the next
+    assert counted.calls <= 3 * (len(params) - 1)
+    assert link.stats.retries == 0 and link.stats.unrequested == 0

@@ -62,7 +62,9 @@ soonest of them, then waits in ``poll`` for the rest::
 
 A reply as long as the shortest recent one is two wake-ups, one longer is read
 as it comes.  Only a reply quicker than all of them (an END after full steps) is
-taken late, when the timer wakes, and the next of its kind is timed afresh.  Fast
+taken late, when the timer wakes.  The next of its kind is timed for a reply as
+short when it was shorter than them all (IAI positions vary by a few digits), or
+else afresh, as the controller answered sooner than it did.  Fast
 lines and whole replies are read as they come, one wake-up a piece.  Ports
 without a descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read
 with pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
@@ -450,12 +452,19 @@ class Link(Generic[F]):
     def _learn(self, kind: _Kind) -> None:
         """Remember how long the exchange just done took, when that is known: when poll
         woke for the reply's last bytes.  A reply found whole on waking from the timer
-        was shorter than the recent ones and may have waited: the next of its kind is
-        timed afresh, by poll."""
+        came sooner than the recent ones and may have waited: when it was shorter than
+        all of them, that is why, and the next of its kind is timed for one as short;
+        otherwise the controller answered sooner, and the next is timed afresh, by poll."""
+        sent, got = len(self._sent), self._frame_bytes
+        took = self._took.get(kind)
         if self._polled:
-            sent, got = len(self._sent), self._frame_bytes
-            took = self._took.get(kind) or self._took.setdefault(kind, _Took())
+            took = took or self._took.setdefault(kind, _Took())
             took.turnaround.append(self._got_at - self._sent_at - (sent + got) * self._char)
+            took.longer.append(got - sent)
+        elif took and got - sent < min(took.longer):
+            # Its shortness explains why it was whole (IAI positions of fewer digits):
+            # the next of its kind is timed for a reply as short, at the same turnaround.
+            took.turnaround.append(min(took.turnaround))
             took.longer.append(got - sent)
         else:
             self._took.pop(kind, None)
