@@ -464,7 +464,7 @@ class _Writer:
 
     Handled: a block mapping at the top; in block mappings, scalars, non-empty block
     mappings, and flow mappings and sequences of scalars (empty ones as ``{}`` and
-    ``[]``); scalars that the emitter writes plain or quoted without escapes or line
+    ``[]``), flow mappings also of flow mappings and sequences; scalars that the emitter writes plain or quoted without escapes or line
     breaks.  Anything else (block sequences, keys to quote, duplicate keys, non-ASCII
     text, tags to write) raises :class:`_Bail` inside and gives ``None``: the caller
     uses the emitter.
@@ -529,11 +529,18 @@ class _Writer:
         parts, result = [], {}
         for key_node, value in node.value:
             shown, key = self._key(key_node)
-            if key in result or not isinstance(value, ScalarNode):
+            if key in result:
                 raise _Bail
             at = (*path, key)
             lines[at] = line
-            text, result[key] = self._scalar(value)
+            if isinstance(value, ScalarNode):
+                text, result[key] = self._scalar(value)
+            elif _flow(value, SequenceNode, SEQ):  # an IAI position's axes and coords
+                text, result[key] = self._flow_sequence(value, at)  # type: ignore[arg-type]
+            elif _flow(value, MappingNode, MAP):
+                text, result[key] = self._flow_mapping(value, at)  # type: ignore[arg-type]
+            else:
+                raise _Bail
             parts.append(f"{shown}: {text}")
         return "{" + ", ".join(parts) + "}", result
 
@@ -597,6 +604,13 @@ class _Writer:
         if tag == STR and implicit != STR and _SINGLE_QUOTABLE.fullmatch(value):
             return "'" + value.replace("'", "''") + "'", value
         raise _Bail
+
+
+def _flow(node: Node, kind: type[Node], tag: str) -> bool:
+    """``node`` is a ``kind`` of ``tag`` that the emitter writes in flow style in a
+    block (a flow collection, or an empty one): the same as it writes it in a flow."""
+    return isinstance(node, kind) and node.tag == tag and bool(
+        node.flow_style or not node.value)
 
 
 #: What :func:`dump` wrote and :func:`parse` will be asked to read back, with what
