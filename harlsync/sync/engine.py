@@ -323,13 +323,13 @@ def pull(
             f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
             f"commit or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
         )
-    try:
-        previous: Any = load_project(path).data
-    except ProjectError:
-        previous = None
     read = read_live(robot, port, station, registers=robot.keep_registers,
                      progress=progress, lock_timeout=lock_timeout, options=connect_options)
     live = read.live
+    try:  # after the read: the first request need not wait for it (issue 15)
+        previous: Any = load_project(path).data
+    except ProjectError:
+        previous = None
     if previous is not None and not new_robot:
         _same_robot(path, catalogue(robot), previous, live, read.driver.label)
     save_project(path, Project(path, robot, live))
