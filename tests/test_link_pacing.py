@@ -9,7 +9,6 @@ Over a real pty and a real TCP socket to a simulator that emulates a 9600-baud l
 from __future__ import annotations
 
 import select
-import time
 from collections.abc import Iterator
 
 import pytest
@@ -19,7 +18,7 @@ from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import ProgramType, Step
 from harlsync.families.harl_u2.protocol import commands as cmd
 from harlsync.families.harl_u2.sim import SimState
-from harlsync.link import SerialSettings, exchange
+from harlsync.link import SerialSettings
 from harlsync.link.exchange import MIN_SLEEP
 from harlsync.sim.serve import PtyServer, TcpServer
 
@@ -57,8 +56,7 @@ def test_a_reply_is_long_enough_on_the_wire_for_the_link_to_sleep(link: Link) ->
     request = cmd.read_step(ProgramType.MAIN, 0, 0)
     link.exchange(request)
     took = next(iter(link._took.values()))
-    end = took.end(len(request.encode(1)), 0, link._char)
-    assert end is not None and end[0] > 2 * MIN_SLEEP
+    assert took.shortest(len(request.encode(1)), link._char) > 2 * MIN_SLEEP
 
 
 def test_replies_shorter_and_longer_than_the_recent_ones_are_each_read_whole(
@@ -113,26 +111,4 @@ def test_replies_a_little_shorter_each_time_keep_the_link_asleep_while_on_the_wi
     (took,) = link._took.values()
     assert len(took.turnaround) == len(params)  # every exchange timed the next
     assert counted.calls <= 3 * (len(params) - 1)
-    assert link.stats.retries == 0 and link.stats.unrequested == 0
-
-
-def test_a_kind_of_two_lengths_costs_at_most_three_wake_ups_an_exchange(
-    link: Link, sim: ScriptedSim, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    # Full steps and an END, as every program's read has: after the first few (by
-    # poll), each exchange sleeps for the END's length, then for a full step's, then
-    # waits in poll for the last bytes; an END is whole on the first wake-up.
-    full, end = Step("MOVE", ("P001", "S100", "A12")), Step("END")
-    program = sim.stations[1].data.programs[(ProgramType.MAIN, 0)]
-    program.update({0: full, 1: full, 2: full, 3: end, 4: full, 5: full, 6: full, 7: end})
-    for n in range(4):
-        assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, n)) == program[n]
-    counted = link._poll = _CountedPoll(link._poll)
-    sleeps: list[float] = []
-    sleep = time.sleep
-    monkeypatch.setattr(exchange.time, "sleep", lambda s: (sleeps.append(s), sleep(s)))
-    reads = [n for _ in range(3) for n in range(8)]
-    for n in reads:
-        assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, n)) == program[n]
-    assert counted.calls + len(sleeps) <= 3 * len(reads)
     assert link.stats.retries == 0 and link.stats.unrequested == 0

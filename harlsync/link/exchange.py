@@ -60,15 +60,11 @@ soonest of them, then waits in ``poll`` for the rest::
     |-------------------------------------------------------------|~~~~|
                                                          wake 1 (timer)  wake 2 (poll)
 
-A reply as long as the shortest recent one is two wake-ups.  When the kind's
-recent replies come in more than one length (full steps and an END, IAI positions
-of more or fewer digits), the link sleeps until just *after* the shortest is due,
-so that one as short is whole on the first wake-up, and a longer one, then part
-way, is slept for again (when its end is :data:`MIN_SLEEP` or more ahead) or
-read as it comes: three wake-ups at most for two lengths.  Only a reply quicker
-than every recent one is taken late, when the timer wakes: when it was shorter
-than the reply slept for, the kind learns its length; otherwise (the controller
-answered sooner) the next of its kind is timed afresh, by poll.  Fast
+A reply as long as the shortest recent one is two wake-ups, one longer is read
+as it comes.  Only a reply quicker than all of them (an END after full steps) is
+taken late, when the timer wakes.  The next of its kind is timed for a reply as
+short when it was shorter than them all (IAI positions vary by a few digits), or
+else afresh, as the controller answered sooner than it did.  Fast
 lines and whole replies are read as they come, one wake-up a piece.  Ports
 without a descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read
 with pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
@@ -225,8 +221,6 @@ class Link(Generic[F]):
         self._sent_at = 0.0  # when the request was sent
         self._got_at = 0.0  # when bytes were last read
         self._polled = False  # ... and whether poll woke for them (not a timer)
-        self._received = 0  # bytes read since the request was sent
-        self._whole_below = 0  # replies shorter than this were due whole when it woke
 
     # --- open / close ---------------------------------------------------------------
 
@@ -404,7 +398,6 @@ class Link(Generic[F]):
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, " while sending") from exc
         self._sent_at = time.monotonic()
-        self._received = self._whole_below = 0
         return self._sent_at
 
     def _take(self, port: SerialPort, station: int, command: str, *, ready: bool = False) -> bytes:
@@ -452,7 +445,6 @@ class Link(Generic[F]):
         if data:
             self._got_at = time.monotonic()
             self._polled = False
-            self._received += len(data)
             self._rx += data
             self._decoder.feed(data)
         return data
@@ -469,10 +461,9 @@ class Link(Generic[F]):
             took = took or self._took.setdefault(kind, _Took())
             took.turnaround.append(self._got_at - self._sent_at - (sent + got) * self._char)
             took.longer.append(got - sent)
-        elif took and got < self._whole_below:
-            # Its shortness explains why it was whole (an END after full steps, IAI
-            # positions of fewer digits): the kind keeps its turnaround and learns the
-            # length, so that the next reply as short is timed for.
+        elif took and got - sent < min(took.longer):
+            # Its shortness explains why it was whole (IAI positions of fewer digits):
+            # the next of its kind is timed for a reply as short, at the same turnaround.
             took.turnaround.append(min(took.turnaround))
             took.longer.append(got - sent)
         else:
@@ -635,7 +626,8 @@ class Link(Generic[F]):
         took = self._took.get(kind)
         # When to look first: just before the reply's last bytes are due, if the
         # recent exchanges of this kind say when that is.
-        look = self._look(took)
+        look = self._sent_at + took.shortest(len(self._sent), self._char) - self._guard if took \
+            else 0.0
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
@@ -662,21 +654,8 @@ class Link(Generic[F]):
             if pause >= MIN_SLEEP:
                 time.sleep(pause)
                 if self._take(port, station, command):
-                    look = self._look(took)  # a reply longer than what has come yet
                     continue
             self._wait(port, station, command, deadline)
-
-    def _look(self, took: _Took | None) -> float:
-        """When to look for the reply next (``time.monotonic``; 0: at once), when the
-        recent exchanges of its kind say: for the shortest recent reply longer than what
-        has come, just after its last bytes are due when a longer one is known (it is
-        then whole on waking, and a longer one has further to go), else just before."""
-        end = took.end(len(self._sent), self._received, self._char) if took else None
-        if end is None:
-            return 0.0
-        seconds, reply, longest = end
-        self._whole_below = reply if longest else reply + 1
-        return self._sent_at + seconds + (-self._guard if longest else self._guard)
 
 
 @dataclass(frozen=True)
@@ -699,17 +678,10 @@ class _Took:
     def __bool__(self) -> bool:
         return bool(self.turnaround)
 
-    def end(self, request: int, received: int, char: float) -> tuple[float, int, bool] | None:
-        """Seconds from sending a ``request``-byte request to the last byte of the
-        shortest recent reply longer than ``received`` bytes, at the quickest recent
-        turnaround; that reply's length, and whether it is the longest recent one.
-        None when no recent reply was longer."""
-        longer = [n for n in self.longer if request + n > received]
-        if not longer:
-            return None
-        shortest = min(longer)
-        reply = request + shortest
-        return min(self.turnaround) + (request + reply) * char, reply, shortest == max(longer)
+    def shortest(self, request: int, char: float) -> float:
+        """Seconds from sending a ``request``-byte request to the last byte of its
+        reply, for the quickest of the recent exchanges."""
+        return min(self.turnaround) + (2 * request + min(self.longer)) * char
 
 
 class _Kind(NamedTuple):
