@@ -120,6 +120,12 @@ WAKE_GUARD = 0.0001
 #: The shortest sleep worth a timer.  Below it the few arrivals of a reply cost less
 #: than waking from a sleep with cold caches (about 0.1 ms of CPU on a VM).
 MIN_SLEEP = 0.005
+#: A reply whole when the link woke, shorter than every recent one of its kind by at
+#: most 1/LEARN_SHORTER of its length, teaches the kind its length.  After a much
+#: shorter one (an END after full steps) the kind is timed afresh: timed for the
+#: short one, the next full replies would be read from its end on as they come, a
+#: wake-up a byte, for as long as it is among the recent ones.
+LEARN_SHORTER = 8
 #: Exchanges of a kind whose durations the link keeps: it sleeps for the quickest,
 #: so that a reply is taken late only when it is quicker than all of them.
 RECENT = 64
@@ -461,9 +467,10 @@ class Link(Generic[F]):
             took = took or self._took.setdefault(kind, _Took())
             took.turnaround.append(self._got_at - self._sent_at - (sent + got) * self._char)
             took.longer.append(got - sent)
-        elif took and got - sent < min(took.longer):
-            # Its shortness explains why it was whole (IAI positions of fewer digits):
-            # the next of its kind is timed for a reply as short, at the same turnaround.
+        elif took and 0 < (min(took.longer) - (got - sent)) * LEARN_SHORTER <= got:
+            # A little shorter than every recent one (IAI positions of fewer digits):
+            # that is why it was whole, and the next of its kind is timed for a reply
+            # as short, at the same turnaround.
             took.turnaround.append(min(took.turnaround))
             took.longer.append(got - sent)
         else:
