@@ -63,8 +63,8 @@ soonest of them, then waits in ``poll`` for the rest::
 A reply as long as the shortest recent one is two wake-ups, one longer is read
 as it comes.  Only a reply quicker than all of them (an END after full steps) is
 taken late, when the timer wakes.  The next of its kind is timed for a reply as
-short when it was shorter than them all (IAI positions vary by a few digits), or
-else afresh, as the controller answered sooner than it did.  Fast
+short when it was a little shorter than them all (IAI positions vary by a few
+digits: :data:`LEARN_SHORTER`), or else afresh, by poll.  Fast
 lines and whole replies are read as they come, one wake-up a piece.  Ports
 without a descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read
 with pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
