@@ -1,7 +1,7 @@
 """Fleet: a nightly backup of many robots, each on its own line, against the slowest alone.
 
     python bench/fleet.py                    128 default-full robots at 19200 baud, all
-                                             served by one simulator thread: ~1 min
+                                             served by one simulator thread: ~2 min
     python bench/fleet.py --quick            32 small-full robots: ~15 s
     python bench/fleet.py --robots 32 --processes 4     the simulators as before issue
                                              15: 8 lines a process, two threads a line
