@@ -115,8 +115,8 @@ class LoopServer:
     byte at its delay after the request was read (the line's time for request and
     reply), the bytes before it paced at the character rate and grouped per ``tick``,
     a line's chunks one after the other.  The loop sleeps in epoll until the next
-    write is due or a request comes (epoll counts milliseconds: the last one is slept
-    in ``time.sleep``, with the timer slack lowered, not spun), so the one thread
+    write is due or a request comes (epoll counts milliseconds: the last two are
+    waited in ``select``, with the timer slack lowered, not spun), so the one thread
     costs CPU for the bytes it moves, not for the time it waits.
     """
 
@@ -190,11 +190,16 @@ class LoopServer:
                 self.late_worst = max(self.late_worst, late)
                 now = time.monotonic()
             wait = due[0][0] - now if due else 0.05
-            if 0 < wait < 0.001:
-                time.sleep(wait)  # epoll cannot wait less than a millisecond
-                continue
-            # epoll rounds its timeout up to a millisecond: ask for the whole ones only.
-            for fd, _ in poller.poll(math.floor((wait - 0.001) * 1000) / 1000 if due else 0.05):
+            if due and wait < 0.002:
+                # epoll counts whole milliseconds; select waits for less, and still reads
+                # the requests that come meanwhile (with many lines a write is due every
+                # few microseconds: sleeping them out left requests unread until the
+                # replies on every line were done).
+                ready = select.select(self._masters, [], [], max(0.0, wait))[0]
+            else:  # epoll rounds its timeout up to a millisecond: ask for the whole ones only
+                ready = [fd for fd, _ in poller.poll(
+                    math.floor((wait - 0.001) * 1000) / 1000 if due else 0.05)]
+            for fd in ready:
                 try:
                     data = os.read(fd, 4096)
                 except OSError:
