@@ -5,6 +5,9 @@
     python bench/fleet.py --quick            32 small-full robots: ~15 s
     python bench/fleet.py --robots 32 --processes 4     the simulators as before issue
                                              15: 8 lines a process, two threads a line
+    python bench/fleet.py --split 4 --tick 0.004        the backup in 4 processes, and
+                                             bytes delivered every 4 ms as a USB
+                                             adapter's latency timer does
 
 A simulator (bench/simserver.py) serves every robot on a pty of its own, with wire-time
 emulation at the baud rate.  By default one process serves all of them from one
@@ -27,13 +30,17 @@ Target (issue 15): 128 robots at 19200 baud in at most 1.10 x one robot alone.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import select
+import subprocess
+import sys
 import tempfile
 import time
 import tty
 from contextlib import ExitStack
 from pathlib import Path
+from types import SimpleNamespace
 
 from machine import BITS_PER_BYTE, ROBOTS, SimProcess, describe, minutes
 
@@ -42,7 +49,7 @@ from harlsync.families.harl_u2.model import ProgramType
 from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_frame
 from harlsync.project import Project, new_robot, save_project
 from harlsync.settings import SerialSettings
-from harlsync.sync.backup import backup
+from harlsync.sync.backup import BackupReport, backup
 
 TARGET = 1.10
 
@@ -78,6 +85,23 @@ def one_thread_floor(ports: list[str], seconds: float) -> tuple[int, float, floa
     return done, took, used
 
 
+def split_backup(robots: list[Path], parts: int, jobs: int | None) -> BackupReport:
+    """``backup`` of ``robots`` in ``parts`` processes at once, each a share; their
+    reports joined (robots and durations only)."""
+    code = ("import json, sys; from pathlib import Path; from harlsync.sync.backup import "
+            "backup; jobs = json.loads(sys.argv[1]); r = backup([Path(p) for p in "
+            "sys.argv[2:]], **jobs); print(json.dumps([[x.ok, x.duration] for x in "
+            "r.robots]))")
+    shares = [robots[n::parts] for n in range(parts)]
+    extra = json.dumps({} if jobs is None else {"jobs": jobs})
+    children = [subprocess.Popen([sys.executable, "-c", code, extra, *map(str, share)],
+                                 stdout=subprocess.PIPE, text=True) for share in shares]
+    done = [json.loads(child.communicate()[0]) for child in children]
+    assert all(child.returncode == 0 for child in children)
+    return BackupReport([SimpleNamespace(ok=ok, duration=took)  # type: ignore[misc]
+                         for share in done for ok, took in share])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="32 small-full robots")
@@ -88,6 +112,9 @@ def main() -> None:
     parser.add_argument("--processes", type=int, default=0,
                         help="simulator processes of two threads a line (default: one "
                              "process, one event loop)")
+    parser.add_argument("--split", type=int, default=1, metavar="N",
+                        help="back the fleet up in N processes, each a backup of its share "
+                             "of the robots (what a process per core would give)")
     parser.add_argument("--floor", action="store_true",
                         help="then drive every line from one thread with raw frames, for scale")
     parser.add_argument("--tick", type=float, default=0.0,
@@ -132,9 +159,13 @@ def main() -> None:
 
         load_before = os.getloadavg()
         start, cpu = time.perf_counter(), os.times()
-        fleet = backup([plant], **jobs)
+        if args.split > 1:
+            fleet = split_backup(sorted(plant.iterdir()), args.split, args.jobs)
+        else:
+            fleet = backup([plant], **jobs)
         total = time.perf_counter() - start
-        client_cpu = sum(os.times()[:2]) - sum(cpu[:2])
+        after = os.times()
+        client_cpu = sum(after[:4]) - sum(cpu[:4])  # with the split's processes
         load_after = os.getloadavg()
         stats = [sim.stats() for sim in sims]
         sim_cpu = sum(s[0]["cpu"] for s in stats) - sim_before
