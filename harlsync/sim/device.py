@@ -238,7 +238,8 @@ class Device(ABC, Generic[S]):
         self.listeners: list[Callable[[Received], None]] = []
         #: writes carried out (a refused write is received, not carried out)
         self.writes = 0
-        self._clock = clock
+        #: The clock the device's times come from (tests give it one they move).
+        self.clock = clock
         self.lock = threading.RLock()
 
     def record(self, request: Received) -> None:
@@ -389,7 +390,7 @@ class Simulator(Device[S], Generic[S, F]):
         chunks = self.faults.shape(reply, self.corrupt_checksum)
         record = Received(
             frame.station, frame.payload, self.command(frame), self.is_write(frame),
-            self._clock(), bool(chunks), busy, client,
+            self.clock(), bool(chunks), busy, client,
         )
         self.record(record)
         self.bytes_out += sum(len(chunk) for _, chunk in chunks)

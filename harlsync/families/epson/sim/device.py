@@ -254,7 +254,6 @@ class Simulator(device.Device[SimState]):
         self.execution_time = execution_time
         self.acquire_time = acquire_time
         self.reset_low = reset_low
-        self.clock = clock
         self.server: ModbusServer | None = None
         self._drop_next = 0
         self._controllers = {n: _Station(self, n) for n in self.stations}
