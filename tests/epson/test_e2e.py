@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 from conftest import git
@@ -34,6 +33,7 @@ from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 from harlsync.sync.backup import backup
 
+from .projects import edit, pulled
 from .sample import sample_data
 
 SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
@@ -54,24 +54,6 @@ def robot() -> Iterator[tuple[Simulator, str]]:
     with sim.serve() as server:
         yield sim, server.url
     clean(sim)
-
-
-def pulled(repo: Path, url: str, name: str = "cell-3") -> Path:
-    project = repo / name
-    assert cli.main(["pull", str(project), "--family", "epson", "--port", url]) == 0
-    path = project / "robot.yaml"
-    path.write_text(path.read_text().replace("last_point: 99", "last_point: 29"))
-    git(repo, "add", "-A")
-    git(repo, "commit", "-qm", "backup")
-    return project
-
-
-def edit(project: Path, repo: Path, file: str, old: str, new: str) -> None:
-    path = project / file
-    text = path.read_text()
-    assert old in text, old
-    path.write_text(text.replace(old, new, 1))
-    git(repo, "commit", "-qam", f"edit {file}")
 
 
 def written(sim: Simulator, since: int = 0) -> list[CommandReceived]:

@@ -9,10 +9,8 @@ from __future__ import annotations
 import subprocess
 import sys
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
-from conftest import git
 
 from harlsync import cli, families
 from harlsync.errors import InterlockError, ProjectError
@@ -25,6 +23,7 @@ from harlsync.sync import engine
 
 from .fakerobot import WRITES, FakeRobot, RobotState
 from .modbus_server import ModbusServer, free_port
+from .projects import pulled
 
 
 @pytest.fixture
@@ -35,24 +34,6 @@ def robot() -> Iterator[tuple[FakeRobot, str]]:
     assert fake.bank.function_errors == []  # a correct client never halts the function
     assert fake.busy_writes == []  # ... nor writes to a robot that is not idle
     assert {w[0] for w in fake.commands} <= set(p.COMMANDS)  # ... nor anything off the lists
-
-
-def pulled(repo: Path, url: str, name: str = "cell-3") -> Path:
-    project = repo / name
-    assert cli.main(["pull", str(project), "--family", "epson", "--port", url]) == 0
-    path = project / "robot.yaml"
-    path.write_text(path.read_text().replace("last_point: 99", "last_point: 29"))
-    git(repo, "add", "-A")
-    git(repo, "commit", "-qm", "backup")
-    return project
-
-
-def edit(project: Path, repo: Path, file: str, old: str, new: str) -> None:
-    path = project / file
-    text = path.read_text()
-    assert old in text, old
-    path.write_text(text.replace(old, new, 1))
-    git(repo, "commit", "-qam", f"edit {file}")
 
 
 def writes(fake: FakeRobot) -> list[tuple[int, ...]]:
