@@ -201,6 +201,28 @@ def keep_snapshots(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     return taken
 
 
+class WithoutFsync:
+    """The :mod:`os` module as the audit log sees it, with ``fsync`` a no-op."""
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(os, name)
+
+    @staticmethod
+    def fsync(fd: int) -> None:
+        pass
+
+
+def off_the_disk(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """:func:`keep_snapshots`, and the rest of what only the disk has for a push whose
+    project is held in memory: the audit log's fsync (each case keeps its own log,
+    which the checks read back) and git asked for the commit of a project that is
+    not in a repository.  Returns the snapshots taken."""
+    taken = keep_snapshots(monkeypatch)
+    monkeypatch.setattr(engine.git, "head", lambda path: None)
+    monkeypatch.setattr(audit_log, "os", WithoutFsync())
+    return taken
+
+
 def spy_on_push(monkeypatch: pytest.MonkeyPatch) -> list[PushResult | PushFailed]:
     """What each ``engine.push`` returned or raised, in order."""
     real = engine.push

@@ -47,7 +47,6 @@ failure names its seed); ``HARLSYNC_PROPERTY_BASE=N`` moves every chunk.
 from __future__ import annotations
 
 import json
-import os
 import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -67,7 +66,7 @@ from pushproperty import (
     check_wrote_nothing,
     count_failure,
     explain,
-    keep_snapshots,
+    off_the_disk,
     seeds,
 )
 
@@ -102,7 +101,6 @@ from harlsync.families.epson.sim.commands import WRITES
 from harlsync.project import Project
 from harlsync.sim import Faults
 from harlsync.sync import PushFailed, PushOptions, engine
-from harlsync.sync import audit as audit_log
 from harlsync.sync import items as sync_items
 from harlsync.sync.plan import PlannedWrite
 
@@ -429,22 +427,11 @@ def make_case(seed: int) -> Case:
 Deploy = Callable[[Case, float], Outcome]
 
 
-class WithoutFsync:
-    def __getattr__(self, name: str) -> Any:
-        return getattr(os, name)
-
-    @staticmethod
-    def fsync(fd: int) -> None:
-        pass
-
-
 @pytest.fixture
 def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     """Push a case through the engine's deploy with the Epson driver over the
     simulator's register bank (:class:`MemoryLink`), on the case's fake clock."""
-    taken = keep_snapshots(monkeypatch)
-    monkeypatch.setattr(engine.git, "head", lambda path: None)
-    monkeypatch.setattr(audit_log, "os", WithoutFsync())
+    taken = off_the_disk(monkeypatch)
     current: list[Case] = []
 
     def link(url: str, unit: int, *, timeout: float, retries: int, lock_timeout: float

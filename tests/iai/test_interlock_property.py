@@ -59,7 +59,6 @@ To replay or explore: ``HARLSYNC_PROPERTY_SEEDS=7,8,9`` runs only those seeds
 from __future__ import annotations
 
 import json
-import os
 import random
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -82,8 +81,8 @@ from pushproperty import (
     check_wrote_nothing,
     count_failure,
     explain,
-    keep_snapshots,
     line_changes,
+    off_the_disk,
     push_command,
     seeds,
     spy_on_push,
@@ -111,7 +110,6 @@ from harlsync.settings import SerialSettings
 from harlsync.sim import Received
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import PushFailed, PushOptions, engine
-from harlsync.sync import audit as audit_log
 from harlsync.sync import items as sync_items
 from harlsync.sync.plan import PlannedWrite
 
@@ -509,17 +507,6 @@ def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
 Deploy = Callable[[Case, SerialSettings], Outcome]
 
 
-class WithoutFsync:
-    """The :mod:`os` module as the audit log sees it, with ``fsync`` a no-op."""
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(os, name)
-
-    @staticmethod
-    def fsync(fd: int) -> None:
-        pass
-
-
 @pytest.fixture
 def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     """Push a case with its project held in memory and its snapshot kept in memory:
@@ -534,9 +521,7 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     is not in a repository, and the controller's 1 ms pause after each reply, which
     the simulator does not ask for.
     """
-    taken = keep_snapshots(monkeypatch)
-    monkeypatch.setattr(engine.git, "head", lambda path: None)
-    monkeypatch.setattr(audit_log, "os", WithoutFsync())
+    taken = off_the_disk(monkeypatch)
     monkeypatch.setattr(CODEC, "reply_gap", 0.0)
 
     def deploy(case: Case, settings: SerialSettings) -> Outcome:
