@@ -72,13 +72,17 @@ def child(robot: str, port: str, baud: int) -> None:
         end, after = time.monotonic(), resource.getrusage(resource.RUSAGE_SELF)
     finally:
         driver.close()
-    print(json.dumps({
-        "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
-        "user": after.ru_utime - before.ru_utime,
-        "wakeups": after.ru_nvcsw - before.ru_nvcsw,
-        "preempted": after.ru_nivcsw - before.ru_nivcsw,
-        "wall": end - start,
-    }))
+    print(
+        json.dumps(
+            {
+                "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
+                "user": after.ru_utime - before.ru_utime,
+                "wakeups": after.ru_nvcsw - before.ru_nvcsw,
+                "preempted": after.ru_nivcsw - before.ru_nivcsw,
+                "wall": end - start,
+            }
+        )
+    )
 
 
 def raw_child(port: str, count: int) -> None:
@@ -88,10 +92,11 @@ def raw_child(port: str, count: int) -> None:
     from harlsync.families.harl_u2.model import ProgramType
     from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_frame
 
-    frames = [encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload)
-              for n in range(64)]
+    frames = [
+        encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload) for n in range(64)
+    ]
     if port.startswith("socket://"):
-        host, _, number = port[len("socket://"):].rpartition(":")
+        host, _, number = port[len("socket://") :].rpartition(":")
         conn = socket.create_connection((host, int(number)))
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         fd = conn.fileno()
@@ -108,12 +113,16 @@ def raw_child(port: str, count: int) -> None:
             poller.poll()
             decoder.feed(os.read(fd, 4096))
     end, after = time.monotonic(), resource.getrusage(resource.RUSAGE_SELF)
-    print(json.dumps({
-        "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
-        "user": after.ru_utime - before.ru_utime,
-        "wakeups": after.ru_nvcsw - before.ru_nvcsw,
-        "wall": end - start,
-    }))
+    print(
+        json.dumps(
+            {
+                "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
+                "user": after.ru_utime - before.ru_utime,
+                "wakeups": after.ru_nvcsw - before.ru_nvcsw,
+                "wall": end - start,
+            }
+        )
+    )
 
 
 def measure(robot: str, baud: int, tcp: bool, locks: str, raw: int = 0) -> dict[str, Any]:
@@ -121,11 +130,17 @@ def measure(robot: str, baud: int, tcp: bool, locks: str, raw: int = 0) -> dict[
     simulator process, with what the simulator counted."""
     with SimProcess(robot, baud=baud, tcp=tcp) as sim:
         env = dict(os.environ, HARLSYNC_LOCK_DIR=locks)
-        how = ["--raw", sim.ports[0], str(raw)] if raw else \
-            ["--child", robot, sim.ports[0], str(baud)]
+        how = (
+            ["--raw", sim.ports[0], str(raw)]
+            if raw
+            else ["--child", robot, sim.ports[0], str(baud)]
+        )
         done = subprocess.run(
             [sys.executable, __file__, *how],
-            capture_output=True, text=True, env=env, check=False,
+            capture_output=True,
+            text=True,
+            env=env,
+            check=False,
         )
         if done.returncode:
             sys.exit(f"the reading process failed:\n{done.stderr}")
@@ -150,20 +165,28 @@ def main() -> None:
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="the small-full robot")
-    parser.add_argument("--robot", choices=sorted(ROBOTS | IAI_ROBOTS),
-                        help="default: default-full")
-    parser.add_argument("--baud", default="9600,115200", help="comma-separated (default %(default)s)")
-    parser.add_argument("--transport", default="pty,tcp", help="pty, tcp or both (default %(default)s)")
-    parser.add_argument("--no-floor", action="store_true",
-                        help="without the raw loop's row (HARL-U2 robots)")
+    parser.add_argument(
+        "--robot", choices=sorted(ROBOTS | IAI_ROBOTS), help="default: default-full"
+    )
+    parser.add_argument(
+        "--baud", default="9600,115200", help="comma-separated (default %(default)s)"
+    )
+    parser.add_argument(
+        "--transport", default="pty,tcp", help="pty, tcp or both (default %(default)s)"
+    )
+    parser.add_argument(
+        "--no-floor", action="store_true", help="without the raw loop's row (HARL-U2 robots)"
+    )
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "default-full")
 
     print(f"harlsync CPU per exchange bench: {describe()}")
     print(f"robot {robot}; a fresh process reads it (read_all), measured with getrusage\n")
-    print(f"{'baud':>6} {'over':4} {'':3} {'exch':>6} {'limit':>8} {'read':>8} {'read/lim':>8} "
-          f"{'over ms/exch':>12} {'CPU us/exch':>11} {'of it sys':>9} {'wake-ups/exch':>13} "
-          f"{'sim late us':>11}")
+    print(
+        f"{'baud':>6} {'over':4} {'':3} {'exch':>6} {'limit':>8} {'read':>8} {'read/lim':>8} "
+        f"{'over ms/exch':>12} {'CPU us/exch':>11} {'of it sys':>9} {'wake-ups/exch':>13} "
+        f"{'sim late us':>11}"
+    )
     began = time.monotonic()
     with tempfile.TemporaryDirectory() as locks:
         for baud in (int(b) for b in args.baud.split(",")):
@@ -171,18 +194,24 @@ def main() -> None:
                 r = measure(robot, baud, transport == "tcp", locks)
                 rows = [("", r)]
                 if robot in ROBOTS and not args.no_floor:
-                    rows.append(("raw", measure(robot, baud, transport == "tcp", locks,
-                                                raw=r["exchanges"])))
+                    rows.append(
+                        ("raw", measure(robot, baud, transport == "tcp", locks, raw=r["exchanges"]))
+                    )
                 for way, r in rows:
                     n = r["exchanges"]
                     over = (r["read"] - r["limit"]) / n * 1e3
-                    print(f"{baud:>6} {transport:4} {way:3} {n:>6,} {minutes(r['limit']):>8} "
-                          f"{minutes(r['read']):>8} {r['read'] / r['limit']:>8.3f} {over:>12.3f} "
-                          f"{r['cpu'] / n * 1e6:>11.1f} {(r['cpu'] - r['user']) / n * 1e6:>9.1f} "
-                          f"{r['wakeups'] / n:>13.2f} "
-                          f"{r['late'] * 1e6:>11.0f}", flush=True)
-    print(f"\nTargets: CPU at most {CPU_TARGET_US} us per exchange, at most {WAKE_TARGET} "
-          f"wake-ups per exchange, over at most {OVER_TARGET_MS} ms per exchange at 115200.")
+                    print(
+                        f"{baud:>6} {transport:4} {way:3} {n:>6,} {minutes(r['limit']):>8} "
+                        f"{minutes(r['read']):>8} {r['read'] / r['limit']:>8.3f} {over:>12.3f} "
+                        f"{r['cpu'] / n * 1e6:>11.1f} {(r['cpu'] - r['user']) / n * 1e6:>9.1f} "
+                        f"{r['wakeups'] / n:>13.2f} "
+                        f"{r['late'] * 1e6:>11.0f}",
+                        flush=True,
+                    )
+    print(
+        f"\nTargets: CPU at most {CPU_TARGET_US} us per exchange, at most {WAKE_TARGET} "
+        f"wake-ups per exchange, over at most {OVER_TARGET_MS} ms per exchange at 115200."
+    )
     print(f"ran in {minutes(time.monotonic() - began)}")
 
 

@@ -133,8 +133,10 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
     mp.set_start_method("spawn")
-    print(f"minimum per command (§6.3): {MINIMUM} round trips; harlsync's floor "
-          f"{HARLSYNC_FLOOR} (the control register read back before step 1)")
+    print(
+        f"minimum per command (§6.3): {MINIMUM} round trips; harlsync's floor "
+        f"{HARLSYNC_FLOOR} (the control register read back before step 1)"
+    )
     for execution in (float(x) for x in args.exec.split(",")):
         for seed, robot_type in ((5, 3), (6, 5)):
             runs = [one_pull(seed, robot_type, execution) for _ in range(args.repeat)]

@@ -62,8 +62,9 @@ def one_thread_floor(ports: list[str], seconds: float) -> tuple[int, float, floa
     for fd in fds:
         tty.setraw(fd)
     decoders = {fd: FrameDecoder() for fd in fds}
-    frames = [encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload)
-              for n in range(64)]
+    frames = [
+        encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload) for n in range(64)
+    ]
     poller = select.epoll()
     sent = dict.fromkeys(fds, 0)
     for fd in fds:
@@ -88,18 +89,29 @@ def one_thread_floor(ports: list[str], seconds: float) -> tuple[int, float, floa
 def split_backup(robots: list[Path], parts: int, jobs: int | None) -> BackupReport:
     """``backup`` of ``robots`` in ``parts`` processes at once, each a share; their
     reports joined (robots and durations only)."""
-    code = ("import json, sys; from pathlib import Path; from harlsync.sync.backup import "
-            "backup; jobs = json.loads(sys.argv[1]); r = backup([Path(p) for p in "
-            "sys.argv[2:]], **jobs); print(json.dumps([[x.ok, x.duration] for x in "
-            "r.robots]))")
+    code = (
+        "import json, sys; from pathlib import Path; from harlsync.sync.backup import "
+        "backup; jobs = json.loads(sys.argv[1]); r = backup([Path(p) for p in "
+        "sys.argv[2:]], **jobs); print(json.dumps([[x.ok, x.duration] for x in "
+        "r.robots]))"
+    )
     shares = [robots[n::parts] for n in range(parts)]
     extra = json.dumps({} if jobs is None else {"jobs": jobs})
-    children = [subprocess.Popen([sys.executable, "-c", code, extra, *map(str, share)],
-                                 stdout=subprocess.PIPE, text=True) for share in shares]
+    children = [
+        subprocess.Popen(
+            [sys.executable, "-c", code, extra, *map(str, share)], stdout=subprocess.PIPE, text=True
+        )
+        for share in shares
+    ]
     done = [json.loads(child.communicate()[0]) for child in children]
     assert all(child.returncode == 0 for child in children)
-    return BackupReport([SimpleNamespace(ok=ok, duration=took)  # type: ignore[misc]
-                         for share in done for ok, took in share])
+    return BackupReport(
+        [
+            SimpleNamespace(ok=ok, duration=took)  # type: ignore[misc]
+            for share in done
+            for ok, took in share
+        ]
+    )
 
 
 def main() -> None:
@@ -109,17 +121,32 @@ def main() -> None:
     parser.add_argument("--robots", type=int, help="how many (default 128)")
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--jobs", type=int, help="backup's --jobs (default: its default)")
-    parser.add_argument("--processes", type=int, default=0,
-                        help="simulator processes of two threads a line (default: one "
-                             "process, one event loop)")
-    parser.add_argument("--split", type=int, default=1, metavar="N",
-                        help="back the fleet up in N processes, each a backup of its share "
-                             "of the robots (what a process per core would give)")
-    parser.add_argument("--floor", action="store_true",
-                        help="then drive every line from one thread with raw frames, for scale")
-    parser.add_argument("--tick", type=float, default=0.0,
-                        help="the simulators' pacing tick in seconds (default 0.001; a USB "
-                             "adapter's latency timer delivers bytes every 1-16 ms)")
+    parser.add_argument(
+        "--processes",
+        type=int,
+        default=0,
+        help="simulator processes of two threads a line (default: one process, one event loop)",
+    )
+    parser.add_argument(
+        "--split",
+        type=int,
+        default=1,
+        metavar="N",
+        help="back the fleet up in N processes, each a backup of its share "
+        "of the robots (what a process per core would give)",
+    )
+    parser.add_argument(
+        "--floor",
+        action="store_true",
+        help="then drive every line from one thread with raw frames, for scale",
+    )
+    parser.add_argument(
+        "--tick",
+        type=float,
+        default=0.0,
+        help="the simulators' pacing tick in seconds (default 0.001; a USB "
+        "adapter's latency timer delivers bytes every 1-16 ms)",
+    )
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "default-full")
     count = args.robots or (32 if args.quick else 128)
@@ -128,17 +155,31 @@ def main() -> None:
     per_process = -(-count // processes)
 
     print(f"harlsync fleet bench: {describe()}")
-    print(f"{count} {robot} robots on separate lines at {args.baud} baud, backup jobs: "
-          f"{args.jobs or 'default'}; simulated by "
-          + ("one process, one event loop" if not args.processes else
-             f"{processes} processes of {per_process} lines, two threads a line")
-          + f", pacing tick {(args.tick or 0.001) * 1e3:g} ms\n")
+    print(
+        f"{count} {robot} robots on separate lines at {args.baud} baud, backup jobs: "
+        f"{args.jobs or 'default'}; simulated by "
+        + (
+            "one process, one event loop"
+            if not args.processes
+            else f"{processes} processes of {per_process} lines, two threads a line"
+        )
+        + f", pacing tick {(args.tick or 0.001) * 1e3:g} ms\n"
+    )
     with tempfile.TemporaryDirectory() as tmp, ExitStack() as stack:
         os.environ["HARLSYNC_LOCK_DIR"] = str(Path(tmp) / "locks")
         os.environ["HARLSYNC_AUDIT_LOG"] = str(Path(tmp) / "audit.jsonl")
-        sims = [stack.enter_context(SimProcess(
-            robot, baud=args.baud, tick=args.tick, lines=min(per_process, count - i),
-            loop=not args.processes)) for i in range(0, count, per_process)]
+        sims = [
+            stack.enter_context(
+                SimProcess(
+                    robot,
+                    baud=args.baud,
+                    tick=args.tick,
+                    lines=min(per_process, count - i),
+                    loop=not args.processes,
+                )
+            )
+            for i in range(0, count, per_process)
+        ]
         ports = [port for sim in sims for port in sim.ports]
         data = ROBOTS[robot]().data
         plant = Path(tmp) / "plant"
@@ -181,22 +222,30 @@ def main() -> None:
     print(f"{'line limit of one robot':34} {limit:>9.1f} {limit / single:>8.2f} {1:>8.2f}")
     print(f"{'one robot alone':34} {single:>9.1f} {1:>8.2f} {single / limit:>8.2f}")
     print(f"{'fleet: fastest robot':34} {durations[0]:>9.1f} {durations[0] / single:>8.2f}")
-    print(f"{'fleet: median robot':34} {durations[len(durations) // 2]:>9.1f} "
-          f"{durations[len(durations) // 2] / single:>8.2f}")
+    print(
+        f"{'fleet: median robot':34} {durations[len(durations) // 2]:>9.1f} "
+        f"{durations[len(durations) // 2] / single:>8.2f}"
+    )
     print(f"{'fleet: slowest robot':34} {durations[-1]:>9.1f} {durations[-1] / single:>8.2f}")
     print(f"{'fleet: total':34} {total:>9.1f} {total / single:>8.2f} {total / limit:>8.2f}")
-    print(f"\n{exchanges:,} exchanges in the fleet backup ({exchanges / total:,.0f}/s); simulator "
-          f"replies late by {late_mean * 1e6:.0f} us on average, {late * 1e3:.1f} ms at worst")
-    print(f"CPU during the fleet backup: harlsync {client_cpu:.1f} s ({client_cpu / total:.0%} of "
-          f"one core, {client_cpu / exchanges * 1e6:.0f} us an exchange); the simulator "
-          f"{sim_cpu:.1f} s ({sim_cpu / total:.0%} of one core), on {os.cpu_count()} cores; "
-          f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after")
+    print(
+        f"\n{exchanges:,} exchanges in the fleet backup ({exchanges / total:,.0f}/s); simulator "
+        f"replies late by {late_mean * 1e6:.0f} us on average, {late * 1e3:.1f} ms at worst"
+    )
+    print(
+        f"CPU during the fleet backup: harlsync {client_cpu:.1f} s ({client_cpu / total:.0%} of "
+        f"one core, {client_cpu / exchanges * 1e6:.0f} us an exchange); the simulator "
+        f"{sim_cpu:.1f} s ({sim_cpu / total:.0%} of one core), on {os.cpu_count()} cores; "
+        f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after"
+    )
     print(f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}).")
     if floor:
         done, took, used = floor
-        print(f"\nOne thread, one epoll loop, every line (raw frames, no link): {done / took:,.0f} "
-              f"exchanges/s, {used / took:.0%} of one core, {used / done * 1e6:.0f} us an "
-              f"exchange; the fleet needs {exchanges / single:,.0f}/s to keep every line busy")
+        print(
+            f"\nOne thread, one epoll loop, every line (raw frames, no link): {done / took:,.0f} "
+            f"exchanges/s, {used / took:.0%} of one core, {used / done * 1e6:.0f} us an "
+            f"exchange; the fleet needs {exchanges / single:,.0f}/s to keep every line busy"
+        )
 
 
 if __name__ == "__main__":

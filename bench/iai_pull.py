@@ -106,8 +106,17 @@ def pull_once(sim: SimProcess, baud: int, model: str, project: Path) -> dict[str
     (project / "robot.yaml").write_text(
         ROBOT_YAML.format(port=sim.ports[0], baud=baud, model=model, last=POSITIONS)
     )
-    command = [*harlsync_command(), "pull", str(project), "--family", "iai",
-               "--port", sim.ports[0], "--station", "99"]
+    command = [
+        *harlsync_command(),
+        "pull",
+        str(project),
+        "--family",
+        "iai",
+        "--port",
+        sim.ports[0],
+        "--station",
+        "99",
+    ]
     result = timed_process(sim, baud, command, process_env(project.parent / "locks"))
     text = (project / "positions.yaml").read_text()
     pulled = len(re.findall(r"^  [0-9]+: \{", text, re.MULTILINE))
@@ -119,16 +128,21 @@ def pull_once(sim: SimProcess, baud: int, model: str, project: Path) -> dict[str
 def bare_start(repeat: int = 3) -> tuple[float, float]:
     """Best wall time of ``python -c pass`` and of ``python -c 'import ...'`` with what a
     pull imports before its first byte: what any Python CLI pays to start."""
-    imports = ("import harlsync.cli, harlsync.sync.engine, harlsync.families.iai.family, "
-               "harlsync.families.iai.controller, harlsync.families.iai.driver, "
-               "harlsync.project")
+    imports = (
+        "import harlsync.cli, harlsync.sync.engine, harlsync.families.iai.family, "
+        "harlsync.families.iai.controller, harlsync.families.iai.driver, "
+        "harlsync.project"
+    )
     out = []
     for code in ("pass", imports):
         best = math.inf
         for _ in range(repeat):
             start = time.monotonic()
-            subprocess.run([sys.executable, "-c", code], check=True,
-                           env=process_env(Path(tempfile.gettempdir())))
+            subprocess.run(
+                [sys.executable, "-c", code],
+                check=True,
+                env=process_env(Path(tempfile.gettempdir())),
+            )
             best = min(best, time.monotonic() - start)
         out.append(best)
     return out[0], out[1]
@@ -155,14 +169,24 @@ def save_parts(table: str, repeat: int = 3) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--full", action="store_true",
-                        help="9600 baud too, and best of 3 at 115200 (~4 min)")
-    parser.add_argument("--table", choices=sorted(TABLES), action="append",
-                        help="mix or 8axis (default both; repeat the option for several)")
-    parser.add_argument("--model", choices=MODELS, action="append",
-                        help="TTA or TT (default both at 115200, TTA only at 9600)")
-    parser.add_argument("--baud", help="comma-separated baud rates (default: 115200; "
-                                       "--full: 9600,115200)")
+    parser.add_argument(
+        "--full", action="store_true", help="9600 baud too, and best of 3 at 115200 (~4 min)"
+    )
+    parser.add_argument(
+        "--table",
+        choices=sorted(TABLES),
+        action="append",
+        help="mix or 8axis (default both; repeat the option for several)",
+    )
+    parser.add_argument(
+        "--model",
+        choices=MODELS,
+        action="append",
+        help="TTA or TT (default both at 115200, TTA only at 9600)",
+    )
+    parser.add_argument(
+        "--baud", help="comma-separated baud rates (default: 115200; --full: 9600,115200)"
+    )
     parser.add_argument("--repeat", type=int, help="pulls per case at 115200 (the best is shown)")
     parser.add_argument("--tcp", action="store_true", help="serve over TCP instead of a pty")
     args = parser.parse_args()
@@ -177,9 +201,11 @@ def main() -> None:
         cases += [(table, model, baud) for model in models for table in tables]
 
     print(f"harlsync IAI pull bench: {describe()}")
-    print(f"{POSITIONS:,} positions (mix: 3-4 axes; 8axis: 8 axes), over "
-          f"{'TCP' if args.tcp else 'a pty'} from a simulator process, "
-          f"`harlsync pull` as a process of its own; best of {fast_repeat} above 9600 baud\n")
+    print(
+        f"{POSITIONS:,} positions (mix: 3-4 axes; 8axis: 8 axes), over "
+        f"{'TCP' if args.tcp else 'a pty'} from a simulator process, "
+        f"`harlsync pull` as a process of its own; best of {fast_repeat} above 9600 baud\n"
+    )
     began = time.monotonic()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -187,8 +213,9 @@ def main() -> None:
             robot = TABLES[table] + ("-tt" if model == "TT" else "")
             repeat = 1 if baud <= 9600 else fast_repeat
             with SimProcess(robot, baud=baud, tcp=args.tcp) as sim:
-                runs = [pull_once(sim, baud, model, Path(tmp) / f"case{n}-{r}")
-                        for r in range(repeat)]
+                runs = [
+                    pull_once(sim, baud, model, Path(tmp) / f"case{n}-{r}") for r in range(repeat)
+                ]
             for r in range(repeat):
                 shutil.rmtree(Path(tmp) / f"case{n}-{r}")
             best = min(runs, key=lambda run: run["whole"])
@@ -197,48 +224,67 @@ def main() -> None:
         python, imports = bare_start()
         parts = {table: save_parts(table) for table in tables}
 
-    print(f"\nTarget: whole/limit at most {TARGET}.  start-up: from starting the process to the "
-          "first request byte;\nread: to the last reply byte due on the line; save: to the "
-          "process's exit; over ms/exch:\n(read - limit) / exchanges; CPU s: the harlsync "
-          "process's user + system time.")
-    print(f"For scale: `python -c pass` {python:.3f} s; importing what a pull imports "
-          f"{imports:.3f} s (best of 3).")
+    print(
+        f"\nTarget: whole/limit at most {TARGET}.  start-up: from starting the process to the "
+        "first request byte;\nread: to the last reply byte due on the line; save: to the "
+        "process's exit; over ms/exch:\n(read - limit) / exchanges; CPU s: the harlsync "
+        "process's user + system time."
+    )
+    print(
+        f"For scale: `python -c pass` {python:.3f} s; importing what a pull imports "
+        f"{imports:.3f} s (best of 3)."
+    )
     for table, (render, check) in parts.items():
-        print(f"Saving the {table} table, in process: render {render:.3f} s, read back and "
-              f"check {check:.3f} s (best of 3).")
+        print(
+            f"Saving the {table} table, in process: render {render:.3f} s, read back and "
+            f"check {check:.3f} s (best of 3)."
+        )
     lates = [r["late_worst"] for r in rows if r["late_worst"]]
     if lates:
         mean = sum(r["late_mean"] for r in rows) / len(rows)
-        print(f"Simulator replies late by {mean * 1e6:.0f} us on average, "
-              f"{max(lates) * 1e3:.1f} ms at worst.")
+        print(
+            f"Simulator replies late by {mean * 1e6:.0f} us on average, "
+            f"{max(lates) * 1e3:.1f} ms at worst."
+        )
 
-    print("\nRequests of a pull against the fewest the send buffer allows "
-          "(ceil(1000 / records per reply) + 201H):")
-    print(f"  {'model':5} {'send buffer':>11} {'records/reply':>13} {'client asks':>11} "
-          f"{'minimum':>7} {'sent':>5}  {'201H':>4} {'22DH':>4}")
+    print(
+        "\nRequests of a pull against the fewest the send buffer allows "
+        "(ceil(1000 / records per reply) + 201H):"
+    )
+    print(
+        f"  {'model':5} {'send buffer':>11} {'records/reply':>13} {'client asks':>11} "
+        f"{'minimum':>7} {'sent':>5}  {'201H':>4} {'22DH':>4}"
+    )
     for model in dict.fromkeys(r["model"] for r in rows):
         per_reply, least = minimum_requests(model)
         sent = {r["exchanges"] for r in rows if r["model"] == model}
         letters = next(r["letters"] for r in rows if r["model"] == model)
         mark = "" if sent == {least} else "   <-- differs"
-        print(f"  {model:5} {profile.BUFFERS[model].send:>11,} {per_reply:>13} "
-              f"{max_positions_per_read(model):>11} {least:>7} "
-              f"{'/'.join(map(str, sorted(sent))):>5}  {letters.get('201', 0):>4} "
-              f"{letters.get('22D', 0):>4}{mark}")
+        print(
+            f"  {model:5} {profile.BUFFERS[model].send:>11,} {per_reply:>13} "
+            f"{max_positions_per_read(model):>11} {least:>7} "
+            f"{'/'.join(map(str, sorted(sent))):>5}  {letters.get('201', 0):>4} "
+            f"{letters.get('22D', 0):>4}{mark}"
+        )
     print(f"\nran in {minutes(time.monotonic() - began)}")
 
 
 def show_row(r: dict[str, Any], *, header: bool) -> None:
     if header:
-        print(f"{'table':6} {'model':5} {'baud':>6} {'exch':>4} {'bytes':>7} {'limit s':>8} "
-              f"{'start-up':>8} {'read':>7} {'save':>6} {'whole':>7} {'read/lim':>8} "
-              f"{'whole/lim':>9} {'over ms/exch':>12} {'CPU s':>5}")
+        print(
+            f"{'table':6} {'model':5} {'baud':>6} {'exch':>4} {'bytes':>7} {'limit s':>8} "
+            f"{'start-up':>8} {'read':>7} {'save':>6} {'whole':>7} {'read/lim':>8} "
+            f"{'whole/lim':>9} {'over ms/exch':>12} {'CPU s':>5}"
+        )
     over = (r["read"] - r["limit"]) / r["exchanges"] * 1e3
     verdict = "PASS" if r["whole"] / r["limit"] <= TARGET else "MISS"
-    print(f"{r['table']:6} {r['model']:5} {r['baud']:>6} {r['exchanges']:>4} {r['bytes']:>7,} "
-          f"{r['limit']:>8.2f} {r['startup']:>8.3f} {r['read']:>7.2f} {r['save']:>6.3f} "
-          f"{r['whole']:>7.2f} {r['read'] / r['limit']:>8.3f} {r['whole'] / r['limit']:>9.3f} "
-          f"{over:>12.2f} {r['cpu']:>5.2f}  {verdict}", flush=True)
+    print(
+        f"{r['table']:6} {r['model']:5} {r['baud']:>6} {r['exchanges']:>4} {r['bytes']:>7,} "
+        f"{r['limit']:>8.2f} {r['startup']:>8.3f} {r['read']:>7.2f} {r['save']:>6.3f} "
+        f"{r['whole']:>7.2f} {r['read'] / r['limit']:>8.3f} {r['whole'] / r['limit']:>9.3f} "
+        f"{over:>12.2f} {r['cpu']:>5.2f}  {verdict}",
+        flush=True,
+    )
 
 
 if __name__ == "__main__":

@@ -31,16 +31,21 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="the small-full robot")
     parser.add_argument("--robot", choices=sorted(ROBOTS), help="default: max-full")
-    parser.add_argument("--baud", default=",".join(map(str, BAUDS)),
-                        help="comma-separated baud rates (default: %(default)s)")
+    parser.add_argument(
+        "--baud",
+        default=",".join(map(str, BAUDS)),
+        help="comma-separated baud rates (default: %(default)s)",
+    )
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "max-full")
     bauds = [int(b) for b in args.baud.split(",")]
 
     print(f"harlsync line efficiency bench: {describe()}")
     print(f"robot {robot}, pulled over a pty from a simulator process\n")
-    print(f"{'baud':>6} {'exchanges':>9} {'bytes':>9} {'line limit':>10} {'read':>9} "
-          f"{'pull':>9} {'read/limit':>10} {'pull/limit':>10} {'ms/exch over':>12}")
+    print(
+        f"{'baud':>6} {'exchanges':>9} {'bytes':>9} {'line limit':>10} {'read':>9} "
+        f"{'pull':>9} {'read/limit':>10} {'pull/limit':>10} {'ms/exch over':>12}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for baud in bauds:
             with SimProcess(robot, baud=baud) as sim:
@@ -49,9 +54,12 @@ def main() -> None:
             nbytes = counted["bytes_in"] + counted["bytes_out"]
             limit = nbytes * BITS_PER_BYTE / baud
             over = (read - limit) / counted["exchanges"] * 1e3
-            print(f"{baud:>6} {counted['exchanges']:>9,} {nbytes:>9,} {minutes(limit):>10} "
-                  f"{minutes(read):>9} {minutes(whole):>9} {read / limit:>10.3f} "
-                  f"{whole / limit:>10.3f} {over:>12.3f}", flush=True)
+            print(
+                f"{baud:>6} {counted['exchanges']:>9,} {nbytes:>9,} {minutes(limit):>10} "
+                f"{minutes(read):>9} {minutes(whole):>9} {read / limit:>10.3f} "
+                f"{whole / limit:>10.3f} {over:>12.3f}",
+                flush=True,
+            )
     print(f"\nTarget: pull/limit at most {TARGET}.")
 
 

@@ -151,7 +151,8 @@ def iai_table(axes: int, model: str = "TTA", seed: int = 1) -> IaiState:
     for number in range(1, IAI_POSITIONS + 1):
         used = robot_axes if axes != 4 or rng.random() < 0.5 else robot_axes[:3]
         coords = tuple(
-            _iai_coord(rng, -180_000, 180_000) if axes == 4 and a == 4
+            _iai_coord(rng, -180_000, 180_000)
+            if axes == 4 and a == 4
             else _iai_coord(rng, -300_000, 600_000)
             for a in used
         )
@@ -181,11 +182,24 @@ class SimProcess:
     """
 
     def __init__(
-        self, robot: str, *, baud: int = 0, lines: int = 1, tcp: bool = False, tick: float = 0.0,
+        self,
+        robot: str,
+        *,
+        baud: int = 0,
+        lines: int = 1,
+        tcp: bool = False,
+        tick: float = 0.0,
         loop: bool = False,
     ) -> None:
-        command = [sys.executable, str(BENCH / "simserver.py"), robot, "--baud", str(baud),
-                   "--lines", str(lines)]
+        command = [
+            sys.executable,
+            str(BENCH / "simserver.py"),
+            robot,
+            "--baud",
+            str(baud),
+            "--lines",
+            str(lines),
+        ]
         if tcp:
             command.append("--tcp")
         if loop:
@@ -268,9 +282,13 @@ def process_env(locks: Path, **more: str) -> dict[str, str]:
     PYTHONDONTWRITEBYTECODE makes every process compile harlsync's 90 modules
     again, about 0.1 s of start-up no installed harlsync pays; the cache goes to
     :data:`PYCACHE`, not into the worktree)."""
-    env = dict(os.environ, HARLSYNC_LOCK_DIR=str(locks),
-               HARLSYNC_AUDIT_LOG=str(locks / "audit.jsonl"), PYTHONPYCACHEPREFIX=str(PYCACHE),
-               **more)
+    env = dict(
+        os.environ,
+        HARLSYNC_LOCK_DIR=str(locks),
+        HARLSYNC_AUDIT_LOG=str(locks / "audit.jsonl"),
+        PYTHONPYCACHEPREFIX=str(PYCACHE),
+        **more,
+    )
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     return env
 
@@ -287,11 +305,13 @@ def bench_robot(robot: str, port: str, baud: int) -> Robot:
         model = "TT" if robot.endswith("-tt") else "TTA"
         options["options"] = {"model": model, "first": 1, "last": IAI_POSITIONS}
     return families.get("iai" if iai else "harl-u2").new_robot(
-        "bench", port, 0x99 if iai else 1, **options)
+        "bench", port, 0x99 if iai else 1, **options
+    )
 
 
-def timed_process(sim: SimProcess, baud: int, command: list[str], env: dict[str, str]
-                  ) -> dict[str, Any]:
+def timed_process(
+    sim: SimProcess, baud: int, command: list[str], env: dict[str, str]
+) -> dict[str, Any]:
     """``command`` (a harlsync pull) run to its end against ``sim``'s line, timed on the
     clock every process shares: ``startup`` (to the first request byte the simulator
     read), ``read`` (to the last reply byte due on the line), ``save`` (to the exit),

@@ -64,8 +64,9 @@ def naive_backup(device: str, baud: int, pause: float) -> tuple[int, int]:
     for letter, (count, steps) in zip("AMSH", zip(n[0:8:2], n[1:8:2])):
         for program in range(count):
             for step in range(steps):
-                replies.append(ask(f"LN{letter} {step}" if letter == "A" else
-                                   f"LN{letter} {program} {step}"))
+                replies.append(
+                    ask(f"LN{letter} {step}" if letter == "A" else f"LN{letter} {program} {step}")
+                )
     replies += [ask(f"LNL {t}") for t in range(100)]
     replies += [ask(f"LNT {t}") for t in range(n[8])]
     port.close()
@@ -78,7 +79,7 @@ def pull_process(sim: SimProcess, baud: int, into: Path, tree: str | None) -> di
     command = [*harlsync_command(), "pull", str(into), "--port", sim.ports[0]]
     if tree is not None:
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [tree, env.get("PYTHONPATH")]))
-        command = [sys.executable, "-m", "harlsync", *command[len(harlsync_command()):]]
+        command = [sys.executable, "-m", "harlsync", *command[len(harlsync_command()) :]]
     return timed_process(sim, baud, command, env)
 
 
@@ -86,42 +87,69 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="the small-full robot")
     parser.add_argument("--robot", choices=sorted(ROBOTS), help="default: default-full")
-    parser.add_argument("--baud", default="9600,115200", help="comma-separated (default: %(default)s)")
-    parser.add_argument("--margin", type=float, default=0.020,
-                        help="seconds the naive script adds to the longest exchange (default 0.020)")
-    parser.add_argument("--previous", metavar="TREE",
-                        help="a checkout of an earlier harlsync to run beside this one")
+    parser.add_argument(
+        "--baud", default="9600,115200", help="comma-separated (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--margin",
+        type=float,
+        default=0.020,
+        help="seconds the naive script adds to the longest exchange (default 0.020)",
+    )
+    parser.add_argument(
+        "--previous",
+        metavar="TREE",
+        help="a checkout of an earlier harlsync to run beside this one",
+    )
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "default-full")
 
     print(f"harlsync side by side: {describe()}")
-    print(f"robot {robot}; naive sleep = (15 + 64) bytes on the wire + {args.margin * 1e3:.0f} ms"
-          + (f"; previous: {args.previous}" if args.previous else "") + "\n")
-    print(f"{'baud':>6} {'way':9} {'exchanges':>9} {'ok':>6} {'line limit':>10} {'time':>9} "
-          f"{'/limit':>7} {'ms/exch':>8} {'/ harlsync':>10}")
+    print(
+        f"robot {robot}; naive sleep = (15 + 64) bytes on the wire + {args.margin * 1e3:.0f} ms"
+        + (f"; previous: {args.previous}" if args.previous else "")
+        + "\n"
+    )
+    print(
+        f"{'baud':>6} {'way':9} {'exchanges':>9} {'ok':>6} {'line limit':>10} {'time':>9} "
+        f"{'/limit':>7} {'ms/exch':>8} {'/ harlsync':>10}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for baud in (int(b) for b in args.baud.split(",")):
             pause = (15 + 64) * BITS_PER_BYTE / baud + args.margin
             rows: list[tuple[str, int, float, int, int]] = []  # way, bytes, s, exchanges, ok
             with SimProcess(robot, baud=baud) as sim:
-                ways = [("harlsync", None)] + ([("previous", args.previous)] if args.previous else [])
+                ways = [("harlsync", None)] + (
+                    [("previous", args.previous)] if args.previous else []
+                )
                 for way, tree in ways:
                     run = pull_process(sim, baud, Path(tmp) / f"{way}-{baud}", tree)
-                    rows.append((way, run["bytes"], run["whole"], run["exchanges"],
-                                 run["exchanges"]))
+                    rows.append(
+                        (way, run["bytes"], run["whole"], run["exchanges"], run["exchanges"])
+                    )
                 sim.reset()
                 start = time.perf_counter()
                 _, whole = naive_backup(sim.ports[0], baud, pause)
                 naive_time = time.perf_counter() - start
                 counted = sim.stats()[0]
-                rows.append(("naive", counted["bytes_in"] + counted["bytes_out"], naive_time,
-                             counted["exchanges"], whole))
+                rows.append(
+                    (
+                        "naive",
+                        counted["bytes_in"] + counted["bytes_out"],
+                        naive_time,
+                        counted["exchanges"],
+                        whole,
+                    )
+                )
             ours = rows[0][2]
             for way, nbytes, seconds, exchanges, ok in rows:
                 limit = nbytes * BITS_PER_BYTE / baud
-                print(f"{baud:>6} {way:9} {exchanges:>9,} {ok:>6,} {minutes(limit):>10} "
-                      f"{minutes(seconds):>9} {seconds / limit:>7.2f} "
-                      f"{seconds / exchanges * 1e3:>8.2f} {seconds / ours:>10.2f}", flush=True)
+                print(
+                    f"{baud:>6} {way:9} {exchanges:>9,} {ok:>6,} {minutes(limit):>10} "
+                    f"{minutes(seconds):>9} {seconds / limit:>7.2f} "
+                    f"{seconds / exchanges * 1e3:>8.2f} {seconds / ours:>10.2f}",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":

@@ -38,8 +38,9 @@ STEPS = 64  # read MAIN 0 steps 0..63 in turn (the default robot's MAIN has 128)
 
 def raw_way(device: str) -> tuple[Callable[[int], None], Callable[[], None]]:
     fd = os.open(device, os.O_RDWR | os.O_NOCTTY)
-    frames = [encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload)
-              for n in range(STEPS)]
+    frames = [
+        encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload) for n in range(STEPS)
+    ]
     decoder = FrameDecoder()
 
     def run(count: int) -> None:
@@ -102,11 +103,15 @@ def main() -> None:
                 times[name].append((time.perf_counter() - start) / count)
                 close()
     floor = min(times["raw"])
-    print(f"{'way':22} {'us/round trip':>13} {'(median)':>9} {'requests/s':>10} {'over raw us':>11}")
+    print(
+        f"{'way':22} {'us/round trip':>13} {'(median)':>9} {'requests/s':>10} {'over raw us':>11}"
+    )
     for name, per in times.items():
         best = min(per)
-        print(f"{name:22} {best * 1e6:>13.0f} {statistics.median(per) * 1e6:>9.0f} "
-              f"{1 / best:>10,.0f} {(best - floor) * 1e6:>11.0f}")
+        print(
+            f"{name:22} {best * 1e6:>13.0f} {statistics.median(per) * 1e6:>9.0f} "
+            f"{1 / best:>10,.0f} {(best - floor) * 1e6:>11.0f}"
+        )
     print("\nTarget: at most 300 us per round trip (3,000 requests/s) through the Controller.")
 
 

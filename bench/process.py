@@ -63,8 +63,12 @@ def robot_yaml(robot: str, port: str, baud: int) -> str:
 
 def pull_once(sim: SimProcess, baud: int, project: Path) -> dict[str, Any]:
     """``harlsync pull DIR`` as a process of its own, timed against the simulator's clock."""
-    return timed_process(sim, baud, [*harlsync_command(), "pull", str(project)],
-                         process_env(project.parent / "locks"))
+    return timed_process(
+        sim,
+        baud,
+        [*harlsync_command(), "pull", str(project)],
+        process_env(project.parent / "locks"),
+    )
 
 
 def run_case(robot: str, baud: int, repeat: int, tmp: Path) -> list[dict[str, Any]]:
@@ -82,25 +86,38 @@ def run_case(robot: str, baud: int, repeat: int, tmp: Path) -> list[dict[str, An
                 else:
                     shutil.copytree(tmp / f"{robot}-{baud}-first-0", project)
                 runs.append(pull_once(sim, baud, project))
-            rows.append({"robot": robot, "baud": baud, "mode": mode,
-                         **min(runs, key=lambda run: run["whole"])})
+            rows.append(
+                {
+                    "robot": robot,
+                    "baud": baud,
+                    "mode": mode,
+                    **min(runs, key=lambda run: run["whole"]),
+                }
+            )
             show(rows[-1])
     return rows
 
 
 def show(r: dict[str, Any]) -> None:
     verdict = "PASS" if r["whole"] / r["limit"] <= TARGET else "MISS"
-    print(f"{r['robot']:12} {r['baud']:>6} {r['mode']:5} {r['exchanges']:>6,} {r['limit']:>8.2f} "
-          f"{r['startup']:>8.3f} {r['read']:>7.2f} {r['save']:>6.3f} {r['whole']:>7.2f} "
-          f"{r['read'] / r['limit']:>8.3f} {r['whole'] / r['limit']:>9.3f} {r['cpu']:>6.2f}  "
-          f"{verdict}", flush=True)
+    print(
+        f"{r['robot']:12} {r['baud']:>6} {r['mode']:5} {r['exchanges']:>6,} {r['limit']:>8.2f} "
+        f"{r['startup']:>8.3f} {r['read']:>7.2f} {r['save']:>6.3f} {r['whole']:>7.2f} "
+        f"{r['read'] / r['limit']:>8.3f} {r['whole'] / r['limit']:>9.3f} {r['cpu']:>6.2f}  "
+        f"{verdict}",
+        flush=True,
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="medium at 115200 only")
-    parser.add_argument("--robot", action="append", choices=sorted(ROBOTS | IAI_ROBOTS),
-                        help="default: medium and max-full (repeat the option for several)")
+    parser.add_argument(
+        "--robot",
+        action="append",
+        choices=sorted(ROBOTS | IAI_ROBOTS),
+        help="default: medium and max-full (repeat the option for several)",
+    )
     parser.add_argument("--baud", help="comma-separated (default 19200,115200)")
     parser.add_argument("--repeat", type=int, default=1, help="pulls per case (the best is shown)")
     args = parser.parse_args()
@@ -108,20 +125,26 @@ def main() -> None:
     bauds = [int(b) for b in (args.baud or ("115200" if args.quick else "19200,115200")).split(",")]
 
     print(f"harlsync pull process bench: {describe()}")
-    print(f"`harlsync pull DIR` as a process of its own, over a pty from a simulator process; "
-          f"best of {args.repeat}\n")
+    print(
+        f"`harlsync pull DIR` as a process of its own, over a pty from a simulator process; "
+        f"best of {args.repeat}\n"
+    )
     began = time.monotonic()
-    print(f"{'robot':12} {'baud':>6} {'pull':5} {'exch':>6} {'limit s':>8} {'start-up':>8} "
-          f"{'read':>7} {'save':>6} {'whole':>7} {'read/lim':>8} {'whole/lim':>9} {'CPU s':>6}")
+    print(
+        f"{'robot':12} {'baud':>6} {'pull':5} {'exch':>6} {'limit s':>8} {'start-up':>8} "
+        f"{'read':>7} {'save':>6} {'whole':>7} {'read/lim':>8} {'whole/lim':>9} {'CPU s':>6}"
+    )
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for robot in robots:
             for baud in bauds:
                 rows += run_case(robot, baud, args.repeat, Path(tmp))
     late = [r["late_mean"] for r in rows if r["late_mean"]]
-    print(f"\nTarget: whole/limit at most {TARGET}.  start-up: to the first request byte; read: "
-          "to the last reply byte due;\nsave: to the process's exit.  first: a first pull; "
-          "again: the same pull over its project.")
+    print(
+        f"\nTarget: whole/limit at most {TARGET}.  start-up: to the first request byte; read: "
+        "to the last reply byte due;\nsave: to the process's exit.  first: a first pull; "
+        "again: the same pull over its project."
+    )
     if late:
         print(f"Simulator replies late by {sum(late) / len(late) * 1e6:.0f} us on average.")
     print(f"ran in {minutes(time.monotonic() - began)}")

@@ -92,7 +92,9 @@ def _parse_all(path: Path) -> dict[str, tuple[str, yamlio.Parsed]]:
 
 def _check_all(docs: dict[str, tuple[str, yamlio.Parsed]]) -> None:
     """The schema check of every file, and the checks against controller.yaml."""
-    issues = [i for name, (kind, doc) in docs.items() for i in layout.SCHEMAS.check(kind, name, doc)]
+    issues = [
+        i for name, (kind, doc) in docs.items() for i in layout.SCHEMAS.check(kind, name, doc)
+    ]
     config = layout._build_config(docs["controller.yaml"][1].data)
     programs = {
         layout.program_key(name): doc for name, (kind, doc) in docs.items() if kind == "program"

@@ -64,8 +64,16 @@ def count(sim: Simulator) -> Counter[str]:
 
 def expected_pull(state: SimState) -> Counter[str]:
     config = state.data.config
-    return Counter({"LNX": 1, "LNV": 1, "LNE": 1, "LN step": config.step_count,
-                    "LNL": OFFSET_TABLE_COUNT, "LNT": config.timers})
+    return Counter(
+        {
+            "LNX": 1,
+            "LNV": 1,
+            "LNE": 1,
+            "LN step": config.step_count,
+            "LNL": OFFSET_TABLE_COUNT,
+            "LNT": config.timers,
+        }
+    )
 
 
 def expected_push(state: SimState, steps: int, others: dict[str, int]) -> Counter[str]:
@@ -108,8 +116,11 @@ def main() -> None:
         show("pull", count(sim), expected_pull(state))
         change_robot(state)
         push(project, PushOptions(yes=True, allow_dirty=True, outside_window="bench"))
-        show("push of 3 steps, 1 timer, 1 table",
-             count(sim), expected_push(state, 3, {"SNT": 1, "SNL": 1}))
+        show(
+            "push of 3 steps, 1 timer, 1 table",
+            count(sim),
+            expected_push(state, 3, {"SNT": 1, "SNL": 1}),
+        )
     unregister(url)
 
 

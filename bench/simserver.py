@@ -171,8 +171,15 @@ class LoopServer:
             n = len(data)
             for stop in range(n % per_write or per_write, n + 1, per_write):
                 self._seq += 1
-                heapq.heappush(self._due, (end - (n - stop) * step, self._seq, line,
-                                           data[max(0, stop - per_write):stop]))
+                heapq.heappush(
+                    self._due,
+                    (
+                        end - (n - stop) * step,
+                        self._seq,
+                        line,
+                        data[max(0, stop - per_write) : stop],
+                    ),
+                )
 
     def _run(self) -> None:
         _precise_timers()
@@ -202,8 +209,12 @@ class LoopServer:
                 # replies on every line were done).
                 ready = select.select(self._masters, [], [], max(0.0, wait))[0]
             else:  # epoll rounds its timeout up to a millisecond: ask for the whole ones only
-                ready = [fd for fd, _ in poller.poll(
-                    math.floor((wait - 0.001) * 1000) / 1000 if due else 0.05)]
+                ready = [
+                    fd
+                    for fd, _ in poller.poll(
+                        math.floor((wait - 0.001) * 1000) / 1000 if due else 0.05
+                    )
+                ]
             for fd in ready:
                 try:
                     data = os.read(fd, 4096)
@@ -231,8 +242,9 @@ def main() -> None:
     parser.add_argument("--lines", type=int, default=1)
     parser.add_argument("--tcp", action="store_true", help="TCP ports instead of ptys")
     parser.add_argument("--tick", type=float, default=0.0, help="pacing tick, seconds")
-    parser.add_argument("--loop", action="store_true",
-                        help="serve every pty from one thread and one event loop")
+    parser.add_argument(
+        "--loop", action="store_true", help="serve every pty from one thread and one event loop"
+    )
     args = parser.parse_args()
     if args.tick:
         serve.TICK = args.tick
@@ -254,8 +266,10 @@ def main() -> None:
         if command == "stats":
             usage = resource.getrusage(resource.RUSAGE_SELF)
             cpu = {"cpu": usage.ru_utime + usage.ru_stime}
-            stats = [sim.stats() | late(server, n) | cpu
-                     for n, (sim, server) in enumerate(zip(sims, servers))]
+            stats = [
+                sim.stats() | late(server, n) | cpu
+                for n, (sim, server) in enumerate(zip(sims, servers))
+            ]
             print(json.dumps(stats), flush=True)
         elif command == "reset":
             for sim in sims:

@@ -86,7 +86,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "sim",
         help="run a simulated controller (HARL-U2, IAI on a pty and/or a TCP port; Epson over "
-             "Modbus TCP)",
+        "Modbus TCP)",
         description=(
             "Serve a simulated controller of one family. It prints the pty device path and the "
             "socket:// URL to connect to (an Epson controller: the modbus:// URL of its Modbus "
@@ -98,50 +98,87 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
         ),
         formatter_class=_SimHelp,
     )
-    p.add_argument("--family", default=None, choices=names(),
-                   help="the controller family (default: harl-u2, or with --project the one "
-                        "its robot.yaml names)")
+    p.add_argument(
+        "--family",
+        default=None,
+        choices=names(),
+        help="the controller family (default: harl-u2, or with --project the one "
+        "its robot.yaml names)",
+    )
     src = p.add_mutually_exclusive_group()
     src.add_argument("--project", metavar="DIR", help="serve the robot of this project directory")
-    src.add_argument("--seed", type=int, default=0,
-                     help="generate a realistic robot (programs, positions) from SEED")
+    src.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="generate a realistic robot (programs, positions) from SEED",
+    )
     p.add_argument(
-        "--stations", default=None, metavar="N[,N...]",
+        "--stations",
+        default=None,
+        metavar="N[,N...]",
         help="stations on the line, in the family's notation: decimal for harl-u2, hex for iai, "
-             "the Modbus unit id for epson (default: the project's station, or 1 for harl-u2 "
-             "and epson and 99 for iai)",
+        "the Modbus unit id for epson (default: the project's station, or 1 for harl-u2 "
+        "and epson and 99 for iai)",
     )
     p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
     p.add_argument("--no-pty", action="store_true", help="do not open a pty (needs --listen)")
-    p.add_argument("--no-input", action="store_true",
-                   help="read no commands: serve until SIGTERM or Ctrl-C, to run in the "
-                        "background or under a service manager (the mode then changes only "
-                        "through --auto and --auto-after-writes)")
     p.add_argument(
-        "--baud", type=int, default=9600,
+        "--no-input",
+        action="store_true",
+        help="read no commands: serve until SIGTERM or Ctrl-C, to run in the "
+        "background or under a service manager (the mode then changes only "
+        "through --auto and --auto-after-writes)",
+    )
+    p.add_argument(
+        "--baud",
+        type=int,
+        default=9600,
         help="delay each reply by its time on the wire at this speed; 0 turns it off (default 9600)",
     )
-    p.add_argument("--turnaround", type=float, default=0.0, metavar="SECONDS",
-                   help="extra delay before each reply")
     p.add_argument(
-        "--faults", default="", metavar="NAME=RATE,...",
-        help="fault injection: noise, drop, bad_checksum (bad_lrc), fragment, slow (rates 0-1), "
-             "slow_delay (seconds), seed",
+        "--turnaround",
+        type=float,
+        default=0.0,
+        metavar="SECONDS",
+        help="extra delay before each reply",
     )
-    p.add_argument("--auto", "--run", dest="busy", action="store_true",
-                   help="start busy: task 0 in automatic operation (harl-u2), a program "
-                        "running (iai)")
-    p.add_argument("--auto-after-writes", "--run-after-writes", dest="busy_after_writes",
-                   type=int, default=0, metavar="N",
-                   help="become busy after N writes: automatic operation (harl-u2), a program "
-                        "running (iai)")
-    p.add_argument("--record", metavar="FILE",
-                   help="append every request received to FILE as JSON lines (station, "
-                        "payload, busy: whether the station was not idle, client: 'pty' or "
-                        "the TCP peer)")
-    p.add_argument("--state", metavar="DIR",
-                   help="battery-backed memory: keep each station in DIR/station-N, "
-                        "saved after every write and loaded again when the simulator restarts")
+    p.add_argument(
+        "--faults",
+        default="",
+        metavar="NAME=RATE,...",
+        help="fault injection: noise, drop, bad_checksum (bad_lrc), fragment, slow (rates 0-1), "
+        "slow_delay (seconds), seed",
+    )
+    p.add_argument(
+        "--auto",
+        "--run",
+        dest="busy",
+        action="store_true",
+        help="start busy: task 0 in automatic operation (harl-u2), a program running (iai)",
+    )
+    p.add_argument(
+        "--auto-after-writes",
+        "--run-after-writes",
+        dest="busy_after_writes",
+        type=int,
+        default=0,
+        metavar="N",
+        help="become busy after N writes: automatic operation (harl-u2), a program running (iai)",
+    )
+    p.add_argument(
+        "--record",
+        metavar="FILE",
+        help="append every request received to FILE as JSON lines (station, "
+        "payload, busy: whether the station was not idle, client: 'pty' or "
+        "the TCP peer)",
+    )
+    p.add_argument(
+        "--state",
+        metavar="DIR",
+        help="battery-backed memory: keep each station in DIR/station-N, "
+        "saved after every write and loaded again when the simulator restarts",
+    )
     p.set_defaults(func=_cmd_sim)
 
 
@@ -191,9 +228,12 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         record = open(args.record, "a", encoding="utf-8")  # noqa: SIM115 - open for the run
 
         def log_request(r: Received) -> None:
-            record.write(json.dumps(
-                {"station": r.station, "payload": r.payload, "busy": r.busy, "client": r.client}
-            ) + "\n")
+            record.write(
+                json.dumps(
+                    {"station": r.station, "payload": r.payload, "busy": r.busy, "client": r.client}
+                )
+                + "\n"
+            )
             record.flush()
 
         sim.listeners.append(log_request)
@@ -204,8 +244,10 @@ def _cmd_sim(args: argparse.Namespace) -> int:
     try:  # before the pty: an address in use is one line, with nothing left serving
         if isinstance(sim.family, ServedFamily):  # its own protocol and server (Epson: Modbus TCP)
             if listen is None:
-                return _usage(f"sim: the {sim.family.name} simulator is served over TCP only: "
-                              "give --listen HOST:PORT")
+                return _usage(
+                    f"sim: the {sim.family.name} simulator is served over TCP only: "
+                    "give --listen HOST:PORT"
+                )
             tcp = sim.family.serve(sim, *listen)
         elif listen is not None:
             assert isinstance(sim, Simulator)  # a line family's simulator is a serial line
@@ -224,8 +266,9 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         _print(f"tcp: {tcp.start() if isinstance(tcp, TcpServer) else tcp.url}")
         servers.append(tcp)
     _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
-    _serve(servers, stopped,
-           (lambda line: apply_command(sim, line)) if _reads_input(args) else None)
+    _serve(
+        servers, stopped, (lambda line: apply_command(sim, line)) if _reads_input(args) else None
+    )
     return EXIT_OK
 
 
@@ -233,8 +276,9 @@ def _listen_address(text: str) -> tuple[str, int]:
     """``HOST:PORT`` (``:PORT`` is 127.0.0.1) as a socket address.  Raises ValueError."""
     host, sep, port = text.rpartition(":")
     if not sep or not (port.isascii() and port.isdigit()) or int(port) > 65535:
-        raise ValueError(f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:5020; port 0 picks a "
-                         "free one)")
+        raise ValueError(
+            f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:5020; port 0 picks a free one)"
+        )
     return host or "127.0.0.1", int(port)
 
 
@@ -249,16 +293,22 @@ def _reads_input(args: argparse.Namespace) -> bool:
     except OSError:  # no controlling terminal: stdin is what it is
         background = False
     if background:
-        print("harlsync sim: started in the background: not reading commands; stop it with "
-              "kill (SIGTERM)", file=sys.stderr, flush=True)
+        print(
+            "harlsync sim: started in the background: not reading commands; stop it with "
+            "kill (SIGTERM)",
+            file=sys.stderr,
+            flush=True,
+        )
     return not background
 
 
-def _serve(servers: Sequence[Any], done: threading.Event,
-           control: Callable[[str], str] | None) -> None:
+def _serve(
+    servers: Sequence[Any], done: threading.Event, control: Callable[[str], str] | None
+) -> None:
     """Serve until ``done`` is set (SIGTERM), Ctrl-C, or the end of the input
     ``control`` takes its commands from (every line, its answer printed); without
     ``control``, until one of the first two."""
+
     def read_commands(run: Callable[[str], str]) -> None:
         for line in sys.stdin:
             try:
@@ -267,8 +317,11 @@ def _serve(servers: Sequence[Any], done: threading.Event,
                 answer = f"error: {exc}"
             if answer:
                 _print(answer)
-        print("harlsync sim: end of input: stopping (--no-input serves until SIGTERM)",
-              file=sys.stderr, flush=True)
+        print(
+            "harlsync sim: end of input: stopping (--no-input serves until SIGTERM)",
+            file=sys.stderr,
+            flush=True,
+        )
         done.set()
 
     if control is not None:
@@ -285,51 +338,93 @@ def _serve(servers: Sequence[Any], done: threading.Event,
 
 
 def _format_arg(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--format", choices=("text", "json"), default="text",
-                   help="text for people (default), json for scripts")
+    p.add_argument(
+        "--format",
+        choices=("text", "json"),
+        default="text",
+        help="text for people (default), json for scripts",
+    )
 
 
 def _plant_args(p: argparse.ArgumentParser) -> None:
     """The robots of a plant, as backup and status find and judge them."""
-    p.add_argument("paths", nargs="+", metavar="PATH", help="project directory or directory of projects")
-    p.add_argument("--stale-after", type=float, default=36.0, metavar="HOURS",
-                   help="flag robots with no good backup for this long (default 36)")
+    p.add_argument(
+        "paths", nargs="+", metavar="PATH", help="project directory or directory of projects"
+    )
+    p.add_argument(
+        "--stale-after",
+        type=float,
+        default=36.0,
+        metavar="HOURS",
+        help="flag robots with no good backup for this long (default 36)",
+    )
 
 
 def _add_backup(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "backup", help="back up every robot of a plant (for cron and systemd)",
+        "backup",
+        help="back up every robot of a plant (for cron and systemd)",
         description="Pull every robot project found in PATH (a project directory, or a directory "
-                    "of projects): in parallel across separate lines, one at a time for stations "
-                    "that share a line. A robot that fails keeps its previous backup and the others "
-                    "go on. On a terminal it shows a live line per robot (exchanges with the "
-                    "controller, rate, time left) and a result line as each ends. Exit 0 when "
-                    "every robot was backed up, 1 when any failed or the git commit or push "
-                    "failed, 2 on an error before any robot ran, 130 interrupted.",
+        "of projects): in parallel across separate lines, one at a time for stations "
+        "that share a line. A robot that fails keeps its previous backup and the others "
+        "go on. On a terminal it shows a live line per robot (exchanges with the "
+        "controller, rate, time left) and a result line as each ends. Exit 0 when "
+        "every robot was backed up, 1 when any failed or the git commit or push "
+        "failed, 2 on an error before any robot ran, 130 interrupted.",
     )
     _plant_args(p)
-    p.add_argument("--jobs", type=int, default=None, metavar="N",
-                   help="lines read at once (default: every line at once)")
-    p.add_argument("--commit", action="store_true",
-                   help="one git commit for the run, listing which robots changed and how much")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        metavar="N",
+        help="lines read at once (default: every line at once)",
+    )
+    p.add_argument(
+        "--commit",
+        action="store_true",
+        help="one git commit for the run, listing which robots changed and how much",
+    )
     p.add_argument("--push", action="store_true", help="git push after committing (needs --commit)")
     _format_arg(p)
-    p.add_argument("--quiet", action="store_true",
-                   help="print the summary only when a robot failed (for cron mail)")
-    p.add_argument("--attempts", type=int, default=2, metavar="N",
-                   help="tries per robot when the line fails (default 2)")
-    p.add_argument("--lock-timeout", type=float, default=60.0, metavar="SECONDS",
-                   help="wait this long for a line or a project another harlsync is using "
-                        "(default 60)")
-    p.add_argument("--on-change", metavar="CMD",
-                   help="run CMD (through the shell, summary on stdin) when a robot changed")
-    p.add_argument("--on-failure", metavar="CMD",
-                   help="run CMD (through the shell, summary on stdin) when a robot failed")
-    p.add_argument("--metrics", metavar="FILE",
-                   help="write a Prometheus textfile with per-robot results")
-    p.add_argument("--html", metavar="FILE",
-                   help="write the fleet report page (as 'harlsync status --html') at the end "
-                        "of the run, atomically")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="print the summary only when a robot failed (for cron mail)",
+    )
+    p.add_argument(
+        "--attempts",
+        type=int,
+        default=2,
+        metavar="N",
+        help="tries per robot when the line fails (default 2)",
+    )
+    p.add_argument(
+        "--lock-timeout",
+        type=float,
+        default=60.0,
+        metavar="SECONDS",
+        help="wait this long for a line or a project another harlsync is using (default 60)",
+    )
+    p.add_argument(
+        "--on-change",
+        metavar="CMD",
+        help="run CMD (through the shell, summary on stdin) when a robot changed",
+    )
+    p.add_argument(
+        "--on-failure",
+        metavar="CMD",
+        help="run CMD (through the shell, summary on stdin) when a robot failed",
+    )
+    p.add_argument(
+        "--metrics", metavar="FILE", help="write a Prometheus textfile with per-robot results"
+    )
+    p.add_argument(
+        "--html",
+        metavar="FILE",
+        help="write the fleet report page (as 'harlsync status --html') at the end "
+        "of the run, atomically",
+    )
     p.set_defaults(func=_cmd_backup)
 
 
@@ -343,8 +438,12 @@ def _cmd_backup(args: argparse.Namespace) -> int:
     display = BackupDisplay()
     try:
         report = backup.backup(
-            args.paths, jobs=args.jobs, commit=args.commit, push=args.push,
-            stale_after=timedelta(hours=args.stale_after), attempts=args.attempts,
+            args.paths,
+            jobs=args.jobs,
+            commit=args.commit,
+            push=args.push,
+            stale_after=timedelta(hours=args.stale_after),
+            attempts=args.attempts,
             lock_timeout=args.lock_timeout,
             watch=display if display.live and not args.quiet else None,
         )
@@ -365,8 +464,9 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         from .sync import status
 
         try:
-            page.write_html(args.html, status.collect(
-                args.paths, stale_after=timedelta(hours=args.stale_after)))
+            page.write_html(
+                args.html, status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
+            )
         except HarlsyncError as exc:
             unwritten = unwritten or exc
     if args.on_change and report.changed:
@@ -383,20 +483,24 @@ def _cmd_backup(args: argparse.Namespace) -> int:
 
 def _add_status(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "status", help="the state of every robot, from what backups and pushes recorded",
+        "status",
+        help="the state of every robot, from what backups and pushes recorded",
         description="Show every robot project found in PATH: its family, port and station, "
-                    "its last good backup (time and commit), its last attempt and result, what "
-                    "the last backup changed, its last push (who, when, reason, result) and any "
-                    "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
-                    "and git only: no robot is contacted. A robot's state is the most urgent "
-                    "of: unfinished push, never backed up, failed, stale, changed, ok. Exit 0 "
-                    "when every robot is ok or changed, 1 when any is failed, stale, never "
-                    "backed up or has an unfinished push, 2 on an error (no project found).",
+        "its last good backup (time and commit), its last attempt and result, what "
+        "the last backup changed, its last push (who, when, reason, result) and any "
+        "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
+        "and git only: no robot is contacted. A robot's state is the most urgent "
+        "of: unfinished push, never backed up, failed, stale, changed, ok. Exit 0 "
+        "when every robot is ok or changed, 1 when any is failed, stale, never "
+        "backed up or has an unfinished push, 2 on an error (no project found).",
     )
     _plant_args(p)
     _format_arg(p)
-    p.add_argument("--html", metavar="FILE",
-                   help="also write the fleet report page: one self-contained HTML file")
+    p.add_argument(
+        "--html",
+        metavar="FILE",
+        help="also write the fleet report page: one self-contained HTML file",
+    )
     p.set_defaults(func=_cmd_status)
 
 
@@ -424,16 +528,18 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
 def _add_log(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "log", help="the pushes and rollbacks the audit log recorded, the latest first",
+        "log",
+        help="the pushes and rollbacks the audit log recorded, the latest first",
         description="Print the audit log's pushes and rollbacks (refused and unfinished ones "
-                    "too) of the robot of DIR, whatever project pushed to it, or of every "
-                    "robot without DIR, the latest first: time, robot, action, result, user and "
-                    "host, git commit, reason and each item written (old -> new). The log is "
-                    "$HARLSYNC_AUDIT_LOG, or $XDG_STATE_HOME/harlsync/audit.jsonl.",
+        "too) of the robot of DIR, whatever project pushed to it, or of every "
+        "robot without DIR, the latest first: time, robot, action, result, user and "
+        "host, git commit, reason and each item written (old -> new). The log is "
+        "$HARLSYNC_AUDIT_LOG, or $XDG_STATE_HOME/harlsync/audit.jsonl.",
     )
     p.add_argument("dir", nargs="?", metavar="DIR", help="robot project directory (default: all)")
-    p.add_argument("-n", "--max-count", type=int, default=None, metavar="N",
-                   help="only the latest N")
+    p.add_argument(
+        "-n", "--max-count", type=int, default=None, metavar="N", help="only the latest N"
+    )
     _format_arg(p)
     p.set_defaults(func=_cmd_log)
 
@@ -457,7 +563,7 @@ def _cmd_log(args: argparse.Namespace) -> int:
     if args.dir:
         robot = load_robot(_project_dir(args.dir))
         records = audit.of_robot(records, robot.port, robot.station, Path(args.dir))
-    records = records[::-1][:args.max_count]
+    records = records[::-1][: args.max_count]
     if args.format == "json":
         _print(json.dumps(records, indent=2, default=str))
         return EXIT_OK
@@ -465,8 +571,9 @@ def _cmd_log(args: argparse.Namespace) -> int:
         _print(f"no push or rollback recorded in {audit.audit_path()}")
     for record in records:
         r = PushRecord.from_record(record)
-        head = (f"{local_time(r.time)}  {r.robot or '?'}  {r.action} {r.result}  "
-                f"by {r.user}@{r.host}")
+        head = (
+            f"{local_time(r.time)}  {r.robot or '?'}  {r.action} {r.result}  by {r.user}@{r.host}"
+        )
         _print(head + (f"  commit {r.commit[:10]}" if r.commit else ""))
         if r.reason:
             _print(f"    reason: {r.reason}")
@@ -481,10 +588,11 @@ def _cmd_log(args: argparse.Namespace) -> int:
 
 def _add_snapshots(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "snapshots", help="the snapshots a rollback can restore, the latest first",
+        "snapshots",
+        help="the snapshots a rollback can restore, the latest first",
         description="List the snapshots of DIR/.harlsync/snapshots, the latest first: number, "
-                    "time, the action it was taken before, and its path. 'rollback DIR' "
-                    "restores the one marked; 'rollback DIR --snapshot PATH' any other.",
+        "time, the action it was taken before, and its path. 'rollback DIR' "
+        "restores the one marked; 'rollback DIR --snapshot PATH' any other.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _format_arg(p)
@@ -500,24 +608,45 @@ def _cmd_snapshots(args: argparse.Namespace) -> int:
     chosen = pushes[-1] if pushes else None
     latest_first = [(s, s.time.isoformat() if s.time else None) for s in reversed(taken)]
     if args.format == "json":
-        _print(json.dumps([
-            {"number": s.number, "time": when, "action": s.action, "path": str(s.path),
-             "rollback_restores": s.path == chosen}
-            for s, when in latest_first
-        ], indent=2))
+        _print(
+            json.dumps(
+                [
+                    {
+                        "number": s.number,
+                        "time": when,
+                        "action": s.action,
+                        "path": str(s.path),
+                        "rollback_restores": s.path == chosen,
+                    }
+                    for s, when in latest_first
+                ],
+                indent=2,
+            )
+        )
         return EXIT_OK
     if not taken:
         _print(f"no snapshot in {args.dir}: a push takes one before its first write")
         return EXIT_OK
     rows = [("number", "time", "action", "path")] + [
-        (str(s.number), local_time(when), s.action,
-         str(s.path) + ("  <- rollback restores this" if s.path == chosen else ""))
+        (
+            str(s.number),
+            local_time(when),
+            s.action,
+            str(s.path) + ("  <- rollback restores this" if s.path == chosen else ""),
+        )
         for s, when in latest_first
     ]
     widths = [max(len(row[i]) for row in rows) for i in range(3)]
     for row in rows:
-        _print("  ".join([row[0].rjust(widths[0]), *(c.ljust(w) for c, w in
-                                                     zip(row[1:3], widths[1:])), row[3]]))
+        _print(
+            "  ".join(
+                [
+                    row[0].rjust(widths[0]),
+                    *(c.ljust(w) for c, w in zip(row[1:3], widths[1:])),
+                    row[3],
+                ]
+            )
+        )
     return EXIT_OK
 
 
@@ -529,7 +658,7 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
         "validate",
         help="check a robot project against its schemas and its own configuration",
         description="Report every problem in a robot project, one per line as "
-                    "file:line: field: what is wrong (allowed: ...). Exit 0 when valid, 1 when not.",
+        "file:line: field: what is wrong (allowed: ...). Exit 0 when valid, 1 when not.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     p.set_defaults(func=_cmd_validate)
@@ -551,22 +680,35 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _connection_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--port", metavar="URL",
-                   help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
-                        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR; an Epson "
-                        "controller's Modbus TCP slave: modbus://HOST[:PORT]")
-    p.add_argument("--station", metavar="N",
-                   help="station number instead of the robot file's (HARL-U2: 1-99, as set "
-                        "on the pendant; IAI: two hex digits, 99 by default; Epson: the "
-                        "Modbus unit id, 0-255, 1 by default)")
-    p.add_argument("--lock-timeout", type=float, default=10.0, metavar="SECONDS",
-                   help="how long to wait for another harlsync using the same line or project "
-                        "(default 10)")
-    p.add_argument("--reset-function", action="store_true",
-                   help="Epson: when the Remote Control function is found in use or halted "
-                        "(a command left unanswered, a function error), reset it first "
-                        "(section 6.5.2), and only while the robot is not Running; other "
-                        "families refuse it")
+    p.add_argument(
+        "--port",
+        metavar="URL",
+        help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
+        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR; an Epson "
+        "controller's Modbus TCP slave: modbus://HOST[:PORT]",
+    )
+    p.add_argument(
+        "--station",
+        metavar="N",
+        help="station number instead of the robot file's (HARL-U2: 1-99, as set "
+        "on the pendant; IAI: two hex digits, 99 by default; Epson: the "
+        "Modbus unit id, 0-255, 1 by default)",
+    )
+    p.add_argument(
+        "--lock-timeout",
+        type=float,
+        default=10.0,
+        metavar="SECONDS",
+        help="how long to wait for another harlsync using the same line or project (default 10)",
+    )
+    p.add_argument(
+        "--reset-function",
+        action="store_true",
+        help="Epson: when the Remote Control function is found in use or halted "
+        "(a command left unanswered, a function error), reset it first "
+        "(section 6.5.2), and only while the robot is not Running; other "
+        "families refuse it",
+    )
 
 
 def _connect_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -582,30 +724,44 @@ def _family_names() -> tuple[str, ...]:
 
 def _add_pull(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "pull", help="read everything from the robot into a project directory",
+        "pull",
+        help="read everything from the robot into a project directory",
         description="Read everything the robot holds that the project keeps (HARL-U2: the "
-                    "configuration, every program step, the parameters, the offset tables and "
-                    "the timers; IAI: the position table; registers or variables if the project "
-                    "keeps them) and write the project atomically: a pull that fails leaves the "
-                    "previous files as they were. DIR is created if missing; a first pull needs "
-                    "--port. A controller that does not look like the robot backed up in DIR "
-                    "(another version or program configuration, or most of the backup would "
-                    "change) is refused (exit 3) until --new-robot.",
+        "configuration, every program step, the parameters, the offset tables and "
+        "the timers; IAI: the position table; registers or variables if the project "
+        "keeps them) and write the project atomically: a pull that fails leaves the "
+        "previous files as they were. DIR is created if missing; a first pull needs "
+        "--port. A controller that does not look like the robot backed up in DIR "
+        "(another version or program configuration, or most of the backup would "
+        "change) is refused (exit 3) until --new-robot.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
-    p.add_argument("--family", choices=_family_names(), default=None,
-                   help="the controller family of a first pull (default harl-u2; iai, or "
-                        "epson with --port modbus://HOST:PORT); later commands read it from "
-                        "robot.yaml")
-    p.add_argument("--commit", action="store_true",
-                   help="commit the change to git, with a message that says what changed")
-    p.add_argument("--allow-dirty", action="store_true",
-                   help="pull even over uncommitted edits in DIR (they are overwritten)")
-    p.add_argument("--new-robot", action="store_true",
-                   help="accept a controller that does not look like the robot backed up in "
-                        "DIR (another version or program configuration, or most of the "
-                        "backup changed): a replaced, reconfigured or updated robot")
+    p.add_argument(
+        "--family",
+        choices=_family_names(),
+        default=None,
+        help="the controller family of a first pull (default harl-u2; iai, or "
+        "epson with --port modbus://HOST:PORT); later commands read it from "
+        "robot.yaml",
+    )
+    p.add_argument(
+        "--commit",
+        action="store_true",
+        help="commit the change to git, with a message that says what changed",
+    )
+    p.add_argument(
+        "--allow-dirty",
+        action="store_true",
+        help="pull even over uncommitted edits in DIR (they are overwritten)",
+    )
+    p.add_argument(
+        "--new-robot",
+        action="store_true",
+        help="accept a controller that does not look like the robot backed up in "
+        "DIR (another version or program configuration, or most of the "
+        "backup changed): a replaced, reconfigured or updated robot",
+    )
     p.set_defaults(func=_cmd_pull)
 
 
@@ -614,11 +770,18 @@ def _cmd_pull(args: argparse.Namespace) -> int:
 
     progress = Feedback("pull")
     try:
-        result = engine.pull(args.dir, port=args.port, station=args.station, commit=args.commit,
-                             progress=progress, lock_timeout=args.lock_timeout,
-                             allow_dirty=args.allow_dirty, family=args.family,
-                             new_robot=args.new_robot,
-                             connect_options=_connect_options(args))
+        result = engine.pull(
+            args.dir,
+            port=args.port,
+            station=args.station,
+            commit=args.commit,
+            progress=progress,
+            lock_timeout=args.lock_timeout,
+            allow_dirty=args.allow_dirty,
+            family=args.family,
+            new_robot=args.new_robot,
+            connect_options=_connect_options(args),
+        )
     finally:
         progress.close()
     progress.summary(result.robot.name, result.contents)
@@ -630,19 +793,23 @@ def _cmd_pull(args: argparse.Namespace) -> int:
 
 def _add_diff(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "diff", help="compare the project with the live robot",
+        "diff",
+        help="compare the project with the live robot",
         description="Read the whole robot, as a pull does, and compare it with the project, "
-                    "item by item (program, step, table, field, timer; IAI: position). '-' "
-                    "lines are the robot, '+' lines the project. On a terminal it ends with "
-                    "what was read, how long it took and how many items differ. "
-                    "Warns when the audit log shows an earlier push to this robot that never "
-                    "finished (killed part way). Exit 0 identical, 1 different, 2 error.",
+        "item by item (program, step, table, field, timer; IAI: position). '-' "
+        "lines are the robot, '+' lines the project. On a terminal it ends with "
+        "what was read, how long it took and how many items differ. "
+        "Warns when the audit log shows an earlier push to this robot that never "
+        "finished (killed part way). Exit 0 identical, 1 different, 2 error.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     _format_arg(p)
-    p.add_argument("--registers", action="store_true",
-                   help="compare runtime data too (HARL-U2 registers, IAI flags and variables)")
+    p.add_argument(
+        "--registers",
+        action="store_true",
+        help="compare runtime data too (HARL-U2 registers, IAI flags and variables)",
+    )
     p.set_defaults(func=_cmd_diff)
 
 
@@ -652,26 +819,37 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 
     progress = Feedback("diff")
     try:
-        result = engine.compare(args.dir, port=args.port, station=args.station,
-                                progress=progress, registers=args.registers,
-                                lock_timeout=args.lock_timeout,
-                                connect_options=_connect_options(args))
+        result = engine.compare(
+            args.dir,
+            port=args.port,
+            station=args.station,
+            progress=progress,
+            registers=args.registers,
+            lock_timeout=args.lock_timeout,
+            connect_options=_connect_options(args),
+        )
     finally:
         progress.close()
     _warn(result.warnings)
     progress.summary(result.project.robot.name, result.contents, _differ(result.changes))
     if args.format == "json":
-        _print(json.dumps({
-            "robot": result.project.robot.name,
-            "target": result.target,
-            "project": str(result.project.path),
-            "identical": not result.changes,
-            "summary": engine.change_summary(result.changes),
-            "changes": [to_json(c) for c in result.changes],
-        }, indent=2))
+        _print(
+            json.dumps(
+                {
+                    "robot": result.project.robot.name,
+                    "target": result.target,
+                    "project": str(result.project.path),
+                    "identical": not result.changes,
+                    "summary": engine.change_summary(result.changes),
+                    "changes": [to_json(c) for c in result.changes],
+                },
+                indent=2,
+            )
+        )
     elif result.changes:
-        sys.stdout.write(render_text(result.changes, f"robot {result.target}",
-                                     f"project {result.project.path}"))
+        sys.stdout.write(
+            render_text(result.changes, f"robot {result.target}", f"project {result.project.path}")
+        )
     return EXIT_NO if result.changes else EXIT_OK
 
 
@@ -681,27 +859,33 @@ def _differ(changes: Sequence[Any]) -> str:
 
     if not changes:
         return "; no differences"
-    return (f"; {len(changes)} item{'s' * (len(changes) != 1)} "
-            f"differ{'s' * (len(changes) == 1)} ({change_summary(list(changes))})")
+    return (
+        f"; {len(changes)} item{'s' * (len(changes) != 1)} "
+        f"differ{'s' * (len(changes) == 1)} ({change_summary(list(changes))})"
+    )
 
 
 def _add_plan(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "plan", help="print the commands a push would send, and send none",
+        "plan",
+        help="print the commands a push would send, and send none",
         description="Read the whole robot, compare it with the project and print, in order, "
-                    "the exact commands a push would send (HARL-U2: SN commands; IAI: each "
-                    "291H, field by field; Epson: each Remote Control command's words in hex). "
-                    "Nothing is written. Warns when the robot is not idle: a push would be "
-                    "refused now. --out saves the plan "
-                    "with a fingerprint of the robot and the project; push --plan refuses it "
-                    "if either changed since. The plan file is not part of the project: "
-                    "delete it after the push, or keep it outside the repository.",
+        "the exact commands a push would send (HARL-U2: SN commands; IAI: each "
+        "291H, field by field; Epson: each Remote Control command's words in hex). "
+        "Nothing is written. Warns when the robot is not idle: a push would be "
+        "refused now. --out saves the plan "
+        "with a fingerprint of the robot and the project; push --plan refuses it "
+        "if either changed since. The plan file is not part of the project: "
+        "delete it after the push, or keep it outside the repository.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
     p.add_argument("--out", metavar="PLANFILE", help="save the plan to this file")
-    p.add_argument("--registers", action="store_true",
-                   help="include runtime data (HARL-U2 registers, IAI flags and variables)")
+    p.add_argument(
+        "--registers",
+        action="store_true",
+        help="include runtime data (HARL-U2 registers, IAI flags and variables)",
+    )
     p.set_defaults(func=_cmd_plan)
 
 
@@ -723,10 +907,16 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
     progress = Feedback("plan")
     try:
-        found = engine.compare(args.dir, port=args.port, station=args.station,
-                               progress=progress, registers=args.registers,
-                               lock_timeout=args.lock_timeout, idle_check=True,
-                               connect_options=_connect_options(args))
+        found = engine.compare(
+            args.dir,
+            port=args.port,
+            station=args.station,
+            progress=progress,
+            registers=args.registers,
+            lock_timeout=args.lock_timeout,
+            idle_check=True,
+            connect_options=_connect_options(args),
+        )
     finally:
         progress.close()
     _warn(found.warnings)
@@ -737,8 +927,14 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         _print(f"# plan saved to {args.out}")
     progress.summary(found.project.robot.name, found.contents, _differ(found.changes))
     if found.busy is not None:  # a push reads the state before anything else
-        _warn([(f"robot {found.project.robot.name} ({found.target}) is not idle: "
-                f"{found.busy}; a push would be refused now")])
+        _warn(
+            [
+                (
+                    f"robot {found.project.robot.name} ({found.target}) is not idle: "
+                    f"{found.busy}; a push would be refused now"
+                )
+            ]
+        )
     return EXIT_OK
 
 
@@ -746,17 +942,29 @@ def _push_args(p: argparse.ArgumentParser) -> None:
     _connection_args(p)
     p.add_argument("--yes", action="store_true", help="do not ask before writing")
     p.add_argument("--reason", metavar="TEXT", help="why, for the audit log")
-    p.add_argument("--outside-window", metavar="REASON",
-                   help="allow a write outside the robot's maintenance windows, saying why")
-    p.add_argument("--allow-reconfigure", action="store_true",
-                   help="allow a program configuration change (SNX), which destroys every "
-                        "program; all of them are rewritten after it")
-    p.add_argument("--allow-live-tuning", action="store_true",
-                   help="write timers and offset tables even while a task runs (the manual "
-                        "allows it); programs, parameters, configuration and registers never")
-    p.add_argument("--registers", action="store_true",
-                   help="write runtime data too: HARL-U2 registers, IAI flags and variables "
-                        "(the project must keep them)")
+    p.add_argument(
+        "--outside-window",
+        metavar="REASON",
+        help="allow a write outside the robot's maintenance windows, saying why",
+    )
+    p.add_argument(
+        "--allow-reconfigure",
+        action="store_true",
+        help="allow a program configuration change (SNX), which destroys every "
+        "program; all of them are rewritten after it",
+    )
+    p.add_argument(
+        "--allow-live-tuning",
+        action="store_true",
+        help="write timers and offset tables even while a task runs (the manual "
+        "allows it); programs, parameters, configuration and registers never",
+    )
+    p.add_argument(
+        "--registers",
+        action="store_true",
+        help="write runtime data too: HARL-U2 registers, IAI flags and variables "
+        "(the project must keep them)",
+    )
 
 
 def _confirm(the_plan: Plan) -> bool:
@@ -768,32 +976,37 @@ def _confirm(the_plan: Plan) -> bool:
 
 def _add_push(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "push", help="write what differs to the robot, safely",
+        "push",
+        help="write what differs to the robot, safely",
         description="Read the whole robot and write only what differs, in the family's safe "
-                    "order (HARL-U2: "
-                    "configuration, parameters, tables, timers, programs; IAI: positions; "
-                    "Epson: load, limits, frames, tool, arch, fine, LimZ, tables, points). "
-                    "Refuses a project that is invalid, has "
-                    "uncommitted changes, or is outside its maintenance window; stops before "
-                    "any write while the robot runs (HARL-U2: a task in execution or suspended, "
-                    "LNR; IAI: a program running, MANUAL, emergency stop, an axis in use, 215H "
-                    "and 212H; Epson: Running, Paused, EStopOn, Error or the Remote Control "
-                    "function in use; read before "
-                    "every write and after the last: a robot started while a write was on the "
-                    "wire is named in a warning); verifies each write by reading it back; "
-                    "snapshots the robot "
-                    "first (see rollback) and records everything in the audit log, each write "
-                    "before it is sent, so the next push or diff can name what a push killed "
-                    "part way had written. Without a terminal to ask on, --yes is needed (it is "
-                    "refused before the robot is read). Exit 0 done, 2 failed, 3 refused for "
-                    "safety, 130 interrupted (what was written is listed and audited).",
+        "order (HARL-U2: "
+        "configuration, parameters, tables, timers, programs; IAI: positions; "
+        "Epson: load, limits, frames, tool, arch, fine, LimZ, tables, points). "
+        "Refuses a project that is invalid, has "
+        "uncommitted changes, or is outside its maintenance window; stops before "
+        "any write while the robot runs (HARL-U2: a task in execution or suspended, "
+        "LNR; IAI: a program running, MANUAL, emergency stop, an axis in use, 215H "
+        "and 212H; Epson: Running, Paused, EStopOn, Error or the Remote Control "
+        "function in use; read before "
+        "every write and after the last: a robot started while a write was on the "
+        "wire is named in a warning); verifies each write by reading it back; "
+        "snapshots the robot "
+        "first (see rollback) and records everything in the audit log, each write "
+        "before it is sent, so the next push or diff can name what a push killed "
+        "part way had written. Without a terminal to ask on, --yes is needed (it is "
+        "refused before the robot is read). Exit 0 done, 2 failed, 3 refused for "
+        "safety, 130 interrupted (what was written is listed and audited).",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _push_args(p)
-    p.add_argument("--allow-dirty", action="store_true",
-                   help="push a project with uncommitted changes")
-    p.add_argument("--plan", metavar="PLANFILE",
-                   help="push only if the robot and project are as when this plan was made")
+    p.add_argument(
+        "--allow-dirty", action="store_true", help="push a project with uncommitted changes"
+    )
+    p.add_argument(
+        "--plan",
+        metavar="PLANFILE",
+        help="push only if the robot and project are as when this plan was made",
+    )
     p.set_defaults(func=_cmd_push)
 
 
@@ -801,11 +1014,17 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
     from .sync.engine import PushOptions
 
     return PushOptions(
-        yes=args.yes, confirm=_confirm if sys.stdin.isatty() else None, reason=args.reason,
-        allow_dirty=getattr(args, "allow_dirty", False), outside_window=args.outside_window,
-        allow_reconfigure=args.allow_reconfigure, allow_live_tuning=args.allow_live_tuning,
-        registers=args.registers, plan_file=getattr(args, "plan", None),
-        lock_timeout=args.lock_timeout, progress=progress,
+        yes=args.yes,
+        confirm=_confirm if sys.stdin.isatty() else None,
+        reason=args.reason,
+        allow_dirty=getattr(args, "allow_dirty", False),
+        outside_window=args.outside_window,
+        allow_reconfigure=args.allow_reconfigure,
+        allow_live_tuning=args.allow_live_tuning,
+        registers=args.registers,
+        plan_file=getattr(args, "plan", None),
+        lock_timeout=args.lock_timeout,
+        progress=progress,
         connect_options=_connect_options(args),
     )
 
@@ -820,13 +1039,19 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
         r = failed.result
         _warn(r.warnings)
         if r.plan is not None and (r.written or r.failed):
-            print(f"harlsync: {action} stopped: wrote {len(r.written)} of "
-                  f"{len(r.plan.writes)} item(s)", file=sys.stderr)
+            print(
+                f"harlsync: {action} stopped: wrote {len(r.written)} of "
+                f"{len(r.plan.writes)} item(s)",
+                file=sys.stderr,
+            )
             for w in r.written:
                 print(f"  written:     {w.name}: {w.command}", file=sys.stderr)
             if r.failed is not None:
-                print(f"  unknown:     {r.failed.name}: {r.failed.command} (may or may not "
-                      "have been written)", file=sys.stderr)
+                print(
+                    f"  unknown:     {r.failed.name}: {r.failed.command} (may or may not "
+                    "have been written)",
+                    file=sys.stderr,
+                )
             for w in r.not_written:
                 if w is not r.failed:
                     print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
@@ -842,8 +1067,10 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
     if result.plan is None or result.plan.empty:
         _print(f"{action}: robot already matches; nothing written")
     else:
-        _print(f"{action}: wrote and verified {len(result.written)} item(s); "
-               f"snapshot {result.snapshot}; audit {result.audit_log}")
+        _print(
+            f"{action}: wrote and verified {len(result.written)} item(s); "
+            f"snapshot {result.snapshot}; audit {result.audit_log}"
+        )
     for note in result.notes:
         _print(f"note: {note}")
     return EXIT_OK
@@ -854,22 +1081,27 @@ def _cmd_push(args: argparse.Namespace) -> int:
 
     progress = Feedback("read")
     opts = _push_options(args, progress)
-    return _report("push", lambda: engine.push(args.dir, opts, port=args.port, station=args.station),
-                   progress)
+    return _report(
+        "push", lambda: engine.push(args.dir, opts, port=args.port, station=args.station), progress
+    )
 
 
 def _add_rollback(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "rollback", help="restore the snapshot taken before the last push",
+        "rollback",
+        help="restore the snapshot taken before the last push",
         description="Write back the robot's state as it was before the last push (or the "
-                    "snapshot named by --snapshot), under the same interlocks, verification "
-                    "and audit as push. The project in git then still holds what was pushed: "
-                    "revert that commit, or push again once fixed.",
+        "snapshot named by --snapshot), under the same interlocks, verification "
+        "and audit as push. The project in git then still holds what was pushed: "
+        "revert that commit, or push again once fixed.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _push_args(p)
-    p.add_argument("--snapshot", metavar="DIR",
-                   help="the snapshot to restore (default: the latest, in DIR/.harlsync/snapshots)")
+    p.add_argument(
+        "--snapshot",
+        metavar="DIR",
+        help="the snapshot to restore (default: the latest, in DIR/.harlsync/snapshots)",
+    )
     p.set_defaults(func=_cmd_rollback)
 
 
@@ -878,16 +1110,29 @@ def _cmd_rollback(args: argparse.Namespace) -> int:
 
     progress = Feedback("read")
     opts = _push_options(args, progress)
-    return _report("rollback", lambda: engine.rollback(
-        args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station),
-        progress)
+    return _report(
+        "rollback",
+        lambda: engine.rollback(
+            args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station
+        ),
+        progress,
+    )
 
 
 # --- main -------------------------------------------------------------------------------
 
 _COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_pull, _add_diff, _add_plan, _add_push, _add_rollback, _add_backup, _add_status,
-    _add_log, _add_snapshots, _add_validate, _add_sim,
+    _add_pull,
+    _add_diff,
+    _add_plan,
+    _add_push,
+    _add_rollback,
+    _add_backup,
+    _add_status,
+    _add_log,
+    _add_snapshots,
+    _add_validate,
+    _add_sim,
 ]
 
 
@@ -905,23 +1150,32 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="harlsync",
         description="Keep robot programs and settings under version control "
-                    "(Hirata HARL-U2, IAI protocol B, Epson RC+ Remote Control).",
+        "(Hirata HARL-U2, IAI protocol B, Epson RC+ Remote Control).",
         epilog="Exit codes: 0 success, 1 a negative answer (diff: different, validate: "
-               "invalid, backup: a robot failed, status: a robot needs looking at), 2 an "
-               "error, 3 refused for safety, 130 interrupted (Ctrl-C). On a terminal, "
-               "progress is counted in exchanges with the controller.",
+        "invalid, backup: a robot failed, status: a robot needs looking at), 2 an "
+        "error, 3 refused for safety, 130 interrupted (Ctrl-C). On a terminal, "
+        "progress is counted in exchanges with the controller.",
     )
     parser.add_argument("--version", action="version", version=f"harlsync {__version__}")
-    parser.add_argument("-v", "--verbose", action="count", default=0,
-                        help="more output: -v what it does, -vv raw traffic on a robot's line "
-                             "as hex")
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        default=0,
+        help="more output: -v what it does, -vv raw traffic on a robot's line as hex",
+    )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in _COMMANDS:
         add(sub)
     for name, command in sub.choices.items():  # -v works after the command too
         traffic = ", -vv raw traffic as hex" if name not in _NO_LINE else ""
-        command.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
-                             help=f"more output: -v what it does{traffic}")
+        command.add_argument(
+            "-v",
+            "--verbose",
+            action="count",
+            default=argparse.SUPPRESS,
+            help=f"more output: -v what it does{traffic}",
+        )
     return parser
 
 

@@ -88,8 +88,10 @@ class _Located(HarlsyncError):
         self.station = station
         self.command = command
         #: the station as the family writes it (IAI: hex), for the message
-        self.station_text = station_text if station_text is not None else (
-            None if station is None else str(station)
+        self.station_text = (
+            station_text
+            if station_text is not None
+            else (None if station is None else str(station))
         )
         super().__init__(self._render())
 

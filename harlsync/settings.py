@@ -36,5 +36,7 @@ class SerialSettings:
         timeout 1.0 s, 3 retries``."""
         stop = f"{self.stopbits:g}"
         flow = "RTS/CTS" if self.rtscts else "no flow control"
-        return (f"{self.baudrate} {self.bytesize}{self.parity}{stop}, {flow}, "
-                f"reply timeout {self.timeout:g} s, {self.retries} retries")
+        return (
+            f"{self.baudrate} {self.bytesize}{self.parity}{stop}, {flow}, "
+            f"reply timeout {self.timeout:g} s, {self.retries} retries"
+        )

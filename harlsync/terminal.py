@@ -84,8 +84,15 @@ class Feedback:
             # not be cleared any more.
             width = _width_height(sys.stderr)[0] - len("^C") - 1
             self._drawn = True  # before: a ^C may stop tqdm() after it drew the bar
-            self._bar = tqdm(total=total, desc=self.what, unit="", bar_format=_BAR,
-                             file=sys.stderr, leave=False, ncols=width)
+            self._bar = tqdm(
+                total=total,
+                desc=self.what,
+                unit="",
+                bar_format=_BAR,
+                file=sys.stderr,
+                leave=False,
+                ncols=width,
+            )
         self._bar.total = total
         self._bar.update(done - self._bar.n)
         if done >= total:  # clear the line before anything else is printed (a plan, a prompt)
@@ -109,8 +116,11 @@ class Feedback:
             return
         counted = f" ({self.exchanges} {UNIT})" if self.exchanges else ""
         elapsed = seconds(time.monotonic() - self.started)
-        print(f"harlsync: {self.what} {robot}: read {contents} in {elapsed}{counted}{tail}",
-              file=sys.stderr, flush=True)
+        print(
+            f"harlsync: {self.what} {robot}: read {contents} in {elapsed}{counted}{tail}",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def _width_height(stream: TextIO) -> tuple[int, int]:
@@ -215,5 +225,14 @@ class BackupDisplay:
             return f"{row.name}: connecting"[: width - 1]
         from tqdm import tqdm
 
-        return str(tqdm.format_meter(row.done, row.total, now - row.started, ncols=width - 1,
-                                     prefix=row.name, unit="", bar_format=_BAR))
+        return str(
+            tqdm.format_meter(
+                row.done,
+                row.total,
+                now - row.started,
+                ncols=width - 1,
+                prefix=row.name,
+                unit="",
+                bar_format=_BAR,
+            )
+        )

@@ -15,17 +15,33 @@ from pathlib import Path
 __all__ = ["BROWSER", "Table", "dump_dom", "screenshot"]
 
 #: The browser's command, or None.
-BROWSER = next((found for name in ("chromium", "chromium-browser", "google-chrome")
-                if (found := shutil.which(name))), None)
+BROWSER = next(
+    (
+        found
+        for name in ("chromium", "chromium-browser", "google-chrome")
+        if (found := shutil.which(name))
+    ),
+    None,
+)
 
 
 def _run(*args: str) -> str:
     assert BROWSER is not None
     with tempfile.TemporaryDirectory(prefix="harlsync-browser-") as profile:
         done = subprocess.run(
-            [BROWSER, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-             f"--user-data-dir={profile}", *args],
-            capture_output=True, text=True, timeout=90, check=False,
+            [
+                BROWSER,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--no-first-run",
+                f"--user-data-dir={profile}",
+                *args,
+            ],
+            capture_output=True,
+            text=True,
+            timeout=90,
+            check=False,
         )
     assert done.returncode == 0, done.stderr[-2000:]
     return done.stdout
@@ -37,8 +53,12 @@ def dump_dom(page: Path) -> str:
 
 
 def screenshot(page: Path, out: Path, size: tuple[int, int] = (1400, 1000)) -> None:
-    _run(f"--screenshot={out.resolve()}", f"--window-size={size[0]},{size[1]}",
-         "--hide-scrollbars", page.resolve().as_uri())
+    _run(
+        f"--screenshot={out.resolve()}",
+        f"--window-size={size[0]},{size[1]}",
+        "--hide-scrollbars",
+        page.resolve().as_uri(),
+    )
 
 
 class Table(HTMLParser):

@@ -101,17 +101,20 @@ def build(root: Path) -> SimPlant:
     """The plant of :data:`STATES` under ``root`` (a new git repository)."""
     root.mkdir(parents=True, exist_ok=True)
     git(root, "init", "-q")
-    harl = {n: HarlState.generate(seed, SMALL) for seed, n in enumerate(
-        ("loader", "press", "welder", "old-press", "spare"), 30)}
+    harl = {
+        n: HarlState.generate(seed, SMALL)
+        for seed, n in enumerate(("loader", "press", "welder", "old-press", "spare"), 30)
+    }
     sims: dict[str, Any] = {n: HarlSimulator({1: s}) for n, s in harl.items()}
     for seed, name in enumerate(IAI_ROBOTS, 40):
         state = IaiState.generate(seed, position_range=(1, 40))
         sims[name] = IaiSimulator({IAI_STATION: state})
     plant = SimPlant(root, sims)
     plant.urls = {name: register(sim, f"{root.name}-{name}") for name, sim in sims.items()}
-    projects = {name: _first_pull(plant, name, *((IAI_STATION, "iai") if name in IAI_ROBOTS
-                                                 else (1, None)))
-                for name in sims}
+    projects = {
+        name: _first_pull(plant, name, *((IAI_STATION, "iai") if name in IAI_ROBOTS else (1, None)))
+        for name in sims
+    }
 
     # old-press: backed up three days ago, not since.
     backup([projects["old-press"]], now=datetime.now(timezone.utc) - timedelta(days=3))
@@ -127,8 +130,9 @@ def build(root: Path) -> SimPlant:
 
     # gripper: a push killed after its write, before its end record.
     positions = projects["gripper"] / "positions.yaml"
-    positions.write_text(re.sub(r"coords: \[[^,\]]+", "coords: [7.000", positions.read_text(),
-                                count=1))
+    positions.write_text(
+        re.sub(r"coords: \[[^,\]]+", "coords: [7.000", positions.read_text(), count=1)
+    )
     git(root, "commit", "-qam", "gripper: move position")
     with _killed_before_its_end_record():
         engine.push(projects["gripper"], PushOptions(yes=True, reason="new tool"))
@@ -146,4 +150,3 @@ def build(root: Path) -> SimPlant:
     report = backup(tonight, commit=True, attempts=1)
     assert {r.name for r in report.robots if not r.ok} == {"welder"}, report.render()
     return plant
-

@@ -51,7 +51,11 @@ def run(*args: str, cwd: Path | None = None, interrupt_when: str | None = None) 
     fcntl.ioctl(terminal, termios.TIOCSWINSZ, struct.pack("HHHH", LINES, COLUMNS, 0, 0))
     process = subprocess.Popen(
         [sys.executable, "-c", _ON_THIS_TERMINAL, *HARLSYNC, *args],
-        stdin=terminal, stdout=terminal, stderr=terminal, cwd=cwd, start_new_session=True,
+        stdin=terminal,
+        stdout=terminal,
+        stderr=terminal,
+        cwd=cwd,
+        start_new_session=True,
     )
     os.close(terminal)
     screen = pyte.Screen(COLUMNS, LINES)

@@ -50,8 +50,10 @@ def seeds(chunk: int, first: int) -> Iterator[int]:
 
 
 def explain(seed: int, story: list[str], message: str) -> str:
-    return (f"case seed {seed} (HARLSYNC_PROPERTY_SEEDS={seed} to replay): "
-            f"{message}\n  " + "\n  ".join(story))
+    return (
+        f"case seed {seed} (HARLSYNC_PROPERTY_SEEDS={seed} to replay): "
+        f"{message}\n  " + "\n  ".join(story)
+    )
 
 
 # --- the operator and the line --------------------------------------------------------------
@@ -71,7 +73,11 @@ class Scheduled:
     corrupt_checksum: Callable[[bytes], bytes]
 
     def start_schedule(
-        self, schedule: list[tuple[int, Change]], *, seed: int, deadline: float,
+        self,
+        schedule: list[tuple[int, Change]],
+        *,
+        seed: int,
+        deadline: float,
         lose_writes: set[int] | None = None,
     ) -> None:
         self.schedule = sorted(schedule, key=lambda entry: entry[0])
@@ -129,10 +135,13 @@ class Scheduled:
             self._restore = self.faults
             # Late within the link's late window (a reply later than that is beyond
             # what any link without sequence numbers can place).
-            self.faults = self._rng.choice([
-                Faults(slow=1.0, slow_delay=self.deadline * 1.5), Faults(drop=1.0),
-                Faults(bad_checksum=1.0),
-            ])
+            self.faults = self._rng.choice(
+                [
+                    Faults(slow=1.0, slow_delay=self.deadline * 1.5),
+                    Faults(drop=1.0),
+                    Faults(bad_checksum=1.0),
+                ]
+            )
             self.done.append(f"  and the reply to it: {self.faults}")
 
 
@@ -141,6 +150,7 @@ def line(faults: Faults, lose: float) -> Change:
         assert isinstance(sim, Scheduled)
         sim.faults, sim.lose = faults, lose
         return f"faults now {faults}, requests lost {lose}"
+
     return change
 
 
@@ -168,10 +178,18 @@ def line_changes(
         out.append((moment(), line(*random_faults(rng, deadline))))
     if rng.random() < 0.15:
         at = moment()
-        bad = Faults(drop=rng.choice([0.2, 0.5]), bad_checksum=0.1, slow=0.1, noise=0.2,
-                     slow_delay=deadline * 1.5, seed=rng.randrange(2**32))
-        out += [(at, line(bad, rng.choice([0.2, 0.4]))),
-                (at + rng.randint(2, 5), line(Faults(), 0.0))]
+        bad = Faults(
+            drop=rng.choice([0.2, 0.5]),
+            bad_checksum=0.1,
+            slow=0.1,
+            noise=0.2,
+            slow_delay=deadline * 1.5,
+            seed=rng.randrange(2**32),
+        )
+        out += [
+            (at, line(bad, rng.choice([0.2, 0.4]))),
+            (at + rng.randint(2, 5), line(Faults(), 0.0)),
+        ]
     return out
 
 
@@ -242,7 +260,9 @@ def spy_on_push(monkeypatch: pytest.MonkeyPatch) -> list[PushResult | PushFailed
 
 
 def push_command(
-    why: Why, argv: list[str], seen: list[PushResult | PushFailed],
+    why: Why,
+    argv: list[str],
+    seen: list[PushResult | PushFailed],
     capsys: pytest.CaptureFixture[str],
 ) -> tuple[PushResult, PushFailed | None]:
     """Run ``harlsync push``; check its exit status and that what it printed names the
@@ -262,8 +282,9 @@ def push_command(
         for w in result.written:
             assert f"written:     {w.name}: {w.command}" in printed, why(printed)
         if result.failed is not None:
-            assert f"unknown:     {result.failed.name}: {result.failed.command}" in (
-                printed), why(printed)
+            assert f"unknown:     {result.failed.name}: {result.failed.command}" in (printed), why(
+                printed
+            )
     return result, failed
 
 
@@ -282,7 +303,9 @@ class Tally:
 
 
 def check_sent(
-    why: Why, got: Outcome, wire: Callable[[PlannedWrite], str],
+    why: Why,
+    got: Outcome,
+    wire: Callable[[PlannedWrite], str],
     reads_back: Callable[[str, list[Received]], bool],
 ) -> list[Received]:
     """The result names exactly the writes the controller received (each one written,
@@ -344,8 +367,8 @@ def check_rerun(why: Why, again: Outcome, *, refused: bool) -> None:
     """The same push once the robot is stopped and the line is clean: it finishes, or
     (``refused``: no push of the case may write) is refused again and writes nothing."""
     if refused:
-        assert again.failed is not None and isinstance(again.failed.cause, PolicyError), (
-            why(f"the re-run was not refused: {again.failed}")
+        assert again.failed is not None and isinstance(again.failed.cause, PolicyError), why(
+            f"the re-run was not refused: {again.failed}"
         )
         check_wrote_nothing(why, again)
     else:

@@ -9,8 +9,10 @@ from contextlib import contextmanager
 
 
 @contextmanager
-def harlsync_sim(*args: str, lines: int = 3,
-                 ) -> Iterator[tuple[subprocess.Popen[str], dict[str, str]]]:
+def harlsync_sim(
+    *args: str,
+    lines: int = 3,
+) -> Iterator[tuple[subprocess.Popen[str], dict[str, str]]]:
     """Run ``harlsync sim ARGS`` serving a pty and TCP; yield the process and the
     ``lines`` lines it prints first, by name (``pty``, ``tcp``, ``stations``; an
     Epson simulator has no pty line).
@@ -19,7 +21,9 @@ def harlsync_sim(*args: str, lines: int = 3,
     """
     proc = subprocess.Popen(
         [sys.executable, "-m", "harlsync", "sim", *args],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
     )
     assert proc.stdin is not None and proc.stdout is not None
     try:

@@ -119,8 +119,11 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
     assert "- loader: 1 timer" in log and "- press-2: 2 programs (2 steps)" in log
     assert "- silent:" in log and "- garbage:" in log  # the failures are in the message too
     changed = git(plant.root, "show", "--name-only", "--format=", "HEAD").split()
-    assert sorted(changed) == ["loader/timers.yaml", "press-2/programs/main-01.yaml",
-                               "press-2/programs/sub-00.yaml"]
+    assert sorted(changed) == [
+        "loader/timers.yaml",
+        "press-2/programs/main-01.yaml",
+        "press-2/programs/sub-00.yaml",
+    ]
 
 
 def test_nothing_changed_means_no_commit_and_exit_0(plant: Plant) -> None:
@@ -133,9 +136,23 @@ def test_nothing_changed_means_no_commit_and_exit_0(plant: Plant) -> None:
     assert main(["backup", str(plant.root), "--quiet"]) == 0
 
 
-def test_the_json_report_records_attempts_staleness_and_never_backed_up(plant: Plant, capsys) -> None:
-    assert main(["backup", str(plant.root / "loader"), str(plant.root / "silent"),
-                 "--format", "json", "--attempts", "2"]) == 1
+def test_the_json_report_records_attempts_staleness_and_never_backed_up(
+    plant: Plant, capsys
+) -> None:
+    assert (
+        main(
+            [
+                "backup",
+                str(plant.root / "loader"),
+                str(plant.root / "silent"),
+                "--format",
+                "json",
+                "--attempts",
+                "2",
+            ]
+        )
+        == 1
+    )
     report = json.loads(capsys.readouterr().out)
     robots = {r["name"]: r for r in report["robots"]}
     assert robots["loader"]["ok"] and robots["loader"]["last_success"]
@@ -152,21 +169,28 @@ def test_the_json_report_records_attempts_staleness_and_never_backed_up(plant: P
 
 
 def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run_began(
-    plant: Plant, tmp_path: Path, capsys,
+    plant: Plant,
+    tmp_path: Path,
+    capsys,
 ) -> None:
     from datetime import datetime
 
     plant.sims["loader"].faults = Faults(slow=1.0, slow_delay=0.05)  # 49 replies: 2.5 s
     metrics = tmp_path / "backup.prom"
-    assert main(["backup", str(plant.root / "loader"), "--format", "json",
-                 "--metrics", str(metrics)]) == 0
+    assert (
+        main(["backup", str(plant.root / "loader"), "--format", "json", "--metrics", str(metrics)])
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     [loader] = report["robots"]
-    took = datetime.fromisoformat(loader["last_success"]) - datetime.fromisoformat(report["started"])
+    took = datetime.fromisoformat(loader["last_success"]) - datetime.fromisoformat(
+        report["started"]
+    )
     assert took.total_seconds() >= 2, (report["started"], loader["last_success"])
     stamp = datetime.fromisoformat(loader["last_success"]).timestamp()
     assert f'harlsync_backup_last_success_timestamp_seconds{{robot="loader"}} {stamp:.0f}' in (
-        metrics.read_text().splitlines())
+        metrics.read_text().splitlines()
+    )
     recorded = json.loads((plant.root / "loader" / ".harlsync" / "backup.json").read_text())
     assert recorded["last_success"] == loader["last_success"]
 
@@ -189,14 +213,29 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
     changed_out = tmp_path / "changed.txt"
     failed_out = tmp_path / "failed.txt"
     metrics = tmp_path / "harlsync.prom"
-    on_change = (f"{sys.executable} -c \"import os,sys; open({str(changed_out)!r},'w')"
-                 f".write(os.environ['HARLSYNC_CHANGED'] + '|' + sys.stdin.read())\"")
-    on_failure = (f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
-                  f".write(os.environ['HARLSYNC_FAILED'])\"")
-    code = main([
-        "backup", str(plant.root), "--attempts", "1", "--quiet",
-        "--on-change", on_change, "--on-failure", on_failure, "--metrics", str(metrics),
-    ])
+    on_change = (
+        f"{sys.executable} -c \"import os,sys; open({str(changed_out)!r},'w')"
+        f".write(os.environ['HARLSYNC_CHANGED'] + '|' + sys.stdin.read())\""
+    )
+    on_failure = (
+        f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
+        f".write(os.environ['HARLSYNC_FAILED'])\""
+    )
+    code = main(
+        [
+            "backup",
+            str(plant.root),
+            "--attempts",
+            "1",
+            "--quiet",
+            "--on-change",
+            on_change,
+            "--on-failure",
+            on_failure,
+            "--metrics",
+            str(metrics),
+        ]
+    )
     assert code == 1
     names, summary = changed_out.read_text().split("|", 1)
     assert names == "loader" and "1 timer" in summary
@@ -252,7 +291,9 @@ def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeyp
     assert outcome["press-1"].ok
 
 
-def test_the_documented_cron_line_runs_against_simulated_robots(plant: Plant, tmp_path: Path) -> None:
+def test_the_documented_cron_line_runs_against_simulated_robots(
+    plant: Plant, tmp_path: Path
+) -> None:
     doc = (Path(__file__).parents[1] / "docs" / "backup.md").read_text()
     cron = next(line for line in doc.splitlines() if line.startswith("0 2 * * * "))
     command = cron.removeprefix("0 2 * * * ")
@@ -263,11 +304,15 @@ def test_the_documented_cron_line_runs_against_simulated_robots(plant: Plant, tm
     branch = git(plant.root, "rev-parse", "--abbrev-ref", "HEAD").strip()
     plant.sims["loader"].stations[1].data.timers[0] = "0.01"
     harlsync = str(Path(sys.executable).parent / "harlsync")
-    command = (command.replace("/srv/plant-robots", str(plant.root))
-               .replace("/opt/harlsync/.venv/bin/harlsync", harlsync)
-               .replace("/var/lib/node_exporter/textfile/harlsync.prom", str(tmp_path / "m.prom"))
-               .replace("mail -s \"harlsync: robots not backed up\" maintenance@plant.example",
-                        f"cat > {tmp_path / 'mail.txt'}"))
+    command = (
+        command.replace("/srv/plant-robots", str(plant.root))
+        .replace("/opt/harlsync/.venv/bin/harlsync", harlsync)
+        .replace("/var/lib/node_exporter/textfile/harlsync.prom", str(tmp_path / "m.prom"))
+        .replace(
+            'mail -s "harlsync: robots not backed up" maintenance@plant.example',
+            f"cat > {tmp_path / 'mail.txt'}",
+        )
+    )
     done = subprocess.run(["sh", "-c", command], capture_output=True, text=True, check=False)
     assert done.returncode == 1
     assert "silent" in done.stdout and "FAILED" in done.stdout  # --quiet prints on failure
@@ -292,12 +337,25 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
     loader = plant.root / "loader"
     before = {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()}
     failed_out, metrics = tmp_path / "failed.txt", tmp_path / "harlsync.prom"
-    on_failure = (f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
-                  f".write(os.environ['HARLSYNC_FAILED'])\"")
+    on_failure = (
+        f"{sys.executable} -c \"import os; open({str(failed_out)!r},'w')"
+        f".write(os.environ['HARLSYNC_FAILED'])\""
+    )
     with pytest.MonkeyPatch.context() as fs:
         read_only(fs, loader)
-        code = main(["backup", str(plant.root), "--commit", "--attempts", "2",
-                     "--metrics", str(metrics), "--on-failure", on_failure])
+        code = main(
+            [
+                "backup",
+                str(plant.root),
+                "--commit",
+                "--attempts",
+                "2",
+                "--metrics",
+                str(metrics),
+                "--on-failure",
+                on_failure,
+            ]
+        )
     out, err = capsys.readouterr()
     assert code == 1 and "Traceback" not in err
     rows = {line.split()[0]: line for line in out.splitlines()[1:6]}
@@ -352,9 +410,11 @@ def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwr
     [loader] = report.robots
     assert not loader.ok
     assert "uncommitted changes a pull would overwrite (loader/programs/main-00.yaml)" in (
-        loader.error or "")
+        loader.error or ""
+    )
     # Issue 14: what to do, in words backup can take: it has no --allow-dirty itself.
     assert loader.error.endswith(
         f"commit or stash them, or overwrite them with 'harlsync pull {plant.root / 'loader'} "
-        "--allow-dirty'")
+        "--allow-dirty'"
+    )
     assert files_of(plant.root / "loader") == edited

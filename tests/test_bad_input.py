@@ -403,9 +403,11 @@ def link_out(project: Path, name: str) -> str:
     (project / name).symlink_to(elsewhere / name)
     git(project.parent, "add", "-A")
     git(project.parent, "commit", "-qm", f"{name} lives elsewhere")
-    return (f"{project / name} is a symbolic link to {(elsewhere / name).resolve()}, outside "
-            f"the git repository {project.parent.resolve()}, so no commit holds what a push "
-            "reads there: move it into the repository and commit it, or give --allow-dirty")
+    return (
+        f"{project / name} is a symbolic link to {(elsewhere / name).resolve()}, outside "
+        f"the git repository {project.parent.resolve()}, so no commit holds what a push "
+        "reads there: move it into the repository and commit it, or give --allow-dirty"
+    )
 
 
 def ignore(project: Path, pattern: str) -> str:
@@ -416,8 +418,10 @@ def ignore(project: Path, pattern: str) -> str:
     git(repo, "add", ".gitignore")
     git(repo, "commit", "-qm", f"ignore {pattern}")
     first = "robot.yaml" if pattern == "cell/" else pattern
-    return (f"{project / first} is ignored by git (.gitignore), so no commit holds it: "
-            "git add -f it and commit it")
+    return (
+        f"{project / first} is ignored by git (.gitignore), so no commit holds it: "
+        "git add -f it and commit it"
+    )
 
 
 def hide_changes(project: Path) -> str:
@@ -439,8 +443,10 @@ def link_in_repository(project: Path) -> str:
 
 #: how the project hides an edit from git status -> (set it up: the message, the file edited)
 HIDDEN = {
-    "programs/ linked out of the repository": (lambda p: link_out(p, "programs"),
-                                               "programs/main-00.yaml"),
+    "programs/ linked out of the repository": (
+        lambda p: link_out(p, "programs"),
+        "programs/main-00.yaml",
+    ),
     "a file linked out of the repository": (lambda p: link_out(p, "timers.yaml"), "timers.yaml"),
     "the project directory ignored": (lambda p: ignore(p, "cell/"), "timers.yaml"),
     "a file ignored": (lambda p: ignore(p, "timers.yaml"), "timers.yaml"),
@@ -448,8 +454,10 @@ HIDDEN = {
     "a file linked elsewhere in the repository": (link_in_repository, "timers.yaml"),
 }
 #: file -> an edit that gives the push something to write
-EDITS = {"timers.yaml": ("  3: 0.00\n", "  3: 0.50\n"),
-         "programs/main-00.yaml": ("  2: CALLS S00\n", "  2: CALLS S01\n")}
+EDITS = {
+    "timers.yaml": ("  3: 0.00\n", "  3: 0.50\n"),
+    "programs/main-00.yaml": ("  2: CALLS S00\n", "  2: CALLS S01\n"),
+}
 
 
 @pytest.mark.parametrize("how", list(HIDDEN))
@@ -487,7 +495,10 @@ DISKS = {
 @pytest.mark.parametrize("command", ["pull", "push"])
 @pytest.mark.parametrize("disk", list(DISKS))
 def test_a_project_on_a_disk_that_refuses_writes_is_one_line_and_nothing_is_sent_or_left(
-    project: Path, sim: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str], disk: str,
+    project: Path,
+    sim: tuple[ScriptedSim, str],
+    capsys: pytest.CaptureFixture[str],
+    disk: str,
     command: str,
 ) -> None:
     # Issue 11: a read-only project directory, or a disk that fills up while the pull
@@ -533,13 +544,19 @@ def test_a_project_another_harlsync_is_saving_is_one_line_naming_it_and_nothing_
         "backup": ["backup", str(project), "--lock-timeout", "0", "--attempts", "1"],
     }[command]
     before = tree(project)
-    with subprocess.Popen([sys.executable, "-c", HOLD_PROJECT, str(project)], text=True,
-                          stdin=subprocess.PIPE, stdout=subprocess.PIPE) as holder:
+    with subprocess.Popen(
+        [sys.executable, "-c", HOLD_PROJECT, str(project)],
+        text=True,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+    ) as holder:
         assert holder.stdout is not None and holder.stdout.readline() == "held\n"
         code, out, err = cli(capsys, *argv)
         holder.communicate("\n", timeout=60)
-    says = (f"project {project} is in use by pid {holder.pid} (harlsync pull); wait for it to "
-            "finish and run again")
+    says = (
+        f"project {project} is in use by pid {holder.pid} (harlsync pull); wait for it to "
+        "finish and run again"
+    )
     if command == "backup":
         assert code == 1 and err == ""
         [row] = [line for line in out.splitlines() if line.startswith("cell ")]

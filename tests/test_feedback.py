@@ -25,8 +25,10 @@ from harlsync.families.iai.sim import SimState as IaiState
 from harlsync.sync import engine
 
 #: The robot ``sim://?seed=N`` generates: 1079 exchanges read it whole.
-CONTENTS = {1: "13 programs (162 steps used), 100 offset tables, 16 timers",
-            2: "13 programs (199 steps used), 100 offset tables, 16 timers"}
+CONTENTS = {
+    1: "13 programs (162 steps used), 100 offset tables, 16 timers",
+    2: "13 programs (199 steps used), 100 offset tables, 16 timers",
+}
 READ = r"read {contents} in [0-9.]+ s \(1079 exchanges with the controller\)"
 BAR_MARKS = ("exchanges with the controller [", "%|")
 
@@ -62,8 +64,9 @@ def test_issue_14_pull_diff_and_plan_end_with_what_they_read_how_long_and_what_d
     seen = run("pull", "cell", "--port", "sim://?seed=1&baud=0", "--commit", cwd=repo)
     assert seen.code == 0, seen.raw
     no_bar_left(seen.screen)
-    assert re.fullmatch(rf"harlsync: pull cell: {READ.format(contents=re.escape(CONTENTS[1]))}",
-                        seen.screen[0]), seen.screen
+    assert re.fullmatch(
+        rf"harlsync: pull cell: {READ.format(contents=re.escape(CONTENTS[1]))}", seen.screen[0]
+    ), seen.screen
     assert re.fullmatch(r"cell: first backup, committed [0-9a-f]{10}", seen.screen[1])
 
     seen = run("diff", "cell", cwd=repo)
@@ -78,14 +81,23 @@ def test_issue_14_pull_diff_and_plan_end_with_what_they_read_how_long_and_what_d
         summary = [line for line in seen.screen if line.startswith("harlsync:")]
         assert len(summary) == 1 and re.fullmatch(
             rf"harlsync: {command} cell: {READ.format(contents=re.escape(CONTENTS[1]))}; "
-            r"1 item differs \(1 timer\)", summary[0]), seen.screen
+            r"1 item differs \(1 timer\)",
+            summary[0],
+        ), seen.screen
 
 
-def test_issue_14_off_a_terminal_pull_diff_and_plan_print_no_bar_and_no_summary(plant: Path) -> None:
+def test_issue_14_off_a_terminal_pull_diff_and_plan_print_no_bar_and_no_summary(
+    plant: Path,
+) -> None:
     for command in (["pull", "loader"], ["diff", "loader"], ["plan", "loader"]):
-        done = subprocess.run([sys.executable, "-m", "harlsync", *command], cwd=plant,
-                              capture_output=True, text=True, stdin=subprocess.DEVNULL,
-                              check=False)
+        done = subprocess.run(
+            [sys.executable, "-m", "harlsync", *command],
+            cwd=plant,
+            capture_output=True,
+            text=True,
+            stdin=subprocess.DEVNULL,
+            check=False,
+        )
         assert (done.returncode, done.stderr) == (0, ""), command
 
 
@@ -98,26 +110,39 @@ def test_issue_14_backup_shows_a_live_line_per_robot_and_a_result_line_as_each_e
     assert seen.code == 0, seen.raw
     drawn = seen.raw.decode()
     for name in ("loader", "press"):  # each had its own live line, with rate and time left
-        assert re.search(rf"{name}: +[0-9]+%\|[^|]*\| [0-9]+/1079 exchanges with the controller "
-                         r"\[[0-9:]+<[0-9:?]+, [0-9.?]+/s\]", drawn), name
+        assert re.search(
+            rf"{name}: +[0-9]+%\|[^|]*\| [0-9]+/1079 exchanges with the controller "
+            r"\[[0-9:]+<[0-9:?]+, [0-9.?]+/s\]",
+            drawn,
+        ), name
     no_bar_left(seen.screen)
-    results = [line for line in seen.screen if re.fullmatch(r"\w+: ok, no change \([0-9.]+ s\)",
-                                                             line)]
+    results = [
+        line for line in seen.screen if re.fullmatch(r"\w+: ok, no change \([0-9.]+ s\)", line)
+    ]
     assert sorted(line.split(":")[0] for line in results) == ["loader", "press"]
     assert seen.screen[-1] == "2 of 2 robot(s) backed up, 0 changed"
 
 
 def test_issue_14_backup_off_a_terminal_stays_quiet(plant: Path) -> None:
-    done = subprocess.run([sys.executable, "-m", "harlsync", "backup", "."], cwd=plant,
-                          capture_output=True, text=True, stdin=subprocess.DEVNULL, check=False)
+    done = subprocess.run(
+        [sys.executable, "-m", "harlsync", "backup", "."],
+        cwd=plant,
+        capture_output=True,
+        text=True,
+        stdin=subprocess.DEVNULL,
+        check=False,
+    )
     assert (done.returncode, done.stderr) == (0, "")
     assert "exchanges" not in done.stdout
 
 
-@pytest.mark.parametrize("command", [["pull", "loader"], ["diff", "loader"],
-                                     ["push", "loader", "--yes"], ["backup", "."]])
+@pytest.mark.parametrize(
+    "command",
+    [["pull", "loader"], ["diff", "loader"], ["push", "loader", "--yes"], ["backup", "."]],
+)
 def test_issue_14_ctrl_c_leaves_no_bar_on_the_screen_and_exits_130(
-    repo: Path, command: list[str],
+    repo: Path,
+    command: list[str],
 ) -> None:
     robot_at(repo, "loader", 1, 9600)  # about 30 s to read: ^C comes long before the end
     robot_at(repo, "press", 2, 9600)
@@ -138,4 +163,5 @@ def test_each_family_says_what_a_read_found_in_its_own_words() -> None:
     assert IAI.contents(data, registers=False) == f"{len(state.positions)} positions"
     data.flags, data.integers, data.reals = {600: True}, {200: 1, 201: 2}, {}
     assert IAI.contents(data, registers=True) == (
-        f"{len(state.positions)} positions, 2 integer variables, 0 real variables, 1 flag")
+        f"{len(state.positions)} positions, 2 integer variables, 0 real variables, 1 flag"
+    )

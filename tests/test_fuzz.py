@@ -215,14 +215,20 @@ _TOKEN = st.one_of(
     st.sampled_from(["E", "E21", "e5", "0", "-1", "1.50"]),
     st.integers(60, 520).map(lambda n: "P" * n),
 )
-_WIDE = Config(ProgramArea(1, 256), ProgramArea(16, 256), ProgramArea(1, 1), ProgramArea(1, 1),
-               16, 128, 64)
+_WIDE = Config(
+    ProgramArea(1, 256), ProgramArea(16, 256), ProgramArea(1, 1), ProgramArea(1, 1), 16, 128, 64
+)
 _STEP_WRITES = st.builds(
     lambda main, program, step, tokens: c.write_step(
-        ProgramType.MAIN if main else ProgramType.START, program if main else 0, step,
+        ProgramType.MAIN if main else ProgramType.START,
+        program if main else 0,
+        step,
         Step.from_tokens(tokens),
     ),
-    st.booleans(), st.integers(0, 15), st.integers(0, 255), st.lists(_TOKEN, max_size=5),
+    st.booleans(),
+    st.integers(0, 15),
+    st.integers(0, 255),
+    st.lists(_TOKEN, max_size=5),
 )
 _PARAMETER_WRITES = st.lists(_TOKEN, min_size=13, max_size=13).map(
     lambda values: c.write_parameters(Parameters(*values))
@@ -241,8 +247,10 @@ def _one_frame(payload: str) -> str:
 def _given_back(write: c.Request[c.Ack]) -> object:
     """The value a controller gives back for the item ``write`` writes, the request
     and the reply each in a frame to or from station 99 through a decoder."""
-    read = c.Request("LNE") if write.letters == "SNE" else c.Request(
-        "LN" + write.letters[2], write.args[: 1 if write.letters == "SNA" else 2]
+    read = (
+        c.Request("LNE")
+        if write.letters == "SNE"
+        else c.Request("LN" + write.letters[2], write.args[: 1 if write.letters == "SNA" else 2])
     )
     state = SimState.blank(_WIDE)
     robot = Simulator(state)
@@ -258,8 +266,11 @@ def _given_back(write: c.Request[c.Ack]) -> object:
 def test_issue_11_the_codec_refuses_exactly_the_writes_the_wire_cannot_give_back(
     write: c.Request[c.Ack],
 ) -> None:
-    written = (Parameters(*write.args) if write.letters == "SNE"
-               else Step.from_tokens(write.args[1 if write.letters == "SNA" else 2 :]))
+    written = (
+        Parameters(*write.args)
+        if write.letters == "SNE"
+        else Step.from_tokens(write.args[1 if write.letters == "SNA" else 2 :])
+    )
     try:
         back = _given_back(write) == written
     except ProtocolError:  # a frame over the limit, or a reply that does not fit

@@ -116,7 +116,11 @@ class Operator(Scheduled, Simulator):
     """
 
     def __init__(
-        self, state: SimState, schedule: list[tuple[int, Change]], *, seed: int,
+        self,
+        state: SimState,
+        schedule: list[tuple[int, Change]],
+        *,
+        seed: int,
         lose_writes: set[int] | None = None,
     ) -> None:
         super().__init__(state)
@@ -128,7 +132,9 @@ class Operator(Scheduled, Simulator):
         for state in self.stations.values():
             state.stop_all()
 
-    def receive(self, data: bytes, decoder: FrameDecoder | None = None) -> list[tuple[float, bytes]]:
+    def receive(
+        self, data: bytes, decoder: FrameDecoder | None = None
+    ) -> list[tuple[float, bytes]]:
         # A bad LRC: the robot drops it.
         return super().receive(self.on_the_way_in(data, b" SN" in data), decoder)
 
@@ -144,6 +150,7 @@ def start(task: int, ptype: str, program: int, step: int) -> Change:
     def change(sim: Simulator, state: SimState) -> str:
         state.start_task(task, ptype, program, step)
         return f"task {task} in execution"
+
     return change
 
 
@@ -151,6 +158,7 @@ def suspend(task: int) -> Change:
     def change(sim: Simulator, state: SimState) -> str:
         state.suspend_task(task)
         return f"task {task} suspended"
+
     return change
 
 
@@ -158,6 +166,7 @@ def set_status(task: int, status: int) -> Change:
     def change(sim: Simulator, state: SimState) -> str:
         state.tasks[task] = replace(state.tasks[task], status=status)
         return f"task {task} status {status}"
+
     return change
 
 
@@ -184,26 +193,34 @@ class Case:
 
 def copy_data(data: RobotData) -> RobotData:
     return RobotData(
-        version=data.version, config=data.config, parameters=data.parameters,
-        programs={k: dict(v) for k, v in data.programs.items()}, offsets=dict(data.offsets),
+        version=data.version,
+        config=data.config,
+        parameters=data.parameters,
+        programs={k: dict(v) for k, v in data.programs.items()},
+        offsets=dict(data.offsets),
         timers=dict(data.timers),
         registers=None if data.registers is None else dict(data.registers),
     )
 
 
 def random_step(rng: random.Random) -> Step:
-    return Step.parse(rng.choice([
-        f"MOVE P{rng.randrange(1000):03d} S{rng.choice([20, 50, 80, 100])}",
-        f"WAIT DI{rng.randrange(64)} {rng.choice(['ON', 'OFF'])}",
-        f"OUT DO{rng.randrange(32)} {rng.choice(['ON', 'OFF'])}",
-        f"TIMER T{rng.randrange(4):02d}",
-        "END",
-    ]))
+    return Step.parse(
+        rng.choice(
+            [
+                f"MOVE P{rng.randrange(1000):03d} S{rng.choice([20, 50, 80, 100])}",
+                f"WAIT DI{rng.randrange(64)} {rng.choice(['ON', 'OFF'])}",
+                f"OUT DO{rng.randrange(32)} {rng.choice(['ON', 'OFF'])}",
+                f"TIMER T{rng.randrange(4):02d}",
+                "END",
+            ]
+        )
+    )
 
 
 def random_config(rng: random.Random) -> Config:
     def area(counts: tuple[int, ...]) -> ProgramArea:
         return ProgramArea(rng.choice(counts), rng.choice((3, 4, 6)))
+
     return Config(area((1,)), area((1, 2)), area((1, 2)), area((1,)), 4, 16, 4)
 
 
@@ -217,8 +234,11 @@ def random_target(rng: random.Random, live: RobotData, story: list[str]) -> Robo
             story.append(f"configuration {cfg.numbers()} -> {new.numbers()}")
             data.config = new
             data.programs = {
-                key: {n: s for n, s in data.programs.get(key, {}).items()
-                      if n < new.area(key[0]).steps}
+                key: {
+                    n: s
+                    for n, s in data.programs.get(key, {}).items()
+                    if n < new.area(key[0]).steps
+                }
                 for key in new.programs()
             }
             cfg = new
@@ -272,9 +292,13 @@ def random_schedule(
     for _ in range(rng.choice([0, 1, 1, 2, 2, 3, 5])):
         task = rng.randrange(5)
         change = rng.choices(
-            [start(task, rng.choice(["START", "MAIN", "SUB"]), 0, rng.randrange(4)),
-             suspend(task), stop_all, set_status(task, rng.choice([0, 4, 8])),
-             set_status(task, rng.choice([3, 16]))],
+            [
+                start(task, rng.choice(["START", "MAIN", "SUB"]), 0, rng.randrange(4)),
+                suspend(task),
+                stop_all,
+                set_status(task, rng.choice([0, 4, 8])),
+                set_status(task, rng.choice([3, 16])),
+            ],
             weights=[4, 2, 3, 1, 1],
         )[0]
         out.append((moment(), change))
@@ -288,13 +312,16 @@ def make_case(seed: int) -> Case:
     story: list[str] = []
     target = random_target(rng, before, story)
     opts = PushOptions(
-        yes=True, allow_dirty=True,
+        yes=True,
+        allow_dirty=True,
         allow_live_tuning=rng.random() < 0.5,
         allow_reconfigure=rng.random() < 0.7,
         registers=rng.random() < 0.3,
     )
-    story.append(f"options: live tuning {opts.allow_live_tuning}, registers {opts.registers}, "
-                 f"reconfigure {opts.allow_reconfigure}")
+    story.append(
+        f"options: live tuning {opts.allow_live_tuning}, registers {opts.registers}, "
+        f"reconfigure {opts.allow_reconfigure}"
+    )
     if rng.random() < 0.08:
         state.start_task(rng.randrange(5), "MAIN", 0, 0)
         story.append("the robot runs when the push starts")
@@ -329,8 +356,9 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     def deploy(case: Case, settings: SerialSettings) -> Outcome:
         url = register(case.sim)
         try:
-            robot = new_robot(f"case-{case.seed}", url, 1, serial=settings,
-                              keep_registers=case.opts.registers)
+            robot = new_robot(
+                f"case-{case.seed}", url, 1, serial=settings, keep_registers=case.opts.registers
+            )
             project = Project(tmp_path / f"case-{case.seed}", robot, case.target)
             first, before = len(case.sim.received), len(taken)
             try:
@@ -359,12 +387,19 @@ def on_disk(
         url = register(case.sim)
         try:
             path = tmp_path / f"case-{case.seed}"
-            robot = new_robot(f"case-{case.seed}", url, 1, serial=settings,
-                              keep_registers=case.opts.registers)
+            robot = new_robot(
+                f"case-{case.seed}", url, 1, serial=settings, keep_registers=case.opts.registers
+            )
             save_project(path, Project(path, robot, case.target), rewrite_robot=True)
-            flags = [flag for flag, on in (("--allow-live-tuning", case.opts.allow_live_tuning),
-                                           ("--allow-reconfigure", case.opts.allow_reconfigure),
-                                           ("--registers", case.opts.registers)) if on]
+            flags = [
+                flag
+                for flag, on in (
+                    ("--allow-live-tuning", case.opts.allow_live_tuning),
+                    ("--allow-reconfigure", case.opts.allow_reconfigure),
+                    ("--registers", case.opts.registers),
+                )
+                if on
+            ]
             first = len(case.sim.received)
             result, failed = push_command(
                 case.why, ["push", str(path), "--yes", "--allow-dirty", *flags], seen, capsys
@@ -406,8 +441,10 @@ def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
         if r.busy:
             tally.race += 1  # started between that LNR and this write: see the docstring
     plan = got.result.plan
-    if opts.allow_live_tuning and plan is not None and any(
-        needs_idle(w.command.split(" ")[0], opts) for w in plan.writes
+    if (
+        opts.allow_live_tuning
+        and plan is not None
+        and any(needs_idle(w.command.split(" ")[0], opts) for w in plan.writes)
     ):
         writes = [i for i, r in enumerate(received) if r.is_write]
         if writes:
@@ -470,9 +507,9 @@ def check_case(case: Case, deploy: Deploy, tally: Tally) -> None:
     check_interlock(case, got, tally)
     check_writes(case, got, final)
     if got.snapshot is not None:
-        assert not sync_items.diff(CATALOGUE, got.snapshot, case.before, registers=case.opts.registers), case.why(
-            "the snapshot is not what the robot held before the push"
-        )
+        assert not sync_items.diff(
+            CATALOGUE, got.snapshot, case.before, registers=case.opts.registers
+        ), case.why("the snapshot is not what the robot held before the push")
     if got.failed is None:
         tally.ok += 1
         check_converged(case, final)

@@ -619,9 +619,12 @@ def test_lock_keys_name_the_line_not_the_spelling(tmp_path: Path) -> None:
     # audit log keeps every port ever given, and is read before every push).
     assert lock_key("socket://gw:99999") == "socket://gw:99999"
     # One device server, however it is spelled: a second harlsync must wait.
-    assert lock_key("socket://localhost:4001") == lock_key("socket://127.0.0.1:4001") == (
-        lock_key("socket://[::1]:4001")
-    ) != lock_key("socket://127.0.0.1:4002")
+    assert (
+        lock_key("socket://localhost:4001")
+        == lock_key("socket://127.0.0.1:4001")
+        == (lock_key("socket://[::1]:4001"))
+        != lock_key("socket://127.0.0.1:4002")
+    )
     assert lock_key("loop://") is None
     assert lock_path("loop://") is None
 
@@ -706,6 +709,9 @@ def test_issue_11_a_harlsync_with_another_tmpdir_still_sees_the_line_and_project
 
 @pytest.mark.parametrize("url", ["socket://gw:99999", "rfc2217://gw:x", "socket://gw"])
 def test_a_device_server_address_without_a_port_number_says_what_to_give(url: str) -> None:
-    with pytest.raises(PortError, match=r"not a \w+:// address; give \w+://HOST:PORT, PORT a "
-                                        r"number from 1 to 65535"):
+    with pytest.raises(
+        PortError,
+        match=r"not a \w+:// address; give \w+://HOST:PORT, PORT a "
+        r"number from 1 to 65535",
+    ):
         Link(url).open()

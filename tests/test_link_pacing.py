@@ -100,9 +100,16 @@ def test_replies_a_little_shorter_each_time_keep_the_link_asleep_while_on_the_wi
     # Each reply a byte shorter than every one before it (as IAI positions with
     # fewer digits are): each is whole before the link wakes, and the next is still
     # timed from the kind's history, not read a byte per wake-up (some 20 at 9600).
-    params = [("P001", "S100", "A123"), ("P001", "S100", "A12"), ("P001", "S100", "A1"),
-              ("P001", "S10", "A1"), ("P01", "S10", "A1"), ("P1", "S10", "A1"),
-              ("P1", "S1", "A1"), ("P1", "S1", "A")]
+    params = [
+        ("P001", "S100", "A123"),
+        ("P001", "S100", "A12"),
+        ("P001", "S100", "A1"),
+        ("P001", "S10", "A1"),
+        ("P01", "S10", "A1"),
+        ("P1", "S10", "A1"),
+        ("P1", "S1", "A1"),
+        ("P1", "S1", "A"),
+    ]
     program = sim.stations[1].data.programs[(ProgramType.MAIN, 0)]
     program.update((n, Step("MOVE", p)) for n, p in enumerate(params))
     assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0)) == program[0]  # by poll

@@ -55,18 +55,31 @@ TEMP_MARKS = (".harlsync-new-", ".harlsync-old-", ".tmp", ".harlsync-save")
 
 
 def run(*args: str, timeout: float = DEADLINE) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([*HARLSYNC, *args], check=False, capture_output=True, text=True,
-                          stdin=subprocess.DEVNULL, timeout=timeout)
+    return subprocess.run(
+        [*HARLSYNC, *args],
+        check=False,
+        capture_output=True,
+        text=True,
+        stdin=subprocess.DEVNULL,
+        timeout=timeout,
+    )
 
 
 def start(*args: str) -> subprocess.Popen[str]:
-    return subprocess.Popen([*HARLSYNC, *args], stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [*HARLSYNC, *args],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def files_of(root: Path) -> dict[str, bytes]:
     """Every file under ``root``, hidden ones and ``.harlsync/`` included, by path."""
-    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+    return {
+        str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()
+    }
 
 
 def temp_files(root: Path) -> list[str]:
@@ -100,10 +113,24 @@ class SimProcess:
         self.record.unlink(missing_ok=True)
         self.seen = 0
         self.process = subprocess.Popen(
-            [*HARLSYNC, "sim", "--project", str(self.project), "--state", str(self.memory),
-             "--no-pty", "--listen", f"127.0.0.1:{self.port}", "--record", str(self.record),
-             *self.options, *options],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+            [
+                *HARLSYNC,
+                "sim",
+                "--project",
+                str(self.project),
+                "--state",
+                str(self.memory),
+                "--no-pty",
+                "--listen",
+                f"127.0.0.1:{self.port}",
+                "--record",
+                str(self.record),
+                *self.options,
+                *options,
+            ],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
         )
         assert self.process.stdout is not None
         for line in self.process.stdout:
@@ -128,15 +155,18 @@ class SimProcess:
     def requests(self) -> list[dict[str, object]]:
         if not self.record.exists():
             return []
-        lines = self.record.read_text().splitlines(keepends=True)[self.seen:]
+        lines = self.record.read_text().splitlines(keepends=True)[self.seen :]
         return [json.loads(line) for line in lines if line.endswith("\n")]
 
     def writes(self) -> list[str]:
         return [str(r["payload"]) for r in self.requests() if str(r["payload"]).startswith("SN")]
 
     def unsafe_in_automatic(self) -> list[str]:
-        return [str(r["payload"]) for r in self.requests()
-                if r["busy"] and Request(str(r["payload"]).split(" ", 1)[0]).unsafe]
+        return [
+            str(r["payload"])
+            for r in self.requests()
+            if r["busy"] and Request(str(r["payload"]).split(" ", 1)[0]).unsafe
+        ]
 
     def kill(self) -> None:
         assert self.process is not None
@@ -172,8 +202,12 @@ def plant(tmp_path: Path) -> Iterator[Plant]:
     source = tmp_path / "robot"
     data = SimState.generate(31, SMALL).data
     save_project(source, Project(source, new_robot("robot", "sim://robot", 1), data))
-    sim = SimProcess(source, tmp_path / "memory", tmp_path / "requests.jsonl",
-                     ("--baud", "0", "--turnaround", "0.004")).start()
+    sim = SimProcess(
+        source,
+        tmp_path / "memory",
+        tmp_path / "requests.jsonl",
+        ("--baud", "0", "--turnaround", "0.004"),
+    ).start()
     root = tmp_path / "plant"
     root.mkdir()
     git(root, "init", "-q")
@@ -189,8 +223,12 @@ def plant(tmp_path: Path) -> Iterator[Plant]:
 
 EIGHT_EDITS = {
     "timers": {0: "0.99", 1: "1.11", 2: "2.22", 3: "3.33"},
-    "steps": {(0, 1): "MOVE P901 S20", (0, 3): "MOVE P903 S20", (1, 2): "MOVE P902 S20",
-              (1, 5): "MOVE P905 S20"},
+    "steps": {
+        (0, 1): "MOVE P901 S20",
+        (0, 3): "MOVE P903 S20",
+        (1, 2): "MOVE P902 S20",
+        (1, 5): "MOVE P905 S20",
+    },
 }
 
 
@@ -243,11 +281,17 @@ sys.exit(main(sys.argv[1:]))
 def test_a_pull_killed_while_it_replaces_the_files_is_undone_by_the_next_command(
     plant: Plant, kill_at: int
 ) -> None:
-    plant.edit({1: "9.99"}, {(0, 1): "MOVE P999 S20", (1, 1): "MOVE P998 S20"},
-               "three files the robot no longer matches")
+    plant.edit(
+        {1: "9.99"},
+        {(0, 1): "MOVE P999 S20", (1, 1): "MOVE P998 S20"},
+        "three files the robot no longer matches",
+    )
     before = files_of(plant.cell)
-    killed = subprocess.run([sys.executable, "-c", KILLED_AT_REPLACE, str(kill_at), "pull",
-                             str(plant.cell)], check=False, capture_output=True)
+    killed = subprocess.run(
+        [sys.executable, "-c", KILLED_AT_REPLACE, str(kill_at), "pull", str(plant.cell)],
+        check=False,
+        capture_output=True,
+    )
     assert killed.returncode == -signal.SIGKILL
     assert files_of(plant.cell) != before  # killed mid-save: a journal and temporaries
     assert run("validate", str(plant.cell)).returncode == 0  # any load undoes the save
@@ -297,8 +341,11 @@ def test_a_push_killed_while_it_saves_its_snapshot_writes_nothing_and_leaves_no_
     plant: Plant,
 ) -> None:
     plant.edit(**EIGHT_EDITS, message="eight edits")
-    killed = subprocess.run([sys.executable, "-c", KILLED_AT_REPLACE, "2", "push",
-                             str(plant.cell), "--yes"], check=False, capture_output=True)
+    killed = subprocess.run(
+        [sys.executable, "-c", KILLED_AT_REPLACE, "2", "push", str(plant.cell), "--yes"],
+        check=False,
+        capture_output=True,
+    )
     assert killed.returncode == -signal.SIGKILL
     assert plant.sim.writes() == []
     assert engine.snapshots(plant.cell) == []  # rollback cannot pick a half snapshot
@@ -372,8 +419,7 @@ class Prompted:
 def prompted_push(cell: Path) -> Prompted:
     terminal, side = os.openpty()
     # input() prompts on stderr when it reads a terminal: all three on it.
-    process = subprocess.Popen([*HARLSYNC, "push", str(cell)], stdin=side, stdout=side,
-                               stderr=side)
+    process = subprocess.Popen([*HARLSYNC, "push", str(cell)], stdin=side, stdout=side, stderr=side)
     os.close(side)
     prompted = Prompted(process, terminal, bytearray())
     prompted.read_until(b"[y/N]")
@@ -414,7 +460,6 @@ def test_two_harlsync_on_one_robot_one_gets_the_line_the_other_a_one_line_busy_e
     assert run("diff", str(plant.cell)).returncode == 0
 
 
-
 @pytest.mark.parametrize("second", ["pull over another line", "backup"])
 def test_issue_11_a_command_saving_a_project_holds_it_against_any_other_for_its_whole_run(
     plant: Plant, tmp_path: Path, second: str
@@ -423,17 +468,26 @@ def test_issue_11_a_command_saving_a_project_holds_it_against_any_other_for_its_
     # leaving a project mixed from both. A push waiting at its prompt holds the
     # project as long as any command does: nothing else may save it meanwhile.
     other = tmp_path / "other-robot"
-    save_project(other, Project(other, new_robot("other", "sim://other", 1),
-                                SimState.generate(32, SMALL).data))
-    other_sim = SimProcess(other, tmp_path / "other-memory", tmp_path / "other.jsonl",
-                           ("--baud", "0")).start()
+    save_project(
+        other,
+        Project(other, new_robot("other", "sim://other", 1), SimState.generate(32, SMALL).data),
+    )
+    other_sim = SimProcess(
+        other, tmp_path / "other-memory", tmp_path / "other.jsonl", ("--baud", "0")
+    ).start()
     try:
         plant.edit(**EIGHT_EDITS, message="eight edits")
         before = files_of(plant.cell)
         first = prompted_push(plant.cell)
         args = {
-            "pull over another line": ["pull", str(plant.cell), "--port", other_sim.url,
-                                       "--lock-timeout", "0"],
+            "pull over another line": [
+                "pull",
+                str(plant.cell),
+                "--port",
+                other_sim.url,
+                "--lock-timeout",
+                "0",
+            ],
             "backup": ["backup", str(plant.cell), "--lock-timeout", "0", "--attempts", "1"],
         }[second]
         refused = run(*args)
@@ -441,8 +495,10 @@ def test_issue_11_a_command_saving_a_project_holds_it_against_any_other_for_its_
         assert first.answer("y") == 0
     finally:
         other_sim.stop()
-    says = (f"project {plant.cell} is in use by pid {first.process.pid} (harlsync push); "
-            "wait for it to finish")
+    says = (
+        f"project {plant.cell} is in use by pid {first.process.pid} (harlsync push); "
+        "wait for it to finish"
+    )
     if second == "backup":
         assert refused.returncode == 1
         [row] = [line for line in refused.stdout.splitlines() if line.startswith("cell ")]
@@ -475,13 +531,17 @@ def test_issue_11_a_pull_killed_between_its_save_and_its_commit_is_committed_by_
     memory.data.timers[2] = "4.44"  # the robot changed (on the pendant)
     save_project(plant.sim.memory / "station-1", memory)
     plant.sim.start()
-    killed = subprocess.run([sys.executable, "-c", KILLED_AT_COMMIT, "pull", str(plant.cell),
-                             "--commit"], check=False, capture_output=True)
+    killed = subprocess.run(
+        [sys.executable, "-c", KILLED_AT_COMMIT, "pull", str(plant.cell), "--commit"],
+        check=False,
+        capture_output=True,
+    )
     assert killed.returncode == -signal.SIGKILL
     assert git(plant.root, "status", "--porcelain").split() == ["M", "cell/timers.yaml"]
     again = run("pull", str(plant.cell), "--commit")
     assert again.returncode == 0, again.stderr
     assert git(plant.root, "status", "--porcelain") == ""
     assert git(plant.root, "log", "-1", "--format=%s") == (
-        "pull cell: no change; with an earlier pull's backup, never committed (timers.yaml)\n")
+        "pull cell: no change; with an earlier pull's backup, never committed (timers.yaml)\n"
+    )
     assert "  2: 4.44\n" in git(plant.root, "show", "HEAD:cell/timers.yaml")

@@ -198,7 +198,10 @@ def test_the_schema_copies_in_the_example_equal_schemas() -> None:
     for kind in KINDS:
         copy = EXAMPLE / ".schemas" / f"{kind}.schema.json"
         assert copy.read_text(encoding="utf-8") == SCHEMAS.text(kind)
-        assert copy.read_bytes() == (REPO / "harlsync/families/harl_u2/schemas" / f"{kind}.schema.json").read_bytes()
+        assert (
+            copy.read_bytes()
+            == (REPO / "harlsync/families/harl_u2/schemas" / f"{kind}.schema.json").read_bytes()
+        )
 
 
 def test_every_file_names_its_schema_copy() -> None:

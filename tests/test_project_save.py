@@ -275,7 +275,8 @@ def test_issue_11_a_save_on_a_full_disk_is_one_line_and_leaves_no_file_behind(
     # Three changed files, then the journal: the disk fills up at each in turn.
     files: list[list[str]] = []  # what the full disk saw opened for writing
     failed = save_fails_and_changes_nothing(
-        root, lambda disk: files.append(disk_full(disk, root, after=written_before)),
+        root,
+        lambda disk: files.append(disk_full(disk, root, after=written_before)),
         "No space left",
     )
     assert len(files[0]) == written_before + 1

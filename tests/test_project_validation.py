@@ -474,9 +474,13 @@ def test_a_path_that_is_not_a_directory_cannot_be_validated(tmp_path: Path) -> N
 
 
 def test_issue_14_a_directory_without_robot_yaml_is_named_as_not_a_project(tmp_path: Path) -> None:
-    with pytest.raises(ProjectFormatError, match=(
+    with pytest.raises(
+        ProjectFormatError,
+        match=(
             rf"^{re.escape(str(tmp_path))}: not a robot project \(no robot.yaml\); a first "
-            r"'harlsync pull DIR --port URL' makes one$")):
+            r"'harlsync pull DIR --port URL' makes one$"
+        ),
+    ):
         validate_project(tmp_path)
 
 

@@ -102,7 +102,9 @@ def test_the_encoder_produces_the_golden_frames(frame: bytes, station: int, payl
 
 @THREE_WAYS
 @pytest.mark.parametrize("frame,station,payload", GOLDEN)
-def test_the_decoder_reads_each_golden_frame(feed, frame: bytes, station: int, payload: str) -> None:
+def test_the_decoder_reads_each_golden_frame(
+    feed, frame: bytes, station: int, payload: str
+) -> None:
     out, _ = feed(frame)
     assert [(f.station, f.payload) for f in out] == [(station, payload)]
 
@@ -166,10 +168,14 @@ def test_arbitrary_bytes_only_ever_give_frames_or_protocol_errors(chunks: list[b
 
 @given(
     st.integers(1, 99),
-    st.lists(st.text(st.characters(min_codepoint=0x21, max_codepoint=0x7E), min_size=1), max_size=6),
+    st.lists(
+        st.text(st.characters(min_codepoint=0x21, max_codepoint=0x7E), min_size=1), max_size=6
+    ),
     st.binary(max_size=10),
 )
-def test_any_encoded_frame_decodes_to_itself_after_noise(station: int, fields, noise: bytes) -> None:
+def test_any_encoded_frame_decodes_to_itself_after_noise(
+    station: int, fields, noise: bytes
+) -> None:
     payload = " ".join(fields)
     dec = FrameDecoder()
     dec.feed(noise.replace(STX, b"") + encode_frame(station, payload))
@@ -204,7 +210,9 @@ REQUESTS = [
     (c.write_timer(3, "1.50"), "SNT 3 1.50"),
     (c.write_register(1, "0012"), "SND 1 0012"),
     (
-        c.write_offset(7, OffsetTable("120.50", "-35.00", "0.00", "1.25", "90.00", "0.00", "0", "3")),
+        c.write_offset(
+            7, OffsetTable("120.50", "-35.00", "0.00", "1.25", "90.00", "0.00", "0", "3")
+        ),
         "SNL 7 120.50 -35.00 0.00 1.25 90.00 0.00 0 3",
     ),
     (c.write_do_bit(5, True), "SNOB 5 1"),
@@ -212,8 +220,17 @@ REQUESTS = [
     (c.write_mem_bit(256, False), "SNBB 256 0"),
     (c.write_mem_port(1, 9), "SNBD 1 9"),
     (
-        c.write_config(Config(ProgramArea(1, 64), ProgramArea(4, 128), ProgramArea(4, 64),
-                              ProgramArea(2, 32), 16, 128, 16)),
+        c.write_config(
+            Config(
+                ProgramArea(1, 64),
+                ProgramArea(4, 128),
+                ProgramArea(4, 64),
+                ProgramArea(2, 32),
+                16,
+                128,
+                16,
+            )
+        ),
         "SNX 1 64 4 128 4 64 2 32",
     ),
 ]
@@ -285,7 +302,9 @@ def test_typed_values_of_every_read() -> None:
     assert decode_reply(c.read_do_port(1), "255") == 255
     assert decode_reply(c.read_mem_port(1), "0") == 0
     assert decode_reply(c.read_version(), "5.00") == "5.00"
-    params = decode_reply(c.read_parameters(), "100 1 0 20.00 20.00 30.00 30.00 40.00 40.00 50 0 0.00 7")
+    params = decode_reply(
+        c.read_parameters(), "100 1 0 20.00 20.00 30.00 30.00 40.00 40.00 50 0 0.00 7"
+    )
     assert params.pull_limit == "100" and params.z_up_dis_2 == "30.00" and params.prg_count == "7"
     cfg = decode_reply(c.read_config(), "1 64 4 128 4 64 2 32 16 128 16")
     assert cfg.main == ProgramArea(4, 128) and cfg.hand == ProgramArea(2, 32)
@@ -295,7 +314,9 @@ def test_typed_values_of_every_read() -> None:
 def test_lnr_reports_five_tasks_and_idle_only_when_none_runs() -> None:
     idle = decode_reply(c.read_status(), " ".join(["0 START 0 0"] * 4 + ["4 MAIN 3 17"]))
     assert idle.idle and len(idle.tasks) == 5
-    busy = decode_reply(c.read_status(), " ".join(["0 START 0 0"] * 2 + ["1 MAIN 3 17"] + ["0 START 0 0"] * 2))
+    busy = decode_reply(
+        c.read_status(), " ".join(["0 START 0 0"] * 2 + ["1 MAIN 3 17"] + ["0 START 0 0"] * 2)
+    )
     assert not busy.idle
     assert busy.active_tasks[0].describe() == "task 2 in execution: MAIN program 3 step 17"
     suspended = decode_reply(c.read_status(), " ".join(["2 SUB 1 4"] + ["0 START 0 0"] * 4))
@@ -340,8 +361,12 @@ def test_a_typed_request_decodes_its_reply_as_the_request_made_from_its_letters(
 ) -> None:
     # The builders give each request its own parser; parse_request (the replay's and the
     # simulator's side) decodes by letters.  Both must read a controller's reply alike.
-    state = SimState.generate(2, Config(ProgramArea(1, 8), ProgramArea(4, 8), ProgramArea(4, 8),
-                                        ProgramArea(2, 8), 16, 16, 16))
+    state = SimState.generate(
+        2,
+        Config(
+            ProgramArea(1, 8), ProgramArea(4, 8), ProgramArea(4, 8), ProgramArea(2, 8), 16, 16, 16
+        ),
+    )
     reply = Simulator(state).handle(state, payload)
     assert request_.decode_payload(reply) == c.parse_request(payload).decode_payload(reply)
     assert request_.decode(Frame(1, reply)) == decode_reply(request_, reply)

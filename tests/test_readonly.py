@@ -38,8 +38,10 @@ class Target:
         "simulator",
         pytest.param(
             "hardware",
-            marks=[pytest.mark.hardware,
-                   pytest.mark.skipif(not PORT, reason="HARLSYNC_TEST_PORT is not set")],
+            marks=[
+                pytest.mark.hardware,
+                pytest.mark.skipif(not PORT, reason="HARLSYNC_TEST_PORT is not set"),
+            ],
         ),
     ]
 )

@@ -19,7 +19,9 @@ from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync.engine import PushOptions, pull, push
 
-SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
+SMALL = Config(
+    ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4
+)
 STEP_LETTERS = {"LNA", "LNM", "LNS", "LNH", "SNA", "SNM", "SNS", "SNH"}
 
 
@@ -33,8 +35,16 @@ def sent(sim: Simulator) -> Counter[str]:
 
 
 def full_read(config: Config) -> Counter[str]:
-    return Counter({"LNX": 1, "LNV": 1, "LNE": 1, "LN step": config.step_count,
-                    "LNL": OFFSET_TABLE_COUNT, "LNT": config.timers})
+    return Counter(
+        {
+            "LNX": 1,
+            "LNV": 1,
+            "LNE": 1,
+            "LN step": config.step_count,
+            "LNL": OFFSET_TABLE_COUNT,
+            "LNT": config.timers,
+        }
+    )
 
 
 def test_issue7_a_pull_reads_each_step_table_and_timer_once(tmp_path: Path) -> None:
@@ -66,6 +76,7 @@ def test_issue7_a_push_sends_one_write_and_three_safety_reads_per_changed_item(
     # LNR before reading the robot, the full read for the plan; then per item: a read
     # for drift, LNR for the interlock, the write, and a read to verify it; and LNR once
     # more after the last write (was the robot started while it was on the wire?).
-    expected = full_read(SMALL) + Counter({"LNR": 1 + 5 + 1, "LN step": 2 * 3, "SN step": 3,
-                                           "LNT": 2, "SNT": 1, "LNL": 2, "SNL": 1})
+    expected = full_read(SMALL) + Counter(
+        {"LNR": 1 + 5 + 1, "LN step": 2 * 3, "SN step": 3, "LNT": 2, "SNT": 1, "LNL": 2, "SNL": 1}
+    )
     assert sent(sim) == expected

@@ -36,12 +36,20 @@ from harlsync.sync import engine
 HARLSYNC = [sys.executable, "-m", "harlsync"]
 DEADLINE = 30.0
 
-pytestmark = pytest.mark.skipif(os.name != "posix", reason="ptys, job control and signals are POSIX")
+pytestmark = pytest.mark.skipif(
+    os.name != "posix", reason="ptys, job control and signals are POSIX"
+)
 
 
 def run(*args: str, stdin: int | None = subprocess.DEVNULL) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([*HARLSYNC, *args], check=False, capture_output=True, text=True,
-                          stdin=stdin, timeout=DEADLINE)
+    return subprocess.run(
+        [*HARLSYNC, *args],
+        check=False,
+        capture_output=True,
+        text=True,
+        stdin=stdin,
+        timeout=DEADLINE,
+    )
 
 
 def one_line(text: str) -> str:
@@ -106,13 +114,16 @@ def _served_url(read: Callable[[], str]) -> str:
         return any(line.startswith("tcp: ") for line in lines)
 
     until(has_url, "the sim's tcp: line")
-    return next(line for line in lines if line.startswith("tcp: "))[len("tcp: "):].strip()
+    return next(line for line in lines if line.startswith("tcp: "))[len("tcp: ") :].strip()
 
 
 def test_issue_14_sim_no_input_serves_without_a_terminal_until_sigterm() -> None:
     proc = subprocess.Popen(
         [*HARLSYNC, "sim", "--no-pty", "--listen", "127.0.0.1:0", "--baud", "0", "--no-input"],
-        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
         assert proc.stdout is not None
@@ -135,14 +146,20 @@ def test_issue_14_sim_started_with_ampersand_from_a_terminal_is_not_stopped_by_i
     sim = " ".join([*HARLSYNC, "sim", "--no-pty", "--listen", "127.0.0.1:0", "--baud", "0"])
     script = f"set -m; {sim} > {out} 2>&1 & echo $! > {pid_file}; wait"
     controller, terminal = os.openpty()
-    shell = subprocess.Popen([sys.executable, "-c", IN_A_SHELL_ON_THIS_TERMINAL, script],
-                             stdin=terminal, stdout=terminal, stderr=terminal,
-                             start_new_session=True)
+    shell = subprocess.Popen(
+        [sys.executable, "-c", IN_A_SHELL_ON_THIS_TERMINAL, script],
+        stdin=terminal,
+        stdout=terminal,
+        stderr=terminal,
+        start_new_session=True,
+    )
     os.close(terminal)
     try:
         url = _served_url(lambda: out.read_text() if out.exists() else "")
-        until(lambda: "started in the background: not reading commands" in out.read_text(),
-              "the sim to say it reads no commands")
+        until(
+            lambda: "started in the background: not reading commands" in out.read_text(),
+            "the sim to say it reads no commands",
+        )
         assert version_at(url) == "5.00"
         os.kill(int(pid_file.read_text()), signal.SIGTERM)
         assert shell.wait(timeout=DEADLINE) == 0
@@ -182,8 +199,10 @@ def test_issue_14_backup_v_names_the_robot_of_every_line_and_no_python_repr(plan
     for line in lines:
         assert line.startswith(("harlsync: INFO: loader: ", "harlsync: INFO: press: ")), line
         assert "SerialSettings(" not in line
-    assert ("harlsync: INFO: press: opened sim://?seed=2&baud=0 (station 1, 9600 8N1, no flow "
-            "control, reply timeout 1 s, 3 retries)") in lines
+    assert (
+        "harlsync: INFO: press: opened sim://?seed=2&baud=0 (station 1, 9600 8N1, no flow "
+        "control, reply timeout 1 s, 3 retries)"
+    ) in lines
 
 
 # --- --station --------------------------------------------------------------------------
@@ -218,7 +237,8 @@ BAD_STATIONS = {"harl-u2": ["0", "100", " 1", "+1", "x"], "iai": ["9", "100", "G
 
 
 def test_issue_14_a_bad_station_is_refused_by_every_command_with_robot_yamls_message(
-    robot: tuple[Path, Any], capsys: pytest.CaptureFixture[str],
+    robot: tuple[Path, Any],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     project, sim = robot
     family = families.get(load_robot(project).family)
@@ -235,11 +255,10 @@ def test_issue_14_a_bad_station_is_refused_by_every_command_with_robot_yamls_mes
             found = validate_project(project)
             robot_yaml.write_text(original)
             assert len(found) == 1, found
-            assert found[0].endswith(message[message.index(" (allowed: "):])
+            assert found[0].endswith(message[message.index(" (allowed: ") :])
             if text != "x":  # the schema says 'x' is not an integer
                 assert found[0].endswith(f"connection.station: {message}"), (found, message)
-        for command in (["pull"], ["diff"], ["plan"], ["push", "--yes"],
-                        ["rollback", "--yes"]):
+        for command in (["pull"], ["diff"], ["plan"], ["push", "--yes"], ["rollback", "--yes"]):
             code = main([*command, str(project), "--station", text])
             err = capsys.readouterr().err
             assert (code, err) == (2, f"harlsync: error: --station: {message}\n"), command
@@ -260,7 +279,8 @@ def test_issue_14_a_station_in_range_is_read_as_its_family_writes_it() -> None:
 
 
 def test_issue_14_plan_warns_that_a_push_would_be_refused_while_the_robot_runs(
-    robot: tuple[Path, Any], capsys: pytest.CaptureFixture[str],
+    robot: tuple[Path, Any],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     project, sim = robot
     assert main(["plan", str(project)]) == 0
@@ -270,19 +290,27 @@ def test_issue_14_plan_warns_that_a_push_would_be_refused_while_the_robot_runs(
     assert main(["plan", str(project)]) == 0
     out, err = capsys.readouterr()
     assert out.splitlines()[-1].startswith("# 0 write(s) to cell (port sim://@rough-")
-    assert re.fullmatch(r"harlsync: warning: robot cell \(port sim://@rough-\S+ station \w+\) is not "
-                        r"idle: .+; a push would be refused now\n", err), err
+    assert re.fullmatch(
+        r"harlsync: warning: robot cell \(port sim://@rough-\S+ station \w+\) is not "
+        r"idle: .+; a push would be refused now\n",
+        err,
+    ), err
     assert main(["push", str(project), "--yes"]) == 3  # as the warning said
 
 
 def test_issue_14_pull_commit_off_a_terminal_still_prints_the_commit(
-    robot: tuple[Path, Any], capsys: pytest.CaptureFixture[str],
+    robot: tuple[Path, Any],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     project, _ = robot
     family = load_robot(project).family
     again = project.parent / "again"
-    assert main(["pull", str(again), "--port", load_robot(project).port, "--family", family,
-                 "--commit"]) == 0
+    assert (
+        main(
+            ["pull", str(again), "--port", load_robot(project).port, "--family", family, "--commit"]
+        )
+        == 0
+    )
     out, err = capsys.readouterr()
     head = git(project.parent, "rev-parse", "HEAD").strip()
     assert (out, err) == (f"again: first backup, committed {head[:10]}\n", "")
@@ -292,13 +320,19 @@ def test_issue_14_pull_commit_off_a_terminal_still_prints_the_commit(
 
 @pytest.mark.parametrize("command", ["diff", "validate", "plan", "push", "snapshots", "log"])
 def test_issue_14_a_directory_that_is_not_a_project_is_named(
-    tmp_path: Path, command: str, capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    command: str,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     (tmp_path / "notes.txt").write_text("not a robot\n")
     assert main([command, str(tmp_path)]) == 2
-    assert capsys.readouterr() == ("", (
-        f"harlsync: error: {tmp_path}: not a robot project (no robot.yaml); a first "
-        "'harlsync pull DIR --port URL' makes one\n"))
+    assert capsys.readouterr() == (
+        "",
+        (
+            f"harlsync: error: {tmp_path}: not a robot project (no robot.yaml); a first "
+            "'harlsync pull DIR --port URL' makes one\n"
+        ),
+    )
 
 
 # --- --help -----------------------------------------------------------------------------
@@ -313,15 +347,18 @@ def help_of(command: str, capsys: pytest.CaptureFixture[str]) -> str:
 
 @pytest.mark.parametrize("command", ["diff", "backup", "status", "log", "snapshots"])
 def test_issue_14_format_says_what_each_choice_is_for(
-    command: str, capsys: pytest.CaptureFixture[str],
+    command: str,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     assert "--format {text,json} text for people (default), json for scripts" in help_of(
-        command, capsys)
+        command, capsys
+    )
 
 
 @pytest.mark.parametrize("command", ["validate", "status", "log", "snapshots"])
 def test_issue_14_v_promises_no_wire_traffic_where_no_line_is_opened(
-    command: str, capsys: pytest.CaptureFixture[str],
+    command: str,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     text = help_of(command, capsys)
     assert "-v, --verbose more output: -v what it does" in text and "traffic" not in text
@@ -329,6 +366,7 @@ def test_issue_14_v_promises_no_wire_traffic_where_no_line_is_opened(
 
 @pytest.mark.parametrize("command", ["pull", "diff", "plan", "push", "rollback", "backup", "sim"])
 def test_v_on_a_command_that_opens_a_line_offers_its_traffic(
-    command: str, capsys: pytest.CaptureFixture[str],
+    command: str,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     assert "-v what it does, -vv raw traffic as hex" in help_of(command, capsys)

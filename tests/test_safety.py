@@ -30,7 +30,9 @@ from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
 
-SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
+SMALL = Config(
+    ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4
+)
 FAST = SerialSettings(timeout=0.2, retries=2)
 MAIN = ProgramType.MAIN
 YES = PushOptions(yes=True)
@@ -86,8 +88,12 @@ IDLE_TASK = "0 START 0 0"
 
 @pytest.mark.parametrize(
     "reply",
-    ["E21", " ".join([IDLE_TASK] * 4), " ".join([IDLE_TASK] * 4 + ["3 MAIN 0 0"]),
-     " ".join([IDLE_TASK] * 4 + ["0 MAIN x 0"])],
+    [
+        "E21",
+        " ".join([IDLE_TASK] * 4),
+        " ".join([IDLE_TASK] * 4 + ["3 MAIN 0 0"]),
+        " ".join([IDLE_TASK] * 4 + ["0 MAIN x 0"]),
+    ],
     ids=["error status", "four tasks", "two bits set", "unparsable"],
 )
 def test_a_push_writes_nothing_unless_lnr_shows_five_known_idle_tasks(
@@ -104,7 +110,9 @@ def test_a_push_writes_nothing_unless_lnr_shows_five_known_idle_tasks(
 # --- the re-send after a lost reply -------------------------------------------------------
 
 
-NEW_CONFIG = Config(ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), 4, 16, 4)
+NEW_CONFIG = Config(
+    ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), 4, 16, 4
+)
 
 UNSAFE_WRITES: list[tuple[str, str, Callable[[Controller], None]]] = [
     ("SNM", "SNM 1 2", lambda c: c.write_step(MAIN, 1, 2, Step.parse("MOVE P777 S20"))),
@@ -114,8 +122,9 @@ UNSAFE_WRITES: list[tuple[str, str, Callable[[Controller], None]]] = [
 ]
 
 
-@pytest.mark.parametrize("key,write", [(k, w) for _, k, w in UNSAFE_WRITES],
-                         ids=[n for n, _, _ in UNSAFE_WRITES])
+@pytest.mark.parametrize(
+    "key,write", [(k, w) for _, k, w in UNSAFE_WRITES], ids=[n for n, _, _ in UNSAFE_WRITES]
+)
 def test_an_unsafe_write_is_not_resent_when_the_robot_went_automatic_after_the_lost_reply(
     robot: Controller, sim: ScriptedSim, key: str, write: Callable[[Controller], None]
 ) -> None:
@@ -135,7 +144,10 @@ def test_an_unsafe_write_is_resent_after_a_fresh_status_read_shows_the_robot_idl
     old = sim.stations[1].data.programs[(MAIN, 1)].get(2, Step())
     robot.write_step(MAIN, 1, 2, Step.parse("MOVE P777 S20"), old=old)
     assert [r.payload for r in sim.received] == [
-        "SNM 1 2 MOVE P777 S20", "LNM 1 2", "LNR", "SNM 1 2 MOVE P777 S20"
+        "SNM 1 2 MOVE P777 S20",
+        "LNM 1 2",
+        "LNR",
+        "SNM 1 2 MOVE P777 S20",
     ]
 
 
@@ -195,8 +207,9 @@ def commit_timer(project: Path, number: int, value: str) -> None:
 def commit_register_1(project: Path, *, timer_2: bool = False) -> None:
     """Keep registers, pull them, and commit a change of register 1 (and timer 2)."""
     robot_yaml = project / "robot.yaml"
-    robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
-                                                         "keep_registers: true"))
+    robot_yaml.write_text(
+        robot_yaml.read_text().replace("keep_registers: false", "keep_registers: true")
+    )
     engine.pull(project)
     loaded = load_project(project)
     assert loaded.data.registers is not None, "robot.yaml layout changed"
@@ -227,8 +240,9 @@ def test_issue_6_a_push_resends_no_write_to_a_robot_started_after_its_reply_was_
     # read in the pull, before the write (drift), then after the lost reply:
     sim.plan(readback, Act(), Act(), Act(before=operator_starts_the_robot))
     with pytest.raises(PushFailed) as failed:
-        engine.push(project, PushOptions(yes=True, allow_live_tuning=live_tuning,
-                                         registers=live_tuning))
+        engine.push(
+            project, PushOptions(yes=True, allow_live_tuning=live_tuning, registers=live_tuning)
+        )
     assert isinstance(failed.value.cause, InterlockError)
     assert "task 0 in execution" in str(failed.value)
     assert len(sim.sent(key)) == 1
@@ -348,8 +362,10 @@ def test_a_cron_job_without_a_login_session_is_held_off_the_line_a_shell_push_ho
 
 @pytest.mark.parametrize(
     "timers,registers,expect",
-    [(8, False, "timers: the robot has 8, the project 4"),
-     (4, True, "registers: the project does not keep them")],
+    [
+        (8, False, "timers: the robot has 8, the project 4"),
+        (4, True, "registers: the project does not keep them"),
+    ],
     ids=["timer count", "registers not kept"],
 )
 def test_what_no_write_can_fix_refuses_the_push_before_any_write(
@@ -416,8 +432,9 @@ def test_a_parameters_write_followed_only_by_live_tuning_is_still_checked_after(
     # LNR before it).  The robot started as SNE travelled must still be reported.
     loaded = load_project(project)
     pull_rate = loaded.data.parameters.pull_rate
-    loaded.data.parameters = replace(loaded.data.parameters,
-                                     pull_rate="77" if pull_rate != "77" else "78")
+    loaded.data.parameters = replace(
+        loaded.data.parameters, pull_rate="77" if pull_rate != "77" else "78"
+    )
     loaded.data.timers[2] = "4.44" if loaded.data.timers[2] != "4.44" else "4.45"
     save_project(project, loaded)
     git(project.parent, "commit", "-qam", "parameters, timer 2")

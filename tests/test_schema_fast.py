@@ -32,8 +32,9 @@ EXAMPLE = ROOT / "projects" / "pick-and-place"
 
 
 def _schemas(family: str) -> SchemaSet:
-    module = __import__(f"harlsync.families.{families.FAMILIES[family]}.layout",
-                        fromlist=["SCHEMAS"])
+    module = __import__(
+        f"harlsync.families.{families.FAMILIES[family]}.layout", fromlist=["SCHEMAS"]
+    )
     schemas: SchemaSet = module.SCHEMAS
     return schemas
 
@@ -48,8 +49,10 @@ def _kind(family: str, name: str) -> str:
 def _documents(project: Project) -> list[tuple[str, str, Any]]:
     """(family, kind, data) of every file of ``project``."""
     family = project.robot.family
-    return [(family, _kind(family, name), yamlio.parse(text).data)
-            for name, text in _rendered(project).items()]
+    return [
+        (family, _kind(family, name), yamlio.parse(text).data)
+        for name, text in _rendered(project).items()
+    ]
 
 
 def _fast(family: str, kind: str) -> Any:
@@ -70,8 +73,14 @@ def _agree(family: str, kind: str, data: Any) -> None:
         assert not errors, f"{family} {kind}: passed by the fast check, refused: {errors}"
 
 
-OTHERS = [Project(Path("."), families.get("epson").new_robot("cell", "modbus://10.0.0.5", None),
-                  sample_data(axes)) for axes in (4, 6)] + [_iai_project(a) for a in (3, 8)]
+OTHERS = [
+    Project(
+        Path("."),
+        families.get("epson").new_robot("cell", "modbus://10.0.0.5", None),
+        sample_data(axes),
+    )
+    for axes in (4, 6)
+] + [_iai_project(a) for a in (3, 8)]
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -83,8 +92,11 @@ def test_every_valid_harl_u2_file_passes_the_fast_check(project: Project) -> Non
             assert _fast(family, kind)(data), f"{kind}: valid, not passed"
 
 
-@pytest.mark.parametrize("project", [load_project(EXAMPLE), *OTHERS],
-                         ids=["example", "epson-4", "epson-6", "iai-3", "iai-8"])
+@pytest.mark.parametrize(
+    "project",
+    [load_project(EXAMPLE), *OTHERS],
+    ids=["example", "epson-4", "epson-6", "iai-3", "iai-8"],
+)
 def test_every_file_of_the_families_passes_the_fast_check(project: Project) -> None:
     for family, kind, data in _documents(project):
         assert not _jsonschema_errors(family, kind, data), (family, kind)
@@ -94,12 +106,33 @@ def test_every_file_of_the_families_passes_the_fast_check(project: Project) -> N
 # --- changed documents ---------------------------------------------------------------
 
 replacement = st.one_of(
-    st.text(max_size=8), st.sampled_from(TRICKY),
-    st.sampled_from(["0", "12", "-3", "1.5", "0.00", "1000000000", "99999999999", "1e3", "-0.005",
-                     "1000", "0.001", "300", "256"]).map(yamlio.Number),
-    st.booleans(), st.none(), st.just({}), st.just([]), st.just({"x": 1}),
-    st.integers(-5, 300), st.floats(allow_nan=False, width=32), st.decimals(places=2).filter(
-        lambda d: d.is_finite()).map(Decimal),
+    st.text(max_size=8),
+    st.sampled_from(TRICKY),
+    st.sampled_from(
+        [
+            "0",
+            "12",
+            "-3",
+            "1.5",
+            "0.00",
+            "1000000000",
+            "99999999999",
+            "1e3",
+            "-0.005",
+            "1000",
+            "0.001",
+            "300",
+            "256",
+        ]
+    ).map(yamlio.Number),
+    st.booleans(),
+    st.none(),
+    st.just({}),
+    st.just([]),
+    st.just({"x": 1}),
+    st.integers(-5, 300),
+    st.floats(allow_nan=False, width=32),
+    st.decimals(places=2).filter(lambda d: d.is_finite()).map(Decimal),
 )
 
 
@@ -137,8 +170,9 @@ SOURCES = [doc for project in [load_project(EXAMPLE), *OTHERS] for doc in _docum
 
 
 @settings(max_examples=3000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.sampled_from(SOURCES), st.data(), st.sampled_from(["replace", "remove", "add"]),
-       replacement)
+@given(
+    st.sampled_from(SOURCES), st.data(), st.sampled_from(["replace", "remove", "add"]), replacement
+)
 def test_a_changed_document_is_never_passed_when_jsonschema_refuses_it(
     source: tuple[str, str, Any], data: st.DataObject, how: str, value: Any
 ) -> None:
@@ -150,8 +184,9 @@ def test_a_changed_document_is_never_passed_when_jsonschema_refuses_it(
 def test_reading_a_valid_robot_yaml_needs_no_jsonschema() -> None:
     # Start-up: a pull reads robot.yaml before its first request; jsonschema (about
     # 0.05 s to import) is imported only for a file the fast check cannot pass.
-    code = ("import sys; from harlsync.project import load_robot; "
-            f"load_robot({str(EXAMPLE)!r}); print('jsonschema' in sys.modules)")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True)
+    code = (
+        "import sys; from harlsync.project import load_robot; "
+        f"load_robot({str(EXAMPLE)!r}); print('jsonschema' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "False"

@@ -46,8 +46,21 @@ def test_lnx_reports_the_configuration_in_profile_order(sim: Simulator) -> None:
 
 @pytest.mark.parametrize(
     "payload",
-    ["LNM 2 0", "LNM 0 8", "LNA 8", "LNS 1 0", "LNH 0 4", "LNT 4", "LND 4", "LNL 100",
-     "LNBB 255", "LNBB 272", "LNBD 2", "LNIB 256", "LNOD 32"],
+    [
+        "LNM 2 0",
+        "LNM 0 8",
+        "LNA 8",
+        "LNS 1 0",
+        "LNH 0 4",
+        "LNT 4",
+        "LND 4",
+        "LNL 100",
+        "LNBB 255",
+        "LNBB 272",
+        "LNBD 2",
+        "LNIB 256",
+        "LNOD 32",
+    ],
 )
 def test_requests_outside_the_configuration_get_a_range_error(sim: Simulator, payload: str) -> None:
     assert ask(sim, payload) == "E" + STATUS_RANGE
@@ -78,14 +91,23 @@ def test_io_and_memory_bits_map_to_ports_as_the_manual_tables_say(sim: Simulator
     assert ask(sim, "SNOB 9 1") == "0"
     assert ask(sim, "LNOD 1") == "2"  # DO 9 is bit 1 of port 1
     assert ask(sim, "SNBD 1 129") == "0"  # memory port 1 holds bits 264..271
-    assert ask(sim, "LNBB 264") == "1" and ask(sim, "LNBB 271") == "1" and ask(sim, "LNBB 265") == "0"
+    assert (
+        ask(sim, "LNBB 264") == "1" and ask(sim, "LNBB 271") == "1" and ask(sim, "LNBB 265") == "0"
+    )
     assert ask(sim, "LNIB 0") == "0" and ask(sim, "LNID 31") == "0"
 
 
 @pytest.mark.parametrize(
     "payload",
-    ["SNT 1 10.00", "SNT 1 1.5", "SND 1 12", "SNL 1 1.00 2.00 3.00 4.00 5.00 6.00 100 0",
-     "SNOD 1 256", "SNBB 256 2", "SNM 0 0 A 1 2 3 4 5"],
+    [
+        "SNT 1 10.00",
+        "SNT 1 1.5",
+        "SND 1 12",
+        "SNL 1 1.00 2.00 3.00 4.00 5.00 6.00 100 0",
+        "SNOD 1 256",
+        "SNBB 256 2",
+        "SNM 0 0 A 1 2 3 4 5",
+    ],
 )
 def test_out_of_range_writes_are_refused_with_an_error_status(sim: Simulator, payload: str) -> None:
     before = ask(sim, "LNT 1")
@@ -279,8 +301,16 @@ def test_sim_url_with_baud_emulation_takes_wire_time() -> None:
 def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Path) -> None:
     record = tmp_path / "requests.jsonl"
     with harlsync_sim(
-        "--seed", "3", "--baud", "0", "--listen", "127.0.0.1:0", "--stations", "1,2",
-        "--record", str(record),
+        "--seed",
+        "3",
+        "--baud",
+        "0",
+        "--listen",
+        "127.0.0.1:0",
+        "--stations",
+        "1,2",
+        "--record",
+        str(record),
     ) as (proc, lines):
         assert lines["stations"] == "1, 2"
         with serial.serial_for_url(lines["pty"], timeout=0.05) as port:
@@ -289,9 +319,13 @@ def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Pa
             assert exchange(port, "LNR").startswith("0 START")
             proc.stdin.write("auto 1 0\n")
             proc.stdin.flush()
-            assert proc.stdout.readline().startswith("station 1: task 0 in execution: MAIN program 0 step 0")
+            assert proc.stdout.readline().startswith(
+                "station 1: task 0 in execution: MAIN program 0 step 0"
+            )
             assert exchange(port, "LNR").startswith("1 MAIN 0 0")
     records = [json.loads(line) for line in record.read_text().splitlines()]
     assert [(r["station"], r["payload"], r["busy"]) for r in records] == [
-        (2, "LNV", False), (1, "LNR", False), (1, "LNR", True)
+        (2, "LNV", False),
+        (1, "LNR", False),
+        (1, "LNR", True),
     ]

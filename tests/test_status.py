@@ -62,7 +62,7 @@ def records(plant: SimPlant, monkeypatch: pytest.MonkeyPatch) -> Path:
 def rows_of(text: str) -> dict[str, list[str]]:
     """The status table: robot -> its cells (split on runs of two spaces or more)."""
     lines = text.splitlines()
-    table = lines[1:lines.index("")]
+    table = lines[1 : lines.index("")]
     return {cells[0]: cells for cells in (re.split(r"\s{2,}", line) for line in table)}
 
 
@@ -111,7 +111,9 @@ def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(robot,
     sim.stations[1].data.timers[1] = "6.66"
     report = backup([project], commit=True)
     state = json.loads(history.read_text())
-    assert state["last_changes"] == "1 timer" and state["last_commit"] == report.commit == head(repo)
+    assert state["last_changes"] == "1 timer" and state["last_commit"] == report.commit == head(
+        repo
+    )
 
     sim.faults = Faults(drop=1.0)
     fast = project / "robot.yaml"
@@ -124,8 +126,9 @@ def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(robot,
     }
 
 
-def test_a_backup_nobody_committed_is_uncommitted_until_someone_commits_it(robot, repo,
-                                                                           capsys) -> None:
+def test_a_backup_nobody_committed_is_uncommitted_until_someone_commits_it(
+    robot, repo, capsys
+) -> None:
     sim, project = robot.sim, robot.project
     sim.stations[1].data.timers[2] = "2.22"
     engine.pull(project)  # no --commit
@@ -140,8 +143,9 @@ def test_a_backup_nobody_committed_is_uncommitted_until_someone_commits_it(robot
 # --- status -------------------------------------------------------------------------
 
 
-def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(plant, records,
-                                                                     capsys) -> None:
+def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(
+    plant, records, capsys
+) -> None:
     code = main(["status", str(plant.root)])
     out = capsys.readouterr().out
     assert code == 1  # failed, stale, never backed up, unfinished push
@@ -156,9 +160,10 @@ def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(plant, reco
     assert rows["welder"][8].endswith("failed") and rows["loader"][9].endswith("push ok")
     assert "welder: failed: port " + plant.urls["welder"] in out
     assert "gripper: an earlier push to this robot did not finish" in out
-    assert 'loader: last push ok ' in out and f'"faster pick {MARKUP}"' in out
+    assert "loader: last push ok " in out and f'"faster pick {MARKUP}"' in out
     assert out.rstrip().endswith(
-        "7 robot(s): 1 unfinished push, 1 never backed up, 1 failed, 1 stale, 2 changed, 1 ok")
+        "7 robot(s): 1 unfinished push, 1 never backed up, 1 failed, 1 stale, 2 changed, 1 ok"
+    )
     assert "\x1b[" not in out  # no colour off a terminal
 
 
@@ -166,14 +171,22 @@ def test_status_json_carries_the_last_push_and_the_unfinished_one(plant, records
     code, seen = status_json(capsys, str(plant.root))
     robots = {r["name"]: r for r in seen["robots"]}
     assert code == 1 and seen["ok"] is False
-    assert seen["counts"] == {"unfinished push": 1, "never backed up": 1, "failed": 1,
-                              "stale": 1, "changed": 2, "ok": 1}
+    assert seen["counts"] == {
+        "unfinished push": 1,
+        "never backed up": 1,
+        "failed": 1,
+        "stale": 1,
+        "changed": 2,
+        "ok": 1,
+    }
     push = robots["loader"]["last_push"]
     assert push["action"] == "push" and push["result"] == "ok"
     assert push["reason"] == f"faster pick {MARKUP}" and push["user"] and push["host"]
     assert [w["item"] for w in push["written"]] == ["timer 1"]
     gripper = robots["gripper"]
-    assert gripper["station"] == f"{IAI_STATION:X}" and gripper["last_push"]["result"] == "unfinished"
+    assert (
+        gripper["station"] == f"{IAI_STATION:X}" and gripper["last_push"]["result"] == "unfinished"
+    )
     assert "new tool" in gripper["unfinished"][0]
     assert robots["old-press"]["stale"] and robots["spare"]["never_backed_up"]
     assert robots["welder"]["last_result"] == "failed" and robots["welder"]["last_success"]
@@ -191,8 +204,9 @@ def test_status_exits_0_when_every_robot_is_ok_or_changed(plant, records, capsys
 def run_on_a_terminal(args: list[str], env: dict[str, str]) -> str:
     """Run harlsync with its standard output on a pty; what it printed."""
     main_end, child_end = pty.openpty()
-    child = subprocess.Popen([HARLSYNC, *args], stdout=child_end, stderr=subprocess.DEVNULL,
-                             env=env)
+    child = subprocess.Popen(
+        [HARLSYNC, *args], stdout=child_end, stderr=subprocess.DEVNULL, env=env
+    )
     os.close(child_end)
     out = b""
     try:
@@ -238,8 +252,9 @@ def test_a_path_without_a_project_is_one_line_exit_2(tmp_path, capsys) -> None:
 # --- the report page ----------------------------------------------------------------
 
 
-def test_the_page_is_self_contained_and_shows_markup_as_text(plant, records, tmp_path,
-                                                             capsys) -> None:
+def test_the_page_is_self_contained_and_shows_markup_as_text(
+    plant, records, tmp_path, capsys
+) -> None:
     page = tmp_path / "status.html"
     assert main(["status", str(plant.root), "--html", str(page)]) == 1
     html = page.read_text()
@@ -281,8 +296,7 @@ def test_backup_writes_the_page_at_the_end_of_its_run(robot, tmp_path) -> None:
     assert [p.name for p in page.parent.iterdir()] == ["plant.html"]  # no temporary left
 
 
-def test_a_page_that_cannot_be_written_is_one_line_exit_2(plant, records, tmp_path,
-                                                          capsys) -> None:
+def test_a_page_that_cannot_be_written_is_one_line_exit_2(plant, records, tmp_path, capsys) -> None:
     target = tmp_path / "no-such-dir" / "status.html"
     assert main(["status", str(plant.root), "--html", str(target)]) == 2
     err = capsys.readouterr().err
@@ -318,8 +332,9 @@ def test_log_without_records_says_so(tmp_path, capsys) -> None:
     assert capsys.readouterr().out.startswith("no push or rollback recorded in ")
 
 
-def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(robot, repo,
-                                                                             capsys) -> None:
+def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(
+    robot, repo, capsys
+) -> None:
     sim, project = robot.sim, robot.project
     for value in ("1.11", "2.22"):
         timers = project / "timers.yaml"

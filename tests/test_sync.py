@@ -35,13 +35,19 @@ from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import audit as audit_log
 from harlsync.sync import git as git_ops
 
-SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4)
+SMALL = Config(
+    ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4
+)
 
 
 def same_robot(a: SimState, b: SimState) -> bool:
     x, y = a.data, b.data
     return (x.config, x.parameters, x.programs, x.offsets, x.timers) == (
-        y.config, y.parameters, y.programs, y.offsets, y.timers
+        y.config,
+        y.parameters,
+        y.programs,
+        y.offsets,
+        y.timers,
     )
 
 
@@ -84,8 +90,9 @@ def edit_timer(project: Path, number: int, value: str, repo: Path | None = None)
         git(repo, "commit", "-qam", f"timer {number}")
 
 
-def set_step(project: Path, ptype: ProgramType, number: int, step: int, text: str,
-             repo: Path | None = None) -> None:
+def set_step(
+    project: Path, ptype: ProgramType, number: int, step: int, text: str, repo: Path | None = None
+) -> None:
     """Edit one step the way an engineer's change would land: through the project files."""
     loaded = load_project(project)
     loaded.data.programs[(ptype, number)][step] = Step.parse(text)
@@ -148,10 +155,22 @@ def test_diff_json_matches_items_by_identity(served, repo, capsys) -> None:
     report = json.loads(capsys.readouterr().out)
     restored = load_project(project).data.programs[(ProgramType.MAIN, 0)][1].text
     assert report["changes"] == [
-        {"kind": "step", "item": "MAIN program 0 step 1", "program_type": "MAIN", "program": 0,
-         "step": 1, "fields": [{"field": None, "old": None, "new": restored}]},
-        {"kind": "step", "item": "SUB program 1 step 0", "program_type": "SUB", "program": 1,
-         "step": 0, "fields": [{"field": None, "old": "WAIT DI3 ON", "new": in_project}]},
+        {
+            "kind": "step",
+            "item": "MAIN program 0 step 1",
+            "program_type": "MAIN",
+            "program": 0,
+            "step": 1,
+            "fields": [{"field": None, "old": None, "new": restored}],
+        },
+        {
+            "kind": "step",
+            "item": "SUB program 1 step 0",
+            "program_type": "SUB",
+            "program": 1,
+            "step": 0,
+            "fields": [{"field": None, "old": "WAIT DI3 ON", "new": in_project}],
+        },
     ]
 
 
@@ -263,8 +282,10 @@ def test_issue_11_a_pull_over_a_line_that_repeats_replies_fails_and_the_backup_s
         assert main(["pull", str(project), "--port", server.url]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert err.startswith(f"harlsync: error: port {server.url}, station 1: the line delivers "
-                          "replies nobody asked for (")
+    assert err.startswith(
+        f"harlsync: error: port {server.url}, station 1: the line delivers "
+        "replies nobody asked for ("
+    )
     assert every_file(project) == before
 
 
@@ -281,7 +302,9 @@ def every_file(project: Path) -> dict[Path, bytes]:
     ],
     ids=["out of range", "broken yaml", "bad offset"],
 )
-def test_an_invalid_project_is_refused_before_any_write(served, repo, capsys, file, bad, expect) -> None:
+def test_an_invalid_project_is_refused_before_any_write(
+    served, repo, capsys, file, bad, expect
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     path = project / file
@@ -296,12 +319,15 @@ def test_an_invalid_project_is_refused_before_any_write(served, repo, capsys, fi
     assert sim.received[before:] == []  # the port was not even used
 
 
-def test_a_configuration_change_is_refused_unless_allowed_and_then_rewrites_every_program(repo) -> None:
+def test_a_configuration_change_is_refused_unless_allowed_and_then_rewrites_every_program(
+    repo,
+) -> None:
     source = Simulator(SimState.generate(8, SMALL))
     with serve(source) as server:
         project = pulled(repo, server.url)
-    other = SMALL.__class__(ProgramArea(1, 8), ProgramArea(3, 16), ProgramArea(2, 8),
-                            ProgramArea(1, 6), 4, 16, 4)
+    other = SMALL.__class__(
+        ProgramArea(1, 8), ProgramArea(3, 16), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4
+    )
     target = Simulator(SimState.generate(99, other))
     with serve(target) as server:
         with pytest.raises(PushFailed) as failed:
@@ -381,7 +407,9 @@ def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path)
     assert ok["commit"] == git(repo, "rev-parse", "HEAD~1").strip()
     assert ok["robot"] == {"name": "cell", "port": url, "station": 1}
     assert ok["plan"] == ["SNT 2 2.22"]
-    assert ok["written"] == [{"item": "timer 2", "command": "SNT 2 2.22", "old": old, "new": "2.22"}]
+    assert ok["written"] == [
+        {"item": "timer 2", "command": "SNT 2 2.22", "old": old, "new": "2.22"}
+    ]
     assert "task 0 in execution" in records[1]["error"] and records[1]["written"] == []
 
 
@@ -413,7 +441,9 @@ def test_git_tells_which_files_a_commit_holds_byte_for_byte(tmp_path, object_for
     files = {name: (root / name).read_bytes() for name in names}
     files["b.yaml"] += b"x"
     assert git_ops.not_in_commit(root, git_ops.head(root), files) == {
-        "b.yaml": "differs", "c.yaml": "missing", "d.yaml": "ignored"
+        "b.yaml": "differs",
+        "c.yaml": "missing",
+        "d.yaml": "ignored",
     }
     assert git_ops.not_in_commit(root, None, {"a [x]*.yaml": b"same\r\n"}) == {
         "a [x]*.yaml": "missing"
@@ -476,16 +506,19 @@ def test_issue_11_a_push_of_a_validated_project_converges_on_a_controller_that_k
     with serve(sim) as server:
         project = pulled(repo, server.url)
         robot_yaml = project / "robot.yaml"
-        robot_yaml.write_text(robot_yaml.read_text().replace("keep_registers: false",
-                                                             "keep_registers: true"))
+        robot_yaml.write_text(
+            robot_yaml.read_text().replace("keep_registers: false", "keep_registers: true")
+        )
         engine.pull(project)
         file, line, one = EDITS[edit]
         path = project / file
         key = line.split(":")[0] + ":"
         text = path.read_text()
         assert f"\n{key} " in text, f"{key} not in {file}"
-        path.write_text("\n".join(line if old.startswith(key + " ") else old
-                                  for old in text.splitlines()) + "\n")
+        path.write_text(
+            "\n".join(line if old.startswith(key + " ") else old for old in text.splitlines())
+            + "\n"
+        )
         git(repo, "add", "-A")
         git(repo, "commit", "-qm", edit)
         issues = validate_project(project)
@@ -526,11 +559,15 @@ def test_a_push_outside_the_maintenance_window_is_refused_unless_explained(serve
     saturday_night = datetime(2026, 11, 28, 23, 0)
     engine.push(project, PushOptions(yes=True, now=saturday_night), port=url)
     edit_timer(project, 0, "0.60", repo)
-    engine.push(project, PushOptions(yes=True, now=tuesday_noon, outside_window="line down"), port=url)
+    engine.push(
+        project, PushOptions(yes=True, now=tuesday_noon, outside_window="line down"), port=url
+    )
     assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.50", "SNT 0 0.60"]
 
 
-def test_a_write_that_does_not_read_back_fails_the_push_and_names_the_item(repo, monkeypatch) -> None:
+def test_a_write_that_does_not_read_back_fails_the_push_and_names_the_item(
+    repo, monkeypatch
+) -> None:
     source = Simulator(SimState.generate(4, SMALL))
     with serve(source) as server:
         project = pulled(repo, server.url)
@@ -585,7 +622,11 @@ def test_the_lock_holds_a_second_harlsync_off_the_line(served, repo) -> None:
 
 @pytest.mark.parametrize("command", ["push", "rollback"])
 def test_push_without_yes_and_without_a_terminal_refuses_before_reading_the_robot(
-    served, repo, capsys, monkeypatch, command,
+    served,
+    repo,
+    capsys,
+    monkeypatch,
+    command,
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -599,7 +640,8 @@ def test_push_without_yes_and_without_a_terminal_refuses_before_reading_the_robo
     review = f"review it with 'harlsync plan {project}', then " * (command == "push")
     assert capsys.readouterr().err == (
         f"harlsync: refused: nobody to confirm the {command} (no terminal to ask on) and no "
-        f"--yes: nothing was read or written; {review}give --yes\n")
+        f"--yes: nothing was read or written; {review}give --yes\n"
+    )
     assert sim.received == []  # issue 14: not minutes of reading the robot first
 
 
@@ -667,9 +709,7 @@ def test_a_backup_commit_never_takes_the_leftovers_of_a_save_in_progress(tmp_pat
     (cell / "programs" / ".main-00.yaml.harlsync-old-4242-0c77e1d4").write_text("old\n")
     (cell / ".harlsync-save.json").write_text("{}\n")
     assert git_module.commit([cell], "backup") is not None
-    assert git(tmp_path, "show", "--name-only", "--format=", "HEAD").split() == [
-        "cell/timers.yaml"
-    ]
+    assert git(tmp_path, "show", "--name-only", "--format=", "HEAD").split() == ["cell/timers.yaml"]
 
 
 class Clock(datetime):
@@ -727,10 +767,12 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
     sim, url = served
     project = pulled(repo, url)
     robot_yaml = project / "robot.yaml"
-    robot_yaml.write_text(robot_yaml.read_text().replace(
-        "maintenance_windows: []",
-        "maintenance_windows:\n  - {days: [sat], start: '22:00', end: '04:00'}",
-    ))
+    robot_yaml.write_text(
+        robot_yaml.read_text().replace(
+            "maintenance_windows: []",
+            "maintenance_windows:\n  - {days: [sat], start: '22:00', end: '04:00'}",
+        )
+    )
     for timer, value in ((0, "0.11"), (1, "1.11"), (2, "2.22")):
         edit_timer(project, timer, value)
     git(repo, "commit", "-qam", "three timers, a window")

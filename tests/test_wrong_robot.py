@@ -30,8 +30,11 @@ OTHER = Config(ProgramArea(1, 6), ProgramArea(3, 8), ProgramArea(1, 6), ProgramA
 
 
 def files_of(project: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(project)): p.read_bytes() for p in sorted(project.rglob("*"))
-            if p.is_file() and ".harlsync" not in p.parts}
+    return {
+        str(p.relative_to(project)): p.read_bytes()
+        for p in sorted(project.rglob("*"))
+        if p.is_file() and ".harlsync" not in p.parts
+    }
 
 
 @pytest.fixture
@@ -66,7 +69,9 @@ def refusal(project: Path, url: str, capsys: pytest.CaptureFixture[str]) -> str:
 
 
 def test_issue_14_a_controller_with_another_program_configuration_is_refused_naming_it(
-    cell: Path, served: dict[str, Any], capsys: pytest.CaptureFixture[str],
+    cell: Path,
+    served: dict[str, Any],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     url = serve(served, "wrong-other", HarlSimulator({1: HarlState.generate(5, OTHER)}))
     err = refusal(cell, url, capsys)
@@ -79,12 +84,18 @@ def test_issue_14_a_controller_with_another_program_configuration_is_refused_nam
         f"reconfigured, updated), accept it with 'harlsync pull {cell} --new-robot'\n"
     )
     assert main(["pull", str(cell), "--port", url, "--new-robot", "--commit"]) == 0
-    assert "MAIN 3x8" in engine.catalogue(engine.load_robot(cell)).robot_identity(
-        engine.load_project(cell).data)["program configuration"]
+    assert (
+        "MAIN 3x8"
+        in engine.catalogue(engine.load_robot(cell)).robot_identity(engine.load_project(cell).data)[
+            "program configuration"
+        ]
+    )
 
 
 def test_issue_14_a_controller_with_another_version_is_refused_naming_it(
-    cell: Path, served: dict[str, Any], capsys: pytest.CaptureFixture[str],
+    cell: Path,
+    served: dict[str, Any],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     state = HarlState.generate(5, SMALL)
     state.data.version = "5.10"
@@ -93,13 +104,18 @@ def test_issue_14_a_controller_with_another_version_is_refused_naming_it(
 
 
 def test_issue_14_a_controller_where_most_of_the_backup_would_change_looks_like_another_robot(
-    cell: Path, served: dict[str, Any], capsys: pytest.CaptureFixture[str],
+    cell: Path,
+    served: dict[str, Any],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     url = serve(served, "wrong-twin", HarlSimulator({1: HarlState.generate(6, SMALL)}))
     err = refusal(cell, url, capsys)
-    assert re.search(r"here: [0-9]+ programs \([0-9]+ steps\) would change, [0-9]+ of the "
-                     r"[0-9]+ items of that kind: it looks like another robot, or one whose "
-                     r"memory was lost\. The backup was left as it was\.", err), err
+    assert re.search(
+        r"here: [0-9]+ programs \([0-9]+ steps\) would change, [0-9]+ of the "
+        r"[0-9]+ items of that kind: it looks like another robot, or one whose "
+        r"memory was lost\. The backup was left as it was\.",
+        err,
+    ), err
     wiped = HarlState.blank(SMALL)  # the same robot after its battery died
     wiped.data.version = "5.00"
     url = serve(served, "wrong-wiped", HarlSimulator({1: wiped}))
@@ -107,7 +123,8 @@ def test_issue_14_a_controller_where_most_of_the_backup_would_change_looks_like_
 
 
 def test_a_robot_whose_programs_changed_a_little_is_still_the_same_robot(
-    cell: Path, served: dict[str, Any],
+    cell: Path,
+    served: dict[str, Any],
 ) -> None:
     program = served["wrong-cell"].stations[1].data.programs[(ProgramType.MAIN, 0)]
     program[1] = Step.parse("MOVE P777 S50")
@@ -115,7 +132,9 @@ def test_a_robot_whose_programs_changed_a_little_is_still_the_same_robot(
 
 
 def test_issue_14_an_iai_controller_with_other_201h_codes_is_refused_naming_them(
-    repo: Path, served: dict[str, Any], capsys: pytest.CaptureFixture[str],
+    repo: Path,
+    served: dict[str, Any],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     state = IaiState.generate(3, position_range=(1, 40))
     url = serve(served, "wrong-iai", IaiSimulator({0x99: state}))
@@ -124,13 +143,21 @@ def test_issue_14_an_iai_controller_with_other_201h_codes_is_refused_naming_them
     robot.write_text(robot.read_text().replace("last_position: 1000", "last_position: 40"))
     git(repo, "commit", "-qam", "axis: the table it uses")
     for key, version in state.versions.items():
-        state.versions[key] = Version(version.unit_type, version.device, "22",
-                                      version.unit_code, version.version, version.built)
+        state.versions[key] = Version(
+            version.unit_type,
+            version.device,
+            "22",
+            version.unit_code,
+            version.version,
+            version.built,
+        )
     assert "model code '22' (the backup has '21')" in refusal(repo / "axis", url, capsys)
 
 
 def test_issue_14_backup_reports_a_controller_that_is_not_the_robot_as_failed(
-    cell: Path, repo: Path, served: dict[str, Any],
+    cell: Path,
+    repo: Path,
+    served: dict[str, Any],
 ) -> None:
     url = serve(served, "wrong-fine", HarlSimulator({1: HarlState.generate(7, SMALL)}))
     engine.pull(repo / "fine", port=url, commit=True)
@@ -141,7 +168,8 @@ def test_issue_14_backup_reports_a_controller_that_is_not_the_robot_as_failed(
     assert outcomes["fine"].ok
     assert not outcomes["cell"].ok and len(outcomes["cell"].attempts) == 1  # never retried
     assert "does not look like the robot backed up here: program configuration" in (
-        outcomes["cell"].error or "")
+        outcomes["cell"].error or ""
+    )
     assert (outcomes["cell"].error or "").endswith(f"'harlsync pull {cell} --new-robot'")
     assert files_of(cell) == before
 
@@ -150,10 +178,20 @@ def test_an_epson_robot_is_its_manipulator_and_a_read_says_its_tables_settings_a
     from harlsync.families.epson.catalogue import CATALOGUE as EPSON
     from harlsync.families.epson.model import EpsonData, PointKey, SettingKey, TableKey
 
-    data = EpsonData(robot_type=1, axes=4, model="LS3-B401S", items={
-        TableKey("accel_s", 3): None, SettingKey("weight"): None, SettingKey("box", 5): None,
-        PointKey("point", 1): None,
-    })
-    assert EPSON.robot_identity(data) == {"robot type": data.type_name, "axes": "4",
-                                          "model": "LS3-B401S"}
+    data = EpsonData(
+        robot_type=1,
+        axes=4,
+        model="LS3-B401S",
+        items={
+            TableKey("accel_s", 3): None,
+            SettingKey("weight"): None,
+            SettingKey("box", 5): None,
+            PointKey("point", 1): None,
+        },
+    )
+    assert EPSON.robot_identity(data) == {
+        "robot type": data.type_name,
+        "axes": "4",
+        "model": "LS3-B401S",
+    }
     assert EPSON.contents(data, registers=False) == "1 table entry, 2 settings, 1 point"

@@ -47,7 +47,10 @@ def _same_as_emitter(node: Node, header: str = "") -> bool:
     assert text == emitted
     again = _parsed(text)
     assert (parsed.data, parsed.lines, parsed.duplicates) == (
-        again.data, again.lines, again.duplicates)
+        again.data,
+        again.lines,
+        again.duplicates,
+    )
     assert repr(parsed.data) == repr(again.data)  # the same Number texts
     return True
 
@@ -64,11 +67,29 @@ def _emitter_only() -> Iterator[None]:
 word = st.one_of(
     st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=12),
     st.text(max_size=6),  # any character: quotes, escapes, line breaks, unicode
-    st.sampled_from([*TRICKY, "", " ", "a ", " a", "- a", "-", "a: b", "a #b", "'a'", "5.00",
-                     "22:00", "MOVE P001 S100", "--- x", "... x", "x" * 130]),
+    st.sampled_from(
+        [
+            *TRICKY,
+            "",
+            " ",
+            "a ",
+            " a",
+            "- a",
+            "-",
+            "a: b",
+            "a #b",
+            "'a'",
+            "5.00",
+            "22:00",
+            "MOVE P001 S100",
+            "--- x",
+            "... x",
+            "x" * 130,
+        ]
+    ),
 )
 number = st.one_of(
-    st.integers(-10**6, 10**6).map(str),
+    st.integers(-(10**6), 10**6).map(str),
     st.decimals(allow_nan=False, allow_infinity=False, places=3).map(str),
     st.sampled_from(["0012", "1.50", "-0", "+7", "1e5", ".5", "1.", "-.5", "5E-3"]),
 )
@@ -90,25 +111,35 @@ def _mapping(pairs: list[tuple[ScalarNode, Node]], flow: bool) -> MappingNode:
     return yamlio.mapping(pairs, flow=flow)
 
 
-flow_sequence = st.builds(lambda items: yamlio.sequence(items, flow=True),
-                          st.lists(scalar, max_size=5))
+flow_sequence = st.builds(
+    lambda items: yamlio.sequence(items, flow=True), st.lists(scalar, max_size=5)
+)
 # Flow mappings of scalars, flow sequences and flow mappings (an IAI position's axes
 # and coords are sequences in a flow mapping).
-flow_collection = st.one_of(flow_sequence, st.recursive(
-    st.builds(_mapping, st.lists(st.tuples(key, scalar), max_size=5), st.just(True)),
-    lambda inner: st.builds(
-        _mapping, st.lists(st.tuples(key, st.one_of(scalar, flow_sequence, inner)), max_size=5),
-        st.just(True)),
-    max_leaves=12,
-))
+flow_collection = st.one_of(
+    flow_sequence,
+    st.recursive(
+        st.builds(_mapping, st.lists(st.tuples(key, scalar), max_size=5), st.just(True)),
+        lambda inner: st.builds(
+            _mapping,
+            st.lists(st.tuples(key, st.one_of(scalar, flow_sequence, inner)), max_size=5),
+            st.just(True),
+        ),
+        max_leaves=12,
+    ),
+)
 value = st.recursive(
-    st.one_of(scalar, flow_collection,
-              st.builds(lambda items: yamlio.sequence(items), st.lists(scalar, max_size=3))),
+    st.one_of(
+        scalar,
+        flow_collection,
+        st.builds(lambda items: yamlio.sequence(items), st.lists(scalar, max_size=3)),
+    ),
     lambda inner: st.builds(_mapping, st.lists(st.tuples(key, inner), max_size=5), st.just(False)),
     max_leaves=20,
 )
-document = st.builds(_mapping, st.lists(st.tuples(key, value), min_size=1, max_size=8),
-                     st.just(False))
+document = st.builds(
+    _mapping, st.lists(st.tuples(key, value), min_size=1, max_size=8), st.just(False)
+)
 
 
 @settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -119,10 +150,10 @@ def test_any_document_is_written_as_the_emitter_writes_it(node: MappingNode, hea
 
 # Scalars near the edge of what the writer writes: the characters it writes plain and
 # those that make the emitter quote, or that it leaves to the emitter, in few places.
-edgy = st.text(st.sampled_from("aaZZ00995  ..__//++--==$^;~()<" "eE>:#,'\"!&*%@?[]{}|`\\"),
-               min_size=1, max_size=4)
-edgy_scalar = st.one_of(edgy.map(yamlio.text), edgy.map(yamlio.quoted),
-                        edgy.map(yamlio.scalar_for))
+edgy = st.text(
+    st.sampled_from("aaZZ00995  ..__//++--==$^;~()<eE>:#,'\"!&*%@?[]{}|`\\"), min_size=1, max_size=4
+)
+edgy_scalar = st.one_of(edgy.map(yamlio.text), edgy.map(yamlio.quoted), edgy.map(yamlio.scalar_for))
 small_document = st.one_of(
     edgy_scalar.map(lambda v: yamlio.mapping([("k", v)])),
     edgy_scalar.map(lambda v: yamlio.mapping([("k", yamlio.mapping([("a", v)], flow=True))])),
@@ -138,15 +169,24 @@ def test_a_scalar_is_written_plain_or_quoted_as_the_emitter_writes_it(node: Mapp
 
 
 def test_the_writer_writes_the_layouts_it_is_for() -> None:
-    steps = yamlio.mapping([(yamlio.num(str(n)), yamlio.text(f"MOVE P{n:03d} S100"))
-                            for n in range(256)])
+    steps = yamlio.mapping(
+        [(yamlio.num(str(n)), yamlio.text(f"MOVE P{n:03d} S100")) for n in range(256)]
+    )
     table = yamlio.mapping([(name, yamlio.num("-12.50")) for name in "xyzwrc"], flow=True)
-    node = yamlio.mapping([
-        ("format", yamlio.num("1")), ("type", yamlio.text("MAIN")), ("steps", steps),
-        ("version", yamlio.text("5.00")), ("tables", yamlio.mapping([(yamlio.num("0"), table)])),
-        ("days", yamlio.sequence([yamlio.text("mon")], flow=True)), ("empty", yamlio.mapping([])),
-        ("start", yamlio.quoted("22:00")), ("on", yamlio.boolean(True)), ("off", yamlio.null()),
-    ])
+    node = yamlio.mapping(
+        [
+            ("format", yamlio.num("1")),
+            ("type", yamlio.text("MAIN")),
+            ("steps", steps),
+            ("version", yamlio.text("5.00")),
+            ("tables", yamlio.mapping([(yamlio.num("0"), table)])),
+            ("days", yamlio.sequence([yamlio.text("mon")], flow=True)),
+            ("empty", yamlio.mapping([])),
+            ("start", yamlio.quoted("22:00")),
+            ("on", yamlio.boolean(True)),
+            ("off", yamlio.null()),
+        ]
+    )
     assert _same_as_emitter(node, "# yaml-language-server: $schema=x\n")
 
 
@@ -178,9 +218,17 @@ def test_the_example_projects_save_byte_identical(example: str) -> None:
 
 
 def _iai_project(axes: int) -> Project:
-    positions = [Position(n, tuple(range(1, axes + 1)), "0.30", "0.30", 100,
-                          tuple(f"{n * a}.{a:03d}" for a in range(1, axes + 1)))
-                 for n in range(1, 40)]
+    positions = [
+        Position(
+            n,
+            tuple(range(1, axes + 1)),
+            "0.30",
+            "0.30",
+            100,
+            tuple(f"{n * a}.{a:03d}" for a in range(1, axes + 1)),
+        )
+        for n in range(1, 40)
+    ]
     state = IaiState.from_positions(positions, axes=tuple(range(1, axes + 1)))
     family = families.get("iai")
     robot = family.new_robot("iai", "/dev/ttyUSB0", 0x99)
@@ -227,7 +275,7 @@ def test_a_document_the_writer_leaves_to_the_emitter_is_parsed_back_for_real() -
     node = yamlio.mapping([("maintenance_windows", windows)])
     assert yamlio._Writer("").document(node) is None
     text = yamlio.dump(node)
-    assert text == "maintenance_windows:\n  - start: \"22:00\"\n"
+    assert text == 'maintenance_windows:\n  - start: "22:00"\n'
     assert yamlio.parse(text).data == {"maintenance_windows": [{"start": "22:00"}]}
 
 

@@ -178,8 +178,9 @@ class Catalogue(Protocol):
         ends with: ``"7 programs (120 steps used), 10 offset tables, 8 timers"``."""
         ...
 
-    def plan(self, live: Any, project: Any, changes: list[tuple[Any, Any, Any]], *,
-             registers: bool) -> PlanShape:
+    def plan(
+        self, live: Any, project: Any, changes: list[tuple[Any, Any, Any]], *, registers: bool
+    ) -> PlanShape:
         """The writes that turn ``live`` into ``project`` given their differences."""
         ...
 
@@ -227,8 +228,9 @@ class Family(Protocol):
         """The relative paths under ``root`` that hold the project (robot.yaml first)."""
         ...
 
-    def stale_files(self, root: Path, texts: Mapping[str, str], robot: Robot,
-                    data: Any) -> list[str]:
+    def stale_files(
+        self, root: Path, texts: Mapping[str, str], robot: Robot, data: Any
+    ) -> list[str]:
         """Managed files on disk that a save of ``texts`` must remove."""
         ...
 
@@ -236,8 +238,7 @@ class Family(Protocol):
         """Schema file name -> text, copied into each project's ``.schemas/``."""
         ...
 
-    def new_robot(self, name: str, port: str, station: int | None,
-                  **options: Any) -> Robot:
+    def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
         """The robot.yaml of a first pull (the family's defaults)."""
         ...
 
@@ -249,8 +250,15 @@ class Family(Protocol):
         """A station as the family's people write it (decimal, or hex for IAI)."""
         ...
 
-    def connect(self, robot: Robot, port: str | None, station: int | None, *,
-                lock_timeout: float, **options: Any) -> Driver:
+    def connect(
+        self,
+        robot: Robot,
+        port: str | None,
+        station: int | None,
+        *,
+        lock_timeout: float,
+        **options: Any,
+    ) -> Driver:
         """Open the robot's line (``port``/``station`` override robot.yaml); ``options``
         are some of :attr:`connect_options`."""
         ...

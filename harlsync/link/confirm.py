@@ -60,13 +60,18 @@ def confirmed_write(
                 log.warning("%s: the write did not take (read back): sending it once more", exc)
                 continue
             if attempt == 1:
-                why = (f"{what} reads back {show(now)}: neither what was written "
-                       f"({show(wanted)}) nor what was there before ({show(old)})")
+                why = (
+                    f"{what} reads back {show(now)}: neither what was written "
+                    f"({show(wanted)}) nor what was there before ({show(old)})"
+                )
             else:
                 why = f"sent twice, and {what} still reads back {show(now)}"
             raise WriteUnconfirmed(
-                f"write not confirmed: {why}", port=exc.port, station=exc.station,
-                command=exc.command, station_text=exc.station_text,
+                f"write not confirmed: {why}",
+                port=exc.port,
+                station=exc.station,
+                command=exc.command,
+                station_text=exc.station_text,
             ) from exc
 
 
@@ -88,6 +93,5 @@ def refuse_unless_idle(
             return
         why = f"the robot is not idle: {now.describe()}"
     raise InterlockError(
-        f"{where}: the write did not take and {why}; not sending it again "
-        "(it needs an idle robot)"
+        f"{where}: the write did not take and {why}; not sending it again (it needs an idle robot)"
     ) from lost

@@ -317,8 +317,12 @@ class Link(Generic[F]):
         with self._lock:
             port = self._port
             if port is None:
-                raise LinkError("link is not open", port=self.url, station=st,
-                                station_text=self.codec.station_text(st))
+                raise LinkError(
+                    "link is not open",
+                    port=self.url,
+                    station=st,
+                    station_text=self.codec.station_text(st),
+                )
             self.stats.exchanges += 1
             self._settle(port, st, command, wait=True)
             self._check_line(st)
@@ -358,14 +362,16 @@ class Link(Generic[F]):
                     f"no valid reply to this write ({failure.reason}); it may or may not have "
                     "taken: read the item back before sending it again",
                     port=self.url,
-                    station=st, station_text=self.codec.station_text(st),
+                    station=st,
+                    station_text=self.codec.station_text(st),
                     command=command,
                 ) from failure.cause
             raise LinkTimeout(
                 f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
                 f"{self.codec.no_reply_hint(st)}",
                 port=self.url,
-                station=st, station_text=self.codec.station_text(st),
+                station=st,
+                station_text=self.codec.station_text(st),
                 command=command,
             ) from failure.cause
 
@@ -398,7 +404,8 @@ class Link(Generic[F]):
                 f"write timed out after {self._write_timeout:g} s: the line takes no data; check "
                 "the cable and the rtscts (hardware flow control) setting in robot.yaml",
                 port=self.url,
-                station=station, station_text=self.codec.station_text(station),
+                station=station,
+                station_text=self.codec.station_text(station),
                 command=command,
             ) from exc
         except Exception as exc:  # any failure of pyserial; see the module docstring
@@ -480,7 +487,8 @@ class Link(Generic[F]):
         return PortError(
             f"port went away{doing}: {describe(exc)}; {gone_hint(self.url)}",
             port=self.url,
-            station=station, station_text=self.codec.station_text(station),
+            station=station,
+            station_text=self.codec.station_text(station),
             command=command,
         )
 
@@ -633,8 +641,11 @@ class Link(Generic[F]):
         took = self._took.get(kind)
         # When to look first: just before the reply's last bytes are due, if the
         # recent exchanges of this kind say when that is.
-        look = self._sent_at + took.shortest(len(self._sent), self._char) - self._guard if took \
+        look = (
+            self._sent_at + took.shortest(len(self._sent), self._char) - self._guard
+            if took
             else 0.0
+        )
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):

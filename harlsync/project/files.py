@@ -58,7 +58,10 @@ class FileSet:
     migrations: Migrations = field(default_factory=dict)
 
     def document(
-        self, kind: str, path: str, items: Iterable[tuple[str, Any]],
+        self,
+        kind: str,
+        path: str,
+        items: Iterable[tuple[str, Any]],
         comments: Mapping[str, str] | None = None,
     ) -> str:
         """A file's text: the schema comment, ``format:``, then ``items``; each
@@ -121,10 +124,15 @@ class FileSet:
         number = int(value)
         while number < self.format:
             if number not in self.migrations:
-                issues.append(Issue(
-                    name, line, "format",
-                    f"{number} is not a known format (allowed: 1-{self.format})", fatal=True,
-                ))
+                issues.append(
+                    Issue(
+                        name,
+                        line,
+                        "format",
+                        f"{number} is not a known format (allowed: 1-{self.format})",
+                        fatal=True,
+                    )
+                )
                 return False
             doc.data = self.migrations[number](kind, doc.data)
             number += 1
@@ -153,7 +161,9 @@ def _newer(name: str, doc: y.Parsed, current: int) -> Issue | None:
     if not (isinstance(value, y.Number) and value.integral and value > current):
         return None
     return Issue(
-        name, doc.line(("format",)), None,
+        name,
+        doc.line(("format",)),
+        None,
         f"format {show(value)} is newer than this harlsync understands ({current}): "
         "upgrade harlsync",
         fatal=True,
@@ -190,8 +200,10 @@ def numbers(mapping: Any) -> list[tuple[str, int]]:
 
 def not_canonical(text: str, one: str) -> str:
     """The message for a number written otherwise than as the controller gives it back."""
-    return (f"{text} is not written in its one form (write {one}: the controller reads it "
-            "back so, and a push would never converge)")
+    return (
+        f"{text} is not written in its one form (write {one}: the controller reads it "
+        "back so, and a push would never converge)"
+    )
 
 
 def check_canonical(
@@ -254,13 +266,13 @@ def build_serial(connection: Mapping[str, Any], defaults: SerialSettings) -> Ser
     )
 
 
-def robot_items(robot: Robot, connection: list[tuple[str, Any]],
-                controller: list[tuple[str, Any]]) -> list[tuple[str, Any]]:
+def robot_items(
+    robot: Robot, connection: list[tuple[str, Any]], controller: list[tuple[str, Any]]
+) -> list[tuple[str, Any]]:
     """robot.yaml's items for a family that names itself: ``family``, ``name``,
     ``description`` (when there is one), ``connection``, ``controller`` and
     ``maintenance_windows``, in that order."""
-    items: list[tuple[str, Any]] = [("family", y.text(robot.family)),
-                                    ("name", y.text(robot.name))]
+    items: list[tuple[str, Any]] = [("family", y.text(robot.family)), ("name", y.text(robot.name))]
     if robot.description is not None:
         items.append(("description", y.text(robot.description)))
     return items + [

@@ -148,8 +148,7 @@ def holding_project(command: str) -> Callable[[Callable[_P, _R]], Callable[_P, _
             given.apply_defaults()
             values = given.arguments
             timeout = (
-                values["lock_timeout"] if "lock_timeout" in values
-                else values["opts"].lock_timeout
+                values["lock_timeout"] if "lock_timeout" in values else values["opts"].lock_timeout
             )
             with project_lock(values["path"], timeout=float(timeout), command=command):
                 return func(*args, **kwargs)

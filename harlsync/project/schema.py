@@ -29,6 +29,7 @@ if TYPE_CHECKING:
 
 __all__ = ["Issue", "SchemaSet", "show"]
 
+
 @dataclass(frozen=True)
 class Issue:
     """One problem in one file, rendered as ``file:line: field: message``.
@@ -59,8 +60,12 @@ _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
 
 
 def _one_line(text: str) -> str:
-    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100
-                        else f"\\u{ord(m.group()):04x}", text)
+    return _CONTROL.sub(
+        lambda m: (
+            f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100 else f"\\u{ord(m.group()):04x}"
+        ),
+        text,
+    )
 
 
 def _cut(text: str) -> str:
@@ -204,10 +209,19 @@ class SchemaSet:
 _Check = Callable[[Any], bool]
 
 #: Keywords that say nothing about validity.
-_ANNOTATIONS = frozenset({
-    "$schema", "$defs", "$comment", "title", "description", "default", "examples",
-    "x-allowed", "x-volatility",
-})
+_ANNOTATIONS = frozenset(
+    {
+        "$schema",
+        "$defs",
+        "$comment",
+        "title",
+        "description",
+        "default",
+        "examples",
+        "x-allowed",
+        "x-volatility",
+    }
+)
 _TYPES: dict[str, Callable[[Any], bool]] = {
     "object": lambda v: isinstance(v, dict),
     "array": lambda v: isinstance(v, list),
@@ -225,8 +239,9 @@ def _other_number(value: Any) -> bool:
     return isinstance(value, (int, float, Decimal)) and not isinstance(value, bool)
 
 
-def _compile(schema: Any, root: dict[str, Any], formats: Mapping[str, re.Pattern[str]],
-             depth: int = 0) -> _Check | None:
+def _compile(
+    schema: Any, root: dict[str, Any], formats: Mapping[str, re.Pattern[str]], depth: int = 0
+) -> _Check | None:
     """A check of ``schema`` (``root`` resolves ``$ref``) that passes an instance only
     when jsonschema, with harlsync's types and formats, would find no error in it: it
     may refuse a valid one (jsonschema then has the last word), never pass an invalid
@@ -267,8 +282,14 @@ def _compile(schema: Any, root: dict[str, Any], formats: Mapping[str, re.Pattern
     return lambda v: all(check(v) for check in checks)
 
 
-def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, Any],
-             formats: Mapping[str, re.Pattern[str]], depth: int) -> _Check | None:
+def _keyword(
+    keyword: str,
+    value: Any,
+    schema: dict[str, Any],
+    root: dict[str, Any],
+    formats: Mapping[str, re.Pattern[str]],
+    depth: int,
+) -> _Check | None:
     def sub(subschema: Any) -> _Check | None:
         return _compile(subschema, root, formats, depth + 1)
 
@@ -282,8 +303,11 @@ def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, A
         members = value if keyword == "enum" else [value]
         texts = {m for m in members if isinstance(m, str)}
         numbers = [m for m in members if isinstance(m, (int, Decimal)) and not isinstance(m, bool)]
-        return lambda v: (v in texts if isinstance(v, str)
-                          else isinstance(v, Number) and any(v == n for n in numbers))
+        return lambda v: (
+            v in texts
+            if isinstance(v, str)
+            else isinstance(v, Number) and any(v == n for n in numbers)
+        )
     if keyword == "pattern":
         pattern = re.compile(value)
         return lambda v: not isinstance(v, str) or pattern.search(v) is not None
@@ -297,8 +321,10 @@ def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, A
             return None
         limit = value
         compare = {
-            "minimum": lambda v: v >= limit, "maximum": lambda v: v <= limit,
-            "exclusiveMinimum": lambda v: v > limit, "exclusiveMaximum": lambda v: v < limit,
+            "minimum": lambda v: v >= limit,
+            "maximum": lambda v: v <= limit,
+            "exclusiveMinimum": lambda v: v > limit,
+            "exclusiveMaximum": lambda v: v < limit,
         }[keyword]
         return lambda v: compare(v) if isinstance(v, Number) else not _other_number(v)
     if keyword in ("minLength", "maxLength", "minItems", "maxItems"):
@@ -306,7 +332,8 @@ def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, A
             return None
         size = value
         fits: Callable[[int], bool] = (
-            (lambda n: n >= size) if keyword.startswith("min") else (lambda n: n <= size))
+            (lambda n: n >= size) if keyword.startswith("min") else (lambda n: n <= size)
+        )
         if keyword.endswith("Length"):
             return lambda v: not isinstance(v, str) or fits(len(v))
         return lambda v: not isinstance(v, list) or fits(len(v))
@@ -315,10 +342,16 @@ def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, A
             return (lambda v: True) if value is False else None
         # Items all text, or all numbers (compared by value, as jsonschema does: 1 and
         # 1.0 are the same item); anything else is left to jsonschema.
-        return lambda v: not isinstance(v, list) or (
-            (all(isinstance(item, str) for item in v)
-             or all(isinstance(item, Number) for item in v))
-            and len(set(v)) == len(v))
+        return lambda v: (
+            not isinstance(v, list)
+            or (
+                (
+                    all(isinstance(item, str) for item in v)
+                    or all(isinstance(item, Number) for item in v)
+                )
+                and len(set(v)) == len(v)
+            )
+        )
     if keyword == "items":
         item = sub(value)
         if item is None:
@@ -332,8 +365,9 @@ def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, A
         if any(check is None for check in props.values()):
             return None
         pairs = [(name, check) for name, check in props.items() if check is not None]
-        return lambda v: not isinstance(v, dict) or all(
-            check(v[name]) for name, check in pairs if name in v)
+        return lambda v: (
+            not isinstance(v, dict) or all(check(v[name]) for name, check in pairs if name in v)
+        )
     if keyword == "additionalProperties":
         if "patternProperties" in schema:
             return None
@@ -345,8 +379,10 @@ def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, A
             return None
         if not known:  # every value is an additional one (a program's steps)
             return lambda v: not isinstance(v, dict) or all(map(extra, v.values()))
-        return lambda v: not isinstance(v, dict) or all(
-            extra(each) for name, each in v.items() if name not in known)
+        return lambda v: (
+            not isinstance(v, dict)
+            or all(extra(each) for name, each in v.items() if name not in known)
+        )
     if keyword == "propertyNames":
         name_check = sub(value)
         if name_check is None:
@@ -355,7 +391,7 @@ def _keyword(keyword: str, value: Any, schema: dict[str, Any], root: dict[str, A
     if keyword == "$ref":
         if not isinstance(value, str) or not value.startswith("#/$defs/"):
             return None
-        target = root.get("$defs", {}).get(value[len("#/$defs/"):])
+        target = root.get("$defs", {}).get(value[len("#/$defs/") :])
         return None if target is None else sub(target)
     return None
 

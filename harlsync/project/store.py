@@ -78,7 +78,6 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
-
 @dataclass
 class Project:
     """A robot project: where it lives, which robot, and what its memory holds
@@ -322,9 +321,7 @@ IN_PROGRESS = (".*.harlsync-new-*", ".*.harlsync-old-*", JOURNAL)
 
 
 def _sibling(target: Path, what: str) -> Path:
-    return target.with_name(
-        f".{target.name}.harlsync-{what}-{os.getpid()}-{secrets.token_hex(4)}"
-    )
+    return target.with_name(f".{target.name}.harlsync-{what}-{os.getpid()}-{secrets.token_hex(4)}")
 
 
 def _write_temp(target: Path, data: bytes) -> Path:
@@ -495,7 +492,9 @@ def recover(root: Path) -> bool:
         record = json.loads(journal.read_bytes())
         pid = int(record["pid"])
         entries = [
-            _Entry(name, temp and (root / name).with_name(temp), old and (root / name).with_name(old))
+            _Entry(
+                name, temp and (root / name).with_name(temp), old and (root / name).with_name(old)
+            )
             for name, temp, old in record["files"]
         ]
         made_dirs = [root / d for d in record["made_dirs"]]
@@ -511,8 +510,9 @@ def recover(root: Path) -> bool:
             f"{root}: process {pid} is saving this project right now; "
             "wait for it to finish and run again"
         )
-    log.warning("%s: a save by process %d was interrupted; putting the previous files back",
-                root, pid)
+    log.warning(
+        "%s: a save by process %d was interrupted; putting the previous files back", root, pid
+    )
     _undo(root, entries, made_dirs)
     _sweep(root)
     return True
@@ -522,9 +522,12 @@ def _sweep(root: Path) -> bool:
     """Remove temporaries and second names left by killed processes."""
     found = False
     # The project's own sub-directories (programs/, ...), .schemas/ and .harlsync/.
-    directories = [root, root / SCHEMAS_DIR, root / LOCAL_DIR] + sorted(
-        d for d in root.iterdir() if d.is_dir() and not d.name.startswith(".")
-    ) if root.is_dir() else []
+    directories = (
+        [root, root / SCHEMAS_DIR, root / LOCAL_DIR]
+        + sorted(d for d in root.iterdir() if d.is_dir() and not d.name.startswith("."))
+        if root.is_dir()
+        else []
+    )
     for directory in directories:
         if not directory.is_dir():
             continue

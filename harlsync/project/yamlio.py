@@ -154,7 +154,9 @@ class _Loader(Reader, Scanner, Parser, Composer, CoreResolver):
         try:
             if self._depth > MAX_DEPTH + 1:
                 raise ComposerError(
-                    None, None, f"nested more than {MAX_DEPTH} levels deep",
+                    None,
+                    None,
+                    f"nested more than {MAX_DEPTH} levels deep",
                     self.peek_event().start_mark,
                 )
             node: Node | None = super().compose_node(parent, index)  # type: ignore[no-untyped-call]
@@ -227,8 +229,8 @@ def parse(source: str) -> Parsed:
             # Its str() is two lines and names a character position: say the line.
             line = source.count("\n", 0, exc.position) + 1
             raise YamlSyntaxError(
-                line, f"unacceptable character #x{exc.character:04x}: control characters "
-                "are not allowed"
+                line,
+                f"unacceptable character #x{exc.character:04x}: control characters are not allowed",
             ) from None
         except yaml.MarkedYAMLError as exc:
             mark = exc.problem_mark or exc.context_mark
@@ -480,8 +482,9 @@ class _Writer:
         self.nodes: list[int] = []
 
     def document(self, node: Node) -> tuple[str, Parsed] | None:
-        if not (isinstance(node, MappingNode) and node.tag == MAP and node.value
-                and not node.flow_style):
+        if not (
+            isinstance(node, MappingNode) and node.tag == MAP and node.value and not node.flow_style
+        ):
             return None
         try:
             self.parsed.data = self._block(node, "", ())
@@ -513,8 +516,10 @@ class _Writer:
                 else:
                     text, result[key] = self._flow_mapping(value, at)
                     self._emit(f"{indent}{shown}: {text}")
-            elif isinstance(value, SequenceNode) and value.tag == SEQ and (
-                value.flow_style or not value.value
+            elif (
+                isinstance(value, SequenceNode)
+                and value.tag == SEQ
+                and (value.flow_style or not value.value)
             ):
                 text, result[key] = self._flow_sequence(value, at)
                 self._emit(f"{indent}{shown}: {text}")
@@ -569,8 +574,11 @@ class _Writer:
             raise _Bail
         self.nodes.append(id(node))
         value = node.value
-        if node.tag == INT and value.isascii() and value.isdigit() and (
-            value[0] != "0" or value == "0"
+        if (
+            node.tag == INT
+            and value.isascii()
+            and value.isdigit()
+            and (value[0] != "0" or value == "0")
         ):
             return value, value  # a step or table number: plain, and parse keeps it so
         if not _PLAIN.fullmatch(value) or _implicit(value) != node.tag:
@@ -609,8 +617,7 @@ class _Writer:
 def _flow(node: Node, kind: type[Node], tag: str) -> bool:
     """``node`` is a ``kind`` of ``tag`` that the emitter writes in flow style in a
     block (a flow collection, or an empty one): the same as it writes it in a flow."""
-    return isinstance(node, kind) and node.tag == tag and bool(
-        node.flow_style or not node.value)
+    return isinstance(node, kind) and node.tag == tag and bool(node.flow_style or not node.value)
 
 
 #: What :func:`dump` wrote and :func:`parse` will be asked to read back, with what

@@ -28,10 +28,13 @@ def after_writes_verb(busy_verb: str) -> str:
 
 def describe(sim: Device[Any]) -> str:
     with sim.lock:
-        return "; ".join(
-            f"station {sim.show_station(n)}: {sim.describe(s)}"
-            for n, s in sorted(sim.stations.items())
-        ) + f"; {sim.writes} writes received"
+        return (
+            "; ".join(
+                f"station {sim.show_station(n)}: {sim.describe(s)}"
+                for n, s in sorted(sim.stations.items())
+            )
+            + f"; {sim.writes} writes received"
+        )
 
 
 def apply_command(sim: Device[Any], line: str) -> str:

@@ -165,9 +165,12 @@ class Faults:
             raise ValueError(
                 f"unknown fault {', '.join(sorted(unknown))} (known: {', '.join(cls.names())})"
             )
-        return cls(**{  # type: ignore[arg-type]
-            name: int(value) if name == "seed" else float(value) for name, value in named.items()
-        })
+        return cls(
+            **{  # type: ignore[arg-type]
+                name: int(value) if name == "seed" else float(value)
+                for name, value in named.items()
+            }
+        )
 
     @classmethod
     def parse(cls, text: str) -> Faults:
@@ -180,9 +183,7 @@ class Faults:
         (for a family that applies a fault its own way)."""
         return bool(rate) and self._rng.random() < rate
 
-    def shape(
-        self, frame: bytes, corrupt: Callable[[bytes], bytes]
-    ) -> list[tuple[float, bytes]]:
+    def shape(self, frame: bytes, corrupt: Callable[[bytes], bytes]) -> list[tuple[float, bytes]]:
         """The reply as chunks ``(extra delay, bytes)``; empty when dropped.
 
         ``corrupt`` returns the frame with a wrong checksum (the family knows where
@@ -291,16 +292,15 @@ class Device(ABC, Generic[S]):
         self.writes += 1
         due = self.busy_after_writes and self.writes >= self.busy_after_writes
         if due and not self.busy(state):
-            log.info("sim: scheduled switch after %d writes: %s", self.writes,
-                     self.family.busy_verb)
+            log.info(
+                "sim: scheduled switch after %d writes: %s", self.writes, self.family.busy_verb
+            )
             self.control(self.family.busy_verb, state, ())
 
     def writes_received(self, station: int | None = None) -> list[Received]:
         with self.lock:
             return [
-                r
-                for r in self.received
-                if r.is_write and (station is None or r.station == station)
+                r for r in self.received if r.is_write and (station is None or r.station == station)
             ]
 
 
@@ -328,8 +328,7 @@ class Simulator(Device[S], Generic[S, F]):
         busy_after_writes: int = 0,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
-        super().__init__(stations, faults=faults, busy_after_writes=busy_after_writes,
-                         clock=clock)
+        super().__init__(stations, faults=faults, busy_after_writes=busy_after_writes, clock=clock)
         self.baudrate = baudrate
         self.bits_per_char = bits_per_char
         self.turnaround = turnaround
@@ -389,8 +388,14 @@ class Simulator(Device[S], Generic[S, F]):
         wire = self._wire_time(size + len(reply))
         chunks = self.faults.shape(reply, self.corrupt_checksum)
         record = Received(
-            frame.station, frame.payload, self.command(frame), self.is_write(frame),
-            self.clock(), bool(chunks), busy, client,
+            frame.station,
+            frame.payload,
+            self.command(frame),
+            self.is_write(frame),
+            self.clock(),
+            bool(chunks),
+            busy,
+            client,
         )
         self.record(record)
         self.bytes_out += sum(len(chunk) for _, chunk in chunks)

@@ -134,8 +134,10 @@ def line_family(name: str | None) -> LineFamily:
     """
     family = sim_family(name)
     if not isinstance(family, LineFamily):
-        raise ProjectError(f"the {family.name} simulator is not a serial line: serve it with "
-                           f"harlsync sim --family {family.name} --listen HOST:PORT")
+        raise ProjectError(
+            f"the {family.name} simulator is not a serial line: serve it with "
+            f"harlsync sim --family {family.name} --listen HOST:PORT"
+        )
     return family
 
 

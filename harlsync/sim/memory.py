@@ -26,9 +26,7 @@ def keep_state(sim: Device[Any], directory: str | Path) -> None:
     """Load ``sim``'s stations from ``directory`` (those saved there) and save each
     after every write it receives.  Raises ProjectError for an unreadable state."""
     root = Path(directory)
-    paths = {
-        number: root / f"station-{sim.show_station(number)}" for number in sim.stations
-    }
+    paths = {number: root / f"station-{sim.show_station(number)}" for number in sim.stations}
     for number, path in paths.items():
         if not sim.load_station(number, path):
             sim.save_station(number, path)
@@ -38,7 +36,11 @@ def keep_state(sim: Device[Any], directory: str | Path) -> None:
             try:
                 sim.save_station(request.station, paths[request.station])
             except Exception as exc:  # noqa: BLE001  the simulator must go on answering
-                log.error("sim: cannot save station %s to %s: %s",
-                          sim.show_station(request.station), paths[request.station], exc)
+                log.error(
+                    "sim: cannot save station %s to %s: %s",
+                    sim.show_station(request.station),
+                    paths[request.station],
+                    exc,
+                )
 
     sim.listeners.append(save_after_write)

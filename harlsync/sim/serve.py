@@ -119,7 +119,9 @@ class ReplyScheduler:
         out = []
         n = len(data)
         for stop in range(n % per_write or per_write, n + 1, per_write):
-            out.append((end - (n - stop) * step, data[stop - per_write if stop >= per_write else 0 : stop]))
+            out.append(
+                (end - (n - stop) * step, data[stop - per_write if stop >= per_write else 0 : stop])
+            )
         return out
 
     def close(self) -> None:

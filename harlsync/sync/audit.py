@@ -184,8 +184,11 @@ def of_robot(
     """The records of the robot at ``port``/``station``, whatever project pushed to it,
     and those of ``project`` (a push refused before it named its robot)."""
     where = str(project.resolve()) if project is not None else None
-    return [r for r in records
-            if _same_robot(r, port, station) or (where is not None and r.get("project") == where)]
+    return [
+        r
+        for r in records
+        if _same_robot(r, port, station) or (where is not None and r.get("project") == where)
+    ]
 
 
 def unsettled(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:

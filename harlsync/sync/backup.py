@@ -50,6 +50,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
+
 @dataclass
 class RobotOutcome:
     """One robot's result in a backup run."""
@@ -94,8 +95,11 @@ class BackupReport:
     @property
     def ok(self) -> bool:
         """Every robot backed up and committed, and pushed when a push was asked for."""
-        return (all(r.ok for r in self.robots) and self.commit_error is None
-                and self.pushed is not False)
+        return (
+            all(r.ok for r in self.robots)
+            and self.commit_error is None
+            and self.pushed is not False
+        )
 
     @property
     def changed(self) -> list[RobotOutcome]:
@@ -151,8 +155,10 @@ class BackupReport:
         if self.commit:
             tail += f", commit {self.commit[:10]}"
         if self.commit_error:
-            tail += (f"; git commit FAILED: {self.commit_error} (the backups are saved; the "
-                     "next run commits them)")
+            tail += (
+                f"; git commit FAILED: {self.commit_error} (the backups are saved; the "
+                "next run commits them)"
+            )
         if self.push_error:
             tail += f"; git push FAILED: {self.push_error} (the commit is kept locally)"
         elif self.pushed:
@@ -217,8 +223,9 @@ class _Stopped(Exception):
     """The run was interrupted (Ctrl-C): a robot's read stops at its next exchange."""
 
 
-def _pull_one(path: Path, attempts: int, lock_timeout: float,
-              progress: Progress | None = None) -> RobotOutcome:
+def _pull_one(
+    path: Path, attempts: int, lock_timeout: float, progress: Progress | None = None
+) -> RobotOutcome:
     start = time.monotonic()
     try:
         robot = load_robot(path)
@@ -254,8 +261,12 @@ def _pull_one(path: Path, attempts: int, lock_timeout: float,
 
 
 def _backup_one(
-    path: Path, attempts: int, lock_timeout: float, clock: Callable[[], datetime],
-    watch: BackupWatch, stop: threading.Event,
+    path: Path,
+    attempts: int,
+    lock_timeout: float,
+    clock: Callable[[], datetime],
+    watch: BackupWatch,
+    stop: threading.Event,
 ) -> RobotOutcome:
     """Back up one robot, holding its project from the pull to the record of it,
     which says when it ended (``clock()``).  Every log line meanwhile names the
@@ -375,8 +386,11 @@ def backup(
     stop = threading.Event()
 
     def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
-        return [_backup_one(p, attempts, lock_timeout, clock, watching, stop)
-                for p in paths_on_line if not stop.is_set()]
+        return [
+            _backup_one(p, attempts, lock_timeout, clock, watching, stop)
+            for p in paths_on_line
+            if not stop.is_set()
+        ]
 
     workers = len(lines) if jobs is None else jobs
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
@@ -427,7 +441,9 @@ def run_hook(command: str, report: BackupReport, event: str) -> int:
         HARLSYNC_FAILED=" ".join(r.name for r in report.robots if not r.ok),
         HARLSYNC_REPORT=json.dumps(report.to_json()),
     )
-    done = subprocess.run(command, shell=True, input=report.render(), text=True, env=env, check=False)
+    done = subprocess.run(
+        command, shell=True, input=report.render(), text=True, env=env, check=False
+    )
     if done.returncode:
         log.error("hook %r exited with %d", command, done.returncode)
     return done.returncode

@@ -87,7 +87,11 @@ SNAPSHOT_DIR = history.LOCAL_DIR / "snapshots"
 
 
 def connect(
-    robot: Robot, port: str | None = None, station: int | None = None, *, lock_timeout: float = 10.0,
+    robot: Robot,
+    port: str | None = None,
+    station: int | None = None,
+    *,
+    lock_timeout: float = 10.0,
     options: Mapping[str, Any] | None = None,
 ) -> Driver:
     """Open the robot's line (``port``/``station`` override the robot file).
@@ -128,8 +132,9 @@ def station_number(family: str | None, station: Station) -> int | None:
     try:
         return the_family.parse_station(text)
     except ValueError as exc:
-        raise ProjectError(f"--station: {exc}" if isinstance(station, str)
-                           else f"station: {exc}") from None
+        raise ProjectError(
+            f"--station: {exc}" if isinstance(station, str) else f"station: {exc}"
+        ) from None
 
 
 class LiveRead(NamedTuple):
@@ -183,11 +188,16 @@ def _unfinished(robot: Robot, port: str | None, station: int | None) -> list[str
     Called with the line held, so no push in progress can be mistaken for one.
     """
     try:
-        found = audit.unfinished(port or robot.port,
-                                 station if station is not None else robot.station)
+        found = audit.unfinished(
+            port or robot.port, station if station is not None else robot.station
+        )
     except OSError as exc:
-        return [(f"cannot read the audit log {audit.audit_path()} ({exc}) to check for an "
-                 "unfinished push")]
+        return [
+            (
+                f"cannot read the audit log {audit.audit_path()} ({exc}) to check for an "
+                "unfinished push"
+            )
+        ]
     return [audit.describe_unfinished(record) for record in found]
 
 
@@ -249,7 +259,7 @@ def _absolute_sim_path(port: str) -> str:
     """``sim://projects/x`` as ``sim:///abs/projects/x``: robot.yaml works from any directory."""
     if not port.startswith("sim://"):
         return port
-    rest = port[len("sim://"):]
+    rest = port[len("sim://") :]
     path, sep, query = rest.partition("?")
     if not path or path.startswith(("@", "/")):
         return port
@@ -281,8 +291,10 @@ def _earlier_pull_and_edits(path: Path) -> tuple[list[str], str]:
         return [], ""
     inside = {f: (top / f).relative_to(path.resolve()).as_posix() for f in dirty}
     edited = set(edited_since_save(path, inside.values()))
-    return ([name for name in inside.values() if name not in edited],
-            _listed([f for f, name in inside.items() if name in edited]))
+    return (
+        [name for name in inside.values() if name not in edited],
+        _listed([f for f, name in inside.items() if name in edited]),
+    )
 
 
 @holding_project("pull")
@@ -323,8 +335,15 @@ def pull(
             f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
             f"commit or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
         )
-    read = read_live(robot, port, station, registers=robot.keep_registers,
-                     progress=progress, lock_timeout=lock_timeout, options=connect_options)
+    read = read_live(
+        robot,
+        port,
+        station,
+        registers=robot.keep_registers,
+        progress=progress,
+        lock_timeout=lock_timeout,
+        options=connect_options,
+    )
     live = read.live
     try:  # after the read: the first request need not wait for it (issue 15)
         previous: Any = load_project(path).data
@@ -333,11 +352,18 @@ def pull(
     if previous is not None and not new_robot:
         _same_robot(path, catalogue(robot), previous, live, read.driver.label)
     save_project(path, Project(path, robot, live))
-    changes = None if previous is None else diff(
-        catalogue(robot), previous, live, registers=robot.keep_registers
+    changes = (
+        None
+        if previous is None
+        else diff(catalogue(robot), previous, live, registers=robot.keep_registers)
     )
-    result = PullResult(path, robot, changes, earlier=earlier,
-                        contents=catalogue(robot).contents(live, registers=robot.keep_registers))
+    result = PullResult(
+        path,
+        robot,
+        changes,
+        earlier=earlier,
+        contents=catalogue(robot).contents(live, registers=robot.keep_registers),
+    )
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
         result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
@@ -362,8 +388,11 @@ def _same_robot(path: Path, things: Catalogue, backup: Any, live: Any, where: st
     Each kind is judged alone: the HARL-U2's 100 offset tables, most of them unused
     and alike on every robot, must not hide that every program step changed."""
     was, now = things.robot_identity(backup), things.robot_identity(live)
-    differ = [f"{name} {now.get(name)!r} (the backup has {value!r})"
-              for name, value in was.items() if now.get(name) != value]
+    differ = [
+        f"{name} {now.get(name)!r} (the backup has {value!r})"
+        for name, value in was.items()
+        if now.get(name) != value
+    ]
     if not differ:
         held = things.items(backup, registers=False).keys() | things.items(live, registers=False)
         changes = diff(things, backup, live)
@@ -371,9 +400,13 @@ def _same_robot(path: Path, things: Catalogue, backup: Any, live: Any, where: st
             of_kind = [c for c in changes if c.key.kind == kind]
             count = sum(key.kind == kind for key in held)
             if count >= FEW_ITEMS and len(of_kind) > MOST * count:
-                differ = [(f"{change_summary(of_kind)} would change, {len(of_kind)} of the "
-                           f"{count} items of that kind: it looks like another robot, or one "
-                           "whose memory was lost")]
+                differ = [
+                    (
+                        f"{change_summary(of_kind)} would change, {len(of_kind)} of the "
+                        f"{count} items of that kind: it looks like another robot, or one "
+                        "whose memory was lost"
+                    )
+                ]
                 break
     if differ:
         raise PolicyError(
@@ -411,8 +444,14 @@ class Comparison:
 
     def plan(self) -> Plan:
         """The plan a push would carry out, from this comparison."""
-        return make_plan(catalogue(self.project.robot), self.live, self.project.data,
-                         self.driver, robot=self.project.robot.name, registers=self.registers)
+        return make_plan(
+            catalogue(self.project.robot),
+            self.live,
+            self.project.data,
+            self.driver,
+            robot=self.project.robot.name,
+            registers=self.registers,
+        )
 
 
 def compare(
@@ -430,12 +469,28 @@ def compare(
     ``idle_check`` also say whether a push would be refused now (robot not idle)."""
     project = load_project(path)
     station = station_number(project.robot.family, station)
-    read = read_live(project.robot, port, station, registers=registers, progress=progress,
-                     lock_timeout=lock_timeout, idle_check=idle_check, options=connect_options)
+    read = read_live(
+        project.robot,
+        port,
+        station,
+        registers=registers,
+        progress=progress,
+        lock_timeout=lock_timeout,
+        idle_check=idle_check,
+        options=connect_options,
+    )
     things = catalogue(project.robot)
     changes = diff(things, read.live, project.data, registers=registers)
-    return Comparison(project, read.driver, read.live, changes, read.warnings, read.busy,
-                      things.contents(read.live, registers=registers), registers)
+    return Comparison(
+        project,
+        read.driver,
+        read.live,
+        changes,
+        read.warnings,
+        read.busy,
+        things.contents(read.live, registers=registers),
+        registers,
+    )
 
 
 def plan(
@@ -449,8 +504,15 @@ def plan(
     connect_options: Mapping[str, Any] | None = None,
 ) -> Plan:
     """The plan a push would carry out now; sends no write."""
-    return compare(path, port=port, station=station, progress=progress, registers=registers,
-                   lock_timeout=lock_timeout, connect_options=connect_options).plan()
+    return compare(
+        path,
+        port=port,
+        station=station,
+        progress=progress,
+        registers=registers,
+        lock_timeout=lock_timeout,
+        connect_options=connect_options,
+    ).plan()
 
 
 # --- push and rollback --------------------------------------------------------------
@@ -589,9 +651,14 @@ def all_snapshots(path: str | Path) -> list[Snapshot]:
                 when = datetime.strptime(match["time"], "%Y%m%dT%H%M%S.%fZ")
             except ValueError:  # not a time harlsync wrote: the number still orders it
                 when = None
-            found.append(Snapshot(int(match["number"] or 0),
-                                  when and when.replace(tzinfo=timezone.utc),
-                                  match["action"], taken))
+            found.append(
+                Snapshot(
+                    int(match["number"] or 0),
+                    when and when.replace(tzinfo=timezone.utc),
+                    match["action"],
+                    taken,
+                )
+            )
     return sorted(found, key=lambda s: (s.number, s.path.name))
 
 
@@ -643,8 +710,11 @@ def _deploy(
     result = PushResult()
     record = audit.base_record(action)
     record.update(
-        robot={"name": robot.name, "port": port or robot.port,
-               "station": station if station is not None else robot.station},
+        robot={
+            "name": robot.name,
+            "port": port or robot.port,
+            "station": station if station is not None else robot.station,
+        },
         project=str(project.path.resolve()),
         commit=git.head(project.path),
         reason=opts.reason,
@@ -654,11 +724,14 @@ def _deploy(
     try:
         if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
             review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
-            raise PolicyError(f"nobody to confirm the {action} (no terminal to ask on) and no "
-                              f"--yes: nothing was read or written; {review}give --yes")
+            raise PolicyError(
+                f"nobody to confirm the {action} (no terminal to ask on) and no "
+                f"--yes: nothing was read or written; {review}give --yes"
+            )
         _check_window(robot, opts)
-        driver = connect(robot, port, station, lock_timeout=opts.lock_timeout,
-                         options=opts.connect_options)
+        driver = connect(
+            robot, port, station, lock_timeout=opts.lock_timeout, options=opts.connect_options
+        )
         result.warnings = _unfinished(robot, port, station)
         if not opts.allow_live_tuning:
             _interlock(driver, robot, "reading the robot")
@@ -676,20 +749,36 @@ def _deploy(
         result.snapshot = _save_snapshot(project.path, robot, live, action)
         record["snapshot"] = str(result.snapshot)
         _journal(dict(record, event="start"))
-        _write_all(driver, robot, the_plan, opts, result,
-                   lambda w: _journal({"event": "write", "id": record["id"], "time": audit.now(),
-                                       "item": w.name, "command": w.command}))
+        _write_all(
+            driver,
+            robot,
+            the_plan,
+            opts,
+            result,
+            lambda w: _journal(
+                {
+                    "event": "write",
+                    "id": record["id"],
+                    "time": audit.now(),
+                    "item": w.name,
+                    "command": w.command,
+                }
+            ),
+        )
         record["result"] = "ok"
         return result
     except (HarlsyncError, KeyboardInterrupt) as exc:
         stopped: HarlsyncError = (
-            exc if isinstance(exc, HarlsyncError)
-            else SyncError(f"{action} interrupted (Ctrl-C)")
+            exc if isinstance(exc, HarlsyncError) else SyncError(f"{action} interrupted (Ctrl-C)")
         )
         result.error = str(stopped)
         refused = isinstance(exc, InterlockError | PolicyError | StalePlanError)
         record["result"] = (
-            "refused" if refused else "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+            "refused"
+            if refused
+            else "interrupted"
+            if isinstance(exc, KeyboardInterrupt)
+            else "failed"
         )
         record["error"] = result.error
         if result.plan is not None:
@@ -836,9 +925,7 @@ def _write_all(
             )
 
 
-def _last_guarded(
-    result: PushResult, live: Callable[[PlannedWrite], bool]
-) -> PlannedWrite | None:
+def _last_guarded(result: PushResult, live: Callable[[PlannedWrite], bool]) -> PlannedWrite | None:
     """The last write made that needed an idle robot (the last one LNR cleared)."""
     return next((w for w in reversed(result.written) if not live(w)), None)
 
@@ -848,8 +935,10 @@ def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite], bool]) -> str:
     last = _last_guarded(result, live)
     if last is None:
         return ""
-    return (f". It was started after the status read before {last.name}: that write may "
-            "have reached it while a task ran; check the robot")
+    return (
+        f". It was started after the status read before {last.name}: that write may "
+        "have reached it while a task ran; check the robot"
+    )
 
 
 @holding_project("push")
@@ -893,7 +982,9 @@ def _check_committed(path: Path, files: Mapping[str, bytes]) -> None:
         )
     dirty = _uncommitted(path)
     if dirty:
-        raise PolicyError(f"{path} has uncommitted changes ({dirty}): commit them, or give --allow-dirty")
+        raise PolicyError(
+            f"{path} has uncommitted changes ({dirty}): commit them, or give --allow-dirty"
+        )
     top = top.resolve()
     inside: dict[str, str] = {}  # path in the repository -> the project's name for it
     for name in files:
@@ -919,8 +1010,7 @@ def _prefixes(path: Path, name: str) -> list[Path]:
     return [path.joinpath(*parts[: n + 1]) for n in range(len(parts))]
 
 
-def _not_committed(path: Path, name: str, at: str, why: str, commit: str | None,
-                   count: int) -> str:
+def _not_committed(path: Path, name: str, at: str, why: str, commit: str | None, count: int) -> str:
     """One line: the project's file ``name`` (at ``at`` in the repository) is not as
     the commit holds it, ``why`` (see :func:`git.not_in_commit`), and what to do."""
     file = path / name
@@ -933,15 +1023,22 @@ def _not_committed(path: Path, name: str, at: str, why: str, commit: str | None,
     elif why == "missing":
         text = f"{shown} is not in commit {commit[:10]}: git add and commit it"
     else:
-        text = f"{shown} differs from commit {commit[:10]}: commit it, or restore it with git checkout"
+        text = (
+            f"{shown} differs from commit {commit[:10]}: commit it, or restore it with git checkout"
+        )
     more = f"; {count - 1} more file(s) likewise" if count > 1 else ""
     return f"{text}, or give --allow-dirty{more}"
 
 
 def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:
     record = audit.base_record(action)
-    record.update(project=str(Path(path).resolve()), reason=opts.reason, result="refused",
-                  error=str(exc), written=[])
+    record.update(
+        project=str(Path(path).resolve()),
+        reason=opts.reason,
+        result="refused",
+        error=str(exc),
+        written=[],
+    )
     try:
         audit.append(record)
     except OSError as err:
@@ -970,4 +1067,3 @@ def rollback(
         raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
     saved = load_project(chosen)
     return _deploy("rollback", project, saved.data, opts, port, station)
-

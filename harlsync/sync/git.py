@@ -16,19 +16,34 @@ from ..errors import SyncError
 from ..project.store import IN_PROGRESS
 
 __all__ = [
-    "Commit", "changed_files", "commit", "head", "log", "not_in_commit", "push", "repo_root",
+    "Commit",
+    "changed_files",
+    "commit",
+    "head",
+    "log",
+    "not_in_commit",
+    "push",
+    "repo_root",
     "show",
 ]
 
 
 def _git(
-    cwd: Path, *args: str, check: bool = True, ok: tuple[int, ...] = (0,),
+    cwd: Path,
+    *args: str,
+    check: bool = True,
+    ok: tuple[int, ...] = (0,),
     stdin: str | None = None,
 ) -> subprocess.CompletedProcess[str]:
     """Run git in ``cwd``; with ``check``, an exit status not in ``ok`` raises SyncError."""
     try:
         result = subprocess.run(
-            ["git", *args], cwd=cwd, capture_output=True, text=True, check=False, input=stdin,
+            ["git", *args],
+            cwd=cwd,
+            capture_output=True,
+            text=True,
+            check=False,
+            input=stdin,
             errors="surrogateescape",  # file names as os.listdir gives them, whatever bytes
         )
     except FileNotFoundError as exc:
@@ -61,8 +76,9 @@ def changed_files(path: str | Path) -> list[str]:
     root = repo_root(path)
     if root is None or not Path(path).exists():
         return []
-    status = _git(root, "status", "--porcelain", "--untracked-files=all", "--",
-                  str(Path(path).resolve()))
+    status = _git(
+        root, "status", "--porcelain", "--untracked-files=all", "--", str(Path(path).resolve())
+    )
     return [line[3:] for line in status.stdout.splitlines() if line.strip()]
 
 
@@ -86,19 +102,29 @@ def not_in_commit(root: Path, rev: str | None, files: Mapping[str, bytes]) -> di
     """
     found: dict[str, str] = {}  # path -> object id, for the blobs the commit has
     if rev is not None and files:
-        listing = _git(root, "--literal-pathspecs", "ls-tree", "-r", "-z", "--full-tree", rev,
-                       "--", *files).stdout
+        listing = _git(
+            root, "--literal-pathspecs", "ls-tree", "-r", "-z", "--full-tree", rev, "--", *files
+        ).stdout
         for entry in filter(None, listing.split("\0")):
             meta, _, name = entry.partition("\t")
             _mode, kind, oid = meta.split(" ")
             if kind == "blob":
                 found[name] = oid
-    out = {name: "differs" for name, oid in found.items()
-           if name in files and _blob_id(files[name], oid) != oid}
+    out = {
+        name: "differs"
+        for name, oid in found.items()
+        if name in files and _blob_id(files[name], oid) != oid
+    }
     missing = [name for name in files if name not in found]
     if missing:
-        ignored = _git(root, "check-ignore", "-z", "--stdin", ok=(0, 1),  # 1: none is
-                       stdin="\0".join(missing) + "\0")
+        ignored = _git(
+            root,
+            "check-ignore",
+            "-z",
+            "--stdin",
+            ok=(0, 1),  # 1: none is
+            stdin="\0".join(missing) + "\0",
+        )
         names = set(filter(None, ignored.stdout.split("\0")))
         out.update({name: "ignored" if name in names else "missing" for name in missing})
     return out
@@ -160,8 +186,15 @@ def log(path: str | Path, limit: int = 10) -> list[Commit]:
     root = repo_root(path)
     if root is None:
         return []
-    result = _git(root, "log", f"-n{limit}", "--format=%H%x1f%cI%x1f%s", "--",
-                  str(Path(path).resolve()), check=False)
+    result = _git(
+        root,
+        "log",
+        f"-n{limit}",
+        "--format=%H%x1f%cI%x1f%s",
+        "--",
+        str(Path(path).resolve()),
+        check=False,
+    )
     if result.returncode != 0:
         return []
     return [Commit(*line.split("\x1f", 2)) for line in result.stdout.splitlines() if line]
@@ -173,6 +206,15 @@ def show(commit: str, path: str | Path) -> str:
     root = repo_root(path)
     if root is None:
         return ""
-    result = _git(root, "show", "--format=", "--no-color", "--no-ext-diff", commit, "--",
-                  str(Path(path).resolve()), check=False)
+    result = _git(
+        root,
+        "show",
+        "--format=",
+        "--no-color",
+        "--no-ext-diff",
+        commit,
+        "--",
+        str(Path(path).resolve()),
+        check=False,
+    )
     return result.stdout if result.returncode == 0 else ""

@@ -65,9 +65,15 @@ def stale(last_success: str | None, now: datetime, after: timedelta) -> bool:
     return last_success is not None and now - datetime.fromisoformat(last_success) > after
 
 
-def record(project: Path, *, ok: bool, error: str | None = None,
-           now: datetime | None = None, changed: bool | None = None,
-           changes: str | None = None) -> dict[str, Any]:
+def record(
+    project: Path,
+    *,
+    ok: bool,
+    error: str | None = None,
+    now: datetime | None = None,
+    changed: bool | None = None,
+    changes: str | None = None,
+) -> dict[str, Any]:
     """Record one attempt; return the updated state.
 
     A good one that says what it ``changed`` (``changes``, in the family's words)

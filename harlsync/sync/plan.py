@@ -131,12 +131,14 @@ def make_plan(
 ) -> Plan:
     """The writes that turn ``live`` into ``project``, in the safe order."""
     changes = diff(catalogue, live, project, registers=registers)
-    shape = catalogue.plan(live, project, [(c.key, c.old, c.new) for c in changes],
-                           registers=registers)
+    shape = catalogue.plan(
+        live, project, [(c.key, c.old, c.new) for c in changes], registers=registers
+    )
     wanted = sorted(shape.wanted, key=lambda w: catalogue.order(w[0]))
     writes = [
-        PlannedWrite(key, old, new, driver.command(key, new), driver.unsafe(key),
-                     catalogue.describe(key))
+        PlannedWrite(
+            key, old, new, driver.command(key, new), driver.unsafe(key), catalogue.describe(key)
+        )
         for key, old, new in wanted
     ]
     return Plan(

@@ -85,8 +85,15 @@ def _diff_lines(text: str) -> tuple[list[DiffLine], int]:
             name, _, body = files[-1]
             files[-1] = (name, "new" if line.startswith("new") else "deleted", body)
         else:
-            kind = ("hunk" if line.startswith("@@") else "add" if line.startswith("+")
-                    else "del" if line.startswith("-") else "context")
+            kind = (
+                "hunk"
+                if line.startswith("@@")
+                else "add"
+                if line.startswith("+")
+                else "del"
+                if line.startswith("-")
+                else "context"
+            )
             files[-1][2].append(DiffLine(kind, line))
     lines = []
     for name, how, body in files:
@@ -119,13 +126,24 @@ def _written(robot: RobotStatus) -> list[DiffLine]:
 
 def _events(robot: RobotStatus) -> list[Event]:
     """The robot's recent commits (backups, edits), pushes and a failed last backup."""
-    events = [Event(c.time, robot.name, "commit", f"{c.sha[:10]} {c.subject}", "ok")
-              for c in git.log(robot.path, ROBOT_EVENTS)]
-    events += [Event(p.time or "", robot.name, p.action, f"{p.result} {p.details()}", p.result)
-               for p in robot.pushes[-ROBOT_EVENTS:]]
+    events = [
+        Event(c.time, robot.name, "commit", f"{c.sha[:10]} {c.subject}", "ok")
+        for c in git.log(robot.path, ROBOT_EVENTS)
+    ]
+    events += [
+        Event(p.time or "", robot.name, p.action, f"{p.result} {p.details()}", p.result)
+        for p in robot.pushes[-ROBOT_EVENTS:]
+    ]
     if robot.last_result == "failed" and robot.last_attempt:
-        events.append(Event(robot.last_attempt, robot.name, "failed",
-                            f"backup failed: {robot.last_error}", "failed"))
+        events.append(
+            Event(
+                robot.last_attempt,
+                robot.name,
+                "failed",
+                f"backup failed: {robot.last_error}",
+                "failed",
+            )
+        )
     return sorted(events, key=lambda e: e.when, reverse=True)[:ROBOT_EVENTS]
 
 
@@ -156,8 +174,13 @@ def render_html(status: PlantStatus) -> str:
     events += [e for r in status.robots if r.path not in anchors for e in _events(r)]
     events.sort(key=lambda e: e.when, reverse=True)
     template = _environment().get_template("status.html")
-    return template.render(status=status, details=details, events=events[:PLANT_EVENTS],
-                           anchors=anchors, version=__version__)
+    return template.render(
+        status=status,
+        details=details,
+        events=events[:PLANT_EVENTS],
+        anchors=anchors,
+        version=__version__,
+    )
 
 
 def write_html(path: str | Path, status: PlantStatus) -> None:

@@ -197,19 +197,37 @@ class PlantStatus:
 
     def render(self, *, color: bool = False) -> str:
         """The table a person reads, a line per robot, then what needs saying at length."""
-        rows = [("robot", "state", "family", "port", "station", "last good backup", "commit",
-                 "changes", "last attempt", "last push")]
+        rows = [
+            (
+                "robot",
+                "state",
+                "family",
+                "port",
+                "station",
+                "last good backup",
+                "commit",
+                "changes",
+                "last attempt",
+                "last push",
+            )
+        ]
         notes = []
         for r in self.robots:
             push = r.last_push
-            rows.append((
-                r.name, r.state, r.family or "?", r.port or "?", r.station or "?",
-                local_time(r.last_success) if r.last_success else "never",
-                r.commit_text,
-                r.changes_text,
-                f"{local_time(r.last_attempt)} {r.last_result}" if r.last_attempt else "-",
-                f"{local_time(push.time)} {push.action} {push.result}" if push else "-",
-            ))
+            rows.append(
+                (
+                    r.name,
+                    r.state,
+                    r.family or "?",
+                    r.port or "?",
+                    r.station or "?",
+                    local_time(r.last_success) if r.last_success else "never",
+                    r.commit_text,
+                    r.changes_text,
+                    f"{local_time(r.last_attempt)} {r.last_result}" if r.last_attempt else "-",
+                    f"{local_time(push.time)} {push.action} {push.result}" if push else "-",
+                )
+            )
             if r.last_result == "failed":
                 notes.append(f"{r.name}: failed: {r.last_error}")
             notes += [f"{r.name}: {text}" for text in r.unfinished]
@@ -256,26 +274,39 @@ def _audit_records(warnings: list[str]) -> list[dict[str, Any]]:
     try:
         return audit.results()
     except (OSError, ValueError) as exc:
-        warnings.append(f"cannot read the audit log {audit.audit_path()} ({exc}): "
-                        "pushes are not shown")
+        warnings.append(
+            f"cannot read the audit log {audit.audit_path()} ({exc}): pushes are not shown"
+        )
         return []
 
 
-def _robot_status(path: Path, records: list[dict[str, Any]], now: datetime,
-                  stale_after: timedelta) -> RobotStatus:
+def _robot_status(
+    path: Path, records: list[dict[str, Any]], now: datetime, stale_after: timedelta
+) -> RobotStatus:
     try:
         robot = load_robot(path)
     except HarlsyncError as exc:  # that robot cannot be read: the others still are
-        return RobotStatus(path.name, str(path), None, None, None, state="failed",
-                           last_result="failed", last_error=str(exc))
+        return RobotStatus(
+            path.name,
+            str(path),
+            None,
+            None,
+            None,
+            state="failed",
+            last_result="failed",
+            last_error=str(exc),
+        )
     station = families.get(robot.family).format_station(robot.station)
     state = history.read(path)
     status = RobotStatus(
-        robot.name, str(path), robot.family, robot.port, station,
+        robot.name,
+        str(path),
+        robot.family,
+        robot.port,
+        station,
         last_attempt=state.get("last_attempt"),
-        last_result=state.get("last_result") or (
-            ("failed" if "last_error" in state else "ok") if state.get("last_attempt") else None
-        ),
+        last_result=state.get("last_result")
+        or (("failed" if "last_error" in state else "ok") if state.get("last_attempt") else None),
         last_error=state.get("last_error"),
         last_success=state.get("last_success"),
         last_commit=state.get("last_commit"),
@@ -325,7 +356,14 @@ def collect(
     projects = find_projects(paths)
     warnings: list[str] = []
     records = _audit_records(warnings)
-    robots = sorted((_robot_status(p, records, now, stale_after) for p in projects),
-                    key=lambda r: (r.name, r.path))
-    return PlantStatus(robots, now.isoformat(timespec="seconds"),
-                       stale_after.total_seconds() / 3600, str(audit.audit_path()), warnings)
+    robots = sorted(
+        (_robot_status(p, records, now, stale_after) for p in projects),
+        key=lambda r: (r.name, r.path),
+    )
+    return PlantStatus(
+        robots,
+        now.isoformat(timespec="seconds"),
+        stale_after.total_seconds() / 3600,
+        str(audit.audit_path()),
+        warnings,
+    )

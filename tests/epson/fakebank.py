@@ -123,8 +123,11 @@ class FakeController:
         value = self.holding[bit.register]
         self.holding[bit.register] = value | 1 << bit.bit if on else value & ~(1 << bit.bit)
         m = self.map
-        self._seen = (self._get(m.ext_cmd_set), self._get(m.ext_resp_get),
-                      self._get(m.ext_cmd_reset))
+        self._seen = (
+            self._get(m.ext_cmd_set),
+            self._get(m.ext_resp_get),
+            self._get(m.ext_cmd_reset),
+        )
         self.state = "idle" if self._seen[2] else "off"
 
     def input_signal(self, name: str) -> bool:
@@ -186,8 +189,7 @@ class FakeController:
             if self.state != "idle":  # a second request while one is unanswered
                 self._function_error(0x0001)
                 return
-            self._latched = tuple(self.holding[m.command_base + i]
-                                  for i in range(m.command_words))
+            self._latched = tuple(self.holding[m.command_base + i] for i in range(m.command_words))
             if self.fail_next is not None:
                 detail, self.fail_next = self.fail_next, None
                 self._function_error(detail)

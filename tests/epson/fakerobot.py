@@ -54,20 +54,20 @@ class RobotState:
     speed: dict[int, list[int]] = field(default_factory=dict)
     speed_s: dict[int, list[int]] = field(default_factory=dict)
     speed_r: dict[int, list[int]] = field(default_factory=dict)
-    arch: dict[int, list[int]] = field(default_factory=lambda: {
-        n: [30000, 30000] for n in range(7)})
+    arch: dict[int, list[int]] = field(
+        default_factory=lambda: {n: [30000, 30000] for n in range(7)}
+    )
     fine: list[int] = field(default_factory=lambda: [10000] * 6)
     weight: list[int] = field(default_factory=lambda: [2000, 0])
     inertia: list[int] = field(default_factory=lambda: [5, 0])
     tool: int = 0
     box: dict[int, list[int]] = field(default_factory=lambda: {n: [0] * 6 for n in range(1, 16)})
-    plane: dict[int, list[int]] = field(default_factory=lambda: {
-        n: [0] * 6 for n in range(1, 16)})
-    local: dict[int, list[int]] = field(default_factory=lambda: {
-        n: [0] * 6 for n in range(1, 16)})
+    plane: dict[int, list[int]] = field(default_factory=lambda: {n: [0] * 6 for n in range(1, 16)})
+    local: dict[int, list[int]] = field(default_factory=lambda: {n: [0] * 6 for n in range(1, 16)})
     xylim: list[int] = field(default_factory=lambda: [0] * 6)
-    jrange: dict[int, list[int]] = field(default_factory=lambda: {
-        j: [-100000, 100000] for j in range(1, 7)})
+    jrange: dict[int, list[int]] = field(
+        default_factory=lambda: {j: [-100000, 100000] for j in range(1, 7)}
+    )
     base: list[int] = field(default_factory=lambda: [0] * 6)
     limz: int = 0
     #: point -> its 6 coordinates, then hand, elbow, wrist, j4flag, j6flag, local
@@ -76,8 +76,11 @@ class RobotState:
     @classmethod
     def sample(cls, axes: int = 4) -> RobotState:
         """A robot with some of everything."""
-        state = cls(robot_type=3 if axes == 4 else 5, model="LS6-B602S" if axes == 4 else "C4-A601S",
-                    axes=axes)
+        state = cls(
+            robot_type=3 if axes == 4 else 5,
+            model="LS6-B602S" if axes == 4 else "C4-A601S",
+            axes=axes,
+        )
         state.accel = {0: [100, 100], 1: [50, 40]}
         state.accel_s = {3: [mm("100.123"), mm("200")]}
         state.accel_r = {0: [mm("1000"), mm("1000")]}
@@ -98,18 +101,71 @@ class RobotState:
 
     def power_cycle(self) -> None:
         """Power off and on: the six tables cleared, LimZ 0, Fine its defaults."""
-        for table in (self.accel, self.accel_s, self.accel_r, self.speed, self.speed_s,
-                      self.speed_r):
+        for table in (
+            self.accel,
+            self.accel_s,
+            self.accel_r,
+            self.speed,
+            self.speed_s,
+            self.speed_r,
+        ):
             table.clear()
         self.limz = 0
         self.fine = [10000] * 6
 
 
 #: Write commands (they change the state), by number.
-WRITES = frozenset({1, 53, 54, 55, 103, 104, 105, 151, 203, 204, 205, 251, 300, 301, 350, 351,
-                    352, 400, 401, 402, 450, 451, 452, 500, 600, 601, 602, 650, 700, 750, 751,
-                    752, 800, 801, 802, 850, 1204, 1206, 1207, 1208, 1209, 1210, 1211, 1212,
-                    1213, 1214, 1250})
+WRITES = frozenset(
+    {
+        1,
+        53,
+        54,
+        55,
+        103,
+        104,
+        105,
+        151,
+        203,
+        204,
+        205,
+        251,
+        300,
+        301,
+        350,
+        351,
+        352,
+        400,
+        401,
+        402,
+        450,
+        451,
+        452,
+        500,
+        600,
+        601,
+        602,
+        650,
+        700,
+        750,
+        751,
+        752,
+        800,
+        801,
+        802,
+        850,
+        1204,
+        1206,
+        1207,
+        1208,
+        1209,
+        1210,
+        1211,
+        1212,
+        1213,
+        1214,
+        1250,
+    }
+)
 _BUSY = ("Running", "Paused", "EStopOn", "Error")
 
 
@@ -139,8 +195,11 @@ class FakeRobot:
         number = words[0]
         self.commands.append(words)
         if number in WRITES:
-            if any(self.bank.inputs[bit.register] >> bit.bit & 1
-                   for name in _BUSY if (bit := self.bank.map.signal(name)) is not None):
+            if any(
+                self.bank.inputs[bit.register] >> bit.bit & 1
+                for name in _BUSY
+                if (bit := self.bank.map.signal(name)) is not None
+            ):
                 self.busy_writes.append(words)
             self.writes += 1
             if self.run_after_writes is not None and self.writes >= self.run_after_writes:
@@ -157,10 +216,18 @@ class FakeRobot:
         s = self.state
         n, a, b = w[0], w[1], w[2]
         tables: dict[int, tuple[dict[int, list[int]], str]] = {
-            3: (s.accel, "ints"), 59: (s.accel_s, "reals"), 60: (s.accel_s, "first"),
-            61: (s.accel_s, "second"), 109: (s.accel_r, "reals"), 110: (s.accel_r, "first"),
-            111: (s.accel_r, "second"), 153: (s.speed, "ints"), 209: (s.speed_s, "reals"),
-            210: (s.speed_s, "first two"), 211: (s.speed_s, "third"), 253: (s.speed_r, "reals"),
+            3: (s.accel, "ints"),
+            59: (s.accel_s, "reals"),
+            60: (s.accel_s, "first"),
+            61: (s.accel_s, "second"),
+            109: (s.accel_r, "reals"),
+            110: (s.accel_r, "first"),
+            111: (s.accel_r, "second"),
+            153: (s.speed, "ints"),
+            209: (s.speed_s, "reals"),
+            210: (s.speed_s, "first two"),
+            211: (s.speed_s, "third"),
+            253: (s.speed_r, "reals"),
         }
         if n in tables:
             table, how = tables[n]
@@ -169,17 +236,28 @@ class FakeRobot:
             if a not in table:
                 return NOT_REGISTERED
             v = table[a]
-            picked = {"ints": v, "reals": v, "first": v[:1], "second": v[1:2],
-                      "first two": v[:2], "third": v[2:]}[how]
+            picked = {
+                "ints": v,
+                "reals": v,
+                "first": v[:1],
+                "second": v[1:2],
+                "first two": v[:2],
+                "third": v[2:],
+            }[how]
             if how == "ints":
                 return (a, *picked)
             return (a, *_reals(picked))
         singles: dict[int, Callable[[], Words]] = {
-            302: lambda: _reals(s.weight), 353: lambda: _reals(s.inertia),
-            354: lambda: _reals(s.inertia[:1]), 355: lambda: _reals(s.inertia[1:]),
-            453: lambda: tuple(s.fine[:s.axes]), 454: lambda: tuple(s.fine[:3]),
-            455: lambda: tuple(s.fine[3:s.axes]), 501: lambda: (s.tool,),
-            1251: lambda: _reals([s.limz]), 2153: lambda: (s.robot_type,),
+            302: lambda: _reals(s.weight),
+            353: lambda: _reals(s.inertia),
+            354: lambda: _reals(s.inertia[:1]),
+            355: lambda: _reals(s.inertia[1:]),
+            453: lambda: tuple(s.fine[: s.axes]),
+            454: lambda: tuple(s.fine[:3]),
+            455: lambda: tuple(s.fine[3 : s.axes]),
+            501: lambda: (s.tool,),
+            1251: lambda: _reals([s.limz]),
+            2153: lambda: (s.robot_type,),
         }
         if n in singles:
             return singles[n]()
@@ -237,9 +315,11 @@ class FakeRobot:
             self._pending = []
             return self._apply([w])
         group, index, length = step
-        if index == 0 or not (self._pending and _sequence_step(
-                self._pending[0], self.state.axes)[0] == group  # type: ignore[index]
-                and len(self._pending) == index):
+        if index == 0 or not (
+            self._pending
+            and _sequence_step(self._pending[0], self.state.axes)[0] == group  # type: ignore[index]
+            and len(self._pending) == index
+        ):
             self._pending = []
             if index != 0:
                 return (0, 0)  # an orphan second half: cancelled, silently
@@ -257,13 +337,13 @@ class FakeRobot:
             if a > 15:
                 return OUT_OF_RANGE
             count = 2 if n == 1 else 3
-            (s.accel if n == 1 else s.speed)[a] = list(w[2:2 + count])
+            (s.accel if n == 1 else s.speed)[a] = list(w[2 : 2 + count])
         elif n in (53, 103, 203):
             table = {53: s.accel_s, 103: s.accel_r, 203: s.speed_s}[n]
-            table[a] = _units(w[2:2 + (4 if n != 203 else 6)])
+            table[a] = _units(w[2 : 2 + (4 if n != 203 else 6)])
         elif n in (54, 104, 204):
             table = {54: s.accel_s, 104: s.accel_r, 204: s.speed_s}[n]
-            table[a] = _units(w[2:2 + (2 if n != 204 else 4)]) + _units(ws[1][2:4])
+            table[a] = _units(w[2 : 2 + (2 if n != 204 else 4)]) + _units(ws[1][2:4])
         elif n == 251:
             s.speed_r[a] = _units(w[2:4])
         elif n == 300:
@@ -279,9 +359,9 @@ class FakeRobot:
         elif n == 401:
             s.arch[a] = _units(w[2:4]) + _units(ws[1][2:4])
         elif n == 450:
-            s.fine[:s.axes] = list(w[1:1 + s.axes])
+            s.fine[: s.axes] = list(w[1 : 1 + s.axes])
         elif n == 451:
-            s.fine[:s.axes] = [*w[1:4], *ws[1][1:s.axes - 2]]
+            s.fine[: s.axes] = [*w[1:4], *ws[1][1 : s.axes - 2]]
         elif n == 500:
             s.tool = a
         elif n == 600:
@@ -291,7 +371,7 @@ class FakeRobot:
             s.box[a] = [v for lo, hi in zip(lows, highs) for v in _units(lo[3:5]) + _units(hi[3:5])]
         elif n in (650, 700):
             frames = s.plane if n == 650 else s.local
-            frames[a][:s.axes] = [_units(c[3:5])[0] for c in ws]
+            frames[a][: s.axes] = [_units(c[3:5])[0] for c in ws]
         elif n == 750:
             s.xylim = [v for c in ws for v in _units(c[2:6])]
         elif n == 751:
@@ -302,7 +382,7 @@ class FakeRobot:
         elif n == 801:
             s.jrange[a] = _units(w[2:4]) + _units(ws[1][2:4])
         elif n == 850:
-            s.base[:s.axes] = [_units(c[2:4])[0] for c in ws]
+            s.base[: s.axes] = [_units(c[2:4])[0] for c in ws]
         elif n == 1204:
             axis = w[2] & 0x7
             point = s.points.setdefault(a, [0] * 12)
@@ -310,8 +390,14 @@ class FakeRobot:
         elif 1206 <= n <= 1214:
             if a not in s.points:
                 return PARAMETER
-            fixed = {1206: (6, 1), 1207: (6, 0), 1208: (7, 0), 1209: (7, 1), 1210: (8, 1),
-                     1211: (8, 0)}
+            fixed = {
+                1206: (6, 1),
+                1207: (6, 0),
+                1208: (7, 0),
+                1209: (7, 1),
+                1210: (8, 1),
+                1211: (8, 0),
+            }
             if n in fixed:
                 at, value = fixed[n]
                 s.points[a][at] = value

@@ -43,10 +43,17 @@ class ModbusServer(server.ModbusServer):
     fake controller plays its part on each read and write).
     """
 
-    def __init__(self, unit: int = 1, *, size: int = 64, inputs: list[int] | None = None,
-                 bank: FakeController | None = None) -> None:
-        super().__init__({unit: bank if bank is not None else Datastore(size, inputs or [])},
-                         size=size)
+    def __init__(
+        self,
+        unit: int = 1,
+        *,
+        size: int = 64,
+        inputs: list[int] | None = None,
+        bank: FakeController | None = None,
+    ) -> None:
+        super().__init__(
+            {unit: bank if bank is not None else Datastore(size, inputs or [])}, size=size
+        )
         self.bank = bank
 
 
@@ -75,8 +82,12 @@ class SilentServer:
         self._thread.start()
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         try:
             self._socket.shutdown(socket.SHUT_RDWR)  # wakes the accept() of the thread
         except OSError:

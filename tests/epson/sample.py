@@ -38,8 +38,11 @@ def sample_data(axes: int = 4) -> EpsonData:
         items[SettingKey("box", n)] = (OFF, OFF, OFF)
         items[SettingKey("plane", n)] = zeros
         items[SettingKey("local", n)] = zeros
-    items[SettingKey("box", 5)] = (Limits("-10.000", "10.000"), Limits("-20.000", "20.000"),
-                                   Limits("0.000", "50.000"))
+    items[SettingKey("box", 5)] = (
+        Limits("-10.000", "10.000"),
+        Limits("-20.000", "20.000"),
+        Limits("0.000", "50.000"),
+    )
     items[SettingKey("plane", 2)] = ("100.000", "200.000", "-3.250", *("90.000",) * (axes - 3))
     items[SettingKey("xylim")] = (OFF, OFF, OFF)
     for joint in range(1, axes + 1):
@@ -47,8 +50,15 @@ def sample_data(axes: int = 4) -> EpsonData:
     items[SettingKey("base")] = zeros
     items[SettingKey("limz")] = "-10.000"
     items[PointKey("point", 0)] = Point(("0.000", "400.000", *("0.000",) * (axes - 2)), hand=1)
-    items[PointKey("point", 12)] = Point(("1.000", "400.000", "-10.500", *("90.000",) * (axes - 3)),
-                                         elbow=1)
-    items[PointKey("point", 13)] = Point(("-1.000", "300.000", *("0.000",) * (axes - 2)), hand=1,
-                                         wrist=1, j4flag=1, j6flag=5, local=1)
+    items[PointKey("point", 12)] = Point(
+        ("1.000", "400.000", "-10.500", *("90.000",) * (axes - 3)), elbow=1
+    )
+    items[PointKey("point", 13)] = Point(
+        ("-1.000", "300.000", *("0.000",) * (axes - 2)),
+        hand=1,
+        wrist=1,
+        j4flag=1,
+        j6flag=5,
+        local=1,
+    )
     return data

@@ -79,7 +79,10 @@ def test_a_pull_backs_up_every_setting_and_point_exactly_and_diff_finds_no_diffe
     assert data.items[TableKey("speed_s", 2)] == SpeedReal("2000.000", "1500.500", "1000.000")
     assert TableKey("accel_s", 4) not in data.items  # not registered: absent
     assert data.items[SettingKey("box", 5)] == (
-        Limits("-10.000", "10.000"), Limits("-20.000", "20.000"), Limits("0.000", "50.000"))
+        Limits("-10.000", "10.000"),
+        Limits("-20.000", "20.000"),
+        Limits("0.000", "50.000"),
+    )
     assert numbers(sim.commands()[:2]) == [2153, 2154]
     assert cli.main(["diff", str(project)]) == 0
     assert written(sim) == []
@@ -88,8 +91,13 @@ def test_a_pull_backs_up_every_setting_and_point_exactly_and_diff_finds_no_diffe
 def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsys) -> None:
     sim, url = robot
     project = pulled(repo, url)
-    edit(project, repo, "settings.yaml", "3: {accel: 100.123, decel: 200.000}",
-         "3: {accel: 100.123, decel: 250.000}")
+    edit(
+        project,
+        repo,
+        "settings.yaml",
+        "3: {accel: 100.123, decel: 200.000}",
+        "3: {accel: 100.123, decel: 250.000}",
+    )
     capsys.readouterr()
     assert cli.main(["diff", str(project)]) == 1
     assert capsys.readouterr().out == (
@@ -100,8 +108,10 @@ def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsy
     )
     assert cli.main(["plan", str(project)]) == 0
     assert capsys.readouterr().out.splitlines() == [
-        ("53 register AccelS table entry: 0035 0003 0001 871B 0003 D090  # unsafe in automatic "
-         "operation"),
+        (
+            "53 register AccelS table entry: 0035 0003 0001 871B 0003 D090  # unsafe in automatic "
+            "operation"
+        ),
         f"# 1 write(s) to cell-3 ({url} unit 1)",
     ]
     assert written(sim) == []
@@ -123,24 +133,36 @@ def test_a_power_cycle_shows_the_tables_cleared_and_push_registers_them_again(
     sim, url = robot
     project = pulled(repo, url)
     st = sim.stations[1]
-    held = (dict(st.accel), dict(st.accel_s), dict(st.speed), dict(st.speed_s),
-            dict(st.speed_r), st.limz)
+    held = (
+        dict(st.accel),
+        dict(st.accel_s),
+        dict(st.speed),
+        dict(st.speed_s),
+        dict(st.speed_r),
+        st.limz,
+    )
     apply_command(sim, "power-cycle")
     assert (st.accel, st.accel_s, st.limz) == ({}, {}, 0)
     capsys.readouterr()
     assert cli.main(["diff", str(project)]) == 1
     out = capsys.readouterr().out
-    assert ("@@ AccelS (volatile) @@\n"
-            "-AccelS 3: not registered: cleared, e.g. by a power cycle\n"
-            "+AccelS 3: {accel: 100.123, decel: 200.000}\n") in out
+    assert (
+        "@@ AccelS (volatile) @@\n"
+        "-AccelS 3: not registered: cleared, e.g. by a power cycle\n"
+        "+AccelS 3: {accel: 100.123, decel: 200.000}\n"
+    ) in out
     assert "@@ LimZ (volatile) @@\n-LimZ: 0.000\n+LimZ: -10.000\n" in out
     assert cli.main(["diff", str(project), "--format", "json"]) == 1
     changes = json.loads(capsys.readouterr().out)["changes"]
     cleared = next(c for c in changes if c["item"] == "AccelS 3")
     assert cleared["kind"] == "accel_s" and cleared["number"] == 3
-    assert cleared["fields"] == [{"field": None,
-                                  "old": "not registered: cleared, e.g. by a power cycle",
-                                  "new": "{accel: 100.123, decel: 200.000}"}]
+    assert cleared["fields"] == [
+        {
+            "field": None,
+            "old": "not registered: cleared, e.g. by a power cycle",
+            "new": "{accel: 100.123, decel: 200.000}",
+        }
+    ]
     taken = len(sim.commands())
     assert cli.main(["push", str(project), "--yes"]) == 0
     assert "memory card" not in capsys.readouterr().out  # volatile items only
@@ -159,8 +181,10 @@ def test_push_writes_only_what_differs_and_names_the_persistent_items(
     capsys.readouterr()
     assert cli.main(["plan", str(project)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    note = ("note: written to the controller's memory card (persistent; its life shortens "
-            "with each write): Weight, Box 5")
+    note = (
+        "note: written to the controller's memory card (persistent; its life shortens "
+        "with each write): Weight, Box 5"
+    )
     assert lines[0] == f"# {note}"
     taken = len(sim.commands())
     assert cli.main(["push", str(project), "--yes"]) == 0
@@ -169,18 +193,21 @@ def test_push_writes_only_what_differs_and_names_the_persistent_items(
     st = sim.stations[1]
     assert st.boxes[5][0] == (-10000, 12000) and st.weight[0] == 2500
     audit = [json.loads(line) for line in (tmp_path / "audit.jsonl").read_text().splitlines()]
-    assert audit[-1]["result"] == "ok" and audit[-1]["notes"] == [note[len("note: "):]]
+    assert audit[-1]["result"] == "ok" and audit[-1]["notes"] == [note[len("note: ") :]]
     taken = len(sim.commands())
     assert cli.main(["push", str(project), "--yes"]) == 0  # again: nothing differs
     assert written(sim, taken) == []
 
 
-@pytest.mark.parametrize(("verb", "named"), [
-    ("run", "Running 1 (a task is executing)"),
-    ("pause", "Paused 1 (a task is paused)"),
-    ("estop", "EStopOn 1 (emergency stop)"),
-    ("error", "Error 1 (the controller is in error)"),
-])
+@pytest.mark.parametrize(
+    ("verb", "named"),
+    [
+        ("run", "Running 1 (a task is executing)"),
+        ("pause", "Paused 1 (a task is paused)"),
+        ("estop", "EStopOn 1 (emergency stop)"),
+        ("error", "Error 1 (the controller is in error)"),
+    ],
+)
 def test_a_push_to_a_robot_that_is_not_idle_is_refused_naming_the_signal(
     robot, repo, capsys, verb, named
 ) -> None:
@@ -219,9 +246,11 @@ def test_a_robot_whose_map_lacks_running_paused_or_estop_is_read_but_never_writt
     sim, url = robot
     project = pulled(repo, url)
     edit(project, repo, "settings.yaml", "limz: -10.000", "limz: -12.000")
-    for signal, line in (("Running", "Running: {register: 0, bit: 9}"),
-                         ("Paused", "Paused: {register: 0, bit: 10}"),
-                         ("EStopOn", "EStopOn: {register: 0, bit: 12}")):
+    for signal, line in (
+        ("Running", "Running: {register: 0, bit: 9}"),
+        ("Paused", "Paused: {register: 0, bit: 10}"),
+        ("EStopOn", "EStopOn: {register: 0, bit: 12}"),
+    ):
         robot_yaml = (project / "robot.yaml").read_text()
         assert line in robot_yaml, line
         edit(project, repo, "robot.yaml", line, f"{signal}: null")
@@ -233,48 +262,76 @@ def test_a_robot_whose_map_lacks_running_paused_or_estop_is_read_but_never_writt
         edit(project, repo, "robot.yaml", f"{signal}: null", line)
 
 
-def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(
-    robot, repo
-) -> None:
+def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(robot, repo) -> None:
     sim, url = robot
     project = pulled(repo, url)
     edit(project, repo, "robot.yaml", "command_words: 8", "command_words: 5")
-    edit(project, repo, "settings.yaml", "3: {accel: 100.123, decel: 200.000}",
-         "3: {accel: 1.000, decel: 2.000}")
+    edit(
+        project,
+        repo,
+        "settings.yaml",
+        "3: {accel: 100.123, decel: 200.000}",
+        "3: {accel: 1.000, decel: 2.000}",
+    )
     edit(project, repo, "settings.yaml", "5: {x: [-10.000, 10.000]", "5: {x: [-10.000, 11.000]")
     taken = len(sim.commands())
     assert cli.main(["push", str(project), "--yes"]) == 0
     sent = numbers(sim.commands()[taken:])
-    assert [601, 601, 601, 602, 602, 602] == sent[sent.index(601):sent.index(601) + 6]
-    assert [54, 55] == sent[sent.index(54):sent.index(54) + 2]
+    assert [601, 601, 601, 602, 602, 602] == sent[sent.index(601) : sent.index(601) + 6]
+    assert [54, 55] == sent[sent.index(54) : sent.index(54) + 2]
     assert 53 not in sent and 600 not in sent
     st = sim.stations[1]
     assert st.accel_s[3] == (1000, 2000) and st.boxes[5][0] == (-10000, 11000)
 
 
-def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(
-    robot, repo
-) -> None:
+def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(robot, repo) -> None:
     sim, url = robot
     project = pulled(repo, url)
-    edit(project, repo, "points.yaml", "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, "
-         "hand: Lefty", "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty")
-    edit(project, repo, "points.yaml", "  13: {", "  20: {x: 5.000, y: 6.000, z: 0.000, u: 0.000, "
-         "hand: Lefty, elbow: Below, wrist: NoFlip, j4flag: 0, j6flag: 3, local: 2}\n  13: {")
+    edit(
+        project,
+        repo,
+        "points.yaml",
+        "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, hand: Lefty",
+        "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty",
+    )
+    edit(
+        project,
+        repo,
+        "points.yaml",
+        "  13: {",
+        "  20: {x: 5.000, y: 6.000, z: 0.000, u: 0.000, "
+        "hand: Lefty, elbow: Below, wrist: NoFlip, j4flag: 0, j6flag: 3, local: 2}\n  13: {",
+    )
     taken = len(sim.commands())
     assert cli.main(["push", str(project), "--yes"]) == 0
     st = sim.stations[1]
     assert st.points[12].coords[2] == -10750 and st.points[12].hand == 1
     new = st.points[20]
     assert (new.coords, new.hand, new.elbow, new.j6flag, new.local) == (
-        (5000, 6000, 0, 0), 0, 1, 3, 2)
-    assert numbers(written(sim, taken)) == [1204, 1206, 1204, 1204, 1204, 1204, 1207, 1209,
-                                            1211, 1212, 1213, 1214]
+        (5000, 6000, 0, 0),
+        0,
+        1,
+        3,
+        2,
+    )
+    assert numbers(written(sim, taken)) == [
+        1204,
+        1206,
+        1204,
+        1204,
+        1204,
+        1204,
+        1207,
+        1209,
+        1211,
+        1212,
+        1213,
+        1214,
+    ]
     assert cli.main(["diff", str(project)]) == 0
 
 
-def test_an_item_on_the_robot_the_project_lacks_is_shown_and_refused(robot, repo,
-                                                                    capsys) -> None:
+def test_an_item_on_the_robot_the_project_lacks_is_shown_and_refused(robot, repo, capsys) -> None:
     sim, url = robot
     project = pulled(repo, url)
     sim.stations[1].accel[7] = (10, 20)
@@ -321,9 +378,7 @@ def test_a_function_halted_by_a_client_driving_it_wrongly_is_seen_and_reset_when
     sim.remote().faults.clear()  # the teardown checks the correct client's run
 
 
-def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(
-    robot, repo
-) -> None:
+def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(robot, repo) -> None:
     sim, url = robot
     iai = IaiSimulator({0x99: IaiState.generate(9, position_range=(1, 60))})
     harl = HarlSimulator(HarlState.generate(3, SMALL))
@@ -331,11 +386,25 @@ def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(
     try:
         iai_url, harl_url = (s.start() for s in servers)
         pulled(repo, url, "epson-cell")
-        assert cli.main(["pull", str(repo / "iai-cell"), "--family", "iai", "--port", iai_url,
-                         "--station", "99"]) == 0
+        assert (
+            cli.main(
+                [
+                    "pull",
+                    str(repo / "iai-cell"),
+                    "--family",
+                    "iai",
+                    "--port",
+                    iai_url,
+                    "--station",
+                    "99",
+                ]
+            )
+            == 0
+        )
         robot_yaml = repo / "iai-cell" / "robot.yaml"
-        robot_yaml.write_text(robot_yaml.read_text().replace("last_position: 1000",
-                                                             "last_position: 60"))
+        robot_yaml.write_text(
+            robot_yaml.read_text().replace("last_position: 1000", "last_position: 60")
+        )
         engine.pull(repo / "press", port=harl_url)
         git(repo, "add", "-A")
         git(repo, "commit", "-qm", "first backup")
@@ -364,8 +433,10 @@ def test_a_robot_of_another_type_than_robot_yaml_says_is_refused(robot, repo, ca
     edit(project, repo, "robot.yaml", "type: SCARA", "type: RS")
     capsys.readouterr()
     assert cli.main(["pull", str(project)]) == 2
-    assert ("the controller reports a SCARA robot (2153), robot.yaml controller.type says RS"
-            in capsys.readouterr().err)
+    assert (
+        "the controller reports a SCARA robot (2153), robot.yaml controller.type says RS"
+        in capsys.readouterr().err
+    )
 
 
 def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
@@ -380,7 +451,8 @@ def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     assert capsys.readouterr().err.strip() == (
         f"harlsync: error: {url} unit 1: 210 (SpeedS speed and depart table 0) needs 6 response "
         "words, the register map has 5: assign more words in RC+ and in robot.yaml "
-        "connection.map")
+        "connection.map"
+    )
     sent = set(numbers(sim.commands()[taken:]))
     assert {60, 61} <= sent and 59 not in sent  # AccelS was read in halves
     assert 210 not in sent

@@ -53,12 +53,12 @@ def test_one_command_goes_through_the_ten_steps_in_order() -> None:
     assert handshake(fake).execute(p.read_accel_s(15)) == VALUES
     writes = [(op.address, op.values) for op in fake.writes()]
     assert writes == [
-        (0, (0b100,)),                    # §6.2: ExtCmdReset 1
+        (0, (0b100,)),  # §6.2: ExtCmdReset 1
         (1, (0x003B, 0x000F, 0, 0, 0, 0, 0, 0)),  # step 2: one write, unused words 0
-        (0, (0b101,)),                    # step 3: ExtCmdSet 1
-        (0, (0b100,)),                    # step 5: ExtCmdSet 0
-        (0, (0b110,)),                    # step 8: ExtRespGet 1
-        (0, (0b100,)),                    # step 10: ExtRespGet 0
+        (0, (0b101,)),  # step 3: ExtCmdSet 1
+        (0, (0b100,)),  # step 5: ExtCmdSet 0
+        (0, (0b110,)),  # step 8: ExtRespGet 1
+        (0, (0b100,)),  # step 10: ExtRespGet 0
     ]
     # the step 1 check, then one poll each for steps 4, 6 and 9: the least the
     # handshake allows; its own inputs are read once, at the start
@@ -127,7 +127,8 @@ def test_a_controller_that_never_raises_extcmdget_times_out_at_step_4() -> None:
 
 
 def test_no_second_command_goes_out_while_one_is_unanswered(
-        caplog: pytest.LogCaptureFixture) -> None:
+    caplog: pytest.LogCaptureFixture,
+) -> None:
     fake = controller(never_answer=True)
     hs = handshake(fake)
     with pytest.raises(HandshakeTimeout, match="step 6"):
@@ -327,11 +328,20 @@ def test_a_response_that_does_not_echo_is_an_error_after_the_handshake_completes
 
 
 def test_the_handshake_works_wherever_the_site_put_the_signals() -> None:
-    moved = RegisterMap.from_dict({
-        "in_base": 40, "out_base": 60, "command_base": 10, "response_base": 20,
-        "signals": {"ExtCmdReset": {"register": 41, "bit": 15}, "ExtRespGet": 9,
-                    "Running": {"register": 70, "bit": 0}, "ExtCmdResult": 14},
-    })
+    moved = RegisterMap.from_dict(
+        {
+            "in_base": 40,
+            "out_base": 60,
+            "command_base": 10,
+            "response_base": 20,
+            "signals": {
+                "ExtCmdReset": {"register": 41, "bit": 15},
+                "ExtRespGet": 9,
+                "Running": {"register": 70, "bit": 0},
+                "ExtCmdResult": 14,
+            },
+        }
+    )
     fake = controller(map=moved)
     hs = handshake(fake)
     assert hs.execute(p.read_accel_s(15)) == VALUES

@@ -188,9 +188,11 @@ class Operator(Simulator):
         m = self.register_map
         if not hasattr(self, "_bits"):
             first, _ = m.input_span
-            self._bits = {name: (bit.register - first, bit.bit) for name, bit in m.signals()
-                          if bit is not None and name not in ("ExtCmdSet", "ExtRespGet",
-                                                              "ExtCmdReset")}
+            self._bits = {
+                name: (bit.register - first, bit.bit)
+                for name, bit in m.signals()
+                if bit is not None and name not in ("ExtCmdSet", "ExtRespGet", "ExtCmdReset")
+            }
         holding = self._controllers[1].read_holding(m.ext_cmd_set.register, 1)[0]
 
         def on(name: str) -> bool:
@@ -204,11 +206,11 @@ class Operator(Simulator):
             return bool(values[at] >> bit & 1)
 
         idle = on("ExtCmdReset") and not any(
-            on(n) for n in ("ExtCmdSet", "ExtRespGet", "ExtCmdGet", "ExtRespSet", "ExtError"))
+            on(n) for n in ("ExtCmdSet", "ExtRespGet", "ExtCmdGet", "ExtRespSet", "ExtError")
+        )
         return Seen(index, tuple(n for n in INTERLOCK_SIGNALS if on(n)), idle)
 
-    def record_command(self, station: int, words: Any, at: float, busy: bool,
-                       outcome: Any) -> None:
+    def record_command(self, station: int, words: Any, at: float, busy: bool, outcome: Any) -> None:
         self.arrival.append(self._words_seen)
         super().record_command(station, words, at, busy, outcome)
 
@@ -267,8 +269,7 @@ class MemoryLink:
                 return result
             self.sim.dropped += 1
             self.sim.fake_clock.sleep(self.timeout)
-        raise LinkTimeout(f"{kind} {address}: no answer within {self.timeout:g} s",
-                          port=self.label)
+        raise LinkTimeout(f"{kind} {address}: no answer within {self.timeout:g} s", port=self.label)
 
     def read_holding(self, address: int, count: int) -> list[int]:
         return self._call("holding", address, count)
@@ -311,8 +312,9 @@ def data_of(state: SimState, first: int = FIRST, last: int = LAST) -> EpsonData:
     off = ((0, 0),) * 3
     zeros = (0,) * axes
     for n in range(1, 16):
-        items[SettingKey("box", n)] = tuple(Limits(t(lo), t(hi))
-                                            for lo, hi in state.boxes.get(n, off))
+        items[SettingKey("box", n)] = tuple(
+            Limits(t(lo), t(hi)) for lo, hi in state.boxes.get(n, off)
+        )
         items[SettingKey("plane", n)] = tuple(t(c) for c in state.planes.get(n, zeros))
         items[SettingKey("local", n)] = tuple(t(c) for c in state.locals.get(n, zeros))
     items[SettingKey("xylim")] = tuple(Limits(t(lo), t(hi)) for lo, hi in state.xylim)
@@ -322,8 +324,9 @@ def data_of(state: SimState, first: int = FIRST, last: int = LAST) -> EpsonData:
     items[SettingKey("limz")] = t(state.limz)
     for n, p in state.points.items():
         if first <= n <= last:
-            items[PointKey("point", n)] = Point(tuple(t(c) for c in p.coords), p.hand, p.elbow,
-                                                p.wrist, p.j4flag, p.j6flag, p.local)
+            items[PointKey("point", n)] = Point(
+                tuple(t(c) for c in p.coords), p.hand, p.elbow, p.wrist, p.j4flag, p.j6flag, p.local
+            )
     return data
 
 
@@ -334,6 +337,7 @@ def verb(name: str) -> Change:
     def change(sim: Simulator, state: SimState) -> str:
         sim.control(name, state, ())
         return name
+
     return change
 
 
@@ -342,6 +346,7 @@ def faults(drop: float, slow: float, seed: int) -> Change:
         sim.drop = drop
         sim.faults = Faults(slow=slow, slow_delay=DEADLINE * 1.5, seed=seed)
         return f"replies dropped {drop}, slow execution {slow}"
+
     return change
 
 
@@ -362,8 +367,11 @@ def random_target(rng: random.Random, state: SimState, story: list[str]) -> Epso
     """The robot's data with a random diff: items taken from another robot of the
     same type, new table entries and points; rarely one left out."""
     before = data_of(state)
-    other = data_of(SimState.generate(rng.randrange(2**31), robot_type=state.robot_type,
-                                      point_range=(FIRST, LAST)))
+    other = data_of(
+        SimState.generate(
+            rng.randrange(2**31), robot_type=state.robot_type, point_range=(FIRST, LAST)
+        )
+    )
     target = EpsonData(before.robot_type, before.axes, before.model, dict(before.items))
     if rng.random() < 0.05:
         story.append("no change")
@@ -376,10 +384,18 @@ def random_target(rng: random.Random, state: SimState, story: list[str]) -> Epso
         if isinstance(key, PointKey):
             old = target.items.get(key)
             # no command sets a point back to no Local, nor may it name an undefined one
-            value = Point(value.coords, value.hand, value.elbow, value.wrist, value.j4flag,
-                          value.j6flag, old.local if isinstance(old, Point) else 0)
-        elif key.kind == "local" and any(isinstance(k, PointKey) and v.local == key.number
-                                        for k, v in target.items.items()):
+            value = Point(
+                value.coords,
+                value.hand,
+                value.elbow,
+                value.wrist,
+                value.j4flag,
+                value.j6flag,
+                old.local if isinstance(old, Point) else 0,
+            )
+        elif key.kind == "local" and any(
+            isinstance(k, PointKey) and v.local == key.number for k, v in target.items.items()
+        ):
             continue  # a Local a point uses: kept (only to keep the case simple)
         target.items[key] = value
         changed.append(CATALOGUE.describe(key))
@@ -416,8 +432,16 @@ def make_case(seed: int) -> Case:
         if rng.random() < 0.5:
             schedule.append((moment(), verb("stop")))
     if rng.random() < 0.6:
-        schedule.append((moment(), faults(rng.choice([0.01, 0.03, 0.1]),
-                                          rng.choice([0.0, 0.02, 0.1]), rng.randrange(2**32))))
+        schedule.append(
+            (
+                moment(),
+                faults(
+                    rng.choice([0.01, 0.03, 0.1]),
+                    rng.choice([0.0, 0.02, 0.1]),
+                    rng.randrange(2**32),
+                ),
+            )
+        )
     sim.schedule = schedule
     return Case(seed, before, target, sim, clock, story)
 
@@ -434,12 +458,12 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     taken = off_the_disk(monkeypatch)
     current: list[Case] = []
 
-    def link(url: str, unit: int, *, timeout: float, retries: int, lock_timeout: float
-             ) -> MemoryLink:
+    def link(
+        url: str, unit: int, *, timeout: float, retries: int, lock_timeout: float
+    ) -> MemoryLink:
         return MemoryLink(current[0].sim, timeout=timeout, retries=retries)
 
-    def handshake(registers: Any, register_map: RegisterMap | None = None, **kw: Any
-                  ) -> Handshake:
+    def handshake(registers: Any, register_map: RegisterMap | None = None, **kw: Any) -> Handshake:
         return Handshake(registers, register_map, **kw, clock=current[0].clock)
 
     monkeypatch.setattr(controller_module, "ModbusLink", link)
@@ -448,10 +472,15 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
     def deploy(case: Case, deadline: float) -> Outcome:
         current[:] = [case]
         monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(tmp_path / f"audit-{case.seed}.jsonl"))
-        robot = families.get("epson").new_robot("cell", f"modbus://10.9.{case.seed % 250}.1",
-                                                None)
-        robot.options.update(first=FIRST, last=LAST, timeout=TIMEOUT, retries=RETRIES,
-                             poll_interval=POLL, deadline=deadline)
+        robot = families.get("epson").new_robot("cell", f"modbus://10.9.{case.seed % 250}.1", None)
+        robot.options.update(
+            first=FIRST,
+            last=LAST,
+            timeout=TIMEOUT,
+            retries=RETRIES,
+            poll_interval=POLL,
+            deadline=deadline,
+        )
         project = Project(tmp_path / f"case-{case.seed}", robot, case.target)
         opts = PushOptions(yes=True, allow_dirty=True)
         first, before = len(case.sim.commands()), len(taken)
@@ -511,13 +540,15 @@ def check_interlock(case: Case, got: Outcome, tally: EpsonTally) -> None:
         name = f"command {r.number} ({r.payload}, #{i})"
         assert seen is not None, case.why(f"{name} arrived with no status read before it")
         assert not seen.busy, case.why(f"{name} followed a status read that found {seen.busy}")
-        assert seen.function_idle, case.why(f"{name} followed a status read that found the "
-                                            "function not idle")
+        assert seen.function_idle, case.why(
+            f"{name} followed a status read that found the function not idle"
+        )
         if r.busy:
             # Started after that status read was answered: see the docstring.
             assert any(a >= seen.index for a in sim.acted), case.why(
                 f"{name} arrived while the robot was busy with no change by the operator "
-                "after its status read")
+                "after its status read"
+            )
             tally.race += 1
     if got.failed is None and got.result.written:
         # the status once more after the last write: an input read after its command
@@ -534,12 +565,15 @@ def check_sent(case: Case, got: Outcome) -> None:
     for w in [*result.written, *([result.failed] if result.failed else [])]:
         maybe.update(payloads(w))
     for payload in sent:
-        assert payload in maybe, case.why(f"the controller received {payload!r}, which the "
-                                          "result does not name as written or unknown")
+        assert payload in maybe, case.why(
+            f"the controller received {payload!r}, which the "
+            "result does not name as written or unknown"
+        )
     for w in result.written:
         for payload in payloads(w):
-            assert payload in sent, case.why(f"{w.name} reported written but {payload!r} "
-                                             "never arrived")
+            assert payload in sent, case.why(
+                f"{w.name} reported written but {payload!r} never arrived"
+            )
 
 
 def check_converged(case: Case) -> None:
@@ -557,7 +591,8 @@ def check_case(case: Case, deploy: Deploy, tally: EpsonTally) -> None:
     check_sent(case, got)
     if got.snapshot is not None:
         assert not sync_items.diff(CATALOGUE, got.snapshot, case.before), case.why(
-            "the snapshot is not what the robot held before the push")
+            "the snapshot is not what the robot held before the push"
+        )
     if got.failed is None:
         tally.ok += 1
         check_converged(case)
@@ -573,8 +608,9 @@ def check_case(case: Case, deploy: Deploy, tally: EpsonTally) -> None:
     again = deploy(case, 2.0)
     check_interlock(case, again, tally)
     check_sent(case, again)
-    refused = any(isinstance(k, PointKey | TableKey) and k not in case.target.items
-                  for k in case.before.items)
+    refused = any(
+        isinstance(k, PointKey | TableKey) and k not in case.target.items for k in case.before.items
+    )
     check_rerun(case.why, again, refused=refused)
     if not refused:
         check_converged(case)

@@ -15,9 +15,14 @@ def test_the_default_map_is_the_profiles() -> None:
     assert (m.ext_cmd_set, m.ext_resp_get, m.ext_cmd_reset) == (Bit(0, 0), Bit(0, 1), Bit(0, 2))
     assert (m.command_base, m.command_words) == (1, 8)
     assert [m.signal(n) for n in ("ExtCmdGet", "ExtRespSet", "ExtCmdResult", "ExtError")] == [
-        Bit(0, 0), Bit(0, 1), Bit(0, 2), Bit(0, 3)]
-    assert [m.signal(n) for n in ("Ready", "Running", "Paused", "Error", "EStopOn",
-                                  "SafeguardOn")] == [Bit(0, b) for b in range(8, 14)]
+        Bit(0, 0),
+        Bit(0, 1),
+        Bit(0, 2),
+        Bit(0, 3),
+    ]
+    assert [
+        m.signal(n) for n in ("Ready", "Running", "Paused", "Error", "EStopOn", "SafeguardOn")
+    ] == [Bit(0, b) for b in range(8, 14)]
     assert (m.response_base, m.response_words) == (1, 8)
     assert m.input_span == (0, 9)  # every output and response word in one read
     assert m.control_registers == (0,)
@@ -39,9 +44,17 @@ def test_the_bases_move_every_signal_and_word_with_them() -> None:
 
 def test_every_register_and_bit_can_be_given_and_the_dict_form_round_trips() -> None:
     data = {
-        "command_base": 10, "command_words": 5, "response_base": 20, "response_words": 4,
-        "signals": {"ExtCmdSet": 3, "ExtCmdReset": {"register": 7, "bit": 15},
-                    "Running": {"register": 30, "bit": 0}, "SafeguardOn": None, "Ready": None},
+        "command_base": 10,
+        "command_words": 5,
+        "response_base": 20,
+        "response_words": 4,
+        "signals": {
+            "ExtCmdSet": 3,
+            "ExtCmdReset": {"register": 7, "bit": 15},
+            "Running": {"register": 30, "bit": 0},
+            "SafeguardOn": None,
+            "Ready": None,
+        },
     }
     m = RegisterMap.from_dict(data)
     assert m.ext_cmd_set == Bit(0, 3)
@@ -67,27 +80,32 @@ def test_a_map_without_error_ready_or_safeguard_may_still_be_written() -> None:
     assert m.unwritable is None
 
 
-@pytest.mark.parametrize(("data", "issue"), [
-    ({"in_bse": 1}, "unknown key 'in_bse'"),
-    ({"command_words": 9}, "command_words: 9 out of range (allowed: 3 to 8)"),
-    ({"response_words": 2}, "response_words: 2 out of range (allowed: 3 to 8)"),
-    ({"in_base": "0"}, "in_base: '0' is not a whole number"),
-    ({"out_base": True}, "out_base: True is not a whole number"),
-    ({"signals": {"Runing": 9}}, "unknown signal 'Runing'"),
-    ({"signals": {"Running": 16}}, "Running at register 0 bit 16: out of range"),
-    ({"signals": {"Running": {"register": 1, "bit": 1, "x": 2}}}, "Running: {"),
-    ({"signals": {"Running": "9"}}, "Running: '9' is not a bit number"),
-    ({"signals": {"ExtCmdSet": None}}, "ExtCmdSet must be mapped"),
-    ({"signals": {"ExtError": None}}, "ExtError must be mapped"),
-    ({"signals": {"Paused": 9}}, "Running and Paused are both at register 0 bit 9"),
-    ({"signals": {"ExtRespGet": 0}}, "ExtCmdSet and ExtRespGet are both at register 0 bit 0"),
-    ({"command_base": 0}, "ExtCmdSet at register 0 bit 0 lies in the command words"),
-    ({"signals": {"Running": {"register": 3, "bit": 0}}},
-     "Running at register 3 bit 0 lies in the response words (registers 1 to 8)"),
-    ({"signals": {"EStopOn": {"register": 500, "bit": 0}}}, "more than one Modbus read"),
-    ({"command_base": 65530}, "command_base: 65530 out of range"),
-    ({"signals": 5}, "signals: 5 is not a mapping"),
-])
+@pytest.mark.parametrize(
+    ("data", "issue"),
+    [
+        ({"in_bse": 1}, "unknown key 'in_bse'"),
+        ({"command_words": 9}, "command_words: 9 out of range (allowed: 3 to 8)"),
+        ({"response_words": 2}, "response_words: 2 out of range (allowed: 3 to 8)"),
+        ({"in_base": "0"}, "in_base: '0' is not a whole number"),
+        ({"out_base": True}, "out_base: True is not a whole number"),
+        ({"signals": {"Runing": 9}}, "unknown signal 'Runing'"),
+        ({"signals": {"Running": 16}}, "Running at register 0 bit 16: out of range"),
+        ({"signals": {"Running": {"register": 1, "bit": 1, "x": 2}}}, "Running: {"),
+        ({"signals": {"Running": "9"}}, "Running: '9' is not a bit number"),
+        ({"signals": {"ExtCmdSet": None}}, "ExtCmdSet must be mapped"),
+        ({"signals": {"ExtError": None}}, "ExtError must be mapped"),
+        ({"signals": {"Paused": 9}}, "Running and Paused are both at register 0 bit 9"),
+        ({"signals": {"ExtRespGet": 0}}, "ExtCmdSet and ExtRespGet are both at register 0 bit 0"),
+        ({"command_base": 0}, "ExtCmdSet at register 0 bit 0 lies in the command words"),
+        (
+            {"signals": {"Running": {"register": 3, "bit": 0}}},
+            "Running at register 3 bit 0 lies in the response words (registers 1 to 8)",
+        ),
+        ({"signals": {"EStopOn": {"register": 500, "bit": 0}}}, "more than one Modbus read"),
+        ({"command_base": 65530}, "command_base: 65530 out of range"),
+        ({"signals": 5}, "signals: 5 is not a mapping"),
+    ],
+)
 def test_every_problem_of_a_map_is_named(data: dict[str, object], issue: str) -> None:
     with pytest.raises(RegisterMapInvalid) as caught:
         RegisterMap.from_dict(data)

@@ -88,8 +88,9 @@ def no_function_error(sim: Simulator) -> None:
 
 
 @contextmanager
-def connected(sim: Simulator, *, deadline: float = 2.0, timeout: float = 0.5,
-              retries: int = 2) -> Iterator[tuple[Handshake, ModbusLink]]:
+def connected(
+    sim: Simulator, *, deadline: float = 2.0, timeout: float = 0.5, retries: int = 2
+) -> Iterator[tuple[Handshake, ModbusLink]]:
     """The family's handshake and Modbus link to ``sim``, served on a free port."""
     with sim.serve() as server, ModbusLink(server.url, timeout=timeout, retries=retries) as link:
         yield Handshake(link, sim.register_map, deadline=deadline), link
@@ -134,15 +135,18 @@ class Remote:
         self.link.write_holding(self.map.ext_cmd_set.register, [self.control])
 
     def words(self, *words: int) -> None:
-        self.link.write_holding(self.map.command_base,
-                                [*words, *[0] * (self.map.command_words - len(words))])
+        self.link.write_holding(
+            self.map.command_base, [*words, *[0] * (self.map.command_words - len(words))]
+        )
 
     def outputs(self) -> tuple[dict[str, bool], list[int]]:
         first, count = self.map.input_span
         values = self.link.read_input(first, count)
-        levels = {name: bool(values[bit.register - first] >> bit.bit & 1)
-                  for name, bit in self.map.signals()
-                  if bit is not None and name not in ("ExtCmdSet", "ExtRespGet", "ExtCmdReset")}
+        levels = {
+            name: bool(values[bit.register - first] >> bit.bit & 1)
+            for name, bit in self.map.signals()
+            if bit is not None and name not in ("ExtCmdSet", "ExtRespGet", "ExtCmdReset")
+        }
         start = self.map.response_base - first
         return levels, values[start : start + self.map.response_words]
 
@@ -262,7 +266,8 @@ def test_every_backup_read_answers_what_the_robot_holds(robot_type: int) -> None
             for number in (*frames, min(set(range(1, 16)) - set(frames))):
                 coords = frames.get(number, (0,) * axes)
                 assert [hs.execute(read_frame(number, c)) for c in range(axes)] == [
-                    rt(v) for v in coords]
+                    rt(v) for v in coords
+                ]
         for axis, (low, high) in enumerate(state.xylim):
             assert hs.execute(p.read_xylim(axis)) == Limits(rt(low), rt(high))
             assert hs.execute(p.read_xylim_lower(axis)) == rt(low)
@@ -279,7 +284,8 @@ def test_every_backup_read_answers_what_the_robot_holds(robot_type: int) -> None
         for number in defined[:3]:
             point = state.points[number]
             assert [hs.execute(p.read_point_coord(number, a)) for a in range(axes)] == [
-                rt(v) for v in point.coords]
+                rt(v) for v in point.coords
+            ]
             for name in ("hand", "elbow", "wrist", "j4flag", "j6flag", "local"):
                 assert hs.execute(p.read_point_attribute(name, number)) == getattr(point, name)
         assert error_code(hs.execute(p.read_point_coord(undefined, 0))) == 0x2004
@@ -326,11 +332,20 @@ def test_every_deploy_write_takes_effect_in_each_of_its_forms(robot_type: int) -
         write(p.register_speed_s(7, SpeedReal("1", "2", "3"), command_words=6))
         write(p.register_speed_r(6, "1000"))
         assert (st.accel[5], st.accel_s[6], st.accel_s[7]) == (
-            (100, 80), (100_123, 200_000), (1000, 2000))
+            (100, 80),
+            (100_123, 200_000),
+            (1000, 2000),
+        )
         assert (st.accel_r[6], st.accel_r[7], st.speed[5]) == (
-            (3500, 4250), (5000, 6000), (100, 80, 50))
+            (3500, 4250),
+            (5000, 6000),
+            (100, 80, 50),
+        )
         assert (st.speed_s[6], st.speed_s[7], st.speed_r[6]) == (
-            (1_000_000, 800_500, 50_250), (1000, 2000, 3000), 1_000_000)
+            (1_000_000, 800_500, 50_250),
+            (1000, 2000, 3000),
+            1_000_000,
+        )
         write(p.set_weight("5.12", "120.001"))
         assert st.weight == ((5120, 120_001) if robot_type == SCARA else (5120, 0))
         write(p.set_weight("4"))
@@ -355,8 +370,12 @@ def test_every_deploy_write_takes_effect_in_each_of_its_forms(robot_type: int) -
         write(p.set_plane(1, coords))
         write(p.set_local(2, coords))
         write(p.set_base(coords))
-        assert st.planes[1] == st.locals[2] == st.base == tuple(
-            i * 1000 + 500 for i in range(1, axes + 1))
+        assert (
+            st.planes[1]
+            == st.locals[2]
+            == st.base
+            == tuple(i * 1000 + 500 for i in range(1, axes + 1))
+        )
         limits = [Limits("10", "200"), Limits("20", "100"), Limits("30", "100")]
         write(p.set_xylim(limits))
         assert st.xylim == ((10_000, 200_000), (20_000, 100_000), (30_000, 100_000))
@@ -370,8 +389,15 @@ def test_every_deploy_write_takes_effect_in_each_of_its_forms(robot_type: int) -
         new = max(st.points) + 5
         write(p.set_point_coord(new, 1, "-100.003"))  # the first 1204 defines the point
         assert st.points[new].coords == tuple(-100_003 if a == 1 else 0 for a in range(axes))
-        for name, value in (("hand", 0), ("elbow", 1), ("wrist", 1), ("j4flag", 1),
-                            ("j6flag", 127), ("local", 15), ("hand", 1)):
+        for name, value in (
+            ("hand", 0),
+            ("elbow", 1),
+            ("wrist", 1),
+            ("j4flag", 1),
+            ("j6flag", 127),
+            ("local", 15),
+            ("hand", 1),
+        ):
             write(p.set_point_attribute(name, new, value))  # type: ignore[arg-type]
             assert getattr(st.points[new], name) == value
         # each write reads back through the codec as written
@@ -389,8 +415,16 @@ def test_a_write_counts_once_when_it_takes_effect(sim: Simulator) -> None:
         hs.execute_sequence(p.set_plane(3, ["1", "2", "3", "4"]))
     # 2 + 6 + 4 write commands, three writes
     assert (len(sim.writes_received()), sim.writes) == (12, 3)
-    assert [r.continuation for r in sim.commands()] == [False, True, False, *[True] * 5,
-                                                        False, True, True, True]
+    assert [r.continuation for r in sim.commands()] == [
+        False,
+        True,
+        False,
+        *[True] * 5,
+        False,
+        True,
+        True,
+        True,
+    ]
     no_function_error(sim)
 
 
@@ -424,7 +458,8 @@ def test_a_command_between_the_halves_cancels_a_split_write_silently(sim: Simula
 
 
 def test_an_rn_sequence_takes_effect_at_its_last_axis_and_a_read_between_cancels_it(
-        sim: Simulator) -> None:
+    sim: Simulator,
+) -> None:
     st = sim.stations[1]
     boxes = dict(st.boxes)
     steps = list(p.set_plane(7, ["1", "2", "3", "4"]))
@@ -446,10 +481,15 @@ def test_an_rn_sequence_takes_effect_at_its_last_axis_and_a_read_between_cancels
 
 
 def test_a_split_box_write_goes_lower_xyz_then_upper_xyz(sim: Simulator) -> None:
-    sequence = p.set_box(5, [Limits("1", "2"), Limits("3", "4"), Limits("5", "6")],
-                         command_words=5)
+    sequence = p.set_box(5, [Limits("1", "2"), Limits("3", "4"), Limits("5", "6")], command_words=5)
     assert [(r.number, r.command.params[1]) for r in sequence] == [
-        (601, 0), (601, 1), (601, 2), (602, 0), (602, 1), (602, 2)]
+        (601, 0),
+        (601, 1),
+        (601, 2),
+        (602, 0),
+        (602, 1),
+        (602, 2),
+    ]
     with connected(sim) as (hs, _):
         assert hs.execute_sequence(sequence) is None
     assert sim.stations[1].boxes[5] == ((1000, 2000), (3000, 4000), (5000, 6000))
@@ -460,7 +500,8 @@ def test_a_split_box_write_goes_lower_xyz_then_upper_xyz(sim: Simulator) -> None
 
 
 def test_wrongly_encoded_commands_get_the_controllers_errors_not_a_silent_write(
-        sim: Simulator) -> None:
+    sim: Simulator,
+) -> None:
     st = sim.stations[1]
     before = st.copy()
     with connected(sim) as (_, link):
@@ -490,13 +531,20 @@ def test_a_response_longer_than_the_maps_response_words_is_refused_2003() -> Non
 
 
 def test_a_moved_register_map_is_served_where_it_says() -> None:
-    moved = RegisterMap.from_dict({"in_base": 100, "out_base": 200, "command_words": 6,
-                                   "signals": {"Running": {"register": 300, "bit": 5}}})
+    moved = RegisterMap.from_dict(
+        {
+            "in_base": 100,
+            "out_base": 200,
+            "command_words": 6,
+            "signals": {"Running": {"register": 300, "bit": 5}},
+        }
+    )
     sim = Simulator(robot(), register_map=moved, execution_time=0.0)
     with connected(sim) as (hs, _):
         assert hs.execute(p.read_accel(4)) == AccelPercent(90, 70)
-        assert hs.execute_sequence(p.register_accel_s(1, AccelReal("1", "2"),
-                                                      command_words=6)) is None
+        assert (
+            hs.execute_sequence(p.register_accel_s(1, AccelReal("1", "2"), command_words=6)) is None
+        )
         apply_command(sim, "run")
         assert hs.status().busy == ("Running",)
     assert sim.stations[1].accel_s[1] == (1000, 2000)
@@ -514,13 +562,18 @@ def test_a_command_off_the_lists_is_refused_and_recorded(sim: Simulator, number:
     assert (error, words[:3]) == (True, [number, 0x1000, 0])
     [record] = sim.off_list()
     assert (record.number, record.is_write, record.known, record.code) == (
-        number, True, False, 0x1000)
+        number,
+        True,
+        False,
+        0x1000,
+    )
     assert sim.stations[1] == before
     assert sim.function_errors == []
 
 
-def test_a_correct_client_never_sends_a_command_off_the_lists(client: Handshake,
-                                                              sim: Simulator) -> None:
+def test_a_correct_client_never_sends_a_command_off_the_lists(
+    client: Handshake, sim: Simulator
+) -> None:
     client.execute(p.read_robot_type())
     client.execute_sequence(p.set_limz("1"))
     assert [r.number for r in sim.commands()] == [2153, 1250]  # off_list() checked on teardown
@@ -530,7 +583,8 @@ def test_a_correct_client_never_sends_a_command_off_the_lists(client: Handshake,
 
 
 def test_each_command_is_recorded_with_its_number_whether_a_write_and_whether_busy(
-        sim: Simulator) -> None:
+    sim: Simulator,
+) -> None:
     with connected(sim) as (hs, link):
         hs.execute(p.read_accel(4))
         hs.execute_sequence(p.select_tool(2))
@@ -538,7 +592,12 @@ def test_each_command_is_recorded_with_its_number_whether_a_write_and_whether_bu
         Remote(link).command(500, 3)  # bypassing harlsync's interlock, on purpose
     read, write, busy = sim.commands()
     assert (read.number, read.command, read.is_write, read.busy, read.answered) == (
-        3, "3", False, False, True)
+        3,
+        "3",
+        False,
+        False,
+        True,
+    )
     assert read.payload == "0003 0004 0000 0000 0000 0000 0000 0000"
     assert (write.number, write.is_write, write.busy, write.code) == (500, True, False, 0)
     assert (busy.number, busy.is_write, busy.busy) == (500, True, True)
@@ -548,8 +607,7 @@ def test_each_command_is_recorded_with_its_number_whether_a_write_and_whether_bu
     assert sim.function_errors == []
 
 
-def test_the_later_steps_of_a_write_started_idle_are_not_writes_while_busy(
-        sim: Simulator) -> None:
+def test_the_later_steps_of_a_write_started_idle_are_not_writes_while_busy(sim: Simulator) -> None:
     first, second = p.register_accel_r(3, AccelReal("1", "2"), command_words=4)
     with connected(sim) as (hs, link):
         assert hs.execute(first) is None
@@ -564,12 +622,18 @@ def test_the_later_steps_of_a_write_started_idle_are_not_writes_while_busy(
 # --- status bits and control verbs -------------------------------------------------------------
 
 
-@pytest.mark.parametrize("verb, signals", [
-    ("run", ("Running",)), ("pause", ("Paused",)), ("estop", ("EStopOn",)),
-    ("error", ("Error",)),
-])
+@pytest.mark.parametrize(
+    "verb, signals",
+    [
+        ("run", ("Running",)),
+        ("pause", ("Paused",)),
+        ("estop", ("EStopOn",)),
+        ("error", ("Error",)),
+    ],
+)
 def test_a_busy_robot_shows_its_signal_and_the_client_writes_nothing(
-        client: Handshake, sim: Simulator, verb: str, signals: tuple[str, ...]) -> None:
+    client: Handshake, sim: Simulator, verb: str, signals: tuple[str, ...]
+) -> None:
     assert client.status().busy == () and client.status()["Ready"]
     apply_command(sim, verb)
     status = client.status()
@@ -625,11 +689,14 @@ def test_a_second_request_while_a_command_runs_halts_the_function() -> None:
     assert (fault.detail, fault.number) == (0x0001, 59)
     aborted, offending = sim.commands()
     assert (aborted.number, aborted.answered, offending.number, offending.answered) == (
-        59, False, 3, False)
+        59,
+        False,
+        3,
+        False,
+    )
 
 
-def test_a_request_before_the_last_response_is_released_halts_the_function(
-        sim: Simulator) -> None:
+def test_a_request_before_the_last_response_is_released_halts_the_function(sim: Simulator) -> None:
     with connected(sim) as (_, link):
         remote = Remote(link)
         remote.request(501)
@@ -641,7 +708,8 @@ def test_a_request_before_the_last_response_is_released_halts_the_function(
 
 
 def test_a_request_while_the_reset_is_low_is_ignored_and_is_no_function_error(
-        sim: Simulator) -> None:
+    sim: Simulator,
+) -> None:
     with connected(sim) as (_, link):
         remote = Remote(link)
         remote.words(501)
@@ -680,7 +748,8 @@ def test_only_a_function_reset_of_30_ms_clears_the_function_error() -> None:
 
 
 def test_the_handshakes_function_reset_clears_a_function_error_the_client_caused(
-        sim: Simulator) -> None:
+    sim: Simulator,
+) -> None:
     with connected(sim) as (hs, _):
         hs.start()
         apply_command(sim, "function-error 1 0001")
@@ -708,7 +777,8 @@ def test_a_function_error_of_the_controller_needs_a_controller_reset(sim: Simula
 
 
 def test_a_correct_client_never_halts_the_function_over_many_commands(
-        client: Handshake, sim: Simulator) -> None:
+    client: Handshake, sim: Simulator
+) -> None:
     for i in range(40):
         client.execute(p.read_accel(i % 16))
         client.execute_sequence(p.set_plane(1 + i % 15, [str(i), "0", "0", "0"]))
@@ -734,9 +804,24 @@ def test_a_power_cycle_clears_the_tables_and_limz_and_keeps_the_rest(sim: Simula
         assert fresh.execute(p.read_weight()) == Weight("3.250", "50.000")
         assert fresh.status().idle
     assert (st.accel, st.accel_s, st.accel_r, st.speed, st.speed_s, st.speed_r) == (
-        {}, {}, {}, {}, {}, {})
-    assert st == replace(before, accel={}, accel_s={}, accel_r={}, speed={}, speed_s={},
-                         speed_r={}, limz=0, weight=(3250, 50_000))
+        {},
+        {},
+        {},
+        {},
+        {},
+        {},
+    )
+    assert st == replace(
+        before,
+        accel={},
+        accel_s={},
+        accel_r={},
+        speed={},
+        speed_s={},
+        speed_r={},
+        limz=0,
+        weight=(3250, 50_000),
+    )
     assert sim.function_errors == []
 
 
@@ -813,8 +898,9 @@ def test_generated_robots_are_scara_or_six_axis_and_repeat_by_seed() -> None:
 
 def test_a_state_the_controller_could_not_hold_is_refused_naming_each_problem() -> None:
     with pytest.raises(ValueError) as caught:
-        SimState(accel={16: (1, 1)}, speed={1: (0, 50, 50)},
-                 points={3: Point((1, 2, 3))}, fine=(1, 2))
+        SimState(
+            accel={16: (1, 1)}, speed={1: (0, 50, 50)}, points={3: Point((1, 2, 3))}, fine=(1, 2)
+        )
     text = str(caught.value)
     for problem in ("accel table 16", "speed table 1", "point 3: 3 coordinates", "fine"):
         assert problem in text
@@ -827,8 +913,10 @@ def test_the_epson_simulator_is_served_not_a_serial_line() -> None:
 
 
 def test_harlsync_sim_serves_an_epson_controller_over_modbus_tcp() -> None:
-    with harlsync_sim("--family", "epson", "--listen", "127.0.0.1:0", "--seed", "5",
-                      lines=2) as (proc, lines):
+    with harlsync_sim("--family", "epson", "--listen", "127.0.0.1:0", "--seed", "5", lines=2) as (
+        proc,
+        lines,
+    ):
         assert lines["tcp"].startswith("modbus://127.0.0.1:")
         assert lines["stations"] == "1"
         with ModbusLink(lines["tcp"]) as link:
@@ -838,13 +926,19 @@ def test_harlsync_sim_serves_an_epson_controller_over_modbus_tcp() -> None:
             proc.stdin.write("run\n")
             proc.stdin.flush()
             assert proc.stdout.readline().strip() == (
-                "station 1: Running, function idle; 0 writes received")
+                "station 1: Running, function idle; 0 writes received"
+            )
             assert hs.status().busy == ("Running",)
 
 
 def test_harlsync_sim_epson_needs_listen() -> None:
-    done = subprocess.run([sys.executable, "-m", "harlsync", "sim", "--family", "epson"],
-                          capture_output=True, text=True, timeout=60, check=False)
+    done = subprocess.run(
+        [sys.executable, "-m", "harlsync", "sim", "--family", "epson"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert done.returncode == 2
     assert "--listen HOST:PORT" in done.stderr
 

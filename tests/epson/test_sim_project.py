@@ -21,8 +21,13 @@ from harlsync.project import Project, save_project
 from .sample import sample_data
 
 
-def project_of(tmp_path: Path, *, axes: int = 4, unit: int | None = None,
-               register_map: RegisterMap | None = None) -> Path:
+def project_of(
+    tmp_path: Path,
+    *,
+    axes: int = 4,
+    unit: int | None = None,
+    register_map: RegisterMap | None = None,
+) -> Path:
     robot = families.get("epson").new_robot("cell-3", "modbus://10.0.0.5", unit)
     if register_map is not None:
         robot.options["map"] = register_map.to_dict()
@@ -72,6 +77,7 @@ def test_a_project_of_another_family_or_a_broken_one_is_refused(tmp_path) -> Non
 
 def test_harlsync_sim_serves_an_epson_project(tmp_path) -> None:
     project = project_of(tmp_path)
-    with harlsync_sim("--family", "epson", "--listen", "127.0.0.1:0", "--project",
-                      str(project), lines=2) as (_, lines):
+    with harlsync_sim(
+        "--family", "epson", "--listen", "127.0.0.1:0", "--project", str(project), lines=2
+    ) as (_, lines):
         assert pull(lines["tcp"], RegisterMap()) == sample_data().items

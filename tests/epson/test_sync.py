@@ -56,7 +56,8 @@ def test_a_function_left_halted_is_reset_only_when_asked_and_only_on_an_idle_rob
     fake.signal("Running")
     assert cli.main(["diff", str(project), "--reset-function"]) == 3
     assert "Running 1 (a task is executing): dropping ExtCmdReset would abort motion" in (
-        capsys.readouterr().err)
+        capsys.readouterr().err
+    )
     fake.signal("Running", False)
     assert cli.main(["diff", str(project), "--reset-function"]) == 0
     assert fake.bank.state == "idle"
@@ -67,14 +68,18 @@ def test_reset_function_leaves_an_idle_function_alone(robot, repo) -> None:
     project = pulled(repo, url)
     resets = len([op for op in fake.bank.writes() if op.address == 0 and not op.values[0] & 4])
     assert cli.main(["diff", str(project), "--reset-function"]) == 0
-    assert len([op for op in fake.bank.writes()
-                if op.address == 0 and not op.values[0] & 4]) == resets
+    assert (
+        len([op for op in fake.bank.writes() if op.address == 0 and not op.values[0] & 4]) == resets
+    )
 
 
 def test_reset_function_is_refused_for_a_family_without_it(tmp_path) -> None:
     robot = families.get("iai").new_robot("cell-9", "socket://127.0.0.1:1", None)
-    with pytest.raises(ProjectError, match=r"--reset-function: the iai family has no such "
-                       r"option \(only epson\); leave it out"):
+    with pytest.raises(
+        ProjectError,
+        match=r"--reset-function: the iai family has no such "
+        r"option \(only epson\); leave it out",
+    ):
         engine.connect(robot, options={"reset_function": True})
     engine_robot = families.get("harl-u2").new_robot("press", "/dev/null", None)
     with pytest.raises(ProjectError, match="the harl-u2 family has no such option"):
@@ -84,15 +89,29 @@ def test_reset_function_is_refused_for_a_family_without_it(tmp_path) -> None:
 def test_a_refused_connection_is_one_line_without_pymodbus_s_own_log_lines(tmp_path) -> None:
     port = free_port()
     result = subprocess.run(
-        [sys.executable, "-m", "harlsync", "pull", str(tmp_path / "x"), "--family", "epson",
-         "--port", f"modbus://127.0.0.1:{port}"],
-        capture_output=True, text=True, check=False,
+        [
+            sys.executable,
+            "-m",
+            "harlsync",
+            "pull",
+            str(tmp_path / "x"),
+            "--family",
+            "epson",
+            "--port",
+            f"modbus://127.0.0.1:{port}",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert result.returncode == 2
     assert result.stderr.splitlines() == [
-        (f"harlsync: error: port modbus://127.0.0.1:{port} unit 1: cannot connect: [Errno 111] "
-        "Connection refused; check the controller is on, its Modbus TCP slave enabled and the "
-        "port right")]
+        (
+            f"harlsync: error: port modbus://127.0.0.1:{port} unit 1: cannot connect: [Errno 111] "
+            "Connection refused; check the controller is on, its Modbus TCP slave enabled and the "
+            "port right"
+        )
+    ]
 
 
 # --- a lost reply, in memory: the handshake's deadline on a fake clock ----------------------
@@ -106,8 +125,11 @@ def controller_of(fake: FakeRobot) -> Controller:
 def test_a_write_answered_too_late_is_read_back_and_not_sent_again() -> None:
     fake = FakeRobot()
     c = controller_of(fake)
-    key, old, new = TableKey("accel_s", 3), AccelReal("100.123", "200.000"), AccelReal("1.000",
-                                                                                        "2.000")
+    key, old, new = (
+        TableKey("accel_s", 3),
+        AccelReal("100.123", "200.000"),
+        AccelReal("1.000", "2.000"),
+    )
     # 500 polls of 5 ms: past the 2 s deadline of the write, within that of the read after
     fake.bank.delays.execute = 500
     answer = fake.answer
@@ -159,5 +181,3 @@ def test_the_read_of_a_point_stops_at_its_first_coordinate_when_it_is_not_define
     assert c.read_item(PointKey("point", 12)) is not None
     assert [w[:3] for w in fake.commands[-11:]][:1] == [(1222, 5, 0)]
     assert WRITES.isdisjoint(w[0] for w in fake.commands)
-
-

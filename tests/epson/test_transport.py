@@ -62,23 +62,32 @@ def test_a_refused_connection_is_one_line_naming_the_controller() -> None:
 
 
 def test_a_silent_server_is_one_line_link_timeout_naming_the_controller() -> None:
-    with (SilentServer() as server, ModbusLink(server.url, 2, timeout=0.2, retries=0) as link,
-          pytest.raises(LinkTimeout) as caught):
+    with (
+        SilentServer() as server,
+        ModbusLink(server.url, 2, timeout=0.2, retries=0) as link,
+        pytest.raises(LinkTimeout) as caught,
+    ):
         link.read_input(0, 9)
     text = one_line(caught.value)
-    assert text == (f"port modbus://127.0.0.1:{server.port} unit 2: read input registers 0-8: "
-                    "no answer within 0.2 s (1 try)")
+    assert text == (
+        f"port modbus://127.0.0.1:{server.port} unit 2: read input registers 0-8: "
+        "no answer within 0.2 s (1 try)"
+    )
     assert isinstance(caught.value, TimeoutError)
 
 
 def test_a_register_the_controller_lacks_is_a_modbus_exception_with_a_hint() -> None:
-    with (ModbusServer(size=16) as server, ModbusLink(server.url) as link,
-          pytest.raises(ModbusRefused) as caught):
+    with (
+        ModbusServer(size=16) as server,
+        ModbusLink(server.url) as link,
+        pytest.raises(ModbusRefused) as caught,
+    ):
         link.read_input(10, 9)
     assert caught.value.code == 2
     assert one_line(caught.value).endswith(
         "read input registers 10-18: the controller answered Modbus exception 2 (illegal data "
-        "address); check the register map in robot.yaml")
+        "address); check the register map in robot.yaml"
+    )
 
 
 def test_one_harlsync_per_controller_whatever_its_host_is_called() -> None:
@@ -93,19 +102,33 @@ def test_one_harlsync_per_controller_whatever_its_host_is_called() -> None:
         ModbusLink(server.url, lock_timeout=0).close()
 
 
-@pytest.mark.parametrize(("url", "host", "port"), [
-    ("modbus://10.0.0.5", "10.0.0.5", 502),
-    ("modbus://10.0.0.5:1502", "10.0.0.5", 1502),
-    ("MODBUS://cell-7.plant:502/", "cell-7.plant", 502),
-    ("modbus://[::1]:1502", "::1", 1502),
-])
+@pytest.mark.parametrize(
+    ("url", "host", "port"),
+    [
+        ("modbus://10.0.0.5", "10.0.0.5", 502),
+        ("modbus://10.0.0.5:1502", "10.0.0.5", 1502),
+        ("MODBUS://cell-7.plant:502/", "cell-7.plant", 502),
+        ("modbus://[::1]:1502", "::1", 1502),
+    ],
+)
 def test_a_modbus_url_names_host_and_port(url: str, host: str, port: int) -> None:
     assert parse_url(url) == (host, port)
 
 
-@pytest.mark.parametrize("url", ["modbus://", "modbus://:502", "socket://10.0.0.5:502",
-                                 "10.0.0.5:502", "modbus://h:99999", "modbus://h:x",
-                                 "modbus://h/unit/1", "modbus://h?unit=1", "modbus://u@h"])
+@pytest.mark.parametrize(
+    "url",
+    [
+        "modbus://",
+        "modbus://:502",
+        "socket://10.0.0.5:502",
+        "10.0.0.5:502",
+        "modbus://h:99999",
+        "modbus://h:x",
+        "modbus://h/unit/1",
+        "modbus://h?unit=1",
+        "modbus://u@h",
+    ],
+)
 def test_a_url_that_is_no_modbus_address_is_one_line(url: str) -> None:
     with pytest.raises(PortError) as caught:
         parse_url(url)
@@ -118,8 +141,12 @@ def test_a_unit_id_out_of_range_is_refused_before_connecting() -> None:
 
 
 def test_every_name_of_one_controllers_host_and_port_is_one_line_lock() -> None:
-    same = ["modbus://127.0.0.1:502", "modbus://localhost", "modbus://LOCALHOST:502",
-            "socket://127.0.0.1:502", "modbus://[::1]:502"]
+    same = [
+        "modbus://127.0.0.1:502",
+        "modbus://localhost",
+        "modbus://LOCALHOST:502",
+        "socket://127.0.0.1:502",
+        "modbus://[::1]:502",
+    ]
     assert {lock_key(url) for url in same} == {"socket://loopback:502"}
     assert lock_key("modbus://127.0.0.1:5020") != lock_key("modbus://127.0.0.1:502")
-

@@ -162,8 +162,13 @@ class Operator(Scheduled, Simulator):
     """
 
     def __init__(
-        self, state: SimState, schedule: list[tuple[int, Change]], *, seed: int,
-        deadline: float, lose_writes: set[int] | None = None,
+        self,
+        state: SimState,
+        schedule: list[tuple[int, Change]],
+        *,
+        seed: int,
+        deadline: float,
+        lose_writes: set[int] | None = None,
     ) -> None:
         super().__init__(state)
         self.start_schedule(schedule, seed=seed, deadline=deadline, lose_writes=lose_writes)
@@ -216,9 +221,11 @@ class Operator(Scheduled, Simulator):
 
 def verb(name: str, *args: str) -> Change:
     """One of the simulator's control verbs (``harlsync sim``'s run, manual, estop ...)."""
+
     def change(sim: Simulator, state: SimState) -> str:
         sim.control(name, state, args)
         return " ".join([name, *args])
+
     return change
 
 
@@ -259,10 +266,14 @@ class Case:
 
 
 def coordinate(rng: random.Random) -> str:
-    units = rng.choice([
-        rng.randint(-300_000, 600_000), rng.randint(-300_000, 600_000), rng.randint(-999, 999),
-        rng.choice([-(2**31), 2**31 - 1, 0, -1]),  # the wire's ends: two's complement
-    ])
+    units = rng.choice(
+        [
+            rng.randint(-300_000, 600_000),
+            rng.randint(-300_000, 600_000),
+            rng.randint(-999, 999),
+            rng.choice([-(2**31), 2**31 - 1, 0, -1]),  # the wire's ends: two's complement
+        ]
+    )
     sign = "-" if units < 0 else ""
     return f"{sign}{abs(units) // 1000}.{abs(units) % 1000:03d}"
 
@@ -273,12 +284,18 @@ def g(rng: random.Random) -> str:
 
 
 def random_position(rng: random.Random, number: int, axes: tuple[int, ...]) -> Position:
-    used = axes if rng.random() < 0.6 else tuple(
-        sorted(rng.sample(axes, rng.randint(1, len(axes))))
+    used = (
+        axes if rng.random() < 0.6 else tuple(sorted(rng.sample(axes, rng.randint(1, len(axes)))))
     )
     return Position(
-        number, used, g(rng), g(rng), rng.choice([0, 100, rng.randint(0, 0xFFFF)]),
-        tuple(coordinate(rng) for _ in used), rng.choice([0, 0, 1, 2]), rng.choice([0, 0, 1, 2]),
+        number,
+        used,
+        g(rng),
+        g(rng),
+        rng.choice([0, 100, rng.randint(0, 0xFFFF)]),
+        tuple(coordinate(rng) for _ in used),
+        rng.choice([0, 0, 1, 2]),
+        rng.choice([0, 0, 1, 2]),
     )
 
 
@@ -299,11 +316,20 @@ def edited(rng: random.Random, p: Position, axes: tuple[int, ...]) -> Position:
         elif what == 3:
             p = Position(p.number, p.axes, p.acc, g(rng), p.speed, p.coords, p.arm1, p.arm2)
         elif what == 4:
-            p = Position(p.number, p.axes, p.acc, p.dec, rng.randint(0, 0xFFFF), p.coords,
-                         p.arm1, p.arm2)
+            p = Position(
+                p.number, p.axes, p.acc, p.dec, rng.randint(0, 0xFFFF), p.coords, p.arm1, p.arm2
+            )
         else:
-            p = Position(p.number, p.axes, p.acc, p.dec, p.speed, p.coords,
-                         rng.choice([0, 1, 2]), rng.choice([0, 1, 2]))
+            p = Position(
+                p.number,
+                p.axes,
+                p.acc,
+                p.dec,
+                p.speed,
+                p.coords,
+                rng.choice([0, 1, 2]),
+                rng.choice([0, 1, 2]),
+            )
     return p
 
 
@@ -316,12 +342,16 @@ def random_robot(rng: random.Random, story: list[str]) -> SimState:
     else:  # a table of its own: any axes, 1 to 8 of them, denser or sparser
         axes = tuple(sorted(rng.sample(range(1, 9), rng.choice([1, 2, 3, 4, 6, 8]))))
         density = rng.choice([0.1, 0.4, 0.8])
-        positions = [random_position(rng, n, axes)
-                     for n in range(first, last + 1) if rng.random() < density]
-        state = SimState.from_positions(positions, axes=axes, model=model,
-                                        position_range=(first, last))
-    story.append(f"robot: {model}, axes {list(state.axes)}, positions {first}-{last}, "
-                 f"{len(state.positions)} defined")
+        positions = [
+            random_position(rng, n, axes) for n in range(first, last + 1) if rng.random() < density
+        ]
+        state = SimState.from_positions(
+            positions, axes=axes, model=model, position_range=(first, last)
+        )
+    story.append(
+        f"robot: {model}, axes {list(state.axes)}, positions {first}-{last}, "
+        f"{len(state.positions)} defined"
+    )
     return state
 
 
@@ -363,8 +393,15 @@ def random_target(rng: random.Random, state: SimState, story: list[str]) -> dict
 
 def random_change(rng: random.Random, axes: tuple[int, ...]) -> Change:
     return rng.choices(
-        [verb("run"), verb("manual"), verb("estop"), verb("flash"),
-         verb("hold", str(rng.choice(axes))), not_ready, verb("stop")],
+        [
+            verb("run"),
+            verb("manual"),
+            verb("estop"),
+            verb("flash"),
+            verb("hold", str(rng.choice(axes))),
+            not_ready,
+            verb("stop"),
+        ],
         weights=[4, 3, 1, 1, 2, 1, 4],
     )[0]
 
@@ -378,14 +415,18 @@ def random_schedule(
     def moment() -> int:
         return rng.randrange(horizon) if rng.random() < 0.15 else rng.randrange(reads, horizon)
 
-    out = [(moment(), random_change(rng, axes))
-           for _ in range(rng.choice([0, 1, 1, 2, 2, 3, 5]))]
+    out = [(moment(), random_change(rng, axes)) for _ in range(rng.choice([0, 1, 1, 2, 2, 3, 5]))]
     return out + line_changes(rng, moment, deadline)
 
 
 def real(rng: random.Random) -> float:
-    return rng.choice([round(rng.uniform(-500, 500), rng.randint(0, 6)), 0.0,
-                       rng.choice([1e300, -2.5e-300, 0.1, 2.0**53 + 2])])
+    return rng.choice(
+        [
+            round(rng.uniform(-500, 500), rng.randint(0, 6)),
+            0.0,
+            rng.choice([1e300, -2.5e-300, 0.1, 2.0**53 + 2]),
+        ]
+    )
 
 
 def random_variables(
@@ -446,8 +487,11 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     rng = random.Random(seed)
     story: list[str] = []
     state = random_robot(rng, story)
-    target = IaiData(version=state.versions[(0, 0)], positions=random_target(rng, state, story),
-                     model=state.model)
+    target = IaiData(
+        version=state.versions[(0, 0)],
+        positions=random_target(rng, state, story),
+        model=state.model,
+    )
     # Flags and variables from a generator of their own: the table and the rest of
     # a case stay what they were before variables were in the test.
     vrng = random.Random(f"variables {seed}")
@@ -457,7 +501,10 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     if keeps is not None:
         variables = held(state, keeps)
         target.flags, target.integers, target.reals = (
-            variables.flags, variables.integers, variables.reals)
+            variables.flags,
+            variables.integers,
+            variables.reals,
+        )
         if registers:
             random_variable_edits(vrng, target, keeps, story)
         else:
@@ -473,26 +520,40 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     changes = sync_items.diff(CATALOGUE, before, target, registers=registers)
     horizon = reads + 6 * len(changes) + 8
     wait = deadline(settings)
-    plan = CATALOGUE.plan(before, target, [(c.key, c.old, c.new) for c in changes],
-                          registers=registers)
+    plan = CATALOGUE.plan(
+        before, target, [(c.key, c.old, c.new) for c in changes], registers=registers
+    )
     writes = len(plan.wanted)
     lose_writes = {rng.randrange(writes)} if writes and rng.random() < 0.3 else set()
     if lose_writes:
         story.append(f"write requests lost on the way in: {sorted(lose_writes)}")
     schedule = random_schedule(rng, reads, horizon, state.axes, wait)
-    sim = Operator(state, schedule, seed=rng.randrange(2**32), deadline=wait,
-                   lose_writes=lose_writes)
+    sim = Operator(
+        state, schedule, seed=rng.randrange(2**32), deadline=wait, lose_writes=lose_writes
+    )
     if busy is not None:
         story.append(f"when the push starts: {busy(sim, state)}")
-    return Case(seed, state.model, state.axes, robot_axes, state.position_range, before,
-                target, sim, keeps, registers, story)
+    return Case(
+        seed,
+        state.model,
+        state.axes,
+        robot_axes,
+        state.position_range,
+        before,
+        target,
+        sim,
+        keeps,
+        registers,
+        story,
+    )
 
 
 def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
     robot = families.get("iai").new_robot(f"case-{case.seed}", url, None)
     robot.serial = settings
-    robot.options.update(model=case.model, first=case.position_range[0],
-                         last=case.position_range[1])
+    robot.options.update(
+        model=case.model, first=case.position_range[0], last=case.position_range[1]
+    )
     if case.robot_axes is not None:
         robot.options["axes"] = case.robot_axes
     if case.keeps is not None:
@@ -559,8 +620,9 @@ def on_disk(
         url = register(case.sim)
         try:
             path = tmp_path / f"case-{case.seed}"
-            save_project(path, Project(path, robot_for(case, url, settings), case.target),
-                         rewrite_robot=True)
+            save_project(
+                path, Project(path, robot_for(case, url, settings), case.target), rewrite_robot=True
+            )
             if not (path / ".git").exists():
                 git(path, "init", "-q")
             git(path, "add", "-A")
@@ -601,14 +663,19 @@ def reads_back(payload: str, between: list[Received]) -> bool:
     read, start_at, count_at = READ_BACK[payload[:3]]
     start = int(payload[start_at], 16)
     count = 1 if read == "20D" else int(payload[count_at], 16)
-    pages = [range(int(r.payload[start_at], 16),
-                   int(r.payload[start_at], 16) + int(r.payload[count_at], 16))
-             for r in between if r.command == read]
+    pages = [
+        range(
+            int(r.payload[start_at], 16),
+            int(r.payload[start_at], 16) + int(r.payload[count_at], 16),
+        )
+        for r in between
+        if r.command == read
+    ]
     return all(any(n in page for page in pages) for n in range(start, start + count))
 
 
 def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
-    received, arrival = got.received, case.sim.arrival[got.first:]
+    received, arrival = got.received, case.sim.arrival[got.first :]
     assert not case.sim.off_list(), case.why(f"off the allow-list: {case.sim.off_list()}")
     for i, r in enumerate(received):
         assert r.command in PUSHED, case.why(
@@ -618,10 +685,14 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
             continue
         name = f"{r.command}H (request {i})"
         status, axes = (received[i - 2], received[i - 1]) if i >= 2 else (None, None)
-        assert status is not None and axes is not None and status.command == "215" and (
-            axes.command == "212"), case.why(
+        assert (
+            status is not None
+            and axes is not None
+            and status.command == "215"
+            and (axes.command == "212")
+        ), case.why(
             f"{name} did not follow a 215H and a 212H straight "
-            f"(before it: {received[max(0, i - 2):i]})"
+            f"(before it: {received[max(0, i - 2) : i]})"
         )
         assert axes.payload == f"212{case.pattern:02X}", case.why(
             f"{name} was cleared by {axes.payload}, not by the robot's axes"
@@ -633,8 +704,12 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
         assert not shown, case.why(
             f"{name} followed a 215H that found the controller not idle: {shown}"
         )
-        in_use = [why for why in arrival[i - 1] if why.endswith(" in use") and (
-            case.robot_axes is None or int(why.split()[1]) in case.robot_axes)]
+        in_use = [
+            why
+            for why in arrival[i - 1]
+            if why.endswith(" in use")
+            and (case.robot_axes is None or int(why.split()[1]) in case.robot_axes)
+        ]
         assert not in_use, case.why(f"{name} followed a 212H that found {in_use}")
         window = {got.first + i - 2, got.first + i - 1} & case.sim.acted
         if axes.busy or r.busy:
@@ -647,8 +722,10 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
     if got.failed is None and got.result.written:
         last = max(i for i, r in enumerate(received) if r.is_write)
         after = [r.command for r in received[last:]]
-        unread = any(w.startswith("cannot read the task states after the last write")
-                     for w in got.result.warnings)
+        unread = any(
+            w.startswith("cannot read the task states after the last write")
+            for w in got.result.warnings
+        )
         assert ("215" in after and "212" in after) or unread, case.why(
             "neither a 215H and a 212H after the last write, nor a warning that says why not"
         )
@@ -781,16 +858,23 @@ class Pendant(Simulator):
 
 
 @pytest.mark.parametrize("after_writes", [0, 1], ids=["before the push", "after a write"])
-@pytest.mark.parametrize(("change", "bit"), [
-    (verb("run"), "program running (215H status byte 2 bit 5)"),
-    (verb("manual"), "MANUAL mode (215H mode 2)"),
-    (verb("estop"), "emergency stop (215H status byte 1 bit 3)"),
-    (verb("flash"), "flash ROM write in progress (215H status byte 2 bit 0)"),
-    (verb("hold", "2"), "axis 2 servo axis in use (212H axis status bit 0)"),
-    (not_ready, "system not ready (215H status byte 3 bit 2)"),
-], ids=["run", "manual", "estop", "flash", "hold 2", "not ready"])
+@pytest.mark.parametrize(
+    ("change", "bit"),
+    [
+        (verb("run"), "program running (215H status byte 2 bit 5)"),
+        (verb("manual"), "MANUAL mode (215H mode 2)"),
+        (verb("estop"), "emergency stop (215H status byte 1 bit 3)"),
+        (verb("flash"), "flash ROM write in progress (215H status byte 2 bit 0)"),
+        (verb("hold", "2"), "axis 2 servo axis in use (212H axis status bit 0)"),
+        (not_ready, "system not ready (215H status byte 3 bit 2)"),
+    ],
+    ids=["run", "manual", "estop", "flash", "hold 2", "not ready"],
+)
 def test_a_refusal_exits_3_naming_the_bit_and_writes_nothing_more(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: Change, bit: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: Change,
+    bit: str,
     after_writes: int,
 ) -> None:
     axes = (1, 2, 3)

@@ -48,12 +48,18 @@ def test_positions_are_one_per_line_keyed_by_number_with_exact_decimal_text(
     lines = (project / "positions.yaml").read_text().splitlines()
     assert lines[0] == "# yaml-language-server: $schema=.schemas/positions.schema.json"
     assert lines[3:] == [
-        ("  1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, "
-        "speed: 100}"),
-        ("  2: {axes: [1, 2, 3], coords: [100.000, -2.000, 0.000], acc: 0.30, dec: 0.30, "
-        "speed: 100}"),
-        ("  7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, "
-        "arm1: right, arm2: left}"),
+        (
+            "  1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, "
+            "speed: 100}"
+        ),
+        (
+            "  2: {axes: [1, 2, 3], coords: [100.000, -2.000, 0.000], acc: 0.30, dec: 0.30, "
+            "speed: 100}"
+        ),
+        (
+            "  7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, "
+            "arm1: right, arm2: left}"
+        ),
     ]
 
 
@@ -76,30 +82,61 @@ def assert_issue_after_edit(
 
 
 BAD = [
-    ("coords: [100.000, -1.000, 0.000]", "coords: [100.000, -1.000, 99999999.000]",
-     ("positions.yaml:4: positions.1.coords.2: 99999999.000 is out of range "
-     "(allowed: mm with three decimals, -2147483.648 to 2147483.647)")),
-    ("axes: [1, 2, 3], coords: [100.000, -1.000, 0.000]",
-     "axes: [1, 2, 3, 4, 5, 6, 7, 8, 9], coords: [100.000, -1.000, 0.000]",
-     "positions.yaml:4: positions.1.axes:"),
-    ("axes: [1, 2, 3], coords: [100.000, -1.000, 0.000]",
-     "axes: [1, 2], coords: [100.000, -1.000, 0.000]",
-     "positions.yaml:4: positions.1.coords: 3 coordinate(s) for 2 axis/axes"),
+    (
+        "coords: [100.000, -1.000, 0.000]",
+        "coords: [100.000, -1.000, 99999999.000]",
+        (
+            "positions.yaml:4: positions.1.coords.2: 99999999.000 is out of range "
+            "(allowed: mm with three decimals, -2147483.648 to 2147483.647)"
+        ),
+    ),
+    (
+        "axes: [1, 2, 3], coords: [100.000, -1.000, 0.000]",
+        "axes: [1, 2, 3, 4, 5, 6, 7, 8, 9], coords: [100.000, -1.000, 0.000]",
+        "positions.yaml:4: positions.1.axes:",
+    ),
+    (
+        "axes: [1, 2, 3], coords: [100.000, -1.000, 0.000]",
+        "axes: [1, 2], coords: [100.000, -1.000, 0.000]",
+        "positions.yaml:4: positions.1.coords: 3 coordinate(s) for 2 axis/axes",
+    ),
     ("  2: {", "  1: {", "positions.yaml:5: positions.1: written twice (lines 4 and 5)"),
-    ("speed: 100}", "speed: 100, colour: red}",
-     "positions.yaml:4: positions.1.colour: unknown key"),
-    ("-1.000", "-01.0",
-     ("positions.yaml:4: positions.1.coords.1: -01.0 is not written in its one form "
-     "(write -1.000")),
-    ("acc: 0.30", "acc: 0.3",
-     "positions.yaml:4: positions.1.acc: 0.3 is not written in its one form (write 0.30"),
-    ("axes: [1, 2], coords", "axes: [1, 4], coords",
-     "positions.yaml:6: positions.7.axes: axis 4 is not one of the robot's (allowed: 1, 2, 3"),
-    ("  7: {", "  1007: {",
-     ("positions.yaml:6: positions.1007: position 1007 is outside the robot's table "
-     "(allowed: 1-1000")),
-    ("speed: 100}", "speed: 70000}",
-     "positions.yaml:4: positions.1.speed: 70000 is out of range (allowed: mm/s, 0-65535"),
+    (
+        "speed: 100}",
+        "speed: 100, colour: red}",
+        "positions.yaml:4: positions.1.colour: unknown key",
+    ),
+    (
+        "-1.000",
+        "-01.0",
+        (
+            "positions.yaml:4: positions.1.coords.1: -01.0 is not written in its one form "
+            "(write -1.000"
+        ),
+    ),
+    (
+        "acc: 0.30",
+        "acc: 0.3",
+        "positions.yaml:4: positions.1.acc: 0.3 is not written in its one form (write 0.30",
+    ),
+    (
+        "axes: [1, 2], coords",
+        "axes: [1, 4], coords",
+        "positions.yaml:6: positions.7.axes: axis 4 is not one of the robot's (allowed: 1, 2, 3",
+    ),
+    (
+        "  7: {",
+        "  1007: {",
+        (
+            "positions.yaml:6: positions.1007: position 1007 is outside the robot's table "
+            "(allowed: 1-1000"
+        ),
+    ),
+    (
+        "speed: 100}",
+        "speed: 70000}",
+        "positions.yaml:4: positions.1.speed: 70000 is out of range (allowed: mm/s, 0-65535",
+    ),
 ]
 
 

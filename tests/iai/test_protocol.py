@@ -274,7 +274,8 @@ def test_the_default_limit_holds_the_largest_frame_of_any_model(feed: Feed) -> N
     largest = max(max(b) for b in profile.BUFFERS.values())
     raw = with_sc(b"#9922D" + b"0" * (largest - 10))
     assert frames_of(raw + SERVO_REPLY, feed) == [
-        Frame("#", 0x99, 0x22D, "0" * (largest - 10)), Frame("#", 0x99, 0x232, "")
+        Frame("#", 0x99, 0x22D, "0" * (largest - 10)),
+        Frame("#", 0x99, 0x232, ""),
     ]
 
 

@@ -76,9 +76,7 @@ PAGE_12_Q = b"!9922D000001000C2F" + CRLF  # 22DH positions 1-12
 WRITE_5_6 = b"!99291000005000201000000000000000003E80002000000000000000007D00054" + CRLF
 WRITE_6_AXIS_4 = b"!99291000005000201000000000000000003E80008000000000000000007D0005A" + CRLF
 WRITE_6_PATTERN_00 = b"!99291000005000201000000000000000003E8000000000000000000B7" + CRLF
-WRITE_6_EXTENDED_01 = (
-    b"!99291000005000201000000000000000003E80001000000000000000007D00154" + CRLF
-)
+WRITE_6_EXTENDED_01 = b"!99291000005000201000000000000000003E80001000000000000000007D00154" + CRLF
 WRITE_1001 = b"!992910003E9000101000000000000000003E800D2" + CRLF  # outside 1-1000
 
 
@@ -192,7 +190,8 @@ def test_22dh_pages_never_exceed_the_send_buffer(line: Line) -> None:
     eight = tuple(range(1, 9))
     line.sim.stations[0x99] = SimState.from_positions(
         [Position(n, eight, "0.10", "0.10", 100, (f"{n}.000",) * 8) for n in range(1, 21)],
-        axes=eight, model="TT",
+        axes=eight,
+        model="TT",
     )
     reply = line.ask(PAGE_20_Q)
     assert len(reply) <= 1024
@@ -283,7 +282,8 @@ def test_messages_off_the_allow_list_are_refused_and_recorded(line: Line) -> Non
     assert line.ask(SERVO_Q) == error(codes.NOT_SUPPORTED)
     assert line.ask(PROGRAM_RUN_Q) == error(codes.NOT_SUPPORTED)
     assert [(r.command, r.payload) for r in line.sim.off_list()] == [
-        ("232", "232071"), ("253", "25301")
+        ("232", "232071"),
+        ("253", "25301"),
     ]
     assert line.state.idle and not line.state.program_running
 
@@ -401,8 +401,18 @@ def test_battery_backed_memory_keeps_the_table_across_a_restart(tmp_path: Path) 
 def test_harlsync_sim_family_iai_serves_pty_and_tcp(tmp_path: Path) -> None:
     record = tmp_path / "requests.jsonl"
     with harlsync_sim(
-        "--family", "iai", "--seed", "3", "--baud", "0", "--listen", "127.0.0.1:0",
-        "--stations", "99,A0", "--record", str(record),
+        "--family",
+        "iai",
+        "--seed",
+        "3",
+        "--baud",
+        "0",
+        "--listen",
+        "127.0.0.1:0",
+        "--stations",
+        "99,A0",
+        "--record",
+        str(record),
     ) as (proc, lines):
         assert lines["stations"] == "99, A0"
         with serial.serial_for_url(lines["pty"], timeout=0.05) as port:
@@ -416,13 +426,16 @@ def test_harlsync_sim_family_iai_serves_pty_and_tcp(tmp_path: Path) -> None:
             assert read_line(port) == STATUS_RUNNING
     records = [json.loads(line) for line in record.read_text().splitlines()]
     assert [(r["station"], r["payload"], r["busy"]) for r in records] == [
-        (0x99, "215", False), (0x99, "215", True)
+        (0x99, "215", False),
+        (0x99, "215", True),
     ]
 
 
 def test_harlsync_sim_help_lists_each_familys_verbs() -> None:
     out = subprocess.run(
-        [sys.executable, "-m", "harlsync", "sim", "--help"], capture_output=True, text=True,
+        [sys.executable, "-m", "harlsync", "sim", "--help"],
+        capture_output=True,
+        text=True,
         check=True,
     ).stdout
     text = " ".join(out.split())

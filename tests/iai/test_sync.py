@@ -45,8 +45,9 @@ def served(request: pytest.FixtureRequest) -> Iterator[tuple[Simulator, str]]:
 
 def pulled(repo: Path, url: str, name: str = "cell-9") -> Path:
     project = repo / name
-    assert cli.main(["pull", str(project), "--family", "iai", "--port", url,
-                     "--station", "99"]) == 0
+    assert (
+        cli.main(["pull", str(project), "--family", "iai", "--port", url, "--station", "99"]) == 0
+    )
     robot = project / "robot.yaml"
     robot.write_text(robot.read_text().replace("last_position: 1000", "last_position: 120"))
     git(repo, "add", "-A")
@@ -59,7 +60,8 @@ def move(project: Path, repo: Path, number: int, coord: str) -> None:
     path = project / "positions.yaml"
     lines = [
         re.sub(r"coords: \[[^,\]]+", f"coords: [{coord}", line, count=1)
-        if line.startswith(f"  {number}: ") else line
+        if line.startswith(f"  {number}: ")
+        else line
         for line in path.read_text().splitlines()
     ]
     path.write_text("\n".join(lines) + "\n")
@@ -190,14 +192,20 @@ def test_a_push_to_a_controller_that_is_not_idle_is_refused_naming_the_bit(
     assert not writes(sim)
 
 
-def test_a_position_on_the_robot_the_project_lacks_is_shown_and_refused(served, repo,
-                                                                       capsys) -> None:
+def test_a_position_on_the_robot_the_project_lacks_is_shown_and_refused(
+    served, repo, capsys
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     n = max(load_project(project).data.positions)
     path = project / "positions.yaml"
-    path.write_text("".join(line for line in path.read_text().splitlines(keepends=True)
-                            if not line.startswith(f"  {n}: ")))
+    path.write_text(
+        "".join(
+            line
+            for line in path.read_text().splitlines(keepends=True)
+            if not line.startswith(f"  {n}: ")
+        )
+    )
     git(repo, "commit", "-qam", "drop a position")
     capsys.readouterr()
     assert cli.main(["diff", str(project)]) == 1
@@ -257,8 +265,9 @@ def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo) -> None:
             server.stop()
 
 
-def test_the_audit_record_of_an_iai_push_carries_the_flash_notice(served, repo, tmp_path,
-                                                                 monkeypatch) -> None:
+def test_the_audit_record_of_an_iai_push_carries_the_flash_notice(
+    served, repo, tmp_path, monkeypatch
+) -> None:
     log = tmp_path / "audit.jsonl"
     monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(log))
     _, url = served
@@ -366,10 +375,19 @@ def test_push_registers_writes_only_the_changed_ones_in_runs_and_converges(
     project = keeping(repo, url)
     state = sim.stations[STATION]
     flags, _, _ = held(state)
-    set_values(project, repo, {
-        600: str(not flags[600]).lower(), 601: str(not flags[601]).lower(),
-        200: "-1000", 201: "1", 202: "2", 210: "2147483647", 399: "0.1",
-    })
+    set_values(
+        project,
+        repo,
+        {
+            600: str(not flags[600]).lower(),
+            601: str(not flags[601]).lower(),
+            200: "-1000",
+            201: "1",
+            202: "2",
+            210: "2147483647",
+            399: "0.1",
+        },
+    )
     assert cli.main(["push", str(project), "--yes"]) == 0  # without --registers: nothing
     assert not writes(sim)
     capsys.readouterr()
@@ -383,8 +401,11 @@ def test_push_registers_writes_only_the_changed_ones_in_runs_and_converges(
     ]
     assert cli.main(["push", str(project), "--registers", "--yes"]) == 0
     assert writes(sim) == [
-        "24C000C803FFFFFC180000000100000002", "24C000D2017FFFFFFF", "24D0018F013FB999999999999A",
-        f"24B000258{int(not flags[600])}", f"24B000259{int(not flags[601])}",
+        "24C000C803FFFFFC180000000100000002",
+        "24C000D2017FFFFFFF",
+        "24D0018F013FB999999999999A",
+        f"24B000258{int(not flags[600])}",
+        f"24B000259{int(not flags[601])}",
     ]
     assert (state.integers[200], state.integers[201], state.integers[202]) == (-1000, 1, 2)
     assert state.reals[399] == 0.1 and (600 in state.flags) != flags[600]
@@ -403,12 +424,15 @@ def test_rollback_registers_restores_the_flags_and_variables(served, repo) -> No
     assert held(sim.stations[STATION]) == before
 
 
-def test_push_registers_for_a_project_that_does_not_keep_them_is_refused(served, repo,
-                                                                          capsys) -> None:
+def test_push_registers_for_a_project_that_does_not_keep_them_is_refused(
+    served, repo, capsys
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     capsys.readouterr()
     assert cli.main(["push", str(project), "--registers", "--yes"]) == 3
-    assert ("flags, integers, reals: the project does not keep them; set keep_registers: true in "
-            "robot.yaml and pull") in capsys.readouterr().err
+    assert (
+        "flags, integers, reals: the project does not keep them; set keep_registers: true in "
+        "robot.yaml and pull"
+    ) in capsys.readouterr().err
     assert not writes(sim)

@@ -56,8 +56,11 @@ def project(tmp_path: Path) -> Path:
 
 
 def files(path: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(path)): p.read_bytes() for p in path.rglob("*")
-            if p.is_file() and ".harlsync" not in p.parts}
+    return {
+        str(p.relative_to(path)): p.read_bytes()
+        for p in path.rglob("*")
+        if p.is_file() and ".harlsync" not in p.parts
+    }
 
 
 # --- the files ------------------------------------------------------------------------
@@ -75,12 +78,23 @@ def test_variables_load_as_saved_and_save_byte_for_byte(project: Path) -> None:
 def test_variables_are_one_per_line_keyed_by_number_in_exact_text(project: Path) -> None:
     lines = (project / "variables.yaml").read_text().splitlines()
     assert lines[:3] == [
-        "# yaml-language-server: $schema=.schemas/variables.schema.json", "format: 1", "flags:",
+        "# yaml-language-server: $schema=.schemas/variables.schema.json",
+        "format: 1",
+        "flags:",
     ]
     assert lines[3:] == [
         *(f"  {n}: {'true' if on else 'false'}" for n, on in FLAGS.items()),
-        "integers:", "  200: 0", "  201: -1000", "  202: 2147483647", "  203: -2147483648",
-        "reals:", "  300: 0.0", "  301: 0.1", "  302: -2.5", "  303: 1e+300", "  304: 5e-324",
+        "integers:",
+        "  200: 0",
+        "  201: -1000",
+        "  202: 2147483647",
+        "  203: -2147483648",
+        "reals:",
+        "  300: 0.0",
+        "  301: 0.1",
+        "  302: -2.5",
+        "  303: 1e+300",
+        "  304: 5e-324",
         "  305: -0.0",
     ]
 
@@ -124,7 +138,9 @@ def test_a_positions_only_project_holds_the_same_files_as_before(tmp_path: Path)
     save_project(path, Project(path, robot(keep=False), data()))
     assert (path / "robot.yaml").read_text() == POSITIONS_ONLY_ROBOT
     assert sorted(p.name for p in path.iterdir() if p.is_file()) == [
-        "controller.yaml", "positions.yaml", "robot.yaml",
+        "controller.yaml",
+        "positions.yaml",
+        "robot.yaml",
     ]
     loaded = load_project(path)
     assert loaded.data == data() and loaded.data.variables() == {}
@@ -149,50 +165,109 @@ def test_a_project_that_keeps_them_but_has_no_file_yet_is_valid(project: Path) -
     assert load_project(project).data.variables() == {}
 
 
-NOT_FINITE = ("(allowed: a finite real in its shortest form (0.1, -2.5, 3.0, 1e+300); not .nan "
-              "or .inf: a NaN never equals itself, so a diff of it never converges)")
+NOT_FINITE = (
+    "(allowed: a finite real in its shortest form (0.1, -2.5, 3.0, 1e+300); not .nan "
+    "or .inf: a NaN never equals itself, so a diff of it never converges)"
+)
 BAD = [
     # variables.yaml
-    ("  201: -1000", "  201: 2147483648",
-     ("variables.yaml:14: integers.201: 2147483648 is out of range (allowed: a whole number, "
-     "-2147483648 to 2147483647)")),
-    ("  201: -1000", "  201: -0001000",
-     "variables.yaml:14: integers.201: -0001000 is not written in its one form (write -1000"),
+    (
+        "  201: -1000",
+        "  201: 2147483648",
+        (
+            "variables.yaml:14: integers.201: 2147483648 is out of range (allowed: a whole number, "
+            "-2147483648 to 2147483647)"
+        ),
+    ),
+    (
+        "  201: -1000",
+        "  201: -0001000",
+        "variables.yaml:14: integers.201: -0001000 is not written in its one form (write -1000",
+    ),
     ("  201: -1000", "  201: 1.5", "variables.yaml:14: integers.201: 1.5 is not an integer"),
-    ("  301: 0.1", "  301: .nan",
-     f"variables.yaml:19: reals.301: '.nan' is not a number {NOT_FINITE}"),
-    ("  301: 0.1", "  301: -.inf",
-     f"variables.yaml:19: reals.301: '-.inf' is not a number {NOT_FINITE}"),
+    (
+        "  301: 0.1",
+        "  301: .nan",
+        f"variables.yaml:19: reals.301: '.nan' is not a number {NOT_FINITE}",
+    ),
+    (
+        "  301: 0.1",
+        "  301: -.inf",
+        f"variables.yaml:19: reals.301: '-.inf' is not a number {NOT_FINITE}",
+    ),
     ("  301: 0.1", "  301: 1e400", "variables.yaml:19: reals.301: 1e400 is out of range"),
-    ("  301: 0.1", "  301: 0.10",
-     ("variables.yaml:19: reals.301: 0.10 is not written in its one form (write 0.1: the "
-     "controller reads it back so, and a push would never converge)")),
-    ("  302: -2.5", "  302: 3", ("variables.yaml:20: reals.302: 3 is not written in its one form "
-     "(write 3.0")),
+    (
+        "  301: 0.1",
+        "  301: 0.10",
+        (
+            "variables.yaml:19: reals.301: 0.10 is not written in its one form (write 0.1: the "
+            "controller reads it back so, and a push would never converge)"
+        ),
+    ),
+    (
+        "  302: -2.5",
+        "  302: 3",
+        ("variables.yaml:20: reals.302: 3 is not written in its one form (write 3.0"),
+    ),
     ("  300: 0.0", "  300: zero", "variables.yaml:18: reals.300: 'zero' is not a number"),
-    ("  601: true", "  601: yes",
-     "variables.yaml:5: flags.601: 'yes' is not true or false (allowed: true, false)"),
-    ("  607: false", "  607: false\n  608: true",
-     ("variables.yaml:12: flags.608: flag 608 is outside the robot's range (allowed: 600-607, "
-     "robot.yaml controller.flags)")),
-    ("  203: -2147483648", "  203: -2147483648\n  299: 1",
-     ("variables.yaml:17: integers.299: integer variable 299 is outside the robot's range "
-     "(allowed: 200-203, robot.yaml controller.integers)")),
-    ("  600: false", "  600: false\n  600: true",
-     "variables.yaml:5: flags.600: written twice (lines 4 and 5)"),
-    ("reals:", "strings:\n  1: 65\nreals:",
-     "variables.yaml:17: strings: unknown key (allowed: format, flags, integers, reals)"),
+    (
+        "  601: true",
+        "  601: yes",
+        "variables.yaml:5: flags.601: 'yes' is not true or false (allowed: true, false)",
+    ),
+    (
+        "  607: false",
+        "  607: false\n  608: true",
+        (
+            "variables.yaml:12: flags.608: flag 608 is outside the robot's range (allowed: 600-607, "
+            "robot.yaml controller.flags)"
+        ),
+    ),
+    (
+        "  203: -2147483648",
+        "  203: -2147483648\n  299: 1",
+        (
+            "variables.yaml:17: integers.299: integer variable 299 is outside the robot's range "
+            "(allowed: 200-203, robot.yaml controller.integers)"
+        ),
+    ),
+    (
+        "  600: false",
+        "  600: false\n  600: true",
+        "variables.yaml:5: flags.600: written twice (lines 4 and 5)",
+    ),
+    (
+        "reals:",
+        "strings:\n  1: 65\nreals:",
+        "variables.yaml:17: strings: unknown key (allowed: format, flags, integers, reals)",
+    ),
     # robot.yaml
-    ("flags: {first: 600, last: 607}", "flags: {first: 600, last: 500}",
-     ("robot.yaml:20: controller.flags.last: 500 is before first 600 (allowed: a number at or "
-     "after first)")),
-    ("integers: {first: 200, last: 203}", "integers: {first: 200, last: 5000}",
-     ("robot.yaml:21: controller.integers.last: 5000 is out of range (allowed: a variable number, "
-     "0-4095)")),
-    ("reals: {first: 300, last: 305}", "reals: {first: 300}",
-     "robot.yaml:22: controller.reals.last: is missing"),
-    ("keep_registers: true", "keep_registers: yes",
-     "robot.yaml:24: keep_registers: 'yes' is not true or false (allowed: true, false)"),
+    (
+        "flags: {first: 600, last: 607}",
+        "flags: {first: 600, last: 500}",
+        (
+            "robot.yaml:20: controller.flags.last: 500 is before first 600 (allowed: a number at or "
+            "after first)"
+        ),
+    ),
+    (
+        "integers: {first: 200, last: 203}",
+        "integers: {first: 200, last: 5000}",
+        (
+            "robot.yaml:21: controller.integers.last: 5000 is out of range (allowed: a variable number, "
+            "0-4095)"
+        ),
+    ),
+    (
+        "reals: {first: 300, last: 305}",
+        "reals: {first: 300}",
+        "robot.yaml:22: controller.reals.last: is missing",
+    ),
+    (
+        "keep_registers: true",
+        "keep_registers: yes",
+        "robot.yaml:24: keep_registers: 'yes' is not true or false (allowed: true, false)",
+    ),
 ]
 
 
@@ -230,15 +305,22 @@ def test_every_finite_double_has_one_text_that_reads_back_as_the_same_bits(value
 
 @pytest.mark.parametrize(
     ("text", "one"),
-    [("0.10", "0.1"), ("3", "3.0"), ("1e16", "1e+16"), ("+.5", "0.5"), ("-0", "-0.0"),
-     ("1e-400", "0.0")],
+    [
+        ("0.10", "0.1"),
+        ("3", "3.0"),
+        ("1e16", "1e+16"),
+        ("+.5", "0.5"),
+        ("-0", "-0.0"),
+        ("1e-400", "0.0"),
+    ],
 )
 def test_a_real_has_one_form(text: str, one: str) -> None:
     assert canonical_real(text) == one
 
 
-@pytest.mark.parametrize("text", ["nan", ".NaN", "inf", "-.inf", "Infinity", "1e400", "0x10",
-                                  "1_000", ""])
+@pytest.mark.parametrize(
+    "text", ["nan", ".NaN", "inf", "-.inf", "Infinity", "1e400", "0x10", "1_000", ""]
+)
 def test_nan_infinity_and_other_texts_are_no_real(text: str) -> None:
     with pytest.raises(ValueError):
         canonical_real(text)
@@ -271,15 +353,21 @@ def test_runs_split_consecutive_numbers_at_the_limit() -> None:
     project = {n: n for n in range(10)}
     found = runs("integers", [7, 1, 2, 3, 5, 4, 9], 3, live, project)
     assert [r for r, _, _ in found] == [
-        Run("integers", 1, 3), Run("integers", 4, 2), Run("integers", 7, 1), Run("integers", 9, 1),
+        Run("integers", 1, 3),
+        Run("integers", 4, 2),
+        Run("integers", 7, 1),
+        Run("integers", 9, 1),
     ]
     assert found[1][1:] == ((0, 0), (4, 5))
 
 
 def test_a_plan_writes_runs_of_changed_variables_and_each_changed_flag_after_them() -> None:
     live = data(**KEPT)
-    project = data(flags={**FLAGS, 600: True, 605: True}, integers={**INTEGERS, 201: 5, 202: 6},
-                   reals={**REALS, 305: "0.0"})
+    project = data(
+        flags={**FLAGS, 600: True, 605: True},
+        integers={**INTEGERS, 201: 5, 202: 6},
+        reals={**REALS, 305: "0.0"},
+    )
     changes = [(c.key, c.old, c.new) for c in diff(CATALOGUE, live, project, registers=True)]
     shape = CATALOGUE.plan(live, project, changes, registers=True)
     wanted = sorted(shape.wanted, key=lambda w: CATALOGUE.order(w[0]))
@@ -310,6 +398,8 @@ def test_a_plan_with_variables_for_a_project_that_does_not_keep_them_is_refused(
     shape = CATALOGUE.plan(live, data(), changes, registers=True)
     assert shape.wanted == []
     assert shape.unwritable == [
-        ("flags, integers, reals: the project does not keep them; set keep_registers: true in "
-        "robot.yaml and pull, or push without --registers")
+        (
+            "flags, integers, reals: the project does not keep them; set keep_registers: true in "
+            "robot.yaml and pull, or push without --registers"
+        )
     ]

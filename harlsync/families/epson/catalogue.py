@@ -63,16 +63,36 @@ class PointWrite(NamedTuple):
 Key = TableKey | SettingKey | PointKey | PointWrite
 
 #: The safe push order, by kind.
-PUSH_ORDER = ("weight", "inertia", "jrange", "xylim", "box", "plane", "base", "local", "tool",
-              "arch", "fine", "limz", "accel", "accel_s", "accel_r", "speed", "speed_s",
-              "speed_r", "point")
+PUSH_ORDER = (
+    "weight",
+    "inertia",
+    "jrange",
+    "xylim",
+    "box",
+    "plane",
+    "base",
+    "local",
+    "tool",
+    "arch",
+    "fine",
+    "limz",
+    "accel",
+    "accel_s",
+    "accel_r",
+    "speed",
+    "speed_s",
+    "speed_r",
+    "point",
+)
 _RANK = {kind: i for i, kind in enumerate(PUSH_ORDER)}
 #: What a diff says of a table entry the robot does not have.
 CLEARED = "not registered: cleared, e.g. by a power cycle"
 #: A plan's note on points (the manual does not say how long point edits live).
-POINTS_NOTE = ("points are written to the controller's point memory only: harlsync never "
-               "saves them to Points.pts (command 2052), and the manual does not say whether "
-               "they survive a power-off; save them on the controller (RC+ or SavePoints)")
+POINTS_NOTE = (
+    "points are written to the controller's point memory only: harlsync never "
+    "saves them to Points.pts (command 2052), and the manual does not say whether "
+    "they survive a power-off; save them on the controller (RC+ or SavePoints)"
+)
 
 
 def _kind(key: Key) -> Kind:
@@ -92,8 +112,9 @@ def point_fields(old: Point | None, new: Point) -> tuple[str, ...]:
 
 def _counted(count: dict[str, int], *, zeros: bool) -> str:
     one = {"table entries": "table entry", "settings": "setting", "points": "point"}
-    return ", ".join(f"{n} {one[name] if n == 1 else name}" for name, n in count.items()
-                     if n or zeros)
+    return ", ".join(
+        f"{n} {one[name] if n == 1 else name}" for name, n in count.items() if n or zeros
+    )
 
 
 class EpsonCatalogue:
@@ -130,14 +151,20 @@ class EpsonCatalogue:
         if old is None or new is None:
             if old is None and new is None:
                 return []
-            before = value_text(kind, old) if old is not None else (
-                CLEARED if isinstance(key, TableKey) else None)
+            before = (
+                value_text(kind, old)
+                if old is not None
+                else (CLEARED if isinstance(key, TableKey) else None)
+            )
             return [("", before, None if new is None else value_text(kind, new))]
         if kind is POINT and len(old.coords) != len(new.coords):
             a, b = value_text(kind, old), value_text(kind, new)
             return [] if a == b else [("", a, b)]
-        return [(name, a, b) for (name, a), (_, b) in zip(field_texts(kind, old),
-                                                         field_texts(kind, new)) if a != b]
+        return [
+            (name, a, b)
+            for (name, a), (_, b) in zip(field_texts(kind, old), field_texts(kind, new))
+            if a != b
+        ]
 
     def identity(self, key: Key) -> dict[str, Any]:
         ident: dict[str, Any] = key._asdict()
@@ -168,11 +195,18 @@ class EpsonCatalogue:
 
     def contents(self, data: EpsonData, *, registers: bool) -> str:
         """``"12 table entries, 20 settings, 150 points"``."""
-        return _counted(self.counts((key, None, value) for key, value in data.items.items()),
-                        zeros=True)
+        return _counted(
+            self.counts((key, None, value) for key, value in data.items.items()), zeros=True
+        )
 
-    def plan(self, live: EpsonData, project: EpsonData,
-             changes: list[tuple[Any, Any, Any]], *, registers: bool) -> PlanShape:
+    def plan(
+        self,
+        live: EpsonData,
+        project: EpsonData,
+        changes: list[tuple[Any, Any, Any]],
+        *,
+        registers: bool,
+    ) -> PlanShape:
         unwritable: list[str] = []
         if live.unwritable is not None:
             unwritable.append(live.unwritable)
@@ -180,7 +214,8 @@ class EpsonCatalogue:
             unwritable.append(
                 f"the project is of a {project.type_name} robot with {project.axes} axes, the "
                 f"controller reports a {live.type_name} with {live.axes}: check the port (or "
-                "pull into a new project)")
+                "pull into a new project)"
+            )
         wanted: list[tuple[Any, Any, Any]] = []
         card: list[str] = []
         points = False
@@ -193,7 +228,8 @@ class EpsonCatalogue:
                     unwritable.append(
                         f"{self.describe(key)} local: Local {old.local} on the robot, none in "
                         "the project, and no Remote Control command sets a point back to no "
-                        "Local; change it on the controller (or give it a Local in the project)")
+                        "Local; change it on the controller (or give it a Local in the project)"
+                    )
                     continue
                 fields = point_fields(old, new)
                 if fields:
@@ -206,8 +242,10 @@ class EpsonCatalogue:
         unwritable += self._lacking(lacking)
         notes = []
         if card:
-            notes.append("written to the controller's memory card (persistent; its life "
-                         f"shortens with each write): {', '.join(card)}")
+            notes.append(
+                "written to the controller's memory card (persistent; its life "
+                f"shortens with each write): {', '.join(card)}"
+            )
         if points:
             notes.append(POINTS_NOTE)
         return PlanShape(wanted=wanted, unwritable=unwritable, notes=notes)
@@ -217,23 +255,30 @@ class EpsonCatalogue:
         sentence for the table entries, one for the points, one for the rest."""
         tables = [self.describe(k) for k in keys if isinstance(k, TableKey)]
         points = [self.describe(k) for k in keys if k.kind == "point"]
-        others = [self.describe(k) for k in keys
-                  if not isinstance(k, TableKey) and k.kind != "point"]
+        others = [
+            self.describe(k) for k in keys if not isinstance(k, TableKey) and k.kind != "point"
+        ]
         out = []
         if tables:
-            out.append(f"{', '.join(tables)}: registered on the robot but not in the project, "
-                       "and no Remote Control command unregisters a table entry; pull to take "
-                       f"{_them(tables)} in, or clear the tables on the controller (a power "
-                       "cycle or a reset does) and run again")
+            out.append(
+                f"{', '.join(tables)}: registered on the robot but not in the project, "
+                "and no Remote Control command unregisters a table entry; pull to take "
+                f"{_them(tables)} in, or clear the tables on the controller (a power "
+                "cycle or a reset does) and run again"
+            )
         if points:
-            out.append(f"{', '.join(points)}: defined on the robot but not in the project, and "
-                       "no Remote Control command deletes a point; pull to take "
-                       f"{_them(points)} in, or delete {_them(points)} on the controller and "
-                       "run again")
+            out.append(
+                f"{', '.join(points)}: defined on the robot but not in the project, and "
+                "no Remote Control command deletes a point; pull to take "
+                f"{_them(points)} in, or delete {_them(points)} on the controller and "
+                "run again"
+            )
         if others:
-            out.append(f"{', '.join(others)}: on the robot but not in settings.yaml, and no "
-                       f"Remote Control command removes a setting; pull to take {_them(others)} "
-                       "in")
+            out.append(
+                f"{', '.join(others)}: on the robot but not in settings.yaml, and no "
+                f"Remote Control command removes a setting; pull to take {_them(others)} "
+                "in"
+            )
         return out
 
 

@@ -161,11 +161,13 @@ class Controller:
         Raises :class:`~harlsync.errors.PortError`, PortBusyError, LinkTimeout, and
         InterlockError for a reset asked of a robot that runs.
         """
-        link = ModbusLink(url, unit, timeout=line.timeout, retries=line.retries,
-                          lock_timeout=lock_timeout)
+        link = ModbusLink(
+            url, unit, timeout=line.timeout, retries=line.retries, lock_timeout=lock_timeout
+        )
         try:
-            handshake = Handshake(link, line.register_map, poll_interval=line.poll_interval,
-                                  deadline=line.deadline)
+            handshake = Handshake(
+                link, line.register_map, poll_interval=line.poll_interval, deadline=line.deadline
+            )
             handshake.start()
             if reset_function:
                 status = handshake.status()
@@ -195,22 +197,27 @@ class Controller:
     # --- the one place commands go through -------------------------------------------
 
     def _fits(self, request: Request[object]) -> bool:
-        return (request.command_words <= self.map.command_words
-                and request.response_words <= self.map.response_words)
+        return (
+            request.command_words <= self.map.command_words
+            and request.response_words <= self.map.response_words
+        )
 
     def _error(self, request: Request[object], reply: ErrorReply) -> ControllerError:
         return ControllerError(
-            f"{reply.code:04X}", port=self.label, command=str(request),
+            f"{reply.code:04X}",
+            port=self.label,
+            command=str(request),
             message=f"controller answered error {p.describe_code(reply.code, reply.detail)} "
-                    f"({reply.remedy})",
+            f"({reply.remedy})",
         )
 
     def _execute(self, request: Request[T]) -> T | ErrorReply:
         try:
             return self.handshake.execute(request)
         except ValueError as exc:  # more words than RC+ assigned: nothing was sent
-            raise ProjectError(f"{exc}: assign more words in RC+ and in robot.yaml "
-                               "connection.map") from exc
+            raise ProjectError(
+                f"{exc}: assign more words in RC+ and in robot.yaml connection.map"
+            ) from exc
 
     def ask(self, request: Request[T]) -> T:
         """Send one read and return its value; an error response raises ControllerError.
@@ -231,8 +238,14 @@ class Controller:
             raise self._error(request, reply)
         return reply
 
-    def _either(self, full: Request[T], first: Request[A], second: Request[B],
-                join: Callable[[A, B], T], absent: frozenset[int] = frozenset()) -> T | None:
+    def _either(
+        self,
+        full: Request[T],
+        first: Request[A],
+        second: Request[B],
+        join: Callable[[A, B], T],
+        absent: frozenset[int] = frozenset(),
+    ) -> T | None:
         """``full`` when the map has the words for it, else its two halves joined."""
         if self._fits(full):
             return self.ask_if_there(full, absent)
@@ -268,18 +281,21 @@ class Controller:
             raise ProjectError(
                 f"{self.label}: the controller reports a {name} robot (2153), robot.yaml "
                 f"controller.type says {self.robot_type}: the wrong controller, or robot.yaml "
-                "is wrong")
+                "is wrong"
+            )
         axes = axes_of_type(code)
         if axes is None:
             if self.configured_axes is None:
                 raise ProjectError(
                     f"{self.label}: the controller reports a {name} robot (2153), which says "
-                    "nothing of its axes: give them in robot.yaml controller.axes (4 or 6)")
+                    "nothing of its axes: give them in robot.yaml controller.axes (4 or 6)"
+                )
             axes = self.configured_axes
         elif self.configured_axes is not None and self.configured_axes != axes:
             raise ProjectError(
                 f"{self.label}: the controller reports a {name} robot ({axes} axes), "
-                f"robot.yaml controller.axes says {self.configured_axes}")
+                f"robot.yaml controller.axes says {self.configured_axes}"
+            )
         self._axes = axes
         return code, axes, self.read_model_name()
 
@@ -302,18 +318,29 @@ class Controller:
             return self._either(
                 p.read_accel_s(n) if s else p.read_accel_r(n),
                 p.read_accel_s_accel(n) if s else p.read_accel_r_accel(n),
-                p.read_accel_s_decel(n) if s else p.read_accel_r_decel(n), p.AccelReal, absent)
+                p.read_accel_s_decel(n) if s else p.read_accel_r_decel(n),
+                p.AccelReal,
+                absent,
+            )
         if kind == "speed":
             return self.ask_if_there(p.read_speed(n), absent)
         if kind == "speed_s":
-            return self._either(p.read_speed_s(n), p.read_speed_s_speed_depart(n),
-                                p.read_speed_s_approach(n),
-                                lambda sd, a: p.SpeedReal(*sd, a), absent)
+            return self._either(
+                p.read_speed_s(n),
+                p.read_speed_s_speed_depart(n),
+                p.read_speed_s_approach(n),
+                lambda sd, a: p.SpeedReal(*sd, a),
+                absent,
+            )
         return self.ask_if_there(p.read_speed_r(n), absent)
 
-    def _limits(self, full: Callable[[int], Request[Limits]],
-                lower: Callable[[int], Request[str]], upper: Callable[[int], Request[str]],
-                absent: frozenset[int] = frozenset()) -> tuple[Limits, ...] | None:
+    def _limits(
+        self,
+        full: Callable[[int], Request[Limits]],
+        lower: Callable[[int], Request[str]],
+        upper: Callable[[int], Request[str]],
+        absent: frozenset[int] = frozenset(),
+    ) -> tuple[Limits, ...] | None:
         found = []
         for axis in range(3):
             limits = self._either(full(axis), lower(axis), upper(axis), Limits, absent)
@@ -327,8 +354,9 @@ class Controller:
         calls undefined."""
         if kind == "arch":
             assert n is not None
-            return self._either(p.read_arch(n), p.read_arch_depart(n), p.read_arch_approach(n),
-                                p.Distances)
+            return self._either(
+                p.read_arch(n), p.read_arch_depart(n), p.read_arch_approach(n), p.Distances
+            )
         if kind == "fine":
             if self._fits(p.read_fine(self.axes)):
                 return self.ask(p.read_fine(self.axes))
@@ -336,15 +364,20 @@ class Controller:
         if kind == "weight":
             return self.ask(p.read_weight())
         if kind == "inertia":
-            return self._either(p.read_inertia(), p.read_inertia_load(),
-                                p.read_inertia_eccentricity(), p.Inertia)
+            return self._either(
+                p.read_inertia(), p.read_inertia_load(), p.read_inertia_eccentricity(), p.Inertia
+            )
         if kind == "tool":
             return self.ask(p.read_tool())
         if kind == "box":
             assert n is not None
             area = n
-            return self._limits(lambda a: p.read_box(area, a), lambda a: p.read_box_lower(area, a),
-                                lambda a: p.read_box_upper(area, a), _ABSENT["box"])
+            return self._limits(
+                lambda a: p.read_box(area, a),
+                lambda a: p.read_box_lower(area, a),
+                lambda a: p.read_box_upper(area, a),
+                _ABSENT["box"],
+            )
         if kind in ("plane", "local"):
             assert n is not None
             read = p.read_plane if kind == "plane" else p.read_local
@@ -353,8 +386,9 @@ class Controller:
             return self._limits(p.read_xylim, p.read_xylim_lower, p.read_xylim_upper)
         if kind == "jrange":
             assert n is not None
-            return self._either(p.read_jrange(n), p.read_jrange_lower(n), p.read_jrange_upper(n),
-                                p.PulseLimits)
+            return self._either(
+                p.read_jrange(n), p.read_jrange_lower(n), p.read_jrange_upper(n), p.PulseLimits
+            )
         if kind == "base":
             return tuple(self.ask(p.read_base(c)) for c in range(self.axes))
         if kind == "limz":
@@ -366,10 +400,11 @@ class Controller:
         first = self.ask_if_there(p.read_point_coord(number, 0), _ABSENT["point"])
         if first is None:
             return None
-        coords = (first, *(self.ask(p.read_point_coord(number, axis))
-                           for axis in range(1, self.axes)))
-        attributes = {name: self.ask(p.read_point_attribute(name, number))
-                      for name in ATTRIBUTES}
+        coords = (
+            first,
+            *(self.ask(p.read_point_coord(number, axis)) for axis in range(1, self.axes)),
+        )
+        attributes = {name: self.ask(p.read_point_attribute(name, number)) for name in ATTRIBUTES}
         return Point(coords, **attributes)
 
     def read_item(self, key: Key) -> Any:
@@ -456,15 +491,22 @@ class Controller:
         for name in fields:
             if name in names:
                 axis = names.index(name)
-                steps.append(WriteStep(p.set_point_coord(number, axis, point.coords[axis]),
-                                       partial(self._point_coord, number, axis),
-                                       partial(_coord_of, axis)))
+                steps.append(
+                    WriteStep(
+                        p.set_point_coord(number, axis, point.coords[axis]),
+                        partial(self._point_coord, number, axis),
+                        partial(_coord_of, axis),
+                    )
+                )
             else:
                 attribute = ATTRIBUTE_OF[name]
-                steps.append(WriteStep(
-                    p.set_point_attribute(attribute, number, point.attribute(attribute)),
-                    partial(self.ask, p.read_point_attribute(attribute, number)),
-                    partial(_attribute_of, attribute)))
+                steps.append(
+                    WriteStep(
+                        p.set_point_attribute(attribute, number, point.attribute(attribute)),
+                        partial(self.ask, p.read_point_attribute(attribute, number)),
+                        partial(_attribute_of, attribute),
+                    )
+                )
         return steps
 
     def _point_coord(self, number: int, axis: int) -> str | None:
@@ -487,7 +529,9 @@ class Controller:
                 runs.append([request])
         return "; ".join(
             f"{run[0].number} {p.COMMANDS[run[0].number].name}: "
-            + " | ".join(_words(r) for r in run) for run in runs)
+            + " | ".join(_words(r) for r in run)
+            for run in runs
+        )
 
     def write(self, steps: list[WriteStep], value: Any, old: Any) -> None:
         """Send each step and confirm it.
@@ -509,12 +553,23 @@ class Controller:
             except LinkTimeout as exc:  # the handshake's deadline, or Modbus silence
                 raise WriteUnconfirmed(
                     f"{sequence.what}: the write may or may not have taken ({exc.message})",
-                    port=self.label, command=exc.command) from exc
+                    port=self.label,
+                    command=exc.command,
+                ) from exc
             if reply is not None:
                 request = next(r for r in sequence if r.number == reply.number)
                 raise self._error(request, reply)
 
-        confirmed_write(send, step.readback, wanted, old, what=sequence.what,
-                        before_resend=partial(refuse_unless_idle, self.status,
-                                              where=f"{self.label}, {sequence.what}",
-                                              reading="the status"))
+        confirmed_write(
+            send,
+            step.readback,
+            wanted,
+            old,
+            what=sequence.what,
+            before_resend=partial(
+                refuse_unless_idle,
+                self.status,
+                where=f"{self.label}, {sequence.what}",
+                reading="the status",
+            ),
+        )

@@ -38,8 +38,7 @@ class EpsonDriver:
         register map has too few command words for."""
         try:
             if isinstance(key, PointWrite):
-                return self.controller.write_steps(PointKey("point", key.number), value,
-                                                   key.fields)
+                return self.controller.write_steps(PointKey("point", key.number), value, key.fields)
             return self.controller.write_steps(key, value)
         except ValueError as exc:
             raise ProjectError(f"{CATALOGUE.describe(key)}: cannot be written: {exc}") from exc

@@ -34,8 +34,11 @@ class EpsonFamily:
 
     def data_problems(self, data: EpsonData) -> list[str]:
         """A setting the data lacks (a controller never leaves one out)."""
-        return [f"{kind.name}: not read" for kind in KINDS.values()
-                if not kind.numbered and SettingKey(kind.key) not in data.items]
+        return [
+            f"{kind.name}: not read"
+            for kind in KINDS.values()
+            if not kind.numbered and SettingKey(kind.key) not in data.items
+        ]
 
     def project_files(self, root: Path) -> list[str]:
         return [name for name in layout.ROOT_FILES if (root / name).is_file()]
@@ -50,24 +53,34 @@ class EpsonFamily:
 
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
         return Robot(
-            family=self.name, name=name, port=port,
+            family=self.name,
+            name=name,
+            port=port,
             station=profile.DEFAULT_UNIT if station is None else station,
-            options=layout.new_options(), **options,
+            options=layout.new_options(),
+            **options,
         )
 
     def parse_station(self, text: str) -> int:
         """The Modbus unit id, decimal."""
         unit = int(text) if text.isdigit() and len(text) <= 3 else -1
         if not 0 <= unit <= 255:
-            raise ValueError(f"unit id {text!r} is out of range (allowed: a Modbus unit id, "
-                             f"0-255; {profile.DEFAULT_UNIT} by default)")
+            raise ValueError(
+                f"unit id {text!r} is out of range (allowed: a Modbus unit id, "
+                f"0-255; {profile.DEFAULT_UNIT} by default)"
+            )
         return unit
 
     def format_station(self, station: int) -> str:
         return str(station)
 
     def connect(
-        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float,
+        self,
+        robot: Robot,
+        port: str | None,
+        station: int | None,
+        *,
+        lock_timeout: float,
         **options: Any,
     ) -> Driver:
         """``options``: ``reset_function`` resets a Remote Control function found in

@@ -147,22 +147,31 @@ _STEP_TEXT = {
 }
 
 #: What each interlock signal at 1 means.
-_BUSY_TEXT: Mapping[str, str] = MappingProxyType({
-    "Running": "a task is executing",
-    "Paused": "a task is paused",
-    "EStopOn": "emergency stop",
-    "Error": "the controller is in error",
-})
-_FUNCTION_SIGNALS = ("ExtCmdReset", "ExtCmdSet", "ExtRespGet", "ExtCmdGet", "ExtRespSet",
-                     "ExtError")
+_BUSY_TEXT: Mapping[str, str] = MappingProxyType(
+    {
+        "Running": "a task is executing",
+        "Paused": "a task is paused",
+        "EStopOn": "emergency stop",
+        "Error": "the controller is in error",
+    }
+)
+_FUNCTION_SIGNALS = (
+    "ExtCmdReset",
+    "ExtCmdSet",
+    "ExtRespGet",
+    "ExtCmdGet",
+    "ExtRespSet",
+    "ExtError",
+)
 
 
 class HandshakeTimeout(LinkTimeout):
     """A command's deadline passed: ``step`` is where it stopped, ``acquired`` whether
     the controller had taken it (a write may then have taken effect)."""
 
-    def __init__(self, message: str, *, port: str, command: str, step: Step,
-                 acquired: bool) -> None:
+    def __init__(
+        self, message: str, *, port: str, command: str, step: Step, acquired: bool
+    ) -> None:
         self.step = step
         self.acquired = acquired
         super().__init__(message, port=port, command=command)
@@ -176,8 +185,11 @@ class FunctionError(ControllerError):
     def __init__(self, code: int, detail: int, *, port: str, command: str | None) -> None:
         self.code = code
         self.detail = detail
-        remedy = ("reset the function (--reset-function, on an idle robot)" if detail == 0x0001
-                  else "reset the controller")
+        remedy = (
+            "reset the function (--reset-function, on an idle robot)"
+            if detail == 0x0001
+            else "reset the controller"
+        )
         super().__init__(
             f"{code:04X}/{detail:04X}",
             port=port,
@@ -217,8 +229,11 @@ class RemoteStatus:
     def function_off(self) -> tuple[str, ...]:
         """The signals that keep the function from taking a command (step 1):
         ExtCmdReset at 0, any other handshake signal at 1."""
-        return tuple(name for name in _FUNCTION_SIGNALS
-                     if bool(self.signals[name]) != (name == "ExtCmdReset"))
+        return tuple(
+            name
+            for name in _FUNCTION_SIGNALS
+            if bool(self.signals[name]) != (name == "ExtCmdReset")
+        )
 
     @property
     def function_idle(self) -> bool:
@@ -299,8 +314,10 @@ class Handshake:
             for register in self.map.control_registers:
                 values = self.registers.read_holding(register, 1)
                 if len(values) != 1:
-                    raise LinkError(f"holding register {register}: {len(values)} values "
-                                    "read, 1 asked for", port=self.label)
+                    raise LinkError(
+                        f"holding register {register}: {len(values)} values read, 1 asked for",
+                        port=self.label,
+                    )
                 control[register] = values[0]
             self._control = control
         return self._control
@@ -326,8 +343,11 @@ class Handshake:
         first, count = self.map.input_span
         values = tuple(self.registers.read_input(first, count))
         if len(values) != count:
-            raise LinkError(f"input registers {first}-{first + count - 1}: {len(values)} "
-                            f"values read, {count} asked for", port=self.label)
+            raise LinkError(
+                f"input registers {first}-{first + count - 1}: {len(values)} "
+                f"values read, {count} asked for",
+                port=self.label,
+            )
         control = self._load_control()
         signals: dict[str, bool | None] = {}
         for name, bit in self.map.signals():
@@ -369,10 +389,13 @@ class Handshake:
         self._control = None
         if self._input(self.map.ext_cmd_reset):
             return
-        log.warning("%s: ExtCmdReset found 0 (the controller restarted?): the function is "
-                    "started again%s", self.label,
-                    f"; command {self._pending.request} left unanswered is dropped"
-                    if self._pending is not None else "")
+        log.warning(
+            "%s: ExtCmdReset found 0 (the controller restarted?): the function is started again%s",
+            self.label,
+            f"; command {self._pending.request} left unanswered is dropped"
+            if self._pending is not None
+            else "",
+        )
         self._pending = None
         self.start()
 
@@ -390,12 +413,16 @@ class Handshake:
         within the deadline.
         """
         if self.map.running is None:
-            raise InterlockError(f"{self.label}: the register map has no Running signal, so "
-                                 "harlsync cannot see that the robot is idle: no function reset")
+            raise InterlockError(
+                f"{self.label}: the register map has no Running signal, so "
+                "harlsync cannot see that the robot is idle: no function reset"
+            )
         status = self._snapshot()
         if status["Running"]:
-            raise InterlockError(f"{self.label}: Running 1 (a task is executing): dropping "
-                                 "ExtCmdReset would abort motion; the function is not reset")
+            raise InterlockError(
+                f"{self.label}: Running 1 (a task is executing): dropping "
+                "ExtCmdReset would abort motion; the function is not reset"
+            )
         self._drive(self.map.ext_cmd_reset, False)
         self._drive(self.map.ext_cmd_set, False)
         self._drive(self.map.ext_resp_get, False)
@@ -415,8 +442,11 @@ class Handshake:
                 raise HandshakeTimeout(
                     f"the function is not ready {self.deadline:g} s after its reset "
                     f"({status.describe()}): reset the controller",
-                    port=self.label, command="function reset", step=Step.FUNCTION_READY,
-                    acquired=False)
+                    port=self.label,
+                    command="function reset",
+                    step=Step.FUNCTION_READY,
+                    acquired=False,
+                )
             self.clock.sleep(self.poll_interval)
 
     # --- commands -----------------------------------------------------------------------
@@ -454,15 +484,18 @@ class Handshake:
         if status["ExtError"]:
             self._function_error(status, None)
         if interlock and status.busy:
-            raise InterlockError(f"{self.label}: {status.describe()}: command {request} not "
-                                 "sent, nothing written")
+            raise InterlockError(
+                f"{self.label}: {status.describe()}: command {request} not sent, nothing written"
+            )
         if not status.function_idle:
             raise FunctionBusy(
                 f"the Remote Control function is in use ({status.function_signals()}): a "
                 "command of another client, or one left by an earlier harlsync, is "
                 "unanswered; nothing sent. If no one else drives this controller, "
                 "--reset-function clears it on an idle robot",
-                port=self.label, command=str(request))
+                port=self.label,
+                command=str(request),
+            )
         words = request.encode(self.map.command_words)
         log.debug("%s: command %s", self.label, " ".join(f"{w:04X}" for w in words))
         self._pending = _Pending(request, Step.COMMAND_WORDS)
@@ -476,8 +509,12 @@ class Handshake:
         status = self._wait(deadline, Step.RESPONSE_SET, lambda s: bool(s["ExtRespSet"]))
         error = bool(status["ExtCmdResult"])
         response = status.response
-        log.debug("%s: response %s%s", self.label, " ".join(f"{w:04X}" for w in response),
-                  " (ExtCmdResult 1)" if error else "")
+        log.debug(
+            "%s: response %s%s",
+            self.label,
+            " ".join(f"{w:04X}" for w in response),
+            " (ExtCmdResult 1)" if error else "",
+        )
         self._pending.step = Step.RESPONSE_ACQUIRED
         self._drive(self.map.ext_resp_get, True)
         self._wait(deadline, Step.RESPONSE_RELEASED, lambda s: not s["ExtRespSet"])
@@ -498,14 +535,19 @@ class Handshake:
         return None
 
     def _fits(self, request: Request[object]) -> None:
-        for what, need, have in (("command", request.command_words, self.map.command_words),
-                                 ("response", request.response_words, self.map.response_words)):
+        for what, need, have in (
+            ("command", request.command_words, self.map.command_words),
+            ("response", request.response_words, self.map.response_words),
+        ):
             if need > have:
-                raise ValueError(f"{self.label}: {request} needs {need} {what} words, the "
-                                 f"register map has {have}")
+                raise ValueError(
+                    f"{self.label}: {request} needs {need} {what} words, the "
+                    f"register map has {have}"
+                )
 
-    def _wait(self, deadline: float, step: Step,
-              done: Callable[[RemoteStatus], bool]) -> RemoteStatus:
+    def _wait(
+        self, deadline: float, step: Step, done: Callable[[RemoteStatus], bool]
+    ) -> RemoteStatus:
         """Poll until ``done``; on the way, ExtError raises and the deadline times out."""
         pending = self._pending
         assert pending is not None
@@ -534,8 +576,11 @@ class Handshake:
         raise HandshakeTimeout(
             f"no answer within {self.deadline:g} s: stopped at step {pending.step.value} of "
             f"§6.3 ({pending.step.text}){note}",
-            port=self.label, command=str(pending.request), step=pending.step,
-            acquired=pending.acquired)
+            port=self.label,
+            command=str(pending.request),
+            step=pending.step,
+            acquired=pending.acquired,
+        )
 
     def _function_error(self, status: RemoteStatus, request: Request[object] | None) -> None:
         """ExtError 1: the function halted and the command (if any) was aborted."""
@@ -548,8 +593,9 @@ class Handshake:
         words = status.response
         code = words[1] if len(words) > 1 else FUNCTION_ERROR
         detail = words[2] if len(words) > 2 else 0
-        raise FunctionError(code, detail, port=self.label,
-                            command=None if request is None else str(request))
+        raise FunctionError(
+            code, detail, port=self.label, command=None if request is None else str(request)
+        )
 
     def finish(self) -> None:
         """Before the line is let go: a command left unanswered (its deadline passed)
@@ -561,8 +607,11 @@ class Handshake:
         logged; the error that ended the run is the one worth raising."""
         if self._pending is None:
             return
-        log.info("%s: waiting for command %s, left unanswered, before letting go", self.label,
-                 self._pending.request)
+        log.info(
+            "%s: waiting for command %s, left unanswered, before letting go",
+            self.label,
+            self._pending.request,
+        )
         end = self.clock.monotonic() + self.deadline
         attempts = 0
         while self._pending is not None:
@@ -570,14 +619,22 @@ class Handshake:
             try:
                 self._settle(end)
             except (HandshakeTimeout, ControllerError) as exc:
-                log.warning("%s: command %s is still unanswered: %s", self.label,
-                            self._pending.request if self._pending else "", exc)
+                log.warning(
+                    "%s: command %s is still unanswered: %s",
+                    self.label,
+                    self._pending.request if self._pending else "",
+                    exc,
+                )
                 return
             except LinkError as exc:  # a request lost: again, until the deadline (and
                 self._control = None  # at least three times: a lost request costs retries)
                 if attempts >= 3 and self.clock.monotonic() >= end:
-                    log.warning("%s: command %s is still unanswered: %s", self.label,
-                                self._pending.request if self._pending else "", exc)
+                    log.warning(
+                        "%s: command %s is still unanswered: %s",
+                        self.label,
+                        self._pending.request if self._pending else "",
+                        exc,
+                    )
                     return
                 self.clock.sleep(self.poll_interval)
 
@@ -598,8 +655,12 @@ class Handshake:
             if status["ExtError"]:
                 self._function_error(status, pending.request)
             if status["ExtRespSet"]:
-                log.warning("%s: command %s answered late: response %s discarded", self.label,
-                            pending.request, " ".join(f"{w:04X}" for w in status.response))
+                log.warning(
+                    "%s: command %s answered late: response %s discarded",
+                    self.label,
+                    pending.request,
+                    " ".join(f"{w:04X}" for w in status.response),
+                )
                 self._drive(self.map.ext_resp_get, True)
                 self._wait(deadline, Step.RESPONSE_RELEASED, lambda s: not s["ExtRespSet"])
                 self._drive(self.map.ext_resp_get, False)
@@ -621,6 +682,9 @@ class Handshake:
                     f"still unanswered after {self.deadline:g} s more (stopped at step "
                     f"{pending.step.value} of §6.3, {pending.step.text}): nothing else is sent "
                     "while it may run (a second request halts the function, §6.5.1)",
-                    port=self.label, command=str(pending.request), step=pending.step,
-                    acquired=pending.acquired)
+                    port=self.label,
+                    command=str(pending.request),
+                    step=pending.step,
+                    acquired=pending.acquired,
+                )
             self.clock.sleep(min(self.poll_interval, deadline - now))

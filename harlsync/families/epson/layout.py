@@ -106,8 +106,15 @@ _LINE_DEFAULTS: Mapping[str, float] = {
     "poll_interval": profile.POLL_INTERVAL,
     "deadline": profile.COMMAND_DEADLINE,
 }
-_MAP_KEYS = ("in_base", "out_base", "command_base", "command_words", "response_base",
-             "response_words", "signals")
+_MAP_KEYS = (
+    "in_base",
+    "out_base",
+    "command_base",
+    "command_words",
+    "response_base",
+    "response_words",
+    "signals",
+)
 
 
 # -- the robot's connection ------------------------------------------------------------
@@ -161,12 +168,28 @@ def _map_node(register_map: RegisterMap) -> Any:
     signals = data.pop("signals")
     assert isinstance(signals, dict)
     items: list[tuple[str, Any]] = [(key, y.num(str(value))) for key, value in data.items()]
-    items.append(("signals", y.mapping([
-        (name, y.null() if bit is None else y.mapping(
-            [("register", y.num(str(bit["register"]))), ("bit", y.num(str(bit["bit"])))],
-            flow=True))
-        for name, bit in signals.items()
-    ])))
+    items.append(
+        (
+            "signals",
+            y.mapping(
+                [
+                    (
+                        name,
+                        y.null()
+                        if bit is None
+                        else y.mapping(
+                            [
+                                ("register", y.num(str(bit["register"]))),
+                                ("bit", y.num(str(bit["bit"]))),
+                            ],
+                            flow=True,
+                        ),
+                    )
+                    for name, bit in signals.items()
+                ]
+            ),
+        )
+    )
     return y.mapping(items)
 
 
@@ -208,13 +231,15 @@ def value_node(kind: Kind, value: Any) -> Any:
     if kind.shape == "joints":
         return y.sequence([_number(v) for v in value], flow=True)
     if kind.shape == "coords":
-        return y.mapping(list(zip(coordinate_names(len(value)), map(_number, value))),
-                         flow=True)
+        return y.mapping(list(zip(coordinate_names(len(value)), map(_number, value))), flow=True)
     if kind.shape == "limits":
-        return y.mapping([
-            (axis, y.sequence([_number(lim.lower), _number(lim.upper)], flow=True))
-            for axis, lim in zip("xyz", value)
-        ], flow=True)
+        return y.mapping(
+            [
+                (axis, y.sequence([_number(lim.lower), _number(lim.upper)], flow=True))
+                for axis, lim in zip("xyz", value)
+            ],
+            flow=True,
+        )
     point: Point = value
     items = list(zip(coordinate_names(len(point.coords)), map(_number, point.coords)))
     for name, names in ATTRIBUTE_NAMES.items():
@@ -232,15 +257,28 @@ def _comment(kind: Kind) -> str:
 
 
 def render_settings(data: EpsonData) -> str:
-    items: list[tuple[str, Any]] = [("manipulator", y.mapping([
-        ("type", y.text(data.type_name)), ("axes", y.num(str(data.axes))),
-        ("model", y.text(data.model)),
-    ], flow=True))]
+    items: list[tuple[str, Any]] = [
+        (
+            "manipulator",
+            y.mapping(
+                [
+                    ("type", y.text(data.type_name)),
+                    ("axes", y.num(str(data.axes))),
+                    ("model", y.text(data.model)),
+                ],
+                flow=True,
+            ),
+        )
+    ]
     for kind in KINDS.values():
         if kind.numbered:
-            values = {k.number: v for k, v in data.items.items()
-                      if isinstance(k, TableKey | SettingKey) and k.kind == kind.key
-                      and k.number is not None}
+            values = {
+                k.number: v
+                for k, v in data.items.items()
+                if isinstance(k, TableKey | SettingKey)
+                and k.kind == kind.key
+                and k.number is not None
+            }
             node = numbered(values, partial(value_node, kind))
         else:
             node = value_node(kind, data.items[SettingKey(kind.key)])
@@ -252,8 +290,7 @@ def render_settings(data: EpsonData) -> str:
 
 def render_points(data: EpsonData) -> str:
     node = numbered(data.points(), lambda p: value_node(POINT, p))
-    return FILES.document("points", "points.yaml", [("points", node)],
-                          {"points": _comment(POINT)})
+    return FILES.document("points", "points.yaml", [("points", node)], {"points": _comment(POINT)})
 
 
 def render_files(robot: Robot, data: EpsonData) -> dict[str, str]:
@@ -334,8 +371,9 @@ def _map_issue(doc: y.Parsed, message: str) -> Issue:
 def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     data = doc.data
     conn = data["connection"]
-    options: dict[str, Any] = {key: _plain(conn.get(key, default))
-                               for key, default in _LINE_DEFAULTS.items()}
+    options: dict[str, Any] = {
+        key: _plain(conn.get(key, default)) for key, default in _LINE_DEFAULTS.items()
+    }
     options["map"] = _plain(conn.get("map", {}))
     found: list[Issue] = []
     try:
@@ -347,20 +385,30 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     options["first"] = int(controller.get("first_point", first))
     options["last"] = int(controller.get("last_point", last))
     if options["first"] > options["last"]:
-        found.append(Issue(
-            "robot.yaml", doc.line(("controller", "last_point")), "controller.last_point",
-            f"{options['last']} is before first_point {options['first']} (allowed: a number "
-            "at or after first_point)"))
+        found.append(
+            Issue(
+                "robot.yaml",
+                doc.line(("controller", "last_point")),
+                "controller.last_point",
+                f"{options['last']} is before first_point {options['first']} (allowed: a number "
+                "at or after first_point)",
+            )
+        )
     if "type" in controller:
         options["type"] = str(controller["type"])
     if "axes" in controller:
         options["axes"] = int(controller["axes"])
         implied = axes_of_type(type_code(options["type"])) if "type" in options else None
         if implied is not None and implied != options["axes"]:
-            found.append(Issue(
-                "robot.yaml", doc.line(("controller", "axes")), "controller.axes",
-                f"{options['axes']} axes for a {options['type']} robot (allowed: {implied}, "
-                "or leave axes out)"))
+            found.append(
+                Issue(
+                    "robot.yaml",
+                    doc.line(("controller", "axes")),
+                    "controller.axes",
+                    f"{options['axes']} axes for a {options['type']} robot (allowed: {implied}, "
+                    "or leave axes out)",
+                )
+            )
     if found:
         issues += found
         return None
@@ -392,10 +440,10 @@ def _leaves(kind: Kind, raw: Any) -> list[_Leaf]:
         return [((c,), text_of(v), True) for c, v in raw.items()]
     if shape == "limits":
         return [((a, i), text_of(raw[a][i]), True) for a in "xyz" for i in (0, 1)]
-    coords: list[_Leaf] = [((c,), text_of(raw[c]), True)
-                           for c in coordinate_names(6) if c in raw]
-    return coords + [((a,), text_of(raw[a]), False)
-                     for a in ATTRIBUTES if ATTRIBUTE_NAMES[a] is None]
+    coords: list[_Leaf] = [((c,), text_of(raw[c]), True) for c in coordinate_names(6) if c in raw]
+    return coords + [
+        ((a,), text_of(raw[a]), False) for a in ATTRIBUTES if ATTRIBUTE_NAMES[a] is None
+    ]
 
 
 def _real_form(text: str) -> str:
@@ -404,12 +452,13 @@ def _real_form(text: str) -> str:
     try:
         return canonical_real(text)
     except ValueError:
-        raise ValueError("more than three decimals (allowed: thousandths, three decimals, "
-                         "as the controller gives them back)") from None
+        raise ValueError(
+            "more than three decimals (allowed: thousandths, three decimals, "
+            "as the controller gives them back)"
+        ) from None
 
 
-def _check_value(kind: Kind, raw: Any, axes: int | None,
-                 issue: Callable[..., None]) -> None:
+def _check_value(kind: Kind, raw: Any, axes: int | None, issue: Callable[..., None]) -> None:
     for where, text, real in _leaves(kind, raw):
         check_canonical(issue, text, _real_form if real else canonical_integer, *where)
     if axes is None:
@@ -437,23 +486,27 @@ def _check_settings(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> 
     def issue_at(*at: str | int) -> Callable[..., None]:
         def issue(message: str, *where: str | int) -> None:
             path = at + where
-            issues.append(Issue("settings.yaml", doc.line(path),
-                                ".".join(str(p) for p in path), message))
+            issues.append(
+                Issue("settings.yaml", doc.line(path), ".".join(str(p) for p in path), message)
+            )
+
         return issue
 
     manipulator = data["manipulator"]
     axes = int(manipulator["axes"])
     implied = axes_of_type(type_code(manipulator["type"]))
     if implied is not None and implied != axes:
-        issue_at("manipulator", "axes")(f"{axes} axes for a {manipulator['type']} robot "
-                                        f"(allowed: {implied})")
+        issue_at("manipulator", "axes")(
+            f"{axes} axes for a {manipulator['type']} robot (allowed: {implied})"
+        )
     if robot is not None:
         for key, have in (("type", manipulator["type"]), ("axes", axes)):
             wanted = robot.options.get(key)
             if wanted is not None and wanted != have:
                 issue_at("manipulator", key)(
                     f"{have}, but robot.yaml controller.{key} says {wanted} (allowed: "
-                    f"{wanted}: this project is of another robot, or robot.yaml is wrong)")
+                    f"{wanted}: this project is of another robot, or robot.yaml is wrong)"
+                )
     for kind in KINDS.values():
         raw = data[kind.key]
         if not kind.numbered:
@@ -461,14 +514,14 @@ def _check_settings(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> 
             continue
         for key, n in numbers(raw):
             if kind.key == "jrange" and n > axes:
-                issue_at(kind.key, key)(f"joint {n} of a {axes}-axis robot (allowed: "
-                                        f"1-{axes})")
+                issue_at(kind.key, key)(f"joint {n} of a {axes}-axis robot (allowed: 1-{axes})")
             _check_value(kind, raw[key], axes, issue_at(kind.key, key))
     return axes
 
 
-def _check_points(doc: y.Parsed, robot: Robot | None, axes: int | None,
-                  issues: list[Issue]) -> None:
+def _check_points(
+    doc: y.Parsed, robot: Robot | None, axes: int | None, issues: list[Issue]
+) -> None:
     table = doc.data["points"]
     first, last = point_range(robot) if robot is not None else (0, 0xFFFF)
     for key, n in numbers(table):
@@ -476,12 +529,15 @@ def _check_points(doc: y.Parsed, robot: Robot | None, axes: int | None,
 
         def issue(message: str, *where: str | int, at: tuple[str, str] = at) -> None:
             path = at + where
-            issues.append(Issue("points.yaml", doc.line(path),
-                                ".".join(str(p) for p in path), message))
+            issues.append(
+                Issue("points.yaml", doc.line(path), ".".join(str(p) for p in path), message)
+            )
 
         if not first <= n <= last:
-            issue(f"P{show(y.Number(key))} is outside the robot's range (allowed: "
-                  f"{first}-{last}, robot.yaml controller.first_point/last_point)")
+            issue(
+                f"P{show(y.Number(key))} is outside the robot's range (allowed: "
+                f"{first}-{last}, robot.yaml controller.first_point/last_point)"
+            )
         _check_value(POINT, table[key], axes, issue)
 
 
@@ -510,8 +566,9 @@ def _value(kind: Kind, raw: Any) -> Any:
 
 def _build_data(settings: Mapping[str, Any], points: Mapping[str, Any]) -> EpsonData:
     manipulator = settings["manipulator"]
-    data = EpsonData(type_code(manipulator["type"]), int(manipulator["axes"]),
-                     str(manipulator["model"]))
+    data = EpsonData(
+        type_code(manipulator["type"]), int(manipulator["axes"]), str(manipulator["model"])
+    )
     for kind in KINDS.values():
         raw = settings[kind.key]
         if not kind.numbered:

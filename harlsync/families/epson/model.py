@@ -143,50 +143,115 @@ def _kinds(*kinds: Kind) -> Mapping[str, Kind]:
 
 #: Every kind of setting, in the order settings.yaml writes them.
 KINDS: Mapping[str, Kind] = _kinds(
-    Kind("accel", "Accel", VOLATILE, _TABLE_WHY, "record", TABLE_NUMBERS, AccelPercent,
-         AccelPercent._fields, real=False),
-    Kind("accel_s", "AccelS", VOLATILE, _TABLE_WHY, "record", TABLE_NUMBERS, AccelReal,
-         AccelReal._fields),
-    Kind("accel_r", "AccelR", VOLATILE, _TABLE_WHY, "record", TABLE_NUMBERS, AccelReal,
-         AccelReal._fields),
-    Kind("speed", "Speed", VOLATILE, _TABLE_WHY, "record", TABLE_NUMBERS, SpeedPercent,
-         SpeedPercent._fields, real=False),
-    Kind("speed_s", "SpeedS", VOLATILE, _TABLE_WHY, "record", TABLE_NUMBERS, SpeedReal,
-         SpeedReal._fields),
+    Kind(
+        "accel",
+        "Accel",
+        VOLATILE,
+        _TABLE_WHY,
+        "record",
+        TABLE_NUMBERS,
+        AccelPercent,
+        AccelPercent._fields,
+        real=False,
+    ),
+    Kind(
+        "accel_s",
+        "AccelS",
+        VOLATILE,
+        _TABLE_WHY,
+        "record",
+        TABLE_NUMBERS,
+        AccelReal,
+        AccelReal._fields,
+    ),
+    Kind(
+        "accel_r",
+        "AccelR",
+        VOLATILE,
+        _TABLE_WHY,
+        "record",
+        TABLE_NUMBERS,
+        AccelReal,
+        AccelReal._fields,
+    ),
+    Kind(
+        "speed",
+        "Speed",
+        VOLATILE,
+        _TABLE_WHY,
+        "record",
+        TABLE_NUMBERS,
+        SpeedPercent,
+        SpeedPercent._fields,
+        real=False,
+    ),
+    Kind(
+        "speed_s",
+        "SpeedS",
+        VOLATILE,
+        _TABLE_WHY,
+        "record",
+        TABLE_NUMBERS,
+        SpeedReal,
+        SpeedReal._fields,
+    ),
     Kind("speed_r", "SpeedR", VOLATILE, _TABLE_WHY, "real", TABLE_NUMBERS),
-    Kind("arch", "Arch", UNSTATED, _UNSTATED_WHY, "record", (0, 6), Distances,
-         Distances._fields),
-    Kind("fine", "Fine", VOLATILE, "back to its defaults at Motor On, SFree, SLock and reset",
-         "joints"),
+    Kind("arch", "Arch", UNSTATED, _UNSTATED_WHY, "record", (0, 6), Distances, Distances._fields),
+    Kind(
+        "fine",
+        "Fine",
+        VOLATILE,
+        "back to its defaults at Motor On, SFree, SLock and reset",
+        "joints",
+    ),
     Kind("weight", "Weight", PERSISTENT, _CARD_WHY, "record", None, Weight, Weight._fields),
-    Kind("inertia", "Inertia", PERSISTENT, _CARD_WHY, "record", None, Inertia,
-         Inertia._fields),
-    Kind("tool", "Tool", PERSISTENT, _CARD_WHY + " (the tool selected: no command reads a "
-         "tool's offset)", "integer"),
+    Kind("inertia", "Inertia", PERSISTENT, _CARD_WHY, "record", None, Inertia, Inertia._fields),
+    Kind(
+        "tool",
+        "Tool",
+        PERSISTENT,
+        _CARD_WHY + " (the tool selected: no command reads a tool's offset)",
+        "integer",
+    ),
     Kind("box", "Box", PERSISTENT, _CARD_WHY, "limits", FRAME_NUMBERS),
     Kind("plane", "Plane", PERSISTENT, _CARD_WHY, "coords", FRAME_NUMBERS),
     Kind("local", "Local", UNSTATED, _UNSTATED_WHY, "coords", FRAME_NUMBERS),
     Kind("xylim", "XYLim", PERSISTENT, _CARD_WHY, "limits"),
-    Kind("jrange", "JRange", PERSISTENT, _CARD_WHY + " (encoder pulses)", "record", (1, 6),
-         PulseLimits, PulseLimits._fields, real=False),
+    Kind(
+        "jrange",
+        "JRange",
+        PERSISTENT,
+        _CARD_WHY + " (encoder pulses)",
+        "record",
+        (1, 6),
+        PulseLimits,
+        PulseLimits._fields,
+        real=False,
+    ),
     Kind("base", "Base", PERSISTENT, _CARD_WHY, "coords"),
-    Kind("limz", "LimZ", VOLATILE, "0 again at power-on, Motor On, SFree, SLock and reset",
-         "real"),
+    Kind("limz", "LimZ", VOLATILE, "0 again at power-on, Motor On, SFree, SLock and reset", "real"),
 )
 TABLES = ("accel", "accel_s", "accel_r", "speed", "speed_s", "speed_r")
 #: Points, as a kind of item.
-POINT = Kind("point", "P", UNSTATED, _UNSTATED_WHY + "; harlsync never saves points to "
-             "Points.pts (command 2052)", "point")
+POINT = Kind(
+    "point",
+    "P",
+    UNSTATED,
+    _UNSTATED_WHY + "; harlsync never saves points to Points.pts (command 2052)",
+    "point",
+)
 
 #: Point attributes and the names of their values (1215-1217), or None for a number.
-ATTRIBUTE_NAMES: Mapping[str, tuple[str, ...] | None] = MappingProxyType({
-    "hand": ("Lefty", "Righty"),
-    "elbow": ("Above", "Below"),
-    "wrist": ("NoFlip", "Flip"),
-    "j4flag": None,
-    "j6flag": None,
-    "local": None,
-})
+ATTRIBUTE_NAMES: Mapping[str, tuple[str, ...] | None] = MappingProxyType(
+    {
+        "hand": ("Lefty", "Righty"),
+        "elbow": ("Above", "Below"),
+        "wrist": ("NoFlip", "Flip"),
+        "j4flag": None,
+        "j6flag": None,
+        "local": None,
+    }
+)
 ATTRIBUTES: tuple[PointAttribute, ...] = ("hand", "elbow", "wrist", "j4flag", "j6flag", "local")
 #: An attribute's name -> itself, typed (a plan's fields are text).
 ATTRIBUTE_OF: Mapping[str, PointAttribute] = MappingProxyType({a: a for a in ATTRIBUTES})
@@ -272,8 +337,11 @@ def field_texts(kind: Kind, value: Any) -> list[tuple[str, str]]:
     if shape == "coords":
         return list(zip(coordinate_names(len(value)), value))
     if shape == "limits":
-        return [(f"{axis} {end}", getattr(lim, end))
-                for axis, lim in zip("xyz", value) for end in ("lower", "upper")]
+        return [
+            (f"{axis} {end}", getattr(lim, end))
+            for axis, lim in zip("xyz", value)
+            for end in ("lower", "upper")
+        ]
     point: Point = value
     return point.fields()
 
@@ -287,6 +355,9 @@ def value_text(kind: Kind, value: Any) -> str:
     if shape == "joints":
         return "[" + ", ".join(map(str, value)) + "]"
     if shape == "limits":
-        return "{" + ", ".join(f"{axis}: [{lim.lower}, {lim.upper}]"
-                               for axis, lim in zip("xyz", value)) + "}"
+        return (
+            "{"
+            + ", ".join(f"{axis}: [{lim.lower}, {lim.upper}]" for axis, lim in zip("xyz", value))
+            + "}"
+        )
     return "{" + ", ".join(f"{name}: {text}" for name, text in field_texts(kind, value)) + "}"

@@ -142,8 +142,15 @@ RESPONSE_WORDS = 8
 #: words (§5.3.2), and the smallest read harlsync sends is 3 command words.
 WORDS_RANGE = (3, 8)
 _REGISTER_MAX = 0xFFFF
-_KEYS = ("in_base", "out_base", "command_base", "command_words", "response_base",
-         "response_words", "signals")
+_KEYS = (
+    "in_base",
+    "out_base",
+    "command_base",
+    "command_words",
+    "response_base",
+    "response_words",
+    "signals",
+)
 
 
 class Bit(NamedTuple):
@@ -157,10 +164,12 @@ class Bit(NamedTuple):
 
 
 #: The profile's map: signal name -> its register and bit.
-_DEFAULT_MAP: Mapping[str, Bit] = MappingProxyType({
-    name: Bit(IN_BASE if name in HANDSHAKE_INPUTS else OUT_BASE, bit)
-    for name, bit in _DEFAULT_BITS.items()
-})
+_DEFAULT_MAP: Mapping[str, Bit] = MappingProxyType(
+    {
+        name: Bit(IN_BASE if name in HANDSHAKE_INPUTS else OUT_BASE, bit)
+        for name, bit in _DEFAULT_BITS.items()
+    }
+)
 
 
 class RegisterMapInvalid(ValueError):
@@ -172,21 +181,23 @@ class RegisterMapInvalid(ValueError):
 
 
 #: Field name -> the signal's name as the manual and RC+ write it.
-_FIELD_SIGNALS: Mapping[str, str] = MappingProxyType({
-    "ext_cmd_set": "ExtCmdSet",
-    "ext_resp_get": "ExtRespGet",
-    "ext_cmd_reset": "ExtCmdReset",
-    "ext_cmd_get": "ExtCmdGet",
-    "ext_resp_set": "ExtRespSet",
-    "ext_cmd_result": "ExtCmdResult",
-    "ext_error": "ExtError",
-    "ready": "Ready",
-    "running": "Running",
-    "paused": "Paused",
-    "error": "Error",
-    "estop_on": "EStopOn",
-    "safeguard_on": "SafeguardOn",
-})
+_FIELD_SIGNALS: Mapping[str, str] = MappingProxyType(
+    {
+        "ext_cmd_set": "ExtCmdSet",
+        "ext_resp_get": "ExtRespGet",
+        "ext_cmd_reset": "ExtCmdReset",
+        "ext_cmd_get": "ExtCmdGet",
+        "ext_resp_set": "ExtRespSet",
+        "ext_cmd_result": "ExtCmdResult",
+        "ext_error": "ExtError",
+        "ready": "Ready",
+        "running": "Running",
+        "paused": "Paused",
+        "error": "Error",
+        "estop_on": "EStopOn",
+        "safeguard_on": "SafeguardOn",
+    }
+)
 _SIGNAL_FIELDS = {signal: name for name, signal in _FIELD_SIGNALS.items()}
 
 
@@ -262,16 +273,18 @@ class RegisterMap:
             given = {}
         for name in given:
             if name not in _SIGNAL_FIELDS:
-                issues.append(f"signals: unknown signal {name!r} "
-                              f"(known: {', '.join(SIGNAL_NAMES)})")
+                issues.append(
+                    f"signals: unknown signal {name!r} (known: {', '.join(SIGNAL_NAMES)})"
+                )
         for signal, field_name in _SIGNAL_FIELDS.items():
             is_input = signal in HANDSHAKE_INPUTS
             base = in_base if is_input else out_base
             if signal not in given:
                 values[field_name] = Bit(base, _DEFAULT_BITS[signal])
                 continue
-            values[field_name] = _signal(signal, given[signal], base, issues,
-                                         Bit(base, _DEFAULT_BITS[signal]))
+            values[field_name] = _signal(
+                signal, given[signal], base, issues, Bit(base, _DEFAULT_BITS[signal])
+            )
         try:
             built = cls(**values)
         except RegisterMapInvalid as exc:
@@ -328,8 +341,11 @@ class RegisterMap:
     @property
     def control_registers(self) -> tuple[int, ...]:
         """The holding registers that hold ExtCmdSet, ExtRespGet and ExtCmdReset."""
-        return tuple(sorted({self.ext_cmd_set.register, self.ext_resp_get.register,
-                             self.ext_cmd_reset.register}))
+        return tuple(
+            sorted(
+                {self.ext_cmd_set.register, self.ext_resp_get.register, self.ext_cmd_reset.register}
+            )
+        )
 
     @cached_property
     def input_span(self) -> tuple[int, int]:
@@ -340,31 +356,42 @@ class RegisterMap:
         return first, max(registers) - first + 1
 
     def _output_registers(self) -> set[int]:
-        registers = {bit.register for name, bit in self.signals()
-                     if bit is not None and name not in HANDSHAKE_INPUTS}
+        registers = {
+            bit.register
+            for name, bit in self.signals()
+            if bit is not None and name not in HANDSHAKE_INPUTS
+        }
         registers.update(range(self.response_base, self.response_base + self.response_words))
         return registers
 
     def _problems(self) -> list[str]:
         issues: list[str] = []
         low, high = WORDS_RANGE
-        for what, words, base in (("command", self.command_words, self.command_base),
-                                  ("response", self.response_words, self.response_base)):
+        for what, words, base in (
+            ("command", self.command_words, self.command_base),
+            ("response", self.response_words, self.response_base),
+        ):
             if not low <= words <= high:
                 issues.append(f"{what}_words: {words} out of range (allowed: {low} to {high})")
             if not 0 <= base <= _REGISTER_MAX - max(words, 1) + 1:
-                issues.append(f"{what}_base: {base} out of range (allowed: 0 to "
-                              f"{_REGISTER_MAX - max(words, 1) + 1} for {words} words)")
+                issues.append(
+                    f"{what}_base: {base} out of range (allowed: 0 to "
+                    f"{_REGISTER_MAX - max(words, 1) + 1} for {words} words)"
+                )
         seen: dict[tuple[bool, Bit], str] = {}
         for name, bit in self.signals():
             if bit is None:
                 if name not in STATUS_SIGNALS:
-                    issues.append(f"signals: {name} must be mapped: the Remote Control "
-                                  "function needs all seven handshake signals")
+                    issues.append(
+                        f"signals: {name} must be mapped: the Remote Control "
+                        "function needs all seven handshake signals"
+                    )
                 continue
             if not (0 <= bit.register <= _REGISTER_MAX and 0 <= bit.bit <= 15):
-                issues.append(f"signals: {name} at {bit}: out of range (allowed: register 0 "
-                              f"to {_REGISTER_MAX}, bit 0 to 15)")
+                issues.append(
+                    f"signals: {name} at {bit}: out of range (allowed: register 0 "
+                    f"to {_REGISTER_MAX}, bit 0 to 15)"
+                )
             key = (name in HANDSHAKE_INPUTS, bit)
             if key in seen:
                 issues.append(f"signals: {seen[key]} and {name} are both at {bit}")
@@ -377,14 +404,18 @@ class RegisterMap:
             is_input = name in HANDSHAKE_INPUTS
             span, what = (command, "command") if is_input else (response, "response")
             if bit.register in span:
-                issues.append(f"signals: {name} at {bit} lies in the {what} words "
-                              f"(registers {span.start} to {span.stop - 1})")
+                issues.append(
+                    f"signals: {name} at {bit} lies in the {what} words "
+                    f"(registers {span.start} to {span.stop - 1})"
+                )
         if not issues:
             first, count = self.input_span
             if count > MODBUS_MAX_READ:
-                issues.append(f"the output signals and response words span {count} input "
-                              f"registers from {first}: more than one Modbus read "
-                              f"({MODBUS_MAX_READ})")
+                issues.append(
+                    f"the output signals and response words span {count} input "
+                    f"registers from {first}: more than one Modbus read "
+                    f"({MODBUS_MAX_READ})"
+                )
         return issues
 
 
@@ -403,7 +434,7 @@ def _signal(name: str, value: object, base: int, issues: list[str], default: Bit
         register, bit = value.get("register", base), value.get("bit")
         if _whole(register) and _whole(bit):
             return Bit(register, bit)
-    issues.append(f"signals: {name}: {value!r} is not a bit number, "
-                  "{register: N, bit: B} or null")
+    issues.append(
+        f"signals: {name}: {value!r} is not a bit number, {{register: N, bit: B}} or null"
+    )
     return default
-

@@ -208,8 +208,9 @@ def real_units(text: str) -> int:
     if sign == "-":
         units = -units
     if not REAL_MIN <= units <= REAL_MAX:
-        raise ValueError(f"{text!r} is outside the 32-bit range "
-                         f"({real_text(REAL_MIN)} to {real_text(REAL_MAX)})")
+        raise ValueError(
+            f"{text!r} is outside the 32-bit range ({real_text(REAL_MIN)} to {real_text(REAL_MAX)})"
+        )
     return units
 
 
@@ -266,38 +267,49 @@ class ResponseCode(NamedTuple):
 
 _NEXT = "the next command is accepted; this one did not complete: review the control method"
 #: Response 1 (a hex word: ``2004`` is 0x2004) -> its §7.1 meaning.
-RESPONSE_CODES: Mapping[int, ResponseCode] = MappingProxyType({
-    0x0000: ResponseCode("normal", "-"),
-    0x1000: ResponseCode("command number error: unsupported command number", _NEXT),
-    0x1002: ResponseCode("command sequence error: the order of the requests is not proper",
-                         _NEXT),
-    0x2000: ResponseCode("execution error: the command cannot be executed", _NEXT),
-    0x2001: ResponseCode("command/response word number setting error", _NEXT),
-    0x2002: ResponseCode("command word number setting error", _NEXT),
-    0x2003: ResponseCode("response word number setting error", _NEXT),
-    0x2004: ResponseCode("parameter error", _NEXT),
-    0x2005: ResponseCode("table number specification error: the table number is out of range",
-                         _NEXT),
-    0x2006: ResponseCode("table registration error: the table is not registered", _NEXT),
-    0x2007: ResponseCode("pallet undefined", _NEXT),
-    0x2008: ResponseCode("pallet point number discrepancy", _NEXT),
-    0x2009: ResponseCode("Box undefined", _NEXT),
-    0x200A: ResponseCode("command execution error (Response 2: the controller's error code)",
-                         _NEXT),
-    0x200B: ResponseCode("command not accepted because of the system status", "reboot the system"),
-    0x3000: ResponseCode("RC error (Response 2: the controller's error code)",
-                         "look the code up in the controller manual"),
-    0x9999: ResponseCode("function error", "reset the function (the function reset signal)"),
-})
+RESPONSE_CODES: Mapping[int, ResponseCode] = MappingProxyType(
+    {
+        0x0000: ResponseCode("normal", "-"),
+        0x1000: ResponseCode("command number error: unsupported command number", _NEXT),
+        0x1002: ResponseCode(
+            "command sequence error: the order of the requests is not proper", _NEXT
+        ),
+        0x2000: ResponseCode("execution error: the command cannot be executed", _NEXT),
+        0x2001: ResponseCode("command/response word number setting error", _NEXT),
+        0x2002: ResponseCode("command word number setting error", _NEXT),
+        0x2003: ResponseCode("response word number setting error", _NEXT),
+        0x2004: ResponseCode("parameter error", _NEXT),
+        0x2005: ResponseCode(
+            "table number specification error: the table number is out of range", _NEXT
+        ),
+        0x2006: ResponseCode("table registration error: the table is not registered", _NEXT),
+        0x2007: ResponseCode("pallet undefined", _NEXT),
+        0x2008: ResponseCode("pallet point number discrepancy", _NEXT),
+        0x2009: ResponseCode("Box undefined", _NEXT),
+        0x200A: ResponseCode(
+            "command execution error (Response 2: the controller's error code)", _NEXT
+        ),
+        0x200B: ResponseCode(
+            "command not accepted because of the system status", "reboot the system"
+        ),
+        0x3000: ResponseCode(
+            "RC error (Response 2: the controller's error code)",
+            "look the code up in the controller manual",
+        ),
+        0x9999: ResponseCode("function error", "reset the function (the function reset signal)"),
+    }
+)
 #: Response 1 of a function error (ExtError 1).
 FUNCTION_ERROR = 0x9999
 #: Response 2 of a function error (§7.2.3).
-FUNCTION_ERROR_DETAILS: Mapping[int, str] = MappingProxyType({
-    0x0001: "command acceptance status error: a command was requested while another was "
-            "executing",
-    0x9901: "WBMPostMessageExtra failure (caused by the controller)",
-    0x9902: "PRINT message error (caused by the controller)",
-})
+FUNCTION_ERROR_DETAILS: Mapping[int, str] = MappingProxyType(
+    {
+        0x0001: "command acceptance status error: a command was requested while another was "
+        "executing",
+        0x9901: "WBMPostMessageExtra failure (caused by the controller)",
+        0x9902: "PRINT message error (caused by the controller)",
+    }
+)
 
 
 def describe_code(code: int, detail: int = 0) -> str:
@@ -350,129 +362,140 @@ class CommandSpec(NamedTuple):
     params: frozenset[int]
 
 
-def _specs(is_write: bool, table: Mapping[int, tuple[str, tuple[int, ...]]]
-           ) -> dict[int, CommandSpec]:
-    return {number: CommandSpec(name, is_write, frozenset(counts))
-            for number, (name, counts) in table.items()}
+def _specs(
+    is_write: bool, table: Mapping[int, tuple[str, tuple[int, ...]]]
+) -> dict[int, CommandSpec]:
+    return {
+        number: CommandSpec(name, is_write, frozenset(counts))
+        for number, (name, counts) in table.items()
+    }
 
 
 #: The reads a backup makes: the digest's safe-read list, only what the family uses.
-_READS = _specs(False, {
-    3: ("Accel table entry", (1,)),
-    59: ("AccelS table entry", (1,)),
-    60: ("AccelS table entry, accel", (1,)),
-    61: ("AccelS table entry, decel", (1,)),
-    109: ("AccelR table entry", (1,)),
-    110: ("AccelR table entry, accel", (1,)),
-    111: ("AccelR table entry, decel", (1,)),
-    153: ("Speed table entry", (1,)),
-    209: ("SpeedS table entry", (1,)),
-    210: ("SpeedS table entry, speed and depart", (1,)),
-    211: ("SpeedS table entry, approach", (1,)),
-    253: ("SpeedR table entry", (1,)),
-    302: ("Weight", (0,)),
-    353: ("Inertia", (0,)),
-    354: ("Inertia, load inertia", (0,)),
-    355: ("Inertia, eccentricity", (0,)),
-    403: ("Arch", (1,)),
-    404: ("Arch, depart distance", (1,)),
-    405: ("Arch, approach distance", (1,)),
-    453: ("Fine", (0,)),
-    454: ("Fine, joints 1-3", (0,)),
-    455: ("Fine, joints 4-6", (0,)),
-    501: ("Tool selected", (0,)),
-    603: ("Box", (2,)),
-    604: ("Box, lower limit", (2,)),
-    605: ("Box, upper limit", (2,)),
-    651: ("Plane", (2,)),
-    701: ("Local", (2,)),
-    753: ("XYLim", (1,)),
-    754: ("XYLim, lower limit", (1,)),
-    755: ("XYLim, upper limit", (1,)),
-    803: ("JRange", (1,)),
-    804: ("JRange, lower limit", (1,)),
-    805: ("JRange, upper limit", (1,)),
-    851: ("Base", (1,)),
-    1215: ("point hand orientation", (1,)),
-    1216: ("point elbow orientation", (1,)),
-    1217: ("point wrist orientation", (1,)),
-    1218: ("point j4flag", (1,)),
-    1219: ("point j6flag", (1,)),
-    1220: ("point local number", (1,)),
-    1222: ("point coordinate", (2,)),
-    1251: ("LimZ", (0,)),
-    2153: ("manipulator type", (0,)),
-    2154: ("manipulator model name", (1,)),
-})
+_READS = _specs(
+    False,
+    {
+        3: ("Accel table entry", (1,)),
+        59: ("AccelS table entry", (1,)),
+        60: ("AccelS table entry, accel", (1,)),
+        61: ("AccelS table entry, decel", (1,)),
+        109: ("AccelR table entry", (1,)),
+        110: ("AccelR table entry, accel", (1,)),
+        111: ("AccelR table entry, decel", (1,)),
+        153: ("Speed table entry", (1,)),
+        209: ("SpeedS table entry", (1,)),
+        210: ("SpeedS table entry, speed and depart", (1,)),
+        211: ("SpeedS table entry, approach", (1,)),
+        253: ("SpeedR table entry", (1,)),
+        302: ("Weight", (0,)),
+        353: ("Inertia", (0,)),
+        354: ("Inertia, load inertia", (0,)),
+        355: ("Inertia, eccentricity", (0,)),
+        403: ("Arch", (1,)),
+        404: ("Arch, depart distance", (1,)),
+        405: ("Arch, approach distance", (1,)),
+        453: ("Fine", (0,)),
+        454: ("Fine, joints 1-3", (0,)),
+        455: ("Fine, joints 4-6", (0,)),
+        501: ("Tool selected", (0,)),
+        603: ("Box", (2,)),
+        604: ("Box, lower limit", (2,)),
+        605: ("Box, upper limit", (2,)),
+        651: ("Plane", (2,)),
+        701: ("Local", (2,)),
+        753: ("XYLim", (1,)),
+        754: ("XYLim, lower limit", (1,)),
+        755: ("XYLim, upper limit", (1,)),
+        803: ("JRange", (1,)),
+        804: ("JRange, lower limit", (1,)),
+        805: ("JRange, upper limit", (1,)),
+        851: ("Base", (1,)),
+        1215: ("point hand orientation", (1,)),
+        1216: ("point elbow orientation", (1,)),
+        1217: ("point wrist orientation", (1,)),
+        1218: ("point j4flag", (1,)),
+        1219: ("point j6flag", (1,)),
+        1220: ("point local number", (1,)),
+        1222: ("point coordinate", (2,)),
+        1251: ("LimZ", (0,)),
+        2153: ("manipulator type", (0,)),
+        2154: ("manipulator model name", (1,)),
+    },
+)
 #: The writes a deploy makes: each item's Set/Register command of the digest (§2).
-_WRITES = _specs(True, {
-    1: ("register Accel table entry", (3,)),
-    53: ("register AccelS table entry", (5,)),
-    54: ("register AccelS table entry, accel (R1)", (3,)),
-    55: ("register AccelS table entry, decel (R2)", (3,)),
-    103: ("register AccelR table entry", (5,)),
-    104: ("register AccelR table entry, accel (R1)", (3,)),
-    105: ("register AccelR table entry, decel (R2)", (3,)),
-    151: ("register Speed table entry", (4,)),
-    203: ("register SpeedS table entry", (7,)),
-    204: ("register SpeedS table entry, speed and depart (R1)", (5,)),
-    205: ("register SpeedS table entry, approach (R2)", (3,)),
-    251: ("register SpeedR table entry", (3,)),
-    300: ("set Weight and arm length", (4,)),
-    301: ("set Weight", (2,)),
-    350: ("set Inertia", (4,)),
-    351: ("set Inertia, load inertia (S1)", (2,)),
-    352: ("set Inertia, eccentricity (S2)", (2,)),
-    400: ("set Arch", (5,)),
-    401: ("set Arch, depart distance (S1)", (3,)),
-    402: ("set Arch, approach distance (S2)", (3,)),
-    450: ("set Fine", (4, 6)),
-    451: ("set Fine, joints 1-3 (S1)", (3,)),
-    452: ("set Fine, joints 4-6 (S2)", (1, 3)),
-    500: ("select Tool", (1,)),
-    600: ("set Box, one axis (Rn)", (6,)),
-    601: ("set Box, lower limit of one axis (R1)", (4,)),
-    602: ("set Box, upper limit of one axis (R2)", (4,)),
-    650: ("set Plane, one coordinate (Rn)", (4,)),
-    700: ("set Local, one coordinate (Rn)", (4,)),
-    750: ("set XYLim, one axis (Rn)", (5,)),
-    751: ("set XYLim, lower limit of one axis (R1)", (3,)),
-    752: ("set XYLim, upper limit of one axis (R2)", (3,)),
-    800: ("set JRange", (5,)),
-    801: ("set JRange, lower limit (R1)", (3,)),
-    802: ("set JRange, upper limit (R2)", (3,)),
-    850: ("set Base, one coordinate (Rn)", (3,)),
-    1204: ("set a point coordinate", (4,)),
-    1206: ("set a point's hand orientation to Righty", (1,)),
-    1207: ("set a point's hand orientation to Lefty", (1,)),
-    1208: ("set a point's elbow orientation to Above", (1,)),
-    1209: ("set a point's elbow orientation to Below", (1,)),
-    1210: ("set a point's wrist orientation to Flip", (1,)),
-    1211: ("set a point's wrist orientation to NoFlip", (1,)),
-    1212: ("set a point's j4flag", (2,)),
-    1213: ("set a point's j6flag", (2,)),
-    1214: ("set a point's local number", (2,)),
-    1250: ("set LimZ", (2,)),
-})
+_WRITES = _specs(
+    True,
+    {
+        1: ("register Accel table entry", (3,)),
+        53: ("register AccelS table entry", (5,)),
+        54: ("register AccelS table entry, accel (R1)", (3,)),
+        55: ("register AccelS table entry, decel (R2)", (3,)),
+        103: ("register AccelR table entry", (5,)),
+        104: ("register AccelR table entry, accel (R1)", (3,)),
+        105: ("register AccelR table entry, decel (R2)", (3,)),
+        151: ("register Speed table entry", (4,)),
+        203: ("register SpeedS table entry", (7,)),
+        204: ("register SpeedS table entry, speed and depart (R1)", (5,)),
+        205: ("register SpeedS table entry, approach (R2)", (3,)),
+        251: ("register SpeedR table entry", (3,)),
+        300: ("set Weight and arm length", (4,)),
+        301: ("set Weight", (2,)),
+        350: ("set Inertia", (4,)),
+        351: ("set Inertia, load inertia (S1)", (2,)),
+        352: ("set Inertia, eccentricity (S2)", (2,)),
+        400: ("set Arch", (5,)),
+        401: ("set Arch, depart distance (S1)", (3,)),
+        402: ("set Arch, approach distance (S2)", (3,)),
+        450: ("set Fine", (4, 6)),
+        451: ("set Fine, joints 1-3 (S1)", (3,)),
+        452: ("set Fine, joints 4-6 (S2)", (1, 3)),
+        500: ("select Tool", (1,)),
+        600: ("set Box, one axis (Rn)", (6,)),
+        601: ("set Box, lower limit of one axis (R1)", (4,)),
+        602: ("set Box, upper limit of one axis (R2)", (4,)),
+        650: ("set Plane, one coordinate (Rn)", (4,)),
+        700: ("set Local, one coordinate (Rn)", (4,)),
+        750: ("set XYLim, one axis (Rn)", (5,)),
+        751: ("set XYLim, lower limit of one axis (R1)", (3,)),
+        752: ("set XYLim, upper limit of one axis (R2)", (3,)),
+        800: ("set JRange", (5,)),
+        801: ("set JRange, lower limit (R1)", (3,)),
+        802: ("set JRange, upper limit (R2)", (3,)),
+        850: ("set Base, one coordinate (Rn)", (3,)),
+        1204: ("set a point coordinate", (4,)),
+        1206: ("set a point's hand orientation to Righty", (1,)),
+        1207: ("set a point's hand orientation to Lefty", (1,)),
+        1208: ("set a point's elbow orientation to Above", (1,)),
+        1209: ("set a point's elbow orientation to Below", (1,)),
+        1210: ("set a point's wrist orientation to Flip", (1,)),
+        1211: ("set a point's wrist orientation to NoFlip", (1,)),
+        1212: ("set a point's j4flag", (2,)),
+        1213: ("set a point's j6flag", (2,)),
+        1214: ("set a point's local number", (2,)),
+        1250: ("set LimZ", (2,)),
+    },
+)
 BACKUP_READS = frozenset(_READS)
 DEPLOY_WRITES = frozenset(_WRITES)
 #: The allow-list: every command the family may send, by number.
 COMMANDS: Mapping[int, CommandSpec] = MappingProxyType({**_READS, **_WRITES})
 
 #: The digest's never-send list (§4), by number, with the reason.
-NEVER_SEND: Mapping[int, str] = MappingProxyType({
-    **dict.fromkeys((2000, 2001, 2002, 2003, 2005, 2006, 2007), "motion"),
-    2050: "jog",
-    2051: "teach: it writes the current pose into a point",
-    2052: "it saves the points to Points.pts",
-    2053: "motor excitation",
-    1150: "power",
-    1400: "motor",
-    1450: "reset: it switches outputs off and re-initialises settings",
-    **dict.fromkeys((2102, 2103, 2105, 2106), "outputs"),
-    **dict.fromkeys((2109, 2110, 2112, 2113), "memory I/O"),
-    **dict.fromkeys((554, 555, 556, 557), "it overwrites point variables with pallet corners"),
-})
+NEVER_SEND: Mapping[int, str] = MappingProxyType(
+    {
+        **dict.fromkeys((2000, 2001, 2002, 2003, 2005, 2006, 2007), "motion"),
+        2050: "jog",
+        2051: "teach: it writes the current pose into a point",
+        2052: "it saves the points to Points.pts",
+        2053: "motor excitation",
+        1150: "power",
+        1400: "motor",
+        1450: "reset: it switches outputs off and re-initialises settings",
+        **dict.fromkeys((2102, 2103, 2105, 2106), "outputs"),
+        **dict.fromkeys((2109, 2110, 2112, 2113), "memory I/O"),
+        **dict.fromkeys((554, 555, 556, 557), "it overwrites point variables with pallet corners"),
+    }
+)
 if not NEVER_SEND.keys().isdisjoint(COMMANDS):  # pragma: no cover - a broken table
     raise AssertionError("a never-send command is on the allow-list")
 
@@ -482,8 +505,9 @@ def refusal(number: int) -> str | None:
     if number in COMMANDS:
         return None
     why = NEVER_SEND.get(number)
-    return (f"command {number} is not on the Epson allow-list: harlsync never sends it"
-            + (f" ({why})" if why else " (only the backup reads and deploy writes are sent)"))
+    return f"command {number} is not on the Epson allow-list: harlsync never sends it" + (
+        f" ({why})" if why else " (only the backup reads and deploy writes are sent)"
+    )
 
 
 # --- commands on the wire ------------------------------------------------------------
@@ -517,18 +541,23 @@ def encode(command: Command, width: int = MAX_WORDS) -> tuple[int, ...]:
     spec = COMMANDS[command.number]
     if len(command.params) not in spec.params:
         counts = " or ".join(str(n) for n in sorted(spec.params))
-        raise ValueError(f"command {command.number} ({spec.name}) takes {counts} parameters, "
-                         f"not {len(command.params)}")
+        raise ValueError(
+            f"command {command.number} ({spec.name}) takes {counts} parameters, "
+            f"not {len(command.params)}"
+        )
     for i, word in enumerate(command.params, 1):
         if not 0 <= word <= _WORD:
-            raise ValueError(f"command {command.number} parameter {i}: {word} is not a "
-                             "16-bit word (0 to 65535)")
+            raise ValueError(
+                f"command {command.number} parameter {i}: {word} is not a 16-bit word (0 to 65535)"
+            )
     if not 1 <= width <= MAX_WORDS:
         raise ValueError(f"width {width} out of range (allowed: 1 to {MAX_WORDS})")
     words = command.words
     if len(words) > width:
-        raise ValueError(f"command {command.number} ({spec.name}) needs {len(words)} "
-                         f"command words, the map has {width}")
+        raise ValueError(
+            f"command {command.number} ({spec.name}) needs {len(words)} "
+            f"command words, the map has {width}"
+        )
     return words + (0,) * (width - len(words))
 
 
@@ -619,8 +648,10 @@ class Request(Generic[R_co]):
         if len(words) < need:
             raise ReplyError(f"{self}: {len(words)} response words, {need} needed")
         if words[0] != self.number:
-            raise ReplyError(f"{self}: response word 0 is {words[0]:04X}H, not the command "
-                             f"number {self.number:04X}H echoed")
+            raise ReplyError(
+                f"{self}: response word 0 is {words[0]:04X}H, not the command "
+                f"number {self.number:04X}H echoed"
+            )
         if error:
             return ErrorReply(self.number, words[1], words[2])
         try:
@@ -667,8 +698,9 @@ def _table(table: int) -> int:
     return _check(table, 0, 15, "table number")
 
 
-def _read(number: int, params: tuple[int, ...], what: str, data_words: int,
-          parse: Callable[[_Words], T]) -> Request[T]:
+def _read(
+    number: int, params: tuple[int, ...], what: str, data_words: int, parse: Callable[[_Words], T]
+) -> Request[T]:
     return Request(Command(number, params), what, parse, data_words)
 
 
@@ -692,8 +724,13 @@ def _fit(what: str, command_words: int, *forms: tuple[Request[None], ...]) -> Wr
     raise ValueError(f"{what}: needs {need} command words, the map has {command_words}")
 
 
-def _echo_read(number: int, echoed: Sequence[tuple[int, str]], what: str, data_words: int,
-               rest: Callable[[_Words], T]) -> Request[T]:
+def _echo_read(
+    number: int,
+    echoed: Sequence[tuple[int, str]],
+    what: str,
+    data_words: int,
+    rest: Callable[[_Words], T],
+) -> Request[T]:
     """A read whose parameters (table, axis, joint ...) come back before its data."""
 
     def parse(words: _Words) -> T:
@@ -737,17 +774,18 @@ class SpeedReal(NamedTuple):
     approach: str
 
 
-def _table_read(number: int, table: int, what: str, data_words: int,
-                rest: Callable[[_Words], T]) -> Request[T]:
+def _table_read(
+    number: int, table: int, what: str, data_words: int, rest: Callable[[_Words], T]
+) -> Request[T]:
     table = _table(table)
-    return _echo_read(number, ((table, "table number"),), f"{what} table {table}", data_words,
-                      rest)
+    return _echo_read(number, ((table, "table number"),), f"{what} table {table}", data_words, rest)
 
 
 def read_accel(table: int) -> Request[AccelPercent]:
     """3: an Accel table entry.  Unregistered: error 2006 (the profile)."""
-    return _table_read(3, table, "Accel", 3, lambda w: AccelPercent(
-        w.word("accel"), w.word("decel")))
+    return _table_read(
+        3, table, "Accel", 3, lambda w: AccelPercent(w.word("accel"), w.word("decel"))
+    )
 
 
 def _accel_real(w: _Words) -> AccelReal:
@@ -786,21 +824,36 @@ def read_accel_r_decel(table: int) -> Request[str]:
 
 def read_speed(table: int) -> Request[SpeedPercent]:
     """153: a Speed table entry."""
-    return _table_read(153, table, "Speed", 4, lambda w: SpeedPercent(
-        w.word("speed"), w.word("depart speed"), w.word("approach speed")))
+    return _table_read(
+        153,
+        table,
+        "Speed",
+        4,
+        lambda w: SpeedPercent(w.word("speed"), w.word("depart speed"), w.word("approach speed")),
+    )
 
 
 def read_speed_s(table: int) -> Request[SpeedReal]:
     """209: a SpeedS table entry (all three; 8 response words)."""
-    return _table_read(209, table, "SpeedS", 7, lambda w: SpeedReal(
-        w.real("speed"), w.real("depart speed"), w.real("approach speed")))
+    return _table_read(
+        209,
+        table,
+        "SpeedS",
+        7,
+        lambda w: SpeedReal(w.real("speed"), w.real("depart speed"), w.real("approach speed")),
+    )
 
 
 def read_speed_s_speed_depart(table: int) -> Request[tuple[str, str]]:
     """210: a SpeedS table entry's speed and depart speed (6 response words; the
     manual's list and heading call it a register command, its body an acquire)."""
-    return _table_read(210, table, "SpeedS speed and depart", 5, lambda w: (
-        w.real("speed"), w.real("depart speed")))
+    return _table_read(
+        210,
+        table,
+        "SpeedS speed and depart",
+        5,
+        lambda w: (w.real("speed"), w.real("depart speed")),
+    )
 
 
 def read_speed_s_approach(table: int) -> Request[str]:
@@ -821,25 +874,31 @@ def register_accel(table: int, accel: int, decel: int) -> WriteSequence:
     return WriteSequence(what, (_write(1, words, what),))
 
 
-def _register_accel_real(numbers: tuple[int, int, int], item: str, table: int,
-                         value: AccelReal, command_words: int) -> WriteSequence:
+def _register_accel_real(
+    numbers: tuple[int, int, int], item: str, table: int, value: AccelReal, command_words: int
+) -> WriteSequence:
     full, first, second = numbers
     table = _table(table)
     accel, decel = real_to_words(value.accel), real_to_words(value.decel)
     what = f"{item} table {table}"
-    return _fit(what, command_words,
-                (_write(full, (table, *accel, *decel), what),),
-                (_write(first, (table, *accel), what), _write(second, (table, *decel), what)))
+    return _fit(
+        what,
+        command_words,
+        (_write(full, (table, *accel, *decel), what),),
+        (_write(first, (table, *accel), what), _write(second, (table, *decel), what)),
+    )
 
 
-def register_accel_s(table: int, value: AccelReal, *,
-                     command_words: int = MAX_WORDS) -> WriteSequence:
+def register_accel_s(
+    table: int, value: AccelReal, *, command_words: int = MAX_WORDS
+) -> WriteSequence:
     """53, or 54 then 55 when the map has fewer than 6 command words."""
     return _register_accel_real((53, 54, 55), "AccelS", table, value, command_words)
 
 
-def register_accel_r(table: int, value: AccelReal, *,
-                     command_words: int = MAX_WORDS) -> WriteSequence:
+def register_accel_r(
+    table: int, value: AccelReal, *, command_words: int = MAX_WORDS
+) -> WriteSequence:
     """103, or 104 then 105 when the map has fewer than 6 command words."""
     return _register_accel_real((103, 104, 105), "AccelR", table, value, command_words)
 
@@ -847,23 +906,29 @@ def register_accel_r(table: int, value: AccelReal, *,
 def register_speed(table: int, value: SpeedPercent) -> WriteSequence:
     """151: register a Speed table entry (each 1-100 %)."""
     table = _table(table)
-    words = (table, _check(value.speed, 1, 100, "speed"),
-             _check(value.depart, 1, 100, "depart speed"),
-             _check(value.approach, 1, 100, "approach speed"))
+    words = (
+        table,
+        _check(value.speed, 1, 100, "speed"),
+        _check(value.depart, 1, 100, "depart speed"),
+        _check(value.approach, 1, 100, "approach speed"),
+    )
     what = f"Speed table {table}"
     return WriteSequence(what, (_write(151, words, what),))
 
 
-def register_speed_s(table: int, value: SpeedReal, *,
-                     command_words: int = MAX_WORDS) -> WriteSequence:
+def register_speed_s(
+    table: int, value: SpeedReal, *, command_words: int = MAX_WORDS
+) -> WriteSequence:
     """203, or 204 then 205 when the map has fewer than 8 command words."""
     table = _table(table)
     speed, depart, approach = (real_to_words(v) for v in value)
     what = f"SpeedS table {table}"
-    return _fit(what, command_words,
-                (_write(203, (table, *speed, *depart, *approach), what),),
-                (_write(204, (table, *speed, *depart), what),
-                 _write(205, (table, *approach), what)))
+    return _fit(
+        what,
+        command_words,
+        (_write(203, (table, *speed, *depart, *approach), what),),
+        (_write(204, (table, *speed, *depart), what), _write(205, (table, *approach), what)),
+    )
 
 
 def register_speed_r(table: int, speed: str) -> WriteSequence:
@@ -915,8 +980,9 @@ def set_weight(weight: str, arm_length: str | None = None) -> WriteSequence:
 
 def read_inertia() -> Request[Inertia]:
     """353: the load inertia and eccentricity."""
-    return _read(353, (), "Inertia", 4, lambda w: Inertia(
-        w.real("load inertia"), w.real("eccentricity")))
+    return _read(
+        353, (), "Inertia", 4, lambda w: Inertia(w.real("load inertia"), w.real("eccentricity"))
+    )
 
 
 def read_inertia_load() -> Request[str]:
@@ -935,25 +1001,34 @@ def set_inertia(value: Inertia, *, command_words: int = MAX_WORDS) -> WriteSeque
     Written to the controller's memory card.
     """
     inertia, eccentricity = real_to_words(value.inertia), real_to_words(value.eccentricity)
-    return _fit("Inertia", command_words,
-                (_write(350, (*inertia, *eccentricity), "Inertia"),),
-                (_write(351, inertia, "Inertia"), _write(352, eccentricity, "Inertia")))
+    return _fit(
+        "Inertia",
+        command_words,
+        (_write(350, (*inertia, *eccentricity), "Inertia"),),
+        (_write(351, inertia, "Inertia"), _write(352, eccentricity, "Inertia")),
+    )
 
 
 def _arch(arch: int) -> int:
     return _check(arch, 0, 6, "arch number")
 
 
-def _arch_read(number: int, arch: int, what: str, data_words: int,
-               rest: Callable[[_Words], T]) -> Request[T]:
+def _arch_read(
+    number: int, arch: int, what: str, data_words: int, rest: Callable[[_Words], T]
+) -> Request[T]:
     arch = _arch(arch)
     return _echo_read(number, ((arch, "arch number"),), f"Arch {arch}{what}", data_words, rest)
 
 
 def read_arch(arch: int) -> Request[Distances]:
     """403: an Arch entry (0-6)."""
-    return _arch_read(403, arch, "", 5, lambda w: Distances(
-        w.real("depart distance"), w.real("approach distance")))
+    return _arch_read(
+        403,
+        arch,
+        "",
+        5,
+        lambda w: Distances(w.real("depart distance"), w.real("approach distance")),
+    )
 
 
 def read_arch_depart(arch: int) -> Request[str]:
@@ -971,9 +1046,12 @@ def set_arch(arch: int, value: Distances, *, command_words: int = MAX_WORDS) -> 
     arch = _arch(arch)
     depart, approach = real_to_words(value.depart), real_to_words(value.approach)
     what = f"Arch {arch}"
-    return _fit(what, command_words,
-                (_write(400, (arch, *depart, *approach), what),),
-                (_write(401, (arch, *depart), what), _write(402, (arch, *approach), what)))
+    return _fit(
+        what,
+        command_words,
+        (_write(400, (arch, *depart, *approach), what),),
+        (_write(401, (arch, *depart), what), _write(402, (arch, *approach), what)),
+    )
 
 
 def _axes(axes: int) -> int:
@@ -1007,9 +1085,12 @@ def set_fine(values: Sequence[int], *, command_words: int = MAX_WORDS) -> WriteS
     """450 with 4 or 6 joints, or 451 (joints 1-3) then 452 (the rest)."""
     _axes(len(values))
     words = tuple(_check(v, 0, _WORD, f"Fine joint {i}") for i, v in enumerate(values, 1))
-    return _fit("Fine", command_words,
-                (_write(450, words, "Fine"),),
-                (_write(451, words[:3], "Fine"), _write(452, words[3:], "Fine")))
+    return _fit(
+        "Fine",
+        command_words,
+        (_write(450, words, "Fine"),),
+        (_write(451, words[:3], "Fine"), _write(452, words[3:], "Fine")),
+    )
 
 
 def read_tool() -> Request[int]:
@@ -1044,11 +1125,17 @@ def _number15(value: int, what: str) -> int:
     return _check(value, 1, 15, what)
 
 
-def _box_read(number: int, area: int, axis: int, what: str, data_words: int,
-              rest: Callable[[_Words], T]) -> Request[T]:
+def _box_read(
+    number: int, area: int, axis: int, what: str, data_words: int, rest: Callable[[_Words], T]
+) -> Request[T]:
     area, axis = _number15(area, "Box area"), _check(axis, 0, 2, "Box axis")
-    return _echo_read(number, ((area, "area number"), (axis, "axis")),
-                      f"Box {area} {_XYZ[axis]}{what}", data_words, rest)
+    return _echo_read(
+        number,
+        ((area, "area number"), (axis, "axis")),
+        f"Box {area} {_XYZ[axis]}{what}",
+        data_words,
+        rest,
+    )
 
 
 def read_box(area: int, axis: int) -> Request[Limits]:
@@ -1075,8 +1162,9 @@ def _xyz_limits(limits: Sequence[Limits], what: str) -> list[tuple[_Pair, _Pair]
     return [(real_to_words(lim.lower), real_to_words(lim.upper)) for lim in limits]
 
 
-def set_box(area: int, limits: Sequence[Limits], *,
-            command_words: int = MAX_WORDS) -> WriteSequence:
+def set_box(
+    area: int, limits: Sequence[Limits], *, command_words: int = MAX_WORDS
+) -> WriteSequence:
     """600 for X, Y, Z (Rn), or 601 for X, Y, Z then 602 for X, Y, Z.
 
     Written to the controller's memory card.  All limits 0: the area is off.
@@ -1084,19 +1172,26 @@ def set_box(area: int, limits: Sequence[Limits], *,
     area = _number15(area, "Box area")
     what = f"Box {area}"
     words = _xyz_limits(limits, what)
-    return _fit(what, command_words,
-                tuple(_write(600, (area, axis, *low, *high), what)
-                      for axis, (low, high) in enumerate(words)),
-                tuple(_write(601, (area, axis, *low), what) for axis, (low, _) in enumerate(words))
-                + tuple(_write(602, (area, axis, *high), what)
-                        for axis, (_, high) in enumerate(words)))
+    return _fit(
+        what,
+        command_words,
+        tuple(
+            _write(600, (area, axis, *low, *high), what) for axis, (low, high) in enumerate(words)
+        ),
+        tuple(_write(601, (area, axis, *low), what) for axis, (low, _) in enumerate(words))
+        + tuple(_write(602, (area, axis, *high), what) for axis, (_, high) in enumerate(words)),
+    )
 
 
 def _frame_read(number: int, item: str, frame: int, coord: int) -> Request[str]:
     frame, coord = _number15(frame, f"{item} number"), _check(coord, 0, 5, "coordinate")
-    return _echo_read(number, ((frame, f"{item} number"), (coord, "coordinate")),
-                      f"{item} {frame} {COORDINATES[coord]}", 4,
-                      lambda w: w.real(COORDINATES[coord]))
+    return _echo_read(
+        number,
+        ((frame, f"{item} number"), (coord, "coordinate")),
+        f"{item} {frame} {COORDINATES[coord]}",
+        4,
+        lambda w: w.real(COORDINATES[coord]),
+    )
 
 
 def read_plane(plane: int, coord: int) -> Request[str]:
@@ -1111,16 +1206,22 @@ def read_local(local: int, coord: int) -> Request[str]:
 
 def _coords(coords: Sequence[str], what: str) -> list[tuple[int, int]]:
     if len(coords) not in (4, 6):
-        raise ValueError(f"{what}: {len(coords)} coordinates given, X to U (4-axis) or "
-                         "X to W (6-axis) needed")
+        raise ValueError(
+            f"{what}: {len(coords)} coordinates given, X to U (4-axis) or X to W (6-axis) needed"
+        )
     return [real_to_words(c) for c in coords]
 
 
 def _frame_write(number: int, item: str, frame: int, coords: Sequence[str]) -> WriteSequence:
     frame = _number15(frame, f"{item} number")
     what = f"{item} {frame}"
-    return WriteSequence(what, tuple(_write(number, (frame, coord, *words), what)
-                                     for coord, words in enumerate(_coords(coords, what))))
+    return WriteSequence(
+        what,
+        tuple(
+            _write(number, (frame, coord, *words), what)
+            for coord, words in enumerate(_coords(coords, what))
+        ),
+    )
 
 
 def set_plane(plane: int, coords: Sequence[str]) -> WriteSequence:
@@ -1136,8 +1237,9 @@ def set_local(local: int, coords: Sequence[str]) -> WriteSequence:
     return _frame_write(700, "Local", local, coords)
 
 
-def _xylim_read(number: int, axis: int, what: str, data_words: int,
-                rest: Callable[[_Words], T]) -> Request[T]:
+def _xylim_read(
+    number: int, axis: int, what: str, data_words: int, rest: Callable[[_Words], T]
+) -> Request[T]:
     axis = _check(axis, 0, 2, "XYLim axis")
     return _echo_read(number, ((axis, "axis"),), f"XYLim {_XYZ[axis]}{what}", data_words, rest)
 
@@ -1163,29 +1265,31 @@ def set_xylim(limits: Sequence[Limits], *, command_words: int = MAX_WORDS) -> Wr
     Written to the controller's memory card.  All limits 0: the range is off.
     """
     words = _xyz_limits(limits, "XYLim")
-    return _fit("XYLim", command_words,
-                tuple(_write(750, (axis, *low, *high), "XYLim")
-                      for axis, (low, high) in enumerate(words)),
-                tuple(_write(751, (axis, *low), "XYLim") for axis, (low, _) in enumerate(words))
-                + tuple(_write(752, (axis, *high), "XYLim")
-                        for axis, (_, high) in enumerate(words)))
+    return _fit(
+        "XYLim",
+        command_words,
+        tuple(_write(750, (axis, *low, *high), "XYLim") for axis, (low, high) in enumerate(words)),
+        tuple(_write(751, (axis, *low), "XYLim") for axis, (low, _) in enumerate(words))
+        + tuple(_write(752, (axis, *high), "XYLim") for axis, (_, high) in enumerate(words)),
+    )
 
 
 def _joint(joint: int) -> int:
     return _check(joint, 1, 6, "joint")
 
 
-def _jrange_read(number: int, joint: int, what: str, data_words: int,
-                 rest: Callable[[_Words], T]) -> Request[T]:
+def _jrange_read(
+    number: int, joint: int, what: str, data_words: int, rest: Callable[[_Words], T]
+) -> Request[T]:
     joint = _joint(joint)
-    return _echo_read(number, ((joint, "joint"),), f"JRange joint {joint}{what}", data_words,
-                      rest)
+    return _echo_read(number, ((joint, "joint"),), f"JRange joint {joint}{what}", data_words, rest)
 
 
 def read_jrange(joint: int) -> Request[PulseLimits]:
     """803: one joint's (1-6) range in pulses."""
-    return _jrange_read(803, joint, "", 5, lambda w: PulseLimits(
-        w.int32("lower pulse"), w.int32("upper pulse")))
+    return _jrange_read(
+        803, joint, "", 5, lambda w: PulseLimits(w.int32("lower pulse"), w.int32("upper pulse"))
+    )
 
 
 def read_jrange_lower(joint: int) -> Request[int]:
@@ -1198,22 +1302,29 @@ def read_jrange_upper(joint: int) -> Request[int]:
     return _jrange_read(805, joint, " upper", 3, lambda w: w.int32("upper pulse"))
 
 
-def set_jrange(joint: int, value: PulseLimits, *,
-               command_words: int = MAX_WORDS) -> WriteSequence:
+def set_jrange(joint: int, value: PulseLimits, *, command_words: int = MAX_WORDS) -> WriteSequence:
     """800, or 801 then 802 (written to the controller's memory card)."""
     joint = _joint(joint)
     lower, upper = int32_to_words(value.lower), int32_to_words(value.upper)
     what = f"JRange joint {joint}"
-    return _fit(what, command_words,
-                (_write(800, (joint, *lower, *upper), what),),
-                (_write(801, (joint, *lower), what), _write(802, (joint, *upper), what)))
+    return _fit(
+        what,
+        command_words,
+        (_write(800, (joint, *lower, *upper), what),),
+        (_write(801, (joint, *lower), what), _write(802, (joint, *upper), what)),
+    )
 
 
 def read_base(coord: int) -> Request[str]:
     """851: one coordinate (0 X ... 5 W) of the Base coordinate system."""
     coord = _check(coord, 0, 5, "coordinate")
-    return _echo_read(851, ((coord, "coordinate"),), f"Base {COORDINATES[coord]}", 3,
-                      lambda w: w.real(COORDINATES[coord]))
+    return _echo_read(
+        851,
+        ((coord, "coordinate"),),
+        f"Base {COORDINATES[coord]}",
+        3,
+        lambda w: w.real(COORDINATES[coord]),
+    )
 
 
 def set_base(coords: Sequence[str]) -> WriteSequence:
@@ -1221,8 +1332,13 @@ def set_base(coords: Sequence[str]) -> WriteSequence:
 
     Written to the controller's memory card; every Local must be defined again after.
     """
-    return WriteSequence("Base", tuple(_write(850, (coord, *words), "Base")
-                                       for coord, words in enumerate(_coords(coords, "Base"))))
+    return WriteSequence(
+        "Base",
+        tuple(
+            _write(850, (coord, *words), "Base")
+            for coord, words in enumerate(_coords(coords, "Base"))
+        ),
+    )
 
 
 # --- LimZ, the robot (§10.26, §8.5) -------------------------------------------------------
@@ -1240,7 +1356,8 @@ def set_limz(z: str) -> WriteSequence:
 
 #: Manipulator type codes of 2153.
 ROBOT_TYPES: Mapping[int, str] = MappingProxyType(
-    {1: "Joint", 2: "Cartesian", 3: "SCARA", 5: "6-AXIS", 6: "RS"})
+    {1: "Joint", 2: "Cartesian", 3: "SCARA", 5: "6-AXIS", 6: "RS"}
+)
 
 
 def read_robot_type() -> Request[int]:
@@ -1285,24 +1402,28 @@ PointAttribute = Literal["hand", "elbow", "wrist", "j4flag", "j6flag", "local"]
 #: Attribute -> (the read command, its values): 1215 hand 0 Lefty 1 Righty, 1216
 #: elbow 0 Above 1 Below, 1217 wrist 0 NoFlip 1 Flip, 1218 j4flag 0-1, 1219
 #: j6flag 0-127, 1220 local (0 = none).
-POINT_ATTRIBUTES: Mapping[str, tuple[int, int, int]] = MappingProxyType({
-    "hand": (1215, 0, 1),
-    "elbow": (1216, 0, 1),
-    "wrist": (1217, 0, 1),
-    "j4flag": (1218, 0, 1),
-    "j6flag": (1219, 0, 127),
-    "local": (1220, 0, 15),
-})
+POINT_ATTRIBUTES: Mapping[str, tuple[int, int, int]] = MappingProxyType(
+    {
+        "hand": (1215, 0, 1),
+        "elbow": (1216, 0, 1),
+        "wrist": (1217, 0, 1),
+        "j4flag": (1218, 0, 1),
+        "j6flag": (1219, 0, 127),
+        "local": (1220, 0, 15),
+    }
+)
 #: Attribute -> the write command for each value (hand 0 Lefty -> 1207 ...), or
 #: one command that takes the value as its second parameter.
-_POINT_SETS: Mapping[str, tuple[int, ...]] = MappingProxyType({
-    "hand": (1207, 1206),
-    "elbow": (1208, 1209),
-    "wrist": (1211, 1210),
-    "j4flag": (1212,),
-    "j6flag": (1213,),
-    "local": (1214,),
-})
+_POINT_SETS: Mapping[str, tuple[int, ...]] = MappingProxyType(
+    {
+        "hand": (1207, 1206),
+        "elbow": (1208, 1209),
+        "wrist": (1211, 1210),
+        "j4flag": (1212,),
+        "j6flag": (1213,),
+        "local": (1214,),
+    }
+)
 
 
 def _point(point: int) -> int:
@@ -1313,16 +1434,18 @@ def read_point_coord(point: int, axis: int) -> Request[str]:
     """1222: one coordinate (0 X ... 5 W) of a point.  The answer echoes neither the
     point nor the axis; an undefined point answers error 2004 (the profile)."""
     point, axis = _point(point), _check(axis, 0, 5, "axis")
-    return _read(1222, (point, axis), f"P{point} {COORDINATES[axis]}", 2,
-                 lambda w: w.real(COORDINATES[axis]))
+    return _read(
+        1222, (point, axis), f"P{point} {COORDINATES[axis]}", 2, lambda w: w.real(COORDINATES[axis])
+    )
 
 
 def read_point_attribute(attribute: PointAttribute, point: int) -> Request[int]:
     """1215-1220: one attribute of a point, as :data:`POINT_ATTRIBUTES` codes it."""
     number, low, high = POINT_ATTRIBUTES[attribute]
     point = _point(point)
-    return _read(number, (point,), f"P{point} {attribute}", 1,
-                 lambda w: w.number(low, high, attribute))
+    return _read(
+        number, (point,), f"P{point} {attribute}", 1, lambda w: w.number(low, high, attribute)
+    )
 
 
 def set_point_coord(point: int, axis: int, value: str) -> WriteSequence:

@@ -41,17 +41,19 @@ T = TypeVar("T")
 SCHEME = "modbus"
 
 #: Modbus exception codes, as the specification names them.
-_EXCEPTIONS = MappingProxyType({
-    1: "illegal function",
-    2: "illegal data address",
-    3: "illegal data value",
-    4: "server device failure",
-    5: "acknowledge",
-    6: "server device busy",
-    8: "memory parity error",
-    10: "gateway path unavailable",
-    11: "gateway target device failed to respond",
-})
+_EXCEPTIONS = MappingProxyType(
+    {
+        1: "illegal function",
+        2: "illegal data address",
+        3: "illegal data value",
+        4: "server device failure",
+        5: "acknowledge",
+        6: "server device busy",
+        8: "memory parity error",
+        10: "gateway path unavailable",
+        11: "gateway target device failed to respond",
+    }
+)
 
 
 class ModbusRefused(LinkError):
@@ -73,10 +75,20 @@ def parse_url(url: str) -> tuple[str, int]:
         port = parts.port
     except ValueError:
         port = -1
-    if (parts.scheme.lower() != SCHEME or not parts.hostname or port == -1
-            or parts.path not in ("", "/") or parts.query or parts.fragment or parts.username):
-        raise PortError(f"not a Modbus TCP address: {url!r} (expected modbus://HOST[:PORT], "
-                        f"port {profile.DEFAULT_PORT} when none is given)", port=url)
+    if (
+        parts.scheme.lower() != SCHEME
+        or not parts.hostname
+        or port == -1
+        or parts.path not in ("", "/")
+        or parts.query
+        or parts.fragment
+        or parts.username
+    ):
+        raise PortError(
+            f"not a Modbus TCP address: {url!r} (expected modbus://HOST[:PORT], "
+            f"port {profile.DEFAULT_PORT} when none is given)",
+            port=url,
+        )
     return parts.hostname, profile.DEFAULT_PORT if port is None else port
 
 
@@ -112,8 +124,9 @@ class ModbusLink:
         # One lock per controller endpoint (lock_key: the socket:// line of host:port).
         self._lock = LineLock(self.url, lock_path(self.url, lock_dir))
         self._lock.acquire(lock_timeout)
-        self._client = ModbusTcpClient(self.host, port=self.port, timeout=timeout,
-                                       retries=retries, reconnect_delay=0)
+        self._client = ModbusTcpClient(
+            self.host, port=self.port, timeout=timeout, retries=retries, reconnect_delay=0
+        )
         try:
             self._connect(timeout)
         except BaseException:
@@ -134,8 +147,11 @@ class ModbusLink:
             socket.create_connection((self.host, self.port), timeout=timeout).close()
         except OSError as exc:
             reason = _describe(exc)
-        raise PortError(f"cannot connect: {reason}; check the controller is on, its Modbus TCP "
-                        "slave enabled and the port right", port=self.label)
+        raise PortError(
+            f"cannot connect: {reason}; check the controller is on, its Modbus TCP "
+            "slave enabled and the port right",
+            port=self.label,
+        )
 
     # --- register access ----------------------------------------------------------------
 
@@ -152,14 +168,17 @@ class ModbusLink:
         what = f"write holding registers {address}-{address + len(words) - 1}"
         log.debug("%s: %s: %s", self.label, what, _hex(words))
         if len(words) == 1:
-            self._call(what, lambda: self._client.write_register(
-                address, words[0], device_id=self.unit))
+            self._call(
+                what, lambda: self._client.write_register(address, words[0], device_id=self.unit)
+            )
         else:
-            self._call(what, lambda: self._client.write_registers(
-                address, words, device_id=self.unit))
+            self._call(
+                what, lambda: self._client.write_registers(address, words, device_id=self.unit)
+            )
 
-    def _read(self, kind: str, address: int, count: int,
-              read: Callable[..., ModbusPDU]) -> list[int]:
+    def _read(
+        self, kind: str, address: int, count: int, read: Callable[..., ModbusPDU]
+    ) -> list[int]:
         what = f"read {kind} registers {address}-{address + count - 1}"
         reply = self._call(what, lambda: read(address, count=count, device_id=self.unit))
         values = list(reply.registers)
@@ -174,21 +193,30 @@ class ModbusLink:
             reply = call()
         except ModbusIOException as exc:
             tries = f"{self.retries + 1} tries" if self.retries else "1 try"
-            raise LinkTimeout(f"{what}: no answer within {self.timeout:g} s ({tries})",
-                              port=self.label) from exc
+            raise LinkTimeout(
+                f"{what}: no answer within {self.timeout:g} s ({tries})", port=self.label
+            ) from exc
         except ConnectionException as exc:
-            raise PortError(f"{what}: the connection is gone ({_describe(exc)}); check the "
-                            "network and that no other Modbus master holds the controller",
-                            port=self.label) from exc
+            raise PortError(
+                f"{what}: the connection is gone ({_describe(exc)}); check the "
+                "network and that no other Modbus master holds the controller",
+                port=self.label,
+            ) from exc
         except (ModbusException, OSError) as exc:
             raise LinkError(f"{what}: {_describe(exc)}", port=self.label) from exc
         if reply.isError():
             code = int(getattr(reply, "exception_code", 0) or 0)
             name = _EXCEPTIONS.get(code, "unknown exception")
-            hint = {2: "; check the register map in robot.yaml",
-                    10: "; check the unit id", 11: "; check the unit id"}.get(code, "")
-            raise ModbusRefused(f"{what}: the controller answered Modbus exception {code} "
-                                f"({name}){hint}", port=self.label, code=code)
+            hint = {
+                2: "; check the register map in robot.yaml",
+                10: "; check the unit id",
+                11: "; check the unit id",
+            }.get(code, "")
+            raise ModbusRefused(
+                f"{what}: the controller answered Modbus exception {code} ({name}){hint}",
+                port=self.label,
+                code=code,
+            )
         return reply
 
     # --- open and close -----------------------------------------------------------------
@@ -204,8 +232,12 @@ class ModbusLink:
     def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self.close()
 
 
@@ -216,9 +248,12 @@ def _hex(words: Sequence[int]) -> str:
 def _describe(exc: BaseException) -> str:
     """An exception's text on one line, without pymodbus's "Modbus Error: [...]" frame."""
     text = " ".join(str(exc).split()) or type(exc).__name__
-    for prefix in ("Modbus Error: [Input/Output] ", "Modbus Error: [Connection] ",
-                   "Modbus Error: "):
+    for prefix in (
+        "Modbus Error: [Input/Output] ",
+        "Modbus Error: [Connection] ",
+        "Modbus Error: ",
+    ):
         if text.startswith(prefix):
-            text = text[len(prefix):]
+            text = text[len(prefix) :]
             break
     return text

@@ -63,7 +63,8 @@ class HarlU2Catalogue:
 
     def items(self, data: RobotData, *, registers: bool = True) -> dict[Key, Any]:
         out: dict[Key, Any] = {
-            BlockKey("config"): data.config, BlockKey("parameters"): data.parameters
+            BlockKey("config"): data.config,
+            BlockKey("parameters"): data.parameters,
         }
         for n, table in data.offsets.items():
             out[NumberKey("offset", n)] = table
@@ -91,7 +92,9 @@ class HarlU2Catalogue:
                 return f"START program step {key.step}"
             return f"{key.program_type} program {key.program} step {key.step}"
         if isinstance(key, NumberKey):
-            return f"offset table {key.number}" if key.kind == "offset" else f"{key.kind} {key.number}"
+            return (
+                f"offset table {key.number}" if key.kind == "offset" else f"{key.kind} {key.number}"
+            )
         return {"config": "program configuration", "parameters": "expanded parameters"}[key.kind]
 
     def group(self, key: Key) -> str:
@@ -129,10 +132,18 @@ class HarlU2Catalogue:
     def counts(self, changes: Iterable[tuple[Any, Any, Any]]) -> dict[str, int]:
         """Programs, steps, tables, timers, registers, parameters, config."""
         changes = list(changes)
-        programs = {(key.program_type, key.program) for key, _, _ in changes
-                    if isinstance(key, StepKey)}
-        count = {"programs": len(programs), "steps": 0, "tables": 0, "timers": 0,
-                 "registers": 0, "parameters": 0, "config": 0}
+        programs = {
+            (key.program_type, key.program) for key, _, _ in changes if isinstance(key, StepKey)
+        }
+        count = {
+            "programs": len(programs),
+            "steps": 0,
+            "tables": 0,
+            "timers": 0,
+            "registers": 0,
+            "parameters": 0,
+            "config": 0,
+        }
         for key, old, new in changes:
             kind = key.kind
             if kind in _PLURAL:
@@ -153,8 +164,7 @@ class HarlU2Catalogue:
                 f"{count['programs']} program{'s' * (count['programs'] > 1)} "
                 f"({count['steps']} step{'s' * (count['steps'] > 1)})"
             )
-        for name, singular in (("tables", "table"), ("timers", "timer"),
-                               ("registers", "register")):
+        for name, singular in (("tables", "table"), ("timers", "timer"), ("registers", "register")):
             if count[name]:
                 parts.append(f"{count[name]} {singular if count[name] == 1 else name}")
         return ", ".join(parts) or "no change"
@@ -165,8 +175,7 @@ class HarlU2Catalogue:
     def robot_identity(self, data: RobotData) -> dict[str, str]:
         """The version (LNV) and the program configuration (LNX)."""
         cfg = data.config
-        areas = ", ".join(f"{t.value} {cfg.area(t).count}x{cfg.area(t).steps}"
-                          for t in ProgramType)
+        areas = ", ".join(f"{t.value} {cfg.area(t).count}x{cfg.area(t).steps}" for t in ProgramType)
         return {
             "version": data.version,
             "program configuration": (
@@ -177,14 +186,23 @@ class HarlU2Catalogue:
 
     def contents(self, data: RobotData, *, registers: bool) -> str:
         steps = sum(not step.empty for steps in data.programs.values() for step in steps.values())
-        parts = [f"{_many(len(data.programs), 'program')} ({_many(steps, 'step')} used)",
-                 _many(len(data.offsets), "offset table"), _many(len(data.timers), "timer")]
+        parts = [
+            f"{_many(len(data.programs), 'program')} ({_many(steps, 'step')} used)",
+            _many(len(data.offsets), "offset table"),
+            _many(len(data.timers), "timer"),
+        ]
         if registers and data.registers is not None:
             parts.append(_many(len(data.registers), "register"))
         return ", ".join(parts)
 
-    def plan(self, live: RobotData, project: RobotData, changes: list[tuple[Any, Any, Any]],
-             *, registers: bool) -> PlanShape:
+    def plan(
+        self,
+        live: RobotData,
+        project: RobotData,
+        changes: list[tuple[Any, Any, Any]],
+        *,
+        registers: bool,
+    ) -> PlanShape:
         unwritable = [
             f"{name}: the robot has {getattr(live.config, name)}, the project "
             f"{getattr(project.config, name)}; the configuration write (SNX) cannot change it"
@@ -197,7 +215,8 @@ class HarlU2Catalogue:
                 "and pull, or push without registers"
             )
         explained = {
-            kind for kind, count in (("timer", "timers"), ("register", "registers"))
+            kind
+            for kind, count in (("timer", "timers"), ("register", "registers"))
             if getattr(live.config, count) != getattr(project.config, count)
         } | ({"register"} if project.registers is None else set())
         # Only a step can be written as "nothing" (cleared); any other item the
@@ -205,7 +224,8 @@ class HarlU2Catalogue:
         missing = [c for c in changes if c[2] is None and c[0].kind != "step"]
         unwritable += [
             f"{self.describe(key)}: the project has none"
-            for key, _, _ in missing if key.kind not in explained
+            for key, _, _ in missing
+            if key.kind not in explained
         ]
         reconfigure = not live.config.same_programs(project.config)
         # Without a reconfiguration the config item differs only in what SNX cannot
@@ -215,19 +235,24 @@ class HarlU2Catalogue:
         if reconfigure:
             # SNX wipes every program: rewrite every non-empty step of the project,
             # each written over an empty step.
-            wanted += [(key, None, value) for key, value in self.items(project).items()
-                       if isinstance(key, StepKey)]
+            wanted += [
+                (key, None, value)
+                for key, value in self.items(project).items()
+                if isinstance(key, StepKey)
+            ]
         return PlanShape(
             wanted=wanted,
             unwritable=unwritable,
             reconfigure=(
                 "the project changes the program configuration (SNX), which destroys every "
                 "program on the robot; give --allow-reconfigure to do it and rewrite them all"
-                if reconfigure else None
+                if reconfigure
+                else None
             ),
             reconfigure_note=(
                 "SNX changes the program configuration: every program is rewritten after it"
-                if reconfigure else None
+                if reconfigure
+                else None
             ),
         )
 

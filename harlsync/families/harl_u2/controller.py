@@ -92,10 +92,6 @@ class Controller(OnLink):
         controller._owns_link = True
         return controller
 
-
-
-
-
     # --- the one place requests go through ----------------------------------------
 
     def request(self, request: Request[T]) -> T:
@@ -133,7 +129,8 @@ class Controller(OnLink):
             wanted,
             old,
             before_resend=(
-                (lambda lost: self._idle_before_resend(request, lost)) if needs_idle
+                (lambda lost: self._idle_before_resend(request, lost))
+                if needs_idle
                 else (lambda lost: None)
             ),
             same=same,
@@ -143,7 +140,12 @@ class Controller(OnLink):
 
     def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless the status, read now, shows the robot idle."""
-        refuse_unless_idle(self.status, lost, where=f"port {self.port}, station {self.station}, command {request.payload}", reading="the task states")
+        refuse_unless_idle(
+            self.status,
+            lost,
+            where=f"port {self.port}, station {self.station}, command {request.payload}",
+            reading="the task states",
+        )
 
     # --- programs -----------------------------------------------------------------
 
@@ -199,8 +201,13 @@ class Controller(OnLink):
     def write_timer(
         self, number: int, value: str, *, old: str | None = None, needs_idle: bool = False
     ) -> None:
-        self._write(cmd.write_timer(number, value), cmd.read_timer(number), value, old,
-                    needs_idle=needs_idle)
+        self._write(
+            cmd.write_timer(number, value),
+            cmd.read_timer(number),
+            value,
+            old,
+            needs_idle=needs_idle,
+        )
 
     def read_register(self, number: int) -> str:
         return self.request(cmd.read_register(number))
@@ -208,8 +215,13 @@ class Controller(OnLink):
     def write_register(
         self, number: int, value: str, *, old: str | None = None, needs_idle: bool = False
     ) -> None:
-        self._write(cmd.write_register(number, value), cmd.read_register(number), value, old,
-                    needs_idle=needs_idle)
+        self._write(
+            cmd.write_register(number, value),
+            cmd.read_register(number),
+            value,
+            old,
+            needs_idle=needs_idle,
+        )
 
     def read_offset(self, table: int) -> OffsetTable:
         return self.request(cmd.read_offset(table))
@@ -222,8 +234,13 @@ class Controller(OnLink):
         old: OffsetTable | None = None,
         needs_idle: bool = False,
     ) -> None:
-        self._write(cmd.write_offset(table, value), cmd.read_offset(table), value, old,
-                    needs_idle=needs_idle)
+        self._write(
+            cmd.write_offset(table, value),
+            cmd.read_offset(table),
+            value,
+            old,
+            needs_idle=needs_idle,
+        )
 
     def read_parameters(self) -> Parameters:
         return self.request(cmd.read_parameters())
@@ -231,8 +248,9 @@ class Controller(OnLink):
     def write_parameters(
         self, value: Parameters, *, old: Parameters | None = None, needs_idle: bool = False
     ) -> None:
-        self._write(cmd.write_parameters(value), cmd.read_parameters(), value, old,
-                    needs_idle=needs_idle)
+        self._write(
+            cmd.write_parameters(value), cmd.read_parameters(), value, old, needs_idle=needs_idle
+        )
 
     # --- I/O and memory bits ------------------------------------------------------------
 

@@ -59,11 +59,19 @@ class HarlU2Driver:
         # whether the write took, without an extra read before every write.
         c, idle = self.controller, needs_idle
         if isinstance(key, StepKey):
-            c.write_step(ProgramType(key.program_type), key.program, key.step, value or Step(),
-                         old=old or Step(), needs_idle=idle)
+            c.write_step(
+                ProgramType(key.program_type),
+                key.program,
+                key.step,
+                value or Step(),
+                old=old or Step(),
+                needs_idle=idle,
+            )
         elif isinstance(key, NumberKey):
             writes: dict[str, Callable[..., None]] = {
-                "timer": c.write_timer, "register": c.write_register, "offset": c.write_offset,
+                "timer": c.write_timer,
+                "register": c.write_register,
+                "offset": c.write_offset,
             }
             writes[key.kind](key.number, value, old=old, needs_idle=idle)
         elif key.kind == "parameters":
@@ -75,9 +83,17 @@ class HarlU2Driver:
         self.controller.close()
 
 
-_LETTERS = {"timer": "SNT", "register": "SND", "offset": "SNL", "parameters": "SNE", "config": "SNX"}
+_LETTERS = {
+    "timer": "SNT",
+    "register": "SND",
+    "offset": "SNL",
+    "parameters": "SNE",
+    "config": "SNX",
+}
 _NUMBERED_WRITES: dict[str, Callable[[int, Any], Request]] = {
-    "timer": cmd.write_timer, "register": cmd.write_register, "offset": cmd.write_offset,
+    "timer": cmd.write_timer,
+    "register": cmd.write_register,
+    "offset": cmd.write_offset,
 }
 
 

@@ -87,7 +87,12 @@ class HarlU2Family:
         return str(station)
 
     def connect(
-        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float,
+        self,
+        robot: Robot,
+        port: str | None,
+        station: int | None,
+        *,
+        lock_timeout: float,
         **options: Any,
     ) -> Driver:
         from .controller import Controller

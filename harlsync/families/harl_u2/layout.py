@@ -114,8 +114,12 @@ KINDS = ("robot", "controller", "parameters", "offsets", "timers", "registers", 
 SCHEMAS = SchemaSet(
     f"{__package__}.schemas",
     KINDS,
-    {"harl-timer": TIMER_RE, "harl-register": REGISTER_RE, "harl-offset": OFFSET_RE,
-     "harl-code": CODE_RE},
+    {
+        "harl-timer": TIMER_RE,
+        "harl-register": REGISTER_RE,
+        "harl-offset": OFFSET_RE,
+        "harl-code": CODE_RE,
+    },
 )
 #: How the files are read and written: their schemas, format and migrations.
 FILES = FileSet(SCHEMAS, FORMAT, MIGRATIONS)
@@ -478,8 +482,14 @@ def _check_offsets(doc: y.Parsed, issues: list[Issue]) -> None:
             text = text_of(tables[key][field])
             one = canonical_code(text) if field in ("m", "f") else canonical_offset(text)
             if one != text:
-                issues.append(Issue("offsets.yaml", doc.line(("tables", key, field)),
-                                    f"tables.{key}.{field}", not_canonical(text, one)))
+                issues.append(
+                    Issue(
+                        "offsets.yaml",
+                        doc.line(("tables", key, field)),
+                        f"tables.{key}.{field}",
+                        not_canonical(text, one),
+                    )
+                )
 
 
 def _check_parameters(doc: y.Parsed, issues: list[Issue]) -> None:
@@ -489,20 +499,28 @@ def _check_parameters(doc: y.Parsed, issues: list[Issue]) -> None:
     back = cmd.read_back(write)
     if back.misread is not None:
         first = PARAMETER_NAMES[0][0]  # the LNE reply is the values in order: it leads
-        issues.append(Issue(
-            "parameters.yaml", doc.line((first,)), first,
-            f"{show(data[first])} {back.misread}: the robot could not be read again "
-            f"(allowed: one token not beginning with {profile.ERROR_PREFIX!r})",
-        ))
+        issues.append(
+            Issue(
+                "parameters.yaml",
+                doc.line((first,)),
+                first,
+                f"{show(data[first])} {back.misread}: the robot could not be read again "
+                f"(allowed: one token not beginning with {profile.ERROR_PREFIX!r})",
+            )
+        )
     if back.excess:
         longest = max(values, key=lambda name: len(values[name]))
         total = len(" ".join(values.values()))
-        issues.append(Issue(
-            "parameters.yaml", doc.line((longest,)), longest,
-            f"the {len(values)} parameters are {total} characters with their spaces, more "
-            f"than a frame carries (allowed: at most {total - back.excess} together, "
-            f"{_both_fit(write, back)})",
-        ))
+        issues.append(
+            Issue(
+                "parameters.yaml",
+                doc.line((longest,)),
+                longest,
+                f"the {len(values)} parameters are {total} characters with their spaces, more "
+                f"than a frame carries (allowed: at most {total - back.excess} together, "
+                f"{_both_fit(write, back)})",
+            )
+        )
 
 
 #: What an SN step write holds besides the step, at most (two-digit program, a step
@@ -527,19 +545,28 @@ def _check_steps(key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
             continue
         where = (program_path(key), doc.line(("steps", text)), f"steps.{text}")
         if back.excess:
-            issues.append(Issue(
-                *where,
-                f"{len(step)} characters are more than a frame carries (allowed: at most "
-                f"{len(step) - back.excess} in this step, {_both_fit(write, back, 'its ')})",
-            ))
+            issues.append(
+                Issue(
+                    *where,
+                    f"{len(step)} characters are more than a frame carries (allowed: at most "
+                    f"{len(step) - back.excess} in this step, {_both_fit(write, back, 'its ')})",
+                )
+            )
         if back.misread is not None:  # the reply begins with the step number: never so far
-            issues.append(Issue(*where, f"{show(step)} {back.misread} (allowed: a step the "
-                                        f"{back.read.letters} reply gives back as written)"))
+            issues.append(
+                Issue(
+                    *where,
+                    f"{show(step)} {back.misread} (allowed: a step the "
+                    f"{back.read.letters} reply gives back as written)",
+                )
+            )
 
 
 def _both_fit(write: cmd.Request[cmd.Ack], back: cmd.ReadBack, its: str = "") -> str:
-    return (f"so that {its or 'the '}{write.letters} request and the {back.read.letters} reply "
-            f"fit the frame limit of {profile.MAX_FRAME} bytes")
+    return (
+        f"so that {its or 'the '}{write.letters} request and the {back.read.letters} reply "
+        f"fit the frame limit of {profile.MAX_FRAME} bytes"
+    )
 
 
 # -- building the model from valid documents ---------------------------------------------

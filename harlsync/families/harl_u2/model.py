@@ -171,8 +171,12 @@ class Config:
     def numbers(self) -> tuple[int, ...]:
         """The 11 LNX numbers (the first 8 are what SNX writes)."""
         areas = (self.area(t) for t in ProgramType)
-        return (*(n for a in areas for n in (a.count, a.steps)),
-                self.timers, self.memory_bits, self.registers)
+        return (
+            *(n for a in areas for n in (a.count, a.steps)),
+            self.timers,
+            self.memory_bits,
+            self.registers,
+        )
 
     def area(self, ptype: ProgramType) -> ProgramArea:
         return {
@@ -228,7 +232,9 @@ class OffsetTable:
     def from_values(cls, values: list[str] | tuple[str, ...]) -> OffsetTable:
         """From the 8 wire fields X Y Z W R C M F.  Raises ValueError for another count."""
         if len(values) != len(OFFSET_FIELDS):
-            raise ValueError(f"{len(values)} values, expected {len(OFFSET_FIELDS)}: X Y Z W R C M F")
+            raise ValueError(
+                f"{len(values)} values, expected {len(OFFSET_FIELDS)}: X Y Z W R C M F"
+            )
         return cls(*values)
 
     def problems(self) -> list[str]:

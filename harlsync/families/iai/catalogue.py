@@ -82,7 +82,10 @@ def _item_kind(key: Key) -> str:
 
 
 def runs(
-    kind: str, numbers: Iterable[int], limit: int, live: Mapping[int, Any],
+    kind: str,
+    numbers: Iterable[int],
+    limit: int,
+    live: Mapping[int, Any],
     project: Mapping[int, Any],
 ) -> list[tuple[Run, tuple[Any, ...], tuple[Any, ...]]]:
     """The writes of ``numbers`` (changed items of run kind ``kind``): one per run
@@ -94,8 +97,11 @@ def runs(
         else:
             found.append([n])
     return [
-        (Run(kind, run[0], len(run)), tuple(live.get(n) for n in run),
-         tuple(project[n] for n in run))
+        (
+            Run(kind, run[0], len(run)),
+            tuple(live.get(n) for n in run),
+            tuple(project[n] for n in run),
+        )
         for run in found
     ]
 
@@ -175,7 +181,8 @@ class IaiCatalogue:
         count = self.counts(changes)
         parts = [
             f"{count[section]} {one if count[section] == 1 else several}"
-            for section, one, several in _KINDS.values() if count.get(section)
+            for section, one, several in _KINDS.values()
+            if count.get(section)
         ]
         return ", ".join(parts) or "no change"
 
@@ -190,15 +197,22 @@ class IaiCatalogue:
         held = {"positions": data.positions, **kept}
         return ", ".join(
             f"{len(held[section])} {one if len(held[section]) == 1 else several}"
-            for section, one, several in _KINDS.values() if section in held
+            for section, one, several in _KINDS.values()
+            if section in held
         )
 
     def version(self, data: IaiData) -> str:
         v = data.version
         return f"model {v.model_code} unit {v.unit_code} version {v.version} built {v.built}"
 
-    def plan(self, live: IaiData, project: IaiData, changes: list[tuple[Any, Any, Any]], *,
-             registers: bool) -> PlanShape:
+    def plan(
+        self,
+        live: IaiData,
+        project: IaiData,
+        changes: list[tuple[Any, Any, Any]],
+        *,
+        registers: bool,
+    ) -> PlanShape:
         kept = project.variables()
         unwritable = []
         lacking = [section for section in VARIABLE_SECTIONS if section not in kept]
@@ -227,12 +241,22 @@ class IaiCatalogue:
             if new is not None:
                 changed[_KINDS[key.kind][0]].append(key.number)
         wanted: list[tuple[Any, Any, Any]] = []
-        wanted += runs("positions", changed["positions"], max_positions_per_write(project.model),
-                       live.positions, project.positions)
+        wanted += runs(
+            "positions",
+            changed["positions"],
+            max_positions_per_write(project.model),
+            live.positions,
+            project.positions,
+        )
         for section in ("integers", "reals"):
             limit = max_variables_per_write(project.model, section)
-            wanted += runs(section, changed[section], limit,
-                           live.variables().get(section, {}), kept.get(section, {}))
+            wanted += runs(
+                section,
+                changed[section],
+                limit,
+                live.variables().get(section, {}),
+                kept.get(section, {}),
+            )
         wanted += [
             (key, old, new) for key, old, new in changes if key.kind == "flag" and new is not None
         ]

@@ -140,19 +140,16 @@ class Controller(OnLink):
 
         Raises :class:`~harlsync.errors.PortBusyError` or :class:`~harlsync.errors.PortError`.
         """
-        link = Link(url, station, settings, codec=CODEC, lock_timeout=lock_timeout,
-                    lock_dir=lock_dir).open()
+        link = Link(
+            url, station, settings, codec=CODEC, lock_timeout=lock_timeout, lock_dir=lock_dir
+        ).open()
         controller = cls(link, **options)  # type: ignore[arg-type]
         controller._owns_link = True
         return controller
 
-
     @property
     def label(self) -> str:
         return f"port {self.port} station {self.station:02X}"
-
-
-
 
     # --- the one place requests go through ---------------------------------------
 
@@ -161,10 +158,13 @@ class Controller(OnLink):
         value = self.link.exchange(request)
         if isinstance(value, ErrorReply):
             raise ControllerError(
-                value.code, port=self.port, station=self.station, command=request.payload,
+                value.code,
+                port=self.port,
+                station=self.station,
+                command=request.payload,
                 station_text=f"{self.station:02X}",
                 message=f"controller answered error {value.code}H (& reply: the command "
-                        "was not carried out)",
+                "was not carried out)",
             )
         return value
 
@@ -189,11 +189,17 @@ class Controller(OnLink):
             axes = self.request(axis_status_request(pattern))
             if self.link.stats.retries == retries:
                 break
-            log.info("%s: 212H was sent again, so the 215H before it is stale: reading both "
-                     "again", self.label)
+            log.info(
+                "%s: 212H was sent again, so the 215H before it is stale: reading both again",
+                self.label,
+            )
         else:
-            return IaiStatus(system, axes, f"215H and 212H could not be read back to back "
-                                           f"({rounds} times 212H had to be sent again)")
+            return IaiStatus(
+                system,
+                axes,
+                f"215H and 212H could not be read back to back "
+                f"({rounds} times 212H had to be sent again)",
+            )
         refusal = system.refusal
         if refusal is None:
             wanted = self.axes if self.axes is not None else tuple(s.axis for s in axes)
@@ -215,7 +221,11 @@ class Controller(OnLink):
         return tuple(found.get(n) for n in range(start, start + size))
 
     def _read_numbered(
-        self, first: int, last: int, step: int, query: Callable[[int, int], Request[tuple[T, ...]]],
+        self,
+        first: int,
+        last: int,
+        step: int,
+        query: Callable[[int, int], Request[tuple[T, ...]]],
         align: int = 1,
     ) -> dict[int, T]:
         """Values ``first`` .. ``last`` by number, in queries of at most ``step``
@@ -228,8 +238,9 @@ class Controller(OnLink):
 
     def read_flags(self, first: int, last: int) -> dict[int, bool]:
         """Global flags ``first`` .. ``last`` (20DH)."""
-        return self._read_numbered(first, last, max_flags_per_read(self.model), read_flags,
-                                   profile.FLAG_QUERY_ALIGNMENT)
+        return self._read_numbered(
+            first, last, max_flags_per_read(self.model), read_flags, profile.FLAG_QUERY_ALIGNMENT
+        )
 
     def read_integers(self, first: int, last: int) -> dict[int, int]:
         """Global integer variables ``first`` .. ``last`` (20EH)."""
@@ -245,7 +256,9 @@ class Controller(OnLink):
     def read_variables(self, section: str, first: int, last: int) -> dict[int, object]:
         """Global ``flags``, ``integers`` or ``reals`` ``first`` .. ``last``."""
         readers: dict[str, Callable[[int, int], Mapping[int, object]]] = {
-            "flags": self.read_flags, "integers": self.read_integers, "reals": self.read_reals,
+            "flags": self.read_flags,
+            "integers": self.read_integers,
+            "reals": self.read_reals,
         }
         return dict(readers[section](first, last))
 
@@ -290,23 +303,35 @@ class Controller(OnLink):
         the robot is not idle, WriteUnconfirmed when the read-back is neither.
         """
         self._confirmed(
-            write_positions(start, positions), len(positions),
-            lambda: self.read_run(start, len(positions)), tuple(positions), tuple(old),
+            write_positions(start, positions),
+            len(positions),
+            lambda: self.read_run(start, len(positions)),
+            tuple(positions),
+            tuple(old),
             f"positions {start}-{start + len(positions) - 1}",
         )
 
     def write_flag(self, number: int, on: bool, old: bool) -> None:
         """Set or clear one global flag with 24BH and confirm it, as :meth:`write_run`."""
-        self._confirmed(write_flag(number, on), None,
-                        lambda: self.read_flags(number, number)[number], on, old, f"flag {number}")
+        self._confirmed(
+            write_flag(number, on),
+            None,
+            lambda: self.read_flags(number, number)[number],
+            on,
+            old,
+            f"flag {number}",
+        )
 
     def write_integers(self, start: int, values: Sequence[int], old: Sequence[int]) -> None:
         """Write consecutive global integer variables with one 24CH and confirm it,
         as :meth:`write_run`."""
         last = start + len(values) - 1
         self._confirmed(
-            write_integers(start, values), len(values),
-            lambda: tuple(self.read_integers(start, last).values()), tuple(values), tuple(old),
+            write_integers(start, values),
+            len(values),
+            lambda: tuple(self.read_integers(start, last).values()),
+            tuple(values),
+            tuple(old),
             f"integer variables {start}-{last}",
         )
 
@@ -315,34 +340,56 @@ class Controller(OnLink):
         confirm it, as :meth:`write_run`.  Raises ValueError for NaN or an infinity."""
         last = start + len(values) - 1
         self._confirmed(
-            write_reals(start, [real_value(v) for v in values]), len(values),
-            lambda: tuple(self.read_reals(start, last).values()), tuple(values), tuple(old),
+            write_reals(start, [real_value(v) for v in values]),
+            len(values),
+            lambda: tuple(self.read_reals(start, last).values()),
+            tuple(values),
+            tuple(old),
             f"real variables {start}-{last}",
         )
 
     def _confirmed(
-        self, request: Request[int | None], count: int | None, readback: Callable[[], T],
-        wanted: T, old: T, what: str,
+        self,
+        request: Request[int | None],
+        count: int | None,
+        readback: Callable[[], T],
+        wanted: T,
+        old: T,
+        what: str,
     ) -> None:
         """Send one write, ``count`` items when its reply says how many, and confirm it."""
         if request.frame_size > profile.BUFFERS[self.model].receive:
-            raise ReplyError(f"{request.payload[:12]}...: {request.frame_size} bytes do not fit "
-                             f"the {self.model}'s receive buffer")
+            raise ReplyError(
+                f"{request.payload[:12]}...: {request.frame_size} bytes do not fit "
+                f"the {self.model}'s receive buffer"
+            )
 
         def sent() -> None:
             written = self.request(request)
             if count is not None and written != count:
                 raise ControllerError(
-                    str(written), port=self.port, station=self.station,
-                    command=request.payload[:12], station_text=f"{self.station:02X}",
+                    str(written),
+                    port=self.port,
+                    station=self.station,
+                    command=request.payload[:12],
+                    station_text=f"{self.station:02X}",
                     message=f"{request.message_id:03X}H wrote {written} of {count} ({what})",
                 )
 
         confirmed_write(
-            sent, readback, wanted, old,
-            before_resend=lambda lost: self._idle_before_resend(request, lost), what=what,
+            sent,
+            readback,
+            wanted,
+            old,
+            before_resend=lambda lost: self._idle_before_resend(request, lost),
+            what=what,
         )
 
     def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless the status, read now, shows the robot idle."""
-        refuse_unless_idle(self.status, lost, where=f"{self.label}, message {request.message_id:03X}H", reading="the status")
+        refuse_unless_idle(
+            self.status,
+            lost,
+            where=f"{self.label}, message {request.message_id:03X}H",
+            reading="the status",
+        )

@@ -41,9 +41,11 @@ class IaiFamily:
             for n, value in sorted(values.items()):
                 problem = variable_problem(section, value)
                 if problem is not None:  # read so from the controller: say what to do there
-                    problems.append(f"{VARIABLE_SECTIONS[section]} {n}: {problem}; change it on "
-                                    f"the controller or leave it out of robot.yaml "
-                                    f"controller.{section}")
+                    problems.append(
+                        f"{VARIABLE_SECTIONS[section]} {n}: {problem}; change it on "
+                        f"the controller or leave it out of robot.yaml "
+                        f"controller.{section}"
+                    )
         return problems
 
     def project_files(self, root: Path) -> list[str]:
@@ -67,14 +69,19 @@ class IaiFamily:
         ``keep_registers``, ``options``: model, axes, first, last), over the profile's."""
         fields: dict[str, Any] = {
             "serial": SETTINGS,
-            "options": {"model": profile.DEFAULT_MODEL,
-                        "first": profile.DEFAULT_POSITION_RANGE[0],
-                        "last": profile.DEFAULT_POSITION_RANGE[1]},
+            "options": {
+                "model": profile.DEFAULT_MODEL,
+                "first": profile.DEFAULT_POSITION_RANGE[0],
+                "last": profile.DEFAULT_POSITION_RANGE[1],
+            },
         }
         fields.update(options)
         return Robot(
-            family=self.name, name=name, port=port,
-            station=profile.DEFAULT_STATION if station is None else station, **fields,
+            family=self.name,
+            name=name,
+            port=port,
+            station=profile.DEFAULT_STATION if station is None else station,
+            **fields,
         )
 
     def parse_station(self, text: str) -> int:
@@ -88,7 +95,12 @@ class IaiFamily:
         return f"{station:02X}"
 
     def connect(
-        self, robot: Robot, port: str | None, station: int | None, *, lock_timeout: float,
+        self,
+        robot: Robot,
+        port: str | None,
+        station: int | None,
+        *,
+        lock_timeout: float,
         **options: Any,
     ) -> Driver:
         from .controller import Controller

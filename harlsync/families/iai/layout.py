@@ -142,18 +142,25 @@ def render_robot(robot: Robot) -> str:
         ("model", y.text(str(options.get("model", profile.DEFAULT_MODEL))))
     ]
     if options.get("axes"):
-        controller.append(
-            ("axes", y.sequence([y.num(str(a)) for a in options["axes"]], flow=True))
-        )
+        controller.append(("axes", y.sequence([y.num(str(a)) for a in options["axes"]], flow=True)))
     first, last = position_range(robot)
     controller += [
         ("first_position", y.num(str(first))),
         ("last_position", y.num(str(last))),
     ]
     controller += [
-        (section, y.mapping([("first", y.num(str(options[section][0]))),
-                             ("last", y.num(str(options[section][1])))], flow=True))
-        for section in VARIABLE_SECTIONS if section in options
+        (
+            section,
+            y.mapping(
+                [
+                    ("first", y.num(str(options[section][0]))),
+                    ("last", y.num(str(options[section][1]))),
+                ],
+                flow=True,
+            ),
+        )
+        for section in VARIABLE_SECTIONS
+        if section in options
     ]
     items = robot_items(robot, connection, controller)
     if robot.keep_registers:  # absent when false: a positions-only robot.yaml as before
@@ -207,8 +214,10 @@ def render_variables(data: IaiData) -> str:
     return FILES.document(
         "variables",
         VARIABLES_FILE,
-        [(name, numbered(values, _VARIABLE_NODES[name]))
-         for name, values in data.variables().items()],
+        [
+            (name, numbered(values, _VARIABLE_NODES[name]))
+            for name, values in data.variables().items()
+        ],
     )
 
 
@@ -300,10 +309,14 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     connection = data["connection"]
     station = text_of(connection.get("station", f"{profile.DEFAULT_STATION:02X}"))
     if not STATION.fullmatch(station):
-        issues.append(Issue(
-            "robot.yaml", doc.line(("connection", "station")), "connection.station",
-            f"{show(connection['station'])} is not a station (allowed: {profile.STATION_ALLOWED})",
-        ))
+        issues.append(
+            Issue(
+                "robot.yaml",
+                doc.line(("connection", "station")),
+                "connection.station",
+                f"{show(connection['station'])} is not a station (allowed: {profile.STATION_ALLOWED})",
+            )
+        )
         return None
     controller = data.get("controller", {})
     options: dict[str, Any] = {"model": str(controller.get("model", profile.DEFAULT_MODEL))}
@@ -313,17 +326,23 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     first, last = profile.DEFAULT_POSITION_RANGE
     options["first"] = int(controller.get("first_position", first))
     options["last"] = int(controller.get("last_position", last))
-    ranges = [(("controller", "last_position"), options["first"], options["last"],
-               "first_position")]
+    ranges = [
+        (("controller", "last_position"), options["first"], options["last"], "first_position")
+    ]
     for section in VARIABLE_SECTIONS:
         if section in controller:
             bounds = controller[section]
             options[section] = (int(bounds["first"]), int(bounds["last"]))
             ranges.append((("controller", section, "last"), *options[section], "first"))
     backwards = [
-        Issue("robot.yaml", doc.line(path), ".".join(path),
-              f"{last} is before {before} {first} (allowed: a number at or after {before})")
-        for path, first, last, before in ranges if first > last
+        Issue(
+            "robot.yaml",
+            doc.line(path),
+            ".".join(path),
+            f"{last} is before {before} {first} (allowed: a number at or after {before})",
+        )
+        for path, first, last, before in ranges
+        if first > last
     ]
     if backwards:
         issues += backwards
@@ -357,22 +376,29 @@ def _check_positions(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) ->
             issues.append(Issue("positions.yaml", doc.line(path), name, message))
 
         if not first <= n <= last:
-            issue(f"position {show(y.Number(key))} is outside the robot's table "
-                      f"(allowed: {first}-{last}, robot.yaml controller.first_position/"
-                      "last_position)")
+            issue(
+                f"position {show(y.Number(key))} is outside the robot's table "
+                f"(allowed: {first}-{last}, robot.yaml controller.first_position/"
+                "last_position)"
+            )
         axes = [int(a) for a in entry["axes"]]
         if axes != sorted(axes):
-            issue(f"{axes} are not in ascending order (allowed: ascending, "
-                          f"{sorted(axes)})", "axes")
+            issue(f"{axes} are not in ascending order (allowed: ascending, {sorted(axes)})", "axes")
         if axes_allowed is not None and not set(axes) <= set(axes_allowed):
             extra = sorted(set(axes) - set(axes_allowed))
-            issue(f"axis {', '.join(map(str, extra))} is not one of the robot's "
-                          f"(allowed: {', '.join(map(str, axes_allowed))}, robot.yaml "
-                          "controller.axes)", "axes")
+            issue(
+                f"axis {', '.join(map(str, extra))} is not one of the robot's "
+                f"(allowed: {', '.join(map(str, axes_allowed))}, robot.yaml "
+                "controller.axes)",
+                "axes",
+            )
         coords = entry["coords"]
         if len(coords) != len(axes):
-            issue(f"{len(coords)} coordinate(s) for {len(axes)} axis/axes "
-                            "(allowed: one coordinate per axis in axes)", "coords")
+            issue(
+                f"{len(coords)} coordinate(s) for {len(axes)} axis/axes "
+                "(allowed: one coordinate per axis in axes)",
+                "coords",
+            )
         for i, value in enumerate(coords):
             check_canonical(issue, text_of(value), canonical_coord, "coords", i)
         for name in ("acc", "dec"):
@@ -394,8 +420,10 @@ def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) ->
                 issues.append(Issue(VARIABLES_FILE, doc.line(at), ".".join(at), message))
 
             if not first <= n <= last:
-                issue(f"{called} {show(y.Number(key))} is outside the robot's range "
-                      f"(allowed: {first}-{last}, robot.yaml controller.{section})")
+                issue(
+                    f"{called} {show(y.Number(key))} is outside the robot's range "
+                    f"(allowed: {first}-{last}, robot.yaml controller.{section})"
+                )
             if section in canonical:
                 check_canonical(issue, text_of(table[key]), canonical[section])
 

@@ -259,8 +259,10 @@ def canonical_real(text: str) -> str:
     """
     finite = f"allowed: a finite real, -{REAL_MAX!r} to {REAL_MAX!r}"
     if _NOT_FINITE_RE.fullmatch(text):
-        raise ValueError(f"{text} is not kept: a NaN never equals itself and an infinity "
-                         f"is no number to compare, so a diff of it never converges ({finite})")
+        raise ValueError(
+            f"{text} is not kept: a NaN never equals itself and an infinity "
+            f"is no number to compare, so a diff of it never converges ({finite})"
+        )
     if not _REAL_RE.fullmatch(text):
         raise ValueError(f"real {text!r} is not a decimal number")
     value = float(text)

@@ -200,8 +200,14 @@ class Session:
         self.pending = None
         self._name_at = None
 
-    def execute(self, state: SimState, words: Sequence[int], *,
-                command_words: int = 8, response_words: int = 8) -> Outcome:
+    def execute(
+        self,
+        state: SimState,
+        words: Sequence[int],
+        *,
+        command_words: int = 8,
+        response_words: int = 8,
+    ) -> Outcome:
         """Carry out the command in ``words`` (word 0 its number) on ``state``;
         ``command_words`` and ``response_words`` are how many words the
         controller's map assigns (§5.3)."""
@@ -212,8 +218,9 @@ class Session:
         spec = _COMMANDS.get(number)
         is_write = number not in READS
         if spec is None:
-            log.warning("sim: command %d is off the command set: refused with %04X",
-                        number, UNSUPPORTED)
+            log.warning(
+                "sim: command %d is off the command set: refused with %04X", number, UNSUPPORTED
+            )
             return Outcome(number, (number, UNSUPPORTED, 0), True, True, False)
         try:
             need = spec.words(state.axes)
@@ -229,22 +236,32 @@ class Session:
         except _Refused as refusal:
             self.pending = None
             return Outcome(number, (number, refusal.code, 0), True, is_write, True)
-        return Outcome(number, response, False, is_write, True, self._took_effect,
-                       self._continuation)
+        return Outcome(
+            number, response, False, is_write, True, self._took_effect, self._continuation
+        )
 
     # --- split and Rn writes ---------------------------------------------------------------
 
-    def _sequence(self, key: tuple[object, ...], steps: tuple[tuple[int, int], ...],
-                  step: tuple[int, int], values: tuple[int, ...],
-                  apply: Callable[[list[tuple[int, ...]]], None]) -> tuple[int, ...]:
+    def _sequence(
+        self,
+        key: tuple[object, ...],
+        steps: tuple[tuple[int, int], ...],
+        step: tuple[int, int],
+        values: tuple[int, ...],
+        apply: Callable[[list[tuple[int, ...]]], None],
+    ) -> tuple[int, ...]:
         """One step of a write that takes several commands; it takes effect at the last."""
         index = steps.index(step)
         if index == 0:
             sequence = _Sequence(key, steps, [values], apply)
         else:
             sequence_ = self._before
-            if (sequence_ is None or sequence_.key != key or sequence_.steps != steps
-                    or len(sequence_.values) != index):
+            if (
+                sequence_ is None
+                or sequence_.key != key
+                or sequence_.steps != steps
+                or len(sequence_.values) != index
+            ):
                 raise _Refused(SEQUENCE)
             sequence = sequence_
             sequence.values.append(values)
@@ -256,12 +273,19 @@ class Session:
             self.pending = sequence
         return ()
 
-    def _split(self, key: tuple[object, ...], first: int, second: int, number: int,
-               values: tuple[int, ...],
-               apply: Callable[[tuple[int, ...], tuple[int, ...]], None]) -> tuple[int, ...]:
+    def _split(
+        self,
+        key: tuple[object, ...],
+        first: int,
+        second: int,
+        number: int,
+        values: tuple[int, ...],
+        apply: Callable[[tuple[int, ...], tuple[int, ...]], None],
+    ) -> tuple[int, ...]:
         """S1/S2 or R1/R2: ``first`` then ``second``."""
-        return self._sequence(key, ((first, 0), (second, 0)), (number, 0), values,
-                              lambda v: apply(v[0], v[1]))
+        return self._sequence(
+            key, ((first, 0), (second, 0)), (number, 0), values, lambda v: apply(v[0], v[1])
+        )
 
     def _done(self) -> tuple[int, ...]:
         """A write carried out in one command."""
@@ -280,8 +304,9 @@ class Session:
         st.accel[t] = (accel, decel)
         return self._done()
 
-    def _real_pair_read(self, table: dict[int, tuple[int, int]], p: _Params,
-                        which: slice) -> tuple[int, ...]:
+    def _real_pair_read(
+        self, table: dict[int, tuple[int, int]], p: _Params, which: slice
+    ) -> tuple[int, ...]:
         t = p.table()
         entry = _registered(table, t)
         return (t, *_ws(entry, which))
@@ -291,8 +316,9 @@ class Session:
         table[t] = (accel, decel)
         return self._done()
 
-    def _real_pair_split(self, name: str, table: dict[int, tuple[int, int]], first: int,
-                         p: _Params) -> tuple[int, ...]:
+    def _real_pair_split(
+        self, name: str, table: dict[int, tuple[int, int]], first: int, p: _Params
+    ) -> tuple[int, ...]:
         number = p.word(0)
         t, value = p.table(), p.at_least(2, 1)
 
@@ -395,8 +421,9 @@ class Session:
         def apply(first: tuple[int, ...], second: tuple[int, ...]) -> None:
             st.fine = first + second
 
-        return self._split(("Fine",), 451, 452, number,
-                           tuple(p.word(1 + j) for j in range(count)), apply)
+        return self._split(
+            ("Fine",), 451, 452, number, tuple(p.word(1 + j) for j in range(count)), apply
+        )
 
     def _tool(self, st: SimState, p: _Params) -> tuple[int, ...]:
         return (st.tool,)
@@ -416,29 +443,42 @@ class Session:
         area, axis = p.number(1, 1, 15), p.number(2, 0, 2)
 
         def apply(values: list[tuple[int, ...]]) -> None:
-            st.boxes[area] = ((values[0][0], values[0][1]), (values[1][0], values[1][1]),
-                              (values[2][0], values[2][1]))
+            st.boxes[area] = (
+                (values[0][0], values[0][1]),
+                (values[1][0], values[1][1]),
+                (values[2][0], values[2][1]),
+            )
 
-        return self._sequence(("Box", area), ((600, 0), (600, 1), (600, 2)), (600, axis),
-                              (p.int32(3), p.int32(5)), apply)
+        return self._sequence(
+            ("Box", area),
+            ((600, 0), (600, 1), (600, 2)),
+            (600, axis),
+            (p.int32(3), p.int32(5)),
+            apply,
+        )
 
     def _set_box_split(self, st: SimState, p: _Params) -> tuple[int, ...]:
         number, area, axis = p.word(0), p.number(1, 1, 15), p.number(2, 0, 2)
 
         def apply(values: list[tuple[int, ...]]) -> None:
-            st.boxes[area] = ((values[0][0], values[3][0]), (values[1][0], values[4][0]),
-                              (values[2][0], values[5][0]))
+            st.boxes[area] = (
+                (values[0][0], values[3][0]),
+                (values[1][0], values[4][0]),
+                (values[2][0], values[5][0]),
+            )
 
         steps = tuple((n, a) for n in (601, 602) for a in range(3))
         return self._sequence(("Box", area), steps, (number, axis), (p.int32(3),), apply)
 
-    def _frame(self, frames: dict[int, tuple[int, ...]], st: SimState,
-               p: _Params) -> tuple[int, ...]:
+    def _frame(
+        self, frames: dict[int, tuple[int, ...]], st: SimState, p: _Params
+    ) -> tuple[int, ...]:
         n, coord = p.number(1, 1, 15), p.number(2, 0, st.axes - 1)
         return (n, coord, *_w(frames.get(n, (0,) * st.axes)[coord]))
 
-    def _set_frame(self, name: str, frames: dict[int, tuple[int, ...]], st: SimState,
-                   p: _Params) -> tuple[int, ...]:
+    def _set_frame(
+        self, name: str, frames: dict[int, tuple[int, ...]], st: SimState, p: _Params
+    ) -> tuple[int, ...]:
         number, n, coord = p.word(0), p.number(1, 1, 15), p.number(2, 0, st.axes - 1)
 
         def apply(values: list[tuple[int, ...]]) -> None:
@@ -455,18 +495,25 @@ class Session:
         axis = p.number(1, 0, 2)
 
         def apply(values: list[tuple[int, ...]]) -> None:
-            st.xylim = ((values[0][0], values[0][1]), (values[1][0], values[1][1]),
-                        (values[2][0], values[2][1]))
+            st.xylim = (
+                (values[0][0], values[0][1]),
+                (values[1][0], values[1][1]),
+                (values[2][0], values[2][1]),
+            )
 
-        return self._sequence(("XYLim",), ((750, 0), (750, 1), (750, 2)), (750, axis),
-                              (p.int32(2), p.int32(4)), apply)
+        return self._sequence(
+            ("XYLim",), ((750, 0), (750, 1), (750, 2)), (750, axis), (p.int32(2), p.int32(4)), apply
+        )
 
     def _set_xylim_split(self, st: SimState, p: _Params) -> tuple[int, ...]:
         number, axis = p.word(0), p.number(1, 0, 2)
 
         def apply(values: list[tuple[int, ...]]) -> None:
-            st.xylim = ((values[0][0], values[3][0]), (values[1][0], values[4][0]),
-                        (values[2][0], values[5][0]))
+            st.xylim = (
+                (values[0][0], values[3][0]),
+                (values[1][0], values[4][0]),
+                (values[2][0], values[5][0]),
+            )
 
         steps = tuple((n, a) for n in (751, 752) for a in range(3))
         return self._sequence(("XYLim",), steps, (number, axis), (p.int32(2),), apply)
@@ -557,7 +604,9 @@ class Session:
         return (1 if at + 1 < len(st.model) else 0, ord(st.model[at]))
 
 
-def _registered(table: Mapping[int, tuple[int, ...]] | Mapping[int, int], t: int) -> tuple[int, ...]:
+def _registered(
+    table: Mapping[int, tuple[int, ...]] | Mapping[int, int], t: int
+) -> tuple[int, ...]:
     entry = table.get(t)
     if entry is None:
         raise _Refused(profile.TABLE_NOT_REGISTERED)
@@ -604,8 +653,9 @@ Parted = Callable[[Session, SimState, _Params, slice], tuple[int, ...]]
 _HALVES = (slice(0, 2), slice(0, 1), slice(1, 2))
 
 
-def _parts(first: int, words: int, read: Parted,
-           parts: tuple[slice, slice, slice] = _HALVES) -> dict[int, tuple[int, Handler]]:
+def _parts(
+    first: int, words: int, read: Parted, parts: tuple[slice, slice, slice] = _HALVES
+) -> dict[int, tuple[int, Handler]]:
     """A read of a whole entry (``first``) and of its parts (``first + 1``, ``+ 2``:
     59 an AccelS entry, 60 its accel, 61 its decel), ``words`` command words each."""
 
@@ -619,8 +669,9 @@ def _parts(first: int, words: int, read: Parted,
 WordCount = int | Callable[[int], int]
 
 
-def _with_halves(first: int, words: tuple[WordCount, WordCount, WordCount], whole: Handler,
-                 half: Handler) -> dict[int, tuple[WordCount, Handler]]:
+def _with_halves(
+    first: int, words: tuple[WordCount, WordCount, WordCount], whole: Handler, half: Handler
+) -> dict[int, tuple[WordCount, Handler]]:
     """A write in one command (``first``) and in two halves (``first + 1``, ``+ 2``:
     53 an AccelS entry, 54 its accel, 55 its decel)."""
     return {first: (words[0], whole), first + 1: (words[1], half), first + 2: (words[2], half)}
@@ -646,8 +697,10 @@ def _commands() -> dict[int, _Spec]:
         **_parts(753, 2, S._xylim),
         **_parts(803, 2, S._jrange),
         851: (2, S._base),
-        **{1215 + i: (2, _point_attribute(name))  # 1215 hand ... 1220 local
-           for i, name in enumerate(("hand", "elbow", "wrist", "j4flag", "j6flag", "local"))},
+        **{
+            1215 + i: (2, _point_attribute(name))  # 1215 hand ... 1220 local
+            for i, name in enumerate(("hand", "elbow", "wrist", "j4flag", "j6flag", "local"))
+        },
         1222: (3, S._point_coord),
         1251: (1, S._limz),
         2153: (1, S._robot_type),
@@ -655,10 +708,18 @@ def _commands() -> dict[int, _Spec]:
     }
     writes: dict[int, tuple[WordCount, Handler]] = {
         1: (4, S._register_accel),
-        **_with_halves(53, (6, 4, 4), lambda s, st, p: s._real_pair_write(st.accel_s, p),
-                       lambda s, st, p: s._real_pair_split("AccelS", st.accel_s, 54, p)),
-        **_with_halves(103, (6, 4, 4), lambda s, st, p: s._real_pair_write(st.accel_r, p),
-                       lambda s, st, p: s._real_pair_split("AccelR", st.accel_r, 104, p)),
+        **_with_halves(
+            53,
+            (6, 4, 4),
+            lambda s, st, p: s._real_pair_write(st.accel_s, p),
+            lambda s, st, p: s._real_pair_split("AccelS", st.accel_s, 54, p),
+        ),
+        **_with_halves(
+            103,
+            (6, 4, 4),
+            lambda s, st, p: s._real_pair_write(st.accel_r, p),
+            lambda s, st, p: s._real_pair_split("AccelR", st.accel_r, 104, p),
+        ),
         151: (5, S._register_speed),
         **_with_halves(203, (8, 6, 4), S._register_speed_s, S._register_speed_s_split),
         251: (4, S._register_speed_r),
@@ -667,8 +728,9 @@ def _commands() -> dict[int, _Spec]:
         # 350 and 400: their bodies' 5 and 6 words, not the 3 and 4 of the §8 list
         **_with_halves(350, (5, 3, 3), S._set_inertia, S._set_inertia_split),
         **_with_halves(400, (6, 4, 4), S._set_arch, S._set_arch_split),
-        **_with_halves(450, (lambda axes: 1 + axes, 4, lambda axes: axes - 2), S._set_fine,
-                       S._set_fine_split),
+        **_with_halves(
+            450, (lambda axes: 1 + axes, 4, lambda axes: axes - 2), S._set_fine, S._set_fine_split
+        ),
         500: (2, S._select_tool),
         **_with_halves(600, (7, 5, 5), S._set_box, S._set_box_split),
         650: (5, lambda s, st, p: s._set_frame("Plane", st.planes, st, p)),
@@ -698,8 +760,53 @@ _COMMANDS: Mapping[int, _Spec] = MappingProxyType(_commands())
 #: The commands the simulated controller carries out: the digest's backup reads
 #: and deploy writes that harlsync sends.  Everything else is answered 1000.
 COMMAND_SET = frozenset(_COMMANDS)
-READS = frozenset({3, 59, 60, 61, 109, 110, 111, 153, 209, 210, 211, 253, 302, 353, 354, 355,
-                   403, 404, 405, 453, 454, 455, 501, 603, 604, 605, 651, 701, 753, 754, 755,
-                   803, 804, 805, 851, 1215, 1216, 1217, 1218, 1219, 1220, 1222, 1251, 2153,
-                   2154})
+READS = frozenset(
+    {
+        3,
+        59,
+        60,
+        61,
+        109,
+        110,
+        111,
+        153,
+        209,
+        210,
+        211,
+        253,
+        302,
+        353,
+        354,
+        355,
+        403,
+        404,
+        405,
+        453,
+        454,
+        455,
+        501,
+        603,
+        604,
+        605,
+        651,
+        701,
+        753,
+        754,
+        755,
+        803,
+        804,
+        805,
+        851,
+        1215,
+        1216,
+        1217,
+        1218,
+        1219,
+        1220,
+        1222,
+        1251,
+        2153,
+        2154,
+    }
+)
 WRITES = COMMAND_SET - READS

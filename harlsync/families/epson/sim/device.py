@@ -89,9 +89,11 @@ class EpsonSimFamily:
         Verb("safeguard", "[STATION]", "the safeguard open (SafeguardOn 1), a task paused"),
         Verb("stop", "[STATION]", "idle: no task, no stop, no error"),
         Verb("power-cycle", "[STATION]", "off and on: tables and LimZ cleared, function off"),
-        Verb("function-error", "[STATION [DETAIL]]",
-             "halt the Remote Control function: 9999/DETAIL (hex: 0001, 9901, 9902; "
-             "default 9901)"),
+        Verb(
+            "function-error",
+            "[STATION [DETAIL]]",
+            "halt the Remote Control function: 9999/DETAIL (hex: 0001, 9901, 9902; default 9901)",
+        ),
     )
     busy_verb = "run"
     default_station = profile.DEFAULT_UNIT
@@ -116,8 +118,9 @@ class EpsonSimFamily:
             state = SimState.from_data(data)
         except ValueError as exc:
             raise ProjectError(f"{project}: the simulator cannot hold this robot: {exc}") from exc
-        return Simulator({n: state.copy() for n in stations or [robot.station]},
-                         register_map=register_map)
+        return Simulator(
+            {n: state.copy() for n in stations or [robot.station]}, register_map=register_map
+        )
 
     def serve(self, sim: device.Device[Any], host: str, port: int) -> ModbusServer:
         """Serve ``sim`` (an Epson :class:`Simulator`) over Modbus TCP.  Raises
@@ -159,8 +162,13 @@ class _Station:
         self.sim = sim
         self.number = number
         self.session = Session()
-        self.remote = RemoteIO(self, sim.register_map, clock=sim.clock,
-                               acquire_time=sim.acquire_time, reset_low=sim.reset_low)
+        self.remote = RemoteIO(
+            self,
+            sim.register_map,
+            clock=sim.clock,
+            acquire_time=sim.acquire_time,
+            reset_low=sim.reset_low,
+        )
         self._taken: tuple[float, bool] = (0.0, False)  # when, and whether busy
 
     @property
@@ -190,15 +198,15 @@ class _Station:
         self._taken = (self.sim.clock(), self.sim.busy(self.state))
         faults = self.sim.faults
         if faults.chance(faults.slow):
-            log.info("sim: slow execution fault: command %d runs %g s", words[0],
-                     faults.slow_delay)
+            log.info("sim: slow execution fault: command %d runs %g s", words[0], faults.slow_delay)
             return faults.slow_delay
         return self.sim.execution_time
 
     def carry_out(self, words: Words) -> tuple[bool, Words]:
         m = self.sim.register_map
-        outcome = self.session.execute(self.state, words, command_words=m.command_words,
-                                       response_words=m.response_words)
+        outcome = self.session.execute(
+            self.state, words, command_words=m.command_words, response_words=m.response_words
+        )
         at, busy = self._taken
         self.sim.record_command(self.number, words, at, busy, outcome)
         if outcome.took_effect:
@@ -213,8 +221,7 @@ class _Station:
     def halted(self, fault: FunctionFault, request: Words | None) -> None:
         self.session.pending = None  # a split or Rn write under way is lost
         if request is not None:
-            self.sim.record_command(self.number, request, fault.at, self.sim.busy(self.state),
-                                    None)
+            self.sim.record_command(self.number, request, fault.at, self.sim.busy(self.state), None)
 
     def power_cycle(self) -> None:
         self.state.power_cycle()
@@ -248,8 +255,7 @@ class Simulator(device.Device[SimState]):
         busy_after_writes: int = 0,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
-        super().__init__(stations, faults=faults, busy_after_writes=busy_after_writes,
-                         clock=clock)
+        super().__init__(stations, faults=faults, busy_after_writes=busy_after_writes, clock=clock)
         self.register_map = register_map if register_map is not None else RegisterMap()
         self.execution_time = execution_time
         self.acquire_time = acquire_time
@@ -265,17 +271,21 @@ class Simulator(device.Device[SimState]):
         this returns; ``server.url`` says where, ``server.stop()`` ends it (use it
         as a context manager).  Raises ValueError for a fault Modbus TCP cannot
         have, OSError when it cannot listen."""
-        unusable = [name for name in ("noise", "bad_checksum", "fragment")
-                    if getattr(self.faults, name)]
+        unusable = [
+            name for name in ("noise", "bad_checksum", "fragment") if getattr(self.faults, name)
+        ]
         if unusable:
-            raise ValueError(f"fault {', '.join(unusable)}: not on Modbus TCP (TCP carries "
-                             "it whole, without a checksum); the Epson simulator takes drop, "
-                             "slow, slow_delay and seed")
+            raise ValueError(
+                f"fault {', '.join(unusable)}: not on Modbus TCP (TCP carries "
+                "it whole, without a checksum); the Epson simulator takes drop, "
+                "slow, slow_delay and seed"
+            )
         m = self.register_map
         first, count = m.input_span
         size = max(first + count, m.command_base + m.command_words, *m.control_registers) + 1
-        server = ModbusServer(self._controllers, host=host, port=port, size=size,
-                              drop=self._drop_reply)
+        server = ModbusServer(
+            self._controllers, host=host, port=port, size=size, drop=self._drop_reply
+        )
         server.start()
         self.server = server
         return server
@@ -295,23 +305,35 @@ class Simulator(device.Device[SimState]):
 
     # --- the record ------------------------------------------------------------------------
 
-    def record_command(self, station: int, words: Words, at: float, busy: bool,
-                       outcome: Outcome | None) -> None:
+    def record_command(
+        self, station: int, words: Words, at: float, busy: bool, outcome: Outcome | None
+    ) -> None:
         """Record one command taken: answered with ``outcome``, or not (None)."""
         number = words[0] if words else 0
-        self.record(CommandReceived(
-            station, " ".join(f"{w:04X}" for w in words), str(number),
-            outcome.is_write if outcome else number not in READS, at, outcome is not None,
-            busy, number=number, code=None if outcome is None else outcome.code,
-            continuation=outcome is not None and outcome.continuation,
-            known=number in COMMAND_SET,
-        ))
+        self.record(
+            CommandReceived(
+                station,
+                " ".join(f"{w:04X}" for w in words),
+                str(number),
+                outcome.is_write if outcome else number not in READS,
+                at,
+                outcome is not None,
+                busy,
+                number=number,
+                code=None if outcome is None else outcome.code,
+                continuation=outcome is not None and outcome.continuation,
+                known=number in COMMAND_SET,
+            )
+        )
 
     def commands(self, station: int | None = None) -> list[CommandReceived]:
         """Every command recorded, in order (of ``station``, or of all)."""
         with self.lock:
-            return [r for r in self.received if isinstance(r, CommandReceived)
-                    and (station is None or r.station == station)]
+            return [
+                r
+                for r in self.received
+                if isinstance(r, CommandReceived) and (station is None or r.station == station)
+            ]
 
     def off_list(self) -> list[CommandReceived]:
         """Every command received that is off the command set (the backup reads and
@@ -372,8 +394,10 @@ class Simulator(device.Device[SimState]):
         if verb == "function-error":
             detail = int(args[0], 16) if args else MESSAGE_FAILURE
             if detail not in _FUNCTION_ERRORS or len(args) > 1:
-                raise ValueError(f"function-error [DETAIL]: DETAIL is one of "
-                                 f"{', '.join(f'{d:04X}' for d in _FUNCTION_ERRORS)}")
+                raise ValueError(
+                    f"function-error [DETAIL]: DETAIL is one of "
+                    f"{', '.join(f'{d:04X}' for d in _FUNCTION_ERRORS)}"
+                )
             controller.remote.halt(detail, "on demand")
         elif args:
             raise ValueError(f"{verb} takes only a station")

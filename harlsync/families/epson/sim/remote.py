@@ -81,8 +81,14 @@ class FunctionFault:
         return self.detail == REQUEST_WHILE_EXECUTING
 
 
-EventKind = Literal["ignored", "withdrawn", "refused while halted", "short reset",
-                    "still halted", "stray ExtRespGet"]
+EventKind = Literal[
+    "ignored",
+    "withdrawn",
+    "refused while halted",
+    "short reset",
+    "still halted",
+    "stray ExtRespGet",
+]
 
 
 @dataclass(frozen=True)
@@ -147,8 +153,11 @@ class RemoteIO:
         self.events: list[Event] = []
         #: every function error raised, in order
         self.faults: list[FunctionFault] = []
-        self._outputs = [(name, bit) for name, bit in self.map.signals()
-                         if bit is not None and (name in HANDSHAKE_OUTPUTS or name in STATUS_SIGNALS)]
+        self._outputs = [
+            (name, bit)
+            for name, bit in self.map.signals()
+            if bit is not None and (name in HANDSHAKE_OUTPUTS or name in STATUS_SIGNALS)
+        ]
         self._boot()
 
     def _boot(self) -> None:
@@ -207,8 +216,11 @@ class RemoteIO:
 
     def _inputs(self) -> tuple[bool, bool, bool]:
         """ExtCmdSet, ExtRespGet, ExtCmdReset as the client drives them."""
-        return (self._bit(self.map.ext_cmd_set), self._bit(self.map.ext_resp_get),
-                self._bit(self.map.ext_cmd_reset))
+        return (
+            self._bit(self.map.ext_cmd_set),
+            self._bit(self.map.ext_resp_get),
+            self._bit(self.map.ext_cmd_reset),
+        )
 
     @property
     def response(self) -> list[int]:
@@ -240,27 +252,37 @@ class RemoteIO:
                 self._resp_set = False
                 self.phase = Phase.RELEASED
             else:
-                self._note(now, "stray ExtRespGet", f"ExtRespGet raised in phase {self.phase.value}")
+                self._note(
+                    now, "stray ExtRespGet", f"ExtRespGet raised in phase {self.phase.value}"
+                )
         elif was_get and not resp_get and self.phase is Phase.RELEASED:
             self.phase = Phase.IDLE
 
     def _request(self, now: float) -> None:
-        words = tuple(self.holding.get(self.map.command_base + i, 0)
-                      for i in range(self.map.command_words))
+        words = tuple(
+            self.holding.get(self.map.command_base + i, 0) for i in range(self.map.command_words)
+        )
         if self.fault is not None:
-            self._note(now, "refused while halted",
-                       f"command {words[0]} requested while the function is halted")
+            self._note(
+                now,
+                "refused while halted",
+                f"command {words[0]} requested while the function is halted",
+            )
         elif self.phase is Phase.IDLE:
             self._words, self.phase, self._due = words, Phase.REQUESTED, now + self.acquire_time
         else:
-            self.halt(REQUEST_WHILE_EXECUTING,
-                      f"command {words[0]} requested while command {self._words[0]} is "
-                      f"{self.phase.value} (§6.5.1)", request=words)
+            self.halt(
+                REQUEST_WHILE_EXECUTING,
+                f"command {words[0]} requested while command {self._words[0]} is "
+                f"{self.phase.value} (§6.5.1)",
+                request=words,
+            )
 
     def _command_set_dropped(self, now: float) -> None:
         if self.phase is Phase.REQUESTED:
-            self._note(now, "withdrawn", f"ExtCmdSet dropped before command {self._words[0]} "
-                                         "was taken")
+            self._note(
+                now, "withdrawn", f"ExtCmdSet dropped before command {self._words[0]} was taken"
+            )
             self.phase = Phase.IDLE
         elif self.phase is Phase.EXECUTING:
             self._cmd_get, self._set_cleared = False, True
@@ -278,11 +300,19 @@ class RemoteIO:
         if fault is not None:
             low = now - self._reset_low_since
             if not fault.external:
-                self._note(now, "still halted", f"function error {fault.detail:04X} is the "
-                                                "controller's: only a controller reset clears it")
+                self._note(
+                    now,
+                    "still halted",
+                    f"function error {fault.detail:04X} is the "
+                    "controller's: only a controller reset clears it",
+                )
             elif low < self.reset_low:
-                self._note(now, "short reset", f"ExtCmdReset was 0 for {low * 1000:.1f} ms, "
-                                               f"{self.reset_low * 1000:g} ms needed (§6.5.2)")
+                self._note(
+                    now,
+                    "short reset",
+                    f"ExtCmdReset was 0 for {low * 1000:.1f} ms, "
+                    f"{self.reset_low * 1000:g} ms needed (§6.5.2)",
+                )
             else:
                 log.info("sim: function reset: function error %04X cleared", fault.detail)
                 self.fault = None

@@ -84,8 +84,14 @@ class ModbusServer:
         def bits() -> list[SimData]:
             return [SimData(0, count=16, values=False, datatype=DataType.BITS)]
 
-        async def action(function_code: int, start: int, address: int, count: int,
-                         registers: list[int], values: Any) -> ExcCodes | None:
+        async def action(
+            function_code: int,
+            start: int,
+            address: int,
+            count: int,
+            registers: list[int],
+            values: Any,
+        ) -> ExcCodes | None:
             if bank is None:
                 return ExcCodes.GATEWAY_NO_RESPONSE
             at = address - start
@@ -117,8 +123,9 @@ class ModbusServer:
             devices.append(self._device(0, None))
 
         async def listen() -> None:
-            self._server = ModbusTcpServer(devices, address=(self.host, self.port),
-                                           trace_packet=self._trace)
+            self._server = ModbusTcpServer(
+                devices, address=(self.host, self.port), trace_packet=self._trace
+            )
             await self._server.serve_forever(background=True)
             listening: Any = self._server.transport  # an asyncio.Server once it listens
             self.port = listening.sockets[0].getsockname()[1]
@@ -140,10 +147,14 @@ class ModbusServer:
             raise OSError(f"the Modbus server on {self.url} did not start")
         if self._failed is not None:
             self._loop.close()
-            raise OSError(f"cannot listen on {self.host}:{self.port}: {self._failed}") \
-                from self._failed
-        log.info("sim: Modbus TCP on %s, units %s", self.url,
-                 ", ".join(str(u) for u in sorted(self.banks)))
+            raise OSError(
+                f"cannot listen on {self.host}:{self.port}: {self._failed}"
+            ) from self._failed
+        log.info(
+            "sim: Modbus TCP on %s, units %s",
+            self.url,
+            ", ".join(str(u) for u in sorted(self.banks)),
+        )
         return self.url
 
     def stop(self) -> None:
@@ -162,6 +173,10 @@ class ModbusServer:
             self.start()
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self.stop()

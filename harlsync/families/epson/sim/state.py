@@ -75,9 +75,14 @@ class Point:
         out = []
         if len(self.coords) != axes:
             out.append(f"{len(self.coords)} coordinates on a {axes}-axis robot")
-        for name, value, high in (("hand", self.hand, 1), ("elbow", self.elbow, 1),
-                                  ("wrist", self.wrist, 1), ("j4flag", self.j4flag, 1),
-                                  ("j6flag", self.j6flag, 127), ("local", self.local, 15)):
+        for name, value, high in (
+            ("hand", self.hand, 1),
+            ("elbow", self.elbow, 1),
+            ("wrist", self.wrist, 1),
+            ("j4flag", self.j4flag, 1),
+            ("j6flag", self.j6flag, 127),
+            ("local", self.local, 15),
+        ):
             if not 0 <= value <= high:
                 out.append(f"{name} {value} out of range (0 to {high})")
         out += [f"coordinate {c} does not fit 32 bits" for c in self.coords if not _fits(c)]
@@ -140,8 +145,10 @@ class SimState:
 
     def __post_init__(self) -> None:
         if self.robot_type not in profile.ROBOT_AXES:
-            raise ValueError(f"manipulator type {self.robot_type}: the simulator builds "
-                             f"types {sorted(profile.ROBOT_AXES)} (3 SCARA, 5 6-AXIS, 6 RS)")
+            raise ValueError(
+                f"manipulator type {self.robot_type}: the simulator builds "
+                f"types {sorted(profile.ROBOT_AXES)} (3 SCARA, 5 6-AXIS, 6 RS)"
+            )
         axes = self.axes
         self.fine = self.fine or (_DEFAULT_FINE,) * axes
         self.jrange = self.jrange or _default_jrange(axes)
@@ -167,16 +174,26 @@ class SimState:
         for name in _TABLES:
             table: dict[int, object] = getattr(self, name)
             out += [f"{name} table {t}: not 0 to 15" for t in table if not 0 <= t <= 15]
-        out += [f"accel table {t}: {v} (each 1 or more)" for t, v in self.accel.items()
-                if min(v) < 1]
-        out += [f"speed table {t}: {v} (each 1 to 100)" for t, v in self.speed.items()
-                if not all(1 <= s <= 100 for s in v)]
+        out += [
+            f"accel table {t}: {v} (each 1 or more)" for t, v in self.accel.items() if min(v) < 1
+        ]
+        out += [
+            f"speed table {t}: {v} (each 1 to 100)"
+            for t, v in self.speed.items()
+            if not all(1 <= s <= 100 for s in v)
+        ]
         for name in ("accel_s", "accel_r", "speed_s"):
             table2: dict[int, tuple[int, ...]] = getattr(self, name)
-            out += [f"{name} table {t}: {v} (each more than 0)" for t, v in table2.items()
-                    if min(v) <= 0 or not all(_fits(x) for x in v)]
-        out += [f"speed_r table {t}: {v} (more than 0)" for t, v in self.speed_r.items()
-                if not 0 < v < 2**31]
+            out += [
+                f"{name} table {t}: {v} (each more than 0)"
+                for t, v in table2.items()
+                if min(v) <= 0 or not all(_fits(x) for x in v)
+            ]
+        out += [
+            f"speed_r table {t}: {v} (more than 0)"
+            for t, v in self.speed_r.items()
+            if not 0 < v < 2**31
+        ]
         if sorted(self.arch) != list(range(7)):
             out.append(f"arch {sorted(self.arch)}: 0 to 6, each once")
         if len(self.fine) != axes or not all(0 <= f <= 0xFFFF for f in self.fine):
@@ -187,8 +204,11 @@ class SimState:
         for name in ("planes", "locals"):
             frames: dict[int, tuple[int, ...]] = getattr(self, name)
             out += [f"{name} {n}: not 1 to 15" for n in frames if not 1 <= n <= 15]
-            out += [f"{name} {n}: {len(c)} coordinates on a {axes}-axis robot"
-                    for n, c in frames.items() if len(c) != axes]
+            out += [
+                f"{name} {n}: {len(c)} coordinates on a {axes}-axis robot"
+                for n, c in frames.items()
+                if len(c) != axes
+            ]
         if len(self.jrange) != axes:
             out.append(f"jrange: {len(self.jrange)} joints on a {axes}-axis robot")
         if len(self.base) != axes:
@@ -203,8 +223,16 @@ class SimState:
 
     def not_idle(self) -> list[str]:
         """The profile's interlock signals at 1, by their names; empty when idle."""
-        return [name for name, on in (("Running", self.running), ("Paused", self.paused),
-                                      ("EStopOn", self.estop), ("Error", self.error)) if on]
+        return [
+            name
+            for name, on in (
+                ("Running", self.running),
+                ("Paused", self.paused),
+                ("EStopOn", self.estop),
+                ("Error", self.error),
+            )
+            if on
+        ]
 
     @property
     def idle(self) -> bool:
@@ -252,10 +280,18 @@ class SimState:
             "xylim": [list(a) for a in self.xylim],
             "jrange": [list(a) for a in self.jrange],
             "base": list(self.base),
-            "points": {str(n): {"coords": list(p.coords), "hand": p.hand, "elbow": p.elbow,
-                                "wrist": p.wrist, "j4flag": p.j4flag, "j6flag": p.j6flag,
-                                "local": p.local}
-                       for n, p in sorted(self.points.items())},
+            "points": {
+                str(n): {
+                    "coords": list(p.coords),
+                    "hand": p.hand,
+                    "elbow": p.elbow,
+                    "wrist": p.wrist,
+                    "j4flag": p.j4flag,
+                    "j6flag": p.j6flag,
+                    "local": p.local,
+                }
+                for n, p in sorted(self.points.items())
+            },
         }
 
     @classmethod
@@ -284,9 +320,13 @@ class SimState:
         for number, item in mapping("points").items():
             if not isinstance(item, Mapping):
                 raise TypeError(f"point {number} is not a mapping")
-            points[int(number)] = Point(ints(item["coords"]), *(
-                _integer(item[k]) for k in ("hand", "elbow", "wrist", "j4flag", "j6flag",
-                                            "local")))
+            points[int(number)] = Point(
+                ints(item["coords"]),
+                *(
+                    _integer(item[k])
+                    for k in ("hand", "elbow", "wrist", "j4flag", "j6flag", "local")
+                ),
+            )
         return cls(
             robot_type=_integer(doc["robot_type"]),
             model=str(doc["model"]),
@@ -317,9 +357,15 @@ class SimState:
         for key, value in data.items.items():
             kind, number = key.kind, key.number or 0
             if kind == "point":
-                state.points[number] = Point(tuple(u(c) for c in value.coords), value.hand,
-                                             value.elbow, value.wrist, value.j4flag,
-                                             value.j6flag, value.local)
+                state.points[number] = Point(
+                    tuple(u(c) for c in value.coords),
+                    value.hand,
+                    value.elbow,
+                    value.wrist,
+                    value.j4flag,
+                    value.j6flag,
+                    value.local,
+                )
             elif kind == "accel":
                 state.accel[number] = (int(value.accel), int(value.decel))
             elif kind in ("accel_s", "accel_r"):
@@ -369,18 +415,26 @@ class SimState:
     def copy(self) -> SimState:
         """An independent copy (the tables and points are not shared)."""
         return replace(
-            self, accel=dict(self.accel), accel_s=dict(self.accel_s),
-            accel_r=dict(self.accel_r), speed=dict(self.speed), speed_s=dict(self.speed_s),
-            speed_r=dict(self.speed_r), arch=dict(self.arch), boxes=dict(self.boxes),
-            planes=dict(self.planes), locals=dict(self.locals),
+            self,
+            accel=dict(self.accel),
+            accel_s=dict(self.accel_s),
+            accel_r=dict(self.accel_r),
+            speed=dict(self.speed),
+            speed_s=dict(self.speed_s),
+            speed_r=dict(self.speed_r),
+            arch=dict(self.arch),
+            boxes=dict(self.boxes),
+            planes=dict(self.planes),
+            locals=dict(self.locals),
             points={n: replace(p) for n, p in self.points.items()},
         )
 
     # --- a realistic robot -----------------------------------------------------------------
 
     @classmethod
-    def generate(cls, seed: int, *, robot_type: int | None = None,
-                 point_range: tuple[int, int] = (0, 119)) -> SimState:
+    def generate(
+        cls, seed: int, *, robot_type: int | None = None, point_range: tuple[int, int] = (0, 119)
+    ) -> SimState:
         """A robot drawn from ``seed``: a SCARA (4 axes) or a six-axis arm unless
         ``robot_type`` says which, some entries of each table registered, the
         settings a plant leaves (arches, Fine, Weight, boxes, planes, locals,
@@ -401,16 +455,24 @@ class SimState:
         state = cls(
             robot_type=kind,
             model=rng.choice(_SCARA_MODELS if scara else _SIX_AXIS_MODELS),
-            accel={t: (rng.randint(10, 120), rng.randint(10, 120)) for t in some((2, 8), range(16))},
+            accel={
+                t: (rng.randint(10, 120), rng.randint(10, 120)) for t in some((2, 8), range(16))
+            },
             accel_s={t: (real(100, 25000), real(100, 25000)) for t in some((1, 6), range(16))},
             accel_r={t: (real(100, 5000), real(100, 5000)) for t in some((0, 4), range(16))},
-            speed={t: (rng.randint(1, 100), rng.randint(1, 100), rng.randint(1, 100))
-                   for t in some((2, 8), range(16))},
-            speed_s={t: (real(10, 2000), real(10, 2000), real(10, 2000))
-                     for t in some((1, 6), range(16))},
+            speed={
+                t: (rng.randint(1, 100), rng.randint(1, 100), rng.randint(1, 100))
+                for t in some((2, 8), range(16))
+            },
+            speed_s={
+                t: (real(10, 2000), real(10, 2000), real(10, 2000)) for t in some((1, 6), range(16))
+            },
             speed_r={t: real(10, 1000) for t in some((0, 4), range(16))},
             limz=0 if rng.random() < 0.5 else -real(0, 80),
-            arch={**DEFAULT_ARCH, **{a: (real(0, 100), real(0, 100)) for a in some((0, 3), range(7))}},
+            arch={
+                **DEFAULT_ARCH,
+                **{a: (real(0, 100), real(0, 100)) for a in some((0, 3), range(7))},
+            },
             fine=tuple(rng.choice((10, 10, 10, 20, 50, 100, 1000)) for _ in range(axes)),
             weight=(real(0.5, 6), real(0, 150) if scara else 0),
             inertia=(real(0.001, 0.1), real(0, 150)),
@@ -418,11 +480,17 @@ class SimState:
             boxes={n: _box(rng) for n in some((0, 3), range(1, 16))},
             planes={n: _frame(rng, axes) for n in some((0, 2), range(1, 16))},
             locals={n: _frame(rng, axes) for n in some((0, 4), range(1, 16))},
-            xylim=((0, 0), (0, 0), (0, 0)) if rng.random() < 0.6 else (
-                (-real(100, 600), real(100, 600)), (-real(100, 600), real(100, 600)),
-                (-real(0, 300), real(0, 100))),
-            jrange=tuple((-rng.randint(500_000, 4_000_000), rng.randint(500_000, 7_000_000))
-                         for _ in range(axes)),
+            xylim=((0, 0), (0, 0), (0, 0))
+            if rng.random() < 0.6
+            else (
+                (-real(100, 600), real(100, 600)),
+                (-real(100, 600), real(100, 600)),
+                (-real(0, 300), real(0, 100)),
+            ),
+            jrange=tuple(
+                (-rng.randint(500_000, 4_000_000), rng.randint(500_000, 7_000_000))
+                for _ in range(axes)
+            ),
             base=(0,) * axes if rng.random() < 0.7 else _frame(rng, axes),
         )
         first, last = point_range
@@ -471,19 +539,30 @@ def _box(rng: random.Random) -> tuple[Limits, Limits, Limits]:
 def _frame(rng: random.Random, axes: int) -> tuple[int, ...]:
     """X, Y, Z in thousandths of a mm, then U (V, W) in thousandths of a degree."""
     xyz = tuple(rng.randint(-300_000, 300_000) for _ in range(3))
-    return xyz + tuple(rng.choice((0, 0, rng.randint(-180_000, 180_000)))
-                       for _ in range(axes - 3))
+    return xyz + tuple(rng.choice((0, 0, rng.randint(-180_000, 180_000))) for _ in range(axes - 3))
 
 
 def _point(rng: random.Random, axes: int, locals_defined: list[int]) -> Point:
     if axes == 4:
-        coords: tuple[int, ...] = (rng.randint(-500_000, 500_000), rng.randint(100_000, 600_000),
-                                   rng.randint(-200_000, 0), rng.randint(-180_000, 180_000))
-        return Point(coords, hand=rng.randint(0, 1),
-                     local=rng.choice([0, 0, 0, *locals_defined]))
-    coords = (rng.randint(-700_000, 700_000), rng.randint(-700_000, 700_000),
-              rng.randint(-100_000, 900_000),
-              *(rng.randint(-180_000, 180_000) for _ in range(3)))
-    return Point(coords, hand=rng.randint(0, 1), elbow=rng.randint(0, 1),
-                 wrist=rng.randint(0, 1), j4flag=rng.choice((0, 0, 1)),
-                 j6flag=rng.choice((0, 0, 0, 1, 2)), local=rng.choice([0, 0, 0, *locals_defined]))
+        coords: tuple[int, ...] = (
+            rng.randint(-500_000, 500_000),
+            rng.randint(100_000, 600_000),
+            rng.randint(-200_000, 0),
+            rng.randint(-180_000, 180_000),
+        )
+        return Point(coords, hand=rng.randint(0, 1), local=rng.choice([0, 0, 0, *locals_defined]))
+    coords = (
+        rng.randint(-700_000, 700_000),
+        rng.randint(-700_000, 700_000),
+        rng.randint(-100_000, 900_000),
+        *(rng.randint(-180_000, 180_000) for _ in range(3)),
+    )
+    return Point(
+        coords,
+        hand=rng.randint(0, 1),
+        elbow=rng.randint(0, 1),
+        wrist=rng.randint(0, 1),
+        j4flag=rng.choice((0, 0, 1)),
+        j6flag=rng.choice((0, 0, 0, 1, 2)),
+        local=rng.choice([0, 0, 0, *locals_defined]),
+    )

@@ -368,8 +368,10 @@ def read_back(write: Request[Ack], station: int = MAX_STATION) -> ReadBack:
     room = payload_room(station)
     misread = None
     if reply.startswith(profile.ERROR_PREFIX):
-        misread = (f"would begin the {letters} reply with {profile.ERROR_PREFIX!r}, which "
-                   "reads as an error status")
+        misread = (
+            f"would begin the {letters} reply with {profile.ERROR_PREFIX!r}, which "
+            "reads as an error status"
+        )
     return ReadBack(
         read=Request(letters, write.args[:naming]),
         reply=reply,

@@ -68,10 +68,12 @@ class HarlU2SimFamily:
         from ....project import load_project
 
         loaded = load_project(project)
-        return Simulator({
-            number: SimState.from_robot_data(loaded.data)
-            for number in stations or [loaded.robot.station]
-        })
+        return Simulator(
+            {
+                number: SimState.from_robot_data(loaded.data)
+                for number in stations or [loaded.robot.station]
+            }
+        )
 
 
 SIM_FAMILY = HarlU2SimFamily()
@@ -125,8 +127,9 @@ class Simulator(device.Simulator[SimState, Frame]):
         """Save the station as the robot project ``directory`` (atomically, as a pull does)."""
         from ....project import Project, new_robot, save_project
 
-        robot = new_robot(directory.name, f"sim://{directory.resolve()}", station,
-                          keep_registers=True)
+        robot = new_robot(
+            directory.name, f"sim://{directory.resolve()}", station, keep_registers=True
+        )
         save_project(directory, Project(directory, robot, self.stations[station].data))
 
     def load_station(self, station: int, directory: Path) -> bool:

@@ -159,9 +159,7 @@ def _generate_step(rng: random.Random, ptype: ProgramType, config: Config) -> St
         return Step(verb, (f"DO{rng.randrange(32)}", rng.choice(["ON", "OFF"])))
     choice = rng.random()
     if choice < 0.45:
-        return Step(
-            "MOVE", (f"P{rng.randrange(1000):03d}", f"S{rng.choice([20, 50, 80, 100])}")
-        )
+        return Step("MOVE", (f"P{rng.randrange(1000):03d}", f"S{rng.choice([20, 50, 80, 100])}"))
     if choice < 0.6 and config.sub.count:
         return Step("CALLS", (f"S{rng.randrange(config.sub.count):02d}",))
     if choice < 0.7 and config.hand.count:

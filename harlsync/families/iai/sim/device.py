@@ -99,8 +99,10 @@ class IaiSimFamily:
         try:
             states = {
                 number: SimState.from_positions(
-                    data.positions, axes=robot.options.get("axes") or DEFAULT_AXES,
-                    model=data.model, position_range=position_range(robot),
+                    data.positions,
+                    axes=robot.options.get("axes") or DEFAULT_AXES,
+                    model=data.model,
+                    position_range=position_range(robot),
                     version=data.version,
                 )
                 for number in stations or [robot.station]
@@ -204,8 +206,11 @@ class Simulator(device.Simulator[SimState, Frame]):
         assert frame.message_id is not None  # a '!' frame always has one
         handler = _HANDLERS.get(frame.message_id)
         if handler is None or frame.message_id not in profile.ALLOWED_MESSAGE_IDS:
-            log.warning("sim: station %02X got message %03XH, which is off the allow-list",
-                        frame.station, frame.message_id)
+            log.warning(
+                "sim: station %02X got message %03XH, which is off the allow-list",
+                frame.station,
+                frame.message_id,
+            )
             raise Refused(codes.NOT_SUPPORTED)
         if _FRAME_OVERHEAD + len(frame.data) > state.buffers.receive:
             raise Refused(codes.TOO_LONG)
@@ -230,9 +235,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         year, month, mday = (int(x) for x in day.split("-"))
         hour, minute, second = (int(x) for x in clock.split(":"))
         built = f"{year:04X}" + "".join(f"{n:02X}" for n in (month, mday, hour, minute, second))
-        return (
-            f"{unit:02X}{number:X}{found.model_code}{found.unit_code}{found.version}{built}"
-        )
+        return f"{unit:02X}{number:X}{found.model_code}{found.unit_code}{found.version}{built}"
 
     def _system_status(self, state: SimState, data: str) -> str:
         _Fields(data).end()

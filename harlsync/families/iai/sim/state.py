@@ -77,8 +77,10 @@ class SimState:
         problems = []
         if self.model not in profile.BUFFERS:
             problems.append(f"unknown model {self.model!r} (known: {', '.join(profile.BUFFERS)})")
-        if not self.axes or list(self.axes) != sorted(set(self.axes)) or not all(
-            1 <= a <= AXIS_COUNT for a in self.axes
+        if (
+            not self.axes
+            or list(self.axes) != sorted(set(self.axes))
+            or not all(1 <= a <= AXIS_COUNT for a in self.axes)
         ):
             problems.append(f"axes {list(self.axes)}: 1 to {AXIS_COUNT}, ascending, each once")
         first, last = self.position_range
@@ -154,8 +156,10 @@ class SimState:
         numbers = rng.sample(range(first, last + 1), 20)
         self.integers = {n: rng.randint(-5000, 5000) for n in numbers}
         first, last = ranges["reals"]
-        self.reals = {n: round(rng.uniform(-500, 500), rng.randint(0, 6))
-                      for n in rng.sample(range(first, last + 1), 10)}
+        self.reals = {
+            n: round(rng.uniform(-500, 500), rng.randint(0, 6))
+            for n in rng.sample(range(first, last + 1), 10)
+        }
 
     def position_problems(self, position: Position) -> list[str]:
         """Why this robot cannot hold ``position``, one line each; empty if it can."""
@@ -235,8 +239,16 @@ class SimState:
             "axes": list(self.axes),
             "position_range": list(self.position_range),
             "positions": [
-                {"number": p.number, "axes": list(p.axes), "acc": p.acc, "dec": p.dec,
-                 "speed": p.speed, "coords": list(p.coords), "arm1": p.arm1, "arm2": p.arm2}
+                {
+                    "number": p.number,
+                    "axes": list(p.axes),
+                    "acc": p.acc,
+                    "dec": p.dec,
+                    "speed": p.speed,
+                    "coords": list(p.coords),
+                    "arm1": p.arm1,
+                    "arm2": p.arm2,
+                }
                 for p in self.positions.values()
             ],
             "flags": sorted(self.flags),
@@ -250,6 +262,7 @@ class SimState:
     ) -> SimState:
         """The controller :meth:`memory` kept, idle.  Raises ValueError, KeyError or
         TypeError for a document that is not one."""
+
         def listed(key: str) -> list[object]:
             value = doc[key]
             if not isinstance(value, list):
@@ -266,11 +279,18 @@ class SimState:
         for item in listed("positions"):
             if not isinstance(item, dict):
                 raise TypeError("a position is not a mapping")
-            positions.append(Position(
-                int(item["number"]), tuple(int(a) for a in item["axes"]), str(item["acc"]),
-                str(item["dec"]), int(item["speed"]), tuple(str(c) for c in item["coords"]),
-                int(item["arm1"]), int(item["arm2"]),
-            ))
+            positions.append(
+                Position(
+                    int(item["number"]),
+                    tuple(int(a) for a in item["axes"]),
+                    str(item["acc"]),
+                    str(item["dec"]),
+                    int(item["speed"]),
+                    tuple(str(c) for c in item["coords"]),
+                    int(item["arm1"]),
+                    int(item["arm2"]),
+                )
+            )
         first, last = (int(str(n)) for n in listed("position_range"))
         state = cls(
             {p.number: p for p in positions},
@@ -297,8 +317,9 @@ def _generate_position(
         used = tuple(sorted(rng.sample(axes, rng.randint(1, len(axes) - 1))))
     coords = tuple(
         # a SCARA's 4th axis is its rotation, in 0.001 deg
-        _coordinate(rng.randint(-180_000, 180_000) if scara and a == 4
-                    else rng.randint(-300_000, 600_000))
+        _coordinate(
+            rng.randint(-180_000, 180_000) if scara and a == 4 else rng.randint(-300_000, 600_000)
+        )
         for a in used
     )
 
