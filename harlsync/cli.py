@@ -24,7 +24,7 @@ from .robotlog import RobotFilter
 from .terminal import BackupDisplay, Feedback
 
 if TYPE_CHECKING:
-    from .sync.engine import PushOptions, PushResult
+    from .sync.deploy import PushOptions, PushResult
     from .sync.plan import Plan
 
 __all__ = ["main"]
@@ -600,11 +600,11 @@ def _add_snapshots(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_snapshots(args: argparse.Namespace) -> int:
-    from .sync import engine
+    from .sync import snapshots
     from .sync.status import local_time
 
-    taken = engine.all_snapshots(_project_dir(args.dir))
-    pushes = engine.snapshots(args.dir)
+    taken = snapshots.all_snapshots(_project_dir(args.dir))
+    pushes = snapshots.snapshots(args.dir)
     chosen = pushes[-1] if pushes else None
     latest_first = [(s, s.time.isoformat() if s.time else None) for s in reversed(taken)]
     if args.format == "json":
@@ -766,11 +766,11 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_pull(args: argparse.Namespace) -> int:
-    from .sync import engine
+    from .sync import pulling
 
     progress = Feedback("pull")
     try:
-        result = engine.pull(
+        result = pulling.pull(
             args.dir,
             port=args.port,
             station=args.station,
@@ -814,12 +814,12 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_diff(args: argparse.Namespace) -> int:
-    from .sync import engine
+    from .sync import comparison, pulling
     from .sync.items import render_text, to_json
 
     progress = Feedback("diff")
     try:
-        result = engine.compare(
+        result = comparison.compare(
             args.dir,
             port=args.port,
             station=args.station,
@@ -840,7 +840,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
                     "target": result.target,
                     "project": str(result.project.path),
                     "identical": not result.changes,
-                    "summary": engine.change_summary(result.changes),
+                    "summary": pulling.change_summary(result.changes),
                     "changes": [to_json(c) for c in result.changes],
                 },
                 indent=2,
@@ -855,7 +855,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 
 def _differ(changes: Sequence[Any]) -> str:
     """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
-    from .sync.engine import change_summary
+    from .sync.pulling import change_summary
 
     if not changes:
         return "; no differences"
@@ -903,11 +903,11 @@ def _show_plan(the_plan: Plan) -> None:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from .sync import engine
+    from .sync import comparison
 
     progress = Feedback("plan")
     try:
-        found = engine.compare(
+        found = comparison.compare(
             args.dir,
             port=args.port,
             station=args.station,
@@ -1011,7 +1011,7 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
 
 
 def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
-    from .sync.engine import PushOptions
+    from .sync.deploy import PushOptions
 
     return PushOptions(
         yes=args.yes,
@@ -1030,7 +1030,7 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
 
 
 def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> int:
-    from .sync.engine import PushFailed
+    from .sync.deploy import PushFailed
 
     try:
         result = run()
@@ -1077,12 +1077,12 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
 
 
 def _cmd_push(args: argparse.Namespace) -> int:
-    from .sync import engine
+    from .sync import deploy
 
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
-        "push", lambda: engine.push(args.dir, opts, port=args.port, station=args.station), progress
+        "push", lambda: deploy.push(args.dir, opts, port=args.port, station=args.station), progress
     )
 
 
@@ -1106,13 +1106,13 @@ def _add_rollback(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_rollback(args: argparse.Namespace) -> int:
-    from .sync import engine
+    from .sync import deploy
 
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
         "rollback",
-        lambda: engine.rollback(
+        lambda: deploy.rollback(
             args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station
         ),
         progress,

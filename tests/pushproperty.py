@@ -21,7 +21,7 @@ import pytest
 from harlsync import cli
 from harlsync.errors import InterlockError, PolicyError
 from harlsync.sim import Faults, Received
-from harlsync.sync import PushFailed, PushResult, engine
+from harlsync.sync import PushFailed, PushResult, deploy
 from harlsync.sync import audit as audit_log
 from harlsync.sync.plan import PlannedWrite
 
@@ -215,7 +215,7 @@ def keep_snapshots(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
         taken.append(live)
         return path / "snapshot"
 
-    monkeypatch.setattr(engine, "_save_snapshot", keep)
+    monkeypatch.setattr(deploy, "save_snapshot", keep)
     return taken
 
 
@@ -236,14 +236,14 @@ def off_the_disk(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     which the checks read back) and git asked for the commit of a project that is
     not in a repository.  Returns the snapshots taken."""
     taken = keep_snapshots(monkeypatch)
-    monkeypatch.setattr(engine.git, "head", lambda path: None)
+    monkeypatch.setattr(deploy.git, "head", lambda path: None)
     monkeypatch.setattr(audit_log, "os", WithoutFsync())
     return taken
 
 
 def spy_on_push(monkeypatch: pytest.MonkeyPatch) -> list[PushResult | PushFailed]:
-    """What each ``engine.push`` returned or raised, in order."""
-    real = engine.push
+    """What each ``deploy.push`` returned or raised, in order."""
+    real = deploy.push
     seen: list[PushResult | PushFailed] = []
 
     def spy(*args: Any, **kwargs: Any) -> PushResult:
@@ -255,7 +255,7 @@ def spy_on_push(monkeypatch: pytest.MonkeyPatch) -> list[PushResult | PushFailed
         seen.append(result)
         return result
 
-    monkeypatch.setattr(engine, "push", spy)
+    monkeypatch.setattr(deploy, "push", spy)
     return seen
 
 
@@ -266,7 +266,7 @@ def push_command(
     capsys: pytest.CaptureFixture[str],
 ) -> tuple[PushResult, PushFailed | None]:
     """Run ``harlsync push``; check its exit status and that what it printed names the
-    cause and every write made or unknown.  Returns what ``engine.push`` gave."""
+    cause and every write made or unknown.  Returns what ``deploy.push`` gave."""
     capsys.readouterr()
     code = cli.main(argv)
     printed = capsys.readouterr().err

@@ -31,9 +31,10 @@ from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.project import load_project, save_project, validate_project
 from harlsync.sim import Faults, Received
 from harlsync.sim.serve import PtyServer, TcpServer
-from harlsync.sync import PushFailed, PushOptions, engine
+from harlsync.sync import PushFailed, PushOptions, deploy, engine
 from harlsync.sync import audit as audit_log
 from harlsync.sync import git as git_ops
+from harlsync.sync import snapshots as snapshot_store
 
 SMALL = Config(
     ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4
@@ -727,7 +728,7 @@ def test_issue_11_rollback_restores_the_state_before_the_last_push_whatever_the_
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
-    monkeypatch.setattr(engine, "datetime", Clock)
+    monkeypatch.setattr(snapshot_store, "datetime", Clock)
     Clock.at = datetime(2027, 3, 1, 12, 0)  # a year ahead
     edit_timer(project, 1, "1.11", repo)
     engine.push(project, YES, port=url)
@@ -783,7 +784,7 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
             inside, after = datetime(2026, 11, 28, 23, 0), datetime(2026, 11, 29, 4, 0)
             return (inside if len(sim.writes_received()) < 2 else after).replace(tzinfo=tz)
 
-    monkeypatch.setattr(engine, "datetime", WindowClosesAfterTwoWrites)
+    monkeypatch.setattr(deploy, "datetime", WindowClosesAfterTwoWrites)
     capsys.readouterr()
     assert main(["push", str(project), "--port", url, "--yes"]) == 3
     err = capsys.readouterr().err

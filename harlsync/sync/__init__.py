@@ -1,19 +1,10 @@
 """Pull, diff, plan, push and rollback: knows projects and controllers, not bytes."""
 
-from .engine import (
-    Comparison,
-    PullResult,
-    PushFailed,
-    PushOptions,
-    PushResult,
-    compare,
-    plan,
-    pull,
-    push,
-    rollback,
-)
+from .comparison import Comparison, compare, plan
+from .deploy import PushFailed, PushOptions, PushResult, push, rollback
 from .items import Change, diff
 from .plan import Plan, PlannedWrite
+from .pulling import PullResult, pull
 
 __all__ = [
     "Change",

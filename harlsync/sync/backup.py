@@ -34,8 +34,9 @@ from ..project.lock import project_lock
 from ..project.store import replace_file
 from ..robotlog import about
 from . import git, history
-from .engine import catalogue, pull
 from .items import summarize
+from .live import catalogue
+from .pulling import pull
 
 __all__ = [
     "BackupReport",

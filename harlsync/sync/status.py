@@ -30,7 +30,7 @@ from ..errors import HarlsyncError
 from ..project import load_robot
 from . import audit, git, history
 from .backup import find_projects
-from .engine import snapshots
+from .snapshots import snapshots
 
 __all__ = [
     "ATTENTION",

@@ -1,0 +1,112 @@
+"""Diff and plan: the live robot against the project, item by item, and the
+writes a push would make of it (no write is sent)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..families.base import Driver, Progress
+from ..project import Project, load_project
+from .items import Change, diff
+from .live import Station, catalogue, read_live, station_number
+from .plan import Plan, make_plan
+
+__all__ = ["Comparison", "compare", "plan"]
+
+
+@dataclass
+class Comparison:
+    """The live robot against the project.  ``driver`` is closed; it still names
+    the robot and builds its commands."""
+
+    project: Project
+    driver: Driver
+    live: Any
+    changes: list[Change]
+    #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
+    warnings: list[str] = field(default_factory=list)
+    #: With ``idle_check``, when the robot is not idle: why a push would be refused now.
+    busy: str | None = None
+    #: What was read, in the family's words (Catalogue.contents).
+    contents: str = ""
+    #: Whether runtime data was compared.
+    registers: bool = False
+
+    @property
+    def target(self) -> str:
+        return self.driver.label
+
+    def plan(self) -> Plan:
+        """The plan a push would carry out, from this comparison."""
+        return make_plan(
+            catalogue(self.project.robot),
+            self.live,
+            self.project.data,
+            self.driver,
+            robot=self.project.robot.name,
+            registers=self.registers,
+        )
+
+
+def compare(
+    path: str | Path,
+    *,
+    port: str | None = None,
+    station: Station = None,
+    progress: Progress | None = None,
+    registers: bool = False,
+    lock_timeout: float = 10.0,
+    idle_check: bool = False,
+    connect_options: Mapping[str, Any] | None = None,
+) -> Comparison:
+    """Read the live robot and compare it with the project, item by item; with
+    ``idle_check`` also say whether a push would be refused now (robot not idle)."""
+    project = load_project(path)
+    station = station_number(project.robot.family, station)
+    read = read_live(
+        project.robot,
+        port,
+        station,
+        registers=registers,
+        progress=progress,
+        lock_timeout=lock_timeout,
+        idle_check=idle_check,
+        options=connect_options,
+    )
+    things = catalogue(project.robot)
+    changes = diff(things, read.live, project.data, registers=registers)
+    return Comparison(
+        project,
+        read.driver,
+        read.live,
+        changes,
+        read.warnings,
+        read.busy,
+        things.contents(read.live, registers=registers),
+        registers,
+    )
+
+
+def plan(
+    path: str | Path,
+    *,
+    port: str | None = None,
+    station: Station = None,
+    progress: Progress | None = None,
+    registers: bool = False,
+    lock_timeout: float = 10.0,
+    connect_options: Mapping[str, Any] | None = None,
+) -> Plan:
+    """The plan a push would carry out now; sends no write."""
+    return compare(
+        path,
+        port=port,
+        station=station,
+        progress=progress,
+        registers=registers,
+        lock_timeout=lock_timeout,
+        connect_options=connect_options,
+    ).plan()

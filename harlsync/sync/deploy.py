@@ -1,0 +1,470 @@
+"""Push and rollback: the writes of the candidate workflow, under the interlock.
+
+How a push goes (each step stops the push when it fails; nothing is written
+before the last check)::
+
+    load + validate the project      (before the port is touched)
+    policy: git clean, maintenance window
+    open the port (exclusive lock on the line)
+    an earlier push left unfinished? (audit log: warn, naming what it wrote)
+    LNR: robot idle?                 (interlock, before the long read)
+    read the live robot, make the plan
+    stale plan? unwritable? reconfiguration allowed? confirmed?
+    snapshot the live robot          (DIR/.harlsync/snapshots/<n>-<time>-push/)
+    audit "start" record, the plan   (write-ahead, fsynced)
+    for each write, in the safe order:
+        read the item: as planned?   (drift: edited on the pendant since the read)
+        still in the window?         (policy: a long push stops when its window closes)
+        LNR: idle?                   (interlock: before every write)
+        audit "write" record         (fsynced: a SIGKILL still leaves a trace)
+        write, read back, compare    (verify)
+    audit "end" record               (always, whatever happened)
+
+The interlock reads LNR immediately before every write, a re-send after a
+lost reply included (the controller reads it again before re-sending).  With
+``allow_live_tuning`` it skips that only before timer and offset writes, which
+the manual allows during automatic operation; it still reads LNR before every
+other write (SNA, SNM, SNS, SNH, SNE, SNX, and SND registers), and a plan that
+holds any such write needs an idle robot before its first write.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from .. import families
+from ..errors import (
+    HarlsyncError,
+    InterlockError,
+    LinkTimeout,
+    PolicyError,
+    PortBusyError,
+    PortError,
+    ReplyError,
+    StalePlanError,
+    SyncError,
+    VerifyError,
+)
+from ..families.base import Driver, Progress
+from ..project import Project, Robot, load_project
+from ..project.lock import holding_project
+from ..project.store import read_project
+from . import audit, git
+from .live import Station, catalogue, connect, station_number, unfinished_pushes
+from .plan import Plan, PlannedWrite, make_plan
+from .policy import check_committed
+from .snapshots import save_snapshot, snapshots
+
+__all__ = ["PushFailed", "PushOptions", "PushResult", "push", "rollback", "run"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class PushOptions:
+    """Everything a person decides for one push or rollback."""
+
+    yes: bool = False
+    #: Asks a person to confirm the plan; without it and without ``yes`` the push is
+    #: refused before the robot is read.
+    confirm: Callable[[Plan], bool] | None = None
+    reason: str | None = None
+    allow_dirty: bool = False
+    outside_window: str | None = None
+    allow_reconfigure: bool = False
+    allow_live_tuning: bool = False
+    registers: bool = False
+    plan_file: str | Path | None = None
+    lock_timeout: float = 10.0
+    now: datetime | None = None
+    progress: Progress | None = None
+    #: the connection's family options (see :func:`connect`): ``reset_function``
+    connect_options: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class PushResult:
+    """What a push did: the plan, what was written, and what was not."""
+
+    plan: Plan | None = None
+    written: list[PlannedWrite] = field(default_factory=list)
+    not_written: list[PlannedWrite] = field(default_factory=list)
+    failed: PlannedWrite | None = None
+    error: str | None = None
+    snapshot: Path | None = None
+    audit_log: Path | None = None
+    #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
+    warnings: list[str] = field(default_factory=list)
+    #: What the family says after anything was written (IAI: not yet in flash ROM).
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+class PushFailed(SyncError):
+    """A push stopped; ``result`` says exactly what was and was not written."""
+
+    def __init__(self, cause: HarlsyncError, result: PushResult) -> None:
+        self.cause = cause
+        self.result = result
+        super().__init__(str(cause))
+
+
+def _check_window(robot: Robot, opts: PushOptions, before: str | None = None) -> None:
+    """Refuse outside the maintenance windows: before the port is opened, and again
+    ``before`` each write, so a long push stops when its window closes."""
+    now = opts.now or datetime.now()
+    if not opts.outside_window and not robot.in_window(now):
+        windows = "; ".join(str(w) for w in robot.windows)
+        stopped = f"; stopped before {before}" if before else ""
+        raise PolicyError(
+            f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows})"
+            f"{stopped}; wait for a window or give --outside-window REASON"
+        )
+
+
+def _no_answer(exc: HarlsyncError) -> bool:
+    """The line failed without any robot answering: the port, or silence (wrong
+    station, cable, baud) rather than an LNR reply that makes no sense."""
+    if isinstance(exc, LinkTimeout):
+        return not isinstance(exc.__cause__, ReplyError)
+    return isinstance(exc, PortError | PortBusyError)
+
+
+def _interlock(driver: Driver, robot: Robot, before: str) -> None:
+    """Raise InterlockError unless LNR shows every task known and idle.
+
+    When no robot answers at all the link's own error goes through (exit 2, like
+    diff and pull): nothing can be written either way, and "refused for safety"
+    would send the reader looking for a running task instead of at the port.
+    """
+    try:
+        status = driver.status()
+    except HarlsyncError as exc:
+        if _no_answer(exc):
+            raise
+        raise InterlockError(
+            f"robot {robot.name} ({driver.label}): cannot read the task states before "
+            f"{before} ({exc}); not writing"
+        ) from exc
+    if not status.idle:
+        raise InterlockError(
+            f"robot {robot.name} ({driver.label}) is not idle: {status.describe()}; "
+            f"stopped before {before}. Stop the robot (or wait for the cycle to end) and run again"
+        )
+
+
+def run(
+    action: str,
+    project: Project,
+    target: Any,
+    opts: PushOptions,
+    port: str | None,
+    station: Station,
+) -> PushResult:
+    robot = project.robot
+    station = station_number(robot.family, station)
+    _check_audit_log()
+    result = PushResult()
+    record = audit.base_record(action)
+    record.update(
+        robot={
+            "name": robot.name,
+            "port": port or robot.port,
+            "station": station if station is not None else robot.station,
+        },
+        project=str(project.path.resolve()),
+        commit=git.head(project.path),
+        reason=opts.reason,
+        outside_window=opts.outside_window,
+    )
+    driver: Driver | None = None
+    try:
+        if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
+            review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
+            raise PolicyError(
+                f"nobody to confirm the {action} (no terminal to ask on) and no "
+                f"--yes: nothing was read or written; {review}give --yes"
+            )
+        _check_window(robot, opts)
+        driver = connect(
+            robot, port, station, lock_timeout=opts.lock_timeout, options=opts.connect_options
+        )
+        result.warnings = unfinished_pushes(robot, port, station)
+        if not opts.allow_live_tuning:
+            _interlock(driver, robot, "reading the robot")
+        live = driver.read_all(registers=opts.registers, progress=opts.progress)
+        result.plan = the_plan = make_plan(
+            catalogue(robot), live, target, driver, robot=robot.name, registers=opts.registers
+        )
+        record["plan"] = the_plan.commands
+        _check_plan(the_plan, opts)
+        if the_plan.empty:
+            record["result"] = "nothing to write"
+            return result
+        if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
+            raise PolicyError("push not confirmed: nothing was written")
+        result.snapshot = save_snapshot(project.path, robot, live, action)
+        record["snapshot"] = str(result.snapshot)
+        _journal(dict(record, event="start"))
+        _write_all(
+            driver,
+            robot,
+            the_plan,
+            opts,
+            result,
+            lambda w: _journal(
+                {
+                    "event": "write",
+                    "id": record["id"],
+                    "time": audit.now(),
+                    "item": w.name,
+                    "command": w.command,
+                }
+            ),
+        )
+        record["result"] = "ok"
+        return result
+    except (HarlsyncError, KeyboardInterrupt) as exc:
+        stopped: HarlsyncError = (
+            exc if isinstance(exc, HarlsyncError) else SyncError(f"{action} interrupted (Ctrl-C)")
+        )
+        result.error = str(stopped)
+        refused = isinstance(exc, InterlockError | PolicyError | StalePlanError)
+        record["result"] = (
+            "refused"
+            if refused
+            else "interrupted"
+            if isinstance(exc, KeyboardInterrupt)
+            else "failed"
+        )
+        record["error"] = result.error
+        if result.plan is not None:
+            done = {id(w) for w in result.written}
+            result.not_written = [w for w in result.plan.writes if id(w) not in done]
+        raise PushFailed(stopped, result) from exc
+    except BaseException as exc:  # a bug: still record what was written
+        result.error = f"{type(exc).__name__}: {exc}"
+        record["result"] = "failed"
+        record["error"] = result.error
+        raise
+    finally:
+        record["written"] = [
+            {"item": w.name, "command": w.command, "old": _show(w.old), "new": _show(w.new)}
+            for w in result.written
+        ]
+        if result.failed is not None:
+            record["failed_item"] = result.failed.name
+        if result.warnings:
+            record["warnings"] = result.warnings
+        if result.written or result.failed is not None:
+            planned = result.plan.notes if result.plan is not None else []
+            result.notes = [*planned, *families.get(robot.family).deploy_notes]
+            if result.notes:
+                record["notes"] = result.notes
+        if driver is not None:
+            driver.close()
+        try:
+            result.audit_log = audit.append(record)
+        except OSError as exc:
+            # Never hide what happened on the robot behind the log's own failure.
+            log.error("cannot write the audit log's end record for this %s: %s", action, exc)
+            result.warnings.append(
+                f"the audit log {audit.audit_path()} could not record the end of this {action} "
+                f"({exc}); what it wrote is listed here"
+            )
+
+
+def _journal(record: dict[str, Any]) -> None:
+    """Append a start or write record before the write it announces; stop if it fails."""
+    try:
+        audit.append(record)
+    except OSError as exc:
+        raise SyncError(
+            f"cannot write the audit log {audit.audit_path()} ({exc}); stopped before "
+            + ("the first write" if record["event"] == "start" else f"writing {record['item']}")
+        ) from exc
+
+
+def _check_audit_log() -> None:
+    """Refuse, before the port is opened, a push whose audit record could not be kept."""
+    path = audit.audit_path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        os.close(os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644))
+    except OSError as exc:
+        raise PolicyError(
+            f"cannot write the audit log {path} ({exc}); nothing was written. "
+            "Fix it or set HARLSYNC_AUDIT_LOG to a writable file"
+        ) from exc
+
+
+def _show(value: Any) -> Any:
+    if value is None or isinstance(value, str):
+        return value
+    return getattr(value, "text", None) or repr(value)
+
+
+def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
+    if opts.plan_file is not None:
+        saved = Plan.load_saved(opts.plan_file)
+        if saved["live_fingerprint"] != the_plan.live_fingerprint:
+            raise StalePlanError(
+                f"the robot changed since the plan {opts.plan_file} was made; "
+                "make a new plan and review it"
+            )
+        if saved["project_fingerprint"] != the_plan.project_fingerprint:
+            raise StalePlanError(
+                f"the project changed since the plan {opts.plan_file} was made; "
+                "make a new plan and review it"
+            )
+    if the_plan.unwritable:
+        raise PolicyError("cannot deploy: " + "; ".join(the_plan.unwritable))
+    if the_plan.reconfiguration is not None and not opts.allow_reconfigure:
+        raise PolicyError(the_plan.reconfiguration)
+
+
+def _write_all(
+    driver: Driver,
+    robot: Robot,
+    the_plan: Plan,
+    opts: PushOptions,
+    result: PushResult,
+    announce: Callable[[PlannedWrite], None],
+) -> None:
+    tunable = catalogue(robot).live_tuning
+
+    def live(write: PlannedWrite) -> bool:
+        return opts.allow_live_tuning and write.key.kind in tunable and not write.unsafe
+
+    if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
+        # Live tuning covers timers and tables only: a plan that also holds any
+        # other write needs an idle robot before its first write of any kind.
+        _interlock(driver, robot, f"the first write ({the_plan.writes[0].command})")
+    for write in the_plan.writes:
+        now = driver.read(write.key)
+        if now != write.old:
+            raise StalePlanError(
+                f"{write.name} changed on the robot since it was read (now {_show(now)!r}, "
+                f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
+                "the change, then run again"
+            )
+        _check_window(robot, opts, f"writing {write.name} ({write.command})")
+        announce(write)  # before the interlock: nothing between LNR and the write
+        if not live(write):
+            try:
+                _interlock(driver, robot, f"writing {write.name} ({write.command})")
+            except InterlockError as exc:
+                raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
+        result.failed = write
+        # A re-send after a lost reply is a write too: the same interlock applies.
+        driver.write(write.key, write.new, write.old, needs_idle=not live(write))
+        got = driver.read(write.key)
+        if got != write.new:
+            raise VerifyError(
+                f"{write.name} reads back as {_show(got)!r} after writing {_show(write.new)!r}"
+            )
+        result.failed = None
+        result.written.append(write)
+        log.info("wrote %s: %s", write.name, write.command)
+    if _last_guarded(result, live) is not None:
+        # The last write that needed an idle robot had no LNR after it: one more tells
+        # whether the robot was started between the LNR before it and its arrival (no
+        # client can prevent that).
+        try:
+            status = driver.status()
+        except HarlsyncError as exc:
+            result.warnings.append(f"cannot read the task states after the last write ({exc})")
+            return
+        if not status.idle:
+            result.warnings.append(
+                f"robot {robot.name} ({driver.label}) is not idle at the end of the push: "
+                f"{status.describe()}{_maybe_hit(result, live)}"
+            )
+
+
+def _last_guarded(result: PushResult, live: Callable[[PlannedWrite], bool]) -> PlannedWrite | None:
+    """The last write made that needed an idle robot (the last one LNR cleared)."""
+    return next((w for w in reversed(result.written) if not live(w)), None)
+
+
+def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite], bool]) -> str:
+    """What an operator must check when the robot turned out started mid-push."""
+    last = _last_guarded(result, live)
+    if last is None:
+        return ""
+    return (
+        f". It was started after the status read before {last.name}: that write may "
+        "have reached it while a task ran; check the robot"
+    )
+
+
+@holding_project("push")
+def push(
+    path: str | Path,
+    opts: PushOptions,
+    *,
+    port: str | None = None,
+    station: Station = None,
+) -> PushResult:
+    """Make the robot equal the project, safely.  Raises PushFailed with the result.
+
+    An invalid or uncommitted project is refused before the port is opened, and
+    the refusal is audited like any other.
+    """
+    try:
+        project, files = read_project(path)
+        station = station_number(project.robot.family, station)
+        if not opts.allow_dirty:
+            check_committed(Path(path), files)
+    except HarlsyncError as exc:
+        _audit_refusal("push", path, opts, exc)
+        raise
+    return run("push", project, project.data, opts, port, station)
+
+
+def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:
+    record = audit.base_record(action)
+    record.update(
+        project=str(Path(path).resolve()),
+        reason=opts.reason,
+        result="refused",
+        error=str(exc),
+        written=[],
+    )
+    try:
+        audit.append(record)
+    except OSError as err:
+        log.error("cannot write the audit log: %s", err)
+
+
+@holding_project("rollback")
+def rollback(
+    path: str | Path,
+    opts: PushOptions,
+    *,
+    snapshot: str | Path | None = None,
+    port: str | None = None,
+    station: Station = None,
+) -> PushResult:
+    """Restore the snapshot taken before the last push, under the same interlocks.
+
+    A rollback takes a snapshot of its own (``...-rollback``), but rolling back
+    again still restores the state before the last push, never the rollback's.
+    """
+    project = load_project(path)
+    station = station_number(project.robot.family, station)
+    taken = snapshots(path)
+    chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
+    if chosen is None:
+        raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
+    saved = load_project(chosen)
+    return run("rollback", project, saved.data, opts, port, station)

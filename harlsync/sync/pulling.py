@@ -1,0 +1,205 @@
+"""Pull: read everything from the robot and save it as the project's backup,
+refusing a controller that does not look like the robot backed up there."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .. import families
+from ..errors import PolicyError, ProjectError
+from ..families.base import Catalogue, Progress
+from ..project import Project, Robot, load_project, load_robot, save_project
+from ..project.lock import holding_project
+from . import git, history
+from .items import Change, diff
+from .live import Station, catalogue, read_live, station_number
+from .policy import earlier_pull_and_edits, listed
+
+__all__ = ["FEW_ITEMS", "MOST", "PullResult", "change_summary", "pull"]
+
+
+@dataclass
+class PullResult:
+    path: Path
+    robot: Robot
+    changes: list[Change] | None  # None: there was no valid previous backup
+    commit: str | None = None
+    #: Files an earlier pull saved and nobody touched since, still uncommitted (its
+    #: commit failed or was killed): this pull's save and commit take them over.
+    earlier: list[str] = field(default_factory=list)
+    #: What was read, in the family's words (Catalogue.contents).
+    contents: str = ""
+
+    @property
+    def changed(self) -> bool:
+        """Whether the backup in git changes: a first backup, a change, or an earlier
+        pull's files still to commit."""
+        return self.changes is None or bool(self.changes) or bool(self.earlier)
+
+    @property
+    def summary(self) -> str:
+        said = "first backup" if self.changes is None else change_summary(self.changes)
+        if self.earlier:
+            said += f"; with an earlier pull's backup, never committed ({listed(self.earlier)})"
+        return said
+
+
+def _robot_for(path: Path, port: str | None, station: Station, family: str | None) -> Robot:
+    if (path / "robot.yaml").exists():
+        robot = load_robot(path)
+        if family is not None and family != robot.family:
+            raise ProjectError(
+                f"{path / 'robot.yaml'}: the robot is of family {robot.family}, not {family}; "
+                "drop --family (it is only for a first pull) or pull into another directory"
+            )
+        return robot
+    if not port:
+        raise ProjectError(
+            f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
+        )
+    return families.get(family).new_robot(
+        path.resolve().name, _absolute_sim_path(port), station_number(family, station)
+    )
+
+
+def _absolute_sim_path(port: str) -> str:
+    """``sim://projects/x`` as ``sim:///abs/projects/x``: robot.yaml works from any directory."""
+    if not port.startswith("sim://"):
+        return port
+    rest = port[len("sim://") :]
+    path, sep, query = rest.partition("?")
+    if not path or path.startswith(("@", "/")):
+        return port
+    return f"sim://{Path(path).resolve()}{sep}{query}"
+
+
+@holding_project("pull")
+def pull(
+    path: str | Path,
+    *,
+    port: str | None = None,
+    station: Station = None,
+    commit: bool = False,
+    progress: Progress | None = None,
+    lock_timeout: float = 10.0,
+    allow_dirty: bool = False,
+    family: str | None = None,
+    new_robot: bool = False,
+    connect_options: Mapping[str, Any] | None = None,
+) -> PullResult:
+    """Read everything from the robot and write the project, atomically.
+
+    A controller that does not look like the robot of the backup in ``path``
+    (another version or program configuration, or most of the backup would
+    change) is refused with PolicyError and the backup left as it was, unless
+    ``new_robot`` (see :func:`_same_robot`).
+
+    A pull that fails leaves the previous files untouched.  A project with
+    uncommitted edits (other than robot.yaml, which a pull never rewrites) is
+    refused unless ``allow_dirty``: the pull would overwrite them.  Files an
+    earlier pull saved, untouched since, are not edits: this pull takes them over
+    (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
+    names the controller family of a first pull (default: HARL-U2);
+    ``connect_options`` are the connection's (see :func:`connect`).
+    """
+    path = Path(path)
+    robot = _robot_for(path, port, station, family)
+    station = station_number(robot.family, station)
+    earlier, dirty = ([], "") if allow_dirty else earlier_pull_and_edits(path)
+    if dirty:
+        raise PolicyError(
+            f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
+            f"commit or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
+        )
+    read = read_live(
+        robot,
+        port,
+        station,
+        registers=robot.keep_registers,
+        progress=progress,
+        lock_timeout=lock_timeout,
+        options=connect_options,
+    )
+    live = read.live
+    try:  # after the read: the first request need not wait for it (issue 15)
+        previous: Any = load_project(path).data
+    except ProjectError:
+        previous = None
+    if previous is not None and not new_robot:
+        _same_robot(path, catalogue(robot), previous, live, read.driver.label)
+    save_project(path, Project(path, robot, live))
+    changes = (
+        None
+        if previous is None
+        else diff(catalogue(robot), previous, live, registers=robot.keep_registers)
+    )
+    result = PullResult(
+        path,
+        robot,
+        changes,
+        earlier=earlier,
+        contents=catalogue(robot).contents(live, registers=robot.keep_registers),
+    )
+    history.record(path, ok=True, changed=result.changed, changes=result.summary)
+    if commit and result.changed:
+        result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
+        if result.commit:
+            history.committed(path, result.commit)
+    return result
+
+
+#: A pull that would change more than this share of the items of one kind (steps,
+#: positions...) looks like another robot ...
+MOST = 0.5
+
+
+#: ... when there are at least this many: a small table re-taught is the same robot.
+FEW_ITEMS = 10
+
+
+def _same_robot(path: Path, things: Catalogue, backup: Any, live: Any, where: str) -> None:
+    """Raise PolicyError unless the controller read (``live``) looks like the robot
+    backed up in ``path``: the same identity (the family's: version, configuration,
+    model), and not most items of a kind changed at once (runtime data aside), which
+    a wrong port or station, a swapped controller or a lost memory would do.
+
+    Each kind is judged alone: the HARL-U2's 100 offset tables, most of them unused
+    and alike on every robot, must not hide that every program step changed."""
+    was, now = things.robot_identity(backup), things.robot_identity(live)
+    differ = [
+        f"{name} {now.get(name)!r} (the backup has {value!r})"
+        for name, value in was.items()
+        if now.get(name) != value
+    ]
+    if not differ:
+        held = things.items(backup, registers=False).keys() | things.items(live, registers=False)
+        changes = diff(things, backup, live)
+        for kind in sorted({key.kind for key in held}):
+            of_kind = [c for c in changes if c.key.kind == kind]
+            count = sum(key.kind == kind for key in held)
+            if count >= FEW_ITEMS and len(of_kind) > MOST * count:
+                differ = [
+                    (
+                        f"{change_summary(of_kind)} would change, {len(of_kind)} of the "
+                        f"{count} items of that kind: it looks like another robot, or one "
+                        "whose memory was lost"
+                    )
+                ]
+                break
+    if differ:
+        raise PolicyError(
+            f"{path}: the controller at {where} does not look like the robot backed up "
+            f"here: {'; '.join(differ)}. The backup was left as it was. If this is the "
+            f"robot (replaced, reconfigured, updated), accept it with "
+            f"'harlsync pull {path} --new-robot'"
+        )
+
+
+def change_summary(changes: list[Change]) -> str:
+    """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
+    if not changes:
+        return "no change"
+    return changes[0].catalogue.summary([(c.key, c.old, c.new) for c in changes])
