@@ -18,8 +18,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from . import __version__
+from . import __version__, families
 from .errors import HarlsyncError, InterlockError, PolicyError
+from .families import DEFAULT
+from .families.base import AnyFamily, Option
 from .robotlog import RobotFilter
 from .terminal import BackupDisplay, Feedback
 
@@ -85,12 +87,12 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser(
         "sim",
-        help="run a simulated controller (HARL-U2, IAI on a pty and/or a TCP port; Epson over "
-        "Modbus TCP)",
+        help="run a simulated controller of any family (on a pty and/or a TCP port, or "
+        "over the family's own protocol)",
         description=(
             "Serve a simulated controller of one family. It prints the pty device path and the "
-            "socket:// URL to connect to (an Epson controller: the modbus:// URL of its Modbus "
-            "TCP server, --listen only), then reads control commands on standard input "
+            "socket:// URL to connect to (a family with a server of its own: its URL, "
+            "--listen only), then reads control commands on standard input "
             f"(STATION as the family writes it, default the lowest): {_SimHelp.VERBS}. "
             "Stop it with Ctrl-C, SIGTERM or end of input. In the background (&, a service) "
             "give --no-input: it then serves until SIGTERM; started with & from a terminal it "
@@ -102,7 +104,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
         "--family",
         default=None,
         choices=names(),
-        help="the controller family (default: harl-u2, or with --project the one "
+        help=f"the controller family (default: {DEFAULT}, or with --project the one "
         "its robot.yaml names)",
     )
     src = p.add_mutually_exclusive_group()
@@ -117,9 +119,9 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
         "--stations",
         default=None,
         metavar="N[,N...]",
-        help="stations on the line, in the family's notation: decimal for harl-u2, hex for iai, "
-        "the Modbus unit id for epson (default: the project's station, or 1 for harl-u2 "
-        "and epson and 99 for iai)",
+        help="stations on the line, in the family's notation ("
+        + _per_family("stations")
+        + "; default: the project's station, or the family's default)",
     )
     p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
     p.add_argument("--no-pty", action="store_true", help="do not open a pty (needs --listen)")
@@ -155,7 +157,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
         "--run",
         dest="busy",
         action="store_true",
-        help="start busy: task 0 in automatic operation (harl-u2), a program running (iai)",
+        help="start busy: running, as the family's interlock sees it (" + _per_family("busy") + ")",
     )
     p.add_argument(
         "--auto-after-writes",
@@ -164,7 +166,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
         type=int,
         default=0,
         metavar="N",
-        help="become busy after N writes: automatic operation (harl-u2), a program running (iai)",
+        help="become busy after N writes (see --auto)",
     )
     p.add_argument(
         "--record",
@@ -242,7 +244,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
     servers: list[PtyServer | TcpServer | SimServer] = []
     tcp: TcpServer | SimServer | None = None
     try:  # before the pty: an address in use is one line, with nothing left serving
-        if isinstance(sim.family, ServedFamily):  # its own protocol and server (Epson: Modbus TCP)
+        if isinstance(sim.family, ServedFamily):  # its own protocol and server
             if listen is None:
                 return _usage(
                     f"sim: the {sim.family.name} simulator is served over TCP only: "
@@ -684,15 +686,13 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
         "--port",
         metavar="URL",
         help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
-        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR; an Epson "
-        "controller's Modbus TCP slave: modbus://HOST[:PORT]",
+        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR"
+        + "".join(f"; {scheme.help}" for f in _families() for scheme in f.schemes),
     )
     p.add_argument(
         "--station",
         metavar="N",
-        help="station number instead of the robot file's (HARL-U2: 1-99, as set "
-        "on the pendant; IAI: two hex digits, 99 by default; Epson: the "
-        "Modbus unit id, 0-255, 1 by default)",
+        help="station number instead of the robot file's (" + _per_family("stations") + ")",
     )
     p.add_argument(
         "--lock-timeout",
@@ -701,19 +701,36 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="how long to wait for another harlsync using the same line or project (default 10)",
     )
-    p.add_argument(
-        "--reset-function",
-        action="store_true",
-        help="Epson: when the Remote Control function is found in use or halted "
-        "(a command left unanswered, a function error), reset it first "
-        "(section 6.5.2), and only while the robot is not Running; other "
-        "families refuse it",
+    for option in _options():
+        p.add_argument(option.flag, dest=option.name, action="store_true", help=option.help)
+
+
+def _families() -> tuple[AnyFamily, ...]:
+    from .families import every
+
+    return every()
+
+
+def _per_family(place: str) -> str:
+    """``name: phrase; ...`` of what each family's help says at ``place`` (see
+    :class:`~harlsync.families.base.Help`)."""
+    return "; ".join(
+        f"{f.name}: {getattr(f.help, place)}" for f in _families() if getattr(f.help, place)
     )
 
 
-def _connect_options(args: argparse.Namespace) -> dict[str, Any]:
+def _options() -> list[Option]:
+    """Every family's connection options, each name once."""
+    found: dict[str, Option] = {}
+    for family in _families():
+        for option in family.options:
+            found.setdefault(option.name, option)
+    return list(found.values())
+
+
+def _connect_options(args: argparse.Namespace) -> dict[str, bool]:
     """The family options of the connection, as the engine takes them."""
-    return {"reset_function": args.reset_function}
+    return {option.name: bool(getattr(args, option.name)) for option in _options()}
 
 
 def _family_names() -> tuple[str, ...]:
@@ -726,10 +743,9 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "pull",
         help="read everything from the robot into a project directory",
-        description="Read everything the robot holds that the project keeps (HARL-U2: the "
-        "configuration, every program step, the parameters, the offset tables and "
-        "the timers; IAI: the position table; registers or variables if the project "
-        "keeps them) and write the project atomically: a pull that fails leaves the "
+        description="Read everything the robot holds that the project keeps ("
+        + _per_family("pull")
+        + "; runtime data if the project keeps it) and write the project atomically: a pull that fails leaves the "
         "previous files as they were. DIR is created if missing; a first pull needs "
         "--port. A controller that does not look like the robot backed up in DIR "
         "(another version or program configuration, or most of the backup would "
@@ -741,9 +757,8 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
         "--family",
         choices=_family_names(),
         default=None,
-        help="the controller family of a first pull (default harl-u2; iai, or "
-        "epson with --port modbus://HOST:PORT); later commands read it from "
-        "robot.yaml",
+        help=f"the controller family of a first pull (default {DEFAULT}); later "
+        "commands read it from robot.yaml",
     )
     p.add_argument(
         "--commit",
@@ -778,7 +793,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
             progress=progress,
             lock_timeout=args.lock_timeout,
             allow_dirty=args.allow_dirty,
-            family=args.family,
+            family=families.get(args.family) if args.family else None,
             new_robot=args.new_robot,
             connect_options=_connect_options(args),
         )
@@ -796,7 +811,7 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
         "diff",
         help="compare the project with the live robot",
         description="Read the whole robot, as a pull does, and compare it with the project, "
-        "item by item (program, step, table, field, timer; IAI: position). '-' "
+        "item by item (" + _per_family("items") + "). '-' "
         "lines are the robot, '+' lines the project. On a terminal it ends with "
         "what was read, how long it took and how many items differ. "
         "Warns when the audit log shows an earlier push to this robot that never "
@@ -808,7 +823,7 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--registers",
         action="store_true",
-        help="compare runtime data too (HARL-U2 registers, IAI flags and variables)",
+        help="compare runtime data too (" + _per_family("runtime") + ")",
     )
     p.set_defaults(func=_cmd_diff)
 
@@ -870,8 +885,7 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         "plan",
         help="print the commands a push would send, and send none",
         description="Read the whole robot, compare it with the project and print, in order, "
-        "the exact commands a push would send (HARL-U2: SN commands; IAI: each "
-        "291H, field by field; Epson: each Remote Control command's words in hex). "
+        "the exact commands a push would send (" + _per_family("commands") + "). "
         "Nothing is written. Warns when the robot is not idle: a push would be "
         "refused now. --out saves the plan "
         "with a fingerprint of the robot and the project; push --plan refuses it "
@@ -884,12 +898,12 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--registers",
         action="store_true",
-        help="include runtime data (HARL-U2 registers, IAI flags and variables)",
+        help="include runtime data (" + _per_family("runtime") + ")",
     )
     p.set_defaults(func=_cmd_plan)
 
 
-def _show_plan(the_plan: Plan) -> None:
+def _show_plan(the_plan: Plan[Any]) -> None:
     for line in the_plan.unwritable:
         _print(f"# cannot write: {line}")
     if the_plan.reconfiguration_note:
@@ -956,18 +970,18 @@ def _push_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--allow-live-tuning",
         action="store_true",
-        help="write timers and offset tables even while a task runs (the manual "
-        "allows it); programs, parameters, configuration and registers never",
+        help="write what the family allows while the robot runs ("
+        + _per_family("live_tuning")
+        + "); nothing else",
     )
     p.add_argument(
         "--registers",
         action="store_true",
-        help="write runtime data too: HARL-U2 registers, IAI flags and variables "
-        "(the project must keep them)",
+        help="write runtime data too (" + _per_family("runtime") + "; the project must keep it)",
     )
 
 
-def _confirm(the_plan: Plan) -> bool:
+def _confirm(the_plan: Plan[Any]) -> bool:
     """Show the plan and ask on the terminal (only given when stdin is one)."""
     _show_plan(the_plan)
     answer = input(f"Write these {len(the_plan.writes)} item(s) to {the_plan.robot}? [y/N] ")
@@ -979,15 +993,10 @@ def _add_push(sub: argparse._SubParsersAction) -> None:
         "push",
         help="write what differs to the robot, safely",
         description="Read the whole robot and write only what differs, in the family's safe "
-        "order (HARL-U2: "
-        "configuration, parameters, tables, timers, programs; IAI: positions; "
-        "Epson: load, limits, frames, tool, arch, fine, LimZ, tables, points). "
+        "order (" + _per_family("order") + "). "
         "Refuses a project that is invalid, has "
         "uncommitted changes, or is outside its maintenance window; stops before "
-        "any write while the robot runs (HARL-U2: a task in execution or suspended, "
-        "LNR; IAI: a program running, MANUAL, emergency stop, an axis in use, 215H "
-        "and 212H; Epson: Running, Paused, EStopOn, Error or the Remote Control "
-        "function in use; read before "
+        "any write while the robot runs (" + _per_family("busy") + "; read before "
         "every write and after the last: a robot started while a write was on the "
         "wire is named in a warning); verifies each write by reading it back; "
         "snapshots the robot "
@@ -1149,8 +1158,9 @@ def _one_line(exc: BaseException) -> str:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="harlsync",
-        description="Keep robot programs and settings under version control "
-        "(Hirata HARL-U2, IAI protocol B, Epson RC+ Remote Control).",
+        description="Keep robot programs and settings under version control ("
+        + ", ".join(f.title for f in _families())
+        + ").",
         epilog="Exit codes: 0 success, 1 a negative answer (diff: different, validate: "
         "invalid, backup: a robot failed, status: a robot needs looking at), 2 an "
         "error, 3 refused for safety, 130 interrupted (Ctrl-C). On a terminal, "
@@ -1192,10 +1202,11 @@ def _setup_logging(verbose: int) -> None:
         if not any(isinstance(f, RobotFilter) for f in handler.filters):
             handler.addFilter(RobotFilter())
     logging.getLogger("filelock").setLevel(max(level, logging.INFO))  # its debug lines are noise
-    # pymodbus logs its own ERROR lines (a refused connection, a timeout) above the one
-    # line harlsync says of the same failure; -vv shows its warnings, our own hex
-    # lines show the traffic.
-    logging.getLogger("pymodbus").setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
+    # The libraries a family uses may log their own ERROR lines above the one line
+    # harlsync says of the same failure: -vv shows their warnings.
+    for family in _families():
+        for name in family.loggers:
+            logging.getLogger(name).setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

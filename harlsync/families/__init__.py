@@ -2,34 +2,59 @@
 
 This registry is the one place that names the family packages (python-can's
 ``BACKENDS``): adding a family adds a package under ``harlsync/families/`` and
-one line in :data:`FAMILIES`, and changes no engine file.  A project whose
-``robot.yaml`` has no ``family`` key is a HARL-U2 project (:data:`DEFAULT`).
+one line in :data:`FAMILIES`, and changes no engine file.  A family kept
+elsewhere (a test's, a plant's own) joins with :func:`register`.  A project
+whose ``robot.yaml`` has no ``family`` key is of the :data:`DEFAULT` family.
 
 Every family package has a ``family`` module whose ``FAMILY`` is its
 :class:`~harlsync.families.base.Family`, and a ``sim`` package with its simulated
 controller.  Neither is imported before it is asked for.
+
+A family is resolved once, where a command starts (:func:`get` for a name the
+command line gives, :func:`of_project` for a project's robot.yaml), and the
+object is passed down.  The project store finds a project's family through
+:func:`of_project` too, which it is handed when this module is imported (it
+never imports the registry).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from importlib import import_module
+from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
 
 from ..errors import ProjectError
+from ..link import lock
+from ..project import store
+from .base import AnyFamily
 
-if TYPE_CHECKING:
-    from .base import Family
+__all__ = [
+    "DEFAULT",
+    "FAMILIES",
+    "every",
+    "get",
+    "names",
+    "of_project",
+    "refuse_options",
+    "register",
+    "simulator_module",
+    "url_schemes",
+]
 
-__all__ = ["DEFAULT", "FAMILIES", "get", "names", "simulator_module"]
-
-#: family name (as robot.yaml and --family say it) -> package under harlsync.families
+#: family name (as robot.yaml and --family say it) -> its package
 FAMILIES: dict[str, str] = {
-    "harl-u2": "harl_u2",
-    "iai": "iai",
-    "epson": "epson",
+    "harl-u2": f"{__name__}.harl_u2",
+    "iai": f"{__name__}.iai",
+    "epson": f"{__name__}.epson",
 }
 DEFAULT = "harl-u2"
+
+
+def register(name: str, package: str) -> None:
+    """Add the family ``name``, whose package (``family`` and ``sim`` modules) is
+    ``package`` (a dotted module path, importable)."""
+    FAMILIES[name] = package
 
 
 def names() -> tuple[str, ...]:
@@ -38,19 +63,56 @@ def names() -> tuple[str, ...]:
 
 def _package(name: str) -> str:
     try:
-        return f"{__name__}.{FAMILIES[name]}"
+        return FAMILIES[name]
     except KeyError:
         raise ProjectError(
             f"unknown controller family {name!r} (known: {', '.join(FAMILIES)})"
         ) from None
 
 
-def get(name: str | None) -> Family:
-    """The family called ``name`` (``None``: the default).  Raises ProjectError."""
-    family: Family = import_module(_package(name or DEFAULT) + ".family").FAMILY
+def get(name: str | None) -> AnyFamily:
+    """The family called ``name`` (``None`` or empty: the default).  Raises ProjectError."""
+    family: AnyFamily = import_module(_package(name or DEFAULT) + ".family").FAMILY
     return family
+
+
+def every() -> tuple[AnyFamily, ...]:
+    """Every family registered, in :data:`FAMILIES` order (each one imported)."""
+    return tuple(get(name) for name in FAMILIES)
+
+
+def of_project(root: Path) -> AnyFamily:
+    """The family a project's robot.yaml names (none, or no readable robot.yaml:
+    the default, whose reading of the file says what is wrong with it).
+
+    Raises ProjectFormatError, naming the file and line, for a family harlsync
+    does not know.
+    """
+    return store.family_of(root)
+
+
+def refuse_options(family: AnyFamily, given: Mapping[str, bool]) -> None:
+    """Raise ProjectError for an option set in ``given`` that ``family`` does not
+    take, naming the families that do (what the command line says of it)."""
+    for name in sorted(
+        n for n, value in given.items() if value and n not in family.connect_options
+    ):
+        takers = [f.name for f in every() if name in f.connect_options]
+        raise ProjectError(
+            f"--{name.replace('_', '-')}: the {family.name} family has no such option "
+            f"(only {', '.join(takers) or 'no family'}); leave it out"
+        )
+
+
+def url_schemes() -> dict[str, int]:
+    """Every family's own URL schemes -> the port a URL of it means when it names none."""
+    return {s.name: s.default_port for family in every() for s in family.schemes}
 
 
 def simulator_module(name: str | None) -> ModuleType:
     """The family's ``sim`` package (its simulated controller).  Raises ProjectError."""
     return import_module(_package(name or DEFAULT) + ".sim")
+
+
+store.find_families_with(get)
+lock.find_schemes_with(url_schemes)

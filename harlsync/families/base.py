@@ -12,33 +12,50 @@ it is::
     ------                       -----------------------------------
     load / save a project   -->  Family.analyse / render_files / project_files
     connect                 -->  Family.connect -> Driver (read_all, read, write, status)
-    diff / plan             -->  Catalogue (items, order, names, fields, plan_writes)
+    diff / plan             -->  Catalogue (items, order, names, fields, plan)
     interlock               -->  Driver.status() -> Status (idle? which signal says no)
+    command line, locks     -->  Family.options, schemes, words (what only it knows)
 
-A family's *data* (what a backup holds: the HARL-U2's ``RobotData``, IAI's
-position table) is opaque to the engine: it hands it back to the family.
+Three generic base classes, python-can ``BusABC`` style: a family implements a
+few abstract members and inherits a default for the rest.  Each is generic over
+the family's key type ``K`` (a NamedTuple, or a union of them) and its data
+type ``D`` (what a backup holds: the HARL-U2's ``RobotData``, IAI's position
+table), which the engine never looks into: it hands data back to the family it
+came from.  An item's *value* is ``object`` to the engine: it compares values
+and hands them back, nothing more.
 """
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeAlias, TypeVar, cast
+
+from ..project.robot import Robot
 
 if TYPE_CHECKING:
-    from ..project.robot import Robot
     from ..project.schema import Issue
 
 __all__ = [
     "Analysis",
+    "AnyFamily",
     "Catalogue",
+    "Change3",
+    "D",
     "Driver",
     "Family",
+    "Help",
     "ItemKey",
+    "K",
+    "Option",
     "PlanShape",
     "Progress",
+    "Scheme",
     "Status",
+    "Words",
 ]
 
 #: ``progress(done, total)`` while reading everything (exchanges with the controller).
@@ -53,6 +70,16 @@ class ItemKey(Hashable, Protocol):
     def kind(self) -> str: ...
 
 
+#: The family's key type.
+K = TypeVar("K", bound=ItemKey)
+#: The family's data type (what a backup of one robot holds).
+D = TypeVar("D")
+
+#: One difference as the family is asked about it: ``(key, old, new)``, ``None``
+#: standing for an item one side does not have.
+Change3: TypeAlias = tuple[K, object, object]
+
+
 class Status(Protocol):
     """The interlock's answer: may a write go now, and if not, which signal says no."""
 
@@ -64,50 +91,64 @@ class Status(Protocol):
         ...
 
 
-class Driver(Protocol):
-    """One open robot, as the engine uses it."""
+def _text(value: object) -> str | None:
+    """An item's value as its files write it: ``.text`` when it has one, else str()."""
+    if value is None:
+        return None
+    text = getattr(value, "text", None)
+    return text if isinstance(text, str) else str(value)
+
+
+class Driver(ABC, Generic[K, D]):
+    """One open robot, as the engine uses it.
+
+    To implement: :meth:`read_all`, :meth:`status`, :meth:`read`, :meth:`write`
+    and :meth:`command`.  :meth:`unsafe` says True for every item unless told
+    otherwise (the safe default); :meth:`close` does nothing.
+    """
 
     #: Where the robot is, for messages: ``"port /dev/ttyUSB0 station 1"``.
-    label: str
+    label: str = "the robot"
 
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> Any:
+    @abstractmethod
+    def read_all(self, *, registers: bool, progress: Progress | None = None) -> D:
         """Everything the controller holds, as the family's data (runtime data only
         when ``registers``)."""
-        ...
 
+    @abstractmethod
     def status(self) -> Status:
         """The interlock state; ``Status.idle`` says whether writing is allowed."""
-        ...
 
-    def read(self, key: Any) -> Any:
+    @abstractmethod
+    def read(self, key: K) -> object:
         """The item's current value (``None`` for an empty one)."""
-        ...
 
-    def write(self, key: Any, value: Any, old: Any = None, *, needs_idle: bool = True) -> None:
+    @abstractmethod
+    def write(self, key: K, value: object, old: object = None, *, needs_idle: bool = True) -> None:
         """Write one item; ``old`` is what it holds now, if known.
 
         With ``needs_idle`` the write is never sent again (after a lost reply)
         unless the robot is then found idle; raises InterlockError instead.
         """
-        ...
 
-    def command(self, key: Any, value: Any) -> str:
+    @abstractmethod
+    def command(self, key: K, value: object) -> str:
         """The exact wire command that :meth:`write` sends, for plans and audits."""
-        ...
 
-    def unsafe(self, key: Any) -> bool:
-        """Whether writing this item is forbidden while the robot runs."""
-        ...
+    def unsafe(self, key: K) -> bool:
+        """Whether writing this item is forbidden while the robot runs (default: yes)."""
+        return True
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Close the line (default: nothing to close)."""
 
 
 @dataclass
-class PlanShape:
+class PlanShape(Generic[K]):
     """What the family decides about a plan: the writes wanted (key, old, new),
     unsorted, and why the rest cannot be written."""
 
-    wanted: list[tuple[Any, Any, Any]]
+    wanted: list[Change3[K]]
     #: differences no write can fix, each as a sentence
     unwritable: list[str] = field(default_factory=list)
     #: set when the plan holds a destructive reconfiguration: the refusal a push
@@ -120,136 +161,214 @@ class PlanShape:
     notes: list[str] = field(default_factory=list)
 
 
-class Catalogue(Protocol):
-    """The family's items: what they are, their names, their order, their fields."""
+class Catalogue(ABC, Generic[K, D]):
+    """The family's items: what they are, their names, their order, their fields.
+
+    To implement: :meth:`items`, :meth:`order` and :meth:`describe`.  The rest
+    has a default that speaks of items by their ``kind``; a family overrides
+    what it has better words for.
+    """
 
     #: Item kinds that ``--allow-live-tuning`` may write while the robot runs.
-    live_tuning: frozenset[str]
+    live_tuning: frozenset[str] = frozenset()
 
-    def items(self, data: Any, *, registers: bool) -> dict[Any, Any]:
+    @abstractmethod
+    def items(self, data: D, *, registers: bool) -> Mapping[K, object]:
         """Every item of ``data`` by key (empty items left out)."""
-        ...
 
-    def order(self, key: Any) -> tuple[Any, ...]:
+    @abstractmethod
+    def order(self, key: K) -> tuple[int | str, ...]:
         """Sort key: the safe order of a push."""
-        ...
 
-    def describe(self, key: Any) -> str:
+    @abstractmethod
+    def describe(self, key: K) -> str:
         """A person's name for an item: ``MAIN program 2 step 3``, ``position 12``."""
-        ...
 
-    def group(self, key: Any) -> str:
-        """The ``@@ group @@`` an item is shown under in a text diff."""
-        ...
+    def group(self, key: K) -> str:
+        """The ``@@ group @@`` an item is shown under in a text diff (default: its kind)."""
+        return key.kind
 
-    def label(self, key: Any, field: str) -> str:
-        """The line label of one field of an item in a text diff."""
-        ...
+    def label(self, key: K, field: str) -> str:
+        """The line label of one field of an item in a text diff (default: the
+        field, or the item's name for a value of one field)."""
+        return field or self.describe(key)
 
-    def fields(self, key: Any, old: Any, new: Any) -> list[tuple[str, str | None, str | None]]:
-        """The change field by field, ``(field, old text, new text)``, only what differs."""
-        ...
+    def fields(self, key: K, old: object, new: object) -> list[tuple[str, str | None, str | None]]:
+        """The change field by field, ``(field, old text, new text)``, only what
+        differs (default: the value as one field, as its ``.text`` or str())."""
+        before, after = _text(old), _text(new)
+        return [] if before == after else [("", before, after)]
 
-    def identity(self, key: Any) -> dict[str, Any]:
+    def identity(self, key: K) -> dict[str, object]:
         """The key as JSON fields (``kind`` and the rest by name)."""
-        ...
+        as_dict = getattr(key, "_asdict", None)
+        fields: dict[str, object] = dict(as_dict()) if callable(as_dict) else {}
+        fields.setdefault("kind", key.kind)
+        return fields
 
-    def counts(self, changes: Iterable[tuple[Any, Any, Any]]) -> dict[str, int]:
-        """How much changed, by the family's own units (programs, steps, positions...)."""
-        ...
+    def counts(self, changes: Iterable[Change3[K]]) -> dict[str, int]:
+        """How much changed, by the family's own units (default: items by kind)."""
+        return dict(Counter(key.kind for key, _, _ in changes))
 
-    def summary(self, changes: Iterable[tuple[Any, Any, Any]]) -> str:
+    def summary(self, changes: Iterable[Change3[K]]) -> str:
         """``"2 programs (5 steps), 1 table"``, or ``"no change"``."""
-        ...
+        counted = self.counts(changes)
+        return ", ".join(f"{n} {kind}{'s' * (n != 1)}" for kind, n in counted.items() if n) or (
+            "no change"
+        )
 
-    def version(self, data: Any) -> str:
-        """The controller's version text (fingerprinted, never compared)."""
-        ...
+    def version(self, data: D) -> str:
+        """The controller's version text (fingerprinted, never compared; default none)."""
+        return ""
 
-    def robot_identity(self, data: Any) -> dict[str, str]:
+    def robot_identity(self, data: D) -> dict[str, str]:
         """What tells this robot from another of its family, by a person's name for
         each part (``{"version": "5.00", "program configuration": "..."}``): a pull
         whose controller answers otherwise than the backup refuses (another robot on
-        the line, a wrong port or station) until told it is a new robot."""
-        ...
+        the line, a wrong port or station) until told it is a new robot.  Default:
+        the version, when there is one."""
+        version = self.version(data)
+        return {"version": version} if version else {}
 
-    def contents(self, data: Any, *, registers: bool) -> str:
+    def contents(self, data: D, *, registers: bool) -> str:
         """What ``data`` holds, in the family's words, for the line a pull or diff
-        ends with: ``"7 programs (120 steps used), 10 offset tables, 8 timers"``."""
-        ...
+        ends with: ``"7 programs (120 steps used), 10 offset tables, 8 timers"``.
+        Default: the items by kind."""
+        held = Counter(key.kind for key in self.items(data, registers=registers))
+        return ", ".join(f"{n} {kind}{'s' * (n != 1)}" for kind, n in held.items()) or "nothing"
 
     def plan(
-        self, live: Any, project: Any, changes: list[tuple[Any, Any, Any]], *, registers: bool
-    ) -> PlanShape:
-        """The writes that turn ``live`` into ``project`` given their differences."""
-        ...
+        self, live: D, project: D, changes: list[Change3[K]], *, registers: bool
+    ) -> PlanShape[K]:
+        """The writes that turn ``live`` into ``project`` given their differences
+        (default: every difference is one write of the project's value)."""
+        return PlanShape(wanted=list(changes))
 
 
 @dataclass
 class Analysis:
-    """What :meth:`Family.analyse` found: the robot and data when valid, and every issue."""
+    """What :meth:`Family.analyse` found: the robot and data when valid (the
+    family's data, handed back to it), and every issue."""
 
     robot: Robot | None = None
-    data: Any = None
+    data: object = None
     issues: list[Issue] = field(default_factory=list)
 
 
-class Family(Protocol):
-    """One controller family, as the registry hands it out."""
+@dataclass(frozen=True)
+class Option:
+    """A command-line option of the family's connection: ``--reset-function``.
+
+    Every command that opens a line offers it; :meth:`Family.connect` gets it as
+    the keyword ``name`` (given only when set), and a robot of another family
+    refuses it before anything is opened.
+    """
+
+    #: as :meth:`Family.connect` takes it: ``reset_function``
+    name: str
+    #: the ``--help`` text, which says which family it is for
+    help: str
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """A URL scheme of the family's own (``modbus://HOST[:PORT]``): the line lock
+    takes such a URL as the TCP endpoint it names, with ``default_port`` when it
+    names none, so one controller is one line whatever speaks to it."""
+
+    name: str
+    default_port: int
+    #: how ``--port`` help shows it: ``an Epson controller's Modbus TCP slave: modbus://HOST[:PORT]``
+    help: str
+
+
+@dataclass(frozen=True)
+class Help:
+    """What ``harlsync --help`` says of the family, a phrase per place (empty: nothing
+    to add there).  The command line shows each as ``<name>: <phrase>``."""
+
+    #: ``--station``: ``1-99, as set on the pendant``
+    stations: str = ""
+    #: what a pull reads: ``the position table``
+    pull: str = ""
+    #: the items a diff compares: ``position``
+    items: str = ""
+    #: runtime data (``--registers``): ``registers``, ``flags and variables``
+    runtime: str = ""
+    #: the commands a plan prints: ``SN commands``
+    commands: str = ""
+    #: the safe order of a push: ``configuration, parameters, tables, timers, programs``
+    order: str = ""
+    #: what stops a push: ``a program running, MANUAL, emergency stop``
+    busy: str = ""
+    #: what ``--allow-live-tuning`` writes while the robot runs
+    live_tuning: str = ""
+
+
+@dataclass(frozen=True)
+class Words:
+    """The family's words for its interlock, in the engine's messages."""
+
+    #: what the interlock reads: ``the task states``, ``the Remote Control status``
+    state: str = "the robot's state"
+
+
+class Family(ABC, Generic[K, D]):
+    """One controller family, as the registry hands it out.
+
+    To implement: :attr:`name`, :attr:`title`, :attr:`catalogue`, :meth:`analyse`,
+    :meth:`render_files`, :meth:`schemas` and :meth:`connect`; the rest has
+    defaults (no options, schemes or reconfiguration; decimal stations in
+    :attr:`stations`; the project's ``*.yaml`` files at its top).
+    """
 
     #: the name robot.yaml and ``--family`` use: ``harl-u2``, ``iai``
     name: str
     #: for people: ``Hirata HARL-U2``
     title: str
-    catalogue: Catalogue
+    catalogue: Catalogue[K, D]
     #: the project format version this harlsync reads and writes for the family
-    format: int
+    format: int = 1
     #: sub-directories of a project whose files the family manages
-    directories: tuple[str, ...]
+    directories: tuple[str, ...] = ()
     #: what a push's result and audit record must tell (e.g. positions not in flash)
-    deploy_notes: tuple[str, ...]
-    #: the options :meth:`connect` takes beyond port and station (Epson:
-    #: ``reset_function``); the engine refuses any other before connecting
-    connect_options: frozenset[str]
+    deploy_notes: tuple[str, ...] = ()
+    #: its options on the command line (see :class:`Option`)
+    options: tuple[Option, ...] = ()
+    #: its own URL schemes (see :class:`Scheme`)
+    schemes: tuple[Scheme, ...] = ()
+    #: its words for the interlock
+    words: Words = Words()
+    #: what ``--help`` says of it
+    help: Help = Help()
+    #: loggers of the libraries it uses, quiet below ``-vv`` (their lines repeat ours)
+    loggers: tuple[str, ...] = ()
+    #: the stations robot.yaml and ``--station`` allow, and the one a first pull takes
+    stations: range = range(1, 100)
+    default_station: int = 1
 
+    @property
+    def connect_options(self) -> frozenset[str]:
+        """The names of :attr:`options`: what :meth:`connect` takes beyond port and station."""
+        return frozenset(option.name for option in self.options)
+
+    @abstractmethod
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         """Read and check a project's files (path relative to the project -> content)."""
-        ...
 
-    def render_files(self, robot: Robot, data: Any) -> dict[str, str]:
+    @abstractmethod
+    def render_files(self, robot: Robot, data: D) -> dict[str, str]:
         """Every file of the project, by relative path, in a fixed order."""
-        ...
 
-    def data_problems(self, data: Any) -> list[str]:
-        """What is wrong with ``data`` that its files cannot show (checked before a save)."""
-        ...
-
-    def project_files(self, root: Path) -> list[str]:
-        """The relative paths under ``root`` that hold the project (robot.yaml first)."""
-        ...
-
-    def stale_files(
-        self, root: Path, texts: Mapping[str, str], robot: Robot, data: Any
-    ) -> list[str]:
-        """Managed files on disk that a save of ``texts`` must remove."""
-        ...
-
+    @abstractmethod
     def schemas(self) -> dict[str, str]:
         """Schema file name -> text, copied into each project's ``.schemas/``."""
-        ...
 
-    def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
-        """The robot.yaml of a first pull (the family's defaults)."""
-        ...
-
-    def parse_station(self, text: str) -> int:
-        """A station as a person gives it (``--station``).  Raises ValueError with the range."""
-        ...
-
-    def format_station(self, station: int) -> str:
-        """A station as the family's people write it (decimal, or hex for IAI)."""
-        ...
-
+    @abstractmethod
     def connect(
         self,
         robot: Robot,
@@ -257,8 +376,58 @@ class Family(Protocol):
         station: int | None,
         *,
         lock_timeout: float,
-        **options: Any,
-    ) -> Driver:
+        **options: bool,
+    ) -> Driver[K, D]:
         """Open the robot's line (``port``/``station`` override robot.yaml); ``options``
-        are some of :attr:`connect_options`."""
-        ...
+        are some of :attr:`connect_options`, each given when set."""
+
+    def data_problems(self, data: D) -> list[str]:
+        """What is wrong with ``data`` that its files cannot show (checked before a save)."""
+        return []
+
+    def project_files(self, root: Path) -> list[str]:
+        """The relative paths under ``root`` that hold the project (robot.yaml
+        first).  Default: the ``*.yaml`` files at the top and in :attr:`directories`."""
+        names = ["robot.yaml"] if (root / "robot.yaml").is_file() else []
+        for folder in ("", *self.directories):
+            where = root / folder
+            if where.is_dir():
+                names += sorted(
+                    f"{folder}/{p.name}" if folder else p.name
+                    for p in where.iterdir()
+                    if p.is_file() and p.suffix == ".yaml" and p.name != "robot.yaml"
+                )
+        return names
+
+    def stale_files(self, root: Path, texts: Mapping[str, str], robot: Robot, data: D) -> list[str]:
+        """Managed files on disk that a save of ``texts`` must remove (default: none)."""
+        return []
+
+    def new_robot(self, name: str, port: str, station: int | None, **fields: object) -> Robot:
+        """The robot.yaml of a first pull: the family's defaults, then ``fields``
+        (:class:`~harlsync.project.robot.Robot` fields)."""
+        robot = Robot(
+            family=self.name,
+            name=name,
+            port=port,
+            station=self.default_station if station is None else station,
+        )
+        return replace(robot, **cast(dict[str, Any], fields))
+
+    def parse_station(self, text: str) -> int:
+        """A station as a person gives it (``--station``).  Raises ValueError with
+        the range (default: decimal, in :attr:`stations`)."""
+        allowed = f"{self.stations.start}-{self.stations.stop - 1}"
+        if not (text.isascii() and text.isdigit()) or int(text) not in self.stations:
+            raise ValueError(f"{text!r} is not a station (allowed: {allowed})")
+        return int(text)
+
+    def format_station(self, station: int) -> str:
+        """A station as the family's people write it (default: decimal)."""
+        return str(station)
+
+
+#: A family whose key and data types are its own, as the registry hands it out.
+#: Python's typing has no existential type: this is the one place the family's
+#: types are let go, and the engine's functions are generic over them again.
+AnyFamily: TypeAlias = "Family[Any, Any]"

@@ -3,7 +3,7 @@
 pyserial's ``exclusive=True`` is advisory and device-only, so the link also holds
 an inter-process :class:`filelock.FileLock` named after the line (see
 :func:`lock_path`) for as long as it is open: processes that share a line
-(stations 1-4 on one HNC) never interleave frames.  A second harlsync waits for
+(several stations on one controller) never interleave frames.  A second harlsync waits for
 it up to its lock timeout, then fails with :class:`PortBusyError` naming the
 holder, whose pid and host sit in a file beside the lock::
 
@@ -20,6 +20,7 @@ import os
 import re
 import socket
 import stat
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -30,10 +31,11 @@ from ..errors import PortBusyError, PortError
 __all__ = [
     "DEFAULT_LOCK_TIMEOUT",
     "FALLBACK_LOCK_DIR",
-    "MODBUS_PORT",
     "SYSTEM_LOCK_DIRS",
     "LineLock",
+    "add_tcp_scheme",
     "default_lock_dir",
+    "find_schemes_with",
     "is_com_port",
     "lock_key",
     "lock_path",
@@ -48,8 +50,34 @@ log = logging.getLogger(__name__)
 DEFAULT_LOCK_TIMEOUT = 10.0
 
 _COM_RE = re.compile(r"(?:\\\\\.\\)?(COM\d+)", re.IGNORECASE)
-#: The Modbus TCP port of a ``modbus://`` URL that names none (the Modbus specification's).
-MODBUS_PORT = 502
+#: URL schemes of one TCP endpoint each, as pyserial has them: the port is in the URL.
+_SERIAL_TCP_SCHEMES = ("socket", "rfc2217")
+#: The families' own TCP schemes -> the port of a URL that names none: such a URL is
+#: the ``socket://`` line of its host and port (one controller, whatever speaks to it).
+_TCP_SCHEMES: dict[str, int] = {}
+#: Where the families' schemes come from (the registry's, handed over when it is
+#: imported: the link never imports a family).
+_find_schemes: Callable[[], Mapping[str, int]] | None = None
+
+
+def add_tcp_scheme(name: str, default_port: int) -> None:
+    """Take ``name://HOST[:PORT]`` URLs as the TCP endpoint they name, with
+    ``default_port`` when they name none."""
+    _TCP_SCHEMES[name.lower()] = default_port
+
+
+def find_schemes_with(finder: Callable[[], Mapping[str, int]]) -> None:
+    """Ask ``finder`` for every family's TCP schemes when a URL's scheme is unknown."""
+    global _find_schemes
+    _find_schemes = finder
+
+
+def _tcp_scheme(scheme: str) -> int | None:
+    """The default port of a family's TCP scheme, or None if it is none."""
+    if scheme not in _TCP_SCHEMES and _find_schemes is not None:
+        for name, port in _find_schemes().items():
+            add_tcp_scheme(name, port)
+    return _TCP_SCHEMES.get(scheme)
 
 
 #: Where the machine keeps lock files, in order of preference (FHS: ``/run/lock``,
@@ -132,10 +160,11 @@ def lock_key(url: str) -> str | None:
     Device paths resolve symlinks (``/dev/serial/by-id/...`` and ``/dev/ttyUSB0``
     are one line), ``COM3`` is upper-cased, ``spy://`` is the port it wraps,
     ``socket://`` and ``rfc2217://`` are host:port without options, the host
-    resolved (``localhost`` and ``127.0.0.1`` are one machine), ``modbus://`` is
-    the ``socket://`` line of its host:port (port 502 when it has none: one
-    harlsync per controller, whatever speaks to it), ``loop://`` is private to its
-    process (None), any other URL is taken as it is.
+    resolved (``localhost`` and ``127.0.0.1`` are one machine), a family's own
+    TCP scheme (:func:`add_tcp_scheme`) is the ``socket://`` line of its host:port
+    (the family's default port when it has none: one harlsync per controller,
+    whatever speaks to it), ``loop://`` is private to its process (None), any
+    other URL is taken as it is.
     """
     if "://" not in url:
         com = _COM_RE.fullmatch(url)
@@ -148,12 +177,13 @@ def lock_key(url: str) -> str | None:
         return None
     if scheme == "spy":
         return lock_key(parts.netloc + parts.path)
-    if scheme in ("socket", "rfc2217", "modbus"):
+    default_port = None if scheme in _SERIAL_TCP_SCHEMES else _tcp_scheme(scheme)
+    if scheme in _SERIAL_TCP_SCHEMES or default_port is not None:
         port = port_number(url)
-        if scheme == "modbus":
+        if default_port is not None:
             scheme = "socket"  # one TCP endpoint, one controller
             if port is None and ":" not in parts.netloc.rpartition("]")[2]:
-                port = MODBUS_PORT
+                port = default_port
         if port is None:  # not a port number: opening it will say so
             return f"{scheme}://{parts.netloc.lower()}"
         return f"{scheme}://{_host_key(parts.hostname or '')}:{port}"
@@ -161,8 +191,8 @@ def lock_key(url: str) -> str | None:
 
 
 def port_number(url: str) -> int | None:
-    """The TCP port of a ``socket://``, ``rfc2217://`` or ``modbus://`` URL, or None
-    if it has none."""
+    """The TCP port of a ``socket://`` or ``rfc2217://`` URL (or of a family's TCP
+    scheme), or None if it has none."""
     try:
         return urlsplit(url).port
     except ValueError:

@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 from datetime import datetime, time
 from typing import Any
 
-from ..families import DEFAULT
 from ..settings import SerialSettings
 
 __all__ = ["DAYS", "Robot", "Window", "new_robot"]
@@ -62,7 +61,8 @@ class Robot:
     windows: list[Window] = field(default_factory=list)
     keep_registers: bool = False
     description: str | None = None
-    family: str = DEFAULT
+    #: the family's name, as robot.yaml says it (empty: the registry's default family)
+    family: str = ""
     options: dict[str, Any] = field(default_factory=dict)
 
     def in_window(self, when: datetime) -> bool:

@@ -49,7 +49,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .. import families
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
 from . import yamlio
 from .files import SCHEMAS_DIR, newer_format
@@ -57,7 +56,7 @@ from .robot import Robot
 from .schema import Issue
 
 if TYPE_CHECKING:
-    from ..families.base import Family
+    from ..families.base import AnyFamily
 
 __all__ = [
     "LOCAL_DIR",
@@ -65,7 +64,9 @@ __all__ = [
     "Project",
     "disk_error",
     "edited_since_save",
+    "family_name",
     "family_of",
+    "find_families_with",
     "load_project",
     "load_robot",
     "read_project",
@@ -78,42 +79,75 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
+#: The family called by a name (None: the default): the registry's
+#: :func:`~harlsync.families.get`, handed over when the registry is imported (as
+#: the encodings package hands its search function to :mod:`codecs`), so that the
+#: project store never imports the registry.
+_find_family: Callable[[str | None], AnyFamily] | None = None
+
+
+def find_families_with(finder: Callable[[str | None], AnyFamily]) -> None:
+    """Find each project's family by name with ``finder`` (the registry's call)."""
+    global _find_family
+    _find_family = finder
+
+
+def _family(name: str | None) -> AnyFamily:
+    if _find_family is None:  # pragma: no cover - harlsync/__init__ imports the registry
+        raise ProjectError("no controller families are registered (import harlsync.families)")
+    return _find_family(name)
+
+
+def family_name(root: Path) -> tuple[str | None, int | None]:
+    """The family name robot.yaml gives under ``root``, and its line: the one
+    reader of ``family:``.  ``(None, None)`` when it gives none, or when the file
+    cannot be read (then the default family's reading of it says why)."""
+    try:
+        doc = yamlio.parse((root / "robot.yaml").read_bytes().decode("utf-8"))
+    except (OSError, ValueError, yamlio.YamlSyntaxError):
+        return None, None
+    name = doc.data.get("family") if isinstance(doc.data, dict) else None
+    if name is None:
+        return None, None
+    return str(name), doc.line(("family",))
+
+
+def family_of(root: Path) -> AnyFamily:
+    """The family of the project in ``root`` (see :func:`family_name`; none: the
+    default).  Raises ProjectFormatError, naming the file and line, for a family
+    harlsync does not know."""
+    name, line = family_name(root)
+    try:
+        return _family(name)
+    except ProjectError as exc:
+        raise ProjectFormatError(f"{root / 'robot.yaml'}:{line}: family: {exc}") from None
+
+
 @dataclass
 class Project:
-    """A robot project: where it lives, which robot, and what its memory holds
-    (the family's data: see :mod:`harlsync.families.base`)."""
+    """A robot project: where it lives, which robot, what its memory holds (the
+    family's data: see :mod:`harlsync.families.base`) and the family that reads it.
+
+    ``family`` left out is the one ``robot.family`` names.
+    """
 
     path: Path
     robot: Robot
     data: Any
+    family: AnyFamily = None  # type: ignore[assignment]  # filled in by __post_init__
 
-
-def family_of(root: Path) -> Family:
-    """The family a project's robot.yaml names (none, or no readable file: the default).
-
-    A robot.yaml that cannot be read is the default family's to report, as any
-    other issue of the file.  Raises ProjectError for a family harlsync does not know.
-    """
-    try:
-        doc = yamlio.parse((root / "robot.yaml").read_bytes().decode("utf-8"))
-    except (OSError, ValueError, yamlio.YamlSyntaxError):
-        return families.get(None)
-    name = doc.data.get("family") if isinstance(doc.data, dict) else None
-    if not isinstance(name, str):
-        return families.get(None)
-    try:
-        return families.get(name)
-    except ProjectError as exc:
-        line = doc.line(("family",))
-        raise ProjectFormatError(f"{root / 'robot.yaml'}:{line}: family: {exc}") from None
+    def __post_init__(self) -> None:
+        if self.family is None:
+            self.family = _family(self.robot.family)
 
 
 def _gather(
-    root: Path, *, robot_only: bool = False
-) -> tuple[Family, dict[str, bytes], list[Issue]]:
-    """The project's family and YAML files by relative path (``.schemas/`` is never read)."""
+    root: Path, family: AnyFamily | None, *, robot_only: bool = False
+) -> tuple[AnyFamily, dict[str, bytes], list[Issue]]:
+    """The project's family (``family``, or the one its robot.yaml names) and YAML
+    files by relative path (``.schemas/`` is never read)."""
     require_project(root)
-    family = family_of(root)
+    family = family or family_of(root)
     names = family.project_files(root)
     if robot_only:
         names = [name for name in names if name == "robot.yaml"]
@@ -143,32 +177,35 @@ def require_project(root: Path) -> None:
         )
 
 
-def validate_project(path: str | os.PathLike[str]) -> list[str]:
+def validate_project(path: str | os.PathLike[str], family: AnyFamily | None = None) -> list[str]:
     """Every issue of the project at ``path``, as ``file:line: field: message`` lines.
 
     An empty list means the project is valid.  Raises ProjectFormatError only when
     ``path`` is not a project directory (none, or no robot.yaml in it).
     """
-    family, files, problems = _gather(Path(path))
+    family, files, problems = _gather(Path(path), family)
     return [str(issue) for issue in problems + family.analyse(files).issues]
 
 
-def load_project(path: str | os.PathLike[str]) -> Project:
-    """Read the project at ``path``.
+def load_project(path: str | os.PathLike[str], family: AnyFamily | None = None) -> Project:
+    """Read the project at ``path``, of ``family`` (default: the one its robot.yaml
+    names).
 
     Raises ProjectFormatError when a file cannot be read (YAML syntax, a newer
     format, a missing file) and ProjectInvalid (carrying every issue) when the
     files break their schemas or the configuration.
     """
-    return read_project(path)[0]
+    return read_project(path, family)[0]
 
 
-def read_project(path: str | os.PathLike[str]) -> tuple[Project, dict[str, bytes]]:
+def read_project(
+    path: str | os.PathLike[str], family: AnyFamily | None = None
+) -> tuple[Project, dict[str, bytes]]:
     """Read the project at ``path``, as :func:`load_project` does, and return the
     exact bytes it was made from too: relative path -> content of every file read
     (what a push must find in the commit it names).  Raises as load_project."""
     root = Path(path)
-    family, files, problems = _gather(root)
+    family, files, problems = _gather(root, family)
     found = family.analyse(files)
     issues = problems + found.issues
     fatal = [str(i) for i in issues if i.fatal]
@@ -177,15 +214,15 @@ def read_project(path: str | os.PathLike[str]) -> tuple[Project, dict[str, bytes
         raise ProjectFormatError(fatal[0] + more)
     if issues or found.robot is None or found.data is None:
         raise ProjectInvalid([str(i) for i in issues])
-    return Project(root, found.robot, found.data), files
+    return Project(root, found.robot, found.data, family), files
 
 
-def load_robot(path: str | os.PathLike[str]) -> Robot:
+def load_robot(path: str | os.PathLike[str], family: AnyFamily | None = None) -> Robot:
     """Read only ``robot.yaml`` (enough to pull into a project that has nothing else).
 
     Raises ProjectFormatError or ProjectInvalid like :func:`load_project`.
     """
-    family, files, problems = _gather(Path(path), robot_only=True)
+    family, files, problems = _gather(Path(path), family, robot_only=True)
     found = family.analyse(files)
     issues = problems + [i for i in found.issues if i.file == "robot.yaml"]
     fatal = [i for i in issues if i.fatal]
@@ -214,7 +251,7 @@ def save_project(
     root = Path(path)
     if root.is_dir():
         recover(root)
-    family = families.get(project.robot.family)
+    family = project.family
     texts = family.render_files(project.robot, project.data)
     issues = family.data_problems(project.data)
     issues += [str(i) for i in family.analyse({k: v.encode() for k, v in texts.items()}).issues]
@@ -260,7 +297,7 @@ def _saved_record(files: dict[str, bytes]) -> bytes:
     return (json.dumps({"files": digests}, indent=1) + "\n").encode("utf-8")
 
 
-def _managed(name: str, family: Family) -> bool:
+def _managed(name: str, family: AnyFamily) -> bool:
     """Whether a save writes or removes the file ``name`` (relative to the project):
     the family's YAML files at the top or in its directories, and the schema copies."""
     folder = name.rpartition("/")[0]
@@ -269,7 +306,9 @@ def _managed(name: str, family: Family) -> bool:
     return name.endswith(".yaml") and (folder == "" or folder in family.directories)
 
 
-def edited_since_save(path: str | os.PathLike[str], names: Iterable[str]) -> list[str]:
+def edited_since_save(
+    path: str | os.PathLike[str], names: Iterable[str], family: AnyFamily | None = None
+) -> list[str]:
     """Those of ``names`` (files relative to the project) that are not as the last
     save left them: changed, made or removed by someone else since.
 
@@ -279,7 +318,7 @@ def edited_since_save(path: str | os.PathLike[str], names: Iterable[str]) -> lis
     harlsync does not manage, and every file when there is no readable record.
     """
     root = Path(path)
-    family = family_of(root)
+    family = family or family_of(root)
     try:
         record = json.loads((root / SAVED).read_bytes())["files"]
         if not isinstance(record, dict):
@@ -298,7 +337,7 @@ def edited_since_save(path: str | os.PathLike[str], names: Iterable[str]) -> lis
     return edited
 
 
-def _newer_format(root: Path, name: str, family: Family) -> str | None:
+def _newer_format(root: Path, name: str, family: AnyFamily) -> str | None:
     """Why the file ``name`` must not be overwritten: it has a newer format."""
     content = _current(root / name) if name.endswith(".yaml") else None
     issue = newer_format(name, content, family.format) if content else None

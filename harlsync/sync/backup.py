@@ -29,13 +29,12 @@ from typing import Any, Protocol
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..families.base import Progress
 from ..link import lock_key
-from ..project import load_robot
+from ..project import family_of, load_robot
 from ..project.lock import project_lock
 from ..project.store import replace_file
 from ..robotlog import about
 from . import git, history
 from .items import summarize
-from .live import catalogue
 from .pulling import pull
 
 __all__ = [
@@ -229,13 +228,14 @@ def _pull_one(
 ) -> RobotOutcome:
     start = time.monotonic()
     try:
-        robot = load_robot(path)
+        family = family_of(path)
+        robot = load_robot(path, family)
     except HarlsyncError as exc:
         return RobotOutcome(path.name, str(path), "?", 0, error=str(exc))
     outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
     for attempt in range(1, attempts + 1):
         try:
-            result = pull(path, lock_timeout=lock_timeout, progress=progress)
+            result = pull(path, lock_timeout=lock_timeout, progress=progress, family=family)
         except _Stopped:
             raise
         except LinkError as exc:  # the line may recover: try again, bounded
@@ -255,7 +255,7 @@ def _pull_one(
         outcome.ok, outcome.error = True, None
         outcome.changed = result.changed
         outcome.summary = result.summary
-        outcome.counts = summarize(catalogue(robot), result.changes or [])
+        outcome.counts = summarize(family.catalogue, result.changes or [])
         break
     outcome.duration = time.monotonic() - start
     return outcome

@@ -11,7 +11,7 @@ from typing import Any
 from ..families.base import Driver, Progress
 from ..project import Project, load_project
 from .items import Change, diff
-from .live import Station, catalogue, read_live, station_number
+from .live import Station, read_live, station_number
 from .plan import Plan, make_plan
 
 __all__ = ["Comparison", "compare", "plan"]
@@ -23,9 +23,9 @@ class Comparison:
     the robot and builds its commands."""
 
     project: Project
-    driver: Driver
+    driver: Driver[Any, Any]
     live: Any
-    changes: list[Change]
+    changes: list[Change[Any]]
     #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
     warnings: list[str] = field(default_factory=list)
     #: With ``idle_check``, when the robot is not idle: why a push would be refused now.
@@ -39,10 +39,10 @@ class Comparison:
     def target(self) -> str:
         return self.driver.label
 
-    def plan(self) -> Plan:
+    def plan(self) -> Plan[Any]:
         """The plan a push would carry out, from this comparison."""
         return make_plan(
-            catalogue(self.project.robot),
+            self.project.family.catalogue,
             self.live,
             self.project.data,
             self.driver,
@@ -60,13 +60,14 @@ def compare(
     registers: bool = False,
     lock_timeout: float = 10.0,
     idle_check: bool = False,
-    connect_options: Mapping[str, Any] | None = None,
+    connect_options: Mapping[str, bool] | None = None,
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item; with
     ``idle_check`` also say whether a push would be refused now (robot not idle)."""
     project = load_project(path)
-    station = station_number(project.robot.family, station)
+    station = station_number(project.family, station)
     read = read_live(
+        project.family,
         project.robot,
         port,
         station,
@@ -76,7 +77,7 @@ def compare(
         idle_check=idle_check,
         options=connect_options,
     )
-    things = catalogue(project.robot)
+    things = project.family.catalogue
     changes = diff(things, read.live, project.data, registers=registers)
     return Comparison(
         project,
@@ -98,8 +99,8 @@ def plan(
     progress: Progress | None = None,
     registers: bool = False,
     lock_timeout: float = 10.0,
-    connect_options: Mapping[str, Any] | None = None,
-) -> Plan:
+    connect_options: Mapping[str, bool] | None = None,
+) -> Plan[Any]:
     """The plan a push would carry out now; sends no write."""
     return compare(
         path,

@@ -38,7 +38,6 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from .. import families
 from ..errors import (
     HarlsyncError,
     InterlockError,
@@ -51,12 +50,12 @@ from ..errors import (
     SyncError,
     VerifyError,
 )
-from ..families.base import Driver, Progress
+from ..families.base import AnyFamily, Driver, Progress, Words
 from ..project import Project, Robot, load_project
 from ..project.lock import holding_project
 from ..project.store import read_project
 from . import audit, git
-from .live import Station, catalogue, connect, station_number, unfinished_pushes
+from .live import Station, connect, station_number, unfinished_pushes
 from .plan import Plan, PlannedWrite, make_plan
 from .policy import check_committed
 from .snapshots import save_snapshot, snapshots
@@ -73,7 +72,7 @@ class PushOptions:
     yes: bool = False
     #: Asks a person to confirm the plan; without it and without ``yes`` the push is
     #: refused before the robot is read.
-    confirm: Callable[[Plan], bool] | None = None
+    confirm: Callable[[Plan[Any]], bool] | None = None
     reason: str | None = None
     allow_dirty: bool = False
     outside_window: str | None = None
@@ -85,17 +84,17 @@ class PushOptions:
     now: datetime | None = None
     progress: Progress | None = None
     #: the connection's family options (see :func:`connect`): ``reset_function``
-    connect_options: Mapping[str, Any] = field(default_factory=dict)
+    connect_options: Mapping[str, bool] = field(default_factory=dict)
 
 
 @dataclass
 class PushResult:
     """What a push did: the plan, what was written, and what was not."""
 
-    plan: Plan | None = None
-    written: list[PlannedWrite] = field(default_factory=list)
-    not_written: list[PlannedWrite] = field(default_factory=list)
-    failed: PlannedWrite | None = None
+    plan: Plan[Any] | None = None
+    written: list[PlannedWrite[Any]] = field(default_factory=list)
+    not_written: list[PlannedWrite[Any]] = field(default_factory=list)
+    failed: PlannedWrite[Any] | None = None
     error: str | None = None
     snapshot: Path | None = None
     audit_log: Path | None = None
@@ -139,8 +138,9 @@ def _no_answer(exc: HarlsyncError) -> bool:
     return isinstance(exc, PortError | PortBusyError)
 
 
-def _interlock(driver: Driver, robot: Robot, before: str) -> None:
-    """Raise InterlockError unless LNR shows every task known and idle.
+def _interlock(driver: Driver[Any, Any], robot: Robot, words: Words, before: str) -> None:
+    """Raise InterlockError unless the robot's status (``words.state``, in the
+    family's words) shows it idle.
 
     When no robot answers at all the link's own error goes through (exit 2, like
     diff and pull): nothing can be written either way, and "refused for safety"
@@ -152,7 +152,7 @@ def _interlock(driver: Driver, robot: Robot, before: str) -> None:
         if _no_answer(exc):
             raise
         raise InterlockError(
-            f"robot {robot.name} ({driver.label}): cannot read the task states before "
+            f"robot {robot.name} ({driver.label}): cannot read {words.state} before "
             f"{before} ({exc}); not writing"
         ) from exc
     if not status.idle:
@@ -171,7 +171,8 @@ def run(
     station: Station,
 ) -> PushResult:
     robot = project.robot
-    station = station_number(robot.family, station)
+    family = project.family
+    station = station_number(family, station)
     _check_audit_log()
     result = PushResult()
     record = audit.base_record(action)
@@ -186,7 +187,7 @@ def run(
         reason=opts.reason,
         outside_window=opts.outside_window,
     )
-    driver: Driver | None = None
+    driver: Driver[Any, Any] | None = None
     try:
         if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
             review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
@@ -196,14 +197,19 @@ def run(
             )
         _check_window(robot, opts)
         driver = connect(
-            robot, port, station, lock_timeout=opts.lock_timeout, options=opts.connect_options
+            family,
+            robot,
+            port,
+            station,
+            lock_timeout=opts.lock_timeout,
+            options=opts.connect_options,
         )
         result.warnings = unfinished_pushes(robot, port, station)
         if not opts.allow_live_tuning:
-            _interlock(driver, robot, "reading the robot")
+            _interlock(driver, robot, family.words, "reading the robot")
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
         result.plan = the_plan = make_plan(
-            catalogue(robot), live, target, driver, robot=robot.name, registers=opts.registers
+            family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
         )
         record["plan"] = the_plan.commands
         _check_plan(the_plan, opts)
@@ -216,6 +222,7 @@ def run(
         record["snapshot"] = str(result.snapshot)
         _journal(dict(record, event="start"))
         _write_all(
+            family,
             driver,
             robot,
             the_plan,
@@ -267,7 +274,7 @@ def run(
             record["warnings"] = result.warnings
         if result.written or result.failed is not None:
             planned = result.plan.notes if result.plan is not None else []
-            result.notes = [*planned, *families.get(robot.family).deploy_notes]
+            result.notes = [*planned, *family.deploy_notes]
             if result.notes:
                 record["notes"] = result.notes
         if driver is not None:
@@ -313,7 +320,7 @@ def _show(value: Any) -> Any:
     return getattr(value, "text", None) or repr(value)
 
 
-def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
+def _check_plan(the_plan: Plan[Any], opts: PushOptions) -> None:
     if opts.plan_file is not None:
         saved = Plan.load_saved(opts.plan_file)
         if saved["live_fingerprint"] != the_plan.live_fingerprint:
@@ -333,22 +340,23 @@ def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
 
 
 def _write_all(
-    driver: Driver,
+    family: AnyFamily,
+    driver: Driver[Any, Any],
     robot: Robot,
-    the_plan: Plan,
+    the_plan: Plan[Any],
     opts: PushOptions,
     result: PushResult,
-    announce: Callable[[PlannedWrite], None],
+    announce: Callable[[PlannedWrite[Any]], None],
 ) -> None:
-    tunable = catalogue(robot).live_tuning
+    tunable = family.catalogue.live_tuning
 
-    def live(write: PlannedWrite) -> bool:
+    def live(write: PlannedWrite[Any]) -> bool:
         return opts.allow_live_tuning and write.key.kind in tunable and not write.unsafe
 
     if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
         # Live tuning covers timers and tables only: a plan that also holds any
         # other write needs an idle robot before its first write of any kind.
-        _interlock(driver, robot, f"the first write ({the_plan.writes[0].command})")
+        _interlock(driver, robot, family.words, f"the first write ({the_plan.writes[0].command})")
     for write in the_plan.writes:
         now = driver.read(write.key)
         if now != write.old:
@@ -361,7 +369,7 @@ def _write_all(
         announce(write)  # before the interlock: nothing between LNR and the write
         if not live(write):
             try:
-                _interlock(driver, robot, f"writing {write.name} ({write.command})")
+                _interlock(driver, robot, family.words, f"writing {write.name} ({write.command})")
             except InterlockError as exc:
                 raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
         result.failed = write
@@ -382,7 +390,7 @@ def _write_all(
         try:
             status = driver.status()
         except HarlsyncError as exc:
-            result.warnings.append(f"cannot read the task states after the last write ({exc})")
+            result.warnings.append(f"cannot read {family.words.state} after the last write ({exc})")
             return
         if not status.idle:
             result.warnings.append(
@@ -391,12 +399,14 @@ def _write_all(
             )
 
 
-def _last_guarded(result: PushResult, live: Callable[[PlannedWrite], bool]) -> PlannedWrite | None:
+def _last_guarded(
+    result: PushResult, live: Callable[[PlannedWrite[Any]], bool]
+) -> PlannedWrite[Any] | None:
     """The last write made that needed an idle robot (the last one LNR cleared)."""
     return next((w for w in reversed(result.written) if not live(w)), None)
 
 
-def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite], bool]) -> str:
+def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite[Any]], bool]) -> str:
     """What an operator must check when the robot turned out started mid-push."""
     last = _last_guarded(result, live)
     if last is None:
@@ -422,7 +432,7 @@ def push(
     """
     try:
         project, files = read_project(path)
-        station = station_number(project.robot.family, station)
+        station = station_number(project.family, station)
         if not opts.allow_dirty:
             check_committed(Path(path), files)
     except HarlsyncError as exc:
@@ -461,10 +471,10 @@ def rollback(
     again still restores the state before the last push, never the rollback's.
     """
     project = load_project(path)
-    station = station_number(project.robot.family, station)
+    station = station_number(project.family, station)
     taken = snapshots(path)
     chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
     if chosen is None:
         raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
-    saved = load_project(chosen)
+    saved = load_project(chosen, project.family)
     return run("rollback", project, saved.data, opts, port, station)

@@ -5,13 +5,21 @@ and plan (:mod:`.comparison`), push and rollback (:mod:`.deploy`), snapshots
 
 from __future__ import annotations
 
-from ..project import load_project, load_robot
-from . import git
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from .. import families
+from ..families.base import AnyFamily, Catalogue, Driver
+from ..project import Robot, load_project, load_robot
+from . import git, pulling
 from .comparison import Comparison, compare, plan
 from .deploy import PushFailed, PushOptions, PushResult, push, rollback
 from .deploy import run as _deploy
-from .live import LiveRead, Station, catalogue, connect, read_live, station_number
-from .pulling import PullResult, change_summary, pull
+from .live import LiveRead, Station, read_live
+from .live import connect as connect_family
+from .live import station_number as family_station_number
+from .pulling import PullResult, change_summary
 from .snapshots import SNAPSHOT_DIR, Snapshot, all_snapshots, snapshots
 
 __all__ = [
@@ -41,3 +49,35 @@ __all__ = [
     "snapshots",
     "station_number",
 ]
+
+
+def catalogue(robot: Robot) -> Catalogue[Any, Any]:
+    """The items of the robot's family."""
+    return families.get(robot.family).catalogue
+
+
+def connect(
+    robot: Robot,
+    port: str | None = None,
+    station: int | None = None,
+    *,
+    lock_timeout: float = 10.0,
+    options: Mapping[str, bool] | None = None,
+) -> Driver[Any, Any]:
+    """Open the line of a robot of the family it names (see :func:`.live.connect`);
+    an option its family does not take is refused naming the families that do."""
+    family = families.get(robot.family)
+    families.refuse_options(family, options or {})
+    return connect_family(family, robot, port, station, lock_timeout=lock_timeout, options=options)
+
+
+def station_number(family: str | AnyFamily | None, station: Station) -> int | None:
+    """``station`` read by the family (by name or object): see :func:`.live.station_number`."""
+    found = family if not isinstance(family, str | None) else families.get(family)
+    return family_station_number(found, station)
+
+
+def pull(path: str | Path, *, family: str | AnyFamily | None = None, **options: Any) -> PullResult:
+    """:func:`.pulling.pull`, with ``family`` given by name too (``"iai"``)."""
+    found = families.get(family) if isinstance(family, str) else family
+    return pulling.pull(path, family=found, **options)

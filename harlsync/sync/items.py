@@ -17,21 +17,21 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Generic
 
-from ..families.base import Catalogue
+from ..families.base import Catalogue, Change3, D, K
 
 __all__ = ["Change", "diff", "render_text", "summarize", "to_json"]
 
 
 @dataclass(frozen=True)
-class Change:
+class Change(Generic[K]):
     """One item that differs: ``old`` is what the robot holds, ``new`` what the project says."""
 
-    key: Any
-    old: Any
-    new: Any
-    catalogue: Catalogue = field(compare=False, repr=False)
+    key: K
+    old: object
+    new: object
+    catalogue: Catalogue[K, Any] = field(compare=False, repr=False)
 
     @property
     def name(self) -> str:
@@ -42,7 +42,9 @@ class Change:
         return self.catalogue.fields(self.key, self.old, self.new)
 
 
-def diff(catalogue: Catalogue, live: Any, project: Any, *, registers: bool = False) -> list[Change]:
+def diff(
+    catalogue: Catalogue[K, D], live: D, project: D, *, registers: bool = False
+) -> list[Change[K]]:
     """Every item that differs between the robot and the project, in push order.
 
     Runtime data (registers, variables) is compared only when asked.
@@ -53,31 +55,31 @@ def diff(catalogue: Catalogue, live: Any, project: Any, *, registers: bool = Fal
     return [Change(k, a.get(k), b.get(k), catalogue) for k in keys if a.get(k) != b.get(k)]
 
 
-def _triples(changes: Iterable[Change]) -> list[tuple[Any, Any, Any]]:
+def _triples(changes: Iterable[Change[K]]) -> list[Change3[K]]:
     return [(c.key, c.old, c.new) for c in changes]
 
 
-def summarize(catalogue: Catalogue, changes: Iterable[Change]) -> dict[str, int]:
+def summarize(catalogue: Catalogue[K, Any], changes: Iterable[Change[K]]) -> dict[str, int]:
     """How much changed, in the family's units."""
     return catalogue.counts(_triples(changes))
 
 
-def change_summary(catalogue: Catalogue, changes: Iterable[Change]) -> str:
+def change_summary(catalogue: Catalogue[K, Any], changes: Iterable[Change[K]]) -> str:
     """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
     return catalogue.summary(_triples(changes))
 
 
-def to_json(change: Change) -> dict[str, Any]:
+def to_json(change: Change[K]) -> dict[str, object]:
     """A change as plain JSON data: identity fields, then old and new per field."""
     identity = change.catalogue.identity(change.key)
-    ident: dict[str, Any] = {"kind": identity.pop("kind"), "item": change.name, **identity}
+    ident: dict[str, object] = {"kind": identity.pop("kind"), "item": change.name, **identity}
     ident["fields"] = [
         {"field": f or None, "old": old, "new": new} for f, old, new in change.fields()
     ]
     return ident
 
 
-def render_text(changes: list[Change], old_label: str, new_label: str) -> str:
+def render_text(changes: list[Change[K]], old_label: str, new_label: str) -> str:
     """The changes as a unified-diff-like text: ``-`` the robot, ``+`` the project."""
     lines = [f"--- {old_label}", f"+++ {new_label}"]
     group = None

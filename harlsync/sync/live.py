@@ -4,18 +4,17 @@ say what the audit log knows of earlier pushes to it."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, NamedTuple
+from dataclasses import dataclass
+from typing import Generic
 
-from .. import families
 from ..errors import HarlsyncError, ProjectError
-from ..families.base import Catalogue, Driver, Progress
+from ..families.base import AnyFamily, D, Driver, Family, K, Progress
 from ..project import Robot
 from . import audit
 
 __all__ = [
     "LiveRead",
     "Station",
-    "catalogue",
     "connect",
     "read_live",
     "station_number",
@@ -24,63 +23,56 @@ __all__ = [
 
 
 def connect(
+    family: Family[K, D],
     robot: Robot,
     port: str | None = None,
     station: int | None = None,
     *,
     lock_timeout: float = 10.0,
-    options: Mapping[str, Any] | None = None,
-) -> Driver:
+    options: Mapping[str, bool] | None = None,
+) -> Driver[K, D]:
     """Open the robot's line (``port``/``station`` override the robot file).
 
-    ``options`` are family options of the connection (``reset_function``), each
-    given when true.  Raises ProjectError, before anything is opened, for one the
-    robot's family does not take.
+    ``options`` are the family's options of the connection (:attr:`Family.options`),
+    each given when set.  Raises ProjectError, before anything is opened, for one
+    the family does not take.
     """
-    family = families.get(robot.family)
     given = {name: value for name, value in (options or {}).items() if value}
     for name in sorted(set(given) - family.connect_options):
-        takers = [n for n in families.names() if name in families.get(n).connect_options]
         raise ProjectError(
-            f"--{name.replace('_', '-')}: the {family.name} family has no such option "
-            f"(only {', '.join(takers) or 'no family'}); leave it out"
+            f"--{name.replace('_', '-')}: the {family.name} family has no such option; leave it out"
         )
     return family.connect(robot, port, station, lock_timeout=lock_timeout, **given)
 
 
-def catalogue(robot: Robot) -> Catalogue:
-    """The robot's family's items."""
-    return families.get(robot.family).catalogue
-
-
-#: A station as the command line gives it (text, read by the robot's family: hex for
-#: IAI), as a library caller gives it (a number), or none (robot.yaml's).
+#: A station as the command line gives it (text, read by the robot's family, in
+#: its notation), as a library caller gives it (a number), or none (robot.yaml's).
 Station = int | str | None
 
 
-def station_number(family: str | None, station: Station) -> int | None:
-    """``station`` as a number; text is read by the family (``"99"`` is 0x99 for IAI),
-    and a number must be in the family's range too.  Raises ProjectError naming the
+def station_number(family: AnyFamily, station: Station) -> int | None:
+    """``station`` as a number; text is read by the family (its notation), and a
+    number must be in the family's range too.  Raises ProjectError naming the
     range, as robot.yaml's check does."""
     if station is None:
         return None
-    the_family = families.get(family)
-    text = station if isinstance(station, str) else the_family.format_station(station)
+    text = station if isinstance(station, str) else family.format_station(station)
     try:
-        return the_family.parse_station(text)
+        return family.parse_station(text)
     except ValueError as exc:
         raise ProjectError(
             f"--station: {exc}" if isinstance(station, str) else f"station: {exc}"
         ) from None
 
 
-class LiveRead(NamedTuple):
+@dataclass(frozen=True)
+class LiveRead(Generic[K, D]):
     """What :func:`read_live` found."""
 
     #: closed: it still names the robot and builds commands
-    driver: Driver
+    driver: Driver[K, D]
     #: everything the robot holds, as the family's data
-    live: Any
+    live: D
     #: a warning for each earlier push to it that did not finish
     warnings: list[str]
     #: when asked and the robot is not idle: why a push would be refused now
@@ -88,6 +80,7 @@ class LiveRead(NamedTuple):
 
 
 def read_live(
+    family: Family[K, D],
     robot: Robot,
     port: str | None,
     station: int | None,
@@ -96,12 +89,12 @@ def read_live(
     progress: Progress | None,
     lock_timeout: float,
     idle_check: bool = False,
-    options: Mapping[str, Any] | None = None,
-) -> LiveRead:
+    options: Mapping[str, bool] | None = None,
+) -> LiveRead[K, D]:
     """Everything the robot holds, read over a line opened and closed for it; with
     ``idle_check`` its state after the read too (what the interlock reads).
     ``options`` are the connection's (see :func:`connect`)."""
-    driver = connect(robot, port, station, lock_timeout=lock_timeout, options=options)
+    driver = connect(family, robot, port, station, lock_timeout=lock_timeout, options=options)
     try:
         warnings = unfinished_pushes(robot, port, station)
         live = driver.read_all(registers=registers, progress=progress)
@@ -110,7 +103,7 @@ def read_live(
         driver.close()
 
 
-def _busy(driver: Driver) -> str | None:
+def _busy(driver: Driver[K, D]) -> str | None:
     """Why the interlock would refuse a write now (None: the robot is idle)."""
     try:
         status = driver.status()

@@ -18,10 +18,10 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic
 
 from ..errors import ProjectFormatError
-from ..families.base import Catalogue, Driver
+from ..families.base import Catalogue, D, Driver, K
 from .items import Change, diff
 
 __all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "fingerprint", "make_plan"]
@@ -30,12 +30,12 @@ PLAN_FORMAT = 1
 
 
 @dataclass(frozen=True)
-class PlannedWrite:
+class PlannedWrite(Generic[K]):
     """One write: the item, what the robot holds, what it will hold, the wire command."""
 
-    key: Any
-    old: Any
-    new: Any
+    key: K
+    old: object
+    new: object
     command: str
     unsafe: bool
     #: the item's name for people: ``MAIN program 2 step 3``
@@ -43,15 +43,15 @@ class PlannedWrite:
 
 
 @dataclass
-class Plan:
+class Plan(Generic[K]):
     """What a push would do to one robot."""
 
     robot: str
     target: str
     live_fingerprint: str
     project_fingerprint: str
-    changes: list[Change]
-    writes: list[PlannedWrite]
+    changes: list[Change[K]]
+    writes: list[PlannedWrite[K]]
     #: The refusal a push of this plan gives without --allow-reconfigure, when the
     #: plan holds a destructive reconfiguration (and the line a printed plan starts with).
     reconfiguration: str | None = None
@@ -102,7 +102,7 @@ class Plan:
         return data
 
 
-def _canonical(value: Any) -> Any:
+def _canonical(value: object) -> object:
     if hasattr(value, "__dataclass_fields__"):
         return {k: _canonical(getattr(value, k)) for k in value.__dataclass_fields__}
     if isinstance(value, tuple | list):
@@ -110,10 +110,10 @@ def _canonical(value: Any) -> Any:
     return value
 
 
-def fingerprint(catalogue: Catalogue, data: Any, *, registers: bool = False) -> str:
+def fingerprint(catalogue: Catalogue[K, D], data: D, *, registers: bool = False) -> str:
     """A hash of every item (and the version), stable across runs and machines."""
     flat = sorted(
-        (json.dumps(list(k)), _canonical(v))
+        (json.dumps(_canonical(k)), _canonical(v))
         for k, v in catalogue.items(data, registers=registers).items()
     )
     text = json.dumps([catalogue.version(data), flat], sort_keys=True, separators=(",", ":"))
@@ -121,14 +121,14 @@ def fingerprint(catalogue: Catalogue, data: Any, *, registers: bool = False) -> 
 
 
 def make_plan(
-    catalogue: Catalogue,
-    live: Any,
-    project: Any,
-    driver: Driver,
+    catalogue: Catalogue[K, D],
+    live: D,
+    project: D,
+    driver: Driver[K, D],
     *,
     robot: str,
     registers: bool = False,
-) -> Plan:
+) -> Plan[K]:
     """The writes that turn ``live`` into ``project``, in the safe order."""
     changes = diff(catalogue, live, project, registers=registers)
     shape = catalogue.plan(

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import PolicyError
+from ..families.base import AnyFamily
 from ..project.store import edited_since_save
 from . import git
 
@@ -22,7 +23,7 @@ def listed(files: list[str]) -> str:
     return ", ".join(files[:3]) + (", ..." if len(files) > 3 else "")
 
 
-def earlier_pull_and_edits(path: Path) -> tuple[list[str], str]:
+def earlier_pull_and_edits(path: Path, family: AnyFamily) -> tuple[list[str], str]:
     """What a pull finds uncommitted under ``path`` (robot.yaml aside, which it never
     rewrites): the files an earlier pull saved and nobody touched since, and the
     others, for a message ('' when none).
@@ -37,7 +38,7 @@ def earlier_pull_and_edits(path: Path) -> tuple[list[str], str]:
     if not dirty or top is None:
         return [], ""
     inside = {f: (top / f).relative_to(path.resolve()).as_posix() for f in dirty}
-    edited = set(edited_since_save(path, inside.values()))
+    edited = set(edited_since_save(path, inside.values(), family))
     return (
         [name for name in inside.values() if name not in edited],
         listed([f for f, name in inside.items() if name in edited]),

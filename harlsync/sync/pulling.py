@@ -8,14 +8,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .. import families
 from ..errors import PolicyError, ProjectError
-from ..families.base import Catalogue, Progress
+from ..families.base import AnyFamily, Catalogue, Progress
 from ..project import Project, Robot, load_project, load_robot, save_project
 from ..project.lock import holding_project
+from ..project.store import family_of
 from . import git, history
 from .items import Change, diff
-from .live import Station, catalogue, read_live, station_number
+from .live import Station, read_live, station_number
 from .policy import earlier_pull_and_edits, listed
 
 __all__ = ["FEW_ITEMS", "MOST", "PullResult", "change_summary", "pull"]
@@ -25,7 +25,7 @@ __all__ = ["FEW_ITEMS", "MOST", "PullResult", "change_summary", "pull"]
 class PullResult:
     path: Path
     robot: Robot
-    changes: list[Change] | None  # None: there was no valid previous backup
+    changes: list[Change[Any]] | None  # None: there was no valid previous backup
     commit: str | None = None
     #: Files an earlier pull saved and nobody touched since, still uncommitted (its
     #: commit failed or was killed): this pull's save and commit take them over.
@@ -47,20 +47,26 @@ class PullResult:
         return said
 
 
-def _robot_for(path: Path, port: str | None, station: Station, family: str | None) -> Robot:
+def _robot_for(
+    path: Path, port: str | None, station: Station, family: AnyFamily | None
+) -> tuple[AnyFamily, Robot]:
+    """The project's family and robot: robot.yaml's, or a first pull's (``family``,
+    by default the default family)."""
     if (path / "robot.yaml").exists():
-        robot = load_robot(path)
-        if family is not None and family != robot.family:
+        found = family_of(path)
+        if family is not None and family.name != found.name:
             raise ProjectError(
-                f"{path / 'robot.yaml'}: the robot is of family {robot.family}, not {family}; "
-                "drop --family (it is only for a first pull) or pull into another directory"
+                f"{path / 'robot.yaml'}: the robot is of family {found.name}, not "
+                f"{family.name}; drop --family (it is only for a first pull) or pull "
+                "into another directory"
             )
-        return robot
+        return found, load_robot(path, found)
     if not port:
         raise ProjectError(
             f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
         )
-    return families.get(family).new_robot(
+    family = family or family_of(path)
+    return family, family.new_robot(
         path.resolve().name, _absolute_sim_path(port), station_number(family, station)
     )
 
@@ -86,9 +92,9 @@ def pull(
     progress: Progress | None = None,
     lock_timeout: float = 10.0,
     allow_dirty: bool = False,
-    family: str | None = None,
+    family: AnyFamily | None = None,
     new_robot: bool = False,
-    connect_options: Mapping[str, Any] | None = None,
+    connect_options: Mapping[str, bool] | None = None,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
@@ -102,19 +108,21 @@ def pull(
     refused unless ``allow_dirty``: the pull would overwrite them.  Files an
     earlier pull saved, untouched since, are not edits: this pull takes them over
     (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
-    names the controller family of a first pull (default: HARL-U2);
+    is the controller family of a first pull (default: the registry's default);
     ``connect_options`` are the connection's (see :func:`connect`).
     """
     path = Path(path)
-    robot = _robot_for(path, port, station, family)
-    station = station_number(robot.family, station)
-    earlier, dirty = ([], "") if allow_dirty else earlier_pull_and_edits(path)
+    family, robot = _robot_for(path, port, station, family)
+    station = station_number(family, station)
+    things = family.catalogue
+    earlier, dirty = ([], "") if allow_dirty else earlier_pull_and_edits(path, family)
     if dirty:
         raise PolicyError(
             f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
             f"commit or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
         )
     read = read_live(
+        family,
         robot,
         port,
         station,
@@ -125,23 +133,21 @@ def pull(
     )
     live = read.live
     try:  # after the read: the first request need not wait for it (issue 15)
-        previous: Any = load_project(path).data
+        previous: Any = load_project(path, family).data
     except ProjectError:
         previous = None
     if previous is not None and not new_robot:
-        _same_robot(path, catalogue(robot), previous, live, read.driver.label)
-    save_project(path, Project(path, robot, live))
+        _same_robot(path, things, previous, live, read.driver.label)
+    save_project(path, Project(path, robot, live, family))
     changes = (
-        None
-        if previous is None
-        else diff(catalogue(robot), previous, live, registers=robot.keep_registers)
+        None if previous is None else diff(things, previous, live, registers=robot.keep_registers)
     )
     result = PullResult(
         path,
         robot,
         changes,
         earlier=earlier,
-        contents=catalogue(robot).contents(live, registers=robot.keep_registers),
+        contents=things.contents(live, registers=robot.keep_registers),
     )
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
@@ -160,7 +166,9 @@ MOST = 0.5
 FEW_ITEMS = 10
 
 
-def _same_robot(path: Path, things: Catalogue, backup: Any, live: Any, where: str) -> None:
+def _same_robot(
+    path: Path, things: Catalogue[Any, Any], backup: Any, live: Any, where: str
+) -> None:
     """Raise PolicyError unless the controller read (``live``) looks like the robot
     backed up in ``path``: the same identity (the family's: version, configuration,
     model), and not most items of a kind changed at once (runtime data aside), which
@@ -198,7 +206,7 @@ def _same_robot(path: Path, things: Catalogue, backup: Any, live: Any, where: st
         )
 
 
-def change_summary(changes: list[Change]) -> str:
+def change_summary(changes: list[Change[Any]]) -> str:
     """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
     if not changes:
         return "no change"

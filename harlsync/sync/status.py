@@ -25,9 +25,8 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
-from .. import families
 from ..errors import HarlsyncError
-from ..project import load_robot
+from ..project import family_of, load_robot
 from . import audit, git, history
 from .backup import find_projects
 from .snapshots import snapshots
@@ -284,7 +283,8 @@ def _robot_status(
     path: Path, records: list[dict[str, Any]], now: datetime, stale_after: timedelta
 ) -> RobotStatus:
     try:
-        robot = load_robot(path)
+        family = family_of(path)
+        robot = load_robot(path, family)
     except HarlsyncError as exc:  # that robot cannot be read: the others still are
         return RobotStatus(
             path.name,
@@ -296,12 +296,12 @@ def _robot_status(
             last_result="failed",
             last_error=str(exc),
         )
-    station = families.get(robot.family).format_station(robot.station)
+    station = family.format_station(robot.station)
     state = history.read(path)
     status = RobotStatus(
         robot.name,
         str(path),
-        robot.family,
+        family.name,
         robot.port,
         station,
         last_attempt=state.get("last_attempt"),

@@ -28,7 +28,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
-from ..base import PlanShape
+from ..base import Catalogue, PlanShape
 from .model import (
     ATTRIBUTES,
     KINDS,
@@ -44,9 +44,6 @@ from .model import (
     coordinate_names,
     field_texts,
     value_text,
-)
-from .model import (
-    Key as ItemKey,
 )
 
 __all__ = ["CATALOGUE", "CLEARED", "EpsonCatalogue", "Key", "PointWrite", "point_fields"]
@@ -117,13 +114,13 @@ def _counted(count: dict[str, int], *, zeros: bool) -> str:
     )
 
 
-class EpsonCatalogue:
+class EpsonCatalogue(Catalogue[Key, EpsonData]):
     #: No Epson write is sent while the robot runs (the handshake refuses it too).
     live_tuning: frozenset[str] = frozenset()
 
-    def items(self, data: EpsonData, *, registers: bool = False) -> dict[ItemKey, Any]:
+    def items(self, data: EpsonData, *, registers: bool = False) -> dict[Key, Any]:
         """Every setting and point; there is no runtime data to add for ``registers``."""
-        return dict(data.items)
+        return {key: value for key, value in data.items.items()}
 
     def order(self, key: Key) -> tuple[Any, ...]:
         return (_RANK[key.kind], -1 if key.number is None else key.number)
@@ -206,7 +203,7 @@ class EpsonCatalogue:
         changes: list[tuple[Any, Any, Any]],
         *,
         registers: bool,
-    ) -> PlanShape:
+    ) -> PlanShape[Key]:
         unwritable: list[str] = []
         if live.unwritable is not None:
             unwritable.append(live.unwritable)

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...errors import ProjectError
-from ..base import Progress
+from ..base import Driver, Progress
 from .catalogue import CATALOGUE, Key, PointWrite
 from .controller import Controller, WriteStep
 from .handshake import RemoteStatus
@@ -16,7 +16,7 @@ from .model import EpsonData, PointKey
 __all__ = ["EpsonDriver"]
 
 
-class EpsonDriver:
+class EpsonDriver(Driver[Key, EpsonData]):
     def __init__(self, controller: Controller) -> None:
         self.controller = controller
         self.label = controller.label

@@ -7,15 +7,15 @@ from pathlib import Path
 from typing import Any
 
 from ...project.robot import Robot
-from ..base import Analysis, Driver
+from ..base import Analysis, Driver, Family, Help, Option, Scheme, Words
 from . import layout, profile
-from .catalogue import CATALOGUE
+from .catalogue import CATALOGUE, Key
 from .model import KINDS, EpsonData, SettingKey
 
 __all__ = ["FAMILY", "EpsonFamily"]
 
 
-class EpsonFamily:
+class EpsonFamily(Family[Key, EpsonData]):
     name = "epson"
     title = "Epson (RC+ Remote Control over Modbus TCP)"
     catalogue = CATALOGUE
@@ -24,7 +24,36 @@ class EpsonFamily:
     #: What a push writes is named by its plan (the memory card, points): see
     #: :meth:`~.catalogue.EpsonCatalogue.plan`.
     deploy_notes: tuple[str, ...] = ()
-    connect_options = frozenset({"reset_function"})
+    options = (
+        Option(
+            "reset_function",
+            "Epson: when the Remote Control function is found in use or halted "
+            "(a command left unanswered, a function error), reset it first "
+            "(section 6.5.2), and only while the robot is not Running; other "
+            "families refuse it",
+        ),
+    )
+    schemes = (
+        Scheme(
+            "modbus",
+            profile.DEFAULT_PORT,
+            "an Epson controller's Modbus TCP slave: modbus://HOST[:PORT]",
+        ),
+    )
+    words = Words(state="the Remote Control status")
+    stations = range(256)
+    default_station = profile.DEFAULT_UNIT
+    help = Help(
+        stations=f"the Modbus unit id, 0-255, {profile.DEFAULT_UNIT} by default",
+        pull="the settings, the tables and the points",
+        items="setting, table entry, point",
+        commands="each Remote Control command's words in hex",
+        order="load, limits, frames, tool, arch, fine, LimZ, tables, points",
+        busy="Running, Paused, EStopOn, Error or the Remote Control function in use",
+    )
+    #: pymodbus logs its own ERROR lines (a refused connection, a timeout) above the
+    #: one line harlsync says of the same failure.
+    loggers = ("pymodbus",)
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
@@ -81,8 +110,8 @@ class EpsonFamily:
         station: int | None,
         *,
         lock_timeout: float,
-        **options: Any,
-    ) -> Driver:
+        **options: bool,
+    ) -> Driver[Key, EpsonData]:
         """``options``: ``reset_function`` resets a Remote Control function found in
         use or halted (§6.5.2), on a robot that is not Running."""
         from .controller import Controller

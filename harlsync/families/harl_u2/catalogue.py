@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
-from ..base import PlanShape
+from ..base import Catalogue, PlanShape
 from .model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
 
 __all__ = ["CATALOGUE", "BlockKey", "HarlU2Catalogue", "Key", "NumberKey", "StepKey"]
@@ -56,7 +56,7 @@ _CONFIG_FIELDS = tuple(
 _PLURAL = {"step": "steps", "offset": "tables", "timer": "timers", "register": "registers"}
 
 
-class HarlU2Catalogue:
+class HarlU2Catalogue(Catalogue[Key, RobotData]):
     live_tuning = frozenset({"timer", "offset"})
     """Items ``--allow-live-tuning`` writes while a task runs (the manual allows it).
     Registers are process state the running program counts with: never."""
@@ -202,7 +202,7 @@ class HarlU2Catalogue:
         changes: list[tuple[Any, Any, Any]],
         *,
         registers: bool,
-    ) -> PlanShape:
+    ) -> PlanShape[Key]:
         unwritable = [
             f"{name}: the robot has {getattr(live.config, name)}, the project "
             f"{getattr(project.config, name)}; the configuration write (SNX) cannot change it"

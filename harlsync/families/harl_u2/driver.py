@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..base import Progress
+from ..base import Driver, Progress
 from .catalogue import Key, NumberKey, StepKey
 from .controller import Controller
 from .model import ProgramType, RobotData, Status, Step
@@ -16,7 +16,7 @@ from .protocol import commands as cmd
 __all__ = ["HarlU2Driver"]
 
 
-class HarlU2Driver:
+class HarlU2Driver(Driver[Key, RobotData]):
     """The HARL-U2 over a :class:`~harlsync.controller.Controller`."""
 
     def __init__(self, controller: Controller) -> None:

@@ -7,22 +7,35 @@ from pathlib import Path
 from typing import Any
 
 from ...project.robot import Robot
-from ..base import Analysis, Driver
+from ..base import Analysis, Driver, Family, Help, Words
 from . import layout
-from .catalogue import CATALOGUE
+from .catalogue import CATALOGUE, Key
 from .model import RobotData
 
 __all__ = ["FAMILY", "HarlU2Family"]
 
 
-class HarlU2Family:
+class HarlU2Family(Family[Key, RobotData]):
     name = "harl-u2"
     title = "Hirata HARL-U2"
     catalogue = CATALOGUE
     format = layout.FORMAT
     directories = (layout.PROGRAMS_DIR,)
     deploy_notes: tuple[str, ...] = ()
-    connect_options: frozenset[str] = frozenset()
+    words = Words(state="the task states")
+    stations = range(layout.FIRST_STATION, layout.LAST_STATION + 1)
+    help = Help(
+        stations=f"{layout.STATION_ALLOWED}, as set on the pendant",
+        pull="the configuration, every program step, the parameters, the offset tables "
+        "and the timers",
+        items="program, step, table, field, timer",
+        runtime="registers",
+        commands="SN commands",
+        order="configuration, parameters, tables, timers, programs",
+        busy="a task in execution or suspended, LNR",
+        live_tuning="timers and offset tables (the manual allows it); programs, "
+        "parameters, configuration and registers never",
+    )
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
@@ -71,7 +84,13 @@ class HarlU2Family:
         return layout.SCHEMAS.files()
 
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
-        return Robot(name=name, port=port, station=1 if station is None else station, **options)
+        return Robot(
+            family=self.name,
+            name=name,
+            port=port,
+            station=1 if station is None else station,
+            **options,
+        )
 
     def parse_station(self, text: str) -> int:
         """Decimal digits in robot.yaml's range, with its message (its schema's
@@ -93,8 +112,8 @@ class HarlU2Family:
         station: int | None,
         *,
         lock_timeout: float,
-        **options: Any,
-    ) -> Driver:
+        **options: bool,
+    ) -> Driver[Key, RobotData]:
         from .controller import Controller
         from .driver import HarlU2Driver
 

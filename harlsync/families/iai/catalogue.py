@@ -28,7 +28,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
-from ..base import PlanShape
+from ..base import Catalogue, PlanShape
 from .layout import IaiData
 from .model import ARM_NAMES, VARIABLE_SECTIONS, Position
 from .protocol import max_positions_per_write, max_variables_per_write
@@ -130,7 +130,7 @@ def value_text(value: object) -> str | None:
     return str(value)
 
 
-class IaiCatalogue:
+class IaiCatalogue(Catalogue[Key, IaiData]):
     #: No IAI write is allowed while a program runs.
     live_tuning: frozenset[str] = frozenset()
 
@@ -212,7 +212,7 @@ class IaiCatalogue:
         changes: list[tuple[Any, Any, Any]],
         *,
         registers: bool,
-    ) -> PlanShape:
+    ) -> PlanShape[Key]:
         kept = project.variables()
         unwritable = []
         lacking = [section for section in VARIABLE_SECTIONS if section not in kept]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..base import Progress
+from ..base import Driver, Progress
 from .catalogue import Key, PositionKey, Run, VariableKey
 from .controller import Controller, IaiStatus
 from .layout import IaiData
@@ -19,7 +19,7 @@ __all__ = ["IaiDriver"]
 _SECTIONS = {"flag": "flags", "integer": "integers", "real": "reals"}
 
 
-class IaiDriver:
+class IaiDriver(Driver[Key, IaiData]):
     def __init__(self, controller: Controller) -> None:
         self.controller = controller
         self.label = controller.label

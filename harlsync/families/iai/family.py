@@ -7,23 +7,33 @@ from pathlib import Path
 from typing import Any
 
 from ...project.robot import Robot
-from ..base import Analysis, Driver
+from ..base import Analysis, Driver, Family, Help, Words
 from . import layout, profile
-from .catalogue import CATALOGUE
+from .catalogue import CATALOGUE, Key
 from .codec import SETTINGS
 from .model import VARIABLE_SECTIONS, variable_problem
 
 __all__ = ["FAMILY", "IaiFamily"]
 
 
-class IaiFamily:
+class IaiFamily(Family[Key, layout.IaiData]):
     name = "iai"
     title = "IAI (protocol B: TTA, X-SEL, SSEL/ASEL/PSEL, TT)"
     catalogue = CATALOGUE
     format = layout.FORMAT
     directories: tuple[str, ...] = ()
     deploy_notes = (profile.PERSISTENCE_NOTICE,)
-    connect_options: frozenset[str] = frozenset()
+    words = Words(state="the task states")
+    default_station = profile.DEFAULT_STATION
+    help = Help(
+        stations=f"two hex digits, {profile.DEFAULT_STATION:02X} by default",
+        pull="the position table",
+        items="position",
+        runtime="flags and variables",
+        commands="each 291H, field by field",
+        order="positions",
+        busy="a program running, MANUAL, emergency stop, an axis in use, 215H and 212H",
+    )
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
@@ -101,8 +111,8 @@ class IaiFamily:
         station: int | None,
         *,
         lock_timeout: float,
-        **options: Any,
-    ) -> Driver:
+        **options: bool,
+    ) -> Driver[Key, layout.IaiData]:
         from .controller import Controller
         from .driver import IaiDriver
 
