@@ -5,8 +5,8 @@ journal, YAML I/O and the schema validator.
 
     projects/<name>/
         robot.yaml            family, identity, connection, maintenance windows (user-edited)
-        ...                   the family's files (HARL-U2: controller.yaml, programs/...;
-                              IAI: positions.yaml), laid out by harlsync/families/<name>/layout.py
+        ...                   the family's files, laid out by its package under
+                              harlsync/families/<name>/
         .schemas/             copies of the family's JSON Schemas, for editors
 
 See docs/project-format.md for the format and how it evolves.

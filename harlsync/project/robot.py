@@ -50,8 +50,8 @@ class Robot:
     """One robot: its name, family, port URL, station and serial settings, and push policy.
 
     ``windows`` empty means a push may write at any time; ``keep_registers`` keeps
-    the registers (runtime data: IAI variables and flags too) in the project.
-    ``options`` holds the family's own settings (an IAI robot's model and axes).
+    the registers (the family's runtime data) in the project.
+    ``options`` holds the family's own settings (a robot's model and axes).
     """
 
     name: str

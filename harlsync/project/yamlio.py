@@ -540,7 +540,7 @@ class _Writer:
             lines[at] = line
             if isinstance(value, ScalarNode):
                 text, result[key] = self._scalar(value)
-            elif _flow(value, SequenceNode, SEQ):  # an IAI position's axes and coords
+            elif _flow(value, SequenceNode, SEQ):  # a position's axes and coords, say
                 text, result[key] = self._flow_sequence(value, at)  # type: ignore[arg-type]
             elif _flow(value, MappingNode, MAP):
                 text, result[key] = self._flow_mapping(value, at)  # type: ignore[arg-type]

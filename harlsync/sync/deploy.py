@@ -7,7 +7,7 @@ before the last check)::
     policy: git clean, maintenance window
     open the port (exclusive lock on the line)
     an earlier push left unfinished? (audit log: warn, naming what it wrote)
-    LNR: robot idle?                 (interlock, before the long read)
+    status: robot idle?              (interlock, before the long read)
     read the live robot, make the plan
     stale plan? unwritable? reconfiguration allowed? confirmed?
     snapshot the live robot          (DIR/.harlsync/snapshots/<n>-<time>-push/)
@@ -15,17 +15,19 @@ before the last check)::
     for each write, in the safe order:
         read the item: as planned?   (drift: edited on the pendant since the read)
         still in the window?         (policy: a long push stops when its window closes)
-        LNR: idle?                   (interlock: before every write)
+        status: idle?                (interlock: before every write)
         audit "write" record         (fsynced: a SIGKILL still leaves a trace)
         write, read back, compare    (verify)
     audit "end" record               (always, whatever happened)
 
-The interlock reads LNR immediately before every write, a re-send after a
-lost reply included (the controller reads it again before re-sending).  With
-``allow_live_tuning`` it skips that only before timer and offset writes, which
-the manual allows during automatic operation; it still reads LNR before every
-other write (SNA, SNM, SNS, SNH, SNE, SNX, and SND registers), and a plan that
-holds any such write needs an idle robot before its first write.
+The interlock reads the robot's status (``Driver.status``, what the family
+calls it in ``Family.words``) immediately before every write, a re-send after
+a lost reply included (the family's controller reads it again before
+re-sending).  With ``allow_live_tuning`` it skips that only before writes of
+the kinds the family's catalogue allows while the robot runs
+(``Catalogue.live_tuning``) and that are not ``unsafe``; it still reads the
+status before every other write, and a plan that holds any such write needs an
+idle robot before its first write.
 """
 
 from __future__ import annotations
@@ -100,7 +102,7 @@ class PushResult:
     audit_log: Path | None = None
     #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
     warnings: list[str] = field(default_factory=list)
-    #: What the family says after anything was written (IAI: not yet in flash ROM).
+    #: What the family says after anything was written (``Family.deploy_notes``).
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -132,7 +134,7 @@ def _check_window(robot: Robot, opts: PushOptions, before: str | None = None) ->
 
 def _no_answer(exc: HarlsyncError) -> bool:
     """The line failed without any robot answering: the port, or silence (wrong
-    station, cable, baud) rather than an LNR reply that makes no sense."""
+    station, cable, baud) rather than a status reply that makes no sense."""
     if isinstance(exc, LinkTimeout):
         return not isinstance(exc.__cause__, ReplyError)
     return isinstance(exc, PortError | PortBusyError)
@@ -366,7 +368,7 @@ def _write_all(
                 "the change, then run again"
             )
         _check_window(robot, opts, f"writing {write.name} ({write.command})")
-        announce(write)  # before the interlock: nothing between LNR and the write
+        announce(write)  # before the interlock: nothing between the status read and the write
         if not live(write):
             try:
                 _interlock(driver, robot, family.words, f"writing {write.name} ({write.command})")
@@ -384,8 +386,8 @@ def _write_all(
         result.written.append(write)
         log.info("wrote %s: %s", write.name, write.command)
     if _last_guarded(result, live) is not None:
-        # The last write that needed an idle robot had no LNR after it: one more tells
-        # whether the robot was started between the LNR before it and its arrival (no
+        # The last write that needed an idle robot had no status read after it: one more
+        # tells whether the robot was started between the read before it and its arrival (no
         # client can prevent that).
         try:
             status = driver.status()
@@ -402,7 +404,7 @@ def _write_all(
 def _last_guarded(
     result: PushResult, live: Callable[[PlannedWrite[Any]], bool]
 ) -> PlannedWrite[Any] | None:
-    """The last write made that needed an idle robot (the last one LNR cleared)."""
+    """The last write made that needed an idle robot (the last one a status read cleared)."""
     return next((w for w in reversed(result.written) if not live(w)), None)
 
 

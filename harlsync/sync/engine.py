@@ -78,6 +78,6 @@ def station_number(family: str | AnyFamily | None, station: Station) -> int | No
 
 
 def pull(path: str | Path, *, family: str | AnyFamily | None = None, **options: Any) -> PullResult:
-    """:func:`.pulling.pull`, with ``family`` given by name too (``"iai"``)."""
+    """:func:`.pulling.pull`, with ``family`` given by name too (as robot.yaml says it)."""
     found = families.get(family) if isinstance(family, str) else family
     return pulling.pull(path, family=found, **options)

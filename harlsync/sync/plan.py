@@ -1,14 +1,13 @@
 """A push plan: the exact writes that would make the robot equal the project.
 
 A plan is computed from the live robot and the project, in the family's safe
-order (the HARL-U2's: configuration, parameters, tables, timers, registers,
-programs).  It carries a fingerprint of the live state and of the project it was
+order (the catalogue's ``order``).  It carries a fingerprint of the live state and of the project it was
 computed from, so a saved plan can be refused when either changed since (a
 stale plan).
 
 The family decides what cannot be written and whether the plan reconfigures
-the robot destructively (a HARL-U2 SNX wipes every program, so such a plan
-rewrites every non-empty step after it); the engine asks for
+the robot destructively (a write that wipes what follows it, which such a
+plan then rewrites); the engine asks for
 ``--allow-reconfigure`` before such a plan.
 """
 
@@ -58,8 +57,8 @@ class Plan(Generic[K]):
     reconfiguration_note: str | None = None
     #: Differences no write can fix (timer, memory bit, register counts).
     unwritable: list[str] = field(default_factory=list)
-    #: What the family says of these writes (Epson: the items that go to the
-    #: controller's memory card); a push's result and audit record carry it too.
+    #: What the family says of these writes (items that go to a memory card,
+    #: say); a push's result and audit record carry it too.
     notes: list[str] = field(default_factory=list)
 
     @property

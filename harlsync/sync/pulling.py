@@ -174,8 +174,8 @@ def _same_robot(
     model), and not most items of a kind changed at once (runtime data aside), which
     a wrong port or station, a swapped controller or a lost memory would do.
 
-    Each kind is judged alone: the HARL-U2's 100 offset tables, most of them unused
-    and alike on every robot, must not hide that every program step changed."""
+    Each kind is judged alone: a hundred tables, most of them unused and alike
+    on every robot, must not hide that every program step changed."""
     was, now = things.robot_identity(backup), things.robot_identity(live)
     differ = [
         f"{name} {now.get(name)!r} (the backup has {value!r})"

@@ -116,7 +116,7 @@ class RobotStatus:
     path: str
     family: str | None
     port: str | None
-    #: As its family writes it (IAI: hex).
+    #: As its family writes it (``Family.format_station``).
     station: str | None
     state: str = "ok"
     last_attempt: str | None = None
