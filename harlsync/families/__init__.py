@@ -81,14 +81,14 @@ def every() -> tuple[AnyFamily, ...]:
     return tuple(get(name) for name in FAMILIES)
 
 
-def of_project(root: Path) -> AnyFamily:
+def of_project(root: Path, *, strict: bool = False) -> AnyFamily:
     """The family a project's robot.yaml names (none, or no readable robot.yaml:
     the default, whose reading of the file says what is wrong with it).
 
     Raises ProjectFormatError, naming the file and line, for a family harlsync
-    does not know.
+    does not know, and (``strict``) for a robot.yaml that cannot be read.
     """
-    return store.family_of(root)
+    return store.family_of(root, strict=strict)
 
 
 def refuse_options(family: AnyFamily, given: Mapping[str, bool]) -> None:

@@ -98,13 +98,25 @@ def _family(name: str | None) -> AnyFamily:
     return _find_family(name)
 
 
-def family_name(root: Path) -> tuple[str | None, int | None]:
+def family_name(root: Path, *, strict: bool = False) -> tuple[str | None, int | None]:
     """The family name robot.yaml gives under ``root``, and its line: the one
     reader of ``family:``.  ``(None, None)`` when it gives none, or when the file
-    cannot be read (then the default family's reading of it says why)."""
+    cannot be read (then the default family's reading of it says why); with
+    ``strict`` an unreadable file raises ProjectFormatError instead."""
+    path = root / "robot.yaml"
     try:
-        doc = yamlio.parse((root / "robot.yaml").read_bytes().decode("utf-8"))
-    except (OSError, ValueError, yamlio.YamlSyntaxError):
+        doc = yamlio.parse(path.read_bytes().decode("utf-8"))
+    except OSError as exc:
+        if strict:
+            raise ProjectFormatError(f"{path}: cannot read: {exc.strerror or exc}") from exc
+        return None, None
+    except yamlio.YamlSyntaxError as exc:
+        if strict:
+            raise ProjectFormatError(f"{path}:{exc.line}: {exc.message}") from exc
+        return None, None
+    except ValueError as exc:
+        if strict:
+            raise ProjectFormatError(f"{path}: not UTF-8 text ({exc})") from exc
         return None, None
     name = doc.data.get("family") if isinstance(doc.data, dict) else None
     if name is None:
@@ -112,11 +124,11 @@ def family_name(root: Path) -> tuple[str | None, int | None]:
     return str(name), doc.line(("family",))
 
 
-def family_of(root: Path) -> AnyFamily:
+def family_of(root: Path, *, strict: bool = False) -> AnyFamily:
     """The family of the project in ``root`` (see :func:`family_name`; none: the
     default).  Raises ProjectFormatError, naming the file and line, for a family
     harlsync does not know."""
-    name, line = family_name(root)
+    name, line = family_name(root, strict=strict)
     try:
         return _family(name)
     except ProjectError as exc:

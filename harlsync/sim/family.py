@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from .. import families
-from ..errors import ProjectError, ProjectFormatError
+from ..errors import ProjectError
 from .device import Decoder, Device, RequestFrame
 
 __all__ = [
@@ -143,25 +143,9 @@ def line_family(name: str | None) -> LineFamily:
 
 def project_family(project: str | os.PathLike[str]) -> str:
     """The family a project directory's ``robot.yaml`` names (``family:``; absent:
-    the default).
+    the default), read as the project store reads it.
 
-    Raises :class:`~harlsync.errors.ProjectError` when robot.yaml cannot be read.
+    Raises :class:`~harlsync.errors.ProjectError` when robot.yaml cannot be read
+    or names a family harlsync does not know.
     """
-    from ..project import yamlio
-
-    path = Path(project) / "robot.yaml"
-    try:
-        data = yamlio.parse(path.read_text(encoding="utf-8")).data
-    except OSError as exc:
-        raise ProjectFormatError(f"{path}: cannot read: {exc.strerror or exc}") from exc
-    except yamlio.YamlSyntaxError as exc:
-        raise ProjectFormatError(f"{path}:{exc.line}: {exc.message}") from exc
-    name = data.get("family") if isinstance(data, dict) else None
-    if name is None:
-        return families.DEFAULT
-    if not isinstance(name, str) or name not in families.names():
-        raise ProjectError(
-            f"{path}: family: unknown controller family {name!r} "
-            f"(allowed: {', '.join(families.names())})"
-        )
-    return name
+    return families.of_project(Path(project), strict=True).name

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import pytest
-import toyfamily  # noqa: F401  (registers the toy family)
+import toyfamily
 
 from harlsync import families
 from harlsync.sim import ServedFamily, protocol_sim, sim_family
@@ -108,8 +108,16 @@ HARNESSES: dict[str, Harness] = {
 
 
 def names() -> list[str]:
-    """Every registered family; one without a harness fails the suite (say how)."""
-    return list(families.names())
+    """Every registered family and the toy; one without a harness fails the suite."""
+    return [*families.names(), toyfamily.NAME]
+
+
+def join(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make the registry hold ``name`` for one test: the toy registers itself in a
+    copy of the registry that the test's end throws away."""
+    monkeypatch.setattr(families, "FAMILIES", dict(families.FAMILIES))
+    if name == toyfamily.NAME:
+        toyfamily.register()
 
 
 @contextmanager
@@ -126,7 +134,7 @@ def served(name: str, seed: int) -> Iterator[tuple[Device[Any], int, str]]:
         finally:
             server.stop()
     else:
-        url = protocol_sim.register(device)  # type: ignore[arg-type]
+        url = protocol_sim.register(device)  # type: ignore[arg-type]  # a line family's Simulator
         try:
             yield device, station, url
         finally:

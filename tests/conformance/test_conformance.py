@@ -20,7 +20,7 @@ from harlsync.sim import sim_family
 from harlsync.sync import comparison, deploy, pulling
 from harlsync.sync.deploy import PushFailed, PushOptions
 
-from .harness import HARNESSES, names, served
+from .harness import HARNESSES, join, names, served
 
 FAMILIES = names()
 #: Seeds of the property run: a few, fixed, so the suite stays fast and repeatable
@@ -48,6 +48,7 @@ def name(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str
     assert request.param in HARNESSES, (
         f"family {request.param} has no conformance harness: add it to tests/conformance/harness.py"
     )
+    join(request.param, monkeypatch)
     HARNESSES[request.param].quick(monkeypatch)
     return str(request.param)
 
