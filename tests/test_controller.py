@@ -259,20 +259,6 @@ KINDS = [
         lambda c: c.write_parameters(replace(c.read_parameters(), pull_rate="77")),
         lambda s: s.data.parameters.pull_rate == "77",
     ),
-    Kind("do-bit", "SNOB 12", lambda c: c.write_do_bit(12, True), lambda s: s.do[12] == 1),
-    Kind(
-        "do-port",
-        "SNOD 3",
-        lambda c: c.write_do_port(3, 0xA5),
-        lambda s: s.do[24:32] == [1, 0, 1, 0, 0, 1, 0, 1],
-    ),
-    Kind("mem-bit", "SNBB 260", lambda c: c.write_mem_bit(260, True), lambda s: s.mem[4] == 1),
-    Kind(
-        "mem-port",
-        "SNBD 1",
-        lambda c: c.write_mem_port(1, 3),
-        lambda s: s.mem[8:16] == [1, 1, 0, 0, 0, 0, 0, 0],
-    ),
     Kind(
         "config",
         "SNX",

@@ -266,25 +266,11 @@ class Controller(OnLink):
     def read_do_port(self, port: int) -> int:
         return self.request(cmd.read_do_port(port))
 
-    def write_do_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
-        """Drive one physical output."""
-        self._write(cmd.write_do_bit(bit, on), cmd.read_do_bit(bit), int(on), _bit(old))
-
-    def write_do_port(self, port: int, value: int, *, old: int | None = None) -> None:
-        """Drive eight physical outputs (bit n of ``value`` is DO 8*port+n)."""
-        self._write(cmd.write_do_port(port, value), cmd.read_do_port(port), value, old)
-
     def read_mem_bit(self, bit: int) -> bool:
         return bool(self.request(cmd.read_mem_bit(bit)))
 
     def read_mem_port(self, port: int) -> int:
         return self.request(cmd.read_mem_port(port))
-
-    def write_mem_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
-        self._write(cmd.write_mem_bit(bit, on), cmd.read_mem_bit(bit), int(on), _bit(old))
-
-    def write_mem_port(self, port: int, value: int, *, old: int | None = None) -> None:
-        self._write(cmd.write_mem_port(port, value), cmd.read_mem_port(port), value, old)
 
     # --- status, version, configuration -------------------------------------------------
 
@@ -360,10 +346,6 @@ class Controller(OnLink):
             timers=timers,
             registers=regs if include_registers else None,
         )
-
-
-def _bit(value: bool | None) -> int | None:
-    return None if value is None else int(value)
 
 
 def _show(value: object) -> str:

@@ -19,6 +19,20 @@ SP = 0x20
 #: STX or ETX); ``"hex"`` would be two upper-case ASCII hex digits.
 LRC_ENCODING: Literal["raw", "hex"] = "raw"
 
+#: The only commands harlsync ever sends: every LN read of the manual, and the SN
+#: writes of program data (steps, timers, registers, offset tables, expanded
+#: parameters, program configuration).  SNO (physical outputs) and SNB (memory
+#: bits) are process state, not program data: the codec refuses to encode them,
+#: and anything else off this list (``frame.encode_frame``, ``Request.encode``).
+SENT_COMMANDS = frozenset(
+    (
+        "LNA", "LNM", "LNS", "LNH", "LNT", "LND", "LNL",
+        "LNIB", "LNID", "LNOB", "LNOD", "LNBB", "LNBD",
+        "LNE", "LNR", "LNV", "LNX",
+        "SNA", "SNM", "SNS", "SNH", "SNT", "SND", "SNL", "SNE", "SNX",
+    )
+)  # fmt: skip
+
 #: A successful SN write is answered with this payload.
 SN_OK = "0"
 
