@@ -392,3 +392,26 @@ def test_a_typed_request_decodes_its_reply_as_the_request_made_from_its_letters(
     reply = Simulator(state).handle(state, payload)
     assert request_.decode_payload(reply) == c.parse_request(payload).decode_payload(reply)
     assert request_.decode(Frame(1, reply)) == decode_reply(request_, reply)
+
+
+IDLE_TASKS = ["0 START 0 0"] * 4
+
+
+@pytest.mark.parametrize(
+    "task",
+    ["0 MAIM 0 0", "0 main 0 0", "0 MAIN 0 +7", "0 MAIN 0 1_0", "0 MAIN -1 0", "+0 MAIN 0 0"],
+)
+def test_issue_19_an_lnr_reply_with_a_field_not_well_formed_does_not_decode(task: str) -> None:
+    with pytest.raises(ReplyError, match="task 4"):
+        decode_reply(c.read_status(), " ".join([*IDLE_TASKS, task]))
+
+
+@pytest.mark.parametrize("count", [4, 6])
+def test_issue_19_an_lnr_reply_with_the_wrong_task_count_is_not_idle(count: int) -> None:
+    status = decode_reply(c.read_status(), " ".join(["0 START 0 0"] * count))
+    assert not status.idle and f"reported {count} tasks" in status.describe()
+
+
+def test_an_lnr_reply_of_five_well_formed_stopped_tasks_is_idle() -> None:
+    status = decode_reply(c.read_status(), " ".join(["0 START 0 0", *["4 MAIN 3 17"] * 4]))
+    assert status.idle

@@ -93,8 +93,28 @@ IDLE_TASK = "0 START 0 0"
         " ".join([IDLE_TASK] * 4),
         " ".join([IDLE_TASK] * 4 + ["3 MAIN 0 0"]),
         " ".join([IDLE_TASK] * 4 + ["0 MAIN x 0"]),
+        # Issue 19: a reply whose fields are not all well formed is not idle.
+        " ".join([IDLE_TASK] * 4 + ["0 MAIM 0 0"]),
+        " ".join([IDLE_TASK] * 4 + ["0 main 0 0"]),
+        " ".join([IDLE_TASK] * 4 + ["0 MAIN 0 +7"]),
+        " ".join([IDLE_TASK] * 4 + ["0 MAIN 0 1_0"]),
+        " ".join([IDLE_TASK] * 4 + ["0 MAIN -1 0"]),
+        " ".join([IDLE_TASK] * 4 + ["+0 MAIN 0 0"]),
+        " ".join([IDLE_TASK] * 6),
     ],
-    ids=["error status", "four tasks", "two bits set", "unparsable"],
+    ids=[
+        "error status",
+        "four tasks",
+        "two bits set",
+        "unparsable",
+        "not a program type",
+        "program type in lower case",
+        "signed step",
+        "step with an underscore",
+        "negative program number",
+        "signed status",
+        "six tasks",
+    ],
 )
 def test_a_push_writes_nothing_unless_lnr_shows_five_known_idle_tasks(
     project: Path, sim: ScriptedSim, reply: str

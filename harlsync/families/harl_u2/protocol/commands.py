@@ -476,13 +476,29 @@ def _parse_parameters(request: Request[object], fields: list[str]) -> Parameters
 
 
 def _parse_status(request: Request[object], fields: list[str]) -> Status:
+    """Every field well formed or none: S, N and L plain decimal digits (no sign,
+    no ``_``, which Python's ``int`` would take), K one of the four program types.
+
+    A reply with another number of whole groups is a :class:`Status` that is not
+    idle (:attr:`Status.idle` counts the tasks).
+    """
     if len(fields) % 4 or not fields:
         raise ValueError(f"{len(fields)} fields, expected {profile.TASK_COUNT} x (S K N L)")
     tasks = []
     for i in range(0, len(fields), 4):
         s, k, n, step = fields[i : i + 4]
-        tasks.append(TaskState(i // 4, int(s), k, int(n), int(step)))
+        task = i // 4
+        for what, text in (("status", s), ("program number", n), ("step", step)):
+            if not _INT_RE.fullmatch(text):
+                raise ValueError(f"task {task}: {what} {text!r} is not a number")
+        if k not in _PROGRAM_TYPE_WORDS:
+            raise ValueError(f"task {task}: program type {k!r} is not START, MAIN, SUB or HAND")
+        tasks.append(TaskState(task, int(s), k, int(n), int(step)))
     return Status(tuple(tasks), profile.TASK_COUNT)
+
+
+#: The program type words LNR may answer in K.
+_PROGRAM_TYPE_WORDS = frozenset(t.value for t in ProgramType)
 
 
 def _parse_version(request: Request[object], fields: list[str]) -> str:
