@@ -17,7 +17,7 @@ then reads the item back::
     reads back anything else       -> WriteUnconfirmed (someone else changed it, or worse)
 
 Before sending an unsafe write (SNA, SNM, SNS, SNH, SNE, SNX) once more, the
-controller reads LNR again: the robot may have been started while the reply was
+controller reads LNR again (twice: :meth:`Controller.idle_status`): the robot may have been started while the reply was
 awaited.  Unless every task is known and idle it raises
 :class:`~harlsync.errors.InterlockError` and does not send it again.  A caller
 that needs an idle robot for a write the manual allows in automatic operation
@@ -53,7 +53,7 @@ from .model import (
     Status,
     Step,
 )
-from .protocol import Ack, ErrorReply, Frame, Request
+from .protocol import Ack, ErrorReply, Frame, Request, profile
 from .protocol import commands as cmd
 
 __all__ = ["Controller", "Progress"]
@@ -141,7 +141,7 @@ class Controller(OnLink):
     def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless the status, read now, shows the robot idle."""
         refuse_unless_idle(
-            self.status,
+            self.idle_status,
             lost,
             where=f"port {self.port}, station {self.station}, command {request.payload}",
             reading="the task states",
@@ -281,6 +281,21 @@ class Controller(OnLink):
         :class:`~harlsync.errors.ReplyError`): treat any error as "not idle".
         """
         return self.request(cmd.read_status())
+
+    def idle_status(self) -> Status:
+        """LNR read until one reply is not idle, at most ``profile.IDLE_READS`` times:
+        the robot is idle only when every one of those replies says so.
+
+        The LRC cannot catch two flipped bits in one bit column, which can turn a
+        task in execution into a stopped one; two such corruptions in a row are
+        needed to clear a write.  Raises as :meth:`status` does.
+        """
+        status = self.status()
+        for _ in range(profile.IDLE_READS - 1):
+            if not status.idle:
+                break
+            status = self.status()
+        return status
 
     def version(self) -> str:
         return self.request(cmd.read_version())

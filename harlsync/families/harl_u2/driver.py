@@ -27,7 +27,8 @@ class HarlU2Driver:
         return self.controller.read_all(include_registers=registers, progress=progress)
 
     def status(self) -> Status:
-        return self.controller.status()
+        """The interlock's reading: LNR twice in a row, both idle (``Controller.idle_status``)."""
+        return self.controller.idle_status()
 
     def _request(self, key: Key, value: Any) -> Request:
         if isinstance(key, StepKey):

@@ -42,6 +42,14 @@ ERROR_PREFIX = "E"
 #: LNR reports this many tasks (0-4), four fields each: S K N L.
 TASK_COUNT = 5
 
+#: How many LNR replies in a row must each show every task idle before harlsync
+#: takes the robot for idle (before each write, and before a re-send).  The LRC
+#: is an XOR: two flipped bits in one bit column of a frame pass it, so a reply
+#: ``1 MAIN 3 7`` (task in execution) can arrive as ``0 MAIN 3 6`` (stopped).
+#: One such corruption in two independent reads is not enough to clear a write.
+#: docs/SAFETY.md and docs/BENCHMARKS.md (bench/lnr_twice.py) give the cost.
+IDLE_READS = 2
+
 #: A step that holds nothing is answered with its step number alone, and an SN
 #: step write with no command clears the step.
 EMPTY_STEP_IS_NUMBER_ONLY = True
