@@ -5,7 +5,8 @@
 
 Counts what the simulator received (sim://, in process: counts, not times) for:
 
-- pull: one request per step, offset table and timer, plus LNX, LNV, LNE;
+- pull: one request per step, offset table and timer, plus LNX, LNV, LNE, and
+  one LNL past the last offset table (no more tables: issue 20);
 - push of a known difference: 3 steps, 1 timer and 1 offset table changed on the
   robot since the pull, pushed back.  A push reads LNR once before it reads the
   robot, reads the whole robot to make its plan (and snapshot), then for each
@@ -72,7 +73,7 @@ def expected_pull(state: SimState) -> Counter[str]:
             "LNV": 1,
             "LNE": 1,
             "LN step": config.step_count,
-            "LNL": OFFSET_TABLE_COUNT,
+            "LNL": OFFSET_TABLE_COUNT + 1,  # and the probe past the last table
             "LNT": config.timers,
         }
     )

@@ -116,7 +116,7 @@ def test_read_all_reads_everything_the_configuration_says_exists(
     seen: list[tuple[int, int]] = []
     got = robot.read_all(include_registers=registers, progress=lambda d, t: seen.append((d, t)))
     assert got == expected(state, registers)
-    total = 3 + SMALL.step_count + OFFSET_TABLE_COUNT + SMALL.timers + (4 if registers else 0)
+    total = 4 + SMALL.step_count + OFFSET_TABLE_COUNT + SMALL.timers + (4 if registers else 0)
     assert seen == [(n, total) for n in range(1, total + 1)]
     assert sim.received[0].payload == "LNX" and len(sim.received) == total
     assert not sim.writes_received()

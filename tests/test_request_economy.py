@@ -42,7 +42,7 @@ def full_read(config: Config) -> Counter[str]:
             "LNV": 1,
             "LNE": 1,
             "LN step": config.step_count,
-            "LNL": OFFSET_TABLE_COUNT,
+            "LNL": OFFSET_TABLE_COUNT + 1,  # the probe past the last table (issue 20)
             "LNT": config.timers,
         }
     )

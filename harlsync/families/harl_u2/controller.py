@@ -35,7 +35,7 @@ import os
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-from ...errors import ControllerError, WriteUnconfirmed
+from ...errors import ControllerError, SyncError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
 from ...link import Link as SharedLink
 from ...link.confirm import confirmed_write, refuse_unless_idle
@@ -56,7 +56,7 @@ from .model import (
 from .protocol import Ack, ErrorReply, Frame, Request, profile
 from .protocol import commands as cmd
 
-__all__ = ["Controller", "Progress"]
+__all__ = ["Controller", "Progress", "TableBeyondRange"]
 
 log = logging.getLogger(__name__)
 
@@ -316,21 +316,49 @@ class Controller(OnLink):
             needs_idle=needs_idle,
         )
 
+    def probe_offsets(self, count: int) -> None:
+        """Make sure the controller has no offset table ``count`` (LNX does not
+        report how many it has): LNL ``count`` must answer an error.
+
+        Raises :class:`TableBeyondRange` naming the table and robot.yaml's
+        ``offset_tables`` when it answers a table.
+        """
+        try:
+            table = self.read_offset(count)
+        except ControllerError:
+            return  # "E" + status: there is no such table
+        shown = " ".join(table.values)
+        raise TableBeyondRange(
+            f"port {self.port}, station {self.station}: offset table {count} answers "
+            f"({shown}): the controller has more than the {count} offset tables this pull "
+            f"reads (0-{count - 1}), so the backup would be short; set offset_tables in "
+            "robot.yaml to the controller's count and pull again"
+        )
+
     # --- everything ---------------------------------------------------------------------
 
     def read_all(
-        self, include_registers: bool = False, progress: Progress | None = None
+        self,
+        include_registers: bool = False,
+        progress: Progress | None = None,
+        *,
+        offset_tables: int = OFFSET_TABLE_COUNT,
     ) -> RobotData:
         """Everything a backup holds, read in pull order.
 
         The configuration first (it says what exists), then version, parameters,
-        every step of every program, the offset tables and the timers, and the
-        registers when ``include_registers``.  ``progress(done, total)`` is called
-        after each item.
+        every step of every program, the offset tables 0 to ``offset_tables`` - 1
+        (robot.yaml's ``offset_tables``, the manual's 100 by default) and the
+        probe past them (:meth:`probe_offsets`), the timers, and the registers
+        when ``include_registers``.  Programs, timers and registers are read to
+        the sizes LNX reports; only the offset tables' count is not reported.
+        ``progress(done, total)`` is called after each item.
+
+        Raises :class:`TableBeyondRange` when the controller has more offset tables.
         """
         config = self.config()
         registers = config.registers if include_registers else 0
-        total = 3 + config.step_count + OFFSET_TABLE_COUNT + config.timers + registers
+        total = 4 + config.step_count + offset_tables + config.timers + registers
         done = 0
 
         def tick(value: T) -> T:
@@ -349,7 +377,9 @@ class Controller(OnLink):
             )
             for ptype, number in config.programs()
         }
-        offsets = {n: tick(self.read_offset(n)) for n in range(OFFSET_TABLE_COUNT)}
+        offsets = {n: tick(self.read_offset(n)) for n in range(offset_tables)}
+        self.probe_offsets(offset_tables)
+        tick(None)
         timers = {n: tick(self.read_timer(n)) for n in range(config.timers)}
         regs = {n: tick(self.read_register(n)) for n in range(registers)}
         return RobotData(
@@ -361,6 +391,10 @@ class Controller(OnLink):
             timers=timers,
             registers=regs if include_registers else None,
         )
+
+
+class TableBeyondRange(SyncError):
+    """The controller has more of a table than the pull reads: a backup would be short."""
 
 
 def _show(value: object) -> str:
