@@ -5,13 +5,15 @@
 
 Counts what the simulator received (sim://, in process: counts, not times) for:
 
-- pull: one request per step, offset table and timer, plus LNX, LNV, LNE;
+- pull: one request per step, offset table and timer, plus LNX, LNV, LNE, and
+  one LNL past the last offset table (no more tables: issue 20);
 - push of a known difference: 3 steps, 1 timer and 1 offset table changed on the
   robot since the pull, pushed back.  A push reads LNR once before it reads the
   robot, reads the whole robot to make its plan (and snapshot), then for each
-  write: reads the item (drift since the plan), LNR (interlock), the SN write,
-  and reads the item back (verify); and LNR once more after the last write (was
-  the robot started while it was on the wire?).  These are the safety design's reads
+  write: reads the item (drift since the plan), LNR twice (interlock:
+  ``profile.IDLE_READS``), the SN write, and reads the item back (verify); and
+  LNR twice more after the last write (was the robot started while it was on the
+  wire?).  These are the safety design's reads
   (harlsync/sync/engine.py); the expected count is printed next to the count.
 """
 
@@ -26,6 +28,7 @@ from pathlib import Path
 from machine import ROBOTS, describe
 
 from harlsync.families.harl_u2.model import OFFSET_TABLE_COUNT, OffsetTable, ProgramType, Step
+from harlsync.families.harl_u2.protocol import profile
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync.engine import PushOptions, pull, push
@@ -70,7 +73,7 @@ def expected_pull(state: SimState) -> Counter[str]:
             "LNV": 1,
             "LNE": 1,
             "LN step": config.step_count,
-            "LNL": OFFSET_TABLE_COUNT,
+            "LNL": OFFSET_TABLE_COUNT + 1,  # and the probe past the last table
             "LNT": config.timers,
         }
     )
@@ -81,7 +84,7 @@ def expected_push(state: SimState, steps: int, others: dict[str, int]) -> Counte
     verify read; and LNR once after the last write."""
     writes = steps + sum(others.values())
     expected = expected_pull(state)
-    expected["LNR"] += 1 + writes + 1
+    expected["LNR"] += profile.IDLE_READS * (1 + writes + 1)  # each reading: LNR twice
     expected["LN step"] += 2 * steps
     expected["SN step"] += steps
     for letters, n in others.items():

@@ -116,7 +116,7 @@ def test_read_all_reads_everything_the_configuration_says_exists(
     seen: list[tuple[int, int]] = []
     got = robot.read_all(include_registers=registers, progress=lambda d, t: seen.append((d, t)))
     assert got == expected(state, registers)
-    total = 3 + SMALL.step_count + OFFSET_TABLE_COUNT + SMALL.timers + (4 if registers else 0)
+    total = 4 + SMALL.step_count + OFFSET_TABLE_COUNT + SMALL.timers + (4 if registers else 0)
     assert seen == [(n, total) for n in range(1, total + 1)]
     assert sim.received[0].payload == "LNX" and len(sim.received) == total
     assert not sim.writes_received()
@@ -258,20 +258,6 @@ KINDS = [
         "SNE",
         lambda c: c.write_parameters(replace(c.read_parameters(), pull_rate="77")),
         lambda s: s.data.parameters.pull_rate == "77",
-    ),
-    Kind("do-bit", "SNOB 12", lambda c: c.write_do_bit(12, True), lambda s: s.do[12] == 1),
-    Kind(
-        "do-port",
-        "SNOD 3",
-        lambda c: c.write_do_port(3, 0xA5),
-        lambda s: s.do[24:32] == [1, 0, 1, 0, 0, 1, 0, 1],
-    ),
-    Kind("mem-bit", "SNBB 260", lambda c: c.write_mem_bit(260, True), lambda s: s.mem[4] == 1),
-    Kind(
-        "mem-port",
-        "SNBD 1",
-        lambda c: c.write_mem_port(1, 3),
-        lambda s: s.mem[8:16] == [1, 1, 0, 0, 0, 0, 0, 0],
     ),
     Kind(
         "config",

@@ -24,12 +24,12 @@ from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.sim import SimState as IaiState
 from harlsync.sync import engine
 
-#: The robot ``sim://?seed=N`` generates: 1079 exchanges read it whole.
+#: The robot ``sim://?seed=N`` generates: 1080 exchanges read it whole (with the probe past the offset tables).
 CONTENTS = {
-    1: "13 programs (162 steps used), 100 offset tables, 16 timers",
-    2: "13 programs (199 steps used), 100 offset tables, 16 timers",
+    1: "13 programs (162 steps used), 100 offset tables (0-99, the controller has no table 100), 16 timers",
+    2: "13 programs (199 steps used), 100 offset tables (0-99, the controller has no table 100), 16 timers",
 }
-READ = r"read {contents} in [0-9.]+ s \(1079 exchanges with the controller\)"
+READ = r"read {contents} in [0-9.]+ s \(1080 exchanges with the controller\)"
 BAR_MARKS = ("exchanges with the controller [", "%|")
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="a pty is POSIX")
@@ -111,7 +111,7 @@ def test_issue_14_backup_shows_a_live_line_per_robot_and_a_result_line_as_each_e
     drawn = seen.raw.decode()
     for name in ("loader", "press"):  # each had its own live line, with rate and time left
         assert re.search(
-            rf"{name}: +[0-9]+%\|[^|]*\| [0-9]+/1079 exchanges with the controller "
+            rf"{name}: +[0-9]+%\|[^|]*\| [0-9]+/1080 exchanges with the controller "
             r"\[[0-9:]+<[0-9:?]+, [0-9.?]+/s\]",
             drawn,
         ), name

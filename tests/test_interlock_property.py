@@ -5,8 +5,9 @@ each case drawn from one seed, it proves, from the simulator's own record of
 what arrived and of the task states when it arrived (``Simulator.received``),
 never from what harlsync believed:
 
-1. every SN that needs an idle robot arrived straight after an LNR that found
-   every task idle.  Without ``allow_live_tuning`` that is every SN; with it,
+1. every SN that needs an idle robot arrived straight after ``IDLE_READS`` (two)
+   LNRs in a row that each found every task idle.  Without ``allow_live_tuning``
+   that is every SN; with it,
    every SN but SNT (timers) and SNL (offset tables), and a plan that holds any
    other write finds the robot idle before its first write;
 2. hence no such SN arrived while a task was in execution or suspended, except
@@ -32,7 +33,11 @@ sets odd task states, and a line that goes bad: faults on the replies (noise,
 drops, bad LRC, fragments, late replies), requests lost on their way in, one
 write request lost, a short burst of faults.  The reply to the request after
 which the operator acts is often late, lost or garbled: the operator acts while
-it is on the wire.
+it is on the wire.  An LNR reply, too, may arrive not well formed (a program
+type that is none of the four, a signed step, a task missing), or corrupted in a
+way the LRC cannot see (two flipped bits in one bit column: ``1 MAIN 3 7`` as
+``0 MAIN 3 6``), one reply at a time: the second LNR before each write is there
+so that one such reply cannot clear a write (issue 19).
 
 The window no client can close: the operator starting the robot after the LNR
 that found it idle has been answered and before the write it cleared arrives.
@@ -83,7 +88,8 @@ from harlsync.families.harl_u2.model import (
     RobotData,
     Step,
 )
-from harlsync.families.harl_u2.protocol import FrameDecoder
+from harlsync.families.harl_u2.protocol import FrameDecoder, lrc
+from harlsync.families.harl_u2.protocol.profile import IDLE_READS
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.link import SerialSettings
 from harlsync.project import Project, load_project, new_robot, save_project
@@ -129,6 +135,7 @@ class Operator(Scheduled, Simulator):
     def calm(self) -> None:
         """The operator stops the robot and leaves it alone; the line is mended."""
         self.mend()
+        self.lnr_fault = None
         for state in self.stations.values():
             state.stop_all()
 
@@ -138,12 +145,98 @@ class Operator(Scheduled, Simulator):
         # A bad LRC: the robot drops it.
         return super().receive(self.on_the_way_in(data, b" SN" in data), decoder)
 
+    #: What happens to the next LNR reply: "idle" (bits flipped so that it reads
+    #: idle and still passes the LRC: the next reply of a running robot), "malformed",
+    #: or None.
+    lnr_fault: str | None = None
+    #: LNR replies still to go clean after one corrupted past the LRC: every attempt
+    #: (1 + retries) of the client's next reading, since two corrupted readings in a
+    #: row is the risk the second read leaves (its square).
+    _clean_left = 0
+    #: Whether the last LNR fault made the reply not well formed (not a false idle).
+    lnr_malformed = False
+
+    @property
+    def fooled_at(self) -> set[int]:
+        """The requests (their index in :attr:`received`) whose LNR reply was
+        corrupted past the LRC."""
+        if not hasattr(self, "_fooled_at"):
+            self._fooled_at: set[int] = set()
+        return self._fooled_at
+
     def handle(self, state: SimState, payload: str) -> str:
         self.before_request()
         handled = len(self.received)  # this request's index in the record
         reply = super().handle(state, payload)
+        if payload == "LNR":
+            fooled = self.on_lnr(reply)
+            if fooled != reply and not self.lnr_malformed:
+                self.fooled_at.add(handled)
+            reply = fooled
         self.act(state, handled, payload)
         return reply
+
+    def on_lnr(self, reply: str) -> str:
+        fault, self.lnr_fault = self.lnr_fault, None
+        self.lnr_malformed = fault == "malformed"
+        if fault == "malformed":
+            return malformed(reply, self._rng)
+        if fault == "idle" and not self._clean_left:
+            fooled = reads_idle_past_the_lrc(reply)
+            if fooled == reply:
+                self.lnr_fault = fault  # waits for a reply of a running robot
+            else:
+                self._clean_left = 1 + FAST.retries
+            return fooled
+        self._clean_left = max(0, self._clean_left - 1)
+        return reply
+
+
+def reads_idle_past_the_lrc(reply: str) -> str:
+    """The LNR reply with each running or suspended task's status bit flipped off,
+    and for each flip the same bit flipped in a digit of a program number or step:
+    the XOR of the frame, its LRC, is unchanged.  The reply itself when no digit
+    can take the compensating flip."""
+    fields = reply.split(" ")
+    digits = [
+        (f, j)
+        for task in range(0, len(fields), 4)
+        for f in (task + 2, task + 3)
+        for j in range(len(fields[f]))
+    ]
+    out = [list(f) for f in fields]
+    for i in range(0, len(fields), 4):
+        status = int(fields[i]) if fields[i].isdigit() else 0
+        for bit in (1, 2):
+            if not status & bit:
+                continue
+            spot = next(((f, j) for f, j in digits if chr(ord(out[f][j]) ^ bit).isdigit()), None)
+            if spot is None:
+                return reply
+            digits.remove(spot)
+            f, j = spot
+            out[i][0] = chr(ord(out[i][0]) ^ bit)
+            out[f][j] = chr(ord(out[f][j]) ^ bit)
+    fooled = " ".join("".join(f) for f in out)
+    assert lrc(fooled.encode()) == lrc(reply.encode())
+    return fooled
+
+
+def malformed(reply: str, rng: random.Random) -> str:
+    """The LNR reply with one field not well formed, or a task missing."""
+    fields = reply.split(" ")
+    task = rng.randrange(len(fields) // 4) * 4
+    how = rng.choice(["type", "step", "program", "status", "missing"])
+    if how == "missing":
+        return " ".join(fields[:task] + fields[task + 4 :])
+    spot, text = {
+        "type": (1, "MAIM"),
+        "step": (3, "+" + fields[task + 3]),
+        "program": (2, "1_0"),
+        "status": (0, "+" + fields[task]),
+    }[how]
+    fields[task + spot] = text
+    return " ".join(fields)
 
 
 def start(task: int, ptype: str, program: int, step: int) -> Change:
@@ -173,6 +266,27 @@ def set_status(task: int, status: int) -> Change:
 def stop_all(sim: Simulator, state: SimState) -> str:
     state.stop_all()
     return "all tasks stopped"
+
+
+def start_unseen(task: int, ptype: str, step: int) -> Change:
+    """The operator starts a task, and the next LNR reply reads idle past the LRC."""
+
+    def change(sim: Operator, state: SimState) -> str:
+        state.start_task(task, ptype, 0, step)
+        sim.lnr_fault = "idle"
+        return f"task {task} in execution; the next LNR reply reads idle past the LRC"
+
+    return change
+
+
+def lnr_fault(kind: str) -> Change:
+    def change(sim: Operator, state: SimState) -> str:
+        sim.lnr_fault = kind
+        return {"idle": "the next LNR reply reads idle past the LRC"}.get(
+            kind, "the next LNR reply is not well formed"
+        )
+
+    return change
 
 
 # --- one random case ------------------------------------------------------------------------
@@ -298,8 +412,11 @@ def random_schedule(
                 stop_all,
                 set_status(task, rng.choice([0, 4, 8])),
                 set_status(task, rng.choice([3, 16])),
+                start_unseen(task, rng.choice(["MAIN", "SUB"]), rng.randrange(1, 8)),
+                lnr_fault("idle"),
+                lnr_fault("malformed"),
             ],
-            weights=[4, 2, 3, 1, 1],
+            weights=[4, 2, 3, 1, 1, 2, 1, 1],
         )[0]
         out.append((moment(), change))
     return out + line_changes(rng, moment, deadline)
@@ -367,7 +484,7 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
             except PushFailed as exc:
                 result, failed = exc.result, exc
             snapshot = taken[before] if len(taken) > before else None
-            return Outcome(result, failed, case.sim.received[first:], snapshot)
+            return Outcome(result, failed, case.sim.received[first:], snapshot, first)
         finally:
             unregister(url)
 
@@ -405,7 +522,7 @@ def on_disk(
                 case.why, ["push", str(path), "--yes", "--allow-dirty", *flags], seen, capsys
             )
             snapshot = load_project(result.snapshot).data if result.snapshot else None
-            return Outcome(result, failed, case.sim.received[first:], snapshot)
+            return Outcome(result, failed, case.sim.received[first:], snapshot, first)
         finally:
             unregister(url)
 
@@ -424,6 +541,36 @@ def readback_letters(letters: str) -> str:
 @dataclass
 class Tally(BaseTally):
     live_in_automatic: int = 0
+    #: LNR replies of a running robot corrupted to read idle past the LRC
+    fooled: int = 0
+
+
+def lnr_run(received: list[Received], end: int) -> list[int]:
+    """The indices of the LNR requests in a row just before request ``end``."""
+    start = end
+    while start and received[start - 1].command == "LNR":
+        start -= 1
+    return list(range(start, end))
+
+
+def cleared(case: Case, got: Outcome, run: list[int]) -> bool:
+    """Whether a run of LNR requests let a write go, as the interlock promises: at
+    least ``IDLE_READS`` of them, the robot idle at one of them, and at the last one
+    idle or its reply corrupted past the LRC.
+
+    Some of a run's requests are retries (a reply lost or garbled), so which were
+    the client's two readings the record cannot say.  What it can say: a robot busy
+    at every one of them was never written to (one reply corrupted to read idle
+    could not clear the write), and a robot that started in between was idle at an
+    earlier reading: the window no client can close, counted as a race by the write.
+    """
+    received = got.received
+    if len(run) < IDLE_READS:
+        return False
+    last = run[-1]
+    if received[last].busy and got.first + last not in case.sim.fooled_at:
+        return False
+    return any(not received[k].busy for k in run)
 
 
 def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
@@ -432,11 +579,10 @@ def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
         if not r.is_write or not needs_idle(r.command, opts):
             tally.live_in_automatic += r.is_write and r.busy
             continue
-        before = received[i - 1] if i else None
-        cleared = before is not None and before.command == "LNR" and not before.busy
-        assert cleared, case.why(
-            f"{r.payload!r} (request {i}) did not follow an LNR that found the robot idle "
-            f"(before it: {before})"
+        before = lnr_run(received, i)
+        assert cleared(case, got, before), case.why(
+            f"{r.payload!r} (request {i}) did not follow {IDLE_READS} LNRs in a row that "
+            f"found the robot idle (before it: {[received[k] for k in before]})"
         )
         if r.busy:
             tally.race += 1  # started between that LNR and this write: see the docstring
@@ -448,8 +594,8 @@ def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
     ):
         writes = [i for i, r in enumerate(received) if r.is_write]
         if writes:
-            gate = [r for r in received[: writes[0]] if r.command == "LNR"]
-            assert gate and not gate[-1].busy, case.why(
+            gate = [i for i, r in enumerate(received[: writes[0]]) if r.command == "LNR"]
+            assert gate and cleared(case, got, lnr_run(received, gate[-1] + 1)), case.why(
                 "a live-tuning plan with unsafe writes did not find the robot idle "
                 "before its first write"
             )
@@ -500,6 +646,13 @@ def check_converged(case: Case, final: RobotData) -> None:
 
 
 def check_case(case: Case, deploy: Deploy, tally: Tally) -> None:
+    try:
+        check_pushes(case, deploy, tally)
+    finally:
+        tally.fooled += len(case.sim.fooled_at)
+
+
+def check_pushes(case: Case, deploy: Deploy, tally: Tally) -> None:
     got = deploy(case, FAST)
     final = case.sim.stations[1].data
     tally.cases += 1
@@ -550,6 +703,7 @@ def test_no_unsafe_write_reaches_a_running_robot_and_every_push_converges_or_nam
     if not ONLY:  # the cases still reach what they are meant to (a generator can rot)
         assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 10, tally
         assert tally.lost_writes >= 5, tally
+        assert tally.fooled >= 3, tally
 
 
 #: Seeds for the on-disk run: enough to meet every kind of outcome, few enough to be quick.

@@ -46,7 +46,7 @@ from harlsync.sync import audit, engine
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="SIGKILL and ptys are POSIX")
 
-#: A pull of it is 129 requests (100 of them the offset tables).
+#: A pull of it is 130 requests (101 of them the offset tables and the probe past them).
 SMALL = Config(ProgramArea(1, 4), ProgramArea(2, 6), ProgramArea(1, 4), ProgramArea(1, 2), 4, 16, 4)
 HARLSYNC = [sys.executable, "-m", "harlsync"]
 DEADLINE = 30.0

@@ -299,7 +299,7 @@ def test_unknown_keys_are_reported_with_the_allowed_ones(root: Path) -> None:
         ),
         (
             "robot.yaml:20: colour: unknown key (allowed: format, family, name, description, connection, "
-            "maintenance_windows, keep_registers)"
+            "maintenance_windows, keep_registers, offset_tables)"
         ),
         "programs/hand-01.yaml:4: comment: unknown key (allowed: format, type, number, steps)",
     ]
@@ -410,7 +410,7 @@ def test_every_offset_table_must_be_present_and_numbered_0_to_99(root: Path) -> 
     edit(root, "offsets.yaml", "  9: {", "  100: {")
     assert validate_project(root) == [
         "offsets.yaml:3: tables: table 9 missing (allowed: every table 0-99)",
-        "offsets.yaml:13: tables.100: '100' is not a valid key (allowed: table numbers 0-99)",
+        "offsets.yaml:13: tables.100: table 100 is outside the configuration (allowed: 0-99)",
     ]
 
 

@@ -14,6 +14,7 @@ from harlsync.families.harl_u2.protocol import (
     decode_reply,
     encode_frame,
     lrc,
+    profile,
 )
 from harlsync.families.harl_u2.protocol import commands as c
 from harlsync.families.harl_u2.protocol.commands import Ack, ErrorReply
@@ -215,10 +216,6 @@ REQUESTS = [
         ),
         "SNL 7 120.50 -35.00 0.00 1.25 90.00 0.00 0 3",
     ),
-    (c.write_do_bit(5, True), "SNOB 5 1"),
-    (c.write_do_port(2, 255), "SNOD 2 255"),
-    (c.write_mem_bit(256, False), "SNBB 256 0"),
-    (c.write_mem_port(1, 9), "SNBD 1 9"),
     (
         c.write_config(
             Config(
@@ -242,9 +239,35 @@ def test_every_command_encodes_as_the_profile_says(request_, payload: str) -> No
     assert c.parse_request(payload) == request_
 
 
-def test_every_command_of_the_profile_has_a_builder() -> None:
+def test_every_command_harlsync_sends_has_a_builder_and_no_other_does() -> None:
     built = {r.letters for r, _ in REQUESTS} | {"SNE"}
-    assert built == c.READ_LETTERS | c.WRITE_LETTERS
+    assert built == profile.SENT_COMMANDS
+    assert (c.READ_LETTERS | c.WRITE_LETTERS) - built == {"SNOB", "SNOD", "SNBB", "SNBD"}
+
+
+# Issue 19: SNO drives physical outputs and SNB memory bits (process state, not
+# program data); harlsync never sends them, nor anything else off the allow-list.
+NEVER_SENT = ["SNOB 5 1", "SNOD 2 255", "SNBB 256 0", "SNBD 1 9", "SNZ 1", "snob 5 1", "SNO 1 1"]
+
+
+@pytest.mark.parametrize("payload", NEVER_SENT)
+def test_the_encoder_cannot_encode_sno_snb_or_any_command_off_the_allow_list(payload: str) -> None:
+    with pytest.raises(FrameError, match="not on the HARL-U2 allow-list"):
+        encode_frame(1, payload)
+    letters, *args = payload.split(" ")
+    with pytest.raises(FrameError, match="not on the HARL-U2 allow-list"):
+        c.Request(letters, tuple(args)).encode(1)
+
+
+@pytest.mark.parametrize("letters", ["FOO", "LNZ", "SN", "SNOB"])
+def test_a_request_off_the_allow_list_is_refused_whatever_its_letters(letters: str) -> None:
+    with pytest.raises(FrameError, match="not on the HARL-U2 allow-list"):
+        c.Request(letters, ("1",)).encode(1)
+
+
+def test_the_sn_writes_harlsync_sends_are_program_data_only() -> None:
+    sent = {x for x in profile.SENT_COMMANDS if x.startswith("SN")}
+    assert sent == {"SNA", "SNM", "SNS", "SNH", "SNT", "SND", "SNL", "SNE", "SNX"}
 
 
 def test_the_unsafe_commands_are_the_six_the_manual_marks() -> None:
@@ -263,7 +286,6 @@ def test_the_unsafe_commands_are_the_six_the_manual_marks() -> None:
         lambda: c.write_step(ProgramType.MAIN, 0, 0, Step("A", ("1", "2", "3", "4", "5"))),
         lambda: c.write_step(ProgramType.MAIN, 0, 0, Step("MO VE")),
         lambda: c.write_step(ProgramType.START, 1, 0, Step("END")),
-        lambda: c.write_do_port(0, 256),
     ],
 )
 def test_out_of_range_writes_are_refused_before_they_reach_the_wire(build) -> None:
@@ -370,3 +392,26 @@ def test_a_typed_request_decodes_its_reply_as_the_request_made_from_its_letters(
     reply = Simulator(state).handle(state, payload)
     assert request_.decode_payload(reply) == c.parse_request(payload).decode_payload(reply)
     assert request_.decode(Frame(1, reply)) == decode_reply(request_, reply)
+
+
+IDLE_TASKS = ["0 START 0 0"] * 4
+
+
+@pytest.mark.parametrize(
+    "task",
+    ["0 MAIM 0 0", "0 main 0 0", "0 MAIN 0 +7", "0 MAIN 0 1_0", "0 MAIN -1 0", "+0 MAIN 0 0"],
+)
+def test_issue_19_an_lnr_reply_with_a_field_not_well_formed_does_not_decode(task: str) -> None:
+    with pytest.raises(ReplyError, match="task 4"):
+        decode_reply(c.read_status(), " ".join([*IDLE_TASKS, task]))
+
+
+@pytest.mark.parametrize("count", [4, 6])
+def test_issue_19_an_lnr_reply_with_the_wrong_task_count_is_not_idle(count: int) -> None:
+    status = decode_reply(c.read_status(), " ".join(["0 START 0 0"] * count))
+    assert not status.idle and f"reported {count} tasks" in status.describe()
+
+
+def test_an_lnr_reply_of_five_well_formed_stopped_tasks_is_idle() -> None:
+    status = decode_reply(c.read_status(), " ".join(["0 START 0 0", *["4 MAIN 3 17"] * 4]))
+    assert status.idle

@@ -15,6 +15,7 @@ from harlsync.families.harl_u2.model import (
     ProgramType,
     Step,
 )
+from harlsync.families.harl_u2.protocol.profile import IDLE_READS
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync.engine import PushOptions, pull, push
@@ -41,7 +42,7 @@ def full_read(config: Config) -> Counter[str]:
             "LNV": 1,
             "LNE": 1,
             "LN step": config.step_count,
-            "LNL": OFFSET_TABLE_COUNT,
+            "LNL": OFFSET_TABLE_COUNT + 1,  # the probe past the last table (issue 20)
             "LNT": config.timers,
         }
     )
@@ -57,7 +58,7 @@ def test_issue7_a_pull_reads_each_step_table_and_timer_once(tmp_path: Path) -> N
     assert sent(sim) == full_read(SMALL)
 
 
-def test_issue7_a_push_sends_one_write_and_three_safety_reads_per_changed_item(
+def test_issue7_a_push_sends_one_write_and_its_safety_reads_per_changed_item(
     tmp_path: Path,
 ) -> None:
     state = SimState.generate(3, SMALL)
@@ -76,7 +77,10 @@ def test_issue7_a_push_sends_one_write_and_three_safety_reads_per_changed_item(
     # LNR before reading the robot, the full read for the plan; then per item: a read
     # for drift, LNR for the interlock, the write, and a read to verify it; and LNR once
     # more after the last write (was the robot started while it was on the wire?).
+    # Each interlock reading is IDLE_READS LNRs in a row (issue 19: the LRC misses two
+    # flipped bits in one column).
+    lnr = IDLE_READS * (1 + 5 + 1)
     expected = full_read(SMALL) + Counter(
-        {"LNR": 1 + 5 + 1, "LN step": 2 * 3, "SN step": 3, "LNT": 2, "SNT": 1, "LNL": 2, "SNL": 1}
+        {"LNR": lnr, "LN step": 2 * 3, "SN step": 3, "LNT": 2, "SNT": 1, "LNL": 2, "SNL": 1}
     )
     assert sent(sim) == expected

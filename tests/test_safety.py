@@ -22,6 +22,7 @@ from harlsync.families.harl_u2.controller import Controller
 from harlsync.families.harl_u2.driver import HarlU2Driver
 from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.protocol import lrc
 from harlsync.families.harl_u2.sim import SimState
 from harlsync.link import SerialSettings
 from harlsync.link import lock as lockmod
@@ -93,8 +94,28 @@ IDLE_TASK = "0 START 0 0"
         " ".join([IDLE_TASK] * 4),
         " ".join([IDLE_TASK] * 4 + ["3 MAIN 0 0"]),
         " ".join([IDLE_TASK] * 4 + ["0 MAIN x 0"]),
+        # Issue 19: a reply whose fields are not all well formed is not idle.
+        " ".join([IDLE_TASK] * 4 + ["0 MAIM 0 0"]),
+        " ".join([IDLE_TASK] * 4 + ["0 main 0 0"]),
+        " ".join([IDLE_TASK] * 4 + ["0 MAIN 0 +7"]),
+        " ".join([IDLE_TASK] * 4 + ["0 MAIN 0 1_0"]),
+        " ".join([IDLE_TASK] * 4 + ["0 MAIN -1 0"]),
+        " ".join([IDLE_TASK] * 4 + ["+0 MAIN 0 0"]),
+        " ".join([IDLE_TASK] * 6),
     ],
-    ids=["error status", "four tasks", "two bits set", "unparsable"],
+    ids=[
+        "error status",
+        "four tasks",
+        "two bits set",
+        "unparsable",
+        "not a program type",
+        "program type in lower case",
+        "signed step",
+        "step with an underscore",
+        "negative program number",
+        "signed status",
+        "six tasks",
+    ],
 )
 def test_a_push_writes_nothing_unless_lnr_shows_five_known_idle_tasks(
     project: Path, sim: ScriptedSim, reply: str
@@ -104,6 +125,36 @@ def test_a_push_writes_nothing_unless_lnr_shows_five_known_idle_tasks(
     with pytest.raises(PushFailed) as failed:
         engine.push(project, YES)
     assert isinstance(failed.value.cause, InterlockError)
+    assert sim.writes_received() == []
+
+
+def test_issue_19_one_lnr_reply_corrupted_past_the_lrc_does_not_clear_a_write(
+    project: Path, sim: ScriptedSim
+) -> None:
+    """The LRC is an XOR: ``1 MAIN 0 0`` (task 0 in execution) with bit 0 flipped in
+    its status and in its step arrives as ``0 MAIN 0 1``, LRC intact.  The second
+    LNR before the write sees the task run."""
+    commit_step(project, 1, 3, "MOVE P999 S20")
+    running, fooled = "1 MAIN 0 0", "0 MAIN 0 1"
+    assert lrc(running.encode()) == lrc(fooled.encode())
+    answer = sim.handle
+    corrupted: list[str] = []
+
+    def once_past_the_lrc(state: SimState, payload: str) -> str:
+        reply = answer(state, payload)
+        if payload == "LNR" and reply.startswith(running) and not corrupted:
+            corrupted.append(reply)
+            return fooled + reply[len(running) :]
+        return reply
+
+    sim.handle = once_past_the_lrc  # type: ignore[method-assign]
+    # The robot is started as the push reads step 3 for drift, just before the LNRs.
+    sim.plan("LNM 1 3", Act(), Act(before=operator_starts_the_robot))
+    with pytest.raises(PushFailed) as failed:
+        engine.push(project, YES)
+    assert corrupted, "the corrupted reply was never sent"
+    assert isinstance(failed.value.cause, InterlockError)
+    assert "task 0 in execution" in str(failed.value)
     assert sim.writes_received() == []
 
 
@@ -422,7 +473,7 @@ def test_a_push_that_ends_with_the_robot_idle_warns_of_nothing(
 ) -> None:
     commit_step(project, 1, 3, "MOVE P999 S20")
     assert engine.push(project, YES).warnings == []
-    assert [r.command for r in sim.received[-2:]] == ["LNM", "LNR"]
+    assert [r.command for r in sim.received[-3:]] == ["LNM", "LNR", "LNR"]  # IDLE_READS
 
 
 def test_a_parameters_write_followed_only_by_live_tuning_is_still_checked_after(

@@ -29,7 +29,10 @@ SMALL = Config(ProgramArea(1, 8), ProgramArea(2, 8), ProgramArea(1, 4), ProgramA
 def ask(sim: Simulator, payload: str, station: int = 1) -> str | None:
     """Send one request straight into the simulator; the reply payload or None."""
     dec = FrameDecoder()
-    for _, chunk in sim.receive(encode_frame(station, payload)):
+    # Built by hand, not by encode_frame: the simulator must answer what harlsync
+    # never sends (SNO, SNB) as the controller does.
+    body = f"{station} {payload}".encode("ascii") + b"\x03"
+    for _, chunk in sim.receive(b"\x02" + body + bytes([lrc(body)])):
         dec.feed(chunk)
     frame = dec.next_frame()
     return None if frame is None else frame.payload

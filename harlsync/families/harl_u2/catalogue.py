@@ -185,10 +185,13 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
         }
 
     def contents(self, data: RobotData, *, registers: bool) -> str:
+        """What a live read holds: programs, timers and registers to the sizes LNX
+        reports, and the offset tables with the range the read covered (it probed
+        the table after the last: ``Controller.probe_offsets``)."""
         steps = sum(not step.empty for steps in data.programs.values() for step in steps.values())
         parts = [
             f"{_many(len(data.programs), 'program')} ({_many(steps, 'step')} used)",
-            _many(len(data.offsets), "offset table"),
+            _tables(len(data.offsets)),
             _many(len(data.timers), "timer"),
         ]
         if registers and data.registers is not None:
@@ -258,6 +261,11 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
 
 
 CATALOGUE = HarlU2Catalogue()
+
+
+def _tables(count: int) -> str:
+    """``100 offset tables (0-99, the controller has no table 100)``: the range read."""
+    return f"{_many(count, 'offset table')} (0-{count - 1}, the controller has no table {count})"
 
 
 def _many(count: int, one: str) -> str:

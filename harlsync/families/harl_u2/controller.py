@@ -17,7 +17,7 @@ then reads the item back::
     reads back anything else       -> WriteUnconfirmed (someone else changed it, or worse)
 
 Before sending an unsafe write (SNA, SNM, SNS, SNH, SNE, SNX) once more, the
-controller reads LNR again: the robot may have been started while the reply was
+controller reads LNR again (twice: :meth:`Controller.idle_status`): the robot may have been started while the reply was
 awaited.  Unless every task is known and idle it raises
 :class:`~harlsync.errors.InterlockError` and does not send it again.  A caller
 that needs an idle robot for a write the manual allows in automatic operation
@@ -35,7 +35,7 @@ import os
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-from ...errors import ControllerError, WriteUnconfirmed
+from ...errors import ControllerError, SyncError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
 from ...link import Link as SharedLink
 from ...link.confirm import confirmed_write, refuse_unless_idle
@@ -53,10 +53,10 @@ from .model import (
     Status,
     Step,
 )
-from .protocol import Ack, ErrorReply, Frame, Request
+from .protocol import Ack, ErrorReply, Frame, Request, profile
 from .protocol import commands as cmd
 
-__all__ = ["Controller", "Progress"]
+__all__ = ["Controller", "Progress", "TableBeyondRange"]
 
 log = logging.getLogger(__name__)
 
@@ -141,7 +141,7 @@ class Controller(OnLink):
     def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless the status, read now, shows the robot idle."""
         refuse_unless_idle(
-            self.status,
+            self.idle_status,
             lost,
             where=f"port {self.port}, station {self.station}, command {request.payload}",
             reading="the task states",
@@ -266,25 +266,11 @@ class Controller(OnLink):
     def read_do_port(self, port: int) -> int:
         return self.request(cmd.read_do_port(port))
 
-    def write_do_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
-        """Drive one physical output."""
-        self._write(cmd.write_do_bit(bit, on), cmd.read_do_bit(bit), int(on), _bit(old))
-
-    def write_do_port(self, port: int, value: int, *, old: int | None = None) -> None:
-        """Drive eight physical outputs (bit n of ``value`` is DO 8*port+n)."""
-        self._write(cmd.write_do_port(port, value), cmd.read_do_port(port), value, old)
-
     def read_mem_bit(self, bit: int) -> bool:
         return bool(self.request(cmd.read_mem_bit(bit)))
 
     def read_mem_port(self, port: int) -> int:
         return self.request(cmd.read_mem_port(port))
-
-    def write_mem_bit(self, bit: int, on: bool, *, old: bool | None = None) -> None:
-        self._write(cmd.write_mem_bit(bit, on), cmd.read_mem_bit(bit), int(on), _bit(old))
-
-    def write_mem_port(self, port: int, value: int, *, old: int | None = None) -> None:
-        self._write(cmd.write_mem_port(port, value), cmd.read_mem_port(port), value, old)
 
     # --- status, version, configuration -------------------------------------------------
 
@@ -295,6 +281,21 @@ class Controller(OnLink):
         :class:`~harlsync.errors.ReplyError`): treat any error as "not idle".
         """
         return self.request(cmd.read_status())
+
+    def idle_status(self) -> Status:
+        """LNR read until one reply is not idle, at most ``profile.IDLE_READS`` times:
+        the robot is idle only when every one of those replies says so.
+
+        The LRC cannot catch two flipped bits in one bit column, which can turn a
+        task in execution into a stopped one; two such corruptions in a row are
+        needed to clear a write.  Raises as :meth:`status` does.
+        """
+        status = self.status()
+        for _ in range(profile.IDLE_READS - 1):
+            if not status.idle:
+                break
+            status = self.status()
+        return status
 
     def version(self) -> str:
         return self.request(cmd.read_version())
@@ -315,21 +316,49 @@ class Controller(OnLink):
             needs_idle=needs_idle,
         )
 
+    def probe_offsets(self, count: int) -> None:
+        """Make sure the controller has no offset table ``count`` (LNX does not
+        report how many it has): LNL ``count`` must answer an error.
+
+        Raises :class:`TableBeyondRange` naming the table and robot.yaml's
+        ``offset_tables`` when it answers a table.
+        """
+        try:
+            table = self.read_offset(count)
+        except ControllerError:
+            return  # "E" + status: there is no such table
+        shown = " ".join(table.values)
+        raise TableBeyondRange(
+            f"port {self.port}, station {self.station}: offset table {count} answers "
+            f"({shown}): the controller has more than the {count} offset tables this pull "
+            f"reads (0-{count - 1}), so the backup would be short; set offset_tables in "
+            "robot.yaml to the controller's count and pull again"
+        )
+
     # --- everything ---------------------------------------------------------------------
 
     def read_all(
-        self, include_registers: bool = False, progress: Progress | None = None
+        self,
+        include_registers: bool = False,
+        progress: Progress | None = None,
+        *,
+        offset_tables: int = OFFSET_TABLE_COUNT,
     ) -> RobotData:
         """Everything a backup holds, read in pull order.
 
         The configuration first (it says what exists), then version, parameters,
-        every step of every program, the offset tables and the timers, and the
-        registers when ``include_registers``.  ``progress(done, total)`` is called
-        after each item.
+        every step of every program, the offset tables 0 to ``offset_tables`` - 1
+        (robot.yaml's ``offset_tables``, the manual's 100 by default) and the
+        probe past them (:meth:`probe_offsets`), the timers, and the registers
+        when ``include_registers``.  Programs, timers and registers are read to
+        the sizes LNX reports; only the offset tables' count is not reported.
+        ``progress(done, total)`` is called after each item.
+
+        Raises :class:`TableBeyondRange` when the controller has more offset tables.
         """
         config = self.config()
         registers = config.registers if include_registers else 0
-        total = 3 + config.step_count + OFFSET_TABLE_COUNT + config.timers + registers
+        total = 4 + config.step_count + offset_tables + config.timers + registers
         done = 0
 
         def tick(value: T) -> T:
@@ -348,7 +377,9 @@ class Controller(OnLink):
             )
             for ptype, number in config.programs()
         }
-        offsets = {n: tick(self.read_offset(n)) for n in range(OFFSET_TABLE_COUNT)}
+        offsets = {n: tick(self.read_offset(n)) for n in range(offset_tables)}
+        self.probe_offsets(offset_tables)
+        tick(None)
         timers = {n: tick(self.read_timer(n)) for n in range(config.timers)}
         regs = {n: tick(self.read_register(n)) for n in range(registers)}
         return RobotData(
@@ -362,8 +393,8 @@ class Controller(OnLink):
         )
 
 
-def _bit(value: bool | None) -> int | None:
-    return None if value is None else int(value)
+class TableBeyondRange(SyncError):
+    """The controller has more of a table than the pull reads: a backup would be short."""
 
 
 def _show(value: object) -> str:

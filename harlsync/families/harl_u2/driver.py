@@ -9,7 +9,7 @@ from typing import Any
 from ..base import Driver, Progress
 from .catalogue import Key, NumberKey, StepKey
 from .controller import Controller
-from .model import ProgramType, RobotData, Status, Step
+from .model import OFFSET_TABLE_COUNT, ProgramType, RobotData, Status, Step
 from .protocol import Request
 from .protocol import commands as cmd
 
@@ -19,15 +19,20 @@ __all__ = ["HarlU2Driver"]
 class HarlU2Driver(Driver[Key, RobotData]):
     """The HARL-U2 over a :class:`~harlsync.controller.Controller`."""
 
-    def __init__(self, controller: Controller) -> None:
+    def __init__(self, controller: Controller, *, offset_tables: int = OFFSET_TABLE_COUNT) -> None:
         self.controller = controller
+        #: robot.yaml's ``offset_tables``: how many tables a read of everything reads
+        self.offset_tables = offset_tables
         self.label = f"port {controller.port} station {controller.station}"
 
     def read_all(self, *, registers: bool, progress: Progress | None = None) -> RobotData:
-        return self.controller.read_all(include_registers=registers, progress=progress)
+        return self.controller.read_all(
+            include_registers=registers, progress=progress, offset_tables=self.offset_tables
+        )
 
     def status(self) -> Status:
-        return self.controller.status()
+        """The interlock's reading: LNR twice in a row, both idle (``Controller.idle_status``)."""
+        return self.controller.idle_status()
 
     def _request(self, key: Key, value: Any) -> Request:
         if isinstance(key, StepKey):

@@ -123,7 +123,7 @@ class HarlU2Family(Family[Key, RobotData]):
             robot.serial,
             lock_timeout=lock_timeout,
         )
-        return HarlU2Driver(controller)
+        return HarlU2Driver(controller, offset_tables=layout.offset_tables(robot))
 
 
 #: The family, as the registry hands it out.

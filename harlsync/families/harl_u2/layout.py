@@ -128,6 +128,14 @@ _DIGITS = re.compile(r"[0-9]+")
 _PROGRAM_NAME = re.compile(r"(start|(main|sub|hand)-([0-9]{2}))\.yaml")
 
 
+def offset_tables(robot: Robot | None) -> int:
+    """How many offset tables the robot has, 0 to N - 1: robot.yaml's ``offset_tables``,
+    else the manual's 100 (LNX does not report it; a pull probes table N)."""
+    if robot is None:
+        return OFFSET_TABLE_COUNT
+    return int(robot.options.get("offset_tables", OFFSET_TABLE_COUNT))
+
+
 def program_path(key: ProgramKey) -> str:
     """The program's file, relative to the project: ``programs/main-03.yaml``."""
     ptype, number = key
@@ -164,6 +172,8 @@ def render_robot(robot: Robot) -> str:
         ("maintenance_windows", window_nodes(robot)),
         ("keep_registers", y.boolean(robot.keep_registers)),
     ]
+    if "offset_tables" in robot.options:
+        items.append(("offset_tables", y.num(str(offset_tables(robot)))))
     return FILES.document("robot", "robot.yaml", items)
 
 
@@ -312,7 +322,7 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     config = None
     if "controller.yaml" in valid:
         config = _build_config(docs["controller.yaml"].data)
-        _check_against_config(config, docs, programs, issues)
+        _check_against_config(config, docs, programs, issues, offset_tables(result.robot))
     _check_wire(docs, valid, programs, issues)
 
     if not issues and config is not None:
@@ -400,10 +410,12 @@ def _check_against_config(
     docs: Mapping[str, y.Parsed],
     programs: Mapping[ProgramKey, y.Parsed | None],
     issues: list[Issue],
+    tables: int = OFFSET_TABLE_COUNT,
 ) -> None:
-    """What the schemas cannot say: numbers that depend on controller.yaml."""
+    """What the schemas cannot say: numbers that depend on controller.yaml (and the
+    offset tables' count on robot.yaml)."""
     if (doc := docs.get("offsets.yaml")) is not None:
-        _check_numbered("offsets.yaml", doc, "tables", OFFSET_TABLE_COUNT, "table", issues)
+        _check_numbered("offsets.yaml", doc, "tables", tables, "table", issues)
     if (doc := docs.get("timers.yaml")) is not None:
         _check_numbered("timers.yaml", doc, "timers", config.timers, "timer", issues)
     if (doc := docs.get("registers.yaml")) is not None:
@@ -583,6 +595,7 @@ def _build_robot(data: dict[str, Any]) -> Robot:
         windows=build_windows(data),
         keep_registers=bool(data.get("keep_registers", False)),
         description=data.get("description"),
+        options=({"offset_tables": int(data["offset_tables"])} if "offset_tables" in data else {}),
     )
 
 

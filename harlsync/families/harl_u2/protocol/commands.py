@@ -16,10 +16,15 @@ Request builders, one per command of the profile::
     LNT read_timer   LND read_register   SNT write_timer   SND write_register
     LNL read_offset                      SNL write_offset
     LNIB/LNID read_di_bit/read_di_port
-    LNOB/LNOD read_do_bit/read_do_port   SNOB/SNOD write_do_bit/write_do_port
-    LNBB/LNBD read_mem_bit/read_mem_port SNBB/SNBD write_mem_bit/write_mem_port
+    LNOB/LNOD read_do_bit/read_do_port
+    LNBB/LNBD read_mem_bit/read_mem_port
     LNE read_parameters                  SNE write_parameters
     LNR read_status   LNV read_version   LNX read_config   SNX write_config
+
+SNO (physical outputs) and SNB (memory bits) have no builder, and
+:meth:`Request.encode` refuses them and every other command off
+``profile.SENT_COMMANDS``: harlsync never sends them.  The simulator still
+parses them (:func:`parse_request`), as the controller does.
 
 What a write must be for the wire to give it back (:func:`read_back`): the
 request, and the reply to the read of the same item, each fit one frame to any
@@ -34,7 +39,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar, overload
 
-from ....errors import ReplyError
+from ....errors import FrameError, ReplyError
 from ..model import (
     MAX_STEP_DATA,
     REGISTER_RE,
@@ -79,10 +84,6 @@ __all__ = [
     "read_timer",
     "read_version",
     "write_config",
-    "write_do_bit",
-    "write_do_port",
-    "write_mem_bit",
-    "write_mem_port",
     "write_offset",
     "write_parameters",
     "write_register",
@@ -152,7 +153,10 @@ class Request(Generic[T_co]):
 
     def encode(self, station: int) -> bytes:
         """The request frame for ``station``.  Raises :class:`~harlsync.errors.FrameError`
-        for a payload a frame cannot carry."""
+        for a command off ``profile.SENT_COMMANDS`` (SNO, SNB ...: never sent) or a
+        payload a frame cannot carry."""
+        if self.letters not in profile.SENT_COMMANDS:
+            raise FrameError(f"{self.letters} is not on the HARL-U2 allow-list: it is never sent")
         return encode_frame(station, self.payload)
 
     def decode(self, frame: Frame) -> T_co | ErrorReply:
@@ -261,30 +265,12 @@ def read_do_port(port: int) -> Request[int]:
     return Request("LNOD", (str(port),), _parse_byte)
 
 
-def write_do_bit(bit: int, on: bool) -> Request[Ack]:
-    return Request("SNOB", (str(bit), "1" if on else "0"), _parse_ack)
-
-
-def write_do_port(port: int, value: int) -> Request[Ack]:
-    _check_byte(value)
-    return Request("SNOD", (str(port), str(value)), _parse_ack)
-
-
 def read_mem_bit(bit: int) -> Request[int]:
     return Request("LNBB", (str(bit),), _parse_bit)
 
 
 def read_mem_port(port: int) -> Request[int]:
     return Request("LNBD", (str(port),), _parse_byte)
-
-
-def write_mem_bit(bit: int, on: bool) -> Request[Ack]:
-    return Request("SNBB", (str(bit), "1" if on else "0"), _parse_ack)
-
-
-def write_mem_port(port: int, value: int) -> Request[Ack]:
-    _check_byte(value)
-    return Request("SNBD", (str(port), str(value)), _parse_ack)
 
 
 def read_parameters() -> Request[Parameters]:
@@ -316,11 +302,6 @@ def write_config(value: Config) -> Request[Ack]:
 def _check(pattern: re.Pattern[str], value: str, what: str, allowed: str) -> None:
     if not pattern.fullmatch(value):
         raise ValueError(f"{what} {value!r} out of range (allowed: {allowed})")
-
-
-def _check_byte(value: int) -> None:
-    if not 0 <= value <= 255:
-        raise ValueError(f"port value {value} out of range (allowed: 0-255)")
 
 
 # --- what a write must be for the wire to give it back ----------------------------
@@ -495,13 +476,29 @@ def _parse_parameters(request: Request[object], fields: list[str]) -> Parameters
 
 
 def _parse_status(request: Request[object], fields: list[str]) -> Status:
+    """Every field well formed or none: S, N and L plain decimal digits (no sign,
+    no ``_``, which Python's ``int`` would take), K one of the four program types.
+
+    A reply with another number of whole groups is a :class:`Status` that is not
+    idle (:attr:`Status.idle` counts the tasks).
+    """
     if len(fields) % 4 or not fields:
         raise ValueError(f"{len(fields)} fields, expected {profile.TASK_COUNT} x (S K N L)")
     tasks = []
     for i in range(0, len(fields), 4):
         s, k, n, step = fields[i : i + 4]
-        tasks.append(TaskState(i // 4, int(s), k, int(n), int(step)))
+        task = i // 4
+        for what, text in (("status", s), ("program number", n), ("step", step)):
+            if not _INT_RE.fullmatch(text):
+                raise ValueError(f"task {task}: {what} {text!r} is not a number")
+        if k not in _PROGRAM_TYPE_WORDS:
+            raise ValueError(f"task {task}: program type {k!r} is not START, MAIN, SUB or HAND")
+        tasks.append(TaskState(task, int(s), k, int(n), int(step)))
     return Status(tuple(tasks), profile.TASK_COUNT)
+
+
+#: The program type words LNR may answer in K.
+_PROGRAM_TYPE_WORDS = frozenset(t.value for t in ProgramType)
 
 
 def _parse_version(request: Request[object], fields: list[str]) -> str:

@@ -65,11 +65,25 @@ class Frame:
         return encode_frame(self.station, self.payload)
 
 
+#: A first field the controller would take as a command: LN or SN and more letters
+#: (the manual has no other kind of command; ``Z`` is "for semiconductors only").
+_COMMAND_WORD = re.compile(r"[LS]N[A-Z]*", re.IGNORECASE)
+
+
 def encode_frame(station: int, payload: str) -> bytes:
     """The bytes of one frame, LRC included.
 
-    Raises :class:`FrameError` when the payload holds a byte a frame cannot carry.
+    A request payload must begin with a command of ``profile.SENT_COMMANDS``:
+    a payload whose first field reads as any other command (SNO, SNB, SNZ, ``snm``
+    ...) is refused here, so no layer above can put one on the wire.  Replies
+    (the simulator's side) begin with a digit, a sign, a decimal or ``E``.
+
+    Raises :class:`FrameError` when the payload holds a byte a frame cannot carry,
+    or begins with a command off the allow-list.
     """
+    first = payload.split(" ", 1)[0]
+    if _COMMAND_WORD.fullmatch(first) and first not in profile.SENT_COMMANDS:
+        raise FrameError(f"{first} is not on the HARL-U2 allow-list: it is never sent")
     if not 0 <= station <= MAX_STATION:
         raise FrameError(f"station {station} out of range")
     try:

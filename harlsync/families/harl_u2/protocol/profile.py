@@ -19,6 +19,20 @@ SP = 0x20
 #: STX or ETX); ``"hex"`` would be two upper-case ASCII hex digits.
 LRC_ENCODING: Literal["raw", "hex"] = "raw"
 
+#: The only commands harlsync ever sends: every LN read of the manual, and the SN
+#: writes of program data (steps, timers, registers, offset tables, expanded
+#: parameters, program configuration).  SNO (physical outputs) and SNB (memory
+#: bits) are process state, not program data: the codec refuses to encode them,
+#: and anything else off this list (``frame.encode_frame``, ``Request.encode``).
+SENT_COMMANDS = frozenset(
+    (
+        "LNA", "LNM", "LNS", "LNH", "LNT", "LND", "LNL",
+        "LNIB", "LNID", "LNOB", "LNOD", "LNBB", "LNBD",
+        "LNE", "LNR", "LNV", "LNX",
+        "SNA", "SNM", "SNS", "SNH", "SNT", "SND", "SNL", "SNE", "SNX",
+    )
+)  # fmt: skip
+
 #: A successful SN write is answered with this payload.
 SN_OK = "0"
 
@@ -27,6 +41,14 @@ ERROR_PREFIX = "E"
 
 #: LNR reports this many tasks (0-4), four fields each: S K N L.
 TASK_COUNT = 5
+
+#: How many LNR replies in a row must each show every task idle before harlsync
+#: takes the robot for idle (before each write, and before a re-send).  The LRC
+#: is an XOR: two flipped bits in one bit column of a frame pass it, so a reply
+#: ``1 MAIN 3 7`` (task in execution) can arrive as ``0 MAIN 3 6`` (stopped).
+#: One such corruption in two independent reads is not enough to clear a write.
+#: docs/SAFETY.md and docs/BENCHMARKS.md (bench/lnr_twice.py) give the cost.
+IDLE_READS = 2
 
 #: A step that holds nothing is answered with its step number alone, and an SN
 #: step write with no command clears the step.

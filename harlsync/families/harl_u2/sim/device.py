@@ -23,7 +23,6 @@ from ....sim.device import Refused
 from ....sim.family import Verb
 from ..model import (
     MAX_STEP_DATA,
-    OFFSET_TABLE_COUNT,
     REGISTER_RE,
     TIMER_RE,
     TOKEN_RE,
@@ -174,7 +173,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             assert data.registers is not None
             return data.registers[_index(a[0], cfg.registers)]
         if letters == "LNL":
-            return " ".join(data.offsets[_index(a[0], OFFSET_TABLE_COUNT)].values)
+            return " ".join(data.offsets[_index(a[0], state.offset_tables)].values)
         if letters in ("LNIB", "LNOB"):
             bits = state.di if letters == "LNIB" else state.do
             return str(bits[_index(a[0], IO_BITS)])
@@ -219,7 +218,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             table = OffsetTable.from_values(a[1:])
             if table.problems():
                 raise Refused(STATUS_DATA)
-            data.offsets[_index(a[0], OFFSET_TABLE_COUNT)] = table
+            data.offsets[_index(a[0], state.offset_tables)] = table
         elif letters in ("SNOB", "SNBB"):
             bits = state.do if letters == "SNOB" else state.mem
             base, size = (0, IO_BITS) if letters == "SNOB" else (MEM_BIT_BASE, cfg.memory_bits)

@@ -61,6 +61,8 @@ class SimState:
     do: list[int] = field(default_factory=lambda: [0] * IO_BITS)
     mem: list[int] = field(default_factory=list)
     tasks: list[TaskState] = field(default_factory=_idle_tasks)
+    #: How many offset tables the controller has: the manual's 0-99 "(variable)".
+    offset_tables: int = OFFSET_TABLE_COUNT
 
     def __post_init__(self) -> None:
         cfg = self.data.config
@@ -70,7 +72,8 @@ class SimState:
             self.data.registers = {}
         for key in cfg.programs():
             self.data.programs.setdefault(key, {})
-        for n in range(OFFSET_TABLE_COUNT):
+        self.offset_tables = max(self.offset_tables, len(self.data.offsets))
+        for n in range(self.offset_tables):
             self.data.offsets.setdefault(n, OffsetTable())
         for n in range(cfg.timers):
             self.data.timers.setdefault(n, "0.00")

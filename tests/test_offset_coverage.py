@@ -1,0 +1,96 @@
+"""Issue 20 item 1 for the HARL-U2: no silent truncation.
+
+LNX reports how many programs, steps, timers and registers the controller has,
+and a pull reads them all; it does not report the offset tables, which the
+manual gives as 0-99 "(variable)".  A pull reads robot.yaml's ``offset_tables``
+(100 by default) and then asks for the next one: a controller that answers it
+has more, and the pull fails in one line naming the table and the setting,
+saving nothing.  Through the ``harlsync`` command over a real TCP socket.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from harlsync.cli import main
+from harlsync.families.harl_u2.model import Config, OffsetTable, ProgramArea
+from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.sim.serve import TcpServer
+from harlsync.sync import engine
+
+SMALL = Config(ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), ProgramArea(1, 4), 4, 16, 4)
+TABLE_110 = OffsetTable.from_values(["12.50", "-3.00", "0.00", "0.00", "90.00", "0.00", "1", "2"])
+
+
+def robot_with(tables: int) -> Simulator:
+    state = SimState.generate(5, SMALL)
+    state.offset_tables = tables
+    state.__post_init__()
+    if tables > 110:
+        state.data.offsets[110] = TABLE_110
+    return Simulator(state)
+
+
+def robot_yaml(project: Path, url: str, tables: int | None) -> None:
+    project.mkdir(parents=True)
+    extra = f"offset_tables: {tables}\n" if tables is not None else ""
+    (project / "robot.yaml").write_text(
+        f"format: 1\nname: cell\nconnection:\n  port: {url}\n  station: 1\n{extra}"
+    )
+
+
+def test_issue_20_a_pull_of_a_controller_with_more_offset_tables_fails_naming_the_setting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sim = robot_with(120)
+    with TcpServer(sim) as server:
+        assert main(["pull", str(tmp_path / "new"), "--port", server.url]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1, err
+        assert "offset table 100 answers" in err[0]
+        assert "set offset_tables in robot.yaml" in err[0]
+        assert not (tmp_path / "new" / "offsets.yaml").exists()
+        assert not sim.writes_received()
+
+
+def test_issue_20_with_offset_tables_set_the_pull_keeps_every_table_and_says_its_range(
+    tmp_path: Path,
+) -> None:
+    sim = robot_with(120)
+    project = tmp_path / "cell"
+    with TcpServer(sim) as server:
+        robot_yaml(project, server.url, 120)
+        # What the pull's closing line says (on a terminal): the range it covered.
+        contents = engine.pull(project).contents
+        assert "120 offset tables (0-119, the controller has no table 120)" in contents
+        assert "  110: {x: 12.50, y: -3.00" in (project / "offsets.yaml").read_text()
+        assert "offset_tables: 120" in (project / "robot.yaml").read_text()
+        assert main(["validate", str(project)]) == 0
+        assert main(["diff", str(project)]) == 0
+
+
+def test_issue_20_validate_refuses_a_table_past_robot_yamls_count(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sim = robot_with(120)
+    project = tmp_path / "cell"
+    with TcpServer(sim) as server:
+        robot_yaml(project, server.url, 120)
+        assert main(["pull", str(project)]) == 0
+    text = (project / "robot.yaml").read_text()
+    (project / "robot.yaml").write_text(text.replace("offset_tables: 120", "offset_tables: 110"))
+    capsys.readouterr()
+    assert main(["validate", str(project)]) == 1
+    assert "table 110 is outside the configuration (allowed: 0-109)" in capsys.readouterr().out
+
+
+def test_issue_20_a_pull_of_the_manuals_100_tables_says_the_range_it_covered(
+    tmp_path: Path,
+) -> None:
+    sim = robot_with(100)
+    with TcpServer(sim) as server:
+        contents = engine.pull(tmp_path / "cell", port=server.url).contents
+    assert "100 offset tables (0-99, the controller has no table 100)" in contents
+    assert [r.payload for r in sim.received if r.command == "LNL"][-1] == "LNL 100"
