@@ -29,7 +29,7 @@ class HarlU2Driver:
     def status(self) -> Status:
         return self.controller.status()
 
-    def _request(self, key: Key, value: Any) -> Request:
+    def _request(self, key: Key, value: Any) -> Request[Any]:
         if isinstance(key, StepKey):
             return cmd.write_step(
                 ProgramType(key.program_type), key.program, key.step, value or Step()
@@ -90,7 +90,7 @@ _LETTERS = {
     "parameters": "SNE",
     "config": "SNX",
 }
-_NUMBERED_WRITES: dict[str, Callable[[int, Any], Request]] = {
+_NUMBERED_WRITES: dict[str, Callable[[int, Any], Request[Any]]] = {
     "timer": cmd.write_timer,
     "register": cmd.write_register,
     "offset": cmd.write_offset,
