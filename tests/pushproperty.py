@@ -25,8 +25,16 @@ from harlsync.sync import PushFailed, PushResult, engine
 from harlsync.sync import audit as audit_log
 from harlsync.sync.plan import PlannedWrite
 
-CHUNKS = 10
 PER_CHUNK = 100
+#: How many chunks the default run pushes (200 seeded cases a family); the slow run
+#: (``pytest -m slow``) pushes the other eight, for the full 1,000.
+FAST_CHUNKS = 2
+#: The chunk parameters of a family's property test: ``parametrize("chunk", CHUNKS)``.
+#: Each chunk checks its own coverage, so the fast ones meet every kind of case too.
+CHUNKS = [
+    pytest.param(chunk, id=str(chunk), marks=() if chunk < FAST_CHUNKS else pytest.mark.slow)
+    for chunk in range(10)
+]
 #: ``HARLSYNC_PROPERTY_SEEDS=7,8,9`` runs only those seeds (a failure names its seed).
 ONLY = [int(s) for s in os.environ.get("HARLSYNC_PROPERTY_SEEDS", "").split(",") if s.strip()]
 
