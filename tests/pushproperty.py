@@ -309,7 +309,11 @@ def off_the_disk(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
 
 
 def spy_on_push(monkeypatch: pytest.MonkeyPatch) -> list[PushResult | PushFailed]:
-    """What each ``engine.push`` returned or raised, in order."""
+    """What each ``engine.push`` returned or raised, in order.
+
+    Every push through the command starts here, on a ``sim://`` line in this process
+    like a push held in memory, so this too puts the line on a :class:`FakeTime`."""
+    fake_time(monkeypatch)
     real = engine.push
     seen: list[PushResult | PushFailed] = []
 
