@@ -2,12 +2,46 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+# --- hypothesis profiles ------------------------------------------------------------------
+#
+# "ci" is every run's, not only CI's: the examples are derandomized (a function of the
+# test, not of the day), there is no deadline per example (a loaded machine is no bug)
+# and no example database (nothing an earlier run left changes this one), so a run
+# gives the same result on a developer's machine, in CI and under any load. With CI
+# set it is the profile whatever HYPOTHESIS_PROFILE says.
+#
+# "long" explores: random examples, ten times as many, a failure kept in .hypothesis/
+# to be tried first next time (print_blob says how to replay it). The README's long
+# run selects it: ``pytest -m "slow or hypothesis" --hypothesis-profile=long``.
+_SETTLED = {"deadline": None, "print_blob": True, "suppress_health_check": [HealthCheck.too_slow]}
+settings.register_profile("ci", derandomize=True, database=None, **_SETTLED)
+settings.register_profile("long", max_examples=1000, **_SETTLED)
+settings.load_profile("ci" if os.environ.get("CI") else os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+def examples(n: int) -> int:
+    """A test's example count: ``n`` in the default run, as many times more as the
+    profile runs more than hypothesis's 100 (ten times in "long"). Use it for
+    ``@settings(max_examples=...)``: a bare number would override the profile."""
+    return max(1, n * settings.default.max_examples // 100)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The long profile's property runs take many times the 120 s a test may take."""
+    if settings.default.max_examples > 100:
+        for item in items:
+            if item.get_closest_marker("hypothesis"):
+                item.add_marker(pytest.mark.timeout(1800))
 
 
 def git(repo: Path, *args: str) -> str:

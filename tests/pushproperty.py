@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import random
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -20,13 +21,22 @@ import pytest
 
 from harlsync import cli
 from harlsync.errors import InterlockError, PolicyError
-from harlsync.sim import Faults, Received
+from harlsync.link import exchange
+from harlsync.sim import Faults, Received, protocol_sim
 from harlsync.sync import PushFailed, PushResult, deploy
 from harlsync.sync import audit as audit_log
 from harlsync.sync.plan import PlannedWrite
 
-CHUNKS = 10
 PER_CHUNK = 100
+#: How many chunks the default run pushes (200 seeded cases a family); the slow run
+#: (``pytest -m slow``) pushes the other eight, for the full 1,000.
+FAST_CHUNKS = 2
+#: The chunk parameters of a family's property test: ``parametrize("chunk", CHUNKS)``.
+#: Each chunk checks its own coverage, so the fast ones meet every kind of case too.
+CHUNKS = [
+    pytest.param(chunk, id=str(chunk), marks=() if chunk < FAST_CHUNKS else pytest.mark.slow)
+    for chunk in range(10)
+]
 #: ``HARLSYNC_PROPERTY_SEEDS=7,8,9`` runs only those seeds (a failure names its seed).
 ONLY = [int(s) for s in os.environ.get("HARLSYNC_PROPERTY_SEEDS", "").split(",") if s.strip()]
 
@@ -193,6 +203,58 @@ def line_changes(
     return out
 
 
+# --- time ------------------------------------------------------------------------------------
+
+
+class FakeTime:
+    """The clock of an in-memory line (``sim://``: the link and the simulated port in
+    one thread), moved only by the waiting itself: a wait for a reply that is due
+    later moves the clock to it, a deadline passes when nothing else is due first.
+    A case then goes the same way on any machine, under any load: what is late, lost
+    or in time is the schedule's and the faults' doing, never the machine's speed.
+    Stands in for the :mod:`time` module of ``harlsync.link.exchange`` and
+    ``harlsync.sim.protocol_sim``, and for the simulated port's condition."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += max(0.0, seconds)
+
+    def Condition(self) -> FakeTime:
+        return self
+
+    def __enter__(self) -> FakeTime:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+    def wait(self, timeout: float | None = None) -> bool:
+        assert timeout is not None, "an in-memory line waited for ever"
+        self.sleep(timeout)
+        return False
+
+    def notify_all(self) -> None:
+        pass
+
+    def __getattr__(self, name: str) -> Any:  # the rest of the time module
+        return getattr(time, name)
+
+
+def fake_time(monkeypatch: pytest.MonkeyPatch) -> FakeTime:
+    """Put the in-memory line (the link and ``sim://`` ports opened from now on) on a
+    :class:`FakeTime`; returns it."""
+    clock = FakeTime()
+    monkeypatch.setattr(exchange, "time", clock)
+    monkeypatch.setattr(protocol_sim, "time", clock)
+    monkeypatch.setattr(protocol_sim, "threading", clock)
+    return clock
+
+
 # --- running a push -----------------------------------------------------------------------
 
 
@@ -208,7 +270,12 @@ class Outcome:
 
 
 def keep_snapshots(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
-    """Keep each snapshot a push takes in memory (in this list) instead of saving it."""
+    """Keep each snapshot a push takes in memory (in this list) instead of saving it.
+
+    Every push held in memory starts here, so this also puts its line on a
+    :class:`FakeTime` (:func:`fake_time`): the same case gives the same outcome
+    under any load."""
+    fake_time(monkeypatch)
     taken: list[Any] = []
 
     def keep(path: Any, robot: object, live: Any, action: str) -> Any:
@@ -242,7 +309,11 @@ def off_the_disk(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
 
 
 def spy_on_push(monkeypatch: pytest.MonkeyPatch) -> list[PushResult | PushFailed]:
-    """What each ``deploy.push`` returned or raised, in order."""
+    """What each ``deploy.push`` returned or raised, in order.
+
+    Every push through the command starts here, on a ``sim://`` line in this process
+    like a push held in memory, so this too puts the line on a :class:`FakeTime`."""
+    fake_time(monkeypatch)
     real = deploy.push
     seen: list[PushResult | PushFailed] = []
 

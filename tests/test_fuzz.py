@@ -22,13 +22,13 @@ from __future__ import annotations
 
 import re
 import shutil
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
+from conftest import examples
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -53,12 +53,8 @@ from harlsync.project import (
     validate_project,
 )
 
-FUZZ = settings(
-    derandomize=True,
-    deadline=None,
-    database=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
-)
+#: Derandomized, without a deadline, in the default run: the profile's (tests/conftest.py).
+FUZZ = settings(suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 
 STX, ETX = 0x02, 0x03
 
@@ -89,7 +85,7 @@ def _outcomes(dec: FrameDecoder) -> list[tuple[str, Any]]:
         out.append(("frame", (frame.station, frame.payload)))
 
 
-@settings(FUZZ, max_examples=200)
+@settings(FUZZ, max_examples=examples(200))
 @given(st.lists(_WIRE_BYTES, max_size=12).map(b"".join), st.lists(st.integers(1, 8), max_size=40))
 @example(
     b"\x02" + b"A" * 20 + b"\x03\x00", [18]
@@ -157,7 +153,7 @@ _PAYLOAD = st.one_of(
 )
 
 
-@settings(FUZZ, max_examples=150)
+@settings(FUZZ, max_examples=examples(150))
 @given(st.sampled_from(REQUESTS), _PAYLOAD)
 def test_a_reply_payload_gives_a_value_or_a_reply_error(request_: c.Request, payload: str) -> None:
     try:
@@ -166,7 +162,7 @@ def test_a_reply_payload_gives_a_value_or_a_reply_error(request_: c.Request, pay
         pass
 
 
-@settings(FUZZ, max_examples=100)
+@settings(FUZZ, max_examples=examples(100))
 @given(
     st.one_of(
         _PAYLOAD,
@@ -185,7 +181,7 @@ def test_a_request_payload_gives_a_request_or_a_reply_error(payload: str) -> Non
     assert request_.payload == payload
 
 
-@settings(FUZZ, max_examples=60)
+@settings(FUZZ, max_examples=examples(60))
 @example("", [], ["x"] * 15)  # regression: from_values raised TypeError for 15 values
 @given(
     st.text(max_size=40),
@@ -258,7 +254,7 @@ def _given_back(write: c.Request[c.Ack]) -> object:
     return read.decode_payload(_one_frame(robot.handle(state, read.payload)))
 
 
-@settings(FUZZ, max_examples=150)
+@settings(FUZZ, max_examples=examples(150))
 @given(st.one_of(_STEP_WRITES, _PARAMETER_WRITES))
 @example(c.write_parameters(Parameters("E12", *["0"] * 12)))  # issue 11: read as "E" + status
 @example(c.write_step(ProgramType.MAIN, 15, 255, Step("P" * 497)))  # issue 11: over the limit
@@ -410,7 +406,7 @@ def _check_loads_or_says_where(root: Path, name: str) -> None:
 
 
 @given(data=st.data())
-@settings(FUZZ, max_examples=200)
+@settings(FUZZ, max_examples=examples(100))
 def test_a_mutated_project_loads_or_raises_a_project_error_naming_the_file(
     valid: Path, data: st.DataObject
 ) -> None:
@@ -448,16 +444,14 @@ def test_a_mutated_project_loads_or_raises_a_project_error_naming_the_file(
 def test_hostile_yaml_is_a_one_line_issue_at_its_file(valid: Path, name: str, hostile: str) -> None:
     # The regressions the loader fuzzing found, each on its own: RecursionError (deep
     # nesting), a 13 s hang (billion laughs), ValueError (5000 digits), a two-line
-    # message (NUL, newline in a key).
+    # message (NUL, newline in a key). The billion laughs took 13 s at 9^7 and takes
+    # for ever at 9^9, as here: the test's timeout (pyproject.toml), not a clock read
+    # here, fails a loader that expands the aliases again.
     target = valid / name
     before = target.read_bytes()
     try:
         target.write_text(hostile, encoding="utf-8")
-        started = time.monotonic()
         _check_loads_or_says_where(valid, name)
-        assert (
-            time.monotonic() - started < 10
-        )  # the billion laughs took 13 s at 9^7, for ever at 9^9
         assert any(issue.startswith(name) for issue in validate_project(valid))
     finally:
         target.write_bytes(before)

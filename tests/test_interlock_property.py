@@ -1,6 +1,7 @@
 """Property test of the push interlock (issue 6, "Prove the promises").
 
-Over 1,000 random pushes in every CI run (plus 40 more through the CLI, on disk),
+Over 1,000 random pushes (200 in every run, the rest in ``pytest -m slow``; plus 40
+more through the CLI, on disk),
 each case drawn from one seed, it proves, from the simulator's own record of
 what arrived and of the task states when it arrived (``Simulator.received``),
 never from what harlsync believed:
@@ -692,7 +693,7 @@ def refused_by_policy(case: Case) -> bool:
     return not live.same_programs(target) and not case.opts.allow_reconfigure
 
 
-@pytest.mark.parametrize("chunk", range(CHUNKS))
+@pytest.mark.parametrize("chunk", CHUNKS)
 def test_no_unsafe_write_reaches_a_running_robot_and_every_push_converges_or_names_its_writes(
     chunk: int, in_memory: Deploy
 ) -> None:

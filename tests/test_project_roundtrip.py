@@ -7,7 +7,8 @@ from datetime import time
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from conftest import examples
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from harlsync.families.harl_u2.layout import render_program
@@ -176,7 +177,7 @@ def _files(root: Path) -> dict[str, bytes]:
     return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*") if p.is_file()}
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(30))
 @given(projects())
 def test_any_project_saves_loads_equal_and_saves_byte_identical(project: Project) -> None:
     with tempfile.TemporaryDirectory() as tmp:

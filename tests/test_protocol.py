@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from conftest import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -157,7 +158,7 @@ def test_a_frame_without_etx_is_dropped_at_the_length_limit() -> None:
     assert dec.next_frame().payload == "5.00"
 
 
-@settings(max_examples=300)
+@settings(max_examples=examples(300))
 @given(st.lists(st.binary(max_size=40), max_size=8))
 def test_arbitrary_bytes_only_ever_give_frames_or_protocol_errors(chunks: list[bytes]) -> None:
     dec = FrameDecoder(max_frame=64)

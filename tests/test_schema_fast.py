@@ -17,8 +17,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import examples
 from epson.sample import sample_data
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_project_roundtrip import TRICKY, projects
 from test_yaml_writer import _iai_project, _rendered
@@ -83,7 +84,7 @@ OTHERS = [
 ] + [_iai_project(a) for a in (3, 8)]
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(20))
 @given(projects())
 def test_every_valid_harl_u2_file_passes_the_fast_check(project: Project) -> None:
     for family, kind, data in _documents(project):
@@ -169,7 +170,7 @@ def _change(data: Any, path: tuple[Any, ...], how: str, value: Any) -> Any:
 SOURCES = [doc for project in [load_project(EXAMPLE), *OTHERS] for doc in _documents(project)]
 
 
-@settings(max_examples=3000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(1000))
 @given(
     st.sampled_from(SOURCES), st.data(), st.sampled_from(["replace", "remove", "add"]), replacement
 )

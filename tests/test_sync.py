@@ -80,6 +80,14 @@ def serve(sim: Simulator) -> TcpServer:
     return server
 
 
+def short_deadline(project: Path) -> None:
+    """A reply deadline of 0.2 s in robot.yaml, for a command that must time out."""
+    robot = project / "robot.yaml"
+    text = robot.read_text()
+    assert "timeout: 1.0" in text
+    robot.write_text(text.replace("timeout: 1.0", "timeout: 0.2"))
+
+
 def edit_timer(project: Path, number: int, value: str, repo: Path | None = None) -> None:
     text = (project / "timers.yaml").read_text()
     lines = [
@@ -140,6 +148,7 @@ def test_diff_exit_codes_are_0_identical_1_different_2_error(served, repo, capsy
     out = capsys.readouterr().out
     assert "@@ timers @@" in out and "+1: 9.99" in out
     assert f"-1: {sim.stations[1].data.timers[1]}" in out
+    short_deadline(project)  # station 3 never answers: fail in 0.8 s, not 4
     assert main(["diff", str(project), "--port", url, "--station", "3"]) == 2
     assert "station 3" in capsys.readouterr().err
 
@@ -248,7 +257,8 @@ def test_faults_during_pull_still_give_an_exact_backup(tmp_path) -> None:
         state = sim.stations[1].data
         state.timers[2] = "5.55"
         state.programs[(ProgramType.HAND, 0)][3] = Step.parse("OUT DO7 ON")
-        sim.faults = Faults(noise=0.2, drop=0.05, bad_checksum=0.05, fragment=0.3, seed=9)
+        # Each lost reply costs the 0.2 s deadline: rates that lose some 20, not 50.
+        sim.faults = Faults(noise=0.2, drop=0.02, bad_checksum=0.02, fragment=0.3, seed=9)
         engine.pull(project, port=server.url)
     assert sum(not r.answered for r in sim.received) > 0  # the faults did happen
     clean = load_project(project).data
@@ -262,6 +272,7 @@ def test_a_pull_that_fails_leaves_the_previous_backup_untouched(tmp_path) -> Non
     project = tmp_path / "cell"
     with serve(sim) as server:
         engine.pull(project, port=server.url)
+        short_deadline(project)  # nothing will answer: fail in 0.8 s, not 4
         before = {p: p.read_bytes() for p in project.rglob("*.yaml")}
         sim.stations[1].data.timers[0] = "9.99"
         sim.faults = Faults(drop=1.0)

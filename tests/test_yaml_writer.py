@@ -16,7 +16,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from conftest import examples
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_project_roundtrip import TRICKY, projects
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
@@ -142,7 +143,7 @@ document = st.builds(
 )
 
 
-@settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(300))
 @given(document, st.sampled_from(["", "# a comment\n", "# one\n# two\n"]))
 def test_any_document_is_written_as_the_emitter_writes_it(node: MappingNode, header: str) -> None:
     _same_as_emitter(node, header)
@@ -162,7 +163,7 @@ small_document = st.one_of(
 )
 
 
-@settings(max_examples=3000, deadline=None)
+@settings(max_examples=examples(1000))
 @given(small_document)
 def test_a_scalar_is_written_plain_or_quoted_as_the_emitter_writes_it(node: MappingNode) -> None:
     _same_as_emitter(node)
@@ -197,7 +198,7 @@ def _rendered(project: Project) -> dict[str, str]:
     return families.get(project.robot.family).render_files(project.robot, project.data)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(30))
 @given(projects())
 def test_every_file_of_any_project_is_byte_identical_to_the_emitters(project: Project) -> None:
     written = _rendered(project)

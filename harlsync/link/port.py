@@ -27,6 +27,7 @@ from urllib.parse import urlsplit
 
 import serial
 from serial.urlhandler import protocol_socket
+from typing_extensions import Buffer
 
 from ..errors import LinkError, PortBusyError, PortError
 from ..settings import SerialSettings
@@ -80,7 +81,7 @@ def open_port(url: str, settings: SerialSettings, write_timeout: float) -> Seria
     s = settings
     try:
         if url.lower().startswith("socket://"):
-            port = _SocketPort(None)
+            port: serial.Serial | _SocketPort = _SocketPort(None)
             port.port = url
         else:
             port = serial.serial_for_url(url, do_not_open=True)
@@ -183,7 +184,7 @@ def open_error(url: str, exc: Exception) -> LinkError:
     return PortError(f"cannot open: {why}; {_open_hint(url)}", port=url)
 
 
-class _SocketPort(protocol_socket.Serial):  # type: ignore[misc]
+class _SocketPort(protocol_socket.Serial):
     """pyserial's ``socket://`` port, whose close() does not sleep and which says
     how many bytes are waiting.
 
@@ -228,10 +229,13 @@ class _SocketPort(protocol_socket.Serial):  # type: ignore[misc]
         self.is_open = False
 
 
+_PosixSerial: type[serial.SerialBase] | None = None
 if os.name == "posix":
-    from serial.serialposix import Serial as _PosixSerial
+    from serial.serialposix import Serial as _Posix
 
-    class _DevicePort(_PosixSerial):  # type: ignore[misc]
+    _PosixSerial = _Posix
+
+    class _DevicePort(_Posix):
         """pyserial's port on a device path (a USB adapter, a pty), written and read
         with one system call each where one does.
 
@@ -243,21 +247,22 @@ if os.name == "posix":
         pyserial's own, which waits, times out and words its errors as before.
         """
 
-        def write(self, data: bytes, /) -> int:
-            if self.is_open:
+        def write(self, b: Buffer, /) -> int:
+            data = bytes(b)  # the frame itself when it is bytes: no copy
+            done = 0
+            if self.is_open and self.fd is not None:
                 try:
                     done = os.write(self.fd, data)
                 except OSError:
                     done = 0  # pyserial's write tells EAGAIN from a port gone
                 if done == len(data):
                     return done
-                data = data[done:]
-            written: int = super().write(data)
-            return written
+            rest = super().write(data[done:])
+            return done + (rest or 0)
 
         def read(self, size: int = 1) -> bytes:
             data = b""
-            if self.is_open:
+            if self.is_open and self.fd is not None:
                 try:
                     data = os.read(self.fd, size)
                 except OSError:
@@ -266,9 +271,6 @@ if os.name == "posix":
                     return data
             rest: bytes = super().read(size - len(data))
             return data + rest
-
-else:
-    _PosixSerial = None
 
 
 def fileno(port: object) -> int | None:

@@ -129,7 +129,7 @@ def _jsonschema() -> Any:
             return
         yield from base["propertyNames"](validator, names, instance, schema)
 
-    return extend(
+    return extend(  # type: ignore[no-untyped-call]
         Draft202012Validator,
         validators={
             "additionalProperties": additional_properties,
@@ -320,7 +320,7 @@ def _keyword(
         if isinstance(value, bool) or not isinstance(value, (int, Decimal)):
             return None
         limit = value
-        compare = {
+        compare: Callable[[Any], bool] = {
             "minimum": lambda v: v >= limit,
             "maximum": lambda v: v <= limit,
             "exclusiveMinimum": lambda v: v > limit,

@@ -36,7 +36,7 @@ from typing import Any
 import yaml
 from yaml.composer import Composer, ComposerError
 from yaml.emitter import Emitter
-from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
+from yaml.nodes import CollectionNode, MappingNode, Node, ScalarNode, SequenceNode
 from yaml.parser import Parser
 from yaml.reader import Reader, ReaderError
 from yaml.resolver import BaseResolver
@@ -157,9 +157,9 @@ class _Loader(Reader, Scanner, Parser, Composer, CoreResolver):
                     None,
                     None,
                     f"nested more than {MAX_DEPTH} levels deep",
-                    self.peek_event().start_mark,
+                    self.peek_event().start_mark,  # type: ignore[no-untyped-call]
                 )
-            node: Node | None = super().compose_node(parent, index)  # type: ignore[no-untyped-call]
+            node: Node | None = super().compose_node(parent, index)
             return node
         finally:
             self._depth -= 1
@@ -171,7 +171,7 @@ except ImportError:  # PyYAML built without libyaml
     _FastLoader: type | None = None
 else:
 
-    class _CLoader(CParser, CoreResolver):  # type: ignore[misc]
+    class _CLoader(CParser, CoreResolver):
         """libyaml's parser with our resolver: same nodes, several times faster."""
 
         def __init__(self, stream: str) -> None:
@@ -448,7 +448,7 @@ _PLAIN = re.compile(
 _SINGLE_QUOTABLE = re.compile(r"[\x20-\x7e]+")
 #: What a ``"..."`` scalar holds as it is (no quote, no backslash: nothing to escape).
 _DOUBLE_QUOTABLE = re.compile(r"[\x20-\x21\x23-\x5b\x5d-\x7e]*")
-_RESOLVERS = CoreResolver.yaml_implicit_resolvers
+_RESOLVERS: dict[str, list[tuple[str, re.Pattern[str]]]] = CoreResolver.yaml_implicit_resolvers
 
 
 def _implicit(value: str) -> str:
@@ -541,9 +541,9 @@ class _Writer:
             if isinstance(value, ScalarNode):
                 text, result[key] = self._scalar(value)
             elif _flow(value, SequenceNode, SEQ):  # a position's axes and coords, say
-                text, result[key] = self._flow_sequence(value, at)  # type: ignore[arg-type]
+                text, result[key] = self._flow_sequence(value, at)
             elif _flow(value, MappingNode, MAP):
-                text, result[key] = self._flow_mapping(value, at)  # type: ignore[arg-type]
+                text, result[key] = self._flow_mapping(value, at)
             else:
                 raise _Bail
             parts.append(f"{shown}: {text}")
@@ -614,7 +614,7 @@ class _Writer:
         raise _Bail
 
 
-def _flow(node: Node, kind: type[Node], tag: str) -> bool:
+def _flow(node: Node, kind: type[CollectionNode], tag: str) -> bool:
     """``node`` is a ``kind`` of ``tag`` that the emitter writes in flow style in a
     block (a flow collection, or an empty one): the same as it writes it in a flow."""
     return isinstance(node, kind) and node.tag == tag and bool(node.flow_style or not node.value)

@@ -71,9 +71,9 @@ class Serial(protocol_sim.Serial):
     def open(self) -> None:
         if self.is_open:
             raise SerialException("Port is already open.")
-        if self._port is None:
+        if self.port is None:
             raise SerialException("Port must be configured before it can be used.")
-        replay = replay_from_url(self._port)
+        replay = replay_from_url(self.port)
         self.sim = replay
         self._decoder = None
         now = time.monotonic()

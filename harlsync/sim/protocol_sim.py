@@ -183,16 +183,16 @@ class Serial(SerialBase):
         super().__init__(*args, **kwargs)
 
     def open(self) -> None:
-        if self.is_open:  # type: ignore[has-type]
+        if self.is_open:
             raise SerialException("Port is already open.")
-        if self._port is None:
+        if self.port is None:
             raise SerialException("Port must be configured before it can be used.")
         try:
-            sim = simulator_from_url(self._port)
+            sim = simulator_from_url(self.port)
         except SerialException:
             raise
         except Exception as exc:  # a bad project must not look like "unknown protocol"
-            raise SerialException(f"cannot start simulator for {self._port}: {exc}") from exc
+            raise SerialException(f"cannot start simulator for {self.port}: {exc}") from exc
         self.sim = sim
         self._decoder = sim.new_decoder()
         self._pending = []
@@ -234,7 +234,7 @@ class Serial(SerialBase):
     def read(self, size: int = 1) -> bytes:
         if not self.is_open:
             raise PortNotOpenError()
-        deadline = None if self._timeout is None else time.monotonic() + self._timeout
+        deadline = None if self.timeout is None else time.monotonic() + self.timeout
         out = bytearray()
         with self._cond:
             while self.is_open:

@@ -1,7 +1,8 @@
 """Property test of the Epson push interlock (issue 13, "the interlock property test
 extended to Epson").
 
-Over 1,000 random pushes in every CI run, each case drawn from one seed, it proves,
+Over 1,000 random pushes (200 in every run, the rest in ``pytest -m slow``), each
+case drawn from one seed, it proves,
 from the simulated controller's own record (``Simulator.commands()``, and for each
 command the client's last status read before its command words,
 :attr:`Operator.arrival`), never from what harlsync believed:
@@ -616,7 +617,7 @@ def check_case(case: Case, deploy: Deploy, tally: EpsonTally) -> None:
         check_converged(case)
 
 
-@pytest.mark.parametrize("chunk", range(CHUNKS))
+@pytest.mark.parametrize("chunk", CHUNKS)
 def test_no_write_reaches_an_epson_robot_that_is_not_idle_and_every_push_converges(
     chunk: int, in_memory: Deploy
 ) -> None:

@@ -10,6 +10,7 @@ from functools import partial
 from typing import Any
 
 import pytest
+from conftest import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -936,7 +937,7 @@ _ALL_REQUESTS: list[Request[Any]] = (
 )
 
 
-@settings(max_examples=300)
+@settings(max_examples=examples(300))
 @given(
     st.sampled_from(_ALL_REQUESTS),
     st.lists(st.integers(min_value=0, max_value=0xFFFF), max_size=8),

@@ -1,7 +1,8 @@
 """Property test of the IAI push interlock (issue 12, "the interlock property test
 extended to IAI").
 
-Over 1,000 random pushes in every CI run (plus 20 more through ``harlsync push``
+Over 1,000 random pushes (200 in every run, the rest in ``pytest -m slow``; plus 20
+more through ``harlsync push``
 on a project on disk), each case drawn from one seed, it proves, from the
 simulated controller's own record of what arrived and of what the controller was
 doing when it arrived (``Simulator.received``, and :attr:`Operator.arrival`, the
@@ -813,7 +814,7 @@ def check_case(case: Case, deploy: Deploy, tally: IaiTally, settings: SerialSett
         check_converged(case, final)
 
 
-@pytest.mark.parametrize("chunk", range(CHUNKS))
+@pytest.mark.parametrize("chunk", CHUNKS)
 def test_no_write_reaches_a_controller_that_is_not_idle_and_every_push_converges_or_names_its_writes(
     chunk: int, in_memory: Deploy
 ) -> None:

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from typing import TypeVar
 
 import pytest
+from conftest import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -294,7 +295,7 @@ def test_a_new_decoder_holds_nothing() -> None:
     assert (dec.pending, dec.dropped, dec.next_frame()) == (0, 0, None)
 
 
-@settings(max_examples=400)
+@settings(max_examples=examples(400))
 @given(
     st.lists(
         st.one_of(
@@ -320,7 +321,7 @@ def outcome(items: list[Item]) -> list[tuple[str, str]]:
     ]
 
 
-@settings(max_examples=300)
+@settings(max_examples=examples(300))
 @given(
     st.lists(
         st.one_of(

@@ -34,7 +34,7 @@ class HarlU2Driver(Driver[Key, RobotData]):
         """The interlock's reading: LNR twice in a row, both idle (``Controller.idle_status``)."""
         return self.controller.idle_status()
 
-    def _request(self, key: Key, value: Any) -> Request:
+    def _request(self, key: Key, value: Any) -> Request[Any]:
         if isinstance(key, StepKey):
             return cmd.write_step(
                 ProgramType(key.program_type), key.program, key.step, value or Step()
@@ -95,7 +95,7 @@ _LETTERS = {
     "parameters": "SNE",
     "config": "SNX",
 }
-_NUMBERED_WRITES: dict[str, Callable[[int, Any], Request]] = {
+_NUMBERED_WRITES: dict[str, Callable[[int, Any], Request[Any]]] = {
     "timer": cmd.write_timer,
     "register": cmd.write_register,
     "offset": cmd.write_offset,

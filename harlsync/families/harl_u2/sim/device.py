@@ -16,6 +16,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from ....errors import ProtocolError
 from ....sim import device
@@ -160,7 +161,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         except ValueError:
             return profile.ERROR_PREFIX + STATUS_COMMAND
 
-    def _read(self, state: SimState, req: Request) -> str:
+    def _read(self, state: SimState, req: Request[Any]) -> str:
         data, cfg, a = state.data, state.data.config, req.args
         letters = req.letters
         if letters in ("LNA", "LNM", "LNS", "LNH"):
@@ -196,7 +197,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             return " ".join(str(n) for n in cfg.numbers())
         raise Refused(STATUS_COMMAND)
 
-    def _write(self, state: SimState, req: Request) -> str:
+    def _write(self, state: SimState, req: Request[Any]) -> str:
         data, cfg, a = state.data, state.data.config, req.args
         letters = req.letters
         if letters in ("SNA", "SNM", "SNS", "SNH"):
