@@ -70,19 +70,37 @@ def _sim_verbs() -> str:
     return "; ".join(lines)
 
 
+def _sim_busy() -> str:
+    """What each family's simulator does when it is made busy, for its help."""
+    from .families import names
+    from .sim import sim_family
+
+    parts = []
+    for name in names():
+        family = sim_family(name)
+        does = [v.does for v in family.verbs if v.name == family.busy_verb]
+        parts.append(f"{name}: {does[0] if does else family.busy_verb}")
+    return "; ".join(parts)
+
+
 class _SimHelp(argparse.HelpFormatter):
     """Fills in :func:`_sim_verbs` when the help is shown: only then are the
     families' simulators imported."""
 
     VERBS = "<verbs>"
+    BUSY = "<busy>"
 
     def add_text(self, text: str | None) -> None:
         if text and self.VERBS in text:
             text = text.replace(self.VERBS, _sim_verbs())
         super().add_text(text)
 
+    def _expand_help(self, action: argparse.Action) -> str:
+        text = super()._expand_help(action)
+        return text.replace(self.BUSY, _sim_busy()) if self.BUSY in text else text
 
-def _add_sim(sub: argparse._SubParsersAction) -> None:
+
+def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from .families import names
 
     p = sub.add_parser(
@@ -157,7 +175,7 @@ def _add_sim(sub: argparse._SubParsersAction) -> None:
         "--run",
         dest="busy",
         action="store_true",
-        help="start busy: running, as the family's interlock sees it (" + _per_family("busy") + ")",
+        help=f"start busy ({_SimHelp.BUSY})",
     )
     p.add_argument(
         "--auto-after-writes",
@@ -362,7 +380,7 @@ def _plant_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_backup(sub: argparse._SubParsersAction) -> None:
+def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "backup",
         help="back up every robot of a plant (for cron and systemd)",
@@ -483,7 +501,7 @@ def _cmd_backup(args: argparse.Namespace) -> int:
 # --- status, log, snapshots -------------------------------------------------------------
 
 
-def _add_status(sub: argparse._SubParsersAction) -> None:
+def _add_status(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "status",
         help="the state of every robot, from what backups and pushes recorded",
@@ -528,7 +546,7 @@ def _cmd_status(args: argparse.Namespace) -> int:
     return EXIT_OK if plant.ok else EXIT_NO
 
 
-def _add_log(sub: argparse._SubParsersAction) -> None:
+def _add_log(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "log",
         help="the pushes and rollbacks the audit log recorded, the latest first",
@@ -588,7 +606,7 @@ def _cmd_log(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_snapshots(sub: argparse._SubParsersAction) -> None:
+def _add_snapshots(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "snapshots",
         help="the snapshots a rollback can restore, the latest first",
@@ -655,7 +673,7 @@ def _cmd_snapshots(args: argparse.Namespace) -> int:
 # --- validate ---------------------------------------------------------------------------
 
 
-def _add_validate(sub: argparse._SubParsersAction) -> None:
+def _add_validate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "validate",
         help="check a robot project against its schemas and its own configuration",
@@ -739,7 +757,7 @@ def _family_names() -> tuple[str, ...]:
     return names()
 
 
-def _add_pull(sub: argparse._SubParsersAction) -> None:
+def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "pull",
         help="read everything from the robot into a project directory",
@@ -806,7 +824,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_diff(sub: argparse._SubParsersAction) -> None:
+def _add_diff(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "diff",
         help="compare the project with the live robot",
@@ -880,7 +898,7 @@ def _differ(changes: Sequence[Any]) -> str:
     )
 
 
-def _add_plan(sub: argparse._SubParsersAction) -> None:
+def _add_plan(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "plan",
         help="print the commands a push would send, and send none",
@@ -988,7 +1006,7 @@ def _confirm(the_plan: Plan[Any]) -> bool:
     return answer.strip().lower() in ("y", "yes")
 
 
-def _add_push(sub: argparse._SubParsersAction) -> None:
+def _add_push(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "push",
         help="write what differs to the robot, safely",
@@ -1095,7 +1113,7 @@ def _cmd_push(args: argparse.Namespace) -> int:
     )
 
 
-def _add_rollback(sub: argparse._SubParsersAction) -> None:
+def _add_rollback(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "rollback",
         help="restore the snapshot taken before the last push",
@@ -1130,7 +1148,7 @@ def _cmd_rollback(args: argparse.Namespace) -> int:
 
 # --- main -------------------------------------------------------------------------------
 
-_COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
+_COMMANDS: list[Callable[[argparse._SubParsersAction[argparse.ArgumentParser]], None]] = [
     _add_pull,
     _add_diff,
     _add_plan,
