@@ -70,16 +70,34 @@ def _sim_verbs() -> str:
     return "; ".join(lines)
 
 
+def _sim_busy() -> str:
+    """What each family's simulator does when it is made busy, for its help."""
+    from .families import names
+    from .sim import sim_family
+
+    parts = []
+    for name in names():
+        family = sim_family(name)
+        does = [v.does for v in family.verbs if v.name == family.busy_verb]
+        parts.append(f"{name}: {does[0] if does else family.busy_verb}")
+    return "; ".join(parts)
+
+
 class _SimHelp(argparse.HelpFormatter):
     """Fills in :func:`_sim_verbs` when the help is shown: only then are the
     families' simulators imported."""
 
     VERBS = "<verbs>"
+    BUSY = "<busy>"
 
     def add_text(self, text: str | None) -> None:
         if text and self.VERBS in text:
             text = text.replace(self.VERBS, _sim_verbs())
         super().add_text(text)
+
+    def _expand_help(self, action: argparse.Action) -> str:
+        text = super()._expand_help(action)
+        return text.replace(self.BUSY, _sim_busy()) if self.BUSY in text else text
 
 
 def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -157,7 +175,7 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "--run",
         dest="busy",
         action="store_true",
-        help="start busy: running, as the family's interlock sees it (" + _per_family("busy") + ")",
+        help=f"start busy ({_SimHelp.BUSY})",
     )
     p.add_argument(
         "--auto-after-writes",

@@ -37,11 +37,11 @@ def examples(n: int) -> int:
 
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The long profile's property runs take many times the 120 s a test may take."""
+    """The long profile's property runs take many times the 600 s a test may take."""
     if settings.default.max_examples > 100:
         for item in items:
             if item.get_closest_marker("hypothesis"):
-                item.add_marker(pytest.mark.timeout(1800))
+                item.add_marker(pytest.mark.timeout(3600))
 
 
 def git(repo: Path, *args: str) -> str:

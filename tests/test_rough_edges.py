@@ -110,7 +110,7 @@ def _served_url(read: Callable[[], str]) -> str:
     lines: list[str] = []
 
     def has_url() -> bool:
-        lines.append(read())
+        lines[:] = read().splitlines()  # the whole output so far, a line each
         return any(line.startswith("tcp: ") for line in lines)
 
     until(has_url, "the sim's tcp: line")

@@ -12,9 +12,9 @@ controller.  Neither is imported before it is asked for.
 
 A family is resolved once, where a command starts (:func:`get` for a name the
 command line gives, :func:`of_project` for a project's robot.yaml), and the
-object is passed down.  The project store finds a project's family through
-:func:`of_project` too, which it is handed when this module is imported (it
-never imports the registry).
+object is passed down.  The layers below (the project store, the line lock)
+reach the registry through :mod:`harlsync.lookup`, which it fills in when it is
+imported: they never import it.
 """
 
 from __future__ import annotations
@@ -23,11 +23,14 @@ from collections.abc import Mapping
 from importlib import import_module
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
+from .. import lookup
 from ..errors import ProjectError
-from ..link import lock
 from ..project import store
-from .base import AnyFamily
+
+if TYPE_CHECKING:
+    from .base import AnyFamily
 
 __all__ = [
     "DEFAULT",
@@ -114,5 +117,4 @@ def simulator_module(name: str | None) -> ModuleType:
     return import_module(_package(name or DEFAULT) + ".sim")
 
 
-store.find_families_with(get)
-lock.find_schemes_with(url_schemes)
+lookup.provide(get, url_schemes)

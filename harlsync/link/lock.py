@@ -20,12 +20,12 @@ import os
 import re
 import socket
 import stat
-from collections.abc import Callable, Mapping
 from pathlib import Path
 from urllib.parse import urlsplit
 
 import filelock
 
+from .. import lookup
 from ..errors import PortBusyError, PortError
 
 __all__ = [
@@ -35,7 +35,6 @@ __all__ = [
     "LineLock",
     "add_tcp_scheme",
     "default_lock_dir",
-    "find_schemes_with",
     "is_com_port",
     "lock_key",
     "lock_path",
@@ -55,9 +54,6 @@ _SERIAL_TCP_SCHEMES = ("socket", "rfc2217")
 #: The families' own TCP schemes -> the port of a URL that names none: such a URL is
 #: the ``socket://`` line of its host and port (one controller, whatever speaks to it).
 _TCP_SCHEMES: dict[str, int] = {}
-#: Where the families' schemes come from (the registry's, handed over when it is
-#: imported: the link never imports a family).
-_find_schemes: Callable[[], Mapping[str, int]] | None = None
 
 
 def add_tcp_scheme(name: str, default_port: int) -> None:
@@ -66,16 +62,10 @@ def add_tcp_scheme(name: str, default_port: int) -> None:
     _TCP_SCHEMES[name.lower()] = default_port
 
 
-def find_schemes_with(finder: Callable[[], Mapping[str, int]]) -> None:
-    """Ask ``finder`` for every family's TCP schemes when a URL's scheme is unknown."""
-    global _find_schemes
-    _find_schemes = finder
-
-
 def _tcp_scheme(scheme: str) -> int | None:
     """The default port of a family's TCP scheme, or None if it is none."""
-    if scheme not in _TCP_SCHEMES and _find_schemes is not None:
-        for name, port in _find_schemes().items():
+    if scheme not in _TCP_SCHEMES:
+        for name, port in lookup.tcp_schemes().items():
             add_tcp_scheme(name, port)
     return _TCP_SCHEMES.get(scheme)
 

@@ -49,6 +49,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .. import lookup
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
 from . import yamlio
 from .files import SCHEMAS_DIR, newer_format
@@ -66,7 +67,6 @@ __all__ = [
     "edited_since_save",
     "family_name",
     "family_of",
-    "find_families_with",
     "load_project",
     "load_robot",
     "read_project",
@@ -77,25 +77,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-
-#: The family called by a name (None: the default): the registry's
-#: :func:`~harlsync.families.get`, handed over when the registry is imported (as
-#: the encodings package hands its search function to :mod:`codecs`), so that the
-#: project store never imports the registry.
-_find_family: Callable[[str | None], AnyFamily] | None = None
-
-
-def find_families_with(finder: Callable[[str | None], AnyFamily]) -> None:
-    """Find each project's family by name with ``finder`` (the registry's call)."""
-    global _find_family
-    _find_family = finder
-
-
-def _family(name: str | None) -> AnyFamily:
-    if _find_family is None:  # pragma: no cover - harlsync/__init__ imports the registry
-        raise ProjectError("no controller families are registered (import harlsync.families)")
-    return _find_family(name)
 
 
 def family_name(root: Path, *, strict: bool = False) -> tuple[str | None, int | None]:
@@ -130,7 +111,7 @@ def family_of(root: Path, *, strict: bool = False) -> AnyFamily:
     harlsync does not know."""
     name, line = family_name(root, strict=strict)
     try:
-        return _family(name)
+        return lookup.family(name)
     except ProjectError as exc:
         raise ProjectFormatError(f"{root / 'robot.yaml'}:{line}: family: {exc}") from None
 
@@ -150,7 +131,9 @@ class Project:
 
     def __post_init__(self) -> None:
         if self.family is None:
-            self.family = _family(self.robot.family)
+            self.family = lookup.family(self.robot.family)
+        if not self.robot.family:  # a robot built in memory: of the project's family
+            self.robot.family = self.family.name
 
 
 def _gather(
