@@ -16,20 +16,29 @@ confirmed, never blindly repeated (:func:`~harlsync.link.confirm.confirmed_write
 after a lost reply what was written is read back, and a second send first
 checks that the robot is still idle.
 
-The interlock (:meth:`Controller.status`) is 215H and 212H together, as the
-profile says: AUTO mode, no program running, no flash write, system ready, no
-emergency stop, and no axis of the robot in use.
+The interlock (:meth:`Controller.status`) is 212H then 215H, back to back (215H
+last, so MANUAL mode and an emergency stop are the freshest read): AUTO mode, no
+program running, no flash write, system ready, no emergency stop, no critical
+error, drive source on, program (not positioner) mode, safety gate closed, and
+every axis of the robot reported and not in use.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from ...errors import ControllerError, ReplyError, WriteUnconfirmed
+from ...errors import (
+    ControllerError,
+    InterlockError,
+    NotWritten,
+    ReplyError,
+    WriteRefused,
+    WriteUnconfirmed,
+)
 from ...link import DEFAULT_LOCK_TIMEOUT, Link
 from ...link.confirm import confirmed_write, refuse_unless_idle
 from ...link.owner import OnLink
@@ -82,6 +91,15 @@ def _chunks(first: int, last: int, step: int) -> list[tuple[int, int]]:
     return [(start, min(step, last + 1 - start)) for start in range(first, last + 1, step)]
 
 
+#: What an ``&`` code means is in the controller's error list, which our manual
+#: pages lack (digest section 6): said beside every code shown.
+ERROR_CODE_NOTE = "the controller's error list gives the code's meaning"
+
+
+class _AxisUnseen(InterlockError, NotWritten):
+    """A write refused before it was sent: it moves an axis 212H did not report."""
+
+
 @dataclass(frozen=True)
 class IaiStatus:
     """The interlock's answer: 215H and 212H, and the first reason not to write."""
@@ -124,6 +142,10 @@ class Controller(OnLink):
         self.axes = axes
         self.first, self.last = first, last
         self.variables = dict(variables)
+        #: axes of the positions read or written in this session (robot_axes)
+        self._seen_axes: set[int] = set()
+        #: the status read last (the interlock's before the next write)
+        self._last_status: IaiStatus | None = None
 
     @classmethod
     def from_url(
@@ -153,18 +175,37 @@ class Controller(OnLink):
 
     # --- the one place requests go through ---------------------------------------
 
-    def request(self, request: Request[T]) -> T:
-        """Send one request and return its typed value; ``&`` raises ControllerError."""
+    def request(self, request: Request[T], what: str | None = None) -> T:
+        """Send one request and return its typed value.
+
+        An ``&`` reply raises ControllerError naming the message (and ``what`` it
+        was for), and its code; to a write it raises WriteRefused: the
+        controller did not carry it out.  The command's data is for -vv only.
+        """
         value = self.link.exchange(request)
         if isinstance(value, ErrorReply):
+            name = f"{request.message_id:03X}H"
+            log.debug("%s: %s answered & %s", self.label, request.payload, value.code)
+            about = f" ({what})" if what else ""
+            if request.is_write:
+                raise WriteRefused(
+                    value.code,
+                    port=self.port,
+                    station=self.station,
+                    command=name,
+                    station_text=f"{self.station:02X}",
+                    message=f"not written{about}: the controller refused it with error code "
+                    f"{value.code}H (an & reply: it did not carry the command out; "
+                    f"{ERROR_CODE_NOTE})",
+                )
             raise ControllerError(
                 value.code,
                 port=self.port,
                 station=self.station,
-                command=request.payload,
+                command=name,
                 station_text=f"{self.station:02X}",
-                message=f"controller answered error {value.code}H (& reply: the command "
-                "was not carried out)",
+                message=f"the controller refused it{about} with error code {value.code}H "
+                f"(an & reply: it did not carry the command out; {ERROR_CODE_NOTE})",
             )
         return value
 
@@ -173,38 +214,57 @@ class Controller(OnLink):
     def version(self) -> Version:
         return self.request(version())
 
-    def status(self) -> IaiStatus:
-        """215H and 212H: whether a write may go now, and if not, which bit says no.
+    def note_axes(self, positions: Iterable[Position | None]) -> None:
+        """Count the axes ``positions`` use among the robot's (what the interlock's
+        212H must report) when robot.yaml names none: the positions read, and
+        those a plan will write, before its first write."""
+        for position in positions:
+            if position is not None:
+                self._seen_axes.update(position.axes)
 
-        The two must be answered back to back.  A 212H sent again (its reply lost or
-        garbled) leaves the 215H before it stale by a whole deadline or more, and
-        MANUAL mode or an emergency stop since then are not in 212H's reply: both
-        are read again.  When they cannot be read back to back, that is not idle.
+    def status(self) -> IaiStatus:
+        """212H, then 215H: whether a write may go now, and if not, which bit says no.
+
+        215H comes last, so what only it shows (MANUAL mode, an emergency stop)
+        is the freshest read before the write.  The two must be answered back to
+        back: a 215H sent again (its reply lost or garbled) leaves the 212H before
+        it stale by a whole deadline or more, so both are read again.  When they
+        cannot be read back to back, that is not idle.  212H fails closed: a
+        reply that does not report every one of the robot's axes (or reports
+        none) is not idle.
         """
         pattern = ALL_AXES if self.axes is None else sum(1 << (a - 1) for a in self.axes)
         rounds = 1 + max(0, self.link.settings.retries)
         for _ in range(rounds):
-            system = self.request(system_status())
-            retries = self.link.stats.retries
             axes = self.request(axis_status_request(pattern))
+            retries = self.link.stats.retries
+            system = self.request(system_status())
             if self.link.stats.retries == retries:
                 break
             log.info(
-                "%s: 212H was sent again, so the 215H before it is stale: reading both again",
+                "%s: 215H was sent again, so the 212H before it is stale: reading both again",
                 self.label,
             )
         else:
-            return IaiStatus(
+            status = IaiStatus(
                 system,
                 axes,
-                f"215H and 212H could not be read back to back "
-                f"({rounds} times 212H had to be sent again)",
+                f"212H and 215H could not be read back to back "
+                f"({rounds} times 215H had to be sent again)",
             )
+            self._last_status = status
+            return status
         refusal = system.refusal
         if refusal is None:
-            wanted = self.axes if self.axes is not None else tuple(s.axis for s in axes)
+            # Every axis of the robot must be reported; with no axes in robot.yaml,
+            # every axis reported is checked too.
+            wanted = self.axes
+            if wanted is None:
+                wanted = tuple(sorted(self._seen_axes | {a.axis for a in axes}))
             refusal = axes_refusal(wanted, axes)
-        return IaiStatus(system, axes, refusal)
+        status = IaiStatus(system, axes, refusal)
+        self._last_status = status
+        return status
 
     def read_positions(self, head: int, count: int) -> dict[int, Position]:
         """The defined positions among ``head`` .. ``head + count - 1``, in queries
@@ -213,6 +273,7 @@ class Controller(OnLink):
         for start, n in _chunks(head, head + count - 1, max_positions_per_read(self.model)):
             for position in self.request(read_positions(start, n)):
                 out[position.number] = position
+        self.note_axes(out.values())
         return out
 
     def read_run(self, start: int, size: int) -> tuple[Position | None, ...]:
@@ -283,6 +344,7 @@ class Controller(OnLink):
         for start, n in chunks:
             data.positions.update((p.number, p) for p in self.request(read_positions(start, n)))
             tick()
+        self.note_axes(data.positions.values())
         if variables:
             data.flags = self.read_flags(*self.variables["flags"])
             tick()
@@ -300,8 +362,12 @@ class Controller(OnLink):
         """Write consecutive positions with one 291H and confirm it.
 
         Raises InterlockError instead of sending it again after a lost reply when
-        the robot is not idle, WriteUnconfirmed when the read-back is neither.
+        the robot is not idle, WriteUnconfirmed when the read-back is neither, and
+        before sending it (nothing written) when it moves an axis the status read
+        just before did not report.
         """
+        self.note_axes(positions)
+        self._refuse_unseen_axes(positions, f"positions {start}-{start + len(positions) - 1}")
         self._confirmed(
             write_positions(start, positions),
             len(positions),
@@ -310,6 +376,21 @@ class Controller(OnLink):
             tuple(old),
             f"positions {start}-{start + len(positions) - 1}",
         )
+
+    def _refuse_unseen_axes(self, positions: Sequence[Position], what: str) -> None:
+        """Refuse (nothing sent) positions with an axis the last 212H did not report
+        idle: with no axes in robot.yaml, a new position's axis is known only now."""
+        last = self._last_status
+        if last is None or not last.idle:
+            return  # the engine's interlock went first: nothing to add
+        reported = {s.axis for s in last.axes}
+        for position in positions:
+            unseen = sorted(set(position.axes) - reported)
+            if unseen:
+                raise _AxisUnseen(
+                    f"{self.label}: axis {unseen[0]} not reported by 212H before writing "
+                    f"{what}: an axis it does not report cannot be seen to be idle; not writing"
+                )
 
     def write_flag(self, number: int, on: bool, old: bool) -> None:
         """Set or clear one global flag with 24BH and confirm it, as :meth:`write_run`."""
@@ -365,13 +446,13 @@ class Controller(OnLink):
             )
 
         def sent() -> None:
-            written = self.request(request)
+            written = self.request(request, what)
             if count is not None and written != count:
                 raise ControllerError(
                     str(written),
                     port=self.port,
                     station=self.station,
-                    command=request.payload[:12],
+                    command=f"{request.message_id:03X}H",
                     station_text=f"{self.station:02X}",
                     message=f"{request.message_id:03X}H wrote {written} of {count} ({what})",
                 )

@@ -66,6 +66,9 @@ class IaiDriver:
             return f"24BH {data[:2]} {data[2:6]} {data[6:]}"
         if isinstance(key, Run) and key.kind == "positions":
             write_positions(key.start, value)
+            # The plan's positions name axes the robot has: the 212H before each
+            # write must report them, from the first write on.
+            self.controller.note_axes(value)
             head = f"291H 00 {key.start:04X} {len(value):04X}"
             return " | ".join(
                 [head, *(" ".join(position_fields(p, numbered=False)) for p in value)]

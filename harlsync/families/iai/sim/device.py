@@ -77,6 +77,11 @@ class IaiSimFamily:
         Verb("estop", "[STATION]", "emergency stop"),
         Verb("flash", "[STATION]", "a flash ROM write in progress"),
         Verb("hold", "[STATION [AXIS]]", "an axis in use (default: the first)"),
+        Verb("positioner", "[STATION]", "positioner mode (a PLC moves to position numbers)"),
+        Verb("error", "[STATION [CODE]]", "a critical error (default code 0E1)"),
+        Verb("cutoff", "[STATION]", "the drive source cut off"),
+        Verb("gate", "[STATION]", "the safety gate open (a TTA: the enable switch)"),
+        Verb("unplug", "[STATION [AXIS]]", "212H leaves an axis out (default: the first)"),
         Verb("stop", "[STATION]", "idle: AUTO mode, no program, nothing held"),
     )
     busy_verb = "run"
@@ -120,6 +125,10 @@ SIM_FAMILY = IaiSimFamily()
 
 Handler = Callable[["Simulator", SimState, str], str]
 
+#: The critical error the ``error`` verb sets when given no code: a placeholder (the
+#: manual's error list is not in our pages), like the codes of :mod:`.codes`.
+CRITICAL_ERROR = "0E1"
+
 
 class Simulator(device.Simulator[SimState, Frame]):
     """A simulated IAI controller: one serial line and the controllers (stations) on it.
@@ -155,11 +164,16 @@ class Simulator(device.Simulator[SimState, Frame]):
         return frame[:-4] + f"{wrong:02X}".encode("ascii") + frame[-2:]
 
     def control(self, verb: str, state: SimState, args: Sequence[str]) -> None:
-        if verb == "hold":
+        if verb in ("hold", "unplug"):
             axis = int(args[0]) if args else state.axes[0]
             if axis not in state.axes:
                 raise ValueError(f"no axis {axis} (the robot has {list(state.axes)})")
-            state.axes_in_use.add(axis)
+            (state.axes_in_use if verb == "hold" else state.unreported_axes).add(axis)
+        elif verb == "error":
+            code = (args[0] if args else CRITICAL_ERROR).upper()
+            if len(code) != 3 or not all(c in "0123456789ABCDEF" for c in code) or code == "000":
+                raise ValueError(f"error code {code!r}: three hex digits, not 000")
+            state.critical_error = state.latest_error = code
         elif args:
             raise ValueError(f"{verb} takes only a station")
         elif verb == "run":
@@ -170,6 +184,12 @@ class Simulator(device.Simulator[SimState, Frame]):
             state.emergency_stop = True
         elif verb == "flash":
             state.flash_writing = True
+        elif verb == "positioner":
+            state.positioner_mode = True
+        elif verb == "cutoff":
+            state.drive_cut_off = True
+        elif verb == "gate":
+            state.safety_gate_open = True
         elif verb == "stop":
             state.stop()
         else:
@@ -248,8 +268,13 @@ class Simulator(device.Simulator[SimState, Frame]):
         f.end()
         if not pattern:
             raise Refused(codes.PATTERN_ZERO)
-        # An axis the robot does not have is left out: "driver not connected" (p.27).
-        reported = tuple(a for a in axes_from_pattern(pattern) if a in state.axes)
+        # An axis the robot does not have is left out: "driver not connected" (p.27);
+        # so is one unplugged (the ``unplug`` verb).
+        reported = tuple(
+            a
+            for a in axes_from_pattern(pattern)
+            if a in state.axes and a not in state.unreported_axes
+        )
         sensors, error, encoder = 0, "000", 0
         return f"{pattern_from_axes(reported):02X}" + "".join(
             f"{state.axis_status(a):02X}{sensors:X}{error}{encoder:02X}"

@@ -63,7 +63,15 @@ class SimState:
     flash_writing: bool = False
     emergency_stop: bool = False
     ready: bool = True
+    #: positioner mode (215H status byte 3 bit 4): a PLC moves the robot to position numbers
+    positioner_mode: bool = False
+    #: the drive source cut off on its own (an emergency stop cuts it too)
+    drive_cut_off: bool = False
+    #: the safety gate open (215H status byte 1 bit 2; the enable switch on a TTA)
+    safety_gate_open: bool = False
     axes_in_use: set[int] = field(default_factory=set)
+    #: axes 212H leaves out of its reply (driver not connected) though the robot has them
+    unreported_axes: set[int] = field(default_factory=set)
     #: each axis's current position (212H), coordinate text
     current: dict[int, str] = field(default_factory=dict)
     critical_error: str = "000"
@@ -191,7 +199,16 @@ class SimState:
             out.append("emergency stop")
         if not self.ready:
             out.append("system not ready")
+        if self.critical_error != "000":
+            out.append(f"critical error {self.critical_error}")
+        if self.drive_cut_off:
+            out.append("drive source cut off")
+        if self.positioner_mode:
+            out.append("positioner mode")
+        if self.safety_gate_open:
+            out.append("safety gate open")
         out += [f"axis {a} in use" for a in sorted(self.axes_in_use)]
+        out += [f"axis {a} not reported" for a in sorted(self.unreported_axes)]
         return out
 
     @property
@@ -200,12 +217,17 @@ class SimState:
 
     def status_bytes(self) -> tuple[int, int, int, int]:
         """215H status bytes 1-4 (p.30-31)."""
-        s1 = (0x08 if self.emergency_stop else 0) | (0x01 if self.mode == MANUAL else 0)
+        s1 = (
+            (0x08 if self.emergency_stop else 0)
+            | (0x04 if self.safety_gate_open else 0)
+            | (0x01 if self.mode == MANUAL else 0)  # the operation mode switch
+        )
         s2 = (0x20 if self.program_running else 0) | (0x01 if self.flash_writing else 0)
         s3 = (
-            (0x04 if self.ready else 0)
+            (0x10 if self.positioner_mode else 0)
+            | (0x04 if self.ready else 0)
             | (0x02 if self.program_running else 0)  # operating in AUTO mode
-            | (0x01 if self.emergency_stop else 0)  # drive source cut off
+            | (0x01 if self.emergency_stop or self.drive_cut_off else 0)  # drive source cut off
         )
         return s1, s2, s3, 0
 
@@ -223,11 +245,16 @@ class SimState:
         self.axes_in_use = set(self.axes)
 
     def stop(self) -> None:
-        """Idle again: AUTO mode, no program, no flash write, no emergency stop, no axis in use."""
+        """Idle again: AUTO mode, no program, no flash write, no emergency stop, no
+        critical error, drive source on, program mode, the gate closed, every axis
+        reported and none in use."""
         self.mode = AUTO
         self.program_running = self.flash_writing = self.emergency_stop = False
+        self.drive_cut_off = self.positioner_mode = self.safety_gate_open = False
         self.ready = True
+        self.critical_error = self.latest_error = "000"
         self.axes_in_use = set()
+        self.unreported_axes = set()
 
     # --- battery-backed memory ---------------------------------------------------------------
 
