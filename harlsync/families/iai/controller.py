@@ -86,6 +86,11 @@ T = TypeVar("T")
 ALL_AXES = 0xFF
 
 
+def _numbers(one: str, several: str, start: int, count: int) -> str:
+    """``position 7``, ``positions 7-9``: what a write of ``count`` items from ``start`` is."""
+    return f"{one} {start}" if count == 1 else f"{several} {start}-{start + count - 1}"
+
+
 def _chunks(first: int, last: int, step: int) -> list[tuple[int, int]]:
     """``first`` .. ``last`` as (start, count) pieces of at most ``step`` numbers."""
     return [(start, min(step, last + 1 - start)) for start in range(first, last + 1, step)]
@@ -367,14 +372,15 @@ class Controller(OnLink):
         just before did not report.
         """
         self.note_axes(positions)
-        self._refuse_unseen_axes(positions, f"positions {start}-{start + len(positions) - 1}")
+        what = _numbers("position", "positions", start, len(positions))
+        self._refuse_unseen_axes(positions, what)
         self._confirmed(
             write_positions(start, positions),
             len(positions),
             lambda: self.read_run(start, len(positions)),
             tuple(positions),
             tuple(old),
-            f"positions {start}-{start + len(positions) - 1}",
+            what,
         )
 
     def _refuse_unseen_axes(self, positions: Sequence[Position], what: str) -> None:
@@ -413,7 +419,7 @@ class Controller(OnLink):
             lambda: tuple(self.read_integers(start, last).values()),
             tuple(values),
             tuple(old),
-            f"integer variables {start}-{last}",
+            _numbers("integer variable", "integer variables", start, len(values)),
         )
 
     def write_reals(self, start: int, values: Sequence[str], old: Sequence[str]) -> None:
@@ -426,7 +432,7 @@ class Controller(OnLink):
             lambda: tuple(self.read_reals(start, last).values()),
             tuple(values),
             tuple(old),
-            f"real variables {start}-{last}",
+            _numbers("real variable", "real variables", start, len(values)),
         )
 
     def _confirmed(
