@@ -192,14 +192,23 @@ class IaiCatalogue:
         return {"model code": v.model_code, "unit code": v.unit_code, "version": v.version}
 
     def contents(self, data: IaiData, *, registers: bool) -> str:
-        """Positions, and the flags and variables read with them."""
+        """Positions, and the flags and variables read with them, each with the
+        range it covered when the read probed it: ``42 positions in 1-1000 (none
+        defined outside it)``."""
         kept = data.variables() if registers else {}
         held = {"positions": data.positions, **kept}
-        return ", ".join(
-            f"{len(held[section])} {one if len(held[section]) == 1 else several}"
-            for section, one, several in _KINDS.values()
-            if section in held
-        )
+        parts = []
+        for section, one, several in _KINDS.values():
+            if section not in held:
+                continue
+            text = f"{len(held[section])} {one if len(held[section]) == 1 else several}"
+            covered = data.covered.get(section)
+            if covered is not None:
+                text += f" in {covered.first}-{covered.last}"
+                if section == "positions":
+                    text += " (none defined outside it)"
+            parts.append(text)
+        return ", ".join(parts)
 
     def version(self, data: IaiData) -> str:
         v = data.version

@@ -36,6 +36,7 @@ from ...errors import (
     InterlockError,
     NotWritten,
     ReplyError,
+    SyncError,
     WriteRefused,
     WriteUnconfirmed,
 )
@@ -46,8 +47,9 @@ from ...settings import SerialSettings
 from ..base import Progress
 from . import profile
 from .codec import CODEC
-from .layout import IaiData
+from .layout import Coverage, IaiData
 from .model import (
+    VARIABLE_SECTIONS,
     AxisStatus,
     Position,
     SystemStatus,
@@ -76,7 +78,7 @@ from .protocol import (
 )
 from .protocol import axis_status as axis_status_request
 
-__all__ = ["Controller", "IaiStatus"]
+__all__ = ["Controller", "IaiStatus", "TableBeyondRange"]
 
 log = logging.getLogger(__name__)
 
@@ -99,6 +101,10 @@ def _chunks(first: int, last: int, step: int) -> list[tuple[int, int]]:
 #: What an ``&`` code means is in the controller's error list, which our manual
 #: pages lack (digest section 6): said beside every code shown.
 ERROR_CODE_NOTE = "the controller's error list gives the code's meaning"
+
+
+class TableBeyondRange(SyncError):
+    """A table goes on past the range robot.yaml says to read: a backup of it would be short."""
 
 
 class _AxisUnseen(InterlockError, NotWritten):
@@ -140,6 +146,7 @@ class Controller(OnLink):
         first: int = profile.DEFAULT_POSITION_RANGE[0],
         last: int = profile.DEFAULT_POSITION_RANGE[1],
         variables: Mapping[str, tuple[int, int]] = profile.DEFAULT_VARIABLE_RANGES,
+        real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER,
     ) -> None:
         self.link = link
         self.station = link.station
@@ -147,6 +154,7 @@ class Controller(OnLink):
         self.axes = axes
         self.first, self.last = first, last
         self.variables = dict(variables)
+        self.real_word_order = real_word_order
         #: axes of the positions read or written in this session (robot_axes)
         self._seen_axes: set[int] = set()
         #: the status read last (the interlock's before the next write)
@@ -316,7 +324,10 @@ class Controller(OnLink):
     def read_reals(self, first: int, last: int) -> dict[int, str]:
         """Global real variables ``first`` .. ``last`` (20FH), as their exact text."""
         step = max_variables_per_read(self.model, "reals")
-        values = self._read_numbered(first, last, step, read_reals)
+        order = self.real_word_order
+        values = self._read_numbered(
+            first, last, step, lambda start, n: read_reals(start, n, order=order)
+        )
         return {n: real_text(v) for n, v in values.items()}
 
     def read_variables(self, section: str, first: int, last: int) -> dict[int, object]:
@@ -330,12 +341,15 @@ class Controller(OnLink):
 
     def read_all(self, progress: Progress | None = None, *, variables: bool = False) -> IaiData:
         """The version and every defined position of the robot's range, and with
-        ``variables`` the flags and variables of their ranges.
+        ``variables`` the flags and variables of their ranges; each table probed
+        past its range (:meth:`probe_positions`, :meth:`probe_variables`), and the
+        range it covered recorded in :attr:`IaiData.covered`.
 
         ``progress(done, total)`` after each position query and each section.
+        Raises :class:`TableBeyondRange` when a table goes on past its range.
         """
         chunks = _chunks(self.first, self.last, max_positions_per_read(self.model))
-        total = 1 + len(chunks) + (3 if variables else 0)
+        total = 2 + len(chunks) + (3 if variables else 0)
         done = 0
 
         def tick() -> None:
@@ -350,14 +364,107 @@ class Controller(OnLink):
             data.positions.update((p.number, p) for p in self.request(read_positions(start, n)))
             tick()
         self.note_axes(data.positions.values())
+        data.covered["positions"] = self.probe_positions()
+        tick()
         if variables:
             data.flags = self.read_flags(*self.variables["flags"])
+            data.covered["flags"] = self.probe_variables("flags")
             tick()
             data.integers = self.read_integers(*self.variables["integers"])
+            data.covered["integers"] = self.probe_variables("integers")
             tick()
             data.reals = self.read_reals(*self.variables["reals"])
+            data.covered["reals"] = self.probe_variables("reals")
             tick()
         return data
+
+    def probe_positions(self) -> Coverage:
+        """Make sure no position is defined outside ``first`` .. ``last``: one 22DH
+        below the range and one above it, each asking for every number there (the
+        reply holds the first defined records that fit: one is enough).  A
+        controller that answers ``&`` to so wide a query is probed in queries
+        sized as the table's reads, up to the profile's fallback end.
+
+        Returns the range covered; raises :class:`TableBeyondRange` naming what
+        lies outside and the robot.yaml setting that takes it in.
+        """
+        send = profile.BUFFERS[self.model].send
+        end = profile.POSITION_NUMBER_END
+        found: list[int] = []
+        if self.first > 1:
+            found += [p.number for p in self.request(read_positions(1, self.first - 1, send))]
+        if found:
+            raise TableBeyondRange(
+                f"{self.label}: position {found[0]} is defined before the range this "
+                f"backup reads ({self.first}-{self.last}), and is not backed up; set "
+                f"controller.first_position: {found[0]} (or lower) in robot.yaml and run again"
+            )
+        if self.last < end:
+            try:
+                found = [
+                    p.number
+                    for p in self.request(read_positions(self.last + 1, end - self.last, send))
+                ]
+            except ControllerError:
+                end = max(self.last, profile.POSITION_PROBE_FALLBACK_END)
+                log.info(
+                    "%s: the controller refused a 22DH for every number past %d: probing "
+                    "up to %d in queries of the table's size",
+                    self.label,
+                    self.last,
+                    end,
+                )
+                found = []
+                step = max_positions_per_read(self.model)
+                for start, n in _chunks(self.last + 1, end, step):
+                    found = [p.number for p in self.request(read_positions(start, n))]
+                    if found:
+                        break
+        if found:
+            more = f", {found[1]}" if len(found) > 1 else ""
+            highest = f" and more, up to at least {found[-1]}" if len(found) > 2 else ""
+            raise TableBeyondRange(
+                f"{self.label}: position {found[0]}{more}{highest} is defined past the "
+                f"range this backup reads ({self.first}-{self.last}), and is not backed up; "
+                f"set controller.last_position: {found[-1]} (or higher) in robot.yaml and "
+                "run again"
+            )
+        return Coverage(self.first, self.last, end)
+
+    def probe_variables(self, section: str) -> Coverage:
+        """Make sure no flag (or integer, or real variable) past the kept range is
+        set: one query of the largest size past its last, the flags from a
+        multiple of 8.  An ``&`` answer means the controller has no such numbers:
+        the table ends there.  Raises :class:`TableBeyondRange`."""
+        first, last = self.variables[section]
+        end = profile.VARIABLE_NUMBER_END[section]
+        if last >= end:
+            return Coverage(first, last, last)
+        step = {
+            "flags": max_flags_per_read(self.model),
+            "integers": max_variables_per_read(self.model, "integers"),
+            "reals": max_variables_per_read(self.model, "reals"),
+        }[section]
+        align = profile.FLAG_QUERY_ALIGNMENT if section == "flags" else 1
+        head = (last + 1) - (last + 1) % align
+        upto = min(end, head + step - 1)
+        try:
+            values = self.read_variables(section, last + 1, upto)
+        except ControllerError:
+            log.info(
+                "%s: %s end at %d (the controller has none past it)", self.label, section, last
+            )
+            return Coverage(first, last, upto)
+        kept = {"flags": False, "integers": 0, "reals": "0.0"}[section]
+        beyond = [n for n, v in sorted(values.items()) if v != kept]
+        if beyond:
+            called = VARIABLE_SECTIONS[section]
+            raise TableBeyondRange(
+                f"{self.label}: {called} {beyond[0]} is set past the range this backup "
+                f"keeps ({first}-{last}), and is not backed up; set controller.{section}: "
+                f"{{first: {first}, last: {beyond[-1]}}} (or higher) in robot.yaml and run again"
+            )
+        return Coverage(first, last, upto)
 
     # --- writes ---------------------------------------------------------------------
 
@@ -427,7 +534,7 @@ class Controller(OnLink):
         confirm it, as :meth:`write_run`.  Raises ValueError for NaN or an infinity."""
         last = start + len(values) - 1
         self._confirmed(
-            write_reals(start, [real_value(v) for v in values]),
+            write_reals(start, [real_value(v) for v in values], order=self.real_word_order),
             len(values),
             lambda: tuple(self.read_reals(start, last).values()),
             tuple(values),

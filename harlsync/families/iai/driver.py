@@ -76,7 +76,9 @@ class IaiDriver:
         if isinstance(key, Run) and key.kind == "integers":
             request, width = write_integers(key.start, value), 8
         elif isinstance(key, Run) and key.kind == "reals":
-            request, width = write_reals(key.start, [real_value(v) for v in value]), 16
+            order = self.controller.real_word_order
+            request = write_reals(key.start, [real_value(v) for v in value], order=order)
+            width = 16
         else:
             raise TypeError(f"no write for item {key}: positions and variables are written in runs")
         data = request.data  # program, start, count, then the values

@@ -117,6 +117,9 @@ class IaiFamily:
             first=first,
             last=last,
             variables=layout.variable_ranges(robot),
+            real_word_order=str(
+                robot.options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
+            ),
         )
         return IaiDriver(controller)
 

@@ -5,7 +5,11 @@
     robot.yaml         family: iai, connection (station in hex), controller model,
                        axes, position range and the flag and variable ranges,
                        maintenance windows, keep_registers (user-edited)
-    controller.yaml    what 201H reports (model and unit codes, version, build date)
+    controller.yaml    what 201H reports (model and unit codes, version, build date),
+                       and the range of each table the pull covered:
+
+        covered:
+          positions: {first: 1, last: 1000, checked_to: 65535}
     positions.yaml     the position table, one defined position per line:
 
         positions:
@@ -35,7 +39,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 from ...project import yamlio as y
 from ...project.files import (
@@ -73,6 +77,7 @@ __all__ = [
     "ROOT_FILES",
     "STATION",
     "VARIABLES_FILE",
+    "Coverage",
     "IaiData",
     "analyse",
     "render_files",
@@ -103,6 +108,16 @@ _ARMS = {name: n for n, name in ARM_NAMES.items()}
 STATION = re.compile(r"[0-9A-Fa-f]{2}")
 
 
+class Coverage(NamedTuple):
+    """The range of a table a backup read (``first`` .. ``last``), and how far past
+    it the pull made sure nothing is defined: positions from 1 to ``checked_to``
+    outside the range; flags and variables from ``last + 1`` to ``checked_to``."""
+
+    first: int
+    last: int
+    checked_to: int
+
+
 @dataclass
 class IaiData:
     """What a backup of an IAI controller holds: its version and its position table,
@@ -120,6 +135,8 @@ class IaiData:
     flags: dict[int, bool] | None = None
     integers: dict[int, int] | None = None
     reals: dict[int, str] | None = None
+    #: section (``positions``, ``flags`` ...) -> the range a pull covered
+    covered: dict[str, Coverage] = field(default_factory=dict)
 
     def variables(self) -> dict[str, dict[int, Any]]:
         """The kept sections of runtime data by name (``flags``, ``integers``,
@@ -148,6 +165,9 @@ def render_robot(robot: Robot) -> str:
         ("first_position", y.num(str(first))),
         ("last_position", y.num(str(last))),
     ]
+    order = options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
+    if order != profile.DEFAULT_REAL_WORD_ORDER:  # absent at the default: robot.yaml as before
+        controller.append(("real_word_order", y.text(str(order))))
     controller += [
         (
             section,
@@ -168,8 +188,31 @@ def render_robot(robot: Robot) -> str:
     return FILES.document("robot", "robot.yaml", items)
 
 
-def render_controller(version: Version) -> str:
-    node = y.mapping(
+def render_controller(version: Version, covered: Mapping[str, Coverage] | None = None) -> str:
+    items = [("version", _version_node(version))]
+    if covered:
+        items.append(
+            (
+                "covered",
+                y.mapping(
+                    [
+                        (
+                            section,
+                            y.mapping(
+                                [(name, y.num(str(n))) for name, n in c._asdict().items()],
+                                flow=True,
+                            ),
+                        )
+                        for section, c in covered.items()
+                    ]
+                ),
+            )
+        )
+    return FILES.document("controller", "controller.yaml", items)
+
+
+def _version_node(version: Version) -> Any:
+    return y.mapping(
         [
             ("unit_type", y.num(str(version.unit_type))),
             ("device", y.num(str(version.device))),
@@ -179,7 +222,6 @@ def render_controller(version: Version) -> str:
             ("built", y.quoted(version.built)),
         ]
     )
-    return FILES.document("controller", "controller.yaml", [("version", node)])
 
 
 def position_node(position: Position) -> Any:
@@ -228,7 +270,7 @@ def render_files(robot: Robot, data: IaiData) -> dict[str, str]:
     """
     out = {
         "robot.yaml": render_robot(robot),
-        "controller.yaml": render_controller(data.version),
+        "controller.yaml": render_controller(data.version, data.covered),
         "positions.yaml": render_positions(data.positions),
     }
     if robot.keep_registers and data.variables():
@@ -297,6 +339,10 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
             version=_build_version(docs["controller.yaml"].data["version"]),
             positions=_build_positions(docs["positions.yaml"].data["positions"]),
             model=str(result.robot.options.get("model", profile.DEFAULT_MODEL)),
+            covered={
+                section: Coverage(int(c["first"]), int(c["last"]), int(c["checked_to"]))
+                for section, c in docs["controller.yaml"].data.get("covered", {}).items()
+            },
         )
         if VARIABLES_FILE in docs:
             _build_variables(docs[VARIABLES_FILE].data, result.data)
@@ -323,6 +369,8 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     if "axes" in controller:
         axes = sorted(int(a) for a in controller["axes"])
         options["axes"] = tuple(axes)
+    if "real_word_order" in controller:
+        options["real_word_order"] = str(controller["real_word_order"])
     first, last = profile.DEFAULT_POSITION_RANGE
     options["first"] = int(controller.get("first_position", first))
     options["last"] = int(controller.get("last_position", last))

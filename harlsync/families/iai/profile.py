@@ -23,6 +23,7 @@ __all__ = [
     "CORE_MESSAGE_IDS",
     "DEFAULT_MODEL",
     "DEFAULT_POSITION_RANGE",
+    "DEFAULT_REAL_WORD_ORDER",
     "DEFAULT_STATION",
     "DEFAULT_VARIABLE_RANGES",
     "FLAG_QUERY_ALIGNMENT",
@@ -31,13 +32,17 @@ __all__ = [
     "OPT_IN_MESSAGE_IDS",
     "PARITY",
     "PERSISTENCE_NOTICE",
+    "POSITION_NUMBER_END",
+    "POSITION_PROBE_FALLBACK_END",
     "POSITION_RECORD_HAS_NUMBER",
     "READ_RECORD_MAX",
+    "REAL_WORD_ORDERS",
     "REPLY_DEADLINE_BASE",
     "REPLY_DEADLINE_FACTOR",
     "RTSCTS",
     "STATION_ALLOWED",
     "STOPBITS",
+    "VARIABLE_NUMBER_END",
     "VOLATILE_MESSAGE_IDS",
     "WRITE_MESSAGE_IDS",
     "WRITE_RECORD_MAX",
@@ -140,6 +145,17 @@ ACCEPT_LOWER_CASE_HEX = True
 #: (first, last), inclusive.
 DEFAULT_POSITION_RANGE = (1, 1000)
 
+#: The highest position number 22DH can name (4 hex digits).
+POSITION_NUMBER_END = 0xFFFF
+#: The probe past the table (issue 20): a pull asks, with one 22DH each, for every
+#: number below the robot's first position and above its last (to FFFFh).  The
+#: reply carries the first defined records that fit the send buffer, and one is
+#: enough to know the table goes on.  The manual does not say what a controller
+#: does with a count that does not fit (digest 1.5): one that answers ``&`` to it is
+#: probed instead in queries sized as the table's reads, up to this number, the
+#: most position records 22DH carries (p.36) **(profile)**.
+POSITION_PROBE_FALLBACK_END = 20000
+
 #: 291H records carry no position number: pattern, acc, dec, speed, up to 8
 #: coordinates, extended = at most 80 bytes (the manual prints 84).
 POSITION_RECORD_HAS_NUMBER = False
@@ -164,6 +180,22 @@ DEFAULT_VARIABLE_RANGES: Mapping[str, tuple[int, int]] = MappingProxyType(
 #: of 8, so every flag query starts at a multiple of 8 (below the first flag kept,
 #: the extra flags read and dropped).
 FLAG_QUERY_ALIGNMENT = 8
+
+#: The last flag (20DH: 4 hex digits) and variable (20EH, 20FH: 3 hex digits)
+#: number the messages can name: the probe past a kept range stops there.
+VARIABLE_NUMBER_END: Mapping[str, int] = MappingProxyType(
+    {"flags": 0xFFFF, "integers": 0xFFF, "reals": 0xFFF}
+)
+
+#: How 20FH (and, **(profile)**, 24DH) carry a real variable's IEEE double, by
+#: robot.yaml's ``controller.real_word_order`` (p.24): ``upper-first``, plain big
+#: endian (``0123456789ABCDEF``); ``lower-first``, the lower 4 bytes then the upper
+#: 4 (``89ABCDEF01234567``), on X-SEL-J/K main application V0.41 or earlier, or
+#: with Other parameter No. 46 bits 0-3 at 0.  p.50 prints only the big-endian form
+#: for 24DH and does not say whether the parameter swaps writes too: the profile
+#: writes in the order it reads, so that a value written reads back the same.
+REAL_WORD_ORDERS = ("upper-first", "lower-first")
+DEFAULT_REAL_WORD_ORDER = "upper-first"
 
 # --- messages -----------------------------------------------------------------------
 

@@ -88,6 +88,8 @@ __all__ = [
     "read_integers",
     "read_positions",
     "read_reals",
+    "real_from_wire",
+    "real_to_wire",
     "sc",
     "system_status",
     "version",
@@ -598,11 +600,14 @@ def _take_position(f: _Fields, number: int | None) -> Position:
     return Position(number, axes, acc, dec, speed, coords, arm1, arm2)
 
 
-def read_positions(head: int, count: int) -> Request[tuple[Position, ...]]:
+def read_positions(
+    head: int, count: int, send_buffer: int | None = None
+) -> Request[tuple[Position, ...]]:
     """22DH: the defined positions among ``count`` numbers from ``head``, by number.
 
     An undefined position is absent from the reply.  Size ``count`` with
-    :func:`max_positions_per_read` so that a reply is never cut.
+    :func:`max_positions_per_read` so that a reply is never cut; a probe that
+    asks for more gives the model's ``send_buffer``, the longest reply it can get.
     """
     _check(head, 1, 0xFFFF, "head position")
     _check(count, 1, 0xFFFF - head + 1, "position count")
@@ -625,6 +630,8 @@ def read_positions(head: int, count: int) -> Request[tuple[Position, ...]]:
         return tuple(out[n] for n in sorted(out))
 
     reply = _READ_OVERHEAD + profile.READ_RECORD_MAX * count
+    if send_buffer is not None:
+        reply = min(reply, send_buffer)
     return Request(0x22D, f"00{head:04X}{count:04X}", False, False, parse, reply)
 
 
@@ -730,11 +737,29 @@ def _int_from_wire(wire: str) -> int:
     return value - (1 << 32) if value & 0x80000000 else value
 
 
-def _real_from_wire(wire: str) -> float:
+def real_from_wire(wire: str, order: str = profile.DEFAULT_REAL_WORD_ORDER) -> float:
+    """A real variable's 16 hex digits in the robot's word order (p.24) as its double.
+
+    Raises :class:`ValueError` for anything but 16 hex digits, or an unknown order.
+    """
     if not (len(wire) == 16 and _HEX_RE.fullmatch(wire)):
         raise ValueError(f"real {wire!r} is not 16 hex digits")
-    value: float = struct.unpack(">d", bytes.fromhex(wire))[0]
+    value: float = struct.unpack(">d", bytes.fromhex(_in_order(wire, order)))[0]
     return value
+
+
+def real_to_wire(value: float, order: str = profile.DEFAULT_REAL_WORD_ORDER) -> str:
+    """A double as a real variable's 16 upper-case hex digits in the robot's word order."""
+    return _in_order(struct.pack(">d", value).hex().upper(), order)
+
+
+def _in_order(digits: str, order: str) -> str:
+    """Big-endian hex digits of a double to ``order``'s, or back (a swap is its own inverse)."""
+    if order not in profile.REAL_WORD_ORDERS:
+        raise ValueError(
+            f"real word order {order!r} (allowed: {', '.join(profile.REAL_WORD_ORDERS)})"
+        )
+    return digits[8:] + digits[:8] if order == "lower-first" else digits
 
 
 def read_integers(start: int, count: int, program: int = 0) -> Request[tuple[int, ...]]:
@@ -745,10 +770,18 @@ def read_integers(start: int, count: int, program: int = 0) -> Request[tuple[int
     return _read_variables(0x20E, 8, _int_from_wire, program, start, count)
 
 
-def read_reals(start: int, count: int, program: int = 0) -> Request[tuple[float, ...]]:
-    """20FH: ``count`` real variables from ``start``, each an IEEE double sent big
-    endian (the profile's format; a float holds the double exactly)."""
-    return _read_variables(0x20F, 16, _real_from_wire, program, start, count)
+def read_reals(
+    start: int,
+    count: int,
+    program: int = 0,
+    order: str = profile.DEFAULT_REAL_WORD_ORDER,
+) -> Request[tuple[float, ...]]:
+    """20FH: ``count`` real variables from ``start``, each an IEEE double in the
+    robot's word ``order`` (p.24; a float holds the double exactly)."""
+    _in_order("0" * 16, order)  # an unknown order is refused before anything is sent
+    return _read_variables(
+        0x20F, 16, lambda wire: real_from_wire(wire, order), program, start, count
+    )
 
 
 def write_flag(number: int, on: bool, program: int = 0) -> Request[None]:
@@ -785,7 +818,13 @@ def write_integers(start: int, values: Sequence[int], program: int = 0) -> Reque
     return _write_variables(0x24C, start, [f"{v & 0xFFFFFFFF:08X}" for v in values], program)
 
 
-def write_reals(start: int, values: Sequence[float], program: int = 0) -> Request[int]:
-    """24DH: real variables from ``start``, each an IEEE double sent big endian."""
-    texts = [struct.pack(">d", v).hex().upper() for v in values]
+def write_reals(
+    start: int,
+    values: Sequence[float],
+    program: int = 0,
+    order: str = profile.DEFAULT_REAL_WORD_ORDER,
+) -> Request[int]:
+    """24DH: real variables from ``start``, each an IEEE double in the robot's word
+    ``order`` (the profile writes in the order 20FH reads)."""
+    texts = [real_to_wire(v, order) for v in values]
     return _write_variables(0x24D, start, texts, program)

@@ -113,6 +113,9 @@ class IaiSimFamily:
                 for number in stations or [robot.station]
             }
             for state in states.values():  # the flags and variables, when the project keeps them
+                state.real_word_order = str(
+                    robot.options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
+                )
                 state.flags = {n for n, on in (data.flags or {}).items() if on}
                 state.integers = dict(data.integers or {})
                 state.reals = {n: real_value(text) for n, text in (data.reals or {}).items()}
@@ -343,7 +346,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         program, start, count = _variables(_Fields(data), end=True)
         values = (state.reals.get(n, 0.0) for n in range(start, start + count))
         return f"{program:02X}{start:03X}{count:02X}" + "".join(
-            struct.pack(">d", v).hex().upper() for v in values
+            _real_wire(v, state.real_word_order) for v in values
         )
 
     def _write_flag(self, state: SimState, data: str) -> str:
@@ -374,9 +377,12 @@ class Simulator(device.Simulator[SimState, Frame]):
     def _write_reals(self, state: SimState, data: str) -> str:
         f = _Fields(data)
         program, start, count = _variables(f)
-        values = [bytes.fromhex(f.take(16, f"variable {start + i}")) for i in range(count)]
+        values = [
+            _real_value(f.take(16, f"variable {start + i}"), state.real_word_order)
+            for i in range(count)
+        ]
         f.end()
-        state.reals.update((start + i, struct.unpack(">d", v)[0]) for i, v in enumerate(values))
+        state.reals.update((start + i, v) for i, v in enumerate(values))
         self.wrote(state)
         return f"{program:02X}{start:03X}{count:02X}"
 
@@ -392,6 +398,19 @@ class Simulator(device.Simulator[SimState, Frame]):
     def writes_while_busy(self) -> list[device.Received]:
         """Every write received while the controller was not idle (each one refused)."""
         return [r for r in self.writes_received() if r.busy]
+
+
+def _real_wire(value: float, order: str) -> str:
+    """A double as 20FH sends it (p.24), written here from the manual's words, not
+    with the client's codec: big endian, or its lower 4 bytes first."""
+    digits = struct.pack(">d", value).hex().upper()
+    return digits[8:] + digits[:8] if order == "lower-first" else digits
+
+
+def _real_value(wire: str, order: str) -> float:
+    digits = wire[8:] + wire[:8] if order == "lower-first" else wire
+    value: float = struct.unpack(">d", bytes.fromhex(digits))[0]
+    return value
 
 
 def _global(program: int, count: int) -> None:

@@ -80,9 +80,16 @@ class SimState:
     flags: set[int] = field(default_factory=set)
     integers: dict[int, int] = field(default_factory=dict)
     reals: dict[int, float] = field(default_factory=dict)
+    #: how 20FH and 24DH carry a real's double (robot.yaml's controller.real_word_order)
+    real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER
 
     def __post_init__(self) -> None:
         problems = []
+        if self.real_word_order not in profile.REAL_WORD_ORDERS:
+            problems.append(
+                f"real word order {self.real_word_order!r} "
+                f"(allowed: {', '.join(profile.REAL_WORD_ORDERS)})"
+            )
         if self.model not in profile.BUFFERS:
             problems.append(f"unknown model {self.model!r} (known: {', '.join(profile.BUFFERS)})")
         if (
@@ -281,6 +288,7 @@ class SimState:
             "flags": sorted(self.flags),
             "integers": {str(n): v for n, v in sorted(self.integers.items())},
             "reals": {str(n): struct.pack(">d", v).hex() for n, v in sorted(self.reals.items())},
+            "real_word_order": self.real_word_order,
         }
 
     @classmethod
@@ -325,6 +333,7 @@ class SimState:
             model=str(doc["model"]),
             position_range=(first, last),
             versions=dict(versions),
+            real_word_order=str(doc.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)),
         )
         state.flags = {int(str(n)) for n in listed("flags")}
         state.integers = {int(n): int(str(v)) for n, v in mapped("integers").items()}
