@@ -62,13 +62,17 @@ from .protocol import (
     ErrorReply,
     Frame,
     Request,
+    max_coordinate_systems_per_read,
     max_flags_per_read,
     max_positions_per_read,
+    max_string_columns_per_read,
     max_variables_per_read,
+    read_coordinate_systems,
     read_flags,
     read_integers,
     read_positions,
     read_reals,
+    read_strings,
     system_status,
     version,
     write_flag,
@@ -147,6 +151,7 @@ class Controller(OnLink):
         last: int = profile.DEFAULT_POSITION_RANGE[1],
         variables: Mapping[str, tuple[int, int]] = profile.DEFAULT_VARIABLE_RANGES,
         real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER,
+        records: Mapping[str, tuple[int, int]] | None = None,
     ) -> None:
         self.link = link
         self.station = link.station
@@ -155,6 +160,8 @@ class Controller(OnLink):
         self.first, self.last = first, last
         self.variables = dict(variables)
         self.real_word_order = real_word_order
+        #: the read-only records read_all reads: section -> (first, last); none by default
+        self.records = dict(records or {})
         #: axes of the positions read or written in this session (robot_axes)
         self._seen_axes: set[int] = set()
         #: the status read last (the interlock's before the next write)
@@ -376,7 +383,36 @@ class Controller(OnLink):
             data.reals = self.read_reals(*self.variables["reals"])
             data.covered["reals"] = self.probe_variables("reals")
             tick()
+        for section, (first, last) in self.records.items():
+            if section == "strings":
+                data.strings = self.read_string_rows(first, last)
+            else:
+                setattr(data, section, self.read_coordinate_systems(section, first, last))
+            data.covered[section] = Coverage(first, last, last)
         return data
+
+    def read_coordinate_systems(
+        self, section: str, first: int, last: int
+    ) -> dict[int, tuple[str, ...]]:
+        """Work or tool (``section``) coordinate system definitions ``first`` ..
+        ``last`` (2A0H), each X, Y, Z, R as coordinate text."""
+        kind = profile.COORDINATE_SYSTEM_TYPES[section]
+        step = max_coordinate_systems_per_read(self.model)
+        return self._read_numbered(
+            first, last, step, lambda head, n: read_coordinate_systems(kind, head, n)
+        )
+
+    def read_string_rows(self, first: int, last: int) -> dict[int, str]:
+        """Global string variable columns ``first`` .. ``last`` (210H), as rows of
+        :data:`profile.STRING_ROW` columns by first column, each character's code
+        as two hex digits."""
+        step = max_string_columns_per_read(self.model)
+        codes = self._read_numbered(first, last, step, read_strings)
+        row = profile.STRING_ROW
+        return {
+            start: "".join(f"{codes[n]:02X}" for n in range(start, min(last, start + row - 1) + 1))
+            for start in range(first, last + 1, row)
+        }
 
     def probe_positions(self) -> Coverage:
         """Make sure no position is defined outside ``first`` .. ``last``: one 22DH

@@ -7,10 +7,11 @@ from __future__ import annotations
 from typing import Any
 
 from ..base import Progress
-from .catalogue import Key, PositionKey, Run, VariableKey
+from .catalogue import Key, PositionKey, RecordKey, Run, VariableKey
 from .controller import Controller, IaiStatus
 from .layout import IaiData
 from .model import real_value
+from .profile import STRING_ROW
 from .protocol import position_fields, write_flag, write_integers, write_positions, write_reals
 
 __all__ = ["IaiDriver"]
@@ -36,6 +37,13 @@ class IaiDriver:
             return c.read_run(key.number, 1)[0]
         if isinstance(key, VariableKey):
             return c.read_variables(_SECTIONS[key.kind], key.number, key.number)[key.number]
+        if isinstance(key, RecordKey):
+            if key.kind == "string":
+                last = c.records.get("strings", (key.number, key.number))[1]
+                row = min(last, key.number + STRING_ROW - 1)
+                return c.read_string_rows(key.number, row)[key.number]
+            section = f"{key.kind}_coordinates"
+            return c.read_coordinate_systems(section, key.number, key.number)[key.number]
         if key.kind == "positions":
             return c.read_run(key.start, key.size)
         last = key.start + key.size - 1

@@ -20,6 +20,7 @@ __all__ = [
     "BAUDRATES",
     "BUFFERS",
     "BYTESIZE",
+    "COORDINATE_SYSTEM_TYPES",
     "CORE_MESSAGE_IDS",
     "DEFAULT_MODEL",
     "DEFAULT_POSITION_RANGE",
@@ -37,11 +38,14 @@ __all__ = [
     "POSITION_RECORD_HAS_NUMBER",
     "READ_RECORD_MAX",
     "REAL_WORD_ORDERS",
+    "RECORD_MESSAGE_IDS",
+    "RECORD_NUMBER_END",
     "REPLY_DEADLINE_BASE",
     "REPLY_DEADLINE_FACTOR",
     "RTSCTS",
     "STATION_ALLOWED",
     "STOPBITS",
+    "STRING_ROW",
     "VARIABLE_NUMBER_END",
     "VOLATILE_MESSAGE_IDS",
     "WRITE_MESSAGE_IDS",
@@ -205,13 +209,29 @@ CORE_MESSAGE_IDS = frozenset({0x201, 0x215, 0x212, 0x22D, 0x291})
 #: Global flags and variables, when the project opts in: read flags, integer and
 #: real variables; write a flag, integer variables, real variables.
 OPT_IN_MESSAGE_IDS = frozenset({0x20D, 0x20E, 0x20F, 0x24B, 0x24C, 0x24D})
+#: Read-only records, when robot.yaml gives their ranges (issue 20): coordinate
+#: system definitions (2A0H, p.65) and string variables (210H, p.26).  Reads only:
+#: no message on the allow-list writes them.
+RECORD_MESSAGE_IDS = frozenset({0x2A0, 0x210})
 #: The only message ids the encoder will put on the wire.
-ALLOWED_MESSAGE_IDS = CORE_MESSAGE_IDS | OPT_IN_MESSAGE_IDS
+ALLOWED_MESSAGE_IDS = CORE_MESSAGE_IDS | OPT_IN_MESSAGE_IDS | RECORD_MESSAGE_IDS
 #: The allowed ids that change the controller's data.
 WRITE_MESSAGE_IDS = frozenset({0x291, 0x24B, 0x24C, 0x24D})
 #: The allowed reads whose answer changes without any write from us: status, and
 #: the flags and variables running programs change.
-VOLATILE_MESSAGE_IDS = frozenset({0x215, 0x212, 0x20D, 0x20E, 0x20F})
+VOLATILE_MESSAGE_IDS = frozenset({0x215, 0x212, 0x20D, 0x20E, 0x20F, 0x210})
+
+#: 2A0H's type field (p.65), by the robot.yaml key of the records it reads.
+COORDINATE_SYSTEM_TYPES: Mapping[str, int] = MappingProxyType(
+    {"work_coordinates": 0, "tool_coordinates": 1}
+)
+#: The last number each read-only record's message can name: 2A0H's definition
+#: number is 2 hex digits, 210H's variable (column) number 3.
+RECORD_NUMBER_END: Mapping[str, int] = MappingProxyType(
+    {"work_coordinates": 0xFF, "tool_coordinates": 0xFF, "strings": 0xFFF}
+)
+#: String variable columns (one character each, 210H) per line of records.yaml.
+STRING_ROW = 32
 
 # --- persistence --------------------------------------------------------------------
 

@@ -36,6 +36,7 @@ Request builders, one per message of the allow-list::
     22DH read_positions   291H write_positions
     opt-in:  20DH read_flags      20EH read_integers      20FH read_reals
              24BH write_flag      24CH write_integers     24DH write_reals
+    records: 2A0H read_coordinate_systems                 210H read_strings
 """
 
 from __future__ import annotations
@@ -76,18 +77,22 @@ __all__ = [
     "Request",
     "axis_status",
     "encode_frame",
+    "max_coordinate_systems_per_read",
     "max_flags_per_read",
     "max_positions_per_read",
     "max_positions_per_write",
+    "max_string_columns_per_read",
     "max_variables_per_read",
     "max_variables_per_write",
     "parse_write_positions",
     "position_fields",
     "position_record",
+    "read_coordinate_systems",
     "read_flags",
     "read_integers",
     "read_positions",
     "read_reals",
+    "read_strings",
     "real_from_wire",
     "real_to_wire",
     "sc",
@@ -828,3 +833,65 @@ def write_reals(
     ``order`` (the profile writes in the order 20FH reads)."""
     texts = [real_to_wire(v, order) for v in values]
     return _write_variables(0x24D, start, texts, program)
+
+
+# --- read-only records: coordinate systems and string variables ---------------------
+
+#: A 2A0H reply around its records: the frame, type, start number and count.
+_COORDINATES_OVERHEAD = _FRAME_OVERHEAD + 1 + 2 + 2
+#: One 2A0H record: X, Y, Z offsets (0.001 mm) and R (0.001 deg), 8 hex digits each.
+_COORDINATE_RECORD = 4 * 8
+
+
+def max_coordinate_systems_per_read(model: str) -> int:
+    """How many coordinate system definitions one 2A0H reply carries in ``model``'s
+    send buffer (at most 255: the count is 2 hex digits)."""
+    return min(0xFF, (_buffers(model).send - _COORDINATES_OVERHEAD) // _COORDINATE_RECORD)
+
+
+def max_string_columns_per_read(model: str) -> int:
+    """How many string variable columns (one character each) one 210H reply carries
+    in ``model``'s send buffer (at most 255)."""
+    return min(_VARIABLES_MAX, (_buffers(model).send - _VARIABLES_OVERHEAD) // 2)
+
+
+def read_coordinate_systems(
+    kind: int, head: int, count: int
+) -> Request[tuple[tuple[str, str, str, str], ...]]:
+    """2A0H (p.65): ``count`` coordinate system definitions from number ``head``,
+    work (``kind`` 0) or tool (1); each the X, Y, Z offsets and R, as coordinate text."""
+    _check(kind, 0, 1, "coordinate system type")
+    _check(head, 0, 0xFF, "head definition number")
+    _check(count, 1, 0xFF - head + 1, "number of records")
+
+    def parse(data: str) -> tuple[tuple[str, str, str, str], ...]:
+        f = _Fields(data)
+        f.expect(1, kind, "coordinate system type")
+        f.expect(2, head, "start number")
+        f.expect(2, count, "number of records")
+        out = []
+        for n in range(head, head + count):
+            x, y, z, r = (coord_from_wire(f.take(8, f"definition {n} {a}")) for a in "XYZR")
+            out.append((x, y, z, r))
+        f.end()
+        return tuple(out)
+
+    reply = _COORDINATES_OVERHEAD + _COORDINATE_RECORD * count
+    return Request(0x2A0, f"{kind:X}{head:02X}{count:02X}", False, False, parse, reply)
+
+
+def read_strings(start: int, count: int, program: int = 0) -> Request[tuple[int, ...]]:
+    """210H (p.26): ``count`` string variable columns from ``start`` (program 0:
+    global), each one character as its code ('XX', hex ASCII)."""
+    data = _variable_args(program, start, count)
+
+    def parse(reply: str) -> tuple[int, ...]:
+        f = _Fields(reply)
+        f.expect(2, program, "program number")
+        f.expect(3, start, "start variable")
+        f.expect(2, count, "number of variables")
+        codes = tuple(f.hex(2, f"column {start + i}") for i in range(count))
+        f.end()
+        return codes
+
+    return Request(0x210, data, False, True, parse, _VARIABLES_OVERHEAD + 2 * count)

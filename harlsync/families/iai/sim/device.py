@@ -113,6 +113,13 @@ class IaiSimFamily:
                 for number in stations or [robot.station]
             }
             for state in states.values():  # the flags and variables, when the project keeps them
+                state.work_coordinates = dict(data.work_coordinates or {})
+                state.tool_coordinates = dict(data.tool_coordinates or {})
+                state.strings = {
+                    start + i: int(row[2 * i : 2 * i + 2], 16)
+                    for start, row in (data.strings or {}).items()
+                    for i in range(len(row) // 2)
+                }
                 state.real_word_order = str(
                     robot.options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
                 )
@@ -349,6 +356,24 @@ class Simulator(device.Simulator[SimState, Frame]):
             _real_wire(v, state.real_word_order) for v in values
         )
 
+    def _read_coordinate_systems(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        kind, head, count = f.hex(1, "type"), f.hex(2, "head number"), f.hex(2, "count")
+        f.end()
+        if kind not in (0, 1) or not count or head + count > 0x100:
+            raise ValueError("type 0 (work) or 1 (tool), at least one, numbers 00-FF")
+        table = state.work_coordinates if kind == 0 else state.tool_coordinates
+        records = "".join(
+            "".join(coord_to_wire(c) for c in table.get(n, ("0.000",) * 4))
+            for n in range(head, head + count)
+        )
+        return f"{kind:X}{head:02X}{count:02X}{records}"
+
+    def _read_strings(self, state: SimState, data: str) -> str:
+        program, start, count = _variables(_Fields(data), end=True)
+        codes = "".join(f"{state.strings.get(n, 0):02X}" for n in range(start, start + count))
+        return f"{program:02X}{start:03X}{count:02X}{codes}"
+
     def _write_flag(self, state: SimState, data: str) -> str:
         f = _Fields(data)
         program, number, change = f.hex(2, "program"), f.hex(4, "flag"), f.hex(1, "change")
@@ -440,4 +465,6 @@ _HANDLERS: dict[int, Handler] = {
     0x24B: Simulator._write_flag,
     0x24C: Simulator._write_integers,
     0x24D: Simulator._write_reals,
+    0x2A0: Simulator._read_coordinate_systems,
+    0x210: Simulator._read_strings,
 }

@@ -82,6 +82,12 @@ class SimState:
     reals: dict[int, float] = field(default_factory=dict)
     #: how 20FH and 24DH carry a real's double (robot.yaml's controller.real_word_order)
     real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER
+    # --- read-only records (2A0H, 210H): set on the controller, never by the protocol --
+    #: coordinate system definitions by number: X, Y, Z, R as coordinate text (0 when absent)
+    work_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
+    tool_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
+    #: global string variable columns: column -> character code (0 when absent)
+    strings: dict[int, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         problems = []
@@ -289,6 +295,9 @@ class SimState:
             "integers": {str(n): v for n, v in sorted(self.integers.items())},
             "reals": {str(n): struct.pack(">d", v).hex() for n, v in sorted(self.reals.items())},
             "real_word_order": self.real_word_order,
+            "work_coordinates": {str(n): list(v) for n, v in sorted(self.work_coordinates.items())},
+            "tool_coordinates": {str(n): list(v) for n, v in sorted(self.tool_coordinates.items())},
+            "strings": {str(n): c for n, c in sorted(self.strings.items())},
         }
 
     @classmethod
@@ -335,6 +344,19 @@ class SimState:
             versions=dict(versions),
             real_word_order=str(doc.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)),
         )
+        for section in ("work_coordinates", "tool_coordinates"):
+            table = doc.get(section, {})
+            if not isinstance(table, dict):
+                raise TypeError(f"{section} is not a mapping")
+            setattr(
+                state,
+                section,
+                {int(n): tuple(str(c) for c in v) for n, v in table.items()},
+            )
+        strings = doc.get("strings", {})
+        if not isinstance(strings, dict):
+            raise TypeError("strings is not a mapping")
+        state.strings = {int(n): int(str(c)) for n, c in strings.items()}
         state.flags = {int(str(n)) for n in listed("flags")}
         state.integers = {int(n): int(str(v)) for n, v in mapped("integers").items()}
         state.reals = {
