@@ -690,6 +690,18 @@ class IaiTally(Tally):
     several_runs: int = 0
     #: pushes that wrote a flag or a variable
     variables_written: int = 0
+    #: pushes refused for a condition issue 19 added, by condition
+    issue_19: dict[str, int] = field(default_factory=dict)
+
+
+#: What the refusal names for each condition issue 19 added to the interlock.
+ISSUE_19 = {
+    "positioner": "positioner mode",
+    "critical error": "critical error",
+    "drive cut off": "drive source cut off",
+    "safety gate": "safety gate open",
+    "axes missing from 212H": "not reported by 212H",
+}
 
 
 def wire(write: PlannedWrite) -> str:
@@ -853,6 +865,9 @@ def check_case(case: Case, deploy: Deploy, tally: IaiTally, settings: SerialSett
         check_converged(case, final)
         return
     count_failure(tally, got)
+    for name, text in ISSUE_19.items():
+        if text in str(got.failed):
+            tally.issue_19[name] = tally.issue_19.get(name, 0) + 1
     check_failure(case.why, got)
     if isinstance(got.failed.cause, PolicyError):
         check_wrote_nothing(case.why, got)
@@ -883,6 +898,7 @@ def test_no_write_reaches_a_controller_that_is_not_idle_and_every_push_converges
         assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 10, tally
         assert tally.lost_writes >= 5 and tally.several_runs >= 25, tally
         assert tally.variables_written >= 8, tally
+        assert sum(tally.issue_19.values()) >= 3, tally  # issue 19's conditions are drawn
 
 
 #: Seeds for the on-disk run: enough to meet every kind of outcome, few enough to be quick.
