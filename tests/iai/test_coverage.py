@@ -58,6 +58,23 @@ def pull(repo: Path, url: str, *extra: str) -> int:
     )
 
 
+def pull_after_edit(
+    repo: Path, state: SimState, capsys: pytest.CaptureFixture[str], old: str, new: str
+) -> str:
+    """A first backup of ``state``; then robot.yaml's ``old`` made ``new`` (``$&``
+    in it: ``old`` itself) and a pull that must fail: what it said."""
+    server = TcpServer(Simulator({STATION: state}))
+    try:
+        assert pull(repo, server.start()) == 0
+        robot = repo / "cell" / "robot.yaml"
+        robot.write_text(robot.read_text().replace(old, new.replace("$&", old)))
+        capsys.readouterr()
+        assert cli.main(["pull", str(repo / "cell"), "--allow-dirty"]) == 2
+    finally:
+        server.stop()
+    return capsys.readouterr().err
+
+
 @pytest.mark.parametrize("sim_class", [Simulator, NarrowQueries], ids=["wide probe", "narrow"])
 def test_issue_20_positions_past_the_range_fail_the_pull_naming_them_and_the_setting(
     repo: Path, capsys: pytest.CaptureFixture[str], sim_class: type[Simulator]
@@ -86,18 +103,8 @@ def test_issue_20_positions_past_the_range_fail_the_pull_naming_them_and_the_set
 def test_issue_20_a_position_before_the_first_fails_the_pull_naming_first_position(
     repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    sim = Simulator({STATION: controller([3, 50, 60])})
-    server = TcpServer(sim)
-    try:
-        url = server.start()
-        assert pull(repo, url) == 0
-        robot = repo / "cell" / "robot.yaml"
-        robot.write_text(robot.read_text().replace("first_position: 1", "first_position: 10"))
-        capsys.readouterr()
-        assert cli.main(["pull", str(repo / "cell"), "--allow-dirty"]) == 2
-    finally:
-        server.stop()
-    err = capsys.readouterr().err
+    state = controller([3, 50, 60])
+    err = pull_after_edit(repo, state, capsys, "first_position: 1", "first_position: 10")
     assert "position 3 is defined before the range this backup reads (10-1000)" in err
     assert "set controller.first_position: 3 (or lower)" in err
 
@@ -125,18 +132,7 @@ def test_issue_20_a_flag_set_past_the_kept_range_fails_the_pull(
 ) -> None:
     state = controller([1, 2])
     state.flags = {600, 905}  # kept: 600-899
-    sim = Simulator({STATION: state})
-    server = TcpServer(sim)
-    try:
-        url = server.start()
-        assert pull(repo, url) == 0
-        robot = repo / "cell" / "robot.yaml"
-        robot.write_text(robot.read_text() + "keep_registers: true\n")
-        capsys.readouterr()
-        assert cli.main(["pull", str(repo / "cell"), "--allow-dirty"]) == 2
-    finally:
-        server.stop()
-    err = capsys.readouterr().err
+    err = pull_after_edit(repo, state, capsys, "maintenance_windows", "keep_registers: true\n$&")
     assert "flag 905 is set past the range this backup keeps (600-899)" in err
     assert "set controller.flags: {first: 600, last: 905} (or higher) in robot.yaml" in err
 

@@ -23,6 +23,8 @@ from harlsync.families.iai.sim import SimState, Simulator
 from harlsync.project import load_project
 from harlsync.sim.serve import TcpServer
 
+from .backups import first_backup
+
 STATION = 0x99
 
 
@@ -59,17 +61,14 @@ def test_a_controller_of_either_order_is_backed_up_and_pushed_exactly(
     project = repo / "cell"
     try:
         url = server.start()
-        pull = ["pull", str(project), "--family", "iai", "--port", url, "--station", "99"]
-        assert cli.main(pull) == 0
-        robot = project / "robot.yaml"
-        text = robot.read_text().replace("last_position: 1000", "last_position: 30")
-        text = text.replace(
-            "controller:\n",
-            "controller:\n  reals: {first: 300, last: 303}\n"
+        first_backup(
+            project,
+            url,
+            last=30,
+            controller="  reals: {first: 300, last: 303}\n"
             + (f"  real_word_order: {order}\n" if order == "lower-first" else ""),
+            keep_registers=True,
         )
-        robot.write_text(text + "keep_registers: true\n")
-        assert cli.main(["pull", str(project), "--allow-dirty"]) == 0
         data = load_project(project).data
         assert data.reals == {300: "0.1", 301: "-2.5", 302: "1e+300", 303: "0.0"}
         text = (project / "robot.yaml").read_text()

@@ -22,6 +22,8 @@ from harlsync.families.iai.sim import SimState, Simulator
 from harlsync.project import load_project
 from harlsync.sim.serve import TcpServer
 
+from .backups import first_backup
+
 STATION = 0x99
 
 
@@ -81,12 +83,7 @@ def served() -> object:
 
 def pulled(repo: Path, url: str) -> Path:
     project = repo / "cell"
-    pull = ["pull", str(project), "--family", "iai", "--port", url, "--station", "99"]
-    assert cli.main(pull) == 0
-    robot = project / "robot.yaml"
-    text = robot.read_text().replace("last_position: 1000", "last_position: 30")
-    robot.write_text(text.replace("controller:\n", "controller:\n" + RANGES))
-    assert cli.main(["pull", str(project), "--allow-dirty"]) == 0
+    first_backup(project, url, last=30, controller=RANGES)
     git(repo, "add", "-A")
     git(repo, "commit", "-qm", "backup with records")
     return project
@@ -119,8 +116,8 @@ def test_a_record_changed_on_the_controller_is_diffed_and_a_push_refuses_it(
     assert cli.main(["diff", str(project)]) == 1
     out = capsys.readouterr().out
     assert "x 100.000 y 51.000 z -1.000 r 90.000" in out
-    assert '"AB\\\\C\\"' not in out  # readable, exact text: the backslash doubled ...
-    assert '"Ab\\\\C"\\x01Z' in out  # ... other codes as \xNN
+    # readable, exact text: the backslash doubled, other codes as \xNN
+    assert '-1: "Ab\\\\C"\\x01Z" and 25 x \\x00' in out
 
     assert cli.main(["push", str(project), "--yes"]) == 3
     err = capsys.readouterr().err

@@ -18,6 +18,8 @@ from harlsync.families.iai.sim import SimState, Simulator
 from harlsync.project import load_project
 from harlsync.sim.serve import PtyServer, TcpServer
 
+from .backups import first_backup
+
 STATION = 0x99
 
 
@@ -74,13 +76,7 @@ def test_issue_20_a_dead_iai_controller_is_restored_from_its_backup(
     try:
         url = server.start()
         # 1. The nightly backup, as a site keeps it.
-        pull = ["pull", str(project), "--family", "iai", "--port", url, "--station", "99"]
-        assert cli.main(pull) == 0
-        robot = project / "robot.yaml"
-        text = robot.read_text().replace("last_position: 1000", "last_position: 200")
-        robot.write_text(text.replace("controller:\n", "controller:\n" + RANGES))
-        robot.write_text(robot.read_text() + "keep_registers: true\n")
-        assert cli.main(["pull", str(project), "--allow-dirty"]) == 0
+        first_backup(project, url, last=200, controller=RANGES, keep_registers=True)
         git(repo, "add", "-A")
         git(repo, "commit", "-qm", "nightly backup")
     finally:

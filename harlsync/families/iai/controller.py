@@ -207,25 +207,19 @@ class Controller(OnLink):
             name = f"{request.message_id:03X}H"
             log.debug("%s: %s answered & %s", self.label, request.payload, value.code)
             about = f" ({what})" if what else ""
-            if request.is_write:
-                raise WriteRefused(
-                    value.code,
-                    port=self.port,
-                    station=self.station,
-                    command=name,
-                    station_text=f"{self.station:02X}",
-                    message=f"not written{about}: the controller refused it with error code "
-                    f"{value.code}H (an & reply: it did not carry the command out; "
-                    f"{ERROR_CODE_NOTE})",
-                )
-            raise ControllerError(
+            said = f"with error code {value.code}H (an & reply: it did not carry the command out; "
+            error = WriteRefused if request.is_write else ControllerError
+            raise error(
                 value.code,
                 port=self.port,
                 station=self.station,
                 command=name,
                 station_text=f"{self.station:02X}",
-                message=f"the controller refused it{about} with error code {value.code}H "
-                f"(an & reply: it did not carry the command out; {ERROR_CODE_NOTE})",
+                message=(
+                    f"not written{about}: the controller refused it {said}{ERROR_CODE_NOTE})"
+                    if request.is_write
+                    else f"the controller refused it{about} {said}{ERROR_CODE_NOTE})"
+                ),
             )
         return value
 

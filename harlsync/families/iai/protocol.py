@@ -883,15 +883,10 @@ def read_coordinate_systems(
 def read_strings(start: int, count: int, program: int = 0) -> Request[tuple[int, ...]]:
     """210H (p.26): ``count`` string variable columns from ``start`` (program 0:
     global), each one character as its code ('XX', hex ASCII)."""
-    data = _variable_args(program, start, count)
+    return _read_variables(0x210, 2, _code_from_wire, program, start, count)
 
-    def parse(reply: str) -> tuple[int, ...]:
-        f = _Fields(reply)
-        f.expect(2, program, "program number")
-        f.expect(3, start, "start variable")
-        f.expect(2, count, "number of variables")
-        codes = tuple(f.hex(2, f"column {start + i}") for i in range(count))
-        f.end()
-        return codes
 
-    return Request(0x210, data, False, True, parse, _VARIABLES_OVERHEAD + 2 * count)
+def _code_from_wire(wire: str) -> int:
+    if not (len(wire) == 2 and _HEX_RE.fullmatch(wire)):
+        raise ValueError(f"character code {wire!r} is not 2 hex digits")
+    return int(wire, 16)

@@ -135,6 +135,15 @@ SIM_FAMILY = IaiSimFamily()
 
 Handler = Callable[["Simulator", SimState, str], str]
 
+#: The control verbs that switch one condition of the controller on, and its field.
+_SWITCHES = {
+    "estop": "emergency_stop",
+    "flash": "flash_writing",
+    "positioner": "positioner_mode",
+    "cutoff": "drive_cut_off",
+    "gate": "safety_gate_open",
+}
+
 #: The critical error the ``error`` verb sets when given no code: a placeholder (the
 #: manual's error list is not in our pages), like the codes of :mod:`.codes`.
 CRITICAL_ERROR = "0E1"
@@ -190,16 +199,8 @@ class Simulator(device.Simulator[SimState, Frame]):
             state.run_program()
         elif verb == "manual":
             state.mode = MANUAL
-        elif verb == "estop":
-            state.emergency_stop = True
-        elif verb == "flash":
-            state.flash_writing = True
-        elif verb == "positioner":
-            state.positioner_mode = True
-        elif verb == "cutoff":
-            state.drive_cut_off = True
-        elif verb == "gate":
-            state.safety_gate_open = True
+        elif verb in _SWITCHES:
+            setattr(state, _SWITCHES[verb], True)
         elif verb == "stop":
             state.stop()
         else:

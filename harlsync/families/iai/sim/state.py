@@ -201,25 +201,18 @@ class SimState:
 
     def not_idle(self) -> list[str]:
         """Every reason the profile's interlock refuses a write now; empty when idle."""
-        out = []
-        if self.mode != AUTO:
-            out.append("MANUAL mode")
-        if self.program_running:
-            out.append("program running")
-        if self.flash_writing:
-            out.append("flash ROM write")
-        if self.emergency_stop:
-            out.append("emergency stop")
-        if not self.ready:
-            out.append("system not ready")
-        if self.critical_error != "000":
-            out.append(f"critical error {self.critical_error}")
-        if self.drive_cut_off:
-            out.append("drive source cut off")
-        if self.positioner_mode:
-            out.append("positioner mode")
-        if self.safety_gate_open:
-            out.append("safety gate open")
+        reasons = (
+            (self.mode != AUTO, "MANUAL mode"),
+            (self.program_running, "program running"),
+            (self.flash_writing, "flash ROM write"),
+            (self.emergency_stop, "emergency stop"),
+            (not self.ready, "system not ready"),
+            (self.critical_error != "000", f"critical error {self.critical_error}"),
+            (self.drive_cut_off, "drive source cut off"),
+            (self.positioner_mode, "positioner mode"),
+            (self.safety_gate_open, "safety gate open"),
+        )
+        out = [why for applies, why in reasons if applies]
         out += [f"axis {a} in use" for a in sorted(self.axes_in_use)]
         out += [f"axis {a} not reported" for a in sorted(self.unreported_axes)]
         return out
