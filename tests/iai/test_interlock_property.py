@@ -8,17 +8,21 @@ doing when it arrived (``Simulator.received``, and :attr:`Operator.arrival`, the
 reasons it was not idle), never from what harlsync believed:
 
 1. every write (291H positions and, with ``--registers``, 24BH a flag, 24CH
-   integer and 24DH real variables) arrived straight after a 215H and a 212H
-   (for the robot's axes), with nothing between the three; the 215H found the
-   controller idle (AUTO mode, no program running, no flash write, no emergency
-   stop, ready), and the 212H found none of the robot's axes in use.  That holds
-   for a re-send after a lost reply too: it follows a fresh 215H and 212H;
+   integer and 24DH real variables) arrived straight after a 212H (for the
+   robot's axes) and a 215H, in that order (issue 19: 215H last), with nothing
+   between the three; the 215H found the controller idle (AUTO mode, no program
+   running, no flash write, no emergency stop, ready, no critical error, drive
+   source on, program mode, safety gate closed), and the 212H found every axis
+   the client can know of reported and none of the robot's axes in use.  That
+   holds for a re-send after a lost reply too: it follows a fresh 212H and 215H;
 2. hence no write arrived while the controller was not idle (a program running,
-   MANUAL mode, a flash write, an emergency stop, not ready, an axis in use),
-   except in the one window no client can close (below);
+   MANUAL mode, a flash write, an emergency stop, not ready, a critical error,
+   the drive source cut off, positioner mode, the gate open, an axis in use or
+   left out of 212H's reply), except in the one window no client can close
+   (below);
 3. no message off the profile's allow-list arrived, in any case;
 4. a push that returns has made the robot equal the project (converged), and read
-   215H and 212H once more after its last write (or says why it could not);
+   212H and 215H once more after its last write (or says why it could not);
 5. a push that raises PushFailed says why in one line; its result, its audit
    record and (on disk) what ``harlsync push`` prints name exactly the writes the
    controller received; each position, flag and variable holds its old or its
@@ -39,15 +43,18 @@ rarely one left out; flags set and cleared, integer and real variables changed,
 pushed with ``--registers``); and, at random moments (after the controller has
 answered the k-th request, most of them while the push writes), an operator who
 starts a program, switches MANUAL, presses the emergency stop, starts a flash
-write, holds an axis, takes the system out of ready, or stops (idle again); and a
+write, holds an axis, takes the system out of ready, switches positioner mode,
+raises a critical error, cuts the drive source, opens the safety gate, makes 212H
+leave axes out of its reply (sometimes all, sometimes one in use), or stops (idle
+again); and a
 line that goes bad: faults on the replies (noise, drops, bad SC, fragments, late
 replies), requests lost on their way in, one write lost, a short burst of faults.
 The reply to the request after which the operator acts is often late, lost or
 garbled: the operator acts while it is on the wire.
 
-The window no client can close: the operator acting after the 215H that found
-the controller idle was answered and before the write it cleared arrives (MANUAL
-mode or an emergency stop between 215H and 212H are not in 212H's reply).  Such a
+The window no client can close: the operator acting after the 212H and 215H that
+found the controller idle were answered and before the write they cleared
+arrives (an axis taken between 212H and 215H is not in 215H's reply).  Such a
 write is counted (``race``) only when the operator's own log shows a change in
 that window; checks 3-7 still hold for its case.  (The simulated controller
 refuses it, as the profile's interlock says; a real one may not.)
@@ -560,7 +567,7 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     busy = random_change(rng, state.axes) if rng.random() < 0.08 else None
     first, last = state.position_range
     step = max_positions_per_read(state.model)
-    reads = 3 + -(-(last - first + 1) // step)  # 215H, 212H, 201H, the 22DH pages
+    reads = 3 + -(-(last - first + 1) // step)  # 212H, 215H, 201H, the 22DH pages
     reads += 3 * registers  # the flags and variables, usually one query each
     changes = sync_items.diff(CATALOGUE, before, target, registers=registers)
     horizon = reads + 6 * len(changes) + 8

@@ -117,7 +117,7 @@ class _AxisUnseen(InterlockError, NotWritten):
 
 @dataclass(frozen=True)
 class IaiStatus:
-    """The interlock's answer: 215H and 212H, and the first reason not to write."""
+    """The interlock's answer: 212H and 215H, and the first reason not to write."""
 
     system: SystemStatus
     axes: tuple[AxisStatus, ...]

@@ -1,6 +1,6 @@
 """An IAI controller as the engine's :class:`~harlsync.families.base.Driver`: read
 everything, read or write an item or a run (291H positions, 24BH a flag, 24CH/24DH
-integer and real variables), status (215H + 212H)."""
+integer and real variables), status (212H then 215H)."""
 
 from __future__ import annotations
 
