@@ -104,3 +104,24 @@ def test_the_wrong_order_reads_other_numbers(repo: Path) -> None:
             c.close()
     finally:
         server.stop()
+
+
+def test_an_unknown_word_order_is_one_line_naming_the_field_and_what_is_allowed(
+    repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    server = TcpServer(Simulator({STATION: SimState.generate(4, position_range=(1, 30))}))
+    project = repo / "cell"
+    try:
+        first_backup(project, server.start(), last=30)
+    finally:
+        server.stop()
+    robot = project / "robot.yaml"
+    robot.write_text(
+        robot.read_text().replace("controller:\n", "controller:\n  real_word_order: middle\n")
+    )
+    capsys.readouterr()
+    assert cli.main(["validate", str(project)]) == 1  # validate: 1 = the project is invalid
+    captured = capsys.readouterr()
+    err = captured.out + captured.err
+    assert "robot.yaml:" in err and "controller.real_word_order" in err
+    assert "upper-first, lower-first" in err
