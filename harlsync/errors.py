@@ -13,6 +13,7 @@
     │   ├── LinkTimeout          no valid reply in time (also a TimeoutError)
     │   └── WriteUnconfirmed     a write's reply was lost: it may or may not have taken
     ├── ControllerError          the controller answered "E"+status where the operation cannot go on
+    │   └── WriteRefused         it refused a write (also a NotWritten): nothing of it was applied
     ├── ProjectError             the robot project on disk
     │   ├── ProjectFormatError   unreadable YAML, a newer format version, a missing file
     │   └── ProjectInvalid       schema or range errors (carries every issue found)
@@ -21,6 +22,8 @@
         ├── PolicyError          dirty tree, outside the maintenance window, reconfigure not allowed
         ├── StalePlanError       the controller changed since the plan was made
         └── VerifyError          a written item does not read back as written
+
+    NotWritten                   mixin: a driver's write that raises it applied nothing
 
 Library code raises these; only the CLI turns them into a one-line message and
 an exit code.  pyserial's own exceptions never leave the link layer.
@@ -36,6 +39,7 @@ __all__ = [
     "LRCError",
     "LinkError",
     "LinkTimeout",
+    "NotWritten",
     "PolicyError",
     "PortBusyError",
     "PortError",
@@ -47,6 +51,7 @@ __all__ = [
     "StalePlanError",
     "SyncError",
     "VerifyError",
+    "WriteRefused",
     "WriteUnconfirmed",
 ]
 
@@ -155,6 +160,16 @@ class ControllerError(_Located):
             command=command,
             station_text=station_text,
         )
+
+
+class NotWritten(HarlsyncError):
+    """Raised by a driver's write when nothing of that write was applied: the
+    controller refused it, or the driver found before sending it that it must not
+    go.  A push records such an item as not written, never as "may or may not"."""
+
+
+class WriteRefused(ControllerError, NotWritten):
+    """The controller answered a write with an error reply: it did not carry it out."""
 
 
 class ProjectError(HarlsyncError):

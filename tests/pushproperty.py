@@ -378,18 +378,28 @@ def check_sent(
     got: Outcome,
     wire: Callable[[PlannedWrite], str],
     reads_back: Callable[[str, list[Received]], bool],
+    *,
+    refused: Callable[[list[Received]], bool] | None = None,
 ) -> list[Received]:
     """The result names exactly the writes the controller received (each one written,
     or the one whose outcome is unknown), and none was sent twice without being read
     back in between.  Returns the writes received.
 
     ``wire`` gives the payload a planned write arrives as; ``reads_back`` whether
-    the requests between two sends of a write read back all it wrote.
+    the requests between two sends of a write read back all it wrote.  With
+    ``refused``, a write the result names as not written may have arrived when
+    ``refused(its arrivals)`` says the controller refused it (the caller checks
+    that its items hold their old values).
     """
     result = got.result
     sent = [r for r in got.received if r.is_write]
     written = {wire(w) for w in result.written}
     maybe = written | ({wire(result.failed)} if result.failed else set())
+    if refused is not None:
+        for w in result.not_written:
+            arrivals = [r for r in sent if r.payload == wire(w)]
+            if arrivals and refused(arrivals):
+                maybe.add(wire(w))
     for r in sent:
         assert r.payload in maybe, why(
             f"the controller received {r.payload!r}, which the result does not name as "

@@ -44,6 +44,7 @@ from ..errors import (
     HarlsyncError,
     InterlockError,
     LinkTimeout,
+    NotWritten,
     PolicyError,
     PortBusyError,
     PortError,
@@ -376,7 +377,11 @@ def _write_all(
                 raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
         result.failed = write
         # A re-send after a lost reply is a write too: the same interlock applies.
-        driver.write(write.key, write.new, write.old, needs_idle=not live(write))
+        try:
+            driver.write(write.key, write.new, write.old, needs_idle=not live(write))
+        except NotWritten:
+            result.failed = None  # refused, not lost: the item is not written
+            raise
         got = driver.read(write.key)
         if got != write.new:
             raise VerifyError(

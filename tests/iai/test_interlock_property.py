@@ -9,17 +9,21 @@ doing when it arrived (``Simulator.received``, and :attr:`Operator.arrival`, the
 reasons it was not idle), never from what harlsync believed:
 
 1. every write (291H positions and, with ``--registers``, 24BH a flag, 24CH
-   integer and 24DH real variables) arrived straight after a 215H and a 212H
-   (for the robot's axes), with nothing between the three; the 215H found the
-   controller idle (AUTO mode, no program running, no flash write, no emergency
-   stop, ready), and the 212H found none of the robot's axes in use.  That holds
-   for a re-send after a lost reply too: it follows a fresh 215H and 212H;
+   integer and 24DH real variables) arrived straight after a 212H (for the
+   robot's axes) and a 215H, in that order (issue 19: 215H last), with nothing
+   between the three; the 215H found the controller idle (AUTO mode, no program
+   running, no flash write, no emergency stop, ready, no critical error, drive
+   source on, program mode, safety gate closed), and the 212H found every axis
+   the client can know of reported and none of the robot's axes in use.  That
+   holds for a re-send after a lost reply too: it follows a fresh 212H and 215H;
 2. hence no write arrived while the controller was not idle (a program running,
-   MANUAL mode, a flash write, an emergency stop, not ready, an axis in use),
-   except in the one window no client can close (below);
+   MANUAL mode, a flash write, an emergency stop, not ready, a critical error,
+   the drive source cut off, positioner mode, the gate open, an axis in use or
+   left out of 212H's reply), except in the one window no client can close
+   (below);
 3. no message off the profile's allow-list arrived, in any case;
 4. a push that returns has made the robot equal the project (converged), and read
-   215H and 212H once more after its last write (or says why it could not);
+   212H and 215H once more after its last write (or says why it could not);
 5. a push that raises PushFailed says why in one line; its result, its audit
    record and (on disk) what ``harlsync push`` prints name exactly the writes the
    controller received; each position, flag and variable holds its old or its
@@ -40,15 +44,18 @@ rarely one left out; flags set and cleared, integer and real variables changed,
 pushed with ``--registers``); and, at random moments (after the controller has
 answered the k-th request, most of them while the push writes), an operator who
 starts a program, switches MANUAL, presses the emergency stop, starts a flash
-write, holds an axis, takes the system out of ready, or stops (idle again); and a
+write, holds an axis, takes the system out of ready, switches positioner mode,
+raises a critical error, cuts the drive source, opens the safety gate, makes 212H
+leave axes out of its reply (sometimes all, sometimes one in use), or stops (idle
+again); and a
 line that goes bad: faults on the replies (noise, drops, bad SC, fragments, late
 replies), requests lost on their way in, one write lost, a short burst of faults.
 The reply to the request after which the operator acts is often late, lost or
 garbled: the operator acts while it is on the wire.
 
-The window no client can close: the operator acting after the 215H that found
-the controller idle was answered and before the write it cleared arrives (MANUAL
-mode or an emergency stop between 215H and 212H are not in 212H's reply).  Such a
+The window no client can close: the operator acting after the 212H and 215H that
+found the controller idle were answered and before the write they cleared
+arrives (an axis taken between 212H and 215H is not in 215H's reply).  Such a
 write is counted (``race``) only when the operator's own log shows a change in
 that window; checks 3-7 still hold for its case.  (The simulated controller
 refuses it, as the profile's interlock says; a real one may not.)
@@ -259,6 +266,20 @@ class Case:
         return explain(self.seed, self.story + self.sim.done, message)
 
     @property
+    def checked_axes(self) -> tuple[int, ...]:
+        """The axes whose use the client checks: robot.yaml's, else every one 212H reports."""
+        return self.axes if self.robot_axes is None else self.robot_axes
+
+    @property
+    def known_axes(self) -> tuple[int, ...]:
+        """The axes the client can know the robot has: robot.yaml's, else those the
+        positions it reads or writes use."""
+        if self.robot_axes is not None:
+            return self.robot_axes
+        tables = (self.before.positions, self.target.positions)
+        return tuple(sorted({a for table in tables for p in table.values() for a in p.axes}))
+
+    @property
     def pattern(self) -> int:
         """The axis pattern the interlock's 212H asks for."""
         if self.robot_axes is None:
@@ -392,7 +413,10 @@ def random_target(rng: random.Random, state: SimState, story: list[str]) -> dict
     return table
 
 
-def random_change(rng: random.Random, axes: tuple[int, ...]) -> Change:
+def random_change(rng: random.Random, axes: tuple[int, ...], known: tuple[int, ...] = ()) -> Change:
+    """One of the operator's changes.  ``known`` are the axes the client can know of
+    (an axis it cannot know of, unplugged, is one it never checks); none: the robot's."""
+    known = known or axes
     return rng.choices(
         [
             verb("run"),
@@ -401,14 +425,39 @@ def random_change(rng: random.Random, axes: tuple[int, ...]) -> Change:
             verb("flash"),
             verb("hold", str(rng.choice(axes))),
             not_ready,
+            # issue 19: what only the manual's 215H bits and a short 212H reply show
+            verb("positioner"),
+            verb("error", rng.choice(["0E1", "A05", "C8F"])),
+            verb("cutoff"),
+            verb("gate"),
+            unplugged(rng.sample(known, rng.randint(1, len(known)))),
             verb("stop"),
         ],
-        weights=[4, 3, 1, 1, 2, 1, 4],
+        weights=[4, 3, 1, 1, 2, 1, 1, 1, 1, 1, 2, 4],
     )[0]
 
 
+def unplugged(axes: list[int]) -> Change:
+    """212H leaves ``axes`` out of its reply (all of them: a reply that lists none),
+    and now and then one of them is in use too: the write it hides must not go."""
+
+    def change(sim: Simulator, state: SimState) -> str:
+        for axis in axes:
+            sim.control("unplug", state, [str(axis)])
+        if len(axes) % 2:
+            state.axes_in_use.add(axes[0])
+        return f"unplug {axes}" + (f", axis {axes[0]} in use" if len(axes) % 2 else "")
+
+    return change
+
+
 def random_schedule(
-    rng: random.Random, reads: int, horizon: int, axes: tuple[int, ...], deadline: float
+    rng: random.Random,
+    reads: int,
+    horizon: int,
+    axes: tuple[int, ...],
+    known: tuple[int, ...],
+    deadline: float,
 ) -> list[tuple[int, Change]]:
     """Changes and line faults at random moments: most of them while the push
     writes (request ``reads`` on), the rest at any time."""
@@ -416,7 +465,10 @@ def random_schedule(
     def moment() -> int:
         return rng.randrange(horizon) if rng.random() < 0.15 else rng.randrange(reads, horizon)
 
-    out = [(moment(), random_change(rng, axes)) for _ in range(rng.choice([0, 1, 1, 2, 2, 3, 5]))]
+    out = [
+        (moment(), random_change(rng, axes, known))
+        for _ in range(rng.choice([0, 1, 1, 2, 2, 3, 5]))
+    ]
     return out + line_changes(rng, moment, deadline)
 
 
@@ -516,7 +568,7 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     busy = random_change(rng, state.axes) if rng.random() < 0.08 else None
     first, last = state.position_range
     step = max_positions_per_read(state.model)
-    reads = 3 + -(-(last - first + 1) // step)  # 215H, 212H, 201H, the 22DH pages
+    reads = 3 + -(-(last - first + 1) // step)  # 212H, 215H, 201H, the 22DH pages
     reads += 3 * registers  # the flags and variables, usually one query each
     changes = sync_items.diff(CATALOGUE, before, target, registers=registers)
     horizon = reads + 6 * len(changes) + 8
@@ -528,7 +580,9 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     lose_writes = {rng.randrange(writes)} if writes and rng.random() < 0.3 else set()
     if lose_writes:
         story.append(f"write requests lost on the way in: {sorted(lose_writes)}")
-    schedule = random_schedule(rng, reads, horizon, state.axes, wait)
+    tables = (before.positions, target.positions)
+    known = robot_axes or tuple(sorted({a for t in tables for p in t.values() for a in p.axes}))
+    schedule = random_schedule(rng, reads, horizon, state.axes, known, wait)
     sim = Operator(
         state, schedule, seed=rng.randrange(2**32), deadline=wait, lose_writes=lose_writes
     )
@@ -644,6 +698,18 @@ class IaiTally(Tally):
     several_runs: int = 0
     #: pushes that wrote a flag or a variable
     variables_written: int = 0
+    #: pushes refused for a condition issue 19 added, by condition
+    issue_19: dict[str, int] = field(default_factory=dict)
+
+
+#: What the refusal names for each condition issue 19 added to the interlock.
+ISSUE_19 = {
+    "positioner": "positioner mode",
+    "critical error": "critical error",
+    "drive cut off": "drive source cut off",
+    "safety gate": "safety gate open",
+    "axes missing from 212H": "not reported by 212H",
+}
 
 
 def wire(write: PlannedWrite) -> str:
@@ -675,6 +741,12 @@ def reads_back(payload: str, between: list[Received]) -> bool:
     return all(any(n in page for page in pages) for n in range(start, start + count))
 
 
+def axis_reason(why: str) -> bool:
+    """Whether a reason the controller was not idle is 212H's to show: an axis in
+    use, or one its reply leaves out."""
+    return why.endswith((" in use", " not reported"))
+
+
 def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
     received, arrival = got.received, case.sim.arrival[got.first :]
     assert not case.sim.off_list(), case.why(f"off the allow-list: {case.sim.off_list()}")
@@ -685,14 +757,16 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
         if not r.is_write:
             continue
         name = f"{r.command}H (request {i})"
-        status, axes = (received[i - 2], received[i - 1]) if i >= 2 else (None, None)
+        # issue 19: 212H first, 215H last, so that MANUAL mode and an emergency stop
+        # are the freshest read.
+        axes, status = (received[i - 2], received[i - 1]) if i >= 2 else (None, None)
         assert (
             status is not None
             and axes is not None
-            and status.command == "215"
-            and (axes.command == "212")
+            and axes.command == "212"
+            and (status.command == "215")
         ), case.why(
-            f"{name} did not follow a 215H and a 212H straight "
+            f"{name} did not follow a 212H and a 215H straight "
             f"(before it: {received[max(0, i - 2) : i]})"
         )
         assert axes.payload == f"212{case.pattern:02X}", case.why(
@@ -700,16 +774,17 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
         )
         # Each read answers for its part: 215H for the mode and the status bytes,
         # 212H for the axes (an axis held at the 215H and let go before the 212H is
-        # no reason to refuse).
-        shown = [why for why in arrival[i - 2] if not why.endswith(" in use")]
+        # no reason to refuse), in use or left out of its reply.
+        shown = [why for why in arrival[i - 1] if not axis_reason(why)]
         assert not shown, case.why(
             f"{name} followed a 215H that found the controller not idle: {shown}"
         )
         in_use = [
             why
-            for why in arrival[i - 1]
-            if why.endswith(" in use")
-            and (case.robot_axes is None or int(why.split()[1]) in case.robot_axes)
+            for why in arrival[i - 2]
+            if axis_reason(why)
+            and int(why.split()[1])
+            in (case.known_axes if why.endswith(" not reported") else case.checked_axes)
         ]
         assert not in_use, case.why(f"{name} followed a 212H that found {in_use}")
         window = {got.first + i - 2, got.first + i - 1} & case.sim.acted
@@ -727,8 +802,8 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
             w.startswith("cannot read the task states after the last write")
             for w in got.result.warnings
         )
-        assert ("215" in after and "212" in after) or unread, case.why(
-            "neither a 215H and a 212H after the last write, nor a warning that says why not"
+        assert ("212" in after and "215" in after) or unread, case.why(
+            "neither a 212H and a 215H after the last write, nor a warning that says why not"
         )
 
 
@@ -750,7 +825,9 @@ def check_writes(case: Case, got: Outcome, final: IaiData) -> None:
     """The result names exactly what the controller received; each position, flag and
     variable holds its old or its new value."""
     result = got.result
-    sent = check_sent(case.why, got, wire, reads_back)
+    # A write the controller refused (an & reply: the simulated controller refuses
+    # a write that arrives while it is not idle) is not written (issue 22).
+    sent = check_sent(case.why, got, wire, reads_back, refused=lambda arrivals: arrivals[-1].busy)
     plan = result.plan
     if plan is None:
         assert not sent, case.why("writes without a plan")
@@ -796,6 +873,9 @@ def check_case(case: Case, deploy: Deploy, tally: IaiTally, settings: SerialSett
         check_converged(case, final)
         return
     count_failure(tally, got)
+    for name, text in ISSUE_19.items():
+        if text in str(got.failed):
+            tally.issue_19[name] = tally.issue_19.get(name, 0) + 1
     check_failure(case.why, got)
     if isinstance(got.failed.cause, PolicyError):
         check_wrote_nothing(case.why, got)
@@ -826,6 +906,7 @@ def test_no_write_reaches_a_controller_that_is_not_idle_and_every_push_converges
         assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 10, tally
         assert tally.lost_writes >= 5 and tally.several_runs >= 25, tally
         assert tally.variables_written >= 8, tally
+        assert sum(tally.issue_19.values()) >= 3, tally  # issue 19's conditions are drawn
 
 
 #: Seeds for the on-disk run: enough to meet every kind of outcome, few enough to be quick.
@@ -868,8 +949,26 @@ class Pendant(Simulator):
         (verb("flash"), "flash ROM write in progress (215H status byte 2 bit 0)"),
         (verb("hold", "2"), "axis 2 servo axis in use (212H axis status bit 0)"),
         (not_ready, "system not ready (215H status byte 3 bit 2)"),
+        # issue 19
+        (verb("positioner"), "positioner mode: a PLC can move the robot to a position number"),
+        (verb("error", "C8F"), "critical error C8F on the controller"),
+        (verb("cutoff"), "drive source cut off (215H status byte 3 bit 0)"),
+        (verb("gate"), "safety gate open"),
+        (verb("unplug", "2"), "axis 2 not reported by 212H (its reply lists axis 1, 3)"),
     ],
-    ids=["run", "manual", "estop", "flash", "hold 2", "not ready"],
+    ids=[
+        "run",
+        "manual",
+        "estop",
+        "flash",
+        "hold 2",
+        "not ready",
+        "positioner",
+        "critical error",
+        "drive cut off",
+        "safety gate",
+        "212H without axis 2",
+    ],
 )
 def test_a_refusal_exits_3_naming_the_bit_and_writes_nothing_more(
     tmp_path: Path,

@@ -391,6 +391,8 @@ def test_a_frame_that_cannot_be_put_on_the_wire_is_refused(frame: Frame) -> None
 # --- the allow-list ----------------------------------------------------------------
 
 ALLOWED = {0x201, 0x215, 0x212, 0x22D, 0x291, 0x20D, 0x20E, 0x20F, 0x24B, 0x24C, 0x24D}
+#: issue 20: the read-only records, reads only (2A0H coordinate systems, 210H strings)
+ALLOWED |= {0x2A0, 0x210}
 NEVER = [
     0x232,  # servo
     *range(0x233, 0x239),  # home, moves, jog, stop
@@ -413,7 +415,7 @@ NEVER = [
 ]
 
 
-def test_the_allow_list_is_the_profiles_eleven_messages() -> None:
+def test_the_allow_list_is_the_profiles_thirteen_messages() -> None:
     assert profile.ALLOWED_MESSAGE_IDS == ALLOWED
     assert isinstance(profile.ALLOWED_MESSAGE_IDS, frozenset)
     assert profile.WRITE_MESSAGE_IDS == {0x291, 0x24B, 0x24C, 0x24D}
@@ -570,6 +572,26 @@ IDLE = SystemStatus(1, "000", "000", 0, 0, 0x04, 0)
         ({"status3": 0x06}, "operating in AUTO mode (215H status byte 3 bit 1)"),
         ({"status3": 0x00}, "system not ready (215H status byte 3 bit 2)"),
         ({"status1": 0x08}, "emergency stop (215H status byte 1 bit 3)"),
+        # issue 19: what the manual shows and the interlock ignored
+        (
+            {"critical_error": "0C8"},
+            "critical error 0C8 on the controller (215H critical-level system error number)",
+        ),
+        ({"status3": 0x05}, "drive source cut off (215H status byte 3 bit 0)"),
+        (
+            {"status3": 0x14},
+            (
+                "positioner mode: a PLC can move the robot to a position number with no "
+                "program running (215H status byte 3 bit 4)"
+            ),
+        ),
+        (
+            {"status1": 0x04},
+            (
+                "safety gate open, or the enable switch on a TTA, X-SEL P/Q/R/S or "
+                "SSEL/ASEL/PSEL (215H status byte 1 bit 2)"
+            ),
+        ),
     ],
 )
 def test_each_interlock_bit_of_215h_refuses_a_write(changes: dict[str, int], reason: str) -> None:
@@ -579,7 +601,9 @@ def test_each_interlock_bit_of_215h_refuses_a_write(changes: dict[str, int], rea
 
 
 def test_bits_the_interlock_does_not_name_do_not_refuse() -> None:
-    status = SystemStatus(1, "0C8", "0C8", 0xF7, 0xDC, 0xFD, 0xFF)
+    # The latest error (not critical), battery and power bits, TP enable, the
+    # operation mode switch; restart wait and the interlocks; byte 3's reserved bits.
+    status = SystemStatus(1, "000", "0C8", 0xF3, 0xDC, 0xEC, 0xFF)
     assert status.refusal is None
 
 
@@ -602,7 +626,24 @@ def test_an_axis_in_use_or_missing_refuses_a_write() -> None:
     assert busy.refusal == "axis 1 servo axis in use (212H axis status bit 0)"
     assert m.axes_refusal((1, 2), (busy, idle)) == busy.refusal
     assert m.axes_refusal((2,), (busy, idle)) is None
-    assert m.axes_refusal((2, 3), (idle,)) == "axis 3 not reported by 212H (driver not connected)"
+    assert m.axes_refusal((2, 3), (idle,)) == (
+        "axis 3 not reported by 212H (its reply lists axis 2): an axis it does not report "
+        "cannot be seen to be idle"
+    )
+
+
+def test_issue_19_a_212h_reply_that_lists_no_axis_is_not_idle() -> None:
+    # A checksum-valid reply with pattern 00 once read as "no axis in use".
+    none = reply(p.axis_status(0xFF), b"#99212008A" + CRLF)  # SC by hand
+    assert none == ()
+    assert m.axes_refusal((1, 2, 3), none) == (
+        "axis 1 not reported by 212H (its reply lists no axis): an axis it does not report "
+        "cannot be seen to be idle"
+    )
+    # Not even the robot's axes known (no robot.yaml axes, no position): still not idle.
+    assert m.axes_refusal((), none) == (
+        "212H reports no axis: an axis it does not report cannot be seen to be idle"
+    )
 
 
 def test_a_212h_reply_may_leave_out_an_axis_but_not_add_one() -> None:

@@ -436,3 +436,29 @@ def test_push_registers_for_a_project_that_does_not_keep_them_is_refused(
         "robot.yaml and pull"
     ) in capsys.readouterr().err
     assert not writes(sim)
+
+
+def test_issue_22_a_291h_the_controller_refuses_is_not_written_in_words_with_no_hex(
+    served, repo, capsys
+) -> None:
+    # Position 150 is inside robot.yaml's range but outside the controller's table:
+    # it answers the 291H with & (its code for a number out of range).
+    sim, url = served
+    project = pulled(repo, url)
+    robot = project / "robot.yaml"
+    robot.write_text(robot.read_text().replace("last_position: 120", "last_position: 200"))
+    with (project / "positions.yaml").open("a") as f:
+        f.write("  150: {axes: [1], coords: [1.000], acc: 0.30, dec: 0.30, speed: 100}\n")
+    git(repo, "commit", "-qam", "a position past the controller's table")
+    capsys.readouterr()
+
+    assert cli.main(["push", str(project), "--yes"]) == 2
+    err = capsys.readouterr().err
+    assert [r.command for r in sim.received if r.is_write] == ["291"]  # sent once, refused
+    assert "not written (position 150): the controller refused it with error code 0B4H" in err
+    assert "may or may not" not in err and "unknown" not in err
+    assert not re.search(r"[0-9A-F]{16}", err), err  # no frame outside -vv
+    assert cli.main(["log", str(project)]) == 0
+    shown = capsys.readouterr().out
+    assert "may or may not" not in shown and "not written (position 150)" in shown
+    assert 150 not in sim.stations[STATION].positions

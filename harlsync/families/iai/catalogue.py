@@ -33,7 +33,16 @@ from .layout import IaiData
 from .model import ARM_NAMES, VARIABLE_SECTIONS, Position
 from .protocol import max_positions_per_write, max_variables_per_write
 
-__all__ = ["CATALOGUE", "IaiCatalogue", "Key", "PositionKey", "Run", "VariableKey", "runs"]
+__all__ = [
+    "CATALOGUE",
+    "IaiCatalogue",
+    "Key",
+    "PositionKey",
+    "RecordKey",
+    "Run",
+    "VariableKey",
+    "runs",
+]
 
 
 class PositionKey(NamedTuple):
@@ -50,6 +59,14 @@ class VariableKey(NamedTuple):
     number: int
 
 
+class RecordKey(NamedTuple):
+    """One read-only record: a work or tool coordinate system definition by number,
+    or a row of string variable columns by its first column."""
+
+    kind: str  # "work" | "tool" | "string"
+    number: int
+
+
 class Run(NamedTuple):
     """Consecutive items ``start`` .. ``start + size - 1`` written by one command."""
 
@@ -62,7 +79,7 @@ class Run(NamedTuple):
         return range(self.start, self.start + self.size)
 
 
-Key = PositionKey | VariableKey | Run
+Key = PositionKey | VariableKey | RecordKey | Run
 
 #: Item kind -> (the section of the data it is kept in, a person's name for one, for several).
 _KINDS = {
@@ -70,7 +87,13 @@ _KINDS = {
     "integer": ("integers", "integer variable", "integer variables"),
     "real": ("reals", "real variable", "real variables"),
     "flag": ("flags", "flag", "flags"),
+    # read-only records: stored and diffed, never written
+    "work": ("work_coordinates", "work coordinate system", "work coordinate systems"),
+    "tool": ("tool_coordinates", "tool coordinate system", "tool coordinate systems"),
+    "string": ("strings", "string variable row", "string variable rows"),
 }
+#: The read-only record kinds, and the message that reads each.
+_RECORD_KINDS = {"work": "2A0H", "tool": "2A0H", "string": "210H"}
 #: The safe push order, by item kind; a run sorts with its items.
 _ORDER = {kind: i for i, kind in enumerate(_KINDS)}
 #: A run's kind -> its items' kind.
@@ -121,6 +144,29 @@ def position_text(position: Position | None) -> str | None:
     return text
 
 
+def coordinates_text(value: tuple[str, ...] | None) -> str | None:
+    """A coordinate system definition on one line: ``x 100.000 y 0.000 z 0.000 r 90.000``."""
+    if value is None:
+        return None
+    return " ".join(f"{axis} {c}" for axis, c in zip("xyzr", value))
+
+
+def string_text(value: str | None) -> str | None:
+    """A row of string variable columns as readable, exact text: printable ASCII as
+    itself (a backslash doubled), any other code as ``\\xNN``, trailing NULs
+    counted (``"AB" and 30 x \\x00``)."""
+    if value is None:
+        return None
+    codes = [int(value[i : i + 2], 16) for i in range(0, len(value), 2)]
+    zeros = len(codes) - len(bytes(codes).rstrip(b"\0"))
+    tail = f" and {zeros} x \\x00" if zeros > 1 else ""
+    codes = codes[: len(codes) - zeros] if zeros > 1 else codes
+    shown = "".join(
+        "\\\\" if c == 0x5C else chr(c) if 0x20 <= c <= 0x7E else f"\\x{c:02X}" for c in codes
+    )
+    return f'"{shown}"{tail}'
+
+
 def value_text(value: object) -> str | None:
     """A flag or variable as variables.yaml writes it: ``true``, ``-1000``, ``0.1``."""
     if value is None:
@@ -141,6 +187,10 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
             for kind, (section, _, _) in _KINDS.items():
                 for n, value in kept.get(section, {}).items():
                     out[VariableKey(kind, n)] = value
+        records = data.records()
+        for kind in _RECORD_KINDS:
+            for n, value in records.get(_KINDS[kind][0], {}).items():
+                out[RecordKey(kind, n)] = value
         return out
 
     def order(self, key: Key) -> tuple[Any, ...]:
@@ -149,6 +199,8 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
 
     def describe(self, key: Key) -> str:
         _, one, several = _KINDS[_item_kind(key)]
+        if isinstance(key, RecordKey) and key.kind == "string":
+            return f"string variables from column {key.number}"
         if not isinstance(key, Run):
             return f"{one} {key.number}"
         if key.size == 1:
@@ -162,7 +214,16 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         return str(key.start if isinstance(key, Run) else key.number)
 
     def fields(self, key: Key, old: Any, new: Any) -> list[tuple[str, str | None, str | None]]:
-        show = position_text if _item_kind(key) == "position" else value_text
+        kind = _item_kind(key)
+        show = (
+            position_text
+            if kind == "position"
+            else string_text
+            if kind == "string"
+            else coordinates_text
+            if kind in _RECORD_KINDS
+            else value_text
+        )
         a, b = show(old), show(new)
         return [] if a == b else [("", a, b)]
 
@@ -192,14 +253,23 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         return {"model code": v.model_code, "unit code": v.unit_code, "version": v.version}
 
     def contents(self, data: IaiData, *, registers: bool) -> str:
-        """Positions, and the flags and variables read with them."""
+        """Positions, and the flags and variables read with them, each with the
+        range it covered when the read probed it: ``42 positions in 1-1000 (none
+        defined outside it)``."""
         kept = data.variables() if registers else {}
         held = {"positions": data.positions, **kept}
-        return ", ".join(
-            f"{len(held[section])} {one if len(held[section]) == 1 else several}"
-            for section, one, several in _KINDS.values()
-            if section in held
-        )
+        parts = []
+        for section, one, several in _KINDS.values():
+            if section not in held:
+                continue
+            text = f"{len(held[section])} {one if len(held[section]) == 1 else several}"
+            covered = data.covered.get(section)
+            if covered is not None:
+                text += f" in {covered.first}-{covered.last}"
+                if section == "positions":
+                    text += " (none defined outside it)"
+            parts.append(text)
+        return ", ".join(parts)
 
     def version(self, data: IaiData) -> str:
         v = data.version
@@ -222,6 +292,15 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 "in robot.yaml and pull, or push without --registers"
             )
         for key, _, new in changes:
+            if key.kind in _RECORD_KINDS:
+                section = _KINDS[key.kind][0]
+                unwritable.append(
+                    f"{self.describe(key)}: differs on the robot, and no message harlsync "
+                    f"sends writes it (it reads it with {_RECORD_KINDS[key.kind]} only); "
+                    f"change it on the controller, or pull to take the robot's in "
+                    f"(records.yaml {section})"
+                )
+                continue
             if new is not None:
                 continue
             if key.kind == "position":
@@ -238,7 +317,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 )
         changed: dict[str, list[int]] = {section: [] for section, _, _ in _KINDS.values()}
         for key, _, new in changes:
-            if new is not None:
+            if new is not None and key.kind not in _RECORD_KINDS:
                 changed[_KINDS[key.kind][0]].append(key.number)
         wanted: list[tuple[Any, Any, Any]] = []
         wanted += runs(

@@ -16,20 +16,30 @@ confirmed, never blindly repeated (:func:`~harlsync.link.confirm.confirmed_write
 after a lost reply what was written is read back, and a second send first
 checks that the robot is still idle.
 
-The interlock (:meth:`Controller.status`) is 215H and 212H together, as the
-profile says: AUTO mode, no program running, no flash write, system ready, no
-emergency stop, and no axis of the robot in use.
+The interlock (:meth:`Controller.status`) is 212H then 215H, back to back (215H
+last, so MANUAL mode and an emergency stop are the freshest read): AUTO mode, no
+program running, no flash write, system ready, no emergency stop, no critical
+error, drive source on, program (not positioner) mode, safety gate closed, and
+every axis of the robot reported and not in use.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from ...errors import ControllerError, ReplyError, WriteUnconfirmed
+from ...errors import (
+    ControllerError,
+    InterlockError,
+    NotWritten,
+    ReplyError,
+    SyncError,
+    WriteRefused,
+    WriteUnconfirmed,
+)
 from ...link import DEFAULT_LOCK_TIMEOUT, Link
 from ...link.confirm import confirmed_write, refuse_unless_idle
 from ...link.owner import OnLink
@@ -37,8 +47,9 @@ from ...settings import SerialSettings
 from ..base import Progress
 from . import profile
 from .codec import CODEC
-from .layout import IaiData
+from .layout import Coverage, IaiData
 from .model import (
+    VARIABLE_SECTIONS,
     AxisStatus,
     Position,
     SystemStatus,
@@ -51,13 +62,17 @@ from .protocol import (
     ErrorReply,
     Frame,
     Request,
+    max_coordinate_systems_per_read,
     max_flags_per_read,
     max_positions_per_read,
+    max_string_columns_per_read,
     max_variables_per_read,
+    read_coordinate_systems,
     read_flags,
     read_integers,
     read_positions,
     read_reals,
+    read_strings,
     system_status,
     version,
     write_flag,
@@ -67,7 +82,7 @@ from .protocol import (
 )
 from .protocol import axis_status as axis_status_request
 
-__all__ = ["Controller", "IaiStatus"]
+__all__ = ["Controller", "IaiStatus", "TableBeyondRange"]
 
 log = logging.getLogger(__name__)
 
@@ -77,14 +92,32 @@ T = TypeVar("T")
 ALL_AXES = 0xFF
 
 
+def _numbers(one: str, several: str, start: int, count: int) -> str:
+    """``position 7``, ``positions 7-9``: what a write of ``count`` items from ``start`` is."""
+    return f"{one} {start}" if count == 1 else f"{several} {start}-{start + count - 1}"
+
+
 def _chunks(first: int, last: int, step: int) -> list[tuple[int, int]]:
     """``first`` .. ``last`` as (start, count) pieces of at most ``step`` numbers."""
     return [(start, min(step, last + 1 - start)) for start in range(first, last + 1, step)]
 
 
+#: What an ``&`` code means is in the controller's error list, which our manual
+#: pages lack (digest section 6): said beside every code shown.
+ERROR_CODE_NOTE = "the controller's error list gives the code's meaning"
+
+
+class TableBeyondRange(SyncError):
+    """A table goes on past the range robot.yaml says to read: a backup of it would be short."""
+
+
+class _AxisUnseen(InterlockError, NotWritten):
+    """A write refused before it was sent: it moves an axis 212H did not report."""
+
+
 @dataclass(frozen=True)
 class IaiStatus:
-    """The interlock's answer: 215H and 212H, and the first reason not to write."""
+    """The interlock's answer: 212H and 215H, and the first reason not to write."""
 
     system: SystemStatus
     axes: tuple[AxisStatus, ...]
@@ -117,6 +150,8 @@ class Controller(OnLink):
         first: int = profile.DEFAULT_POSITION_RANGE[0],
         last: int = profile.DEFAULT_POSITION_RANGE[1],
         variables: Mapping[str, tuple[int, int]] = profile.DEFAULT_VARIABLE_RANGES,
+        real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER,
+        records: Mapping[str, tuple[int, int]] | None = None,
     ) -> None:
         self.link = link
         self.station = link.station
@@ -124,6 +159,13 @@ class Controller(OnLink):
         self.axes = axes
         self.first, self.last = first, last
         self.variables = dict(variables)
+        self.real_word_order = real_word_order
+        #: the read-only records read_all reads: section -> (first, last); none by default
+        self.records = dict(records or {})
+        #: axes of the positions read or written in this session (robot_axes)
+        self._seen_axes: set[int] = set()
+        #: the status read last (the interlock's before the next write)
+        self._last_status: IaiStatus | None = None
 
     @classmethod
     def from_url(
@@ -153,18 +195,31 @@ class Controller(OnLink):
 
     # --- the one place requests go through ---------------------------------------
 
-    def request(self, request: Request[T]) -> T:
-        """Send one request and return its typed value; ``&`` raises ControllerError."""
+    def request(self, request: Request[T], what: str | None = None) -> T:
+        """Send one request and return its typed value.
+
+        An ``&`` reply raises ControllerError naming the message (and ``what`` it
+        was for), and its code; to a write it raises WriteRefused: the
+        controller did not carry it out.  The command's data is for -vv only.
+        """
         value = self.link.exchange(request)
         if isinstance(value, ErrorReply):
-            raise ControllerError(
+            name = f"{request.message_id:03X}H"
+            log.debug("%s: %s answered & %s", self.label, request.payload, value.code)
+            about = f" ({what})" if what else ""
+            said = f"with error code {value.code}H (an & reply: it did not carry the command out; "
+            error = WriteRefused if request.is_write else ControllerError
+            raise error(
                 value.code,
                 port=self.port,
                 station=self.station,
-                command=request.payload,
+                command=name,
                 station_text=f"{self.station:02X}",
-                message=f"controller answered error {value.code}H (& reply: the command "
-                "was not carried out)",
+                message=(
+                    f"not written{about}: the controller refused it {said}{ERROR_CODE_NOTE})"
+                    if request.is_write
+                    else f"the controller refused it{about} {said}{ERROR_CODE_NOTE})"
+                ),
             )
         return value
 
@@ -173,38 +228,57 @@ class Controller(OnLink):
     def version(self) -> Version:
         return self.request(version())
 
-    def status(self) -> IaiStatus:
-        """215H and 212H: whether a write may go now, and if not, which bit says no.
+    def note_axes(self, positions: Iterable[Position | None]) -> None:
+        """Count the axes ``positions`` use among the robot's (what the interlock's
+        212H must report) when robot.yaml names none: the positions read, and
+        those a plan will write, before its first write."""
+        for position in positions:
+            if position is not None:
+                self._seen_axes.update(position.axes)
 
-        The two must be answered back to back.  A 212H sent again (its reply lost or
-        garbled) leaves the 215H before it stale by a whole deadline or more, and
-        MANUAL mode or an emergency stop since then are not in 212H's reply: both
-        are read again.  When they cannot be read back to back, that is not idle.
+    def status(self) -> IaiStatus:
+        """212H, then 215H: whether a write may go now, and if not, which bit says no.
+
+        215H comes last, so what only it shows (MANUAL mode, an emergency stop)
+        is the freshest read before the write.  The two must be answered back to
+        back: a 215H sent again (its reply lost or garbled) leaves the 212H before
+        it stale by a whole deadline or more, so both are read again.  When they
+        cannot be read back to back, that is not idle.  212H fails closed: a
+        reply that does not report every one of the robot's axes (or reports
+        none) is not idle.
         """
         pattern = ALL_AXES if self.axes is None else sum(1 << (a - 1) for a in self.axes)
         rounds = 1 + max(0, self.link.settings.retries)
         for _ in range(rounds):
-            system = self.request(system_status())
-            retries = self.link.stats.retries
             axes = self.request(axis_status_request(pattern))
+            retries = self.link.stats.retries
+            system = self.request(system_status())
             if self.link.stats.retries == retries:
                 break
             log.info(
-                "%s: 212H was sent again, so the 215H before it is stale: reading both again",
+                "%s: 215H was sent again, so the 212H before it is stale: reading both again",
                 self.label,
             )
         else:
-            return IaiStatus(
+            status = IaiStatus(
                 system,
                 axes,
-                f"215H and 212H could not be read back to back "
-                f"({rounds} times 212H had to be sent again)",
+                f"212H and 215H could not be read back to back "
+                f"({rounds} times 215H had to be sent again)",
             )
+            self._last_status = status
+            return status
         refusal = system.refusal
         if refusal is None:
-            wanted = self.axes if self.axes is not None else tuple(s.axis for s in axes)
+            # Every axis of the robot must be reported; with no axes in robot.yaml,
+            # every axis reported is checked too.
+            wanted = self.axes
+            if wanted is None:
+                wanted = tuple(sorted(self._seen_axes | {a.axis for a in axes}))
             refusal = axes_refusal(wanted, axes)
-        return IaiStatus(system, axes, refusal)
+        status = IaiStatus(system, axes, refusal)
+        self._last_status = status
+        return status
 
     def read_positions(self, head: int, count: int) -> dict[int, Position]:
         """The defined positions among ``head`` .. ``head + count - 1``, in queries
@@ -213,6 +287,7 @@ class Controller(OnLink):
         for start, n in _chunks(head, head + count - 1, max_positions_per_read(self.model)):
             for position in self.request(read_positions(start, n)):
                 out[position.number] = position
+        self.note_axes(out.values())
         return out
 
     def read_run(self, start: int, size: int) -> tuple[Position | None, ...]:
@@ -250,7 +325,10 @@ class Controller(OnLink):
     def read_reals(self, first: int, last: int) -> dict[int, str]:
         """Global real variables ``first`` .. ``last`` (20FH), as their exact text."""
         step = max_variables_per_read(self.model, "reals")
-        values = self._read_numbered(first, last, step, read_reals)
+        order = self.real_word_order
+        values = self._read_numbered(
+            first, last, step, lambda start, n: read_reals(start, n, order=order)
+        )
         return {n: real_text(v) for n, v in values.items()}
 
     def read_variables(self, section: str, first: int, last: int) -> dict[int, object]:
@@ -264,12 +342,15 @@ class Controller(OnLink):
 
     def read_all(self, progress: Progress | None = None, *, variables: bool = False) -> IaiData:
         """The version and every defined position of the robot's range, and with
-        ``variables`` the flags and variables of their ranges.
+        ``variables`` the flags and variables of their ranges; each table probed
+        past its range (:meth:`probe_positions`, :meth:`probe_variables`), and the
+        range it covered recorded in :attr:`IaiData.covered`.
 
         ``progress(done, total)`` after each position query and each section.
+        Raises :class:`TableBeyondRange` when a table goes on past its range.
         """
         chunks = _chunks(self.first, self.last, max_positions_per_read(self.model))
-        total = 1 + len(chunks) + (3 if variables else 0)
+        total = 2 + len(chunks) + (3 if variables else 0)
         done = 0
 
         def tick() -> None:
@@ -283,14 +364,137 @@ class Controller(OnLink):
         for start, n in chunks:
             data.positions.update((p.number, p) for p in self.request(read_positions(start, n)))
             tick()
+        self.note_axes(data.positions.values())
+        data.covered["positions"] = self.probe_positions()
+        tick()
         if variables:
             data.flags = self.read_flags(*self.variables["flags"])
+            data.covered["flags"] = self.probe_variables("flags")
             tick()
             data.integers = self.read_integers(*self.variables["integers"])
+            data.covered["integers"] = self.probe_variables("integers")
             tick()
             data.reals = self.read_reals(*self.variables["reals"])
+            data.covered["reals"] = self.probe_variables("reals")
             tick()
+        for section, (first, last) in self.records.items():
+            if section == "strings":
+                data.strings = self.read_string_rows(first, last)
+            else:
+                setattr(data, section, self.read_coordinate_systems(section, first, last))
+            data.covered[section] = Coverage(first, last, last)
         return data
+
+    def read_coordinate_systems(
+        self, section: str, first: int, last: int
+    ) -> dict[int, tuple[str, ...]]:
+        """Work or tool (``section``) coordinate system definitions ``first`` ..
+        ``last`` (2A0H), each X, Y, Z, R as coordinate text."""
+        kind = profile.COORDINATE_SYSTEM_TYPES[section]
+        step = max_coordinate_systems_per_read(self.model)
+        return self._read_numbered(
+            first, last, step, lambda head, n: read_coordinate_systems(kind, head, n)
+        )
+
+    def read_string_rows(self, first: int, last: int) -> dict[int, str]:
+        """Global string variable columns ``first`` .. ``last`` (210H), as rows of
+        :data:`profile.STRING_ROW` columns by first column, each character's code
+        as two hex digits."""
+        step = max_string_columns_per_read(self.model)
+        codes = self._read_numbered(first, last, step, read_strings)
+        row = profile.STRING_ROW
+        return {
+            start: "".join(f"{codes[n]:02X}" for n in range(start, min(last, start + row - 1) + 1))
+            for start in range(first, last + 1, row)
+        }
+
+    def probe_positions(self) -> Coverage:
+        """Make sure no position is defined outside ``first`` .. ``last``: one 22DH
+        below the range and one above it, each asking for every number there (the
+        reply holds the first defined records that fit: one is enough).  A
+        controller that answers ``&`` to so wide a query is probed in queries
+        sized as the table's reads, up to the profile's fallback end.
+
+        Returns the range covered; raises :class:`TableBeyondRange` naming what
+        lies outside and the robot.yaml setting that takes it in.
+        """
+        send = profile.BUFFERS[self.model].send
+        end = profile.POSITION_NUMBER_END
+        found: list[int] = []
+        if self.first > 1:
+            found += [p.number for p in self.request(read_positions(1, self.first - 1, send))]
+        if found:
+            raise TableBeyondRange(
+                f"{self.label}: position {found[0]} is defined before the range this "
+                f"backup reads ({self.first}-{self.last}), and is not backed up; set "
+                f"controller.first_position: {found[0]} (or lower) in robot.yaml and run again"
+            )
+        if self.last < end:
+            try:
+                found = [
+                    p.number
+                    for p in self.request(read_positions(self.last + 1, end - self.last, send))
+                ]
+            except ControllerError:
+                end = max(self.last, profile.POSITION_PROBE_FALLBACK_END)
+                log.info(
+                    "%s: the controller refused a 22DH for every number past %d: probing "
+                    "up to %d in queries of the table's size",
+                    self.label,
+                    self.last,
+                    end,
+                )
+                found = []
+                step = max_positions_per_read(self.model)
+                for start, n in _chunks(self.last + 1, end, step):
+                    found = [p.number for p in self.request(read_positions(start, n))]
+                    if found:
+                        break
+        if found:
+            more = f", {found[1]}" if len(found) > 1 else ""
+            highest = f" and more, up to at least {found[-1]}" if len(found) > 2 else ""
+            raise TableBeyondRange(
+                f"{self.label}: position {found[0]}{more}{highest} is defined past the "
+                f"range this backup reads ({self.first}-{self.last}), and is not backed up; "
+                f"set controller.last_position: {found[-1]} (or higher) in robot.yaml and "
+                "run again"
+            )
+        return Coverage(self.first, self.last, end)
+
+    def probe_variables(self, section: str) -> Coverage:
+        """Make sure no flag (or integer, or real variable) past the kept range is
+        set: one query of the largest size past its last, the flags from a
+        multiple of 8.  An ``&`` answer means the controller has no such numbers:
+        the table ends there.  Raises :class:`TableBeyondRange`."""
+        first, last = self.variables[section]
+        end = profile.VARIABLE_NUMBER_END[section]
+        if last >= end:
+            return Coverage(first, last, last)
+        step = {
+            "flags": max_flags_per_read(self.model),
+            "integers": max_variables_per_read(self.model, "integers"),
+            "reals": max_variables_per_read(self.model, "reals"),
+        }[section]
+        align = profile.FLAG_QUERY_ALIGNMENT if section == "flags" else 1
+        head = (last + 1) - (last + 1) % align
+        upto = min(end, head + step - 1)
+        try:
+            values = self.read_variables(section, last + 1, upto)
+        except ControllerError:
+            log.info(
+                "%s: %s end at %d (the controller has none past it)", self.label, section, last
+            )
+            return Coverage(first, last, upto)
+        kept = {"flags": False, "integers": 0, "reals": "0.0"}[section]
+        beyond = [n for n, v in sorted(values.items()) if v != kept]
+        if beyond:
+            called = VARIABLE_SECTIONS[section]
+            raise TableBeyondRange(
+                f"{self.label}: {called} {beyond[0]} is set past the range this backup "
+                f"keeps ({first}-{last}), and is not backed up; set controller.{section}: "
+                f"{{first: {first}, last: {beyond[-1]}}} (or higher) in robot.yaml and run again"
+            )
+        return Coverage(first, last, upto)
 
     # --- writes ---------------------------------------------------------------------
 
@@ -300,16 +504,36 @@ class Controller(OnLink):
         """Write consecutive positions with one 291H and confirm it.
 
         Raises InterlockError instead of sending it again after a lost reply when
-        the robot is not idle, WriteUnconfirmed when the read-back is neither.
+        the robot is not idle, WriteUnconfirmed when the read-back is neither, and
+        before sending it (nothing written) when it moves an axis the status read
+        just before did not report.
         """
+        self.note_axes(positions)
+        what = _numbers("position", "positions", start, len(positions))
+        self._refuse_unseen_axes(positions, what)
         self._confirmed(
             write_positions(start, positions),
             len(positions),
             lambda: self.read_run(start, len(positions)),
             tuple(positions),
             tuple(old),
-            f"positions {start}-{start + len(positions) - 1}",
+            what,
         )
+
+    def _refuse_unseen_axes(self, positions: Sequence[Position], what: str) -> None:
+        """Refuse (nothing sent) positions with an axis the last 212H did not report
+        idle: with no axes in robot.yaml, a new position's axis is known only now."""
+        last = self._last_status
+        if last is None or not last.idle:
+            return  # the engine's interlock went first: nothing to add
+        reported = {s.axis for s in last.axes}
+        for position in positions:
+            unseen = sorted(set(position.axes) - reported)
+            if unseen:
+                raise _AxisUnseen(
+                    f"{self.label}: axis {unseen[0]} not reported by 212H before writing "
+                    f"{what}: an axis it does not report cannot be seen to be idle; not writing"
+                )
 
     def write_flag(self, number: int, on: bool, old: bool) -> None:
         """Set or clear one global flag with 24BH and confirm it, as :meth:`write_run`."""
@@ -332,7 +556,7 @@ class Controller(OnLink):
             lambda: tuple(self.read_integers(start, last).values()),
             tuple(values),
             tuple(old),
-            f"integer variables {start}-{last}",
+            _numbers("integer variable", "integer variables", start, len(values)),
         )
 
     def write_reals(self, start: int, values: Sequence[str], old: Sequence[str]) -> None:
@@ -340,12 +564,12 @@ class Controller(OnLink):
         confirm it, as :meth:`write_run`.  Raises ValueError for NaN or an infinity."""
         last = start + len(values) - 1
         self._confirmed(
-            write_reals(start, [real_value(v) for v in values]),
+            write_reals(start, [real_value(v) for v in values], order=self.real_word_order),
             len(values),
             lambda: tuple(self.read_reals(start, last).values()),
             tuple(values),
             tuple(old),
-            f"real variables {start}-{last}",
+            _numbers("real variable", "real variables", start, len(values)),
         )
 
     def _confirmed(
@@ -365,13 +589,13 @@ class Controller(OnLink):
             )
 
         def sent() -> None:
-            written = self.request(request)
+            written = self.request(request, what)
             if count is not None and written != count:
                 raise ControllerError(
                     str(written),
                     port=self.port,
                     station=self.station,
-                    command=request.payload[:12],
+                    command=f"{request.message_id:03X}H",
                     station_text=f"{self.station:02X}",
                     message=f"{request.message_id:03X}H wrote {written} of {count} ({what})",
                 )

@@ -1,16 +1,17 @@
 """An IAI controller as the engine's :class:`~harlsync.families.base.Driver`: read
 everything, read or write an item or a run (291H positions, 24BH a flag, 24CH/24DH
-integer and real variables), status (215H + 212H)."""
+integer and real variables), status (212H then 215H)."""
 
 from __future__ import annotations
 
 from typing import Any
 
 from ..base import Driver, Progress
-from .catalogue import Key, PositionKey, Run, VariableKey
+from .catalogue import Key, PositionKey, RecordKey, Run, VariableKey
 from .controller import Controller, IaiStatus
 from .layout import IaiData
 from .model import real_value
+from .profile import STRING_ROW
 from .protocol import position_fields, write_flag, write_integers, write_positions, write_reals
 
 __all__ = ["IaiDriver"]
@@ -36,6 +37,13 @@ class IaiDriver(Driver[Key, IaiData]):
             return c.read_run(key.number, 1)[0]
         if isinstance(key, VariableKey):
             return c.read_variables(_SECTIONS[key.kind], key.number, key.number)[key.number]
+        if isinstance(key, RecordKey):
+            if key.kind == "string":
+                last = c.records.get("strings", (key.number, key.number))[1]
+                row = min(last, key.number + STRING_ROW - 1)
+                return c.read_string_rows(key.number, row)[key.number]
+            section = f"{key.kind}_coordinates"
+            return c.read_coordinate_systems(section, key.number, key.number)[key.number]
         if key.kind == "positions":
             return c.read_run(key.start, key.size)
         last = key.start + key.size - 1
@@ -66,6 +74,9 @@ class IaiDriver(Driver[Key, IaiData]):
             return f"24BH {data[:2]} {data[2:6]} {data[6:]}"
         if isinstance(key, Run) and key.kind == "positions":
             write_positions(key.start, value)
+            # The plan's positions name axes the robot has: the 212H before each
+            # write must report them, from the first write on.
+            self.controller.note_axes(value)
             head = f"291H 00 {key.start:04X} {len(value):04X}"
             return " | ".join(
                 [head, *(" ".join(position_fields(p, numbered=False)) for p in value)]
@@ -73,7 +84,9 @@ class IaiDriver(Driver[Key, IaiData]):
         if isinstance(key, Run) and key.kind == "integers":
             request, width = write_integers(key.start, value), 8
         elif isinstance(key, Run) and key.kind == "reals":
-            request, width = write_reals(key.start, [real_value(v) for v in value]), 16
+            order = self.controller.real_word_order
+            request = write_reals(key.start, [real_value(v) for v in value], order=order)
+            width = 16
         else:
             raise TypeError(f"no write for item {key}: positions and variables are written in runs")
         data = request.data  # program, start, count, then the values

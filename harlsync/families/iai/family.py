@@ -59,17 +59,21 @@ class IaiFamily(Family[Key, layout.IaiData]):
         return problems
 
     def project_files(self, root: Path) -> list[str]:
-        names = [*layout.ROOT_FILES, layout.VARIABLES_FILE]
+        names = [*layout.ROOT_FILES, layout.VARIABLES_FILE, layout.RECORDS_FILE]
         return [name for name in names if (root / name).is_file()]
 
     def stale_files(
         self, root: Path, texts: Mapping[str, str], robot: Robot, data: layout.IaiData
     ) -> list[str]:
         """variables.yaml when the robot does not keep registers (a robot that keeps
-        them but was read without them keeps its file)."""
-        if layout.VARIABLES_FILE in texts or (robot.keep_registers and not data.variables()):
-            return []
-        return [layout.VARIABLES_FILE] if (root / layout.VARIABLES_FILE).is_file() else []
+        them but was read without them keeps its file); records.yaml when it keeps
+        no read-only records."""
+        stale = []
+        if not (layout.VARIABLES_FILE in texts or (robot.keep_registers and not data.variables())):
+            stale.append(layout.VARIABLES_FILE)
+        if layout.RECORDS_FILE not in texts and not layout.record_ranges(robot):
+            stale.append(layout.RECORDS_FILE)
+        return [name for name in stale if (root / name).is_file()]
 
     def schemas(self) -> dict[str, str]:
         return layout.SCHEMAS.files()
@@ -127,6 +131,10 @@ class IaiFamily(Family[Key, layout.IaiData]):
             first=first,
             last=last,
             variables=layout.variable_ranges(robot),
+            records=layout.record_ranges(robot),
+            real_word_order=str(
+                robot.options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
+            ),
         )
         return IaiDriver(controller)
 

@@ -5,12 +5,25 @@
     robot.yaml         family: iai, connection (station in hex), controller model,
                        axes, position range and the flag and variable ranges,
                        maintenance windows, keep_registers (user-edited)
-    controller.yaml    what 201H reports (model and unit codes, version, build date)
+    controller.yaml    what 201H reports (model and unit codes, version, build date),
+                       and the range of each table the pull covered:
+
+        covered:
+          positions: {first: 1, last: 1000, checked_to: 65535}
     positions.yaml     the position table, one defined position per line:
 
         positions:
           1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, speed: 100}
           7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, arm1: right}
+
+    records.yaml       only when robot.yaml gives their ranges: read-only records,
+                       the work and tool coordinate systems (2A0H) and string
+                       variables (210H, a row of 32 columns a line, as hex codes)
+
+        work_coordinates:
+          1: [100.000, 50.000, 0.000, 90.000]
+        strings:
+          1: 48454C4C4F
 
     variables.yaml     only when robot.yaml says keep_registers: true (runtime data):
                        global flags, integer and real variables, one per line
@@ -35,7 +48,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 from ...project import yamlio as y
 from ...project.files import (
@@ -70,11 +83,15 @@ from .model import (
 __all__ = [
     "FILES",
     "FORMAT",
+    "RECORDS_FILE",
+    "RECORD_SECTIONS",
     "ROOT_FILES",
     "STATION",
     "VARIABLES_FILE",
+    "Coverage",
     "IaiData",
     "analyse",
+    "record_ranges",
     "render_files",
     "variable_ranges",
 ]
@@ -88,9 +105,13 @@ ROOT_FILES = {
 }
 #: Only when robot.yaml keeps registers.
 VARIABLES_FILE = "variables.yaml"
+#: Only when robot.yaml gives a range of read-only records.
+RECORDS_FILE = "records.yaml"
+#: The read-only records' sections, as robot.yaml and records.yaml name them.
+RECORD_SECTIONS = ("work_coordinates", "tool_coordinates", "strings")
 SCHEMAS = SchemaSet(
     f"{__package__}.schemas",
-    [*ROOT_FILES.values(), "variables"],
+    [*ROOT_FILES.values(), "variables", "records"],
     {
         "iai-coord": re.compile(r"[-+]?[0-9]+(\.[0-9]+)?"),
         "iai-g": re.compile(r"[0-9]+(\.[0-9]+)?"),
@@ -101,6 +122,16 @@ FILES = FileSet(SCHEMAS, FORMAT)
 _ARMS = {name: n for n, name in ARM_NAMES.items()}
 #: A station as robot.yaml and --station write it (profile.STATION_ALLOWED).
 STATION = re.compile(r"[0-9A-Fa-f]{2}")
+
+
+class Coverage(NamedTuple):
+    """The range of a table a backup read (``first`` .. ``last``), and how far past
+    it the pull made sure nothing is defined: positions from 1 to ``checked_to``
+    outside the range; flags and variables from ``last + 1`` to ``checked_to``."""
+
+    first: int
+    last: int
+    checked_to: int
 
 
 @dataclass
@@ -120,6 +151,23 @@ class IaiData:
     flags: dict[int, bool] | None = None
     integers: dict[int, int] | None = None
     reals: dict[int, str] | None = None
+    #: section (``positions``, ``flags`` ...) -> the range a pull covered
+    covered: dict[str, Coverage] = field(default_factory=dict)
+    #: read-only records (None: not kept): coordinate system definitions by number,
+    #: X, Y, Z and R as coordinate text; string variable rows by first column, the
+    #: characters' codes as hex text (two digits each)
+    work_coordinates: dict[int, tuple[str, ...]] | None = None
+    tool_coordinates: dict[int, tuple[str, ...]] | None = None
+    strings: dict[int, str] | None = None
+
+    def records(self) -> dict[str, dict[int, Any]]:
+        """The kept read-only records by section; empty when none is kept."""
+        sections = {
+            "work_coordinates": self.work_coordinates,
+            "tool_coordinates": self.tool_coordinates,
+            "strings": self.strings,
+        }
+        return {name: values for name, values in sections.items() if values is not None}
 
     def variables(self) -> dict[str, dict[int, Any]]:
         """The kept sections of runtime data by name (``flags``, ``integers``,
@@ -148,6 +196,9 @@ def render_robot(robot: Robot) -> str:
         ("first_position", y.num(str(first))),
         ("last_position", y.num(str(last))),
     ]
+    order = options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
+    if order != profile.DEFAULT_REAL_WORD_ORDER:  # absent at the default: robot.yaml as before
+        controller.append(("real_word_order", y.text(str(order))))
     controller += [
         (
             section,
@@ -159,7 +210,7 @@ def render_robot(robot: Robot) -> str:
                 flow=True,
             ),
         )
-        for section in VARIABLE_SECTIONS
+        for section in (*VARIABLE_SECTIONS, *RECORD_SECTIONS)
         if section in options
     ]
     items = robot_items(robot, connection, controller)
@@ -168,8 +219,31 @@ def render_robot(robot: Robot) -> str:
     return FILES.document("robot", "robot.yaml", items)
 
 
-def render_controller(version: Version) -> str:
-    node = y.mapping(
+def render_controller(version: Version, covered: Mapping[str, Coverage] | None = None) -> str:
+    items = [("version", _version_node(version))]
+    if covered:
+        items.append(
+            (
+                "covered",
+                y.mapping(
+                    [
+                        (
+                            section,
+                            y.mapping(
+                                [(name, y.num(str(n))) for name, n in c._asdict().items()],
+                                flow=True,
+                            ),
+                        )
+                        for section, c in covered.items()
+                    ]
+                ),
+            )
+        )
+    return FILES.document("controller", "controller.yaml", items)
+
+
+def _version_node(version: Version) -> Any:
+    return y.mapping(
         [
             ("unit_type", y.num(str(version.unit_type))),
             ("device", y.num(str(version.device))),
@@ -179,7 +253,6 @@ def render_controller(version: Version) -> str:
             ("built", y.quoted(version.built)),
         ]
     )
-    return FILES.document("controller", "controller.yaml", [("version", node)])
 
 
 def position_node(position: Position) -> Any:
@@ -221,6 +294,26 @@ def render_variables(data: IaiData) -> str:
     )
 
 
+def _string_row(value: Any) -> Any:
+    return y.quoted(str(value))  # hex digits could read as a number
+
+
+def _coordinate_system(value: Any) -> Any:
+    return y.sequence([y.num(c) for c in value], flow=True)
+
+
+def render_records(data: IaiData) -> str:
+    """records.yaml: each kept read-only section, one record (or row) per line."""
+    return FILES.document(
+        "records",
+        RECORDS_FILE,
+        [
+            (name, numbered(values, _string_row if name == "strings" else _coordinate_system))
+            for name, values in data.records().items()
+        ],
+    )
+
+
 def render_files(robot: Robot, data: IaiData) -> dict[str, str]:
     """Every file of the project, by relative path, in a fixed order.
 
@@ -228,12 +321,23 @@ def render_files(robot: Robot, data: IaiData) -> dict[str, str]:
     """
     out = {
         "robot.yaml": render_robot(robot),
-        "controller.yaml": render_controller(data.version),
+        "controller.yaml": render_controller(data.version, data.covered),
         "positions.yaml": render_positions(data.positions),
     }
     if robot.keep_registers and data.variables():
         out[VARIABLES_FILE] = render_variables(data)
+    if data.records():
+        out[RECORDS_FILE] = render_records(data)
     return out
+
+
+def record_ranges(robot: Robot) -> dict[str, tuple[int, int]]:
+    """The read-only records robot.yaml keeps: section -> (first, last); none by default."""
+    return {
+        section: (int(robot.options[section][0]), int(robot.options[section][1]))
+        for section in RECORD_SECTIONS
+        if section in robot.options
+    }
 
 
 def position_range(robot: Robot) -> tuple[int, int]:
@@ -288,8 +392,13 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     keep = result.robot is None or result.robot.keep_registers
     if keep and VARIABLES_FILE in files:
         read(VARIABLES_FILE, "variables")
+    keeps_records = result.robot is None or bool(record_ranges(result.robot))
+    if keeps_records and RECORDS_FILE in files:
+        read(RECORDS_FILE, "records")
     if "positions.yaml" in valid:
         _check_positions(docs["positions.yaml"], result.robot, issues)
+    if RECORDS_FILE in valid:
+        _check_records(docs[RECORDS_FILE], result.robot, issues)
     if VARIABLES_FILE in valid:
         _check_variables(docs[VARIABLES_FILE], result.robot, issues)
     if not issues and result.robot is not None:
@@ -297,10 +406,16 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
             version=_build_version(docs["controller.yaml"].data["version"]),
             positions=_build_positions(docs["positions.yaml"].data["positions"]),
             model=str(result.robot.options.get("model", profile.DEFAULT_MODEL)),
+            covered={
+                section: Coverage(int(c["first"]), int(c["last"]), int(c["checked_to"]))
+                for section, c in docs["controller.yaml"].data.get("covered", {}).items()
+            },
         )
         if VARIABLES_FILE in docs:
             _build_variables(docs[VARIABLES_FILE].data, result.data)
-    result.issues = unique(issues, [*ROOT_FILES, VARIABLES_FILE])
+        if RECORDS_FILE in docs:
+            _build_records(docs[RECORDS_FILE].data, result.data)
+    result.issues = unique(issues, [*ROOT_FILES, VARIABLES_FILE, RECORDS_FILE])
     return result
 
 
@@ -323,13 +438,15 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     if "axes" in controller:
         axes = sorted(int(a) for a in controller["axes"])
         options["axes"] = tuple(axes)
+    if "real_word_order" in controller:
+        options["real_word_order"] = str(controller["real_word_order"])
     first, last = profile.DEFAULT_POSITION_RANGE
     options["first"] = int(controller.get("first_position", first))
     options["last"] = int(controller.get("last_position", last))
     ranges = [
         (("controller", "last_position"), options["first"], options["last"], "first_position")
     ]
-    for section in VARIABLE_SECTIONS:
+    for section in (*VARIABLE_SECTIONS, *RECORD_SECTIONS):
         if section in controller:
             bounds = controller[section]
             options[section] = (int(bounds["first"]), int(bounds["last"]))
@@ -426,6 +543,47 @@ def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) ->
                 )
             if section in canonical:
                 check_canonical(issue, text_of(table[key]), canonical[section])
+
+
+def _check_records(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> None:
+    """What the schema cannot say: each number within robot.yaml's range for its
+    section, and coordinates in their one form."""
+    ranges = record_ranges(robot) if robot is not None else {}
+    for section in RECORD_SECTIONS:
+        table = doc.data.get(section)
+        first, last = ranges.get(section, (0, HUGE))
+        for key, n in numbers(table):
+            at = (section, key)
+
+            def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
+                path = at + where
+                issues.append(
+                    Issue(RECORDS_FILE, doc.line(path), ".".join(map(str, path)), message)
+                )
+
+            if not first <= n <= last:
+                issue(
+                    f"{show(y.Number(key))} is outside the robot's range "
+                    f"(allowed: {first}-{last}, robot.yaml controller.{section})"
+                )
+            if section != "strings":
+                for i, value in enumerate(table[key]):
+                    check_canonical(issue, text_of(value), canonical_coord, i)
+
+
+def _build_records(doc: Mapping[str, Any], data: IaiData) -> None:
+    for section in ("work_coordinates", "tool_coordinates"):
+        if (table := doc.get(section)) is not None:
+            setattr(
+                data,
+                section,
+                {
+                    int(n): tuple(text_of(c) for c in v)
+                    for n, v in sorted(table.items(), key=_by_number)
+                },
+            )
+    if (strings := doc.get("strings")) is not None:
+        data.strings = {int(n): str(v) for n, v in sorted(strings.items(), key=_by_number)}
 
 
 def _build_version(data: Mapping[str, Any]) -> Version:

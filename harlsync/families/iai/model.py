@@ -32,14 +32,26 @@ from dataclasses import dataclass
 __all__ = [
     "ARM_NAMES",
     "AXIS_COUNT",
+    "AXIS_IN_USE",
+    "AXIS_SERVO_ON",
     "COORD_MAX",
     "COORD_MIN",
     "G_MAX",
     "INTEGER_MAX",
     "INTEGER_MIN",
     "MODE_NAMES",
+    "NO_CRITICAL_ERROR",
     "POSITION_NUMBER_MAX",
     "REAL_MAX",
+    "S1_EMERGENCY_STOP",
+    "S1_SAFETY_GATE_OPEN",
+    "S2_FLASH_ROM_WRITING",
+    "S2_PROGRAM_RUNNING",
+    "S2_SLAVE_PARAMETER_WRITING",
+    "S3_DRIVE_CUT_OFF",
+    "S3_OPERATING_IN_AUTO",
+    "S3_POSITIONER_MODE",
+    "S3_SYSTEM_READY",
     "SPEED_MAX",
     "VARIABLE_SECTIONS",
     "AxisStatus",
@@ -396,6 +408,37 @@ class Version:
     built: str
 
 
+# --- 215H and 212H bits the interlock reads (p.27-31), one constant each ----------------
+
+#: 215H status byte 1 bit 3: the emergency stop switch is pressed.
+S1_EMERGENCY_STOP = 0x08
+#: 215H status byte 1 bit 2: safety gate open (0 CLOSE, 1 OPEN).  On X-SEL
+#: P/Q/.../SXD, SSEL/ASEL/PSEL and TTA the same bit is the enable (deadman) switch.
+S1_SAFETY_GATE_OPEN = 0x04
+#: 215H status byte 2 bit 5: a program is running.
+S2_PROGRAM_RUNNING = 0x20
+#: 215H status byte 2 bit 1: slave parameters are being written.
+S2_SLAVE_PARAMETER_WRITING = 0x02
+#: 215H status byte 2 bit 0: application data is being written to (or erased from) flash ROM.
+S2_FLASH_ROM_WRITING = 0x01
+#: 215H status byte 3 bit 4: positioner mode (0 program mode): a PLC can move the
+#: robot to a position number with no program running.
+S3_POSITIONER_MODE = 0x10
+#: 215H status byte 3 bit 2: the system is ready.
+S3_SYSTEM_READY = 0x04
+#: 215H status byte 3 bit 1: operating in AUTO mode.
+S3_OPERATING_IN_AUTO = 0x02
+#: 215H status byte 3 bit 0: the drive source is cut off.
+S3_DRIVE_CUT_OFF = 0x01
+#: 215H critical-level system error number when there is none.
+NO_CRITICAL_ERROR = "000"
+#: 212H axis status bit 0: a task holds the axis (moving, servo starting or
+#: stopping, paused).
+AXIS_IN_USE = 0x01
+#: 212H axis status bit 3: servo on.
+AXIS_SERVO_ON = 0x08
+
+
 @dataclass(frozen=True)
 class SystemStatus:
     """215H: system mode, the two error numbers (hex text) and status bytes 1-4."""
@@ -420,12 +463,43 @@ class SystemStatus:
                 else f"unknown system mode {self.mode} (215H)"
             )
         checks = (
-            (self.status2 & 0x20, "program running (215H status byte 2 bit 5)"),
-            (self.status2 & 0x01, "flash ROM write in progress (215H status byte 2 bit 0)"),
-            (self.status2 & 0x02, "slave parameter writing (215H status byte 2 bit 1)"),
-            (self.status3 & 0x02, "operating in AUTO mode (215H status byte 3 bit 1)"),
-            (not self.status3 & 0x04, "system not ready (215H status byte 3 bit 2)"),
-            (self.status1 & 0x08, "emergency stop (215H status byte 1 bit 3)"),
+            (self.status2 & S2_PROGRAM_RUNNING, "program running (215H status byte 2 bit 5)"),
+            (
+                self.status2 & S2_FLASH_ROM_WRITING,
+                "flash ROM write in progress (215H status byte 2 bit 0)",
+            ),
+            (
+                self.status2 & S2_SLAVE_PARAMETER_WRITING,
+                "slave parameter writing (215H status byte 2 bit 1)",
+            ),
+            (
+                self.status3 & S3_OPERATING_IN_AUTO,
+                "operating in AUTO mode (215H status byte 3 bit 1)",
+            ),
+            (not self.status3 & S3_SYSTEM_READY, "system not ready (215H status byte 3 bit 2)"),
+            (self.status1 & S1_EMERGENCY_STOP, "emergency stop (215H status byte 1 bit 3)"),
+            (
+                self.critical_error.upper() != NO_CRITICAL_ERROR,
+                (
+                    f"critical error {self.critical_error.upper()} on the controller "
+                    "(215H critical-level system error number)"
+                ),
+            ),
+            (self.status3 & S3_DRIVE_CUT_OFF, "drive source cut off (215H status byte 3 bit 0)"),
+            (
+                self.status3 & S3_POSITIONER_MODE,
+                (
+                    "positioner mode: a PLC can move the robot to a position number with no "
+                    "program running (215H status byte 3 bit 4)"
+                ),
+            ),
+            (
+                self.status1 & S1_SAFETY_GATE_OPEN,
+                (
+                    "safety gate open, or the enable switch on a TTA, X-SEL P/Q/R/S or "
+                    "SSEL/ASEL/PSEL (215H status byte 1 bit 2)"
+                ),
+            ),
         )
         out += [reason for refused, reason in checks if refused]
         return tuple(out)
@@ -452,11 +526,11 @@ class AxisStatus:
     @property
     def in_use(self) -> bool:
         """Bit 0: a task holds the axis (moving, servo starting or stopping, paused)."""
-        return bool(self.status & 0x01)
+        return bool(self.status & AXIS_IN_USE)
 
     @property
     def servo_on(self) -> bool:
-        return bool(self.status & 0x08)
+        return bool(self.status & AXIS_SERVO_ON)
 
     @property
     def home(self) -> int:
@@ -473,14 +547,26 @@ class AxisStatus:
 def axes_refusal(axes: tuple[int, ...], statuses: tuple[AxisStatus, ...]) -> str | None:
     """The first reason 212H forbids a write for the robot's ``axes``, or None.
 
-    An axis the reply leaves out (driver not connected) cannot be seen to be
-    idle, so it refuses too.
+    Fails closed: an axis of the robot the reply leaves out (driver not
+    connected, or a reply that lists fewer axes than asked for) cannot be seen
+    to be idle, so it refuses; so does a reply that reports no axis at all.
     """
     by_axis = {s.axis: s for s in statuses}
     for axis in axes:
         status = by_axis.get(axis)
         if status is None:
-            return f"axis {axis} not reported by 212H (driver not connected)"
+            return (
+                f"axis {axis} not reported by 212H (its reply lists "
+                f"{_axes_listed(statuses)}): an axis it does not report cannot be seen to be idle"
+            )
         if status.refusal is not None:
             return status.refusal
+    if not statuses:
+        return "212H reports no axis: an axis it does not report cannot be seen to be idle"
     return None
+
+
+def _axes_listed(statuses: tuple[AxisStatus, ...]) -> str:
+    if not statuses:
+        return "no axis"
+    return "axis " + ", ".join(str(s.axis) for s in statuses)

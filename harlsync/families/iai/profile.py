@@ -20,9 +20,11 @@ __all__ = [
     "BAUDRATES",
     "BUFFERS",
     "BYTESIZE",
+    "COORDINATE_SYSTEM_TYPES",
     "CORE_MESSAGE_IDS",
     "DEFAULT_MODEL",
     "DEFAULT_POSITION_RANGE",
+    "DEFAULT_REAL_WORD_ORDER",
     "DEFAULT_STATION",
     "DEFAULT_VARIABLE_RANGES",
     "FLAG_QUERY_ALIGNMENT",
@@ -31,13 +33,20 @@ __all__ = [
     "OPT_IN_MESSAGE_IDS",
     "PARITY",
     "PERSISTENCE_NOTICE",
+    "POSITION_NUMBER_END",
+    "POSITION_PROBE_FALLBACK_END",
     "POSITION_RECORD_HAS_NUMBER",
     "READ_RECORD_MAX",
+    "REAL_WORD_ORDERS",
+    "RECORD_MESSAGE_IDS",
+    "RECORD_NUMBER_END",
     "REPLY_DEADLINE_BASE",
     "REPLY_DEADLINE_FACTOR",
     "RTSCTS",
     "STATION_ALLOWED",
     "STOPBITS",
+    "STRING_ROW",
+    "VARIABLE_NUMBER_END",
     "VOLATILE_MESSAGE_IDS",
     "WRITE_MESSAGE_IDS",
     "WRITE_RECORD_MAX",
@@ -140,6 +149,17 @@ ACCEPT_LOWER_CASE_HEX = True
 #: (first, last), inclusive.
 DEFAULT_POSITION_RANGE = (1, 1000)
 
+#: The highest position number 22DH can name (4 hex digits).
+POSITION_NUMBER_END = 0xFFFF
+#: The probe past the table (issue 20): a pull asks, with one 22DH each, for every
+#: number below the robot's first position and above its last (to FFFFh).  The
+#: reply carries the first defined records that fit the send buffer, and one is
+#: enough to know the table goes on.  The manual does not say what a controller
+#: does with a count that does not fit (digest 1.5): one that answers ``&`` to it is
+#: probed instead in queries sized as the table's reads, up to this number, the
+#: most position records 22DH carries (p.36) **(profile)**.
+POSITION_PROBE_FALLBACK_END = 20000
+
 #: 291H records carry no position number: pattern, acc, dec, speed, up to 8
 #: coordinates, extended = at most 80 bytes (the manual prints 84).
 POSITION_RECORD_HAS_NUMBER = False
@@ -165,6 +185,22 @@ DEFAULT_VARIABLE_RANGES: Mapping[str, tuple[int, int]] = MappingProxyType(
 #: the extra flags read and dropped).
 FLAG_QUERY_ALIGNMENT = 8
 
+#: The last flag (20DH: 4 hex digits) and variable (20EH, 20FH: 3 hex digits)
+#: number the messages can name: the probe past a kept range stops there.
+VARIABLE_NUMBER_END: Mapping[str, int] = MappingProxyType(
+    {"flags": 0xFFFF, "integers": 0xFFF, "reals": 0xFFF}
+)
+
+#: How 20FH (and, **(profile)**, 24DH) carry a real variable's IEEE double, by
+#: robot.yaml's ``controller.real_word_order`` (p.24): ``upper-first``, plain big
+#: endian (``0123456789ABCDEF``); ``lower-first``, the lower 4 bytes then the upper
+#: 4 (``89ABCDEF01234567``), on X-SEL-J/K main application V0.41 or earlier, or
+#: with Other parameter No. 46 bits 0-3 at 0.  p.50 prints only the big-endian form
+#: for 24DH and does not say whether the parameter swaps writes too: the profile
+#: writes in the order it reads, so that a value written reads back the same.
+REAL_WORD_ORDERS = ("upper-first", "lower-first")
+DEFAULT_REAL_WORD_ORDER = "upper-first"
+
 # --- messages -----------------------------------------------------------------------
 
 #: What backup, diff and deploy of positions need: version, system status, axis
@@ -173,13 +209,29 @@ CORE_MESSAGE_IDS = frozenset({0x201, 0x215, 0x212, 0x22D, 0x291})
 #: Global flags and variables, when the project opts in: read flags, integer and
 #: real variables; write a flag, integer variables, real variables.
 OPT_IN_MESSAGE_IDS = frozenset({0x20D, 0x20E, 0x20F, 0x24B, 0x24C, 0x24D})
+#: Read-only records, when robot.yaml gives their ranges (issue 20): coordinate
+#: system definitions (2A0H, p.65) and string variables (210H, p.26).  Reads only:
+#: no message on the allow-list writes them.
+RECORD_MESSAGE_IDS = frozenset({0x2A0, 0x210})
 #: The only message ids the encoder will put on the wire.
-ALLOWED_MESSAGE_IDS = CORE_MESSAGE_IDS | OPT_IN_MESSAGE_IDS
+ALLOWED_MESSAGE_IDS = CORE_MESSAGE_IDS | OPT_IN_MESSAGE_IDS | RECORD_MESSAGE_IDS
 #: The allowed ids that change the controller's data.
 WRITE_MESSAGE_IDS = frozenset({0x291, 0x24B, 0x24C, 0x24D})
 #: The allowed reads whose answer changes without any write from us: status, and
 #: the flags and variables running programs change.
-VOLATILE_MESSAGE_IDS = frozenset({0x215, 0x212, 0x20D, 0x20E, 0x20F})
+VOLATILE_MESSAGE_IDS = frozenset({0x215, 0x212, 0x20D, 0x20E, 0x20F, 0x210})
+
+#: 2A0H's type field (p.65), by the robot.yaml key of the records it reads.
+COORDINATE_SYSTEM_TYPES: Mapping[str, int] = MappingProxyType(
+    {"work_coordinates": 0, "tool_coordinates": 1}
+)
+#: The last number each read-only record's message can name: 2A0H's definition
+#: number is 2 hex digits, 210H's variable (column) number 3.
+RECORD_NUMBER_END: Mapping[str, int] = MappingProxyType(
+    {"work_coordinates": 0xFF, "tool_coordinates": 0xFF, "strings": 0xFFF}
+)
+#: String variable columns (one character each, 210H) per line of records.yaml.
+STRING_ROW = 32
 
 # --- persistence --------------------------------------------------------------------
 

@@ -36,6 +36,7 @@ Request builders, one per message of the allow-list::
     22DH read_positions   291H write_positions
     opt-in:  20DH read_flags      20EH read_integers      20FH read_reals
              24BH write_flag      24CH write_integers     24DH write_reals
+    records: 2A0H read_coordinate_systems                 210H read_strings
 """
 
 from __future__ import annotations
@@ -76,18 +77,24 @@ __all__ = [
     "Request",
     "axis_status",
     "encode_frame",
+    "max_coordinate_systems_per_read",
     "max_flags_per_read",
     "max_positions_per_read",
     "max_positions_per_write",
+    "max_string_columns_per_read",
     "max_variables_per_read",
     "max_variables_per_write",
     "parse_write_positions",
     "position_fields",
     "position_record",
+    "read_coordinate_systems",
     "read_flags",
     "read_integers",
     "read_positions",
     "read_reals",
+    "read_strings",
+    "real_from_wire",
+    "real_to_wire",
     "sc",
     "system_status",
     "version",
@@ -598,11 +605,14 @@ def _take_position(f: _Fields, number: int | None) -> Position:
     return Position(number, axes, acc, dec, speed, coords, arm1, arm2)
 
 
-def read_positions(head: int, count: int) -> Request[tuple[Position, ...]]:
+def read_positions(
+    head: int, count: int, send_buffer: int | None = None
+) -> Request[tuple[Position, ...]]:
     """22DH: the defined positions among ``count`` numbers from ``head``, by number.
 
     An undefined position is absent from the reply.  Size ``count`` with
-    :func:`max_positions_per_read` so that a reply is never cut.
+    :func:`max_positions_per_read` so that a reply is never cut; a probe that
+    asks for more gives the model's ``send_buffer``, the longest reply it can get.
     """
     _check(head, 1, 0xFFFF, "head position")
     _check(count, 1, 0xFFFF - head + 1, "position count")
@@ -625,6 +635,8 @@ def read_positions(head: int, count: int) -> Request[tuple[Position, ...]]:
         return tuple(out[n] for n in sorted(out))
 
     reply = _READ_OVERHEAD + profile.READ_RECORD_MAX * count
+    if send_buffer is not None:
+        reply = min(reply, send_buffer)
     return Request(0x22D, f"00{head:04X}{count:04X}", False, False, parse, reply)
 
 
@@ -730,11 +742,29 @@ def _int_from_wire(wire: str) -> int:
     return value - (1 << 32) if value & 0x80000000 else value
 
 
-def _real_from_wire(wire: str) -> float:
+def real_from_wire(wire: str, order: str = profile.DEFAULT_REAL_WORD_ORDER) -> float:
+    """A real variable's 16 hex digits in the robot's word order (p.24) as its double.
+
+    Raises :class:`ValueError` for anything but 16 hex digits, or an unknown order.
+    """
     if not (len(wire) == 16 and _HEX_RE.fullmatch(wire)):
         raise ValueError(f"real {wire!r} is not 16 hex digits")
-    value: float = struct.unpack(">d", bytes.fromhex(wire))[0]
+    value: float = struct.unpack(">d", bytes.fromhex(_in_order(wire, order)))[0]
     return value
+
+
+def real_to_wire(value: float, order: str = profile.DEFAULT_REAL_WORD_ORDER) -> str:
+    """A double as a real variable's 16 upper-case hex digits in the robot's word order."""
+    return _in_order(struct.pack(">d", value).hex().upper(), order)
+
+
+def _in_order(digits: str, order: str) -> str:
+    """Big-endian hex digits of a double to ``order``'s, or back (a swap is its own inverse)."""
+    if order not in profile.REAL_WORD_ORDERS:
+        raise ValueError(
+            f"real word order {order!r} (allowed: {', '.join(profile.REAL_WORD_ORDERS)})"
+        )
+    return digits[8:] + digits[:8] if order == "lower-first" else digits
 
 
 def read_integers(start: int, count: int, program: int = 0) -> Request[tuple[int, ...]]:
@@ -745,10 +775,18 @@ def read_integers(start: int, count: int, program: int = 0) -> Request[tuple[int
     return _read_variables(0x20E, 8, _int_from_wire, program, start, count)
 
 
-def read_reals(start: int, count: int, program: int = 0) -> Request[tuple[float, ...]]:
-    """20FH: ``count`` real variables from ``start``, each an IEEE double sent big
-    endian (the profile's format; a float holds the double exactly)."""
-    return _read_variables(0x20F, 16, _real_from_wire, program, start, count)
+def read_reals(
+    start: int,
+    count: int,
+    program: int = 0,
+    order: str = profile.DEFAULT_REAL_WORD_ORDER,
+) -> Request[tuple[float, ...]]:
+    """20FH: ``count`` real variables from ``start``, each an IEEE double in the
+    robot's word ``order`` (p.24; a float holds the double exactly)."""
+    _in_order("0" * 16, order)  # an unknown order is refused before anything is sent
+    return _read_variables(
+        0x20F, 16, lambda wire: real_from_wire(wire, order), program, start, count
+    )
 
 
 def write_flag(number: int, on: bool, program: int = 0) -> Request[None]:
@@ -785,7 +823,70 @@ def write_integers(start: int, values: Sequence[int], program: int = 0) -> Reque
     return _write_variables(0x24C, start, [f"{v & 0xFFFFFFFF:08X}" for v in values], program)
 
 
-def write_reals(start: int, values: Sequence[float], program: int = 0) -> Request[int]:
-    """24DH: real variables from ``start``, each an IEEE double sent big endian."""
-    texts = [struct.pack(">d", v).hex().upper() for v in values]
+def write_reals(
+    start: int,
+    values: Sequence[float],
+    program: int = 0,
+    order: str = profile.DEFAULT_REAL_WORD_ORDER,
+) -> Request[int]:
+    """24DH: real variables from ``start``, each an IEEE double in the robot's word
+    ``order`` (the profile writes in the order 20FH reads)."""
+    texts = [real_to_wire(v, order) for v in values]
     return _write_variables(0x24D, start, texts, program)
+
+
+# --- read-only records: coordinate systems and string variables ---------------------
+
+#: A 2A0H reply around its records: the frame, type, start number and count.
+_COORDINATES_OVERHEAD = _FRAME_OVERHEAD + 1 + 2 + 2
+#: One 2A0H record: X, Y, Z offsets (0.001 mm) and R (0.001 deg), 8 hex digits each.
+_COORDINATE_RECORD = 4 * 8
+
+
+def max_coordinate_systems_per_read(model: str) -> int:
+    """How many coordinate system definitions one 2A0H reply carries in ``model``'s
+    send buffer (at most 255: the count is 2 hex digits)."""
+    return min(0xFF, (_buffers(model).send - _COORDINATES_OVERHEAD) // _COORDINATE_RECORD)
+
+
+def max_string_columns_per_read(model: str) -> int:
+    """How many string variable columns (one character each) one 210H reply carries
+    in ``model``'s send buffer (at most 255)."""
+    return min(_VARIABLES_MAX, (_buffers(model).send - _VARIABLES_OVERHEAD) // 2)
+
+
+def read_coordinate_systems(
+    kind: int, head: int, count: int
+) -> Request[tuple[tuple[str, str, str, str], ...]]:
+    """2A0H (p.65): ``count`` coordinate system definitions from number ``head``,
+    work (``kind`` 0) or tool (1); each the X, Y, Z offsets and R, as coordinate text."""
+    _check(kind, 0, 1, "coordinate system type")
+    _check(head, 0, 0xFF, "head definition number")
+    _check(count, 1, 0xFF - head + 1, "number of records")
+
+    def parse(data: str) -> tuple[tuple[str, str, str, str], ...]:
+        f = _Fields(data)
+        f.expect(1, kind, "coordinate system type")
+        f.expect(2, head, "start number")
+        f.expect(2, count, "number of records")
+        out = []
+        for n in range(head, head + count):
+            x, y, z, r = (coord_from_wire(f.take(8, f"definition {n} {a}")) for a in "XYZR")
+            out.append((x, y, z, r))
+        f.end()
+        return tuple(out)
+
+    reply = _COORDINATES_OVERHEAD + _COORDINATE_RECORD * count
+    return Request(0x2A0, f"{kind:X}{head:02X}{count:02X}", False, False, parse, reply)
+
+
+def read_strings(start: int, count: int, program: int = 0) -> Request[tuple[int, ...]]:
+    """210H (p.26): ``count`` string variable columns from ``start`` (program 0:
+    global), each one character as its code ('XX', hex ASCII)."""
+    return _read_variables(0x210, 2, _code_from_wire, program, start, count)
+
+
+def _code_from_wire(wire: str) -> int:
+    if not (len(wire) == 2 and _HEX_RE.fullmatch(wire)):
+        raise ValueError(f"character code {wire!r} is not 2 hex digits")
+    return int(wire, 16)

@@ -77,6 +77,11 @@ class IaiSimFamily:
         Verb("estop", "[STATION]", "emergency stop"),
         Verb("flash", "[STATION]", "a flash ROM write in progress"),
         Verb("hold", "[STATION [AXIS]]", "an axis in use (default: the first)"),
+        Verb("positioner", "[STATION]", "positioner mode (a PLC moves to position numbers)"),
+        Verb("error", "[STATION [CODE]]", "a critical error (default code 0E1)"),
+        Verb("cutoff", "[STATION]", "the drive source cut off"),
+        Verb("gate", "[STATION]", "the safety gate open (a TTA: the enable switch)"),
+        Verb("unplug", "[STATION [AXIS]]", "212H leaves an axis out (default: the first)"),
         Verb("stop", "[STATION]", "idle: AUTO mode, no program, nothing held"),
     )
     busy_verb = "run"
@@ -108,6 +113,16 @@ class IaiSimFamily:
                 for number in stations or [robot.station]
             }
             for state in states.values():  # the flags and variables, when the project keeps them
+                state.work_coordinates = dict(data.work_coordinates or {})
+                state.tool_coordinates = dict(data.tool_coordinates or {})
+                state.strings = {
+                    start + i: int(row[2 * i : 2 * i + 2], 16)
+                    for start, row in (data.strings or {}).items()
+                    for i in range(len(row) // 2)
+                }
+                state.real_word_order = str(
+                    robot.options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
+                )
                 state.flags = {n for n, on in (data.flags or {}).items() if on}
                 state.integers = dict(data.integers or {})
                 state.reals = {n: real_value(text) for n, text in (data.reals or {}).items()}
@@ -119,6 +134,19 @@ class IaiSimFamily:
 SIM_FAMILY = IaiSimFamily()
 
 Handler = Callable[["Simulator", SimState, str], str]
+
+#: The control verbs that switch one condition of the controller on, and its field.
+_SWITCHES = {
+    "estop": "emergency_stop",
+    "flash": "flash_writing",
+    "positioner": "positioner_mode",
+    "cutoff": "drive_cut_off",
+    "gate": "safety_gate_open",
+}
+
+#: The critical error the ``error`` verb sets when given no code: a placeholder (the
+#: manual's error list is not in our pages), like the codes of :mod:`.codes`.
+CRITICAL_ERROR = "0E1"
 
 
 class Simulator(device.Simulator[SimState, Frame]):
@@ -155,21 +183,24 @@ class Simulator(device.Simulator[SimState, Frame]):
         return frame[:-4] + f"{wrong:02X}".encode("ascii") + frame[-2:]
 
     def control(self, verb: str, state: SimState, args: Sequence[str]) -> None:
-        if verb == "hold":
+        if verb in ("hold", "unplug"):
             axis = int(args[0]) if args else state.axes[0]
             if axis not in state.axes:
                 raise ValueError(f"no axis {axis} (the robot has {list(state.axes)})")
-            state.axes_in_use.add(axis)
+            (state.axes_in_use if verb == "hold" else state.unreported_axes).add(axis)
+        elif verb == "error":
+            code = (args[0] if args else CRITICAL_ERROR).upper()
+            if len(code) != 3 or not all(c in "0123456789ABCDEF" for c in code) or code == "000":
+                raise ValueError(f"error code {code!r}: three hex digits, not 000")
+            state.critical_error = state.latest_error = code
         elif args:
             raise ValueError(f"{verb} takes only a station")
         elif verb == "run":
             state.run_program()
         elif verb == "manual":
             state.mode = MANUAL
-        elif verb == "estop":
-            state.emergency_stop = True
-        elif verb == "flash":
-            state.flash_writing = True
+        elif verb in _SWITCHES:
+            setattr(state, _SWITCHES[verb], True)
         elif verb == "stop":
             state.stop()
         else:
@@ -248,8 +279,13 @@ class Simulator(device.Simulator[SimState, Frame]):
         f.end()
         if not pattern:
             raise Refused(codes.PATTERN_ZERO)
-        # An axis the robot does not have is left out: "driver not connected" (p.27).
-        reported = tuple(a for a in axes_from_pattern(pattern) if a in state.axes)
+        # An axis the robot does not have is left out: "driver not connected" (p.27);
+        # so is one unplugged (the ``unplug`` verb).
+        reported = tuple(
+            a
+            for a in axes_from_pattern(pattern)
+            if a in state.axes and a not in state.unreported_axes
+        )
         sensors, error, encoder = 0, "000", 0
         return f"{pattern_from_axes(reported):02X}" + "".join(
             f"{state.axis_status(a):02X}{sensors:X}{error}{encoder:02X}"
@@ -318,8 +354,26 @@ class Simulator(device.Simulator[SimState, Frame]):
         program, start, count = _variables(_Fields(data), end=True)
         values = (state.reals.get(n, 0.0) for n in range(start, start + count))
         return f"{program:02X}{start:03X}{count:02X}" + "".join(
-            struct.pack(">d", v).hex().upper() for v in values
+            _real_wire(v, state.real_word_order) for v in values
         )
+
+    def _read_coordinate_systems(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        kind, head, count = f.hex(1, "type"), f.hex(2, "head number"), f.hex(2, "count")
+        f.end()
+        if kind not in (0, 1) or not count or head + count > 0x100:
+            raise ValueError("type 0 (work) or 1 (tool), at least one, numbers 00-FF")
+        table = state.work_coordinates if kind == 0 else state.tool_coordinates
+        records = "".join(
+            "".join(coord_to_wire(c) for c in table.get(n, ("0.000",) * 4))
+            for n in range(head, head + count)
+        )
+        return f"{kind:X}{head:02X}{count:02X}{records}"
+
+    def _read_strings(self, state: SimState, data: str) -> str:
+        program, start, count = _variables(_Fields(data), end=True)
+        codes = "".join(f"{state.strings.get(n, 0):02X}" for n in range(start, start + count))
+        return f"{program:02X}{start:03X}{count:02X}{codes}"
 
     def _write_flag(self, state: SimState, data: str) -> str:
         f = _Fields(data)
@@ -349,9 +403,12 @@ class Simulator(device.Simulator[SimState, Frame]):
     def _write_reals(self, state: SimState, data: str) -> str:
         f = _Fields(data)
         program, start, count = _variables(f)
-        values = [bytes.fromhex(f.take(16, f"variable {start + i}")) for i in range(count)]
+        values = [
+            _real_value(f.take(16, f"variable {start + i}"), state.real_word_order)
+            for i in range(count)
+        ]
         f.end()
-        state.reals.update((start + i, struct.unpack(">d", v)[0]) for i, v in enumerate(values))
+        state.reals.update((start + i, v) for i, v in enumerate(values))
         self.wrote(state)
         return f"{program:02X}{start:03X}{count:02X}"
 
@@ -367,6 +424,19 @@ class Simulator(device.Simulator[SimState, Frame]):
     def writes_while_busy(self) -> list[device.Received]:
         """Every write received while the controller was not idle (each one refused)."""
         return [r for r in self.writes_received() if r.busy]
+
+
+def _real_wire(value: float, order: str) -> str:
+    """A double as 20FH sends it (p.24), written here from the manual's words, not
+    with the client's codec: big endian, or its lower 4 bytes first."""
+    digits = struct.pack(">d", value).hex().upper()
+    return digits[8:] + digits[:8] if order == "lower-first" else digits
+
+
+def _real_value(wire: str, order: str) -> float:
+    digits = wire[8:] + wire[:8] if order == "lower-first" else wire
+    value: float = struct.unpack(">d", bytes.fromhex(digits))[0]
+    return value
 
 
 def _global(program: int, count: int) -> None:
@@ -396,4 +466,6 @@ _HANDLERS: dict[int, Handler] = {
     0x24B: Simulator._write_flag,
     0x24C: Simulator._write_integers,
     0x24D: Simulator._write_reals,
+    0x2A0: Simulator._read_coordinate_systems,
+    0x210: Simulator._read_strings,
 }

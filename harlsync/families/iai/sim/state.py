@@ -63,7 +63,15 @@ class SimState:
     flash_writing: bool = False
     emergency_stop: bool = False
     ready: bool = True
+    #: positioner mode (215H status byte 3 bit 4): a PLC moves the robot to position numbers
+    positioner_mode: bool = False
+    #: the drive source cut off on its own (an emergency stop cuts it too)
+    drive_cut_off: bool = False
+    #: the safety gate open (215H status byte 1 bit 2; the enable switch on a TTA)
+    safety_gate_open: bool = False
     axes_in_use: set[int] = field(default_factory=set)
+    #: axes 212H leaves out of its reply (driver not connected) though the robot has them
+    unreported_axes: set[int] = field(default_factory=set)
     #: each axis's current position (212H), coordinate text
     current: dict[int, str] = field(default_factory=dict)
     critical_error: str = "000"
@@ -72,9 +80,22 @@ class SimState:
     flags: set[int] = field(default_factory=set)
     integers: dict[int, int] = field(default_factory=dict)
     reals: dict[int, float] = field(default_factory=dict)
+    #: how 20FH and 24DH carry a real's double (robot.yaml's controller.real_word_order)
+    real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER
+    # --- read-only records (2A0H, 210H): set on the controller, never by the protocol --
+    #: coordinate system definitions by number: X, Y, Z, R as coordinate text (0 when absent)
+    work_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
+    tool_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
+    #: global string variable columns: column -> character code (0 when absent)
+    strings: dict[int, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         problems = []
+        if self.real_word_order not in profile.REAL_WORD_ORDERS:
+            problems.append(
+                f"real word order {self.real_word_order!r} "
+                f"(allowed: {', '.join(profile.REAL_WORD_ORDERS)})"
+            )
         if self.model not in profile.BUFFERS:
             problems.append(f"unknown model {self.model!r} (known: {', '.join(profile.BUFFERS)})")
         if (
@@ -180,18 +201,20 @@ class SimState:
 
     def not_idle(self) -> list[str]:
         """Every reason the profile's interlock refuses a write now; empty when idle."""
-        out = []
-        if self.mode != AUTO:
-            out.append("MANUAL mode")
-        if self.program_running:
-            out.append("program running")
-        if self.flash_writing:
-            out.append("flash ROM write")
-        if self.emergency_stop:
-            out.append("emergency stop")
-        if not self.ready:
-            out.append("system not ready")
+        reasons = (
+            (self.mode != AUTO, "MANUAL mode"),
+            (self.program_running, "program running"),
+            (self.flash_writing, "flash ROM write"),
+            (self.emergency_stop, "emergency stop"),
+            (not self.ready, "system not ready"),
+            (self.critical_error != "000", f"critical error {self.critical_error}"),
+            (self.drive_cut_off, "drive source cut off"),
+            (self.positioner_mode, "positioner mode"),
+            (self.safety_gate_open, "safety gate open"),
+        )
+        out = [why for applies, why in reasons if applies]
         out += [f"axis {a} in use" for a in sorted(self.axes_in_use)]
+        out += [f"axis {a} not reported" for a in sorted(self.unreported_axes)]
         return out
 
     @property
@@ -200,12 +223,17 @@ class SimState:
 
     def status_bytes(self) -> tuple[int, int, int, int]:
         """215H status bytes 1-4 (p.30-31)."""
-        s1 = (0x08 if self.emergency_stop else 0) | (0x01 if self.mode == MANUAL else 0)
+        s1 = (
+            (0x08 if self.emergency_stop else 0)
+            | (0x04 if self.safety_gate_open else 0)
+            | (0x01 if self.mode == MANUAL else 0)  # the operation mode switch
+        )
         s2 = (0x20 if self.program_running else 0) | (0x01 if self.flash_writing else 0)
         s3 = (
-            (0x04 if self.ready else 0)
+            (0x10 if self.positioner_mode else 0)
+            | (0x04 if self.ready else 0)
             | (0x02 if self.program_running else 0)  # operating in AUTO mode
-            | (0x01 if self.emergency_stop else 0)  # drive source cut off
+            | (0x01 if self.emergency_stop or self.drive_cut_off else 0)  # drive source cut off
         )
         return s1, s2, s3, 0
 
@@ -223,11 +251,16 @@ class SimState:
         self.axes_in_use = set(self.axes)
 
     def stop(self) -> None:
-        """Idle again: AUTO mode, no program, no flash write, no emergency stop, no axis in use."""
+        """Idle again: AUTO mode, no program, no flash write, no emergency stop, no
+        critical error, drive source on, program mode, the gate closed, every axis
+        reported and none in use."""
         self.mode = AUTO
         self.program_running = self.flash_writing = self.emergency_stop = False
+        self.drive_cut_off = self.positioner_mode = self.safety_gate_open = False
         self.ready = True
+        self.critical_error = self.latest_error = "000"
         self.axes_in_use = set()
+        self.unreported_axes = set()
 
     # --- battery-backed memory ---------------------------------------------------------------
 
@@ -254,6 +287,10 @@ class SimState:
             "flags": sorted(self.flags),
             "integers": {str(n): v for n, v in sorted(self.integers.items())},
             "reals": {str(n): struct.pack(">d", v).hex() for n, v in sorted(self.reals.items())},
+            "real_word_order": self.real_word_order,
+            "work_coordinates": {str(n): list(v) for n, v in sorted(self.work_coordinates.items())},
+            "tool_coordinates": {str(n): list(v) for n, v in sorted(self.tool_coordinates.items())},
+            "strings": {str(n): c for n, c in sorted(self.strings.items())},
         }
 
     @classmethod
@@ -298,7 +335,21 @@ class SimState:
             model=str(doc["model"]),
             position_range=(first, last),
             versions=dict(versions),
+            real_word_order=str(doc.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)),
         )
+        for section in ("work_coordinates", "tool_coordinates"):
+            table = doc.get(section, {})
+            if not isinstance(table, dict):
+                raise TypeError(f"{section} is not a mapping")
+            setattr(
+                state,
+                section,
+                {int(n): tuple(str(c) for c in v) for n, v in table.items()},
+            )
+        strings = doc.get("strings", {})
+        if not isinstance(strings, dict):
+            raise TypeError("strings is not a mapping")
+        state.strings = {int(n): int(str(c)) for n, c in strings.items()}
         state.flags = {int(str(n)) for n in listed("flags")}
         state.integers = {int(n): int(str(v)) for n, v in mapped("integers").items()}
         state.reals = {

@@ -1,0 +1,85 @@
+"""What the probe past the position table costs an IAI pull (issue 20): extra
+exchanges, bytes on the line and seconds.
+
+    python bench/iai_probe.py                    TTA and TT, 9600 and 115200 baud (~2 min)
+    python bench/iai_probe.py --baud 9600 --model TTA --repeat 3
+
+A simulator process (bench/simserver.py, the ``iai-mix`` table: 1,000 positions
+defined, 1-1000, with wire-time emulation at the baud rate) is read by a
+:class:`~harlsync.families.iai.controller.Controller` in this process, the way a
+pull reads it: the whole table (``read_all``, which ends with the probe), then
+the probe alone (``probe_positions``: one 22DH for every number from 1001 to
+FFFFh; the range starts at 1, so there is none below it).  The simulator counts
+the exchanges and the bytes both ways; the seconds are this process's monotonic
+clock.  The share is the probe's time over the whole read's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from machine import SimProcess, describe
+
+from harlsync.families.iai.controller import Controller
+from harlsync.settings import SerialSettings
+
+TABLES = {"TTA": "iai-mix", "TT": "iai-mix-tt"}
+
+
+def measure(model: str, baud: int, repeat: int) -> dict[str, float]:
+    sim = SimProcess(TABLES[model], baud=baud)
+    try:
+        settings = SerialSettings(baudrate=baud, timeout=0.5, retries=3)
+        c = Controller.from_url(sim.ports[0], 0x99, settings, model=model, first=1, last=1000)
+        try:
+            best_all = best_probe = float("inf")
+            for _ in range(repeat):
+                sim.reset()
+                start = time.monotonic()
+                data = c.read_all()
+                best_all = min(best_all, time.monotonic() - start)
+                whole = sim.stats()[0]
+                sim.reset()
+                start = time.monotonic()
+                c.probe_positions()
+                best_probe = min(best_probe, time.monotonic() - start)
+                probe = sim.stats()[0]
+            assert len(data.positions) == 1000
+        finally:
+            c.close()
+    finally:
+        sim.close()
+    return {
+        "exchanges": whole["exchanges"],
+        "probe_exchanges": probe["exchanges"],
+        "bytes": whole["bytes_in"] + whole["bytes_out"],
+        "probe_bytes": probe["bytes_in"] + probe["bytes_out"],
+        "seconds": best_all,
+        "probe_seconds": best_probe,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--baud", default="9600,115200")
+    parser.add_argument("--model", default="TTA,TT")
+    parser.add_argument("--repeat", type=int, default=2)
+    args = parser.parse_args()
+    print(f"harlsync IAI probe bench: {describe()}")
+    print(
+        f"{'model':6} {'baud':>6} {'exchanges':>9} {'+probe':>6} {'bytes':>7} {'+probe':>6} "
+        f"{'read s':>7} {'probe s':>7} {'share':>6}"
+    )
+    for model in args.model.split(","):
+        for baud in (int(b) for b in args.baud.split(",")):
+            m = measure(model, baud, args.repeat)
+            print(
+                f"{model:6} {baud:>6} {m['exchanges']:>9} {m['probe_exchanges']:>6} "
+                f"{m['bytes']:>7} {m['probe_bytes']:>6} {m['seconds']:>7.2f} "
+                f"{m['probe_seconds']:>7.3f} {m['probe_seconds'] / m['seconds']:>6.1%}"
+            )
+
+
+if __name__ == "__main__":
+    main()
