@@ -665,11 +665,13 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .project import validate_project
+    from .project import project_notes, validate_project
 
     issues = validate_project(args.dir)
     for issue in issues:
         _print(issue)
+    for note in project_notes(args.dir):
+        _print(f"note: {note}")
     if issues:
         print(f"harlsync: {args.dir}: {len(issues)} problem(s)", file=sys.stderr)
         return EXIT_NO

@@ -192,6 +192,9 @@ class Analysis:
     robot: Robot | None = None
     data: Any = None
     issues: list[Issue] = field(default_factory=list)
+    #: what ``validate`` tells of a valid project without failing it (Epson: a
+    #: register map without Ready), one sentence each
+    notes: list[str] = field(default_factory=list)
 
 
 class Family(Protocol):

@@ -153,6 +153,13 @@ def validate_project(path: str | os.PathLike[str]) -> list[str]:
     return [str(issue) for issue in problems + family.analyse(files).issues]
 
 
+def project_notes(path: str | os.PathLike[str]) -> list[str]:
+    """What ``validate`` tells of the project at ``path`` beyond its issues (its
+    family's notes).  Raises as :func:`validate_project`."""
+    family, files, _ = _gather(Path(path))
+    return list(family.analyse(files).notes)
+
+
 def load_project(path: str | os.PathLike[str]) -> Project:
     """Read the project at ``path``.
 

@@ -240,7 +240,7 @@ class EpsonCatalogue:
                 if KINDS[key.kind].volatility == PERSISTENT:
                     card.append(self.describe(key))
         unwritable += self._lacking(lacking)
-        notes = []
+        notes = [] if live.map_note is None else [live.map_note]
         if card:
             notes.append(
                 "written to the controller's memory card (persistent; its life "

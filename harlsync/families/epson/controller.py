@@ -421,7 +421,9 @@ class Controller:
         ``progress(done, total)`` after each item.
         """
         code, axes, model = self.identify()
-        data = EpsonData(code, axes, model, unwritable=self.map.unwritable)
+        data = EpsonData(
+            code, axes, model, unwritable=self.map.unwritable, map_note=self.map.ready_note
+        )
         keys: list[Key] = [*item_keys(axes)]
         keys += [PointKey("point", n) for n in range(self.first, self.last + 1)]
         total = len(keys) + 1

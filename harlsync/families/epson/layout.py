@@ -328,7 +328,7 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
 
     result = Analysis(issues=issues)
     if "robot.yaml" in valid:
-        result.robot = _build_robot(docs["robot.yaml"], issues)
+        result.robot = _build_robot(docs["robot.yaml"], issues, result.notes)
     axes = None
     if "settings.yaml" in valid:
         axes = _check_settings(docs["settings.yaml"], result.robot, issues)
@@ -368,7 +368,7 @@ def _map_issue(doc: y.Parsed, message: str) -> Issue:
     return Issue("robot.yaml", doc.line(at), ".".join(at), message)
 
 
-def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
+def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot | None:
     data = doc.data
     conn = data["connection"]
     options: dict[str, Any] = {
@@ -380,6 +380,10 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
         RegisterMap.from_dict(options["map"])
     except RegisterMapInvalid as exc:
         found += [_map_issue(doc, message) for message in exc.issues]
+    else:
+        ready = RegisterMap.from_dict(options["map"]).ready_note
+        if ready is not None:
+            notes.append(f"robot.yaml: connection.map: {ready}")
     controller = data.get("controller", {})
     first, last = profile.DEFAULT_POINT_RANGE
     options["first"] = int(controller.get("first_point", first))

@@ -314,6 +314,8 @@ class EpsonData:
     model: str
     items: dict[Key, Any] = field(default_factory=dict)
     unwritable: str | None = None
+    #: what a plan must say of the register map it was read through (no Ready)
+    map_note: str | None = None
 
     @property
     def type_name(self) -> str:
