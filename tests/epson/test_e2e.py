@@ -30,7 +30,7 @@ from harlsync.families.iai.sim import Simulator as IaiSimulator
 from harlsync.project import load_project
 from harlsync.sim.control import apply_command
 from harlsync.sim.serve import PtyServer, TcpServer
-from harlsync.sync import engine
+from harlsync.sync import audit, engine
 from harlsync.sync.backup import backup
 
 from .projects import edit, pulled
@@ -238,6 +238,55 @@ def test_a_program_started_mid_push_gets_no_write_after_it(robot, repo, capsys) 
     assert numbers(written(sim)) == [1250]
     sim.busy_after_writes = 0
     apply_command(sim, "stop")
+
+
+def test_a_point_interrupted_part_way_is_recorded_as_partly_written_and_completed_next(
+    robot, repo, capsys
+) -> None:
+    """Issue 19 item 3: a point is several writes; the robot started after the first
+    stops the rest, and the result, the audit record and status name what went out
+    (the push said "nothing written" while z had changed)."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(
+        project,
+        repo,
+        "points.yaml",
+        "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, hand: Lefty",
+        "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty",
+    )
+    sim.busy_after_writes = sim.writes + 1
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert "partly written: P12: z went out; hand not sent" in err
+    assert "nothing written" not in err
+    assert numbers(written(sim)) == [1204]
+    st = sim.stations[1]
+    assert st.points[12].coords[2] == -10750 and st.points[12].hand == 0
+    record = audit.read()[-1]
+    assert record["partly_written"] == {
+        "item": "P12",
+        "command": record["partly_written"]["command"],
+        "sent": ["z"],
+        "unknown": None,
+        "not sent": ["hand"],
+    }
+    assert cli.main(["status", str(project)]) == 1
+    out = capsys.readouterr().out
+    assert "unfinished push" in out
+    assert "stopped part way through P12: z went out; hand not sent" in out
+    assert cli.main(["log", str(project)]) == 0
+    assert "partly written: P12: z went out; hand not sent" in capsys.readouterr().out
+    sim.busy_after_writes = 0
+    apply_command(sim, "stop")
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0  # completes it: hand only
+    assert numbers(written(sim, taken)) == [1206]
+    assert cli.main(["diff", str(project)]) == 0
+    capsys.readouterr()
+    cli.main(["status", str(project)])
+    assert "part way" not in capsys.readouterr().out
 
 
 def test_a_robot_whose_map_lacks_running_paused_or_estop_is_read_but_never_written(

@@ -34,9 +34,13 @@ from typing import Any, TypeVar
 
 from ...errors import (
     ControllerError,
+    HarlsyncError,
+    LinkError,
     LinkTimeout,
+    PartlyWritten,
     ProjectError,
     WriteUnconfirmed,
+    partly_words,
 )
 from ...link.confirm import confirmed_write, refuse_unless_idle
 from ..base import Progress
@@ -87,6 +91,8 @@ class WriteStep:
     sequence: WriteSequence
     readback: Callable[[], object]
     part: Callable[[Any], object]
+    #: the part of the item it writes, as a diff names it (a point's ``x``, ``hand``)
+    name: str = ""
 
 
 def item_keys(axes: int) -> Iterator[TableKey | SettingKey]:
@@ -498,6 +504,7 @@ class Controller:
                         p.set_point_coord(number, axis, point.coords[axis]),
                         partial(self._point_coord, number, axis),
                         partial(_coord_of, axis),
+                        name,
                     )
                 )
             else:
@@ -507,6 +514,7 @@ class Controller:
                         p.set_point_attribute(attribute, number, point.attribute(attribute)),
                         partial(self.ask, p.read_point_attribute(attribute, number)),
                         partial(_attribute_of, attribute),
+                        name,
                     )
                 )
         return steps
@@ -538,13 +546,36 @@ class Controller:
     def write(self, steps: list[WriteStep], value: Any, old: Any) -> None:
         """Send each step and confirm it.
 
-        Raises InterlockError (nothing sent) when the robot is not idle before a
-        sequence, or before sending one again after a lost reply;
+        Raises InterlockError (that step not sent, or cancelled) when the robot is
+        not idle before a command, or before sending one again after a lost reply;
         WriteUnconfirmed when the read-back is neither the new nor the old value;
-        ControllerError for an error response.
+        ControllerError for an error response.  Any of them after the first step
+        (a point's coordinates and attributes, one command each) comes as
+        :class:`~harlsync.errors.PartlyWritten`: the item then holds neither its old
+        value nor the new one, and the error names the parts that went out.
         """
-        for step in steps:
-            self._confirmed(step, step.part(value), None if old is None else step.part(old))
+        for i, step in enumerate(steps):
+            try:
+                self._confirmed(step, step.part(value), None if old is None else step.part(old))
+            except HarlsyncError as exc:
+                if i == 0:
+                    raise
+                raise self._partly(steps, i, exc) from exc
+
+    def _partly(self, steps: list[WriteStep], stopped: int, exc: HarlsyncError) -> PartlyWritten:
+        """Steps before ``stopped`` went out and took; ``stopped`` did not take when
+        the interlock or the controller refused it, and may have after a lost reply."""
+        sent = [s.name for s in steps[:stopped]]
+        unknown = steps[stopped].name if isinstance(exc, LinkError) else None
+        left = [s.name for s in steps[stopped + (unknown is not None) :]]
+        what = steps[0].sequence.what.split(" ")[0]
+        return PartlyWritten(
+            f"{self.label}: {what} partly written: {partly_words(sent, unknown, left)} ({exc})",
+            sent=sent,
+            left=left,
+            unknown=unknown,
+            cause=exc,
+        )
 
     def _confirmed(self, step: WriteStep, wanted: object, old: object) -> None:
         sequence = step.sequence
