@@ -70,9 +70,13 @@ class Driver(Protocol):
     #: Where the robot is, for messages: ``"port /dev/ttyUSB0 station 1"``.
     label: str
 
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> Any:
+    def read_all(
+        self, *, registers: bool, progress: Progress | None = None, whole: bool = False
+    ) -> Any:
         """Everything the controller holds, as the family's data (runtime data only
-        when ``registers``)."""
+        when ``registers``).  ``whole`` (a pull, a backup): also find out how far
+        each table really goes past the configured range, and raise rather than
+        return a backup that would leave part of one out."""
         ...
 
     def status(self) -> Status:

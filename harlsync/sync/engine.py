@@ -161,6 +161,7 @@ def read_live(
     lock_timeout: float,
     idle_check: bool = False,
     options: Mapping[str, Any] | None = None,
+    whole: bool = False,
 ) -> LiveRead:
     """Everything the robot holds, read over a line opened and closed for it; with
     ``idle_check`` its state after the read too (what the interlock reads).
@@ -168,7 +169,7 @@ def read_live(
     driver = connect(robot, port, station, lock_timeout=lock_timeout, options=options)
     try:
         warnings = _unfinished(robot, port, station)
-        live = driver.read_all(registers=registers, progress=progress)
+        live = driver.read_all(registers=registers, progress=progress, whole=whole)
         return LiveRead(driver, live, warnings, _busy(driver) if idle_check else None)
     finally:
         driver.close()
@@ -344,6 +345,7 @@ def pull(
         progress=progress,
         lock_timeout=lock_timeout,
         options=connect_options,
+        whole=True,  # a backup finds out how far each table goes
     )
     live = read.live
     try:  # after the read: the first request need not wait for it (issue 15)

@@ -18,6 +18,7 @@ import pytest
 from conftest import git
 
 from harlsync import cli
+from harlsync.families.epson import profile
 from harlsync.families.epson.model import SettingKey, TableKey
 from harlsync.families.epson.protocol import AccelReal, Limits, SpeedReal
 from harlsync.families.epson.sim import CommandReceived, SimState, Simulator
@@ -86,6 +87,39 @@ def test_a_pull_backs_up_every_setting_and_point_exactly_and_diff_finds_no_diffe
     assert numbers(sim.commands()[:2]) == [2153, 2154]
     assert cli.main(["diff", str(project)]) == 0
     assert written(sim) == []
+
+
+def test_points_past_the_range_fail_the_pull_and_the_backup_naming_the_setting(
+    robot, repo, capsys, monkeypatch
+) -> None:
+    """Issue 20 item 1: points past P99 were never read, and the pull said nothing."""
+    monkeypatch.setattr(profile, "POINT_PROBE_END", 450)
+    sim, url = robot
+    project = pulled(repo, url)  # last_point: 29 from here on
+    capsys.readouterr()
+    st = sim.stations[1]
+    for n in (30, 31, 32, 150, 400):
+        st.points[n] = st.points[12]
+    before = (project / "points.yaml").read_text()
+    assert cli.main(["pull", str(project)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "5 point(s) defined past controller.last_point 29" in err[0]
+    assert "P30-P32, P150, P400" in err[0]
+    assert "set controller.last_point: 400 (or more) in robot.yaml and pull again" in err[0]
+    assert (project / "points.yaml").read_text() == before  # nothing saved
+    report = backup([repo])
+    assert not report.ok
+    (cell,) = report.robots
+    assert not cell.ok and "defined past controller.last_point 29" in (cell.error or "")
+    assert "0 of 1 robot(s) backed up" in report.render()
+    edit(project, repo, "robot.yaml", "last_point: 29", "last_point: 400")
+    result = engine.pull(project)  # the closing line on a terminal says its contents
+    assert result.contents.endswith("points (P0-P400 read, none defined P401-P450)")
+    assert (
+        "P0-P400 read, none defined P401-P450 when pulled" in (project / "points.yaml").read_text()
+    )
+    assert {150, 400} <= set(load_project(project).data.points())
 
 
 def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsys) -> None:
@@ -505,3 +539,54 @@ def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     sent = set(numbers(sim.commands()[taken:]))
     assert {60, 61} <= sent and 59 not in sent  # AccelS was read in halves
     assert 210 not in sent
+
+
+@pytest.mark.parametrize(
+    ("data", "field", "old", "new", "command"),
+    [
+        (sample_data(axes=6), "j1flag", "j1flag: 1", "j1flag: 0", 1223),
+        (sample_data(axes=6), "j2flag", "j2flag: 1", "j2flag: 0", 1225),
+        (sample_data(rs=True), "j1angle", "j1angle: -12.500", "j1angle: 30.250", 1227),
+    ],
+    ids=["6-axis J1Flag", "6-axis J2Flag", "RS J1Angle"],
+)
+def test_a_robot_types_own_point_attributes_are_backed_up_diffed_pushed_and_verified(
+    repo, capsys, data, field, old, new, command
+) -> None:
+    """Issue 20 item 2: J1Flag/J2Flag (6-axis, manual 10.25) and J1Angle (RS) were not
+    kept, so a restore gave every point flag 0: another joint solution."""
+    sim = Simulator(SimState.from_data(data), execution_time=0.0)
+    with sim.serve() as server:
+        project = pulled(repo, server.url)
+        assert load_project(project).data.items == data.items  # kept, exactly
+        line = next(t for t in (project / "points.yaml").read_text().splitlines() if "13:" in t)
+        assert old in line
+        edit(project, repo, "points.yaml", old, new)
+        capsys.readouterr()
+        assert cli.main(["diff", str(project)]) == 1
+        out = capsys.readouterr().out
+        assert f"P13 {field}" in out
+        taken = len(sim.commands())
+        assert cli.main(["push", str(project), "--yes"]) == 0
+        assert numbers(written(sim, taken)) == [command]
+        held = sim.stations[1].points[13]
+        assert {"j1flag": held.j1flag, "j2flag": held.j2flag, "j1angle": held.j1angle}[field] == (
+            {"j1flag": 0, "j2flag": 0, "j1angle": 30250}[field]
+        )
+        assert cli.main(["diff", str(project)]) == 0
+    clean(sim)
+
+
+def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(repo) -> None:
+    sim = Simulator(SimState.from_data(sample_data(axes=6)), execution_time=0.0)
+    with sim.serve() as server:
+        project = pulled(repo, server.url)
+    path = project / "points.yaml"
+    path.write_text(path.read_text().replace(", j1flag: 1, j2flag: 1", ""))
+    from harlsync.project import validate_project
+
+    issues = validate_project(project)
+    assert any(
+        "points.13: j1flag, j2flag missing: a 6-AXIS robot's points have j1flag and j2flag" in i
+        for i in issues
+    ), issues

@@ -42,6 +42,7 @@ from .model import (
     SettingKey,
     TableKey,
     coordinate_names,
+    covered_text,
     field_texts,
     value_text,
 )
@@ -104,10 +105,15 @@ def point_fields(old: Point | None, new: Point) -> tuple[str, ...]:
     attribute of a point not yet defined (but for Local 0, which is what a new point
     has and 1214 cannot set), else only those that differ, coordinates first."""
     names = coordinate_names(len(new.coords))
+    extras = tuple(name for name, _ in new.extras())
     if old is None:
-        return (*names, *(a for a in ATTRIBUTES if a != "local" or new.local))
+        return (*names, *(a for a in ATTRIBUTES if a != "local" or new.local), *extras)
     coords = tuple(c for c, a, b in zip(names, old.coords, new.coords) if a != b)
-    return coords + tuple(a for a in ATTRIBUTES if old.attribute(a) != new.attribute(a))
+    return (
+        coords
+        + tuple(a for a in ATTRIBUTES if old.attribute(a) != new.attribute(a))
+        + tuple(a for a in extras if getattr(old, a) != getattr(new, a))
+    )
 
 
 def _counted(count: dict[str, int], *, zeros: bool) -> str:
@@ -194,10 +200,12 @@ class EpsonCatalogue:
         return {"robot type": data.type_name, "axes": str(data.axes), "model": data.model}
 
     def contents(self, data: EpsonData, *, registers: bool) -> str:
-        """``"12 table entries, 20 settings, 150 points"``."""
-        return _counted(
+        """``"12 table entries, 20 settings, 150 points (P0-P199 read, none defined
+        P200-P999)"``: the points' range when a pull read it."""
+        text = _counted(
             self.counts((key, None, value) for key, value in data.items.items()), zeros=True
         )
+        return text + (f" ({covered_text(data)})" if data.covered is not None else "")
 
     def plan(
         self,

@@ -60,6 +60,7 @@ from .model import (
     TableKey,
     axes_of_type,
     coordinate_names,
+    type_attributes,
 )
 from .protocol import ErrorReply, Limits, Request, WriteSequence
 from .transport import ModbusLink
@@ -120,6 +121,23 @@ def _attribute_of(name: str, point: Point) -> object:
     return point.attribute(name)
 
 
+def _extra_of(name: str, point: Point) -> object:
+    return getattr(point, name)
+
+
+def _numbers(points: list[int], most: int = 6) -> str:
+    """``P100-P104, P120 and 3 more``: point numbers in runs, long lists folded."""
+    runs: list[list[int]] = []
+    for n in points:
+        if runs and runs[-1][-1] == n - 1:
+            runs[-1].append(n)
+        else:
+            runs.append([n])
+    texts = [f"P{r[0]}" if len(r) == 1 else f"P{r[0]}-P{r[-1]}" for r in runs]
+    more = f" and {len(texts) - most} more" if len(texts) > most else ""
+    return ", ".join(texts[:most]) + more
+
+
 def _words(request: Request[object]) -> str:
     return " ".join(f"{w:04X}" for w in request.command.words)
 
@@ -146,6 +164,7 @@ class Controller:
         self.robot_type = robot_type
         self.configured_axes = axes
         self._axes: int | None = None
+        self._type: int | None = None
         self.first, self.last = first, last
         self._link: ModbusLink | None = None
 
@@ -302,7 +321,7 @@ class Controller:
                 f"{self.label}: the controller reports a {name} robot ({axes} axes), "
                 f"robot.yaml controller.axes says {self.configured_axes}"
             )
-        self._axes = axes
+        self._axes, self._type = axes, code
         return code, axes, self.read_model_name()
 
     @property
@@ -410,8 +429,26 @@ class Controller:
             first,
             *(self.ask(p.read_point_coord(number, axis)) for axis in range(1, self.axes)),
         )
-        attributes = {name: self.ask(p.read_point_attribute(name, number)) for name in ATTRIBUTES}
+        attributes: dict[str, Any] = {
+            name: self.ask(p.read_point_attribute(name, number)) for name in ATTRIBUTES
+        }
+        for name in type_attributes(self.robot_code):
+            attributes[name] = self._read_extra(name, number)
         return Point(coords, **attributes)
+
+    @property
+    def robot_code(self) -> int:
+        """The manipulator type 2153 reports (read once)."""
+        if self._type is None:
+            self.identify()
+        assert self._type is not None
+        return self._type
+
+    def _read_extra(self, name: str, number: int) -> object:
+        """A type's own attribute of a point: J1Flag, J2Flag (6-axis), J1Angle (RS)."""
+        if name == "j1angle":
+            return self.ask(p.read_point_j1angle(number))
+        return self.ask(p.read_point_attribute(ATTRIBUTE_OF[name], number))
 
     def read_item(self, key: Key) -> Any:
         """One item's value (None when it is absent)."""
@@ -421,10 +458,14 @@ class Controller:
             return self.read_point(key.number)
         return self.read_setting(key.kind, key.number)
 
-    def read_all(self, progress: Progress | None = None) -> EpsonData:
+    def read_all(self, progress: Progress | None = None, *, probe: bool = False) -> EpsonData:
         """The manipulator, every setting and every defined point of the range.
 
-        ``progress(done, total)`` after each item.
+        With ``probe`` (a pull), every point after the range up to
+        :data:`~.profile.POINT_PROBE_END` is looked for too (the manual has no
+        command that says how many there are): raises ProjectError naming those
+        defined and the robot.yaml setting that takes them in; the data records
+        the range covered.  ``progress(done, total)`` after each item.
         """
         code, axes, model = self.identify()
         data = EpsonData(
@@ -432,7 +473,8 @@ class Controller:
         )
         keys: list[Key] = [*item_keys(axes)]
         keys += [PointKey("point", n) for n in range(self.first, self.last + 1)]
-        total = len(keys) + 1
+        past = range(self.last + 1, profile.POINT_PROBE_END + 1) if probe else range(0)
+        total = len(keys) + 1 + len(past)
         if progress is not None:
             progress(1, total)
         for done, key in enumerate(keys, 2):
@@ -441,6 +483,20 @@ class Controller:
                 data.items[key] = value
             if progress is not None:
                 progress(done, total)
+        beyond = []
+        for done, n in enumerate(past, len(keys) + 2):
+            if self._point_coord(n, 0) is not None:
+                beyond.append(n)
+            if progress is not None:
+                progress(done, total)
+        if beyond:
+            raise ProjectError(
+                f"{self.label}: {len(beyond)} point(s) defined past controller.last_point "
+                f"{self.last}, which this backup would leave out: {_numbers(beyond)}; set "
+                f"controller.last_point: {beyond[-1]} (or more) in robot.yaml and pull again"
+            )
+        data.covered = (self.first, self.last)
+        data.probed_to = past.stop - 1 if probe and past else None
         return data
 
     # --- writes ------------------------------------------------------------------------
@@ -504,6 +560,17 @@ class Controller:
                         p.set_point_coord(number, axis, point.coords[axis]),
                         partial(self._point_coord, number, axis),
                         partial(_coord_of, axis),
+                        name,
+                    )
+                )
+            elif name == "j1angle":
+                value = point.j1angle
+                assert value is not None
+                steps.append(
+                    WriteStep(
+                        p.set_point_j1angle(number, value),
+                        partial(self.ask, p.read_point_j1angle(number)),
+                        partial(_extra_of, "j1angle"),
                         name,
                     )
                 )

@@ -55,6 +55,7 @@ __all__ = [
     "MODBUS_MAX_READ",
     "MODBUS_RETRIES",
     "MODBUS_TIMEOUT",
+    "POINT_PROBE_END",
     "POLL_INTERVAL",
     "READY",
     "REQUIRED_FOR_WRITES",
@@ -106,6 +107,12 @@ TABLE_OUT_OF_RANGE = 0x2005
 
 #: Points backed up when the robot file gives no range: P0 to P99, inclusive.
 DEFAULT_POINT_RANGE = (0, 99)
+#: The last point a pull looks for past the robot file's range: the manual gives
+#: no command that reports how many points a controller holds, nor their highest
+#: number, so a pull probes each point after ``last_point`` up to this one (the
+#: last of an RC+ point file, P999) with one 1222 read, and fails when any is
+#: defined: a backup never leaves points out without a word.
+POINT_PROBE_END = 999
 
 #: Manipulator type (command 2153) -> its axes: the coordinates of a point, Plane,
 #: Local and Base, the joints of JRange and the words of Fine.  Types not listed

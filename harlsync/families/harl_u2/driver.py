@@ -23,7 +23,9 @@ class HarlU2Driver:
         self.controller = controller
         self.label = f"port {controller.port} station {controller.station}"
 
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> RobotData:
+    def read_all(
+        self, *, registers: bool, progress: Progress | None = None, whole: bool = False
+    ) -> RobotData:
         return self.controller.read_all(include_registers=registers, progress=progress)
 
     def status(self) -> Status:
