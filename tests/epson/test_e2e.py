@@ -590,3 +590,54 @@ def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(rep
         "points.13: j1flag, j2flag missing: a 6-AXIS robot's points have j1flag and j2flag" in i
         for i in issues
     ), issues
+
+
+def _blank(state: SimState) -> SimState:
+    """The same manipulator as a new controller has it: its memory lost."""
+    return SimState(robot_type=state.robot_type, model=state.model)
+
+
+@pytest.mark.parametrize(
+    "state",
+    [
+        pytest.param(lambda: SimState.from_data(sample_data()), id="sample SCARA"),
+        pytest.param(
+            lambda: SimState.generate(11, robot_type=5, point_range=(0, 99)),
+            id="generated 6-axis",
+            marks=pytest.mark.slow,
+        ),
+    ],
+)
+def test_disaster_recovery_drill_a_blank_controller_gets_its_backup_back(
+    repo, capsys, state
+) -> None:
+    """Issue 20 item 6, over real TCP: back up; the controller comes up blank; push
+    the backup; diff is clean and the simulator holds what it held."""
+    original = state()
+    sim = Simulator(original.copy(), execution_time=0.0)
+    project = repo / "cell"
+    with sim.serve() as server:
+        assert cli.main(["pull", str(project), "--family", "epson", "--port", server.url]) == 0
+    clean(sim)
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "backup")
+    blank = Simulator(_blank(original), execution_time=0.0)
+    with blank.serve() as server:
+        edit(project, repo, "robot.yaml", sim_url := _port_of(project), server.url)
+        assert sim_url != server.url
+        capsys.readouterr()
+        assert cli.main(["diff", str(project)]) == 1  # the memory lost
+        assert cli.main(["push", str(project), "--yes", "--reason", "restore"]) == 0
+        out = capsys.readouterr().out
+        assert "wrote and verified" in out
+        assert cli.main(["diff", str(project)]) == 0
+    clean(blank)
+    restored = blank.stations[1]
+    assert restored.memory() == original.memory()  # what survives a power cycle
+    for table in ("accel", "accel_s", "accel_r", "speed", "speed_s", "speed_r", "limz"):
+        assert getattr(restored, table) == getattr(original, table), table
+
+
+def _port_of(project) -> str:
+    line = next(t for t in (project / "robot.yaml").read_text().splitlines() if "port:" in t)
+    return line.split("port:", 1)[1].strip()
