@@ -224,6 +224,12 @@ class EpsonCatalogue:
                 f"controller reports a {live.type_name} with {live.axes}: check the port (or "
                 "pull into a new project)"
             )
+        elif live.model != project.model:
+            unwritable.append(
+                f"the project is of a {project.model}, the controller reports a {live.model} "
+                "(2154): another robot, or a replaced one; check the port, or accept it with "
+                "'harlsync pull DIR --new-robot' before pushing"
+            )
         wanted: list[tuple[Any, Any, Any]] = []
         card: list[str] = []
         points = False
