@@ -26,10 +26,11 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any, Protocol
 
+from .. import families
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..families.base import Progress
 from ..link import lock_key
-from ..project import load_robot
+from ..project import Robot, load_robot
 from ..project.lock import project_lock
 from ..project.store import replace_file
 from ..robotlog import about
@@ -69,6 +70,8 @@ class RobotOutcome:
     last_success: str | None = None
     stale: bool = False
     never_backed_up: bool = False
+    #: what the connection recovered on its own (also in the audit log)
+    notes: list[str] = field(default_factory=list)
 
     def line(self) -> str:
         """One line as it finishes: ``press: ok, changed: 1 program (1 step) (4.0 s)``."""
@@ -163,7 +166,8 @@ class BackupReport:
             tail += f"; git push FAILED: {self.push_error} (the commit is kept locally)"
         elif self.pushed:
             tail += ", pushed"
-        return "\n".join(lines + ["", tail]) + "\n"
+        notes = [f"note: {r.name}: {note}" for r in self.robots for note in r.notes]
+        return "\n".join(lines + ["", *notes, *([""] if notes else []), tail]) + "\n"
 
 
 def find_projects(paths: Iterable[str | Path]) -> list[Path]:
@@ -234,7 +238,12 @@ def _pull_one(
     outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
     for attempt in range(1, attempts + 1):
         try:
-            result = pull(path, lock_timeout=lock_timeout, progress=progress)
+            result = pull(
+                path,
+                lock_timeout=lock_timeout,
+                progress=progress,
+                connect_options=_unattended(robot),
+            )
         except _Stopped:
             raise
         except LinkError as exc:  # the line may recover: try again, bounded
@@ -252,12 +261,24 @@ def _pull_one(
             outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
         outcome.ok, outcome.error = True, None
+        outcome.notes = result.notes
         outcome.changed = result.changed
         outcome.summary = result.summary
         outcome.counts = summarize(catalogue(robot), result.changes or [])
         break
     outcome.duration = time.monotonic() - start
     return outcome
+
+
+def _unattended(robot: Robot) -> dict[str, Any]:
+    """The connection option of a run no person watches, for a family that takes it
+    (Epson: recover a Remote Control function left in use by a harlsync that is gone)."""
+    return {"unattended": True} if UNATTENDED in families.get(robot.family).connect_options else {}
+
+
+#: The connect option a family declares when it can recover on its own what it would
+#: otherwise ask a person to (see :attr:`~harlsync.families.base.Family.connect_options`).
+UNATTENDED = "unattended"
 
 
 def _backup_one(

@@ -149,6 +149,9 @@ class LiveRead(NamedTuple):
     warnings: list[str]
     #: when asked and the robot is not idle: why a push would be refused now
     busy: str | None = None
+    #: what the driver did on its own to read the robot (an Epson function left in
+    #: use by a dead harlsync, reset): the driver's ``notes``, if it has any
+    notes: tuple[str, ...] = ()
 
 
 def read_live(
@@ -170,7 +173,8 @@ def read_live(
     try:
         warnings = _unfinished(robot, port, station)
         live = driver.read_all(registers=registers, progress=progress, whole=whole)
-        return LiveRead(driver, live, warnings, _busy(driver) if idle_check else None)
+        notes = tuple(str(n) for n in getattr(driver, "notes", ()))
+        return LiveRead(driver, live, warnings, _busy(driver) if idle_check else None, notes)
     finally:
         driver.close()
 
@@ -224,6 +228,8 @@ class PullResult:
     earlier: list[str] = field(default_factory=list)
     #: What was read, in the family's words (Catalogue.contents).
     contents: str = ""
+    #: What the connection recovered on its own before reading (also in the audit log).
+    notes: list[str] = field(default_factory=list)
 
     @property
     def changed(self) -> bool:
@@ -348,6 +354,7 @@ def pull(
         whole=True,  # a backup finds out how far each table goes
     )
     live = read.live
+    _record_notes(path, robot, port, station, read.notes)  # it happened, whatever follows
     try:  # after the read: the first request need not wait for it (issue 15)
         previous: Any = load_project(path).data
     except ProjectError:
@@ -366,6 +373,7 @@ def pull(
         changes,
         earlier=earlier,
         contents=catalogue(robot).contents(live, registers=robot.keep_registers),
+        notes=list(read.notes),
     )
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
@@ -373,6 +381,29 @@ def pull(
         if result.commit:
             history.committed(path, result.commit)
     return result
+
+
+def _record_notes(
+    path: Path, robot: Robot, port: str | None, station: int | None, notes: tuple[str, ...]
+) -> None:
+    """What a connection recovered on its own, in the audit log (event ``recover``,
+    which :func:`.audit.results` leaves out: it is no push or rollback)."""
+    for note in notes:
+        record = audit.base_record("recover")
+        record.update(
+            event="recover",
+            robot={
+                "name": robot.name,
+                "port": port or robot.port,
+                "station": station if station is not None else robot.station,
+            },
+            project=str(path.resolve()),
+            note=note,
+        )
+        try:
+            audit.append(record)
+        except OSError as exc:
+            log.error("cannot write the audit log's record of %s: %s", note, exc)
 
 
 #: A pull that would change more than this share of the items of one kind (steps,

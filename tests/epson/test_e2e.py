@@ -663,3 +663,53 @@ def test_disaster_recovery_drill_a_blank_controller_gets_its_backup_back(
 def _port_of(project) -> str:
     line = next(t for t in (project / "robot.yaml").read_text().splitlines() if "port:" in t)
     return line.split("port:", 1)[1].strip()
+
+
+def _left_in_use(sim: Simulator) -> None:
+    """What a harlsync killed mid-command leaves: ExtCmdSet 1 on a command the
+    controller took (ExtCmdGet 1), never cleared."""
+    station = sim._controllers[1]
+    station.write_holding(0, [0b100])  # ExtCmdReset 1
+    station.write_holding(1, [2153, 0, 0, 0, 0, 0, 0, 0])  # read the robot type
+    station.write_holding(0, [0b101])  # ExtCmdSet 1, and the process is gone
+    station.read_input(0, 9)  # the controller takes it
+
+
+def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
+    robot, repo, capsys
+) -> None:
+    """Issue 22 item 8: every later night failed that robot until a person ran
+    pull --reset-function."""
+    sim, url = robot
+    project = pulled(repo, url)
+    _left_in_use(sim)
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 2  # a person is asked, nothing is reset
+    assert "the Remote Control function is in use (ExtCmdSet 1, ExtCmdGet 1)" in (
+        capsys.readouterr().err
+    )
+    report = backup([repo])
+    assert report.ok, report.render()
+    note = (
+        "the Remote Control function was found in use (ExtCmdSet 1, ExtCmdGet 1) with no "
+        "harlsync on the line and Running 0: left by a harlsync that is gone; reset (manual "
+        "6.5.2) before the backup"
+    )
+    assert f"note: cell-3: {note}" in report.render()
+    (record,) = [r for r in audit.read() if r.get("event") == "recover"]
+    assert record["note"] == note and record["robot"]["name"] == "cell-3"
+    assert audit.results() == []  # no push or rollback
+    assert cli.main(["diff", str(project)]) == 0
+
+
+def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(robot, repo) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    _left_in_use(sim)
+    apply_command(sim, "run")
+    report = backup([repo])
+    assert not report.ok
+    assert "the Remote Control function is in use" in (report.robots[0].error or "")
+    assert [r for r in audit.read() if r.get("event") == "recover"] == []
+    apply_command(sim, "stop")
+    assert sim.stations[1].points and project.exists()

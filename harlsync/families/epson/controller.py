@@ -167,6 +167,8 @@ class Controller:
         self._type: int | None = None
         self.first, self.last = first, last
         self._link: ModbusLink | None = None
+        #: what :meth:`open` recovered on its own, for the backup's report and audit log
+        self.notes: list[str] = []
 
     @classmethod
     def open(
@@ -177,11 +179,15 @@ class Controller:
         *,
         lock_timeout: float,
         reset_function: bool = False,
+        unattended: bool = False,
         **options: Any,
     ) -> Controller:
         """Connect (taking the line lock) and make the Remote Control function
         usable (§6.2).  With ``reset_function``, a function found in use or halted
-        is reset first (§6.5.2), and only while Running is 0.
+        is reset first (§6.5.2), and only while Running is 0.  ``unattended`` (a
+        nightly backup) recovers on its own a function found in use, not halted, on
+        a robot with Running 0: with the line lock held here, no harlsync is using
+        it, so it was left by one that is gone; :attr:`notes` says so.
 
         Raises :class:`~harlsync.errors.PortError`, PortBusyError, LinkTimeout, and
         InterlockError for a reset asked of a robot that runs.
@@ -194,13 +200,30 @@ class Controller:
                 link, line.register_map, poll_interval=line.poll_interval, deadline=line.deadline
             )
             handshake.start()
+            notes = []
             if reset_function:
                 status = handshake.status()
                 if status.function_idle and not status["ExtError"]:
                     log.info("%s: the function is idle: no reset needed", link.label)
                 else:
                     handshake.reset_function()
+            elif unattended:
+                status = handshake.status()
+                if (
+                    not status.function_idle
+                    and not status["ExtError"]
+                    and status["Running"] is False
+                ):
+                    left = status.function_signals()
+                    handshake.reset_function()
+                    notes.append(
+                        f"the Remote Control function was found in use ({left}) with no "
+                        "harlsync on the line and Running 0: left by a harlsync that is gone; "
+                        "reset (manual 6.5.2) before the backup"
+                    )
+                    log.warning("%s: %s", link.label, notes[-1])
             controller = cls(handshake, **options)
+            controller.notes = notes
         except BaseException:
             link.close()
             raise

@@ -28,6 +28,11 @@ class EpsonDriver:
         ``whole``: probe past the point range too (see :meth:`Controller.read_all`)."""
         return self.controller.read_all(progress, probe=whole)
 
+    @property
+    def notes(self) -> list[str]:
+        """What the connection recovered on its own (see :meth:`Controller.open`)."""
+        return list(self.controller.notes)
+
     def status(self) -> RemoteStatus:
         return self.controller.status()
 

@@ -24,7 +24,10 @@ class EpsonFamily:
     #: What a push writes is named by its plan (the memory card, points): see
     #: :meth:`~.catalogue.EpsonCatalogue.plan`.
     deploy_notes: tuple[str, ...] = ()
-    connect_options = frozenset({"reset_function"})
+    #: ``reset_function`` (asked for: --reset-function); ``unattended`` (a nightly
+    #: backup: a function left in use by a harlsync that is gone is reset on an idle
+    #: robot, and said)
+    connect_options = frozenset({"reset_function", "unattended"})
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
@@ -97,6 +100,7 @@ class EpsonFamily:
             layout.connection(robot),
             lock_timeout=lock_timeout,
             reset_function=bool(options.pop("reset_function", False)),
+            unattended=bool(options.pop("unattended", False)),
             robot_type=robot.options.get("type"),
             axes=robot.options.get("axes"),
             first=first,
