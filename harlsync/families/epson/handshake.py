@@ -547,8 +547,12 @@ class Handshake:
             self.start()
         else:
             self._refresh()
+        # an earlier command left unanswered gets a deadline of its own: settling it
+        # must not eat this command's, or this one times out early and may still run
+        # when the line is let go (the next client's first request then halts the
+        # function, §6.5.1)
+        self._settle(self.clock.monotonic() + self.deadline)
         deadline = self.clock.monotonic() + self.deadline
-        self._settle(deadline)
         status = self._snapshot()
         if status["ExtError"]:
             self._function_error(status, None)
