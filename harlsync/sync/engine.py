@@ -514,6 +514,10 @@ def compare(
         options=connect_options,
     )
     things = catalogue(project.robot)
+    other = getattr(things, "other_robot", None)  # a family that can tell (Epson)
+    why = other(read.live, project.data) if other is not None else None
+    if why is not None:
+        raise ProjectError(f"{project.path}: not compared: {why}")
     changes = diff(things, read.live, project.data, registers=registers)
     return Comparison(
         project,

@@ -522,11 +522,11 @@ def test_a_robot_of_another_type_than_robot_yaml_says_is_refused(robot, repo, ca
     )
 
 
-def test_a_push_to_a_controller_of_another_model_is_refused_in_one_line(
+def test_a_push_or_diff_to_a_controller_of_another_model_is_refused_in_one_line(
     robot, repo, capsys
 ) -> None:
-    """Issue 22 item 6: push compares the controller's model (2154) with the project's,
-    as pull does."""
+    """Issue 22 item 6: push and diff compare the controller's model (2154) with the
+    project's, as pull does."""
     sim, url = robot
     project = pulled(repo, url)
     edit(project, repo, "settings.yaml", "limz: -10.000", "limz: -12.000")
@@ -534,14 +534,16 @@ def test_a_push_to_a_controller_of_another_model_is_refused_in_one_line(
     capsys.readouterr()
     assert cli.main(["push", str(project), "--yes"]) == 3
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1].endswith(
+    why = (
         "the project is of a LS6-B602S, the controller reports a G3-301S (2154): another "
         "robot, or a replaced one; check the port, or accept it with 'harlsync pull DIR "
-        "--new-robot' before pushing"
-    ), err
+        "--new-robot'"
+    )
+    assert err[-1].endswith(why), err
     assert written(sim) == []
-    assert cli.main(["plan", str(project)]) == 0
-    assert "# cannot write: the project is of a LS6-B602S" in capsys.readouterr().out
+    assert cli.main(["diff", str(project)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"harlsync: error: {project}: not compared: {why}"], err
 
 
 def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(

@@ -207,6 +207,23 @@ class EpsonCatalogue:
         )
         return text + (f" ({covered_text(data)})" if data.covered is not None else "")
 
+    def other_robot(self, live: EpsonData, project: EpsonData) -> str | None:
+        """Why the controller read (``live``) is not the project's robot: another
+        manipulator type, axis count or model (2153, 2154); None when it is."""
+        if (live.robot_type, live.axes) != (project.robot_type, project.axes):
+            return (
+                f"the project is of a {project.type_name} robot with {project.axes} axes, the "
+                f"controller reports a {live.type_name} with {live.axes}: check the port (or "
+                "pull into a new project)"
+            )
+        if live.model != project.model:
+            return (
+                f"the project is of a {project.model}, the controller reports a {live.model} "
+                "(2154): another robot, or a replaced one; check the port, or accept it with "
+                "'harlsync pull DIR --new-robot'"
+            )
+        return None
+
     def plan(
         self,
         live: EpsonData,
@@ -218,18 +235,9 @@ class EpsonCatalogue:
         unwritable: list[str] = []
         if live.unwritable is not None:
             unwritable.append(live.unwritable)
-        if (live.robot_type, live.axes) != (project.robot_type, project.axes):
-            unwritable.append(
-                f"the project is of a {project.type_name} robot with {project.axes} axes, the "
-                f"controller reports a {live.type_name} with {live.axes}: check the port (or "
-                "pull into a new project)"
-            )
-        elif live.model != project.model:
-            unwritable.append(
-                f"the project is of a {project.model}, the controller reports a {live.model} "
-                "(2154): another robot, or a replaced one; check the port, or accept it with "
-                "'harlsync pull DIR --new-robot' before pushing"
-            )
+        other = self.other_robot(live, project)
+        if other is not None:
+            unwritable.append(other)
         wanted: list[tuple[Any, Any, Any]] = []
         card: list[str] = []
         points = False
