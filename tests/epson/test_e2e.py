@@ -282,13 +282,7 @@ def test_a_point_interrupted_part_way_is_recorded_as_partly_written_and_complete
     (the push said "nothing written" while z had changed)."""
     sim, url = robot
     project = pulled(repo, url)
-    edit(
-        project,
-        repo,
-        "points.yaml",
-        "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, hand: Lefty",
-        "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty",
-    )
+    edit_p12(project, repo)
     sim.busy_after_writes = sim.writes + 1
     capsys.readouterr()
     assert cli.main(["push", str(project), "--yes"]) == 3
@@ -370,13 +364,7 @@ def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(robo
 def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(robot, repo) -> None:
     sim, url = robot
     project = pulled(repo, url)
-    edit(
-        project,
-        repo,
-        "points.yaml",
-        "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, hand: Lefty",
-        "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty",
-    )
+    edit_p12(project, repo)
     edit(
         project,
         repo,
@@ -614,6 +602,17 @@ def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(rep
         "points.13: j1flag, j2flag missing: a 6-AXIS robot's points have j1flag and j2flag" in i
         for i in issues
     ), issues
+
+
+def edit_p12(project, repo) -> None:
+    """P12's z and hand changed in the project (two writes: 1204 then 1206)."""
+    edit(
+        project,
+        repo,
+        "points.yaml",
+        "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, hand: Lefty",
+        "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty",
+    )
 
 
 def _blank(state: SimState) -> SimState:
