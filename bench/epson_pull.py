@@ -4,6 +4,7 @@ the time per command against the simulator's execution time.
 
     python bench/epson_pull.py                    a SCARA and a six-axis robot, 3 runs each (~30 s)
     python bench/epson_pull.py --exec 0,0.002,0.010 --repeat 1
+    python bench/epson_pull.py --probe --repeat 3  the probe past the point range (issue 20)
 
 The robots are ``SimState.generate`` robots (seeds 5 and 6, points spread over P0-P119,
 so part of P0-P99 is defined and part is not).  Each is served by ``harlsync sim
@@ -25,6 +26,10 @@ is read by one command (two for AccelS/AccelR/SpeedS, which need more response
 words than some maps have: the profile's 8 words read them whole), a Box, XYLim in
 Rn sequences of one command an axis; an undefined point costs one command (its first
 coordinate answers 2004), a defined one a command a coordinate and attribute.
+
+``--probe``: the same pull of P0-P119 (every point the generated robots have) with
+and without the probe a pull makes past the range (one 1222 read of each point
+P120-P999, the profile's POINT_PROBE_END): its cost, in seconds and per point.
 """
 
 from __future__ import annotations
@@ -80,7 +85,9 @@ class Counting:
         self.link.write_holding(address, values)
 
 
-def one_pull(seed: int, robot_type: int, execution: float) -> dict[str, Any]:
+def one_pull(
+    seed: int, robot_type: int, execution: float, *, last: int = 99, probe: bool = False
+) -> dict[str, Any]:
     parent, child = mp.Pipe()
     proc = mp.Process(target=serve, args=(seed, robot_type, execution, child), daemon=True)
     proc.start()
@@ -97,9 +104,9 @@ def one_pull(seed: int, robot_type: int, execution: float) -> dict[str, Any]:
                 return execute(request)
 
             hs.execute = counted  # type: ignore[method-assign]
-            controller = Controller(hs, first=0, last=99)
+            controller = Controller(hs, first=0, last=last)
             start = time.perf_counter()
-            data = controller.read_all()
+            data = controller.read_all(probe=probe)
             took = time.perf_counter() - start
         parent.send("done")
         served = parent.recv()
@@ -113,14 +120,15 @@ def one_pull(seed: int, robot_type: int, execution: float) -> dict[str, Any]:
         "execution_s": execution,
         "items": items,
         "points_defined": points,
-        "keys_read": items + (100 - points),
+        "probe": probe,
+        "keys_read": items + (last + 1 - points),
         "commands": n,
         "commands_served": served,
         "round_trips": counting.requests,
         "reads": counting.reads,
         "writes": counting.writes,
         "round_trips_per_command": round(counting.requests / n, 2),
-        "round_trips_per_key": round(counting.requests / (items + 100 - points), 2),
+        "round_trips_per_key": round(counting.requests / (items + last + 1 - points), 2),
         "seconds": round(took, 3),
         "ms_per_command": round(took / n * 1000, 3),
         "ms_per_round_trip": round(took / counting.requests * 1000, 3),
@@ -131,8 +139,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--exec", default="0.002", help="execution times, seconds, comma-separated")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--probe", action="store_true", help="the cost of the probe past P119")
     args = ap.parse_args()
     mp.set_start_method("spawn")
+    if args.probe:
+        probe_cost(float(args.exec.split(",")[0]), args.repeat)
+        return
     print(
         f"minimum per command (§6.3): {MINIMUM} round trips; harlsync's floor "
         f"{HARLSYNC_FLOOR} (the control register read back before step 1)"
@@ -144,6 +156,40 @@ def main() -> None:
             best["seconds_median"] = round(statistics.median(r["seconds"] for r in runs), 3)
             best["execution_share"] = round(execution * best["commands"] / best["seconds"], 3)
             print(json.dumps(best))
+
+
+def probe_cost(execution: float, repeat: int) -> None:
+    """A pull of P0-P119 with and without the probe of P120-P999, medians of ``repeat``."""
+    from harlsync.families.epson.profile import POINT_PROBE_END
+
+    probed = POINT_PROBE_END - 119
+    for seed, robot_type in ((5, 3), (6, 5)):
+        got = {}
+        for probe in (False, True):
+            runs = [
+                one_pull(seed, robot_type, execution, last=119, probe=probe) for _ in range(repeat)
+            ]
+            got[probe] = {
+                "seconds": statistics.median(r["seconds"] for r in runs),
+                "commands": runs[0]["commands"],
+                "round_trips": runs[0]["round_trips"],
+            }
+        extra = got[True]["seconds"] - got[False]["seconds"]
+        print(
+            json.dumps(
+                {
+                    "robot": f"seed {seed} type {robot_type}",
+                    "execution_s": execution,
+                    "pull_s": round(got[False]["seconds"], 3),
+                    "pull_with_probe_s": round(got[True]["seconds"], 3),
+                    "probe_s": round(extra, 3),
+                    "points_probed": probed,
+                    "probe_commands": got[True]["commands"] - got[False]["commands"],
+                    "probe_round_trips": got[True]["round_trips"] - got[False]["round_trips"],
+                    "ms_per_point_probed": round(extra / probed * 1000, 3),
+                }
+            )
+        )
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import __version__, families
-from .errors import HarlsyncError, InterlockError, PolicyError
+from .errors import HarlsyncError, InterlockError, PartlyWritten, PolicyError, partly_words
 from .families import DEFAULT
 from .families.base import AnyFamily, Option
 from .robotlog import RobotFilter
@@ -599,7 +599,9 @@ def _cmd_log(args: argparse.Namespace) -> int:
             _print(f"    reason: {r.reason}")
         for w in r.written:
             _print(f"    wrote {w.get('item')}: {w.get('old')} -> {w.get('new')}")
-        if r.failed_item:
+        if r.partly_written:
+            _print(f"    partly written: {r.partly_text()}")
+        elif r.failed_item:
             _print(f"    unknown: {r.failed_item} (may or may not have been written)")
         if r.error and r.result != "ok":
             _print(f"    error: {r.error}")
@@ -685,11 +687,13 @@ def _add_validate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .project import validate_project
+    from .project import project_notes, validate_project
 
     issues = validate_project(args.dir)
     for issue in issues:
         _print(issue)
+    for note in project_notes(args.dir):
+        _print(f"note: {note}")
     if issues:
         print(f"harlsync: {args.dir}: {len(issues)} problem(s)", file=sys.stderr)
         return EXIT_NO
@@ -1056,6 +1060,11 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
     )
 
 
+def _partly_text(partly: PartlyWritten) -> str:
+    """``x, y went out; z, hand not sent``."""
+    return partly_words(partly.sent, partly.unknown, partly.left)
+
+
 def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> int:
     from .sync.deploy import PushFailed
 
@@ -1073,7 +1082,12 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
             )
             for w in r.written:
                 print(f"  written:     {w.name}: {w.command}", file=sys.stderr)
-            if r.failed is not None:
+            if r.failed is not None and r.partly_written is not None:
+                print(
+                    f"  partly written: {r.failed.name}: {_partly_text(r.partly_written)}",
+                    file=sys.stderr,
+                )
+            elif r.failed is not None:
                 print(
                     f"  unknown:     {r.failed.name}: {r.failed.command} (may or may not "
                     "have been written)",

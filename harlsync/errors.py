@@ -21,7 +21,8 @@
         ├── InterlockError       a task is running or suspended: nothing may be written
         ├── PolicyError          dirty tree, outside the maintenance window, reconfigure not allowed
         ├── StalePlanError       the controller changed since the plan was made
-        └── VerifyError          a written item does not read back as written
+        ├── VerifyError          a written item does not read back as written
+        └── PartlyWritten        one item's write stopped part way (carries what went out)
 
     NotWritten                   mixin: a driver's write that raises it applied nothing
 
@@ -40,6 +41,7 @@ __all__ = [
     "LinkError",
     "LinkTimeout",
     "NotWritten",
+    "PartlyWritten",
     "PolicyError",
     "PortBusyError",
     "PortError",
@@ -53,6 +55,7 @@ __all__ = [
     "VerifyError",
     "WriteRefused",
     "WriteUnconfirmed",
+    "partly_words",
 ]
 
 
@@ -212,3 +215,40 @@ class StalePlanError(SyncError):
 
 class VerifyError(SyncError):
     """A written item does not read back as written."""
+
+
+class PartlyWritten(SyncError):
+    """A write of one item that takes several commands stopped part way.
+
+    ``sent`` names the parts of the item that went out and took, in the family's
+    words (``["x", "y"]``); ``unknown`` the part that may or may not have (a lost
+    reply), if any; ``left`` the parts not sent.  ``cause`` is what stopped it
+    (an :class:`InterlockError`, a lost reply ...): a push is refused or fails as
+    its cause says, and records the item as partly written.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        sent: list[str],
+        left: list[str],
+        unknown: str | None,
+        cause: HarlsyncError,
+    ) -> None:
+        self.sent = list(sent)
+        self.left = list(left)
+        self.unknown = unknown
+        self.cause = cause
+        super().__init__(message)
+
+
+def partly_words(sent: list[str], unknown: object, left: list[str]) -> str:
+    """What went out of an item written part way, for a person: ``x, y went out;
+    z may or may not have; u, hand not sent``."""
+    parts = [f"{', '.join(sent) or 'nothing'} went out"]
+    if unknown:
+        parts.append(f"{unknown} may or may not have")
+    if left:
+        parts.append(f"{', '.join(left)} not sent")
+    return "; ".join(parts)

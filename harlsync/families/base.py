@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections import Counter
-from collections.abc import Callable, Hashable, Iterable, Mapping
+from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeAlias, TypeVar, cast
@@ -110,10 +110,21 @@ class Driver(ABC, Generic[K, D]):
     #: Where the robot is, for messages: ``"port /dev/ttyUSB0 station 1"``.
     label: str = "the robot"
 
+    @property
+    def notes(self) -> Sequence[str]:
+        """What the driver did on its own to reach the robot, one sentence each (Epson:
+        a Remote Control function left in use by a harlsync that is gone, reset): the
+        pull says it and the audit log records it.  Default: nothing."""
+        return ()
+
     @abstractmethod
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> D:
+    def read_all(
+        self, *, registers: bool, progress: Progress | None = None, whole: bool = False
+    ) -> D:
         """Everything the controller holds, as the family's data (runtime data only
-        when ``registers``)."""
+        when ``registers``).  ``whole`` (a pull, a backup): also find out how far
+        each table really goes past the configured range, and raise rather than
+        return a backup that would leave part of one out."""
 
     @abstractmethod
     def status(self) -> Status:
@@ -230,6 +241,12 @@ class Catalogue(ABC, Generic[K, D]):
         version = self.version(data)
         return {"version": version} if version else {}
 
+    def other_robot(self, live: D, project: D) -> str | None:
+        """Why the controller read (``live``) is not the project's robot, for diff,
+        plan and push (a pull asks :meth:`robot_identity`); None when it is.
+        Default: None (nothing more to tell than a pull checks)."""
+        return None
+
     def contents(self, data: D, *, registers: bool) -> str:
         """What ``data`` holds, in the family's words, for the line a pull or diff
         ends with: ``"7 programs (120 steps used), 10 offset tables, 8 timers"``.
@@ -253,6 +270,9 @@ class Analysis:
     robot: Robot | None = None
     data: object = None
     issues: list[Issue] = field(default_factory=list)
+    #: what ``validate`` tells of a valid project without failing it (Epson: a
+    #: register map without Ready), one sentence each
+    notes: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -339,6 +359,10 @@ class Family(ABC, Generic[K, D]):
     deploy_notes: tuple[str, ...] = ()
     #: its options on the command line (see :class:`Option`)
     options: tuple[Option, ...] = ()
+    #: options the engine itself gives :meth:`connect`, never a person: ``unattended``
+    #: (a nightly backup: the family may recover on its own what it would otherwise
+    #: ask a person to, and say so in :attr:`Driver.notes`)
+    engine_options: frozenset[str] = frozenset()
     #: its own URL schemes (see :class:`Scheme`)
     schemes: tuple[Scheme, ...] = ()
     #: its words for the interlock
@@ -353,8 +377,9 @@ class Family(ABC, Generic[K, D]):
 
     @property
     def connect_options(self) -> frozenset[str]:
-        """The names of :attr:`options`: what :meth:`connect` takes beyond port and station."""
-        return frozenset(option.name for option in self.options)
+        """What :meth:`connect` takes beyond port and station: the names of
+        :attr:`options`, and :attr:`engine_options`."""
+        return frozenset(option.name for option in self.options) | self.engine_options
 
     @abstractmethod
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:

@@ -13,7 +13,15 @@ See docs/project-format.md for the format and how it evolves.
 """
 
 from .robot import DAYS, Robot, Window, new_robot
-from .store import Project, family_of, load_project, load_robot, save_project, validate_project
+from .store import (
+    Project,
+    family_of,
+    load_project,
+    load_robot,
+    project_notes,
+    save_project,
+    validate_project,
+)
 from .yamlio import Number
 
 __all__ = [
@@ -26,6 +34,7 @@ __all__ = [
     "load_project",
     "load_robot",
     "new_robot",
+    "project_notes",
     "save_project",
     "validate_project",
 ]

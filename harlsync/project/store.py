@@ -182,6 +182,13 @@ def validate_project(path: str | os.PathLike[str], family: AnyFamily | None = No
     return [str(issue) for issue in problems + family.analyse(files).issues]
 
 
+def project_notes(path: str | os.PathLike[str], family: AnyFamily | None = None) -> list[str]:
+    """What ``validate`` tells of the project at ``path`` beyond its issues (its
+    family's notes).  Raises as :func:`validate_project`."""
+    family, files, _ = _gather(Path(path), family)
+    return list(family.analyse(files).notes)
+
+
 def load_project(path: str | os.PathLike[str], family: AnyFamily | None = None) -> Project:
     """Read the project at ``path``, of ``family`` (default: the one its robot.yaml
     names).

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
-from ..families.base import Progress
+from ..families.base import AnyFamily, Progress
 from ..link import lock_key
 from ..project import family_of, load_robot
 from ..project.lock import project_lock
@@ -69,6 +69,8 @@ class RobotOutcome:
     last_success: str | None = None
     stale: bool = False
     never_backed_up: bool = False
+    #: what the connection recovered on its own (also in the audit log)
+    notes: list[str] = field(default_factory=list)
 
     def line(self) -> str:
         """One line as it finishes: ``press: ok, changed: 1 program (1 step) (4.0 s)``."""
@@ -163,7 +165,8 @@ class BackupReport:
             tail += f"; git push FAILED: {self.push_error} (the commit is kept locally)"
         elif self.pushed:
             tail += ", pushed"
-        return "\n".join(lines + ["", tail]) + "\n"
+        notes = [f"note: {r.name}: {note}" for r in self.robots for note in r.notes]
+        return "\n".join(lines + ["", *notes, *([""] if notes else []), tail]) + "\n"
 
 
 def find_projects(paths: Iterable[str | Path]) -> list[Path]:
@@ -235,7 +238,13 @@ def _pull_one(
     outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
     for attempt in range(1, attempts + 1):
         try:
-            result = pull(path, lock_timeout=lock_timeout, progress=progress, family=family)
+            result = pull(
+                path,
+                lock_timeout=lock_timeout,
+                progress=progress,
+                family=family,
+                connect_options=_unattended(family),
+            )
         except _Stopped:
             raise
         except LinkError as exc:  # the line may recover: try again, bounded
@@ -253,12 +262,24 @@ def _pull_one(
             outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
         outcome.ok, outcome.error = True, None
+        outcome.notes = result.notes
         outcome.changed = result.changed
         outcome.summary = result.summary
         outcome.counts = summarize(family.catalogue, result.changes or [])
         break
     outcome.duration = time.monotonic() - start
     return outcome
+
+
+def _unattended(family: AnyFamily) -> dict[str, bool]:
+    """The connection option of a run no person watches, for a family that takes it
+    (Epson: recover a Remote Control function left in use by a harlsync that is gone)."""
+    return {UNATTENDED: True} if UNATTENDED in family.connect_options else {}
+
+
+#: The connect option a family declares when it can recover on its own what it would
+#: otherwise ask a person to (see :attr:`~harlsync.families.base.Family.connect_options`).
+UNATTENDED = "unattended"
 
 
 def _backup_one(

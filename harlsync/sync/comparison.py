@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import ProjectError
 from ..families.base import Driver, Progress
 from ..project import Project, load_project
 from .items import Change, diff
@@ -78,6 +79,9 @@ def compare(
         options=connect_options,
     )
     things = project.family.catalogue
+    why = things.other_robot(read.live, project.data)
+    if why is not None:
+        raise ProjectError(f"{project.path}: not compared: {why}")
     changes = diff(things, read.live, project.data, registers=registers)
     return Comparison(
         project,

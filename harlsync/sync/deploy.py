@@ -45,6 +45,7 @@ from ..errors import (
     InterlockError,
     LinkTimeout,
     NotWritten,
+    PartlyWritten,
     PolicyError,
     PortBusyError,
     PortError,
@@ -98,6 +99,9 @@ class PushResult:
     written: list[PlannedWrite[Any]] = field(default_factory=list)
     not_written: list[PlannedWrite[Any]] = field(default_factory=list)
     failed: PlannedWrite[Any] | None = None
+    #: set when ``failed`` stopped part way (:class:`~harlsync.errors.PartlyWritten`):
+    #: its parts that went out, may have, and did not
+    partly_written: PartlyWritten | None = None
     error: str | None = None
     snapshot: Path | None = None
     audit_log: Path | None = None
@@ -248,7 +252,9 @@ def run(
             exc if isinstance(exc, HarlsyncError) else SyncError(f"{action} interrupted (Ctrl-C)")
         )
         result.error = str(stopped)
-        refused = isinstance(exc, InterlockError | PolicyError | StalePlanError)
+        if isinstance(stopped, PartlyWritten):  # refused or failed as its cause says
+            stopped = stopped.cause
+        refused = isinstance(stopped, InterlockError | PolicyError | StalePlanError)
         record["result"] = (
             "refused"
             if refused
@@ -273,6 +279,8 @@ def run(
         ]
         if result.failed is not None:
             record["failed_item"] = result.failed.name
+            if result.partly_written is not None:
+                record["partly_written"] = _partly(result.failed, result.partly_written)
         if result.warnings:
             record["warnings"] = result.warnings
         if result.written or result.failed is not None:
@@ -291,6 +299,17 @@ def run(
                 f"the audit log {audit.audit_path()} could not record the end of this {action} "
                 f"({exc}); what it wrote is listed here"
             )
+
+
+def _partly(write: PlannedWrite[Any], partly: PartlyWritten) -> dict[str, Any]:
+    """The audit record's account of an item written part way."""
+    return {
+        "item": write.name,
+        "command": write.command,
+        "sent": partly.sent,
+        "unknown": partly.unknown,
+        "not sent": partly.left,
+    }
 
 
 def _journal(record: dict[str, Any]) -> None:
@@ -381,6 +400,9 @@ def _write_all(
             driver.write(write.key, write.new, write.old, needs_idle=not live(write))
         except NotWritten:
             result.failed = None  # refused, not lost: the item is not written
+            raise
+        except PartlyWritten as exc:
+            result.partly_written = exc
             raise
         got = driver.read(write.key)
         if got != write.new:

@@ -77,6 +77,9 @@ class LiveRead(Generic[K, D]):
     warnings: list[str]
     #: when asked and the robot is not idle: why a push would be refused now
     busy: str | None = None
+    #: what the driver did on its own to read the robot (an Epson function left in
+    #: use by a dead harlsync, reset): the driver's ``notes``
+    notes: tuple[str, ...] = ()
 
 
 def read_live(
@@ -90,15 +93,18 @@ def read_live(
     lock_timeout: float,
     idle_check: bool = False,
     options: Mapping[str, bool] | None = None,
+    whole: bool = False,
 ) -> LiveRead[K, D]:
     """Everything the robot holds, read over a line opened and closed for it; with
     ``idle_check`` its state after the read too (what the interlock reads).
-    ``options`` are the connection's (see :func:`connect`)."""
+    ``options`` are the connection's (see :func:`connect`); ``whole`` (a pull): find
+    out how far each table goes and fail rather than read part of one."""
     driver = connect(family, robot, port, station, lock_timeout=lock_timeout, options=options)
     try:
         warnings = unfinished_pushes(robot, port, station)
-        live = driver.read_all(registers=registers, progress=progress)
-        return LiveRead(driver, live, warnings, _busy(driver) if idle_check else None)
+        live = driver.read_all(registers=registers, progress=progress, whole=whole)
+        busy = _busy(driver) if idle_check else None
+        return LiveRead(driver, live, warnings, busy, tuple(driver.notes))
     finally:
         driver.close()
 

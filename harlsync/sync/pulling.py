@@ -3,6 +3,7 @@ refusing a controller that does not look like the robot backed up there."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,10 +14,12 @@ from ..families.base import AnyFamily, Catalogue, Progress
 from ..project import Project, Robot, load_project, load_robot, save_project
 from ..project.lock import holding_project
 from ..project.store import family_of
-from . import git, history
+from . import audit, git, history
 from .items import Change, diff
 from .live import Station, read_live, station_number
 from .policy import earlier_pull_and_edits, listed
+
+log = logging.getLogger(__name__)
 
 __all__ = ["FEW_ITEMS", "MOST", "PullResult", "change_summary", "pull"]
 
@@ -32,6 +35,8 @@ class PullResult:
     earlier: list[str] = field(default_factory=list)
     #: What was read, in the family's words (Catalogue.contents).
     contents: str = ""
+    #: What the connection recovered on its own before reading (also in the audit log).
+    notes: list[str] = field(default_factory=list)
 
     @property
     def changed(self) -> bool:
@@ -130,8 +135,10 @@ def pull(
         progress=progress,
         lock_timeout=lock_timeout,
         options=connect_options,
+        whole=True,  # a backup finds out how far each table goes
     )
     live = read.live
+    _record_notes(path, robot, port, station, read.notes)  # it happened, whatever follows
     try:  # after the read: the first request need not wait for it (issue 15)
         previous: Any = load_project(path, family).data
     except ProjectError:
@@ -148,6 +155,7 @@ def pull(
         changes,
         earlier=earlier,
         contents=things.contents(live, registers=robot.keep_registers),
+        notes=list(read.notes),
     )
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
@@ -155,6 +163,29 @@ def pull(
         if result.commit:
             history.committed(path, result.commit)
     return result
+
+
+def _record_notes(
+    path: Path, robot: Robot, port: str | None, station: int | None, notes: tuple[str, ...]
+) -> None:
+    """What a connection recovered on its own, in the audit log (event ``recover``,
+    which :func:`.audit.results` leaves out: it is no push or rollback)."""
+    for note in notes:
+        record = audit.base_record("recover")
+        record.update(
+            event="recover",
+            robot={
+                "name": robot.name,
+                "port": port or robot.port,
+                "station": station if station is not None else robot.station,
+            },
+            project=str(path.resolve()),
+            note=note,
+        )
+        try:
+            audit.append(record)
+        except OSError as exc:
+            log.error("cannot write the audit log's record of %s: %s", note, exc)
 
 
 #: A pull that would change more than this share of the items of one kind (steps,

@@ -25,7 +25,7 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
-from ..errors import HarlsyncError
+from ..errors import HarlsyncError, partly_words
 from ..project import family_of, load_robot
 from . import audit, git, history
 from .backup import find_projects
@@ -68,6 +68,9 @@ class PushRecord:
     failed_item: str | None
     #: How many writes it planned.
     planned: int
+    #: ``{"item", "command", "sent", "unknown", "not sent"}``: the item it stopped
+    #: part way through (some of its parts went out), or None
+    partly_written: dict[str, Any] | None = None
 
     @classmethod
     def from_record(cls, record: dict[str, Any]) -> PushRecord:
@@ -88,6 +91,18 @@ class PushRecord:
             written=[w for w in record.get("written") or [] if isinstance(w, dict)],
             failed_item=record.get("failed_item"),
             planned=len(record.get("plan") or []),
+            partly_written=partly
+            if isinstance(partly := record.get("partly_written"), dict)
+            else None,
+        )
+
+    def partly_text(self) -> str:
+        """``P12: x, y went out; z, hand not sent`` ("" when nothing was partly written)."""
+        p = self.partly_written
+        if not p:
+            return ""
+        return f"{p.get('item')}: " + partly_words(
+            _names(p.get("sent")), p.get("unknown"), _names(p.get("not sent"))
         )
 
     def describe(self) -> str:
@@ -99,13 +114,19 @@ class PushRecord:
         text = f"by {self.user}@{self.host}"
         if self.written or self.planned:
             text += f", wrote {len(self.written)} of {self.planned} item(s)"
-        if self.failed_item:
+        if self.partly_written:
+            text += f", partly written: {self.partly_text()}"
+        elif self.failed_item:
             text += f", {self.failed_item} unknown"
         if self.reason:
             text += f': "{self.reason}"'
         if self.error and self.result != "ok":
             text += f" ({self.error})"
         return text
+
+
+def _names(value: object) -> list[str]:
+    return [str(v) for v in value] if isinstance(value, list) else []
 
 
 @dataclass
@@ -325,6 +346,14 @@ def _robot_status(
     status.pushes = [PushRecord.from_record(r) for r in mine]
     status.last_push = status.pushes[-1] if status.pushes else None
     status.unfinished = [audit.describe_unfinished(r) for r in audit.unsettled(mine)]
+    last = status.last_push
+    if last is not None and last.partly_written:
+        # The item holds neither what it held nor what the push wanted, until the
+        # next push or rollback completes it.
+        status.unfinished.append(
+            f"the last {last.action} ({local_time(last.time)}) stopped part way through "
+            f"{last.partly_text()}; run it again (or roll back) to complete it"
+        )
     status.state = _state(status)
     return status
 

@@ -88,6 +88,23 @@ class FakeController:
     _wait: int = 0
     _latched: tuple[int, ...] = ()
     _seen: tuple[bool, bool, bool] = (False, False, False)
+    #: Ready follows the state signals, as the controller's does (Ready 1 when no
+    #: task runs or pauses, no error, no emergency stop); False: set by hand only
+    ready_follows: bool = True
+
+    def __post_init__(self) -> None:
+        self._follow()
+
+    def _follow(self) -> None:
+        ready = self.map.ready
+        if self.ready_follows and ready is not None:
+            busy = ("Running", "Paused", "Error", "EStopOn")
+            on = any(
+                self.inputs[b.register] >> b.bit & 1
+                for name in busy
+                if (b := self.map.signal(name)) is not None
+            )
+            self._put(ready, not on)
 
     # --- the register access the handshake uses ---------------------------------------
 
@@ -115,6 +132,8 @@ class FakeController:
         bit = self.map.signal(name)
         assert bit is not None, name
         self._put(bit, on)
+        if name != "Ready":
+            self._follow()
 
     def preset(self, name: str, on: bool) -> None:
         """Set one of the controller's inputs as an earlier client left it (no edge)."""

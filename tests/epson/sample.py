@@ -18,10 +18,13 @@ from harlsync.families.epson.protocol import (
 OFF = Limits("0.000", "0.000")
 
 
-def sample_data(axes: int = 4) -> EpsonData:
-    """A SCARA (or with ``axes`` 6 a 6-AXIS robot) with some of everything."""
+def sample_data(axes: int = 4, *, rs: bool = False) -> EpsonData:
+    """A SCARA (with ``rs`` an RS robot, or with ``axes`` 6 a 6-AXIS robot) with some
+    of everything, the points with their type's own attributes."""
     zeros = ("0.000",) * axes
-    data = EpsonData(3 if axes == 4 else 5, axes, "LS6-B602S" if axes == 4 else "C4-A601S")
+    robot_type = 5 if axes == 6 else 6 if rs else 3
+    model = {3: "LS6-B602S", 5: "C4-A601S", 6: "RS4-551S"}[robot_type]
+    data = EpsonData(robot_type, axes, model)
     items = data.items
     items[TableKey("accel", 0)] = AccelPercent(100, 100)
     items[TableKey("accel_s", 3)] = AccelReal("100.123", "200.000")
@@ -49,9 +52,14 @@ def sample_data(axes: int = 4) -> EpsonData:
         items[SettingKey("jrange", joint)] = PulseLimits(-100000, 100000)
     items[SettingKey("base")] = zeros
     items[SettingKey("limz")] = "-10.000"
-    items[PointKey("point", 0)] = Point(("0.000", "400.000", *("0.000",) * (axes - 2)), hand=1)
+    six = robot_type == 5
+    flags = {"j1flag": 0, "j2flag": 0} if six else {}
+    angle = {"j1angle": "0.000"} if rs else {}
+    items[PointKey("point", 0)] = Point(
+        ("0.000", "400.000", *("0.000",) * (axes - 2)), hand=1, **flags, **angle
+    )
     items[PointKey("point", 12)] = Point(
-        ("1.000", "400.000", "-10.500", *("90.000",) * (axes - 3)), elbow=1
+        ("1.000", "400.000", "-10.500", *("90.000",) * (axes - 3)), elbow=1, **flags, **angle
     )
     items[PointKey("point", 13)] = Point(
         ("-1.000", "300.000", *("0.000",) * (axes - 2)),
@@ -60,5 +68,7 @@ def sample_data(axes: int = 4) -> EpsonData:
         j4flag=1,
         j6flag=5,
         local=1,
+        **({"j1flag": 1, "j2flag": 1} if six else {}),
+        **({"j1angle": "-12.500"} if rs else {}),
     )
     return data

@@ -18,6 +18,7 @@ import pytest
 from conftest import git
 
 from harlsync import cli
+from harlsync.families.epson import profile
 from harlsync.families.epson.model import SettingKey, TableKey
 from harlsync.families.epson.protocol import AccelReal, Limits, SpeedReal
 from harlsync.families.epson.sim import CommandReceived, SimState, Simulator
@@ -30,7 +31,7 @@ from harlsync.families.iai.sim import Simulator as IaiSimulator
 from harlsync.project import load_project
 from harlsync.sim.control import apply_command
 from harlsync.sim.serve import PtyServer, TcpServer
-from harlsync.sync import engine
+from harlsync.sync import audit, engine
 from harlsync.sync.backup import backup
 
 from .projects import edit, pulled
@@ -86,6 +87,39 @@ def test_a_pull_backs_up_every_setting_and_point_exactly_and_diff_finds_no_diffe
     assert numbers(sim.commands()[:2]) == [2153, 2154]
     assert cli.main(["diff", str(project)]) == 0
     assert written(sim) == []
+
+
+def test_points_past_the_range_fail_the_pull_and_the_backup_naming_the_setting(
+    robot, repo, capsys, monkeypatch
+) -> None:
+    """Issue 20 item 1: points past P99 were never read, and the pull said nothing."""
+    monkeypatch.setattr(profile, "POINT_PROBE_END", 450)
+    sim, url = robot
+    project = pulled(repo, url)  # last_point: 29 from here on
+    capsys.readouterr()
+    st = sim.stations[1]
+    for n in (30, 31, 32, 150, 400):
+        st.points[n] = st.points[12]
+    before = (project / "points.yaml").read_text()
+    assert cli.main(["pull", str(project)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "5 point(s) defined past controller.last_point 29" in err[0]
+    assert "P30-P32, P150, P400" in err[0]
+    assert "set controller.last_point: 400 (or more) in robot.yaml and pull again" in err[0]
+    assert (project / "points.yaml").read_text() == before  # nothing saved
+    report = backup([repo])
+    assert not report.ok
+    (cell,) = report.robots
+    assert not cell.ok and "defined past controller.last_point 29" in (cell.error or "")
+    assert "0 of 1 robot(s) backed up" in report.render()
+    edit(project, repo, "robot.yaml", "last_point: 29", "last_point: 400")
+    result = engine.pull(project)  # the closing line on a terminal says its contents
+    assert result.contents.endswith("points (P0-P400 read, none defined P401-P450)")
+    assert (
+        "P0-P400 read, none defined P401-P450 when pulled" in (project / "points.yaml").read_text()
+    )
+    assert {150, 400} <= set(load_project(project).data.points())
 
 
 def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsys) -> None:
@@ -240,6 +274,49 @@ def test_a_program_started_mid_push_gets_no_write_after_it(robot, repo, capsys) 
     apply_command(sim, "stop")
 
 
+def test_a_point_interrupted_part_way_is_recorded_as_partly_written_and_completed_next(
+    robot, repo, capsys
+) -> None:
+    """Issue 19 item 3: a point is several writes; the robot started after the first
+    stops the rest, and the result, the audit record and status name what went out
+    (the push said "nothing written" while z had changed)."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit_p12(project, repo)
+    sim.busy_after_writes = sim.writes + 1
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert "partly written: P12: z went out; hand not sent" in err
+    assert "nothing written" not in err
+    assert numbers(written(sim)) == [1204]
+    st = sim.stations[1]
+    assert st.points[12].coords[2] == -10750 and st.points[12].hand == 0
+    record = audit.read()[-1]
+    assert record["partly_written"] == {
+        "item": "P12",
+        "command": record["partly_written"]["command"],
+        "sent": ["z"],
+        "unknown": None,
+        "not sent": ["hand"],
+    }
+    assert cli.main(["status", str(project)]) == 1
+    out = capsys.readouterr().out
+    assert "unfinished push" in out
+    assert "stopped part way through P12: z went out; hand not sent" in out
+    assert cli.main(["log", str(project)]) == 0
+    assert "partly written: P12: z went out; hand not sent" in capsys.readouterr().out
+    sim.busy_after_writes = 0
+    apply_command(sim, "stop")
+    taken = len(sim.commands())
+    assert cli.main(["push", str(project), "--yes"]) == 0  # completes it: hand only
+    assert numbers(written(sim, taken)) == [1206]
+    assert cli.main(["diff", str(project)]) == 0
+    capsys.readouterr()
+    cli.main(["status", str(project)])
+    assert "part way" not in capsys.readouterr().out
+
+
 def test_a_robot_whose_map_lacks_running_paused_or_estop_is_read_but_never_written(
     robot, repo, capsys
 ) -> None:
@@ -287,13 +364,7 @@ def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(robo
 def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(robot, repo) -> None:
     sim, url = robot
     project = pulled(repo, url)
-    edit(
-        project,
-        repo,
-        "points.yaml",
-        "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, hand: Lefty",
-        "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty",
-    )
+    edit_p12(project, repo)
     edit(
         project,
         repo,
@@ -439,6 +510,30 @@ def test_a_robot_of_another_type_than_robot_yaml_says_is_refused(robot, repo, ca
     )
 
 
+def test_a_push_or_diff_to_a_controller_of_another_model_is_refused_in_one_line(
+    robot, repo, capsys
+) -> None:
+    """Issue 22 item 6: push and diff compare the controller's model (2154) with the
+    project's, as pull does."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "settings.yaml", "limz: -10.000", "limz: -12.000")
+    sim.stations[1].model = "G3-301S"
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    why = (
+        "the project is of a LS6-B602S, the controller reports a G3-301S (2154): another "
+        "robot, or a replaced one; check the port, or accept it with 'harlsync pull DIR "
+        "--new-robot'"
+    )
+    assert err[-1].endswith(why), err
+    assert written(sim) == []
+    assert cli.main(["diff", str(project)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"harlsync: error: {project}: not compared: {why}"], err
+
+
 def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     robot, repo, capsys
 ) -> None:
@@ -456,3 +551,166 @@ def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     sent = set(numbers(sim.commands()[taken:]))
     assert {60, 61} <= sent and 59 not in sent  # AccelS was read in halves
     assert 210 not in sent
+
+
+@pytest.mark.parametrize(
+    ("data", "field", "old", "new", "command"),
+    [
+        (sample_data(axes=6), "j1flag", "j1flag: 1", "j1flag: 0", 1223),
+        (sample_data(axes=6), "j2flag", "j2flag: 1", "j2flag: 0", 1225),
+        (sample_data(rs=True), "j1angle", "j1angle: -12.500", "j1angle: 30.250", 1227),
+    ],
+    ids=["6-axis J1Flag", "6-axis J2Flag", "RS J1Angle"],
+)
+def test_a_robot_types_own_point_attributes_are_backed_up_diffed_pushed_and_verified(
+    repo, capsys, data, field, old, new, command
+) -> None:
+    """Issue 20 item 2: J1Flag/J2Flag (6-axis, manual 10.25) and J1Angle (RS) were not
+    kept, so a restore gave every point flag 0: another joint solution."""
+    sim = Simulator(SimState.from_data(data), execution_time=0.0)
+    with sim.serve() as server:
+        project = pulled(repo, server.url)
+        assert load_project(project).data.items == data.items  # kept, exactly
+        line = next(t for t in (project / "points.yaml").read_text().splitlines() if "13:" in t)
+        assert old in line
+        edit(project, repo, "points.yaml", old, new)
+        capsys.readouterr()
+        assert cli.main(["diff", str(project)]) == 1
+        out = capsys.readouterr().out
+        assert f"P13 {field}" in out
+        taken = len(sim.commands())
+        assert cli.main(["push", str(project), "--yes"]) == 0
+        assert numbers(written(sim, taken)) == [command]
+        held = sim.stations[1].points[13]
+        assert {"j1flag": held.j1flag, "j2flag": held.j2flag, "j1angle": held.j1angle}[field] == (
+            {"j1flag": 0, "j2flag": 0, "j1angle": 30250}[field]
+        )
+        assert cli.main(["diff", str(project)]) == 0
+    clean(sim)
+
+
+def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(repo) -> None:
+    sim = Simulator(SimState.from_data(sample_data(axes=6)), execution_time=0.0)
+    with sim.serve() as server:
+        project = pulled(repo, server.url)
+    path = project / "points.yaml"
+    path.write_text(path.read_text().replace(", j1flag: 1, j2flag: 1", ""))
+    from harlsync.project import validate_project
+
+    issues = validate_project(project)
+    assert any(
+        "points.13: j1flag, j2flag missing: a 6-AXIS robot's points have j1flag and j2flag" in i
+        for i in issues
+    ), issues
+
+
+def edit_p12(project, repo) -> None:
+    """P12's z and hand changed in the project (two writes: 1204 then 1206)."""
+    edit(
+        project,
+        repo,
+        "points.yaml",
+        "12: {x: 1.000, y: 400.000, z: -10.500, u: 90.000, hand: Lefty",
+        "12: {x: 1.000, y: 400.000, z: -10.750, u: 90.000, hand: Righty",
+    )
+
+
+def _blank(state: SimState) -> SimState:
+    """The same manipulator as a new controller has it: its memory lost."""
+    return SimState(robot_type=state.robot_type, model=state.model)
+
+
+@pytest.mark.parametrize(
+    "state",
+    [
+        pytest.param(lambda: SimState.from_data(sample_data()), id="sample SCARA"),
+        pytest.param(
+            lambda: SimState.generate(11, robot_type=5, point_range=(0, 99)),
+            id="generated 6-axis",
+            marks=pytest.mark.slow,
+        ),
+    ],
+)
+def test_disaster_recovery_drill_a_blank_controller_gets_its_backup_back(
+    repo, capsys, state
+) -> None:
+    """Issue 20 item 6, over real TCP: back up; the controller comes up blank; push
+    the backup; diff is clean and the simulator holds what it held."""
+    original = state()
+    sim = Simulator(original.copy(), execution_time=0.0)
+    project = repo / "cell"
+    with sim.serve() as server:
+        assert cli.main(["pull", str(project), "--family", "epson", "--port", server.url]) == 0
+    clean(sim)
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "backup")
+    blank = Simulator(_blank(original), execution_time=0.0)
+    with blank.serve() as server:
+        edit(project, repo, "robot.yaml", sim_url := _port_of(project), server.url)
+        assert sim_url != server.url
+        capsys.readouterr()
+        assert cli.main(["diff", str(project)]) == 1  # the memory lost
+        assert cli.main(["push", str(project), "--yes", "--reason", "restore"]) == 0
+        out = capsys.readouterr().out
+        assert "wrote and verified" in out
+        assert cli.main(["diff", str(project)]) == 0
+    clean(blank)
+    restored = blank.stations[1]
+    assert restored.memory() == original.memory()  # what survives a power cycle
+    for table in ("accel", "accel_s", "accel_r", "speed", "speed_s", "speed_r", "limz"):
+        assert getattr(restored, table) == getattr(original, table), table
+
+
+def _port_of(project) -> str:
+    line = next(t for t in (project / "robot.yaml").read_text().splitlines() if "port:" in t)
+    return line.split("port:", 1)[1].strip()
+
+
+def _left_in_use(sim: Simulator) -> None:
+    """What a harlsync killed mid-command leaves: ExtCmdSet 1 on a command the
+    controller took (ExtCmdGet 1), never cleared."""
+    station = sim._controllers[1]
+    station.write_holding(0, [0b100])  # ExtCmdReset 1
+    station.write_holding(1, [2153, 0, 0, 0, 0, 0, 0, 0])  # read the robot type
+    station.write_holding(0, [0b101])  # ExtCmdSet 1, and the process is gone
+    station.read_input(0, 9)  # the controller takes it
+
+
+def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
+    robot, repo, capsys
+) -> None:
+    """Issue 22 item 8: every later night failed that robot until a person ran
+    pull --reset-function."""
+    sim, url = robot
+    project = pulled(repo, url)
+    _left_in_use(sim)
+    capsys.readouterr()
+    assert cli.main(["diff", str(project)]) == 2  # a person is asked, nothing is reset
+    assert "the Remote Control function is in use (ExtCmdSet 1, ExtCmdGet 1)" in (
+        capsys.readouterr().err
+    )
+    report = backup([repo])
+    assert report.ok, report.render()
+    note = (
+        "the Remote Control function was found in use (ExtCmdSet 1, ExtCmdGet 1) with no "
+        "harlsync on the line and Running 0: left by a harlsync that is gone; reset (manual "
+        "6.5.2) before the backup"
+    )
+    assert f"note: cell-3: {note}" in report.render()
+    (record,) = [r for r in audit.read() if r.get("event") == "recover"]
+    assert record["note"] == note and record["robot"]["name"] == "cell-3"
+    assert audit.results() == []  # no push or rollback
+    assert cli.main(["diff", str(project)]) == 0
+
+
+def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(robot, repo) -> None:
+    sim, url = robot
+    project = pulled(repo, url)
+    _left_in_use(sim)
+    apply_command(sim, "run")
+    report = backup([repo])
+    assert not report.ok
+    assert "the Remote Control function is in use" in (report.robots[0].error or "")
+    assert [r for r in audit.read() if r.get("event") == "recover"] == []
+    apply_command(sim, "stop")
+    assert sim.stations[1].points and project.exists()

@@ -60,9 +60,10 @@ def test_one_command_goes_through_the_ten_steps_in_order() -> None:
         (0, (0b110,)),  # step 8: ExtRespGet 1
         (0, (0b100,)),  # step 10: ExtRespGet 0
     ]
-    # the step 1 check, then one poll each for steps 4, 6 and 9: the least the
-    # handshake allows; its own inputs are read once, at the start
-    assert [op.kind for op in fake.log].count("read_input") == 4
+    # Ready before the reset is raised (§6.2), the step 1 check, then one poll each
+    # for steps 4, 6 and 9: the least the handshake allows; its own inputs are read
+    # once, at the start
+    assert [op.kind for op in fake.log].count("read_input") == 5
     assert [op.kind for op in fake.log].count("read_holding") == 1
     assert fake.taken == [(0x003B, 0x000F, 0, 0, 0, 0, 0, 0)]
     assert fake.function_errors == []
@@ -253,7 +254,7 @@ def test_a_write_is_refused_while_an_interlock_signal_is_1_and_a_read_is_not(sig
     with pytest.raises(InterlockError) as caught:
         hs.execute(p.select_tool(5).requests[0])
     assert f"{signal} 1 (" in one_line(caught.value)
-    assert "command 500 (Tool) not sent, nothing written" in str(caught.value)
+    assert "command 500 (Tool) not sent" in str(caught.value)
     with pytest.raises(InterlockError):
         hs.execute_sequence(p.set_base(["1", "2", "3", "4"]))
     assert fake.command_writes() == []
@@ -261,16 +262,85 @@ def test_a_write_is_refused_while_an_interlock_signal_is_1_and_a_read_is_not(sig
     assert hs.execute(p.read_accel_s(15)) == VALUES
 
 
-def test_a_sequence_looks_at_the_interlock_once_and_then_goes_out_back_to_back() -> None:
+def test_a_sequence_stops_where_the_robot_leaves_idle_and_says_the_controller_cancels_it() -> None:
+    """Issue 19 item 4: the interlock before every command of an Rn sequence, not
+    only the first (it was read once, and the other three went to a running robot)."""
     fake = controller()
 
     def answer(words: tuple[int, ...]) -> tuple[bool, tuple[int, ...]]:
-        fake.set_signal("Running", True)  # a task starts after the first command
+        if len(fake.taken) == 2:
+            fake.set_signal("Running", True)  # a task starts after the second command
         return False, (words[0], 0, 0)
 
     fake.answer = answer
+    with pytest.raises(InterlockError) as caught:
+        handshake(fake).execute_sequence(p.set_base(["1", "2", "3", "4"]))
+    assert [w[:2] for w in fake.taken] == [(0x0352, c) for c in range(2)]
+    text = one_line(caught.value)
+    assert "Running 1 (a task is executing)" in text
+    assert "Base stopped after 2 of its 4 commands" in text
+    assert "the controller cancels an unfinished sequence" in text
+
+
+def test_a_sequence_of_an_idle_robot_goes_out_whole() -> None:
+    fake = controller()
     assert handshake(fake).execute_sequence(p.set_base(["1", "2", "3", "4"])) is None
     assert [w[:2] for w in fake.taken] == [(0x0352, c) for c in range(4)]
+
+
+def test_ready_0_on_an_otherwise_idle_robot_refuses_a_write_and_not_a_read() -> None:
+    """Issue 19 item 5: a status bit mapped to an unused address reads 0 and looked
+    idle; Ready must read 1 before a write."""
+    fake = controller(ready_follows=False)
+    fake.set_signal("Ready", True)
+    hs = handshake(fake)
+    hs.start()
+    fake.set_signal("Ready", False)  # e.g. Ready and Running mapped to unused bits
+    with pytest.raises(InterlockError) as caught:
+        hs.execute(p.select_tool(5).requests[0])
+    assert "Ready 0 (the controller is not ready" in one_line(caught.value)
+    assert fake.command_writes() == []
+    assert hs.execute(p.read_accel_s(15)) == VALUES
+    assert not hs.status().idle
+
+
+def test_ready_and_running_both_1_is_a_map_that_is_wrong() -> None:
+    fake = controller(ready_follows=False)
+    fake.set_signal("Ready", True)
+    hs = handshake(fake)
+    hs.start()
+    fake.set_signal("Running", True)
+    status = hs.status()
+    assert not status.idle
+    assert status.describe().startswith("Ready 1 and Running 1 together")
+    with pytest.raises(InterlockError, match="mapped to the wrong bit"):
+        hs.execute(p.select_tool(5).requests[0])
+    assert fake.command_writes() == []
+
+
+def test_the_reset_is_raised_only_once_the_controller_shows_ready() -> None:
+    """Manual §6.2: release the reset after the controller becomes operable."""
+    fake = controller(ready_follows=False)
+    polls = []
+
+    def read_input(address: int, count: int) -> list[int]:
+        polls.append(fake.input_signal("ExtCmdReset"))
+        if len(polls) == 3:
+            fake.set_signal("Ready", True)  # start-up completes
+        return FakeController.read_input(fake, address, count)
+
+    fake.read_input = read_input  # type: ignore[method-assign]
+    handshake(fake).start()
+    assert polls == [False, False, False]  # ExtCmdReset stayed 0 while Ready was 0
+    assert fake.input_signal("ExtCmdReset")
+
+
+def test_a_controller_that_never_shows_ready_is_not_started() -> None:
+    fake = controller(ready_follows=False)
+    with pytest.raises(HandshakeTimeout) as caught:
+        handshake(fake).start()
+    assert "ExtCmdReset not raised (§6.2)" in one_line(caught.value)
+    assert not fake.input_signal("ExtCmdReset")
 
 
 def test_a_robot_whose_map_lacks_paused_is_read_but_never_written() -> None:

@@ -7,10 +7,11 @@ from the simulated controller's own record (``Simulator.commands()``, and for ea
 command the client's last status read before its command words,
 :attr:`Operator.arrival`), never from what harlsync believed:
 
-1. every write command that starts a write (a lone command, or the first of a
-   split or Rn sequence, which the profile sends back to back) arrived after a
-   status read that found Running, Paused, EStopOn and Error at 0 and the function
-   idle (ExtCmdReset 1, every other handshake signal 0);
+1. every write command (a lone command, and each command of a split or Rn
+   sequence, issue 19 item 4) arrived after a status read that found Running,
+   Paused, EStopOn and Error at 0 and the function idle (ExtCmdReset 1, every
+   other handshake signal 0), as the simulator's own map places them, whatever
+   map the client was given;
 2. hence no such write arrived while the robot was not idle, except in the window
    no client can close: the operator acting after that status read was answered
    and before the command was taken (counted, ``race``, only when the operator's
@@ -25,16 +26,26 @@ command the client's last status read before its command words,
 6. the snapshot taken before the first write is what the robot held;
 7. once the operator stops and the line is clean, the same push converges (or is
    refused again, writing nothing, when the project lacks an item the robot has:
-   no Remote Control command unregisters a table entry or deletes a point).
+   no Remote Control command unregisters a table entry or deletes a point);
+8. a point stopped part way (issue 19 item 3) is named partly written, in the
+   result and the audit record, with the fields the simulator holds new; a split
+   or Rn sequence stopped part way left its item as it was (the controller
+   cancels it); an item is never left holding part of a sequence.
 
-A case is: a generated robot (SCARA or six-axis, ``SimState.generate``); a
-project made from it by a random diff (table entries, settings and points taken
+Most cases (the rest are below) are: a generated robot (SCARA or six-axis,
+``SimState.generate``); a project made from it by a random diff (table entries, settings and points taken
 from another generated robot of the same type, new table entries and points,
 rarely one left out); and, at random moments (after the k-th Modbus request,
 most of them while the push writes), an operator who runs, pauses, presses the
 emergency stop, puts the controller in error or stops it (idle again); Modbus
 replies dropped (the write or read still takes effect; the link sends it again);
 and slow execution (a command that runs past the handshake's deadline).
+
+The others aim at what issue 19 found: a point of several fields with the
+operator starting a task part way through it; an Rn or split write (Box, Plane,
+Local, Base, XYLim) likewise; and a register map with Running (a status bit the
+controller does not drive there, reading 0) or Ready mapped to an unused bit:
+Ready 0 must stop every write, the first push refused writing nothing.
 
 The push runs in memory: the engine and the Epson driver, controller and
 handshake as they are, over the simulator's register bank (its Remote I/O and
@@ -50,7 +61,7 @@ from __future__ import annotations
 import json
 import random
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -102,6 +113,7 @@ from harlsync.families.epson.sim.commands import WRITES
 from harlsync.project import Project
 from harlsync.sim import Faults
 from harlsync.sync import PushFailed, PushOptions, engine
+from harlsync.sync import audit as audit_log
 from harlsync.sync import items as sync_items
 from harlsync.sync.plan import PlannedWrite
 
@@ -323,10 +335,20 @@ def data_of(state: SimState, first: int = FIRST, last: int = LAST) -> EpsonData:
         items[SettingKey("jrange", joint)] = PulseLimits(lo, hi)
     items[SettingKey("base")] = tuple(t(c) for c in state.base)
     items[SettingKey("limz")] = t(state.limz)
+    six, rs = state.robot_type == 5, state.robot_type == 6
     for n, p in state.points.items():
         if first <= n <= last:
             items[PointKey("point", n)] = Point(
-                tuple(t(c) for c in p.coords), p.hand, p.elbow, p.wrist, p.j4flag, p.j6flag, p.local
+                tuple(t(c) for c in p.coords),
+                p.hand,
+                p.elbow,
+                p.wrist,
+                p.j4flag,
+                p.j6flag,
+                p.local,
+                p.j1flag if six else None,
+                p.j2flag if six else None,
+                t(p.j1angle) if rs else None,
             )
     return data
 
@@ -359,6 +381,11 @@ class Case:
     sim: Operator
     clock: FakeClock
     story: list[str] = field(default_factory=list)
+    #: the register map the client is given (robot.yaml's), None: the profile's
+    client_map: dict[str, Any] | None = None
+    #: what the case aims at: "random", "point", "sequence", "running mis-mapped",
+    #: "ready mis-mapped"
+    kind: str = "random"
 
     def why(self, message: str) -> str:
         return explain(self.seed, self.story + self.sim.done, message)
@@ -385,15 +412,7 @@ def random_target(rng: random.Random, state: SimState, story: list[str]) -> Epso
         if isinstance(key, PointKey):
             old = target.items.get(key)
             # no command sets a point back to no Local, nor may it name an undefined one
-            value = Point(
-                value.coords,
-                value.hand,
-                value.elbow,
-                value.wrist,
-                value.j4flag,
-                value.j6flag,
-                old.local if isinstance(old, Point) else 0,
-            )
+            value = replace(value, local=old.local if isinstance(old, Point) else 0)
         elif key.kind == "local" and any(
             isinstance(k, PointKey) and v.local == key.number for k, v in target.items.items()
         ):
@@ -408,9 +427,68 @@ def random_target(rng: random.Random, state: SimState, story: list[str]) -> Epso
     return target
 
 
+#: Bits of out_base the simulator does not drive: a signal mapped there reads 0.
+UNUSED = {"register": 0, "bit": 14}
+#: Kinds whose operator acts after this many requests of the first write (about
+#: one command each 7 requests: step 1, words, set, 4 polls ...)
+AIMED = ("point", "sequence")
+#: The Rn and split settings an aimed sequence case changes.
+SEQUENCES = ("box", "plane", "local", "base", "xylim")
+
+
+def aimed_target(rng: random.Random, state: SimState, kind: str, story: list[str]) -> EpsonData:
+    """The robot's data with one item changed: a point in several fields (or a new
+    one), or an Rn/split setting."""
+    before = data_of(state)
+    other = data_of(
+        SimState.generate(
+            rng.randrange(2**31), robot_type=state.robot_type, point_range=(FIRST, LAST)
+        )
+    )
+    target = EpsonData(before.robot_type, before.axes, before.model, dict(before.items))
+    if kind == "point":
+        points = [k for k, v in other.items.items() if isinstance(k, PointKey)]
+        key = rng.choice(points)
+        new = other.items[key]
+        old = before.items.get(key)
+        local = old.local if isinstance(old, Point) else 0
+        target.items[key] = replace(new, local=local)
+    else:
+        name = rng.choice(SEQUENCES)
+        keys = [
+            k
+            for k in other.items
+            if k.kind == name and other.items[k] != before.items.get(k) and k.number != 0
+        ]
+        if name == "local":  # a Local a point uses is kept (only to keep the case simple)
+            used = {v.local for k, v in before.items.items() if isinstance(k, PointKey)}
+            keys = [k for k in keys if k.number not in used]
+        if not keys:
+            story.append(f"{kind}: no {name} to change")
+            return target
+        key = rng.choice(keys)
+        target.items[key] = other.items[key]
+    story.append(f"{kind}: {CATALOGUE.describe(key)} changed")
+    return target
+
+
 def make_case(seed: int) -> Case:
     rng = random.Random(seed)
     story: list[str] = []
+    draw = rng.random()
+    kind = (
+        "point"
+        if draw < 0.08
+        else "sequence"
+        if draw < 0.16
+        else "running mis-mapped"
+        if draw < 0.19
+        else "ready mis-mapped"
+        if draw < 0.22
+        else "random"
+    )
+    if kind != "random":
+        return make_aimed_case(seed, rng, kind, story)
     state = SimState.generate(rng.randrange(2**31), point_range=(FIRST, LAST))
     story.append(f"robot: type {state.robot_type}, {len(state.points)} points")
     before = data_of(state)
@@ -445,6 +523,30 @@ def make_case(seed: int) -> Case:
         )
     sim.schedule = schedule
     return Case(seed, before, target, sim, clock, story)
+
+
+def make_aimed_case(seed: int, rng: random.Random, kind: str, story: list[str]) -> Case:
+    """A case aimed at one of issue 19's holes (see the module's docstring)."""
+    state = SimState.generate(rng.randrange(2**31), point_range=(FIRST, LAST))
+    story.append(f"robot: type {state.robot_type}, {len(state.points)} points")
+    before = data_of(state)
+    clock = FakeClock()
+    sim = Operator(state, clock, seed=rng.randrange(2**32))
+    client_map: dict[str, Any] | None = None
+    if kind in AIMED:
+        target = aimed_target(rng, state, kind, story)
+        # after the first command of the write, before its last
+        sim.schedule = [(-1 - rng.randrange(5, 30), verb(rng.choice(["run", "pause", "estop"])))]
+    else:
+        target = random_target(rng, state, story)
+        signal = "Running" if kind == "running mis-mapped" else "Ready"
+        client_map = {"signals": {signal: dict(UNUSED)}}
+        # the robot is already running, or is started while the push reads
+        sim.schedule = [(rng.choice([0, rng.randrange(200)]), verb("run"))]
+        if kind == "ready mis-mapped":
+            sim.schedule = [] if rng.random() < 0.5 else sim.schedule
+    story.append(f"case: {kind}")
+    return Case(seed, before, target, sim, clock, story, client_map, kind)
 
 
 # --- pushing a case --------------------------------------------------------------------------
@@ -482,6 +584,8 @@ def in_memory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Deploy:
             poll_interval=POLL,
             deadline=deadline,
         )
+        if case.client_map is not None:
+            robot.options["map"] = case.client_map
         project = Project(tmp_path / f"case-{case.seed}", robot, case.target)
         opts = PushOptions(yes=True, allow_dirty=True)
         first, before = len(case.sim.commands()), len(taken)
@@ -507,6 +611,11 @@ class EpsonTally(Tally):
     sequences: int = 0
     points_written: int = 0
     dropped: int = 0
+    #: points recorded partly written; sequences stopped part way; pushes refused
+    #: for Ready 0 (a mis-mapped map)
+    partly: int = 0
+    sequences_stopped: int = 0
+    not_ready: int = 0
 
 
 _PAYLOADS = Controller(Handshake(None, RegisterMap()))  # type: ignore[arg-type]
@@ -535,7 +644,7 @@ def check_interlock(case: Case, got: Outcome, tally: EpsonTally) -> None:
     commands = sim.commands()
     for i in range(got.first, len(commands)):
         r: CommandReceived = commands[i]
-        if not r.is_write or r.continuation:
+        if not r.is_write:
             continue
         seen = sim.arrival[i]
         name = f"command {r.number} ({r.payload}, #{i})"
@@ -577,6 +686,69 @@ def check_sent(case: Case, got: Outcome) -> None:
             )
 
 
+def check_stopped_item(case: Case, got: Outcome, tally: EpsonTally) -> None:
+    """Where a push stopped inside an item: a point is named partly written with
+    exactly the fields the simulator holds new; any other item holds its old value
+    or its new one, never part of a sequence, and its old one when the sequence
+    was stopped part way (the controller cancels it)."""
+    result, w = got.result, got.result.failed
+    partly = result.partly_written
+    if w is None:
+        assert partly is None, case.why("partly written, yet no item stopped")
+        return
+    now = data_of(case.sim.state).items.get(PointKey("point", w.key.number))
+    record = audit_log.read()[-1]
+    if not isinstance(w.key, PointWrite):
+        assert partly is None, case.why(f"{w.name} partly written: it is one sequence")
+        held = data_of(case.sim.state).items.get(w.key)
+        assert held in (w.old, w.new), case.why(f"{w.name} holds part of its sequence: {held}")
+        if "stopped after" in (result.error or ""):
+            tally.sequences_stopped += 1
+            assert held == w.old, case.why(f"{w.name} took effect though its sequence stopped")
+        return
+    fields = list(w.key.fields)
+    new_fields = dict(w.new.fields())
+    old_fields = dict(w.old.fields()) if w.old is not None else {}
+    held_fields = dict(now.fields()) if now is not None else {}
+    took = [f for f in fields if held_fields.get(f) == new_fields[f] != old_fields.get(f)]
+    changed = [f for f in fields if new_fields[f] != old_fields.get(f)]
+    if partly is None:
+        # nothing of it went out, or (a lost reply) its first field may have, or all
+        # of it did and what failed came after (its read-back)
+        assert took in ([], changed[:1], changed), case.why(
+            f"{w.name}: fields {took} took, yet the push does not say partly written"
+        )
+        assert "partly_written" not in record, case.why("audit record says partly written")
+        return
+    tally.partly += 1
+    assert partly.sent == fields[: len(partly.sent)] and partly.sent, case.why(
+        f"{w.name}: partly written {partly.sent}, not its first fields {fields}"
+    )
+    assert set(partly.sent) <= set(took) | {f for f in partly.sent if f not in old_fields}, (
+        case.why(f"{w.name}: {partly.sent} said to have gone out, the robot holds {held_fields}")
+    )
+    for f in partly.left:
+        if f in old_fields:
+            assert held_fields.get(f) == old_fields[f], case.why(
+                f"{w.name} {f}: said not sent, yet the robot holds {held_fields.get(f)}"
+            )
+    assert "nothing written" not in (result.error or ""), case.why(result.error or "")
+    assert record.get("partly_written", {}).get("sent") == partly.sent, case.why(
+        f"audit record: {record.get('partly_written')}"
+    )
+
+
+def check_not_ready(case: Case, got: Outcome, tally: EpsonTally) -> None:
+    """Ready mapped where the controller does not drive it reads 0: no write goes
+    out, and the push says Ready."""
+    assert got.failed is not None, case.why("a push with Ready always 0 returned")
+    assert not [r for r in got.received if r.is_write], case.why("Ready 0, yet it wrote")
+    assert got.result.written == [] and got.result.failed is None, case.why("recorded a write")
+    assert "Ready" in str(got.failed) or got.result.plan is None or got.result.plan.empty, case.why(
+        f"refused without naming Ready: {got.failed}"
+    )
+
+
 def check_converged(case: Case) -> None:
     left = sync_items.diff(CATALOGUE, data_of(case.sim.state), case.target)
     assert not left, case.why(f"push returned but the robot still differs: {left[:3]}")
@@ -590,6 +762,14 @@ def check_case(case: Case, deploy: Deploy, tally: EpsonTally) -> None:
     tally.points_written += any(r.is_write and 1204 <= r.number <= 1214 for r in got.received)
     check_interlock(case, got, tally)
     check_sent(case, got)
+    tally.not_ready += got.failed is not None and "Ready" in str(got.failed)
+    if case.kind == "ready mis-mapped":
+        if got.failed is None:  # nothing to write: the push never needed Ready
+            assert got.result.plan is not None and got.result.plan.empty, case.why("wrote")
+            return
+        check_not_ready(case, got, tally)
+        return
+    check_stopped_item(case, got, tally)
     if got.snapshot is not None:
         assert not sync_items.diff(CATALOGUE, got.snapshot, case.before), case.why(
             "the snapshot is not what the robot held before the push"
@@ -609,6 +789,7 @@ def check_case(case: Case, deploy: Deploy, tally: EpsonTally) -> None:
     again = deploy(case, 2.0)
     check_interlock(case, again, tally)
     check_sent(case, again)
+    check_stopped_item(case, again, tally)
     refused = any(
         isinstance(k, PointKey | TableKey) and k not in case.target.items for k in case.before.items
     )
@@ -629,3 +810,4 @@ def test_no_write_reaches_an_epson_robot_that_is_not_idle_and_every_push_converg
         assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 5, tally
         assert tally.sequences >= 10 and tally.points_written >= 10, tally
         assert tally.dropped >= 5, tally
+        assert tally.partly >= 1 and tally.sequences_stopped >= 1 and tally.not_ready >= 1, tally

@@ -67,7 +67,7 @@ def test_every_register_and_bit_can_be_given_and_the_dict_form_round_trips() -> 
     assert m.to_dict()["signals"]["SafeguardOn"] is None  # type: ignore[index]
 
 
-@pytest.mark.parametrize("missing", ["Running", "Paused", "EStopOn"])
+@pytest.mark.parametrize("missing", ["Running", "Paused", "EStopOn", "Error"])
 def test_a_map_without_running_paused_or_estop_is_recognisably_unwritable(missing: str) -> None:
     m = RegisterMap.from_dict({"signals": {missing: None}})
     assert m.unwritable is not None
@@ -75,9 +75,11 @@ def test_a_map_without_running_paused_or_estop_is_recognisably_unwritable(missin
     assert "never writes" in m.unwritable
 
 
-def test_a_map_without_error_ready_or_safeguard_may_still_be_written() -> None:
-    m = RegisterMap.from_dict({"signals": {"Error": None, "Ready": None, "SafeguardOn": None}})
+def test_a_map_without_ready_or_safeguard_may_still_be_written_and_says_so() -> None:
+    m = RegisterMap.from_dict({"signals": {"Ready": None, "SafeguardOn": None}})
     assert m.unwritable is None
+    assert m.ready_note is not None and "no Ready signal" in m.ready_note
+    assert RegisterMap().ready_note is None
 
 
 @pytest.mark.parametrize(

@@ -235,6 +235,10 @@ READS: list[tuple[str, Request[Any], tuple[H, ...], tuple[H, ...], object]] = [
         (0x04C6, 0x0007, 0x8EE8),
         "495.336",
     ),
+    # §10.25 1224, 1226 (P1 /J1F1, /J2F1) and 1228 (P1 J1Angle 1.002), the manual's words
+    ("1224", p.read_point_attribute("j1flag", 1), (0x04C8, 0x0001), (0x04C8, 0x0001), 1),
+    ("1226", p.read_point_attribute("j2flag", 1), (0x04CA, 0x0001), (0x04CA, 0x0001), 1),
+    ("1228", p.read_point_j1angle(1), (0x04CC, 0x0001), (0x04CC, 0x0000, 0x03EA), "1.002"),
     ("1215", p.read_point_attribute("hand", 0), (0x04BF, 0x0000), (0x04BF, 0x0001), 1),
     ("1216", p.read_point_attribute("elbow", 0), (0x04C0, 0x0000), (0x04C0, 0x0001), 1),
     ("1217", p.read_point_attribute("wrist", 0), (0x04C1, 0x0000), (0x04C1, 0x0001), 1),
@@ -431,6 +435,11 @@ WRITES: list[tuple[str, WriteSequence, list[tuple[H, ...]]]] = [
     ("1212", p.set_point_attribute("j4flag", 10, 1), [(0x04BC, 0x000A, 0x0001)]),
     ("1213", p.set_point_attribute("j6flag", 10, 127), [(0x04BD, 0x000A, 0x007F)]),
     ("1214", p.set_point_attribute("local", 1, 15), [(0x04BE, 0x0001, 0x000F)]),
+    # §10.25: /J1F1 and /J2F1 to P1, the manual's words
+    ("1223", p.set_point_attribute("j1flag", 1, 1), [(0x04C7, 0x0001, 0x0001)]),
+    ("1225", p.set_point_attribute("j2flag", 1, 1), [(0x04C9, 0x0001, 0x0001)]),
+    # 1227's two examples are the same words (the OCR): "use" 2.001 for P1, by hand
+    ("1227 by hand", p.set_point_j1angle(1, "2.001"), [(0x04CB, 0x0001, 0x0001, 0x0000, 0x07D1)]),
 ]
 
 # §8.5 command 2154, the model name "G6-551S-II" one character a call.
@@ -659,6 +668,8 @@ BUILDERS: dict[str, list[Callable[[], Request[Any] | WriteSequence]]] = {
     "set_base": [lambda: p.set_base(["0"] * 6)],
     "set_limz": [lambda: p.set_limz("0")],
     "set_point_coord": [lambda: p.set_point_coord(0, 0, "0")],
+    "read_point_j1angle": [lambda: p.read_point_j1angle(0)],
+    "set_point_j1angle": [lambda: p.set_point_j1angle(0, "0")],
     "set_point_attribute": [
         partial(p.set_point_attribute, a, 1, v)  # type: ignore[arg-type]
         for a in p.POINT_ATTRIBUTES
@@ -1035,6 +1046,12 @@ SECTION_8 = {
     1214: (3, 3),
     **dict.fromkeys(range(1215, 1221), (2, 3)),
     1222: (3, 3),
+    1223: (3, 3),
+    1224: (2, 3),
+    1225: (3, 3),
+    1226: (2, 3),
+    1227: (5, 3),
+    1228: (2, 3),
     1250: (3, 3),
     1251: (1, 3),
     2153: (1, 3),

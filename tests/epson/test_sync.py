@@ -23,7 +23,7 @@ from harlsync.sync import engine
 
 from .fakerobot import WRITES, FakeRobot, RobotState
 from .modbus_server import ModbusServer, free_port
-from .projects import pulled
+from .projects import edit, pulled
 
 
 @pytest.fixture
@@ -181,3 +181,16 @@ def test_the_read_of_a_point_stops_at_its_first_coordinate_when_it_is_not_define
     assert c.read_item(PointKey("point", 12)) is not None
     assert [w[:3] for w in fake.commands[-11:]][:1] == [(1222, 5, 0)]
     assert WRITES.isdisjoint(w[0] for w in fake.commands)
+
+
+def test_a_map_without_ready_is_named_by_validate_and_plan(robot, repo, capsys) -> None:
+    """Issue 19 item 5: where a site's map has no Ready, plan and validate say so."""
+    _, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "Ready: {register: 0, bit: 8}", "Ready: null")
+    capsys.readouterr()
+    assert cli.main(["validate", str(project)]) == 0
+    out = capsys.readouterr().out
+    assert "note: robot.yaml: connection.map: the register map has no Ready signal" in out
+    assert cli.main(["plan", str(project)]) == 0
+    assert "# note: the register map has no Ready signal" in capsys.readouterr().out

@@ -99,7 +99,9 @@ class ToyDriver(Driver[SlotKey, ToyData]):
             raise ProjectError(f"{self.label} answered {reply} to {request.payload}")
         return reply
 
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> ToyData:
+    def read_all(
+        self, *, registers: bool, progress: Progress | None = None, whole: bool = False
+    ) -> ToyData:
         version = self._ask(codec.VERSION)
         slots: dict[int, int] = {}
         for n in range(codec.SLOTS):

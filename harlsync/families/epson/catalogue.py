@@ -42,6 +42,7 @@ from .model import (
     SettingKey,
     TableKey,
     coordinate_names,
+    covered_text,
     field_texts,
     value_text,
 )
@@ -101,10 +102,15 @@ def point_fields(old: Point | None, new: Point) -> tuple[str, ...]:
     attribute of a point not yet defined (but for Local 0, which is what a new point
     has and 1214 cannot set), else only those that differ, coordinates first."""
     names = coordinate_names(len(new.coords))
+    extras = tuple(name for name, _ in new.extras())
     if old is None:
-        return (*names, *(a for a in ATTRIBUTES if a != "local" or new.local))
+        return (*names, *(a for a in ATTRIBUTES if a != "local" or new.local), *extras)
     coords = tuple(c for c, a, b in zip(names, old.coords, new.coords) if a != b)
-    return coords + tuple(a for a in ATTRIBUTES if old.attribute(a) != new.attribute(a))
+    return (
+        coords
+        + tuple(a for a in ATTRIBUTES if old.attribute(a) != new.attribute(a))
+        + tuple(a for a in extras if getattr(old, a) != getattr(new, a))
+    )
 
 
 def _counted(count: dict[str, int], *, zeros: bool) -> str:
@@ -191,10 +197,29 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
         return {"robot type": data.type_name, "axes": str(data.axes), "model": data.model}
 
     def contents(self, data: EpsonData, *, registers: bool) -> str:
-        """``"12 table entries, 20 settings, 150 points"``."""
-        return _counted(
+        """``"12 table entries, 20 settings, 150 points (P0-P199 read, none defined
+        P200-P999)"``: the points' range when a pull read it."""
+        text = _counted(
             self.counts((key, None, value) for key, value in data.items.items()), zeros=True
         )
+        return text + (f" ({covered_text(data)})" if data.covered is not None else "")
+
+    def other_robot(self, live: EpsonData, project: EpsonData) -> str | None:
+        """Why the controller read (``live``) is not the project's robot: another
+        manipulator type, axis count or model (2153, 2154); None when it is."""
+        if (live.robot_type, live.axes) != (project.robot_type, project.axes):
+            return (
+                f"the project is of a {project.type_name} robot with {project.axes} axes, the "
+                f"controller reports a {live.type_name} with {live.axes}: check the port (or "
+                "pull into a new project)"
+            )
+        if live.model != project.model:
+            return (
+                f"the project is of a {project.model}, the controller reports a {live.model} "
+                "(2154): another robot, or a replaced one; check the port, or accept it with "
+                "'harlsync pull DIR --new-robot'"
+            )
+        return None
 
     def plan(
         self,
@@ -207,12 +232,9 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
         unwritable: list[str] = []
         if live.unwritable is not None:
             unwritable.append(live.unwritable)
-        if (live.robot_type, live.axes) != (project.robot_type, project.axes):
-            unwritable.append(
-                f"the project is of a {project.type_name} robot with {project.axes} axes, the "
-                f"controller reports a {live.type_name} with {live.axes}: check the port (or "
-                "pull into a new project)"
-            )
+        other = self.other_robot(live, project)
+        if other is not None:
+            unwritable.append(other)
         wanted: list[tuple[Any, Any, Any]] = []
         card: list[str] = []
         points = False
@@ -237,7 +259,7 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
                 if KINDS[key.kind].volatility == PERSISTENT:
                     card.append(self.describe(key))
         unwritable += self._lacking(lacking)
-        notes = []
+        notes = [] if live.map_note is None else [live.map_note]
         if card:
             notes.append(
                 "written to the controller's memory card (persistent; its life "

@@ -34,9 +34,13 @@ from typing import Any, TypeVar
 
 from ...errors import (
     ControllerError,
+    HarlsyncError,
+    LinkError,
     LinkTimeout,
+    PartlyWritten,
     ProjectError,
     WriteUnconfirmed,
+    partly_words,
 )
 from ...link.confirm import confirmed_write, refuse_unless_idle
 from ..base import Progress
@@ -56,6 +60,7 @@ from .model import (
     TableKey,
     axes_of_type,
     coordinate_names,
+    type_attributes,
 )
 from .protocol import ErrorReply, Limits, Request, WriteSequence
 from .transport import ModbusLink
@@ -87,6 +92,8 @@ class WriteStep:
     sequence: WriteSequence
     readback: Callable[[], object]
     part: Callable[[Any], object]
+    #: the part of the item it writes, as a diff names it (a point's ``x``, ``hand``)
+    name: str = ""
 
 
 def item_keys(axes: int) -> Iterator[TableKey | SettingKey]:
@@ -112,6 +119,23 @@ def _coord_of(axis: int, point: Point) -> object:
 
 def _attribute_of(name: str, point: Point) -> object:
     return point.attribute(name)
+
+
+def _extra_of(name: str, point: Point) -> object:
+    return getattr(point, name)
+
+
+def _numbers(points: list[int], most: int = 6) -> str:
+    """``P100-P104, P120 and 3 more``: point numbers in runs, long lists folded."""
+    runs: list[list[int]] = []
+    for n in points:
+        if runs and runs[-1][-1] == n - 1:
+            runs[-1].append(n)
+        else:
+            runs.append([n])
+    texts = [f"P{r[0]}" if len(r) == 1 else f"P{r[0]}-P{r[-1]}" for r in runs]
+    more = f" and {len(texts) - most} more" if len(texts) > most else ""
+    return ", ".join(texts[:most]) + more
 
 
 def _words(request: Request[object]) -> str:
@@ -140,8 +164,11 @@ class Controller:
         self.robot_type = robot_type
         self.configured_axes = axes
         self._axes: int | None = None
+        self._type: int | None = None
         self.first, self.last = first, last
         self._link: ModbusLink | None = None
+        #: what :meth:`open` recovered on its own, for the backup's report and audit log
+        self.notes: list[str] = []
 
     @classmethod
     def open(
@@ -152,11 +179,15 @@ class Controller:
         *,
         lock_timeout: float,
         reset_function: bool = False,
+        unattended: bool = False,
         **options: Any,
     ) -> Controller:
         """Connect (taking the line lock) and make the Remote Control function
         usable (§6.2).  With ``reset_function``, a function found in use or halted
-        is reset first (§6.5.2), and only while Running is 0.
+        is reset first (§6.5.2), and only while Running is 0.  ``unattended`` (a
+        nightly backup) recovers on its own a function found in use, not halted, on
+        a robot with Running 0: with the line lock held here, no harlsync is using
+        it, so it was left by one that is gone; :attr:`notes` says so.
 
         Raises :class:`~harlsync.errors.PortError`, PortBusyError, LinkTimeout, and
         InterlockError for a reset asked of a robot that runs.
@@ -169,13 +200,30 @@ class Controller:
                 link, line.register_map, poll_interval=line.poll_interval, deadline=line.deadline
             )
             handshake.start()
+            notes = []
             if reset_function:
                 status = handshake.status()
                 if status.function_idle and not status["ExtError"]:
                     log.info("%s: the function is idle: no reset needed", link.label)
                 else:
                     handshake.reset_function()
+            elif unattended:
+                status = handshake.status()
+                if (
+                    not status.function_idle
+                    and not status["ExtError"]
+                    and status["Running"] is False
+                ):
+                    left = status.function_signals()
+                    handshake.reset_function()
+                    notes.append(
+                        f"the Remote Control function was found in use ({left}) with no "
+                        "harlsync on the line and Running 0: left by a harlsync that is gone; "
+                        "reset (manual 6.5.2) before the backup"
+                    )
+                    log.warning("%s: %s", link.label, notes[-1])
             controller = cls(handshake, **options)
+            controller.notes = notes
         except BaseException:
             link.close()
             raise
@@ -296,7 +344,7 @@ class Controller:
                 f"{self.label}: the controller reports a {name} robot ({axes} axes), "
                 f"robot.yaml controller.axes says {self.configured_axes}"
             )
-        self._axes = axes
+        self._axes, self._type = axes, code
         return code, axes, self.read_model_name()
 
     @property
@@ -404,8 +452,26 @@ class Controller:
             first,
             *(self.ask(p.read_point_coord(number, axis)) for axis in range(1, self.axes)),
         )
-        attributes = {name: self.ask(p.read_point_attribute(name, number)) for name in ATTRIBUTES}
+        attributes: dict[str, Any] = {
+            name: self.ask(p.read_point_attribute(name, number)) for name in ATTRIBUTES
+        }
+        for name in type_attributes(self.robot_code):
+            attributes[name] = self._read_extra(name, number)
         return Point(coords, **attributes)
+
+    @property
+    def robot_code(self) -> int:
+        """The manipulator type 2153 reports (read once)."""
+        if self._type is None:
+            self.identify()
+        assert self._type is not None
+        return self._type
+
+    def _read_extra(self, name: str, number: int) -> object:
+        """A type's own attribute of a point: J1Flag, J2Flag (6-axis), J1Angle (RS)."""
+        if name == "j1angle":
+            return self.ask(p.read_point_j1angle(number))
+        return self.ask(p.read_point_attribute(ATTRIBUTE_OF[name], number))
 
     def read_item(self, key: Key) -> Any:
         """One item's value (None when it is absent)."""
@@ -415,16 +481,23 @@ class Controller:
             return self.read_point(key.number)
         return self.read_setting(key.kind, key.number)
 
-    def read_all(self, progress: Progress | None = None) -> EpsonData:
+    def read_all(self, progress: Progress | None = None, *, probe: bool = False) -> EpsonData:
         """The manipulator, every setting and every defined point of the range.
 
-        ``progress(done, total)`` after each item.
+        With ``probe`` (a pull), every point after the range up to
+        :data:`~.profile.POINT_PROBE_END` is looked for too (the manual has no
+        command that says how many there are): raises ProjectError naming those
+        defined and the robot.yaml setting that takes them in; the data records
+        the range covered.  ``progress(done, total)`` after each item.
         """
         code, axes, model = self.identify()
-        data = EpsonData(code, axes, model, unwritable=self.map.unwritable)
+        data = EpsonData(
+            code, axes, model, unwritable=self.map.unwritable, map_note=self.map.ready_note
+        )
         keys: list[Key] = [*item_keys(axes)]
         keys += [PointKey("point", n) for n in range(self.first, self.last + 1)]
-        total = len(keys) + 1
+        past = range(self.last + 1, profile.POINT_PROBE_END + 1) if probe else range(0)
+        total = len(keys) + 1 + len(past)
         if progress is not None:
             progress(1, total)
         for done, key in enumerate(keys, 2):
@@ -433,6 +506,20 @@ class Controller:
                 data.items[key] = value
             if progress is not None:
                 progress(done, total)
+        beyond = []
+        for done, n in enumerate(past, len(keys) + 2):
+            if self._point_coord(n, 0) is not None:
+                beyond.append(n)
+            if progress is not None:
+                progress(done, total)
+        if beyond:
+            raise ProjectError(
+                f"{self.label}: {len(beyond)} point(s) defined past controller.last_point "
+                f"{self.last}, which this backup would leave out: {_numbers(beyond)}; set "
+                f"controller.last_point: {beyond[-1]} (or more) in robot.yaml and pull again"
+            )
+        data.covered = (self.first, self.last)
+        data.probed_to = past.stop - 1 if probe and past else None
         return data
 
     # --- writes ------------------------------------------------------------------------
@@ -496,6 +583,18 @@ class Controller:
                         p.set_point_coord(number, axis, point.coords[axis]),
                         partial(self._point_coord, number, axis),
                         partial(_coord_of, axis),
+                        name,
+                    )
+                )
+            elif name == "j1angle":
+                value = point.j1angle
+                assert value is not None
+                steps.append(
+                    WriteStep(
+                        p.set_point_j1angle(number, value),
+                        partial(self.ask, p.read_point_j1angle(number)),
+                        partial(_extra_of, "j1angle"),
+                        name,
                     )
                 )
             else:
@@ -505,6 +604,7 @@ class Controller:
                         p.set_point_attribute(attribute, number, point.attribute(attribute)),
                         partial(self.ask, p.read_point_attribute(attribute, number)),
                         partial(_attribute_of, attribute),
+                        name,
                     )
                 )
         return steps
@@ -536,13 +636,36 @@ class Controller:
     def write(self, steps: list[WriteStep], value: Any, old: Any) -> None:
         """Send each step and confirm it.
 
-        Raises InterlockError (nothing sent) when the robot is not idle before a
-        sequence, or before sending one again after a lost reply;
+        Raises InterlockError (that step not sent, or cancelled) when the robot is
+        not idle before a command, or before sending one again after a lost reply;
         WriteUnconfirmed when the read-back is neither the new nor the old value;
-        ControllerError for an error response.
+        ControllerError for an error response.  Any of them after the first step
+        (a point's coordinates and attributes, one command each) comes as
+        :class:`~harlsync.errors.PartlyWritten`: the item then holds neither its old
+        value nor the new one, and the error names the parts that went out.
         """
-        for step in steps:
-            self._confirmed(step, step.part(value), None if old is None else step.part(old))
+        for i, step in enumerate(steps):
+            try:
+                self._confirmed(step, step.part(value), None if old is None else step.part(old))
+            except HarlsyncError as exc:
+                if i == 0:
+                    raise
+                raise self._partly(steps, i, exc) from exc
+
+    def _partly(self, steps: list[WriteStep], stopped: int, exc: HarlsyncError) -> PartlyWritten:
+        """Steps before ``stopped`` went out and took; ``stopped`` did not take when
+        the interlock or the controller refused it, and may have after a lost reply."""
+        sent = [s.name for s in steps[:stopped]]
+        unknown = steps[stopped].name if isinstance(exc, LinkError) else None
+        left = [s.name for s in steps[stopped + (unknown is not None) :]]
+        what = steps[0].sequence.what.split(" ")[0]
+        return PartlyWritten(
+            f"{self.label}: {what} partly written: {partly_words(sent, unknown, left)} ({exc})",
+            sent=sent,
+            left=left,
+            unknown=unknown,
+            cause=exc,
+        )
 
     def _confirmed(self, step: WriteStep, wanted: object, old: object) -> None:
         sequence = step.sequence

@@ -21,9 +21,17 @@ class EpsonDriver(Driver[Key, EpsonData]):
         self.controller = controller
         self.label = controller.label
 
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> EpsonData:
-        """Every setting and point (an Epson robot has no runtime data to add)."""
-        return self.controller.read_all(progress)
+    def read_all(
+        self, *, registers: bool, progress: Progress | None = None, whole: bool = False
+    ) -> EpsonData:
+        """Every setting and point (an Epson robot has no runtime data to add);
+        ``whole``: probe past the point range too (see :meth:`Controller.read_all`)."""
+        return self.controller.read_all(progress, probe=whole)
+
+    @property
+    def notes(self) -> list[str]:
+        """What the connection recovered on its own (see :meth:`Controller.open`)."""
+        return list(self.controller.notes)
 
     def status(self) -> RemoteStatus:
         return self.controller.status()

@@ -40,6 +40,9 @@ class EpsonFamily(Family[Key, EpsonData]):
             "an Epson controller's Modbus TCP slave: modbus://HOST[:PORT]",
         ),
     )
+    #: a nightly backup: a function left in use by a harlsync that is gone is reset on
+    #: an idle robot, and said (Driver.notes)
+    engine_options = frozenset({"unattended"})
     words = Words(state="the Remote Control status")
     stations = range(256)
     default_station = profile.DEFAULT_UNIT
@@ -126,6 +129,7 @@ class EpsonFamily(Family[Key, EpsonData]):
             layout.connection(robot),
             lock_timeout=lock_timeout,
             reset_function=bool(options.pop("reset_function", False)),
+            unattended=bool(options.pop("unattended", False)),
             robot_type=robot.options.get("type"),
             axes=robot.options.get("axes"),
             first=first,

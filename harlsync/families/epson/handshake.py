@@ -28,9 +28,12 @@ Bits of the control registers that are not handshake signals keep the value
 they were read with.
 
 The step 1 read is the interlock too: a write goes out only while Running,
-Paused, EStopOn and Error are 0 (a split write or Rn sequence is looked at
-once, before its first command, and then sent without a pause), and never to
-a robot whose map lacks Running, Paused or EStopOn.  Reads go out regardless.
+Paused, EStopOn and Error are 0 and Ready (where mapped) is 1, never with Ready
+and Running at 1 together (a map that is wrong), and never to a robot whose map
+lacks Running, Paused, EStopOn or Error.  Each command of a split write or Rn
+sequence is looked at so: a robot that leaves idle part way stops the sequence,
+which the controller then cancels.  Reads go out regardless.  ExtCmdReset is
+raised only once the controller shows it is operable (Ready 1, §6.2).
 
 A command has one deadline for all ten steps.  When it passes, ExtCmdSet and
 ExtRespGet go low and the command stays *pending*: the next request first
@@ -57,7 +60,7 @@ from typing import Protocol, TypeVar
 
 from ...errors import ControllerError, InterlockError, LinkError, LinkTimeout, PortBusyError
 from . import profile
-from .profile import HANDSHAKE_INPUTS, INTERLOCK_SIGNALS, Bit, RegisterMap
+from .profile import HANDSHAKE_INPUTS, INTERLOCK_SIGNALS, READY, Bit, RegisterMap
 from .protocol import FUNCTION_ERROR, ErrorReply, Request, WriteSequence, describe_code
 
 __all__ = [
@@ -226,6 +229,39 @@ class RemoteStatus:
         return tuple(name for name in INTERLOCK_SIGNALS if self.signals[name])
 
     @property
+    def mismapped(self) -> str | None:
+        """Why these outputs cannot be the controller's as mapped, or None: Ready
+        and Running at 1 together (the controller's Ready means no task runs)."""
+        if self.signals.get(READY) and self.signals.get("Running"):
+            return (
+                "Ready 1 and Running 1 together, which the controller never shows (Ready "
+                "means no task runs): one of them is mapped to the wrong bit; check "
+                "robot.yaml connection.map against RC+"
+            )
+        return None
+
+    @property
+    def not_ready(self) -> bool:
+        """Ready is mapped and reads 0 (while no interlock signal says why)."""
+        return self.signals.get(READY) is False
+
+    @property
+    def blocked(self) -> str | None:
+        """Why a write may not go now, the function aside, or None."""
+        if self.unwritable is not None:
+            return self.unwritable
+        if self.mismapped is not None:
+            return self.mismapped
+        if self.busy:
+            return ", ".join(f"{name} 1 ({_BUSY_TEXT[name]})" for name in self.busy)
+        if self.not_ready:
+            return (
+                "Ready 0 (the controller is not ready: still starting up, or Ready is "
+                "mapped to a bit it does not drive)"
+            )
+        return None
+
+    @property
     def function_off(self) -> tuple[str, ...]:
         """The signals that keep the function from taking a command (step 1):
         ExtCmdReset at 0, any other handshake signal at 1."""
@@ -240,16 +276,23 @@ class RemoteStatus:
         return not self.function_off
 
     @property
+    def operable(self) -> bool:
+        """Whether the controller shows it is up (§6.2, "operable"): Ready, or a
+        task, an error or an emergency stop at 1; True when Ready is not mapped."""
+        if self.signals.get(READY) is None:
+            return True
+        return any(self.signals.get(name) for name in (READY, *INTERLOCK_SIGNALS))
+
+    @property
     def idle(self) -> bool:
         """Whether a write may go now."""
-        return self.unwritable is None and not self.busy and self.function_idle
+        return self.blocked is None and self.function_idle
 
     def describe(self) -> str:
         """``"idle"``, or what forbids a write, naming the signal."""
-        if self.unwritable is not None:
-            return self.unwritable
-        if self.busy:
-            return ", ".join(f"{name} 1 ({_BUSY_TEXT[name]})" for name in self.busy)
+        blocked = self.blocked
+        if blocked is not None:
+            return blocked
         if not self.function_idle:
             return f"the Remote Control function is not idle ({self.function_signals()})"
         return "idle"
@@ -373,9 +416,35 @@ class Handshake:
         else:
             self._drive(self.map.ext_cmd_set, False)
             self._drive(self.map.ext_resp_get, False)
+            self._await_operable()
             self._drive(self.map.ext_cmd_reset, True)
             log.debug("%s: ExtCmdReset raised (§6.2)", self.label)
         self._started = True
+
+    def _await_operable(self) -> None:
+        """§6.2: the reset is released only "after the Controller becomes operable":
+        poll until Ready (or a task, an error, an emergency stop) reads 1.
+
+        Raises :class:`HandshakeTimeout` when the deadline passes first (ExtCmdReset
+        stays 0)."""
+        deadline = self.clock.monotonic() + self.deadline
+        while not (status := self._snapshot()).operable:
+            if self.clock.monotonic() >= deadline:
+                raise HandshakeTimeout(
+                    f"Ready is still 0 after {self.deadline:g} s, and no task, error or "
+                    "emergency stop shows: the controller is not operable yet, or Ready is "
+                    "mapped to a bit it does not drive; ExtCmdReset not raised (§6.2)",
+                    port=self.label,
+                    command="starting the function",
+                    step=Step.FUNCTION_READY,
+                    acquired=False,
+                )
+            log.debug(
+                "%s: waiting for Ready before raising ExtCmdReset (%s)",
+                self.label,
+                status.describe(),
+            )
+            self.clock.sleep(self.poll_interval)
 
     def _refresh(self) -> None:
         """Before a command's step 1: read the control registers again (one read in
@@ -478,15 +547,17 @@ class Handshake:
             self.start()
         else:
             self._refresh()
+        # an earlier command left unanswered gets a deadline of its own: settling it
+        # must not eat this command's, or this one times out early and may still run
+        # when the line is let go (the next client's first request then halts the
+        # function, §6.5.1)
+        self._settle(self.clock.monotonic() + self.deadline)
         deadline = self.clock.monotonic() + self.deadline
-        self._settle(deadline)
         status = self._snapshot()
         if status["ExtError"]:
             self._function_error(status, None)
-        if interlock and status.busy:
-            raise InterlockError(
-                f"{self.label}: {status.describe()}: command {request} not sent, nothing written"
-            )
+        if interlock and status.blocked is not None:
+            raise InterlockError(f"{self.label}: {status.blocked}: command {request} not sent")
         if not status.function_idle:
             raise FunctionBusy(
                 f"the Remote Control function is in use ({status.function_signals()}): a "
@@ -524,12 +595,25 @@ class Handshake:
         return request.decode(response, error=error)
 
     def execute_sequence(self, sequence: WriteSequence) -> ErrorReply | None:
-        """Send a write's commands back to back: the interlock is read before the
-        first (raises :class:`InterlockError`, nothing sent), the rest follow
-        without a pause.  The first error response stops it (the controller then
-        cancels the rest anyway) and is returned."""
-        for i, request in enumerate(sequence):
-            reply = self._execute(request, interlock=i == 0)
+        """Send a write's commands back to back, the interlock read before each.
+
+        Raises :class:`InterlockError` when it refuses one: before the first,
+        nothing was sent; part way, the commands sent are an unfinished split or
+        Rn sequence, which the controller cancels (it takes effect only at its
+        last step), and the message says so.  The first error response stops it
+        (the controller then cancels the rest anyway) and is returned."""
+        requests = list(sequence)
+        for i, request in enumerate(requests):
+            try:
+                reply = self._execute(request, interlock=True)
+            except InterlockError as exc:
+                if i == 0:
+                    raise
+                raise InterlockError(
+                    f"{exc}; {sequence.what} stopped after {i} of its {len(requests)} "
+                    "commands: the controller cancels an unfinished sequence, so none of it "
+                    "took effect"
+                ) from exc
             if isinstance(reply, ErrorReply):
                 return reply
         return None

@@ -57,6 +57,7 @@ from . import profile
 from .model import (
     ATTRIBUTE_NAMES,
     ATTRIBUTES,
+    EXTRA_ATTRIBUTES,
     KINDS,
     POINT,
     UNSTATED,
@@ -68,10 +69,12 @@ from .model import (
     TableKey,
     axes_of_type,
     coordinate_names,
+    covered_text,
+    type_attributes,
     type_code,
 )
 from .profile import RegisterMap, RegisterMapInvalid
-from .protocol import Limits, canonical_real
+from .protocol import ROBOT_TYPES, Limits, canonical_real
 
 __all__ = [
     "FILES",
@@ -245,6 +248,7 @@ def value_node(kind: Kind, value: Any) -> Any:
     for name, names in ATTRIBUTE_NAMES.items():
         code = point.attribute(name)
         items.append((name, y.text(names[code]) if names else _number(code)))
+    items += [(name, _number(text)) for name, text in point.extras()]
     return y.mapping(items, flow=True)
 
 
@@ -289,8 +293,13 @@ def render_settings(data: EpsonData) -> str:
 
 
 def render_points(data: EpsonData) -> str:
+    """points.yaml; its comment records the range a pull covered (robot.yaml's
+    first_point to last_point, and how far it found no point past it)."""
     node = numbered(data.points(), lambda p: value_node(POINT, p))
-    return FILES.document("points", "points.yaml", [("points", node)], {"points": _comment(POINT)})
+    comment = _comment(POINT)
+    if data.covered is not None:
+        comment = f"{covered_text(data)} when pulled; {comment}"
+    return FILES.document("points", "points.yaml", [("points", node)], {"points": comment})
 
 
 def render_files(robot: Robot, data: EpsonData) -> dict[str, str]:
@@ -328,14 +337,17 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
 
     result = Analysis(issues=issues)
     if "robot.yaml" in valid:
-        result.robot = _build_robot(docs["robot.yaml"], issues)
+        result.robot = _build_robot(docs["robot.yaml"], issues, result.notes)
     axes = None
     if "settings.yaml" in valid:
         axes = _check_settings(docs["settings.yaml"], result.robot, issues)
     elif result.robot is not None:
         axes = result.robot.options.get("axes")
     if "points.yaml" in valid:
-        _check_points(docs["points.yaml"], result.robot, axes, issues)
+        robot_type = None
+        if "settings.yaml" in valid:
+            robot_type = type_code(docs["settings.yaml"].data["manipulator"]["type"])
+        _check_points(docs["points.yaml"], result.robot, axes, issues, robot_type)
     if not issues and result.robot is not None:
         result.data = _build_data(docs["settings.yaml"].data, docs["points.yaml"].data)
     result.issues = unique(issues, list(ROOT_FILES))
@@ -368,7 +380,7 @@ def _map_issue(doc: y.Parsed, message: str) -> Issue:
     return Issue("robot.yaml", doc.line(at), ".".join(at), message)
 
 
-def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
+def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot | None:
     data = doc.data
     conn = data["connection"]
     options: dict[str, Any] = {
@@ -380,6 +392,10 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
         RegisterMap.from_dict(options["map"])
     except RegisterMapInvalid as exc:
         found += [_map_issue(doc, message) for message in exc.issues]
+    else:
+        ready = RegisterMap.from_dict(options["map"]).ready_note
+        if ready is not None:
+            notes.append(f"robot.yaml: connection.map: {ready}")
     controller = data.get("controller", {})
     first, last = profile.DEFAULT_POINT_RANGE
     options["first"] = int(controller.get("first_point", first))
@@ -441,9 +457,14 @@ def _leaves(kind: Kind, raw: Any) -> list[_Leaf]:
     if shape == "limits":
         return [((a, i), text_of(raw[a][i]), True) for a in "xyz" for i in (0, 1)]
     coords: list[_Leaf] = [((c,), text_of(raw[c]), True) for c in coordinate_names(6) if c in raw]
-    return coords + [
-        ((a,), text_of(raw[a]), False) for a in ATTRIBUTES if ATTRIBUTE_NAMES[a] is None
+    extras: list[_Leaf] = [
+        ((a,), text_of(raw[a]), a == "j1angle") for a in EXTRA_ATTRIBUTES if a in raw
     ]
+    return (
+        coords
+        + [((a,), text_of(raw[a]), False) for a in ATTRIBUTES if ATTRIBUTE_NAMES[a] is None]
+        + extras
+    )
 
 
 def _real_form(text: str) -> str:
@@ -520,7 +541,11 @@ def _check_settings(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> 
 
 
 def _check_points(
-    doc: y.Parsed, robot: Robot | None, axes: int | None, issues: list[Issue]
+    doc: y.Parsed,
+    robot: Robot | None,
+    axes: int | None,
+    issues: list[Issue],
+    robot_type: int | None = None,
 ) -> None:
     table = doc.data["points"]
     first, last = point_range(robot) if robot is not None else (0, 0xFFFF)
@@ -539,6 +564,24 @@ def _check_points(
                 f"{first}-{last}, robot.yaml controller.first_point/last_point)"
             )
         _check_value(POINT, table[key], axes, issue)
+        if robot_type is not None:
+            _check_extras(table[key], robot_type, issue)
+
+
+def _check_extras(raw: Mapping[str, Any], robot_type: int, issue: Callable[..., None]) -> None:
+    """A point has the attributes of its manipulator's type (J1Flag and J2Flag on a
+    6-axis robot, J1Angle on an RS), and no other type's."""
+    wanted = type_attributes(robot_type)
+    name = ROBOT_TYPES.get(robot_type, str(robot_type))
+    missing = [a for a in wanted if a not in raw]
+    if missing:
+        issue(
+            f"{', '.join(missing)} missing: a {name} robot's points have "
+            f"{' and '.join(wanted)} (manual 10.25); pull again to take "
+            f"{'it' if len(missing) == 1 else 'them'} in"
+        )
+    for extra in (a for a in EXTRA_ATTRIBUTES if a in raw and a not in wanted):
+        issue(f"a {name} robot's points have no {extra} (manual 10.25)", extra)
 
 
 def _value(kind: Kind, raw: Any) -> Any:
@@ -558,9 +601,12 @@ def _value(kind: Kind, raw: Any) -> Any:
         return tuple(text_of(raw[c]) for c in coordinate_names(6) if c in raw)
     if shape == "limits":
         return tuple(Limits(text_of(raw[a][0]), text_of(raw[a][1])) for a in "xyz")
-    attributes = {}
+    attributes: dict[str, Any] = {}
     for name, names in ATTRIBUTE_NAMES.items():
         attributes[name] = names.index(raw[name]) if names else int(raw[name])
+    for name in EXTRA_ATTRIBUTES:
+        if name in raw:
+            attributes[name] = text_of(raw[name]) if name == "j1angle" else int(raw[name])
     return Point(tuple(text_of(raw[c]) for c in coordinate_names(6) if c in raw), **attributes)
 
 

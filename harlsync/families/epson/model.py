@@ -50,9 +50,11 @@ __all__ = [
     "ATTRIBUTES",
     "ATTRIBUTE_NAMES",
     "ATTRIBUTE_OF",
+    "EXTRA_ATTRIBUTES",
     "KINDS",
     "PERSISTENT",
     "POINT",
+    "TYPE_ATTRIBUTES",
     "UNSTATED",
     "VOLATILE",
     "EpsonData",
@@ -64,7 +66,9 @@ __all__ = [
     "TableKey",
     "axes_of_type",
     "coordinate_names",
+    "covered_text",
     "field_texts",
+    "type_attributes",
     "type_code",
     "value_text",
 ]
@@ -253,8 +257,22 @@ ATTRIBUTE_NAMES: Mapping[str, tuple[str, ...] | None] = MappingProxyType(
     }
 )
 ATTRIBUTES: tuple[PointAttribute, ...] = ("hand", "elbow", "wrist", "j4flag", "j6flag", "local")
+#: The attributes only some manipulator types (2153 codes) have, and only theirs
+#: (§10.25): a 6-axis robot's J1Flag and J2Flag (0-1; 1223-1226), an RS robot's
+#: J1Angle (a real, degrees; 1227/1228).  None on a point of any other type.
+TYPE_ATTRIBUTES: Mapping[int, tuple[str, ...]] = MappingProxyType(
+    {5: ("j1flag", "j2flag"), 6: ("j1angle",)}
+)
+EXTRA_ATTRIBUTES = ("j1flag", "j2flag", "j1angle")
 #: An attribute's name -> itself, typed (a plan's fields are text).
-ATTRIBUTE_OF: Mapping[str, PointAttribute] = MappingProxyType({a: a for a in ATTRIBUTES})
+ATTRIBUTE_OF: Mapping[str, PointAttribute] = MappingProxyType(
+    {a: a for a in (*ATTRIBUTES, "j1flag", "j2flag")}
+)
+
+
+def type_attributes(robot_type: int) -> tuple[str, ...]:
+    """The attributes a point of this manipulator type has beyond 1215-1220."""
+    return TYPE_ATTRIBUTES.get(robot_type, ())
 
 
 def coordinate_names(axes: int) -> tuple[str, ...]:
@@ -267,7 +285,8 @@ class Point:
     """One point: a coordinate per axis (X, Y, Z, U and on a 6-axis robot V, W) as
     exact text, and its attributes as the 1215-1220 codes (hand 0 Lefty 1 Righty,
     elbow 0 Above 1 Below, wrist 0 NoFlip 1 Flip, j4flag 0-1, j6flag 0-127,
-    local 0 none or 1-15)."""
+    local 0 none or 1-15); a 6-axis robot's J1Flag and J2Flag (0-1) and an RS
+    robot's J1Angle (exact text), None on any other robot (:data:`TYPE_ATTRIBUTES`)."""
 
     coords: tuple[str, ...]
     hand: int = 0
@@ -276,10 +295,21 @@ class Point:
     j4flag: int = 0
     j6flag: int = 0
     local: int = 0
+    j1flag: int | None = None
+    j2flag: int | None = None
+    j1angle: str | None = None
 
     def attribute(self, name: str) -> int:
         value: int = getattr(self, name)
         return value
+
+    def extras(self) -> list[tuple[str, str]]:
+        """The type's own attributes it has, as (name, text): ``("j1flag", "0")``."""
+        return [
+            (name, str(value))
+            for name in EXTRA_ATTRIBUTES
+            if (value := getattr(self, name)) is not None
+        ]
 
     def fields(self) -> list[tuple[str, str]]:
         """Every field as (name, text): ``("x", "1.000")`` ... ``("hand", "Righty")``."""
@@ -287,7 +317,7 @@ class Point:
         for name, names in ATTRIBUTE_NAMES.items():
             value = self.attribute(name)
             out.append((name, names[value] if names and 0 <= value < len(names) else str(value)))
-        return out
+        return out + self.extras()
 
 
 def axes_of_type(code: int) -> int | None:
@@ -314,6 +344,12 @@ class EpsonData:
     model: str
     items: dict[Key, Any] = field(default_factory=dict)
     unwritable: str | None = None
+    #: what a plan must say of the register map it was read through (no Ready)
+    map_note: str | None = None
+    #: the points a pull read (first, last) and the last one it found undefined
+    #: past them (the probe); None for data from the files
+    covered: tuple[int, int] | None = None
+    probed_to: int | None = None
 
     @property
     def type_name(self) -> str:
@@ -321,6 +357,16 @@ class EpsonData:
 
     def points(self) -> dict[int, Point]:
         return {k.number: v for k, v in self.items.items() if isinstance(k, PointKey)}
+
+
+def covered_text(data: EpsonData) -> str:
+    """``P0-P99 read, none defined P100-P999`` (the range a pull covered)."""
+    assert data.covered is not None
+    first, last = data.covered
+    text = f"P{first}-P{last} read"
+    if data.probed_to is not None:
+        text += f", none defined P{last + 1}-P{data.probed_to}"
+    return text
 
 
 def field_texts(kind: Kind, value: Any) -> list[tuple[str, str]]:

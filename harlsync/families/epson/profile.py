@@ -55,7 +55,9 @@ __all__ = [
     "MODBUS_MAX_READ",
     "MODBUS_RETRIES",
     "MODBUS_TIMEOUT",
+    "POINT_PROBE_END",
     "POLL_INTERVAL",
+    "READY",
     "REQUIRED_FOR_WRITES",
     "ROBOT_AXES",
     "SIGNAL_NAMES",
@@ -105,6 +107,12 @@ TABLE_OUT_OF_RANGE = 0x2005
 
 #: Points backed up when the robot file gives no range: P0 to P99, inclusive.
 DEFAULT_POINT_RANGE = (0, 99)
+#: The last point a pull looks for past the robot file's range: the manual gives
+#: no command that reports how many points a controller holds, nor their highest
+#: number, so a pull probes each point after ``last_point`` up to this one (the
+#: last of an RC+ point file, P999) with one 1222 read, and fails when any is
+#: defined: a backup never leaves points out without a word.
+POINT_PROBE_END = 999
 
 #: Manipulator type (command 2153) -> its axes: the coordinates of a point, Plane,
 #: Local and Base, the joints of JRange and the words of Fine.  Types not listed
@@ -130,7 +138,11 @@ STATUS_SIGNALS: Mapping[str, int] = MappingProxyType(
 #: A write goes out only while all of these are 0 (those that are mapped).
 INTERLOCK_SIGNALS = ("Running", "Paused", "EStopOn", "Error")
 #: A robot whose map lacks one of these is never written.
-REQUIRED_FOR_WRITES = ("Running", "Paused", "EStopOn")
+REQUIRED_FOR_WRITES = ("Running", "Paused", "EStopOn", "Error")
+#: Ready (started up, no task running) must read 1 before a write, where it is
+#: mapped: a status bit mapped to an address the controller does not drive reads 0,
+#: so Ready 0 on an otherwise idle robot says the map is wrong (or it is starting).
+READY = "Ready"
 SIGNAL_NAMES = (*HANDSHAKE_INPUTS, *HANDSHAKE_OUTPUTS, *STATUS_SIGNALS)
 _DEFAULT_BITS = {**HANDSHAKE_INPUTS, **HANDSHAKE_OUTPUTS, **STATUS_SIGNALS}
 
@@ -336,6 +348,17 @@ class RegisterMap:
             f"the register map has no {', '.join(missing)} signal: harlsync cannot see "
             "whether the robot is busy, so it never writes to it (map the signal in RC+ "
             "and in robot.yaml)"
+        )
+
+    @property
+    def ready_note(self) -> str | None:
+        """What a plan and ``validate`` say of a map without Ready, or None."""
+        if self.ready is not None:
+            return None
+        return (
+            "the register map has no Ready signal: harlsync cannot tell a controller that "
+            "is ready from a status bit mapped to an address it does not drive (that bit "
+            "reads 0, which looks idle); map Ready in RC+ and in robot.yaml connection.map"
         )
 
     @property

@@ -46,7 +46,8 @@ Requests, one builder per command (backup reads, then deploy writes)::
     read_plane 651      read_local 701   read_xylim 753 (754, 755)
     read_jrange 803 (804, 805)  read_base 851  read_limz 1251
     read_robot_type 2153  read_model_name_char 2154
-    read_point_coord 1222  read_point_attribute 1215-1220
+    read_point_coord 1222  read_point_attribute 1215-1220, 1224, 1226
+    read_point_j1angle 1228
 
     register_accel 1    register_accel_s 53 | 54+55  register_accel_r 103 | 104+105
     register_speed 151  register_speed_s 203 | 204+205  register_speed_r 251
@@ -54,7 +55,8 @@ Requests, one builder per command (backup reads, then deploy writes)::
     set_fine 450 | 451+452  select_tool 500  set_box 600 xyz | 601 xyz + 602 xyz
     set_plane 650 x..w  set_local 700 x..w  set_xylim 750 xyz | 751 xyz + 752 xyz
     set_jrange 800 | 801+802  set_base 850 x..w  set_limz 1250
-    set_point_coord 1204  set_point_attribute 1206-1214
+    set_point_coord 1204  set_point_attribute 1206-1214, 1223, 1225
+    set_point_j1angle 1227
 """
 
 from __future__ import annotations
@@ -132,6 +134,7 @@ __all__ = [
     "read_plane",
     "read_point_attribute",
     "read_point_coord",
+    "read_point_j1angle",
     "read_robot_type",
     "read_speed",
     "read_speed_r",
@@ -166,6 +169,7 @@ __all__ = [
     "set_plane",
     "set_point_attribute",
     "set_point_coord",
+    "set_point_j1angle",
     "set_weight",
     "set_xylim",
 ]
@@ -417,6 +421,9 @@ _READS = _specs(
         1219: ("point j6flag", (1,)),
         1220: ("point local number", (1,)),
         1222: ("point coordinate", (2,)),
+        1224: ("point J1Flag", (1,)),
+        1226: ("point J2Flag", (1,)),
+        1228: ("point J1Angle", (1,)),
         1251: ("LimZ", (0,)),
         2153: ("manipulator type", (0,)),
         2154: ("manipulator model name", (1,)),
@@ -472,6 +479,9 @@ _WRITES = _specs(
         1212: ("set a point's j4flag", (2,)),
         1213: ("set a point's j6flag", (2,)),
         1214: ("set a point's local number", (2,)),
+        1223: ("set a point's J1Flag", (2,)),
+        1225: ("set a point's J2Flag", (2,)),
+        1227: ("set a point's J1Angle", (4,)),
         1250: ("set LimZ", (2,)),
     },
 )
@@ -1397,11 +1407,12 @@ def read_model_name_char(start: bool) -> Request[NameChar]:
 
 # --- points (§10.25) -----------------------------------------------------------------
 
-PointAttribute = Literal["hand", "elbow", "wrist", "j4flag", "j6flag", "local"]
+PointAttribute = Literal["hand", "elbow", "wrist", "j4flag", "j6flag", "local", "j1flag", "j2flag"]
 
 #: Attribute -> (the read command, its values): 1215 hand 0 Lefty 1 Righty, 1216
 #: elbow 0 Above 1 Below, 1217 wrist 0 NoFlip 1 Flip, 1218 j4flag 0-1, 1219
-#: j6flag 0-127, 1220 local (0 = none).
+#: j6flag 0-127, 1220 local (0 = none); on a 6-axis robot only (§10.25, "available
+#: for 6-axis manipulators"), 1224 J1Flag and 1226 J2Flag 0-1.
 POINT_ATTRIBUTES: Mapping[str, tuple[int, int, int]] = MappingProxyType(
     {
         "hand": (1215, 0, 1),
@@ -1410,6 +1421,8 @@ POINT_ATTRIBUTES: Mapping[str, tuple[int, int, int]] = MappingProxyType(
         "j4flag": (1218, 0, 1),
         "j6flag": (1219, 0, 127),
         "local": (1220, 0, 15),
+        "j1flag": (1224, 0, 1),
+        "j2flag": (1226, 0, 1),
     }
 )
 #: Attribute -> the write command for each value (hand 0 Lefty -> 1207 ...), or
@@ -1422,6 +1435,8 @@ _POINT_SETS: Mapping[str, tuple[int, ...]] = MappingProxyType(
         "j4flag": (1212,),
         "j6flag": (1213,),
         "local": (1214,),
+        "j1flag": (1223,),
+        "j2flag": (1225,),
     }
 )
 
@@ -1446,6 +1461,20 @@ def read_point_attribute(attribute: PointAttribute, point: int) -> Request[int]:
     return _read(
         number, (point,), f"P{point} {attribute}", 1, lambda w: w.number(low, high, attribute)
     )
+
+
+def read_point_j1angle(point: int) -> Request[str]:
+    """1228: a point's J1Angle (RS robots: Joint 1's angle at the singularity)."""
+    point = _point(point)
+    return _read(1228, (point,), f"P{point} j1angle", 2, lambda w: w.real("J1Angle"))
+
+
+def set_point_j1angle(point: int, value: str) -> WriteSequence:
+    """1227: a point's J1Angle, parameter 1 = 1 ("use the setting value"): the
+    value is always given, so what 1228 reads back is what was set."""
+    point = _point(point)
+    what = f"P{point} j1angle"
+    return WriteSequence(what, (_write(1227, (1, point, *real_to_words(value)), what),))
 
 
 def set_point_coord(point: int, axis: int, value: str) -> WriteSequence:

@@ -25,7 +25,9 @@ class HarlU2Driver(Driver[Key, RobotData]):
         self.offset_tables = offset_tables
         self.label = f"port {controller.port} station {controller.station}"
 
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> RobotData:
+    def read_all(
+        self, *, registers: bool, progress: Progress | None = None, whole: bool = False
+    ) -> RobotData:
         return self.controller.read_all(
             include_registers=registers, progress=progress, offset_tables=self.offset_tables
         )

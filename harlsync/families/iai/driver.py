@@ -25,7 +25,9 @@ class IaiDriver(Driver[Key, IaiData]):
         self.controller = controller
         self.label = controller.label
 
-    def read_all(self, *, registers: bool, progress: Progress | None = None) -> IaiData:
+    def read_all(
+        self, *, registers: bool, progress: Progress | None = None, whole: bool = False
+    ) -> IaiData:
         return self.controller.read_all(progress, variables=registers)
 
     def status(self) -> IaiStatus:

@@ -40,7 +40,7 @@ from typing import NamedTuple
 
 from .. import profile
 from ..protocol import int32_from_words, int32_to_words
-from .state import MAX_POINT, Point, SimState
+from .state import MAX_POINT, RS, SIX_AXIS, Point, SimState
 
 __all__ = [
     "COMMAND_SET",
@@ -581,6 +581,28 @@ class Session:
         point.local = word & 0xF
         return self._done()
 
+    def _type_point(self, st: SimState, p: _Params, types: tuple[int, ...]) -> Point:
+        """The point of a command "available for" only some manipulators (1223-1228:
+        6-axis, RS); another type's controller cannot execute it (error 2000)."""
+        if st.robot_type not in types:
+            raise _Refused(EXECUTION)
+        return self._point(st, p)
+
+    def _j1angle(self, st: SimState, p: _Params) -> tuple[int, ...]:
+        return _w(self._type_point(st, p, (RS,)).j1angle)
+
+    def _set_j1angle(self, st: SimState, p: _Params) -> tuple[int, ...]:
+        """1227: parameter 1 0 omits the value, 1 uses it; parameter 2 the point."""
+        if st.robot_type != RS:
+            raise _Refused(EXECUTION)
+        option = p.number(1, 0, 1)
+        point = st.points.get(p.number(2, 0, MAX_POINT))
+        if point is None:
+            raise _Refused(profile.UNDEFINED_POINT)
+        if option:
+            point.j1angle = p.int32(3)
+        return self._done()
+
     def _limz(self, st: SimState, p: _Params) -> tuple[int, ...]:
         return _w(st.limz)
 
@@ -637,15 +659,25 @@ def _set_point_flag(name: str, value: int) -> Handler:
     return write
 
 
-def _set_point_number(name: str, high: int) -> Handler:
-    """1212, 1213: the value in parameter 2."""
+def _set_point_number(name: str, high: int, types: tuple[int, ...] = ()) -> Handler:
+    """1212, 1213 (1223, 1225 on ``types`` only): the value in parameter 2."""
 
     def write(session: Session, st: SimState, p: _Params) -> tuple[int, ...]:
-        point = session._point(st, p)
+        point = session._type_point(st, p, types) if types else session._point(st, p)
         setattr(point, name, p.number(2, 0, high))
         return session._done()
 
     return write
+
+
+def _type_attribute(name: str, types: tuple[int, ...]) -> Handler:
+    """1224, 1226: an attribute only ``types`` of manipulator have."""
+
+    def read(session: Session, st: SimState, p: _Params) -> tuple[int, ...]:
+        value: int = getattr(session._type_point(st, p, types), name)
+        return (value,)
+
+    return read
 
 
 Parted = Callable[[Session, SimState, _Params, slice], tuple[int, ...]]
@@ -702,6 +734,9 @@ def _commands() -> dict[int, _Spec]:
             for i, name in enumerate(("hand", "elbow", "wrist", "j4flag", "j6flag", "local"))
         },
         1222: (3, S._point_coord),
+        1224: (2, _type_attribute("j1flag", (SIX_AXIS,))),
+        1226: (2, _type_attribute("j2flag", (SIX_AXIS,))),
+        1228: (2, S._j1angle),
         1251: (1, S._limz),
         2153: (1, S._robot_type),
         2154: (2, S._model_name),
@@ -748,6 +783,9 @@ def _commands() -> dict[int, _Spec]:
         1212: (3, _set_point_number("j4flag", 1)),
         1213: (3, _set_point_number("j6flag", 127)),
         1214: (3, S._set_point_local),
+        1223: (3, _set_point_number("j1flag", 1, (SIX_AXIS,))),
+        1225: (3, _set_point_number("j2flag", 1, (SIX_AXIS,))),
+        1227: (5, S._set_j1angle),
         1250: (3, S._set_limz),
     }
     out = {n: _Spec(_fixed(count), handler) for n, (count, handler) in reads.items()}
@@ -804,6 +842,9 @@ READS = frozenset(
         1219,
         1220,
         1222,
+        1224,
+        1226,
+        1228,
         1251,
         2153,
         2154,

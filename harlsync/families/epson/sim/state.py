@@ -38,6 +38,7 @@ __all__ = [
 #: 2153 manipulator types the simulator builds robots of (the manual's codes).
 SCARA = 3
 SIX_AXIS = 5
+RS = 6
 #: Types whose Weight has an arm length (§10.7: SCARA robots, the RS series too).
 _ARM_LENGTH_TYPES = (3, 6)
 #: The highest point number a robot holds **(simulator)**: P0-P999.
@@ -70,6 +71,11 @@ class Point:
     j4flag: int = 0
     j6flag: int = 0
     local: int = 0  # 0: none
+    #: 6-axis robots (1223-1226): Joint 1 and 2 ranges, 0 or 1
+    j1flag: int = 0
+    j2flag: int = 0
+    #: RS robots (1227/1228): Joint 1's angle at the singularity, thousandths of a degree
+    j1angle: int = 0
 
     def problems(self, axes: int) -> list[str]:
         out = []
@@ -82,10 +88,14 @@ class Point:
             ("j4flag", self.j4flag, 1),
             ("j6flag", self.j6flag, 127),
             ("local", self.local, 15),
+            ("j1flag", self.j1flag, 1),
+            ("j2flag", self.j2flag, 1),
         ):
             if not 0 <= value <= high:
                 out.append(f"{name} {value} out of range (0 to {high})")
         out += [f"coordinate {c} does not fit 32 bits" for c in self.coords if not _fits(c)]
+        if not _fits(self.j1angle):
+            out.append(f"j1angle {self.j1angle} does not fit 32 bits")
         return out
 
 
@@ -289,6 +299,9 @@ class SimState:
                     "j4flag": p.j4flag,
                     "j6flag": p.j6flag,
                     "local": p.local,
+                    "j1flag": p.j1flag,
+                    "j2flag": p.j2flag,
+                    "j1angle": p.j1angle,
                 }
                 for n, p in sorted(self.points.items())
             },
@@ -326,6 +339,8 @@ class SimState:
                     _integer(item[k])
                     for k in ("hand", "elbow", "wrist", "j4flag", "j6flag", "local")
                 ),
+                # kept by a simulator since issue 20; an older memory file has none
+                *(_integer(item.get(k, 0)) for k in ("j1flag", "j2flag", "j1angle")),
             )
         return cls(
             robot_type=_integer(doc["robot_type"]),
@@ -365,6 +380,9 @@ class SimState:
                     value.j4flag,
                     value.j6flag,
                     value.local,
+                    value.j1flag or 0,
+                    value.j2flag or 0,
+                    0 if value.j1angle is None else u(value.j1angle),
                 )
             elif kind == "accel":
                 state.accel[number] = (int(value.accel), int(value.decel))
@@ -499,6 +517,15 @@ class SimState:
             for n in range(number, min(number + rng.randint(2, 20), last + 1)):
                 state.points[n] = _point(rng, axes, sorted(state.locals))
             number = max(state.points) + 1 + rng.randint(1, 15)
+        # the type's own attributes from a stream of their own (the rest stays as
+        # each seed always drew it)
+        extra = random.Random(seed ^ 0x1223)
+        for point in state.points.values():
+            if kind == SIX_AXIS:
+                point.j1flag = extra.choice((0, 0, 0, 1))
+                point.j2flag = extra.choice((0, 0, 0, 1))
+            elif kind == RS:
+                point.j1angle = extra.choice((0, 0, extra.randint(-180_000, 180_000)))
         return state
 
 
