@@ -87,9 +87,19 @@ def _epson_edit(state: Any, rng: random.Random) -> str:
 
 
 def _epson_quick(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A robot of ten points, P0-P9, and a first pull of just those; the pull still
+    probes past them (to P19), as every pull does, and finds nothing there."""
     from harlsync.families.epson import profile
+    from harlsync.families.epson.sim.state import SimState
 
     monkeypatch.setattr(profile, "DEFAULT_POINT_RANGE", (0, 9))
+    monkeypatch.setattr(profile, "POINT_PROBE_END", 19)
+    generate = SimState.generate.__func__  # type: ignore[attr-defined]
+
+    def ten_points(cls: type[SimState], seed: int, **options: Any) -> SimState:
+        return generate(cls, seed, **{"point_range": (0, 9), **options})  # type: ignore[no-any-return]
+
+    monkeypatch.setattr(SimState, "generate", classmethod(ten_points))
 
 
 def _epson_blank(state: Any) -> Any:

@@ -349,9 +349,27 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
             robot_type = type_code(docs["settings.yaml"].data["manipulator"]["type"])
         _check_points(docs["points.yaml"], result.robot, axes, issues, robot_type)
     if not issues and result.robot is not None:
-        result.data = _build_data(docs["settings.yaml"].data, docs["points.yaml"].data)
+        data = _build_data(docs["settings.yaml"].data, docs["points.yaml"].data)
+        data.covered, data.probed_to = _covered(files["points.yaml"])
+        result.data = data
     result.issues = unique(issues, list(ROOT_FILES))
     return result
+
+
+#: The comment :func:`render_points` writes of the range a pull covered.
+_COVERED = re.compile(
+    rb"^points: +# P(\d+)-P(\d+) read(?:, none defined P\d+-P(\d+))? when pulled;", re.M
+)
+
+
+def _covered(text: bytes) -> tuple[tuple[int, int] | None, int | None]:
+    """The range the pull that wrote points.yaml covered, read back from its comment,
+    so that a project loaded and saved again keeps the record."""
+    found = _COVERED.search(text)
+    if found is None:
+        return None, None
+    probed = found.group(3)
+    return (int(found.group(1)), int(found.group(2))), int(probed) if probed else None
 
 
 def _plain(value: Any) -> Any:
