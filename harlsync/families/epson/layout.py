@@ -358,7 +358,7 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
 
 #: The comment :func:`render_points` writes of the range a pull covered.
 _COVERED = re.compile(
-    rb"^points: +# P(\d+)-P(\d+) read(?:, none defined P\d+-P(\d+))? when pulled;", re.M
+    rb"^points: +# P(\d+)-P(\d+) read(?:, none defined P\d+-P(\d+))? when pulled;", re.MULTILINE
 )
 
 
