@@ -198,6 +198,7 @@ def test_an_unsafe_write_is_resent_after_a_fresh_status_read_shows_the_robot_idl
         "SNM 1 2 MOVE P777 S20",
         "LNM 1 2",
         "LNR",
+        "LNR",  # IDLE_READS: two replies in a row must show every task idle
         "SNM 1 2 MOVE P777 S20",
     ]
 
