@@ -559,7 +559,9 @@ def _cmd_log(args: argparse.Namespace) -> int:
 
     if args.max_count is not None and args.max_count < 1:
         return _usage("log: -n/--max-count must be 1 or more")
-    records = audit.results()
+    problems: list[str] = []
+    records = audit.results(problems=problems)
+    _warn(problems)
     if args.dir:
         robot = load_robot(_project_dir(args.dir))
         records = audit.of_robot(records, robot.port, robot.station, Path(args.dir))

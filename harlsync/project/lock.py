@@ -119,7 +119,7 @@ def _acquire(
 def _busy_message(project: str | os.PathLike[str], path: Path) -> str:
     try:
         pid, host, command = (_owner_path(path).read_text().split(" ", 2) + ["", ""])[:3]
-    except OSError:
+    except (OSError, ValueError):  # gone, or not text: the holder is only for the message
         pid, host, command = "", "", ""
     who = "another harlsync"
     if pid:

@@ -43,6 +43,8 @@ from pathlib import Path
 from typing import Any
 
 from ..link import lock_key
+from ..project import statefile
+from ..project.statefile import Fields, fold, kind_of
 
 __all__ = [
     "append",
@@ -117,27 +119,105 @@ def append(record: dict[str, Any], path: Path | None = None) -> Path:
     return path
 
 
-def read(path: Path | None = None) -> list[dict[str, Any]]:
-    """Every record, in order (a line that is not a JSON object is skipped, and logged)."""
+#: The fields of an audit record, by the type they must hold (anything else is read
+#: as missing, and said so once).
+_TEXT = (
+    "event", "id", "action", "user", "host", "project", "commit", "reason", "result",
+    "error", "failed_item", "snapshot", "item", "command", "outside_window", "time",
+)  # fmt: skip
+_TEXTS = ("plan", "warnings", "notes")
+_WRITTEN_TEXT = ("item", "command", "old", "new")
+
+#: Problems already said by this process (path, line): a backup of 40 robots reads
+#: the log 40 times and says each once.
+_said: set[tuple[str, int]] = set()
+
+
+def _clean(record: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """The record with every field of the wrong type left out, and what was wrong."""
+    fields = Fields(record)
+    clean: dict[str, Any] = {k: v for k, v in record.items() if k not in _KNOWN}
+    for name in _TEXT:
+        clean[name] = fields.text(name)
+    clean["pid"] = fields.integer("pid")
+    for name in _TEXTS:
+        clean[name] = fields.texts(name)
+    robot = fields.object("robot")
+    if robot is not None:
+        of_robot = Fields(robot)
+        clean["robot"] = {
+            "name": of_robot.text("name"),
+            "port": of_robot.text("port"),
+            "station": of_robot.integer("station"),
+        }
+        fields.problems += [f"robot's {p}" for p in of_robot.problems]
+    written = fields.objects("written")
+    if written is not None:
+        clean["written"] = []
+        for entry in written:
+            one = Fields(entry)
+            kept: dict[str, Any] = {name: one.text(name) for name in _WRITTEN_TEXT}
+            changes = one.objects("fields")  # [{"field", "old", "new"}], as items.to_json
+            if changes is not None:
+                kept["fields"] = []
+                for change in changes:
+                    of_change = Fields(change)
+                    kept["fields"].append({n: of_change.text(n) for n in ("field", "old", "new")})
+                    one.problems += of_change.problems
+            clean["written"].append(kept)
+            fields.problems += [f"written item's {p}" for p in one.problems]
+    return {k: v for k, v in clean.items() if v is not None}, fields.problems
+
+
+_KNOWN = frozenset((*_TEXT, *_TEXTS, "pid", "robot", "written"))
+
+
+def read(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
+    """Every record, in order, each field of the type it must have.
+
+    A line that is not a JSON object is left out, a field of the wrong type is read
+    as missing; each is said once, naming the file and line: appended to
+    ``problems`` when given, else logged.  Raises OSError when the log cannot be read.
+    """
     path = path or audit_path()
     if not path.exists():
         return []
+    found: list[tuple[int, str]] = []
     records = []
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-        if not line.strip():
+    for number, raw in enumerate(path.read_bytes().splitlines(), 1):
+        if not raw.strip():
             continue
         try:
-            record = json.loads(line)
-        except ValueError:
-            record = None
-        if not isinstance(record, dict):
-            log.warning("%s:%d: not an audit record, skipped", path, number)
+            record = statefile.parse(raw.decode("utf-8"))
+        except ValueError as exc:  # UnicodeDecodeError too
+            why = str(exc) if not isinstance(exc, UnicodeDecodeError) else "not UTF-8 text"
+            found.append((number, f"{path}:{number}: not an audit record ({why}): {_LEFT_OUT}"))
             continue
+        if not isinstance(record, dict):
+            why = f"{kind_of(record)}, not an object"
+            found.append((number, f"{path}:{number}: not an audit record ({why}): {_LEFT_OUT}"))
+            continue
+        record, wrong = _clean(record)
+        if wrong:
+            what = "; ".join(fold(wrong, 3))
+            found.append((number, f"{path}:{number}: {what}: {_MISSING}"))
         records.append(record)
+    more = f"more malformed lines in {path}"
+    if problems is not None:
+        problems += fold([text for _, text in found], 5, more)
+    else:
+        fresh = [(n, text) for n, text in found if (str(path), n) not in _said]
+        _said.update((str(path), n) for n, _ in fresh)
+        for problem in fold([text for _, text in fresh], 5, more):
+            log.warning("%s", problem)
     return records
 
 
-def results(path: Path | None = None) -> list[dict[str, Any]]:
+_MISSING = "read as missing; fix that line, or move it to another file"
+_LEFT_OUT = "left out; move that line to another file to keep it (harlsync only appends)"
+
+
+def results(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
     """One record per push or rollback, in the order they started.
 
     A finished one is its end record.  An unfinished one is its start record
@@ -147,7 +227,7 @@ def results(path: Path | None = None) -> list[dict[str, Any]]:
     started: dict[str, dict[str, Any]] = {}
     where: dict[str, int] = {}
     order: list[dict[str, Any]] = []
-    for record in read(path):
+    for record in read(path, problems):
         event = record.get("event", "end")
         rid = record.get("id")
         if event == "start" and rid:
@@ -203,10 +283,12 @@ def unsettled(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     return found
 
 
-def unfinished(port: str, station: int, path: Path | None = None) -> list[dict[str, Any]]:
+def unfinished(
+    port: str, station: int, path: Path | None = None, problems: list[str] | None = None
+) -> list[dict[str, Any]]:
     """The unfinished pushes and rollbacks of the robot at ``port``/``station``
     that no later push or rollback of it has settled (see :func:`results`)."""
-    return unsettled(of_robot(results(path), port, station))
+    return unsettled(of_robot(results(path, problems), port, station))
 
 
 def describe_unfinished(record: dict[str, Any]) -> str:

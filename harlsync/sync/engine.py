@@ -187,9 +187,10 @@ def _unfinished(robot: Robot, port: str | None, station: int | None) -> list[str
 
     Called with the line held, so no push in progress can be mistaken for one.
     """
+    problems: list[str] = []
     try:
         found = audit.unfinished(
-            port or robot.port, station if station is not None else robot.station
+            port or robot.port, station if station is not None else robot.station, problems=problems
         )
     except OSError as exc:
         return [
@@ -198,7 +199,7 @@ def _unfinished(robot: Robot, port: str | None, station: int | None) -> list[str
                 "unfinished push"
             )
         ]
-    return [audit.describe_unfinished(record) for record in found]
+    return problems + [audit.describe_unfinished(record) for record in found]
 
 
 def change_summary(changes: list[Change]) -> str:

@@ -22,6 +22,7 @@ from typing import Any
 
 from ..errors import ProjectFormatError
 from ..families.base import Catalogue, Driver
+from ..project import statefile
 from .items import Change, diff
 
 __all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "fingerprint", "make_plan"]
@@ -94,11 +95,31 @@ class Plan:
     def load_saved(path: str | Path) -> dict[str, Any]:
         """A saved plan's data.  Raises ProjectFormatError when unreadable."""
         try:
-            data = json.loads(Path(path).read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise ProjectFormatError(f"{path}: cannot read plan: {exc}") from exc
+            data = statefile.load(Path(path))
+        except OSError as exc:
+            raise ProjectFormatError(
+                f"{path}: cannot read the plan ({exc.strerror or exc}); give the file "
+                "'harlsync plan DIR --out FILE' saved"
+            ) from exc
+        except ValueError as exc:
+            raise ProjectFormatError(
+                f"{path}: not a harlsync plan ({exc}); make a new one with "
+                "'harlsync plan DIR --out FILE'"
+            ) from exc
         if not isinstance(data, dict) or data.get("format") != PLAN_FORMAT:
-            raise ProjectFormatError(f"{path}: not a harlsync plan of format {PLAN_FORMAT}")
+            raise ProjectFormatError(
+                f"{path}: not a harlsync plan of format {PLAN_FORMAT}; make a new one with "
+                "'harlsync plan DIR --out FILE'"
+            )
+        fields = statefile.Fields(data)
+        for name in ("live_fingerprint", "project_fingerprint"):
+            if fields.text(name) is None:
+                fields.problems.append(f"{name} is missing")
+        if fields.problems:
+            raise ProjectFormatError(
+                f"{path}: not a whole harlsync plan ({'; '.join(fields.problems)}); make a "
+                "new one with 'harlsync plan DIR --out FILE'"
+            )
         return data
 
 

@@ -272,7 +272,7 @@ def local_time(stamp: str | None) -> str:
 
 def _audit_records(warnings: list[str]) -> list[dict[str, Any]]:
     try:
-        return audit.results()
+        return audit.results(problems=warnings)
     except (OSError, ValueError) as exc:
         warnings.append(
             f"cannot read the audit log {audit.audit_path()} ({exc}): pushes are not shown"
@@ -281,7 +281,11 @@ def _audit_records(warnings: list[str]) -> list[dict[str, Any]]:
 
 
 def _robot_status(
-    path: Path, records: list[dict[str, Any]], now: datetime, stale_after: timedelta
+    path: Path,
+    records: list[dict[str, Any]],
+    now: datetime,
+    stale_after: timedelta,
+    warnings: list[str],
 ) -> RobotStatus:
     try:
         robot = load_robot(path)
@@ -297,7 +301,7 @@ def _robot_status(
             last_error=str(exc),
         )
     station = families.get(robot.family).format_station(robot.station)
-    state = history.read(path)
+    state = history.read(path, warnings)
     status = RobotStatus(
         robot.name,
         str(path),
@@ -357,7 +361,7 @@ def collect(
     warnings: list[str] = []
     records = _audit_records(warnings)
     robots = sorted(
-        (_robot_status(p, records, now, stale_after) for p in projects),
+        (_robot_status(p, records, now, stale_after, warnings) for p in projects),
         key=lambda r: (r.name, r.path),
     )
     return PlantStatus(
