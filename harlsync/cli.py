@@ -579,12 +579,19 @@ def _cmd_log(args: argparse.Namespace) -> int:
         _print(head + (f"  commit {r.commit[:10]}" if r.commit else ""))
         if r.reason:
             _print(f"    reason: {r.reason}")
-        for w in r.written:
-            _print(f"    wrote {w.get('item')}: {w.get('old')} -> {w.get('new')}")
+        lines = audit.written_lines(r.written, None)
+        shown = lines if args.verbose or len(lines) <= audit.SHOWN else lines[: audit.SHOWN - 1]
+        for line in shown:
+            _print(f"    wrote {line}")
+        if len(shown) < len(lines):
+            _print(f"    and {len(lines) - len(shown)} more (-v shows them)")
+        if args.verbose:
+            for w in r.written:
+                _print(f"    command {w.get('item')}: {w.get('command')}")
         if r.failed_item:
             _print(f"    unknown: {r.failed_item} (may or may not have been written)")
         if r.error and r.result != "ok":
-            _print(f"    error: {r.error}")
+            _print(f"    error: {audit.shorten(r.error, args.verbose)}")
     return EXIT_OK
 
 

@@ -408,7 +408,13 @@ def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path)
     assert ok["robot"] == {"name": "cell", "port": url, "station": 1}
     assert ok["plan"] == ["SNT 2 2.22"]
     assert ok["written"] == [
-        {"item": "timer 2", "command": "SNT 2 2.22", "old": old, "new": "2.22"}
+        {
+            "item": "timer 2",
+            "command": "SNT 2 2.22",
+            "old": old,
+            "new": "2.22",
+            "changes": [{"item": "timer 2", "field": None, "old": old, "new": "2.22"}],
+        }
     ]
     assert "task 0 in execution" in records[1]["error"] and records[1]["written"] == []
 

@@ -35,6 +35,7 @@ import getpass
 import json
 import logging
 import os
+import re
 import secrets
 import socket
 from collections.abc import Iterable
@@ -127,6 +128,7 @@ _TEXT = (
 )  # fmt: skip
 _TEXTS = ("plan", "warnings", "notes")
 _WRITTEN_TEXT = ("item", "command", "old", "new")
+_CHANGE_TEXT = ("item", "field", "old", "new")
 
 #: Problems already said by this process (path, line): a backup of 40 robots reads
 #: the log 40 times and says each once.
@@ -151,25 +153,35 @@ def _clean(record: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
             "station": of_robot.integer("station"),
         }
         fields.problems += [f"robot's {p}" for p in of_robot.problems]
+    changes = fields.objects("changes")  # a write record's, see written_entry
+    if changes is not None:
+        clean["changes"] = []
+        for change in changes:
+            of_change = Fields(change)
+            clean["changes"].append({n: of_change.text(n) for n in _CHANGE_TEXT})
+            fields.problems += of_change.problems
     written = fields.objects("written")
     if written is not None:
         clean["written"] = []
         for entry in written:
             one = Fields(entry)
-            kept: dict[str, Any] = {name: one.text(name) for name in _WRITTEN_TEXT}
-            changes = one.objects("fields")  # [{"field", "old", "new"}], as items.to_json
+            kept: dict[str, Any] = {}
+            for name in _WRITTEN_TEXT:
+                if (value := one.text(name)) is not None:
+                    kept[name] = value
+            changes = one.objects("changes")  # see written_entry
             if changes is not None:
-                kept["fields"] = []
+                kept["changes"] = []
                 for change in changes:
                     of_change = Fields(change)
-                    kept["fields"].append({n: of_change.text(n) for n in ("field", "old", "new")})
+                    kept["changes"].append({n: of_change.text(n) for n in _CHANGE_TEXT})
                     one.problems += of_change.problems
             clean["written"].append(kept)
             fields.problems += [f"written item's {p}" for p in one.problems]
     return {k: v for k, v in clean.items() if v is not None}, fields.problems
 
 
-_KNOWN = frozenset((*_TEXT, *_TEXTS, "pid", "robot", "written"))
+_KNOWN = frozenset((*_TEXT, *_TEXTS, "pid", "robot", "written", "changes"))
 
 
 def read(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
@@ -238,7 +250,9 @@ def results(path: Path | None = None, problems: list[str] | None = None) -> list
             pending = started[rid]
             if pending["failed_item"] is not None:
                 pending["written"].append(pending["failed_item"])
-            pending["failed_item"] = {"item": record.get("item"), "command": record.get("command")}
+            pending["failed_item"] = {
+                k: record.get(k) for k in ("item", "command", "changes") if k in record
+            }
         elif event == "end":
             if rid in started:
                 del started[rid]
@@ -308,3 +322,132 @@ def describe_unfinished(record: dict[str, Any]) -> str:
     if record.get("snapshot"):
         text += f"; the robot before it: {record['snapshot']}"
     return text
+
+
+# --- the record in the family's words ------------------------------------------------
+
+#: A value an older harlsync recorded as Python's repr: ``Position(axes=..., ...)``.
+_REPR = re.compile(r"^[A-Z]\w*\(.*\)$", re.DOTALL)
+#: A run of hex a person cannot read: a frame on the wire (at least 12 bytes).
+_HEX = re.compile(
+    r"(?<![0-9A-Za-z])(?=[0-9A-Fa-f ]*[A-Fa-f])(?:[0-9A-Fa-f]{2} ?){12,}(?![0-9A-Za-z])"
+)
+#: How long a recorded error may be on a line a person reads.
+ERROR_LENGTH = 500
+#: How many changes a push's entry shows before "and 40 more".
+SHOWN = 10
+#: What an item one side does not have is called (an empty step, an undefined position).
+EMPTY = "(empty)"
+
+
+def change_entries(changes: Iterable[Any]) -> list[dict[str, str | None]]:
+    """The changes (:class:`~.items.Change`) field by field, as ``diff`` shows them:
+    ``{"item": "position 3", "field": "speed", "old": "150", "new": "200"}``."""
+    found: list[dict[str, str | None]] = []
+    for change in changes:
+        for name, old, new in change.fields():
+            for part, a, b in _narrow(name, old, new):
+                found.append({"item": change.name, "field": part or None, "old": a, "new": b})
+    return found
+
+
+def difference(catalogue: Any, key: Any, old: Any, new: Any) -> str:
+    """How ``new`` differs from ``old`` for the item ``key``, in the family's words:
+    ``speed 150 → 200; acc 0.30 → 0.50`` (a run's values compared one by one)."""
+    pairs = list(zip(old, new)) if isinstance(old, tuple) and isinstance(new, tuple) else []
+    if not pairs or len(old) != len(new):
+        pairs = [(old, new)]
+    lines: list[str] = []
+    try:
+        for a, b in pairs:
+            for name, x, y in catalogue.fields(key, a, b):
+                for part, p, q in _narrow(name, x, y):
+                    lines.append(change_line({"item": None, "field": part, "old": p, "new": q}))
+    except (AttributeError, TypeError, ValueError):  # a value the family cannot show
+        return "its value differs"
+    texts = [line.split(": ", 1)[1] for line in lines]
+    return "; ".join(fold(texts, 4, "more")) or "its value differs"
+
+
+def written_entry(write: Any) -> dict[str, Any]:
+    """A write (:class:`~.plan.PlannedWrite`) as the audit log keeps it: the item, the
+    wire command (for the record; shown with -v only) and what it changes."""
+    changes = change_entries(write.items)
+    entry: dict[str, Any] = {"item": write.name, "command": write.command}
+    if len(changes) == 1 and changes[0]["field"] is None and changes[0]["item"] == write.name:
+        entry.update(old=changes[0]["old"], new=changes[0]["new"])  # as older records had
+    return entry | {"changes": changes}
+
+
+def change_line(entry: dict[str, Any]) -> str:
+    """``position 3: speed 150 → 200``."""
+    field = f"{entry['field']} " if entry.get("field") else ""
+    old, new = entry.get("old"), entry.get("new")
+    return f"{entry.get('item')}: {field}{EMPTY if old is None else old} → {EMPTY if new is None else new}"
+
+
+def written_lines(written: Iterable[dict[str, Any]], most: int | None = SHOWN) -> list[str]:
+    """What the written entries changed, a line per field (``position 3: speed 150 →
+    200``), at most ``most`` then ``and 40 more``.  An entry an older harlsync recorded
+    shows its values when they are the family's text, else only its item."""
+    lines: list[str] = []
+    for w in written:
+        if w.get("changes") is not None:
+            lines += [change_line(c) for c in w["changes"]]
+            continue
+        old, new = w.get("old"), w.get("new")
+        if any(isinstance(v, str) and _REPR.match(v) for v in (old, new)) or (old is new is None):
+            lines.append(f"{w.get('item')}: changed")
+        else:
+            lines.append(change_line({"item": w.get("item"), "old": old, "new": new}))
+    return lines if most is None else fold(lines, most, "more")
+
+
+def shorten(text: str | None, verbose: int = 0) -> str | None:
+    """A recorded error as a line a person reads: a frame on the wire (a long run of
+    hex) named by its size, unless ``verbose`` >= 2, and at most ERROR_LENGTH characters."""
+    if text is None:
+        return None
+    if verbose < 2:
+        text = _HEX.sub(_frame, text)
+    text = " ".join(text.split())
+    return text if len(text) <= ERROR_LENGTH else text[: ERROR_LENGTH - 1] + "…"
+
+
+def _frame(match: re.Match[str]) -> str:
+    size = len(re.sub(r"\s", "", match.group())) // 2
+    return f"[a {size}-byte frame: -vv shows it]"
+
+
+_TOKEN = re.compile(r"\[[^\]]*\]|\S+")
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def _groups(text: str) -> list[tuple[str, list[str]]] | None:
+    """``axes [1, 2] acc 0.30 speed 150`` as [(axes, [[1, 2]]), (acc, [0.30]), ...];
+    None when it does not read so."""
+    groups: list[tuple[str, list[str]]] = []
+    for token in _TOKEN.findall(text):
+        if groups and (not groups[-1][1] or not _NAME.match(token)):
+            groups[-1][1].append(token)
+        elif _NAME.match(token):
+            groups.append((token, []))
+        else:
+            return None
+    return groups if groups and all(values for _, values in groups) else None
+
+
+def _narrow(
+    name: str, old: str | None, new: str | None
+) -> list[tuple[str, str | None, str | None]]:
+    """One field whose text reads ``name value name value ...`` on both sides with the
+    same names (an IAI position's line), narrowed to the names whose values differ."""
+    if name or old is None or new is None:
+        return [(name, old, new)]
+    a, b = _groups(old), _groups(new)
+    if a is None or b is None or len(a) < 3 or [n for n, _ in a] != [n for n, _ in b]:
+        return [(name, old, new)]
+    differ: list[tuple[str, str | None, str | None]] = [
+        (n, " ".join(x), " ".join(y)) for (n, x), (_, y) in zip(a, b) if x != y
+    ]
+    return differ if 0 < len(differ) < len(a) else [(name, old, new)]

@@ -33,7 +33,7 @@ from ..project import load_robot
 from ..project.lock import project_lock
 from ..project.store import replace_file
 from ..robotlog import about
-from . import git, history
+from . import audit, git, history
 from .engine import catalogue, pull
 from .items import summarize
 
@@ -75,7 +75,7 @@ class RobotOutcome:
         took = f" ({self.duration:.1f} s)"
         if not self.ok:
             tries = f" after {len(self.attempts)} attempts" if len(self.attempts) > 1 else ""
-            return f"{self.name}: FAILED{tries}: {self.error}{took}"
+            return f"{self.name}: FAILED{tries}: {audit.shorten(self.error)}{took}"
         said = f"changed: {self.summary}" if self.changed else self.summary or "no change"
         return f"{self.name}: ok, {said}{took}"
 
@@ -123,7 +123,9 @@ class BackupReport:
         lines = [head, ""] + [f"- {r.name}: {r.summary}" for r in changed]
         failed = [r for r in self.robots if not r.ok]
         if failed:
-            lines += ["", "Not backed up:"] + [f"- {r.name}: {r.error}" for r in failed]
+            lines += ["", "Not backed up:"] + [
+                f"- {r.name}: {audit.shorten(r.error)}" for r in failed
+            ]
         return "\n".join(lines) + "\n"
 
     def render(self) -> str:
@@ -139,7 +141,7 @@ class BackupReport:
                 flags.append("never backed up")
             elif r.stale:
                 flags.append(f"stale: last good backup {r.last_success}")
-            changes = r.summary if r.ok else (r.error or "")
+            changes = r.summary if r.ok else (audit.shorten(r.error) or "")
             if flags:
                 changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
             rows.append((r.name, result, changes, f"{r.duration:.1f}s"))

@@ -25,7 +25,7 @@ from ..families.base import Catalogue, Driver
 from ..project import statefile
 from .items import Change, diff
 
-__all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "fingerprint", "make_plan"]
+__all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "covered", "fingerprint", "make_plan"]
 
 PLAN_FORMAT = 1
 
@@ -41,6 +41,10 @@ class PlannedWrite:
     unsafe: bool
     #: the item's name for people: ``MAIN program 2 step 3``
     name: str
+    #: the items of the diff this write changes (one, or a run of positions), as
+    #: ``diff`` shows them; a write of an item that did not differ (a step rewritten
+    #: after a reconfiguration) is its own change
+    items: tuple[Change, ...] = ()
 
 
 @dataclass
@@ -70,6 +74,12 @@ class Plan:
     @property
     def empty(self) -> bool:
         return not self.writes
+
+    @property
+    def items(self) -> list[Change]:
+        """The changes of the diff that the writes make, in push order: what a person
+        confirms (an IAI 291H writes several positions, each one item)."""
+        return [c for w in self.writes for c in w.items]
 
     @property
     def commands(self) -> list[str]:
@@ -141,6 +151,44 @@ def fingerprint(catalogue: Catalogue, data: Any, *, registers: bool = False) -> 
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
+def covered(
+    catalogue: Catalogue, changes: list[Change], wanted: list[tuple[Any, Any, Any]]
+) -> list[tuple[Change, ...]]:
+    """For each write (key, old, new) of ``wanted``, in order, the changes of the diff it
+    makes.
+
+    A write of one item is keyed as its change is.  A write of a run of items (IAI:
+    positions 3-7, written by one 291H) carries a tuple of their new values, in order:
+    each is matched to the first change not yet matched, of the same group, whose new
+    value it is.  A write that matches no change is its own.
+    """
+    by_key = {c.key: c for c in changes}
+    taken: set[int] = set()
+    found: list[tuple[Change, ...]] = []
+    for key, old, new in wanted:
+        if key in by_key:
+            found.append((by_key[key],))
+            taken.add(id(by_key[key]))
+            continue
+        mine: list[Change] = []
+        if isinstance(new, tuple):
+            group = catalogue.group(key)
+            for value in new:
+                candidates = [
+                    c for c in changes if id(c) not in taken and catalogue.group(c.key) == group
+                ]
+                match = next((c for c in candidates if c.new is value), None) or next(
+                    (c for c in candidates if c.new == value), None
+                )
+                if match is not None:
+                    taken.add(id(match))
+                    mine.append(match)
+        if not mine and not isinstance(new, tuple):
+            mine = [Change(key, old, new, catalogue)]
+        found.append(tuple(mine))
+    return found
+
+
 def make_plan(
     catalogue: Catalogue,
     live: Any,
@@ -156,11 +204,18 @@ def make_plan(
         live, project, [(c.key, c.old, c.new) for c in changes], registers=registers
     )
     wanted = sorted(shape.wanted, key=lambda w: catalogue.order(w[0]))
+    items = covered(catalogue, changes, wanted)
     writes = [
         PlannedWrite(
-            key, old, new, driver.command(key, new), driver.unsafe(key), catalogue.describe(key)
+            key,
+            old,
+            new,
+            driver.command(key, new),
+            driver.unsafe(key),
+            catalogue.describe(key),
+            items[n],
         )
-        for key, old, new in wanted
+        for n, (key, old, new) in enumerate(wanted)
     ]
     return Plan(
         robot=robot,

@@ -105,8 +105,13 @@ class PushRecord:
         if self.reason:
             text += f': "{self.reason}"'
         if self.error and self.result != "ok":
-            text += f" ({self.error})"
+            text += f" ({audit.shorten(self.error)})"
         return text
+
+    def changes(self, most: int | None = audit.SHOWN) -> list[str]:
+        """What it wrote, a line per field as ``diff`` shows it (``position 3: speed
+        150 → 200``), at most ``most`` then ``and 40 more``."""
+        return audit.written_lines(self.written, most)
 
 
 @dataclass
@@ -229,10 +234,11 @@ class PlantStatus:
                 )
             )
             if r.last_result == "failed":
-                notes.append(f"{r.name}: failed: {r.last_error}")
+                notes.append(f"{r.name}: failed: {audit.shorten(r.last_error)}")
             notes += [f"{r.name}: {text}" for text in r.unfinished]
             if push is not None:
                 notes.append(f"{r.name}: last {push.describe()}")
+                notes += [f"    {line}" for line in push.changes(3)]
         widths = [min(max(len(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
         lines = []
         for row in rows:
