@@ -25,7 +25,7 @@ from .terminal import BackupDisplay, Feedback
 
 if TYPE_CHECKING:
     from .sync.engine import PushOptions, PushResult
-    from .sync.plan import Plan
+    from .sync.plan import Plan, PlannedWrite
 
 __all__ = ["main"]
 
@@ -877,11 +877,12 @@ def _differ(changes: Sequence[Any]) -> str:
 def _add_plan(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "plan",
-        help="print the commands a push would send, and send none",
-        description="Read the whole robot, compare it with the project and print, in order, "
-        "the exact commands a push would send (HARL-U2: SN commands; IAI: each "
-        "291H, field by field; Epson: each Remote Control command's words in hex). "
-        "Nothing is written. Warns when the robot is not idle: a push would be "
+        help="print what a push would write, and write nothing",
+        description="Read the whole robot, compare it with the project and print, in push "
+        "order, what a push would write, item by item as diff shows it, and how many "
+        "items in how many writes; with -v also the exact command of each write "
+        "(HARL-U2: SN commands; IAI: each 291H, field by field; Epson: each Remote "
+        "Control command's words in hex). Nothing is written. Warns when the robot is not idle: a push would be "
         "refused now. --out saves the plan "
         "with a fingerprint of the robot and the project; push --plan refuses it "
         "if either changed since. The plan file is not part of the project: "
@@ -898,17 +899,31 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_plan)
 
 
-def _show_plan(the_plan: Plan) -> None:
+def _show_plan(the_plan: Plan, verbose: int = 0) -> None:
+    """What a push of ``the_plan`` writes, as ``diff`` shows it, item by item; with -v
+    each write's wire command too."""
+    from .sync.items import render_text
+
     for line in the_plan.unwritable:
         _print(f"# cannot write: {line}")
     if the_plan.reconfiguration_note:
         _print(f"# {the_plan.reconfiguration_note}")
     for note in the_plan.notes:
         _print(f"# note: {note}")
-    for write in the_plan.writes:
-        flag = "  # unsafe in automatic operation" if write.unsafe else ""
-        _print(f"{write.command}{flag}")
-    _print(f"# {len(the_plan.writes)} write(s) to {the_plan.robot} ({the_plan.target})")
+    if the_plan.items:
+        for line in render_text(the_plan.items, "", "").splitlines()[2:]:
+            _print(line)
+    if verbose:
+        for write in the_plan.writes:
+            flag = "  # unsafe in automatic operation" if write.unsafe else ""
+            _print(f"# {write.name}: {write.command}{flag}")
+    _print(f"# {_counted(the_plan)} to {the_plan.robot} ({the_plan.target})")
+
+
+def _counted(the_plan: Plan) -> str:
+    """``5 item(s) in 2 write(s)``: the items as diff counts them, and the commands."""
+    items, writes = len(the_plan.items), len(the_plan.writes)
+    return f"{items} item(s) in {writes} write(s)" if items != writes else f"{items} item(s)"
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
@@ -930,7 +945,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         progress.close()
     _warn(found.warnings)
     the_plan = found.plan()
-    _show_plan(the_plan)
+    _show_plan(the_plan, args.verbose)
     if args.out:
         the_plan.save(args.out)
         _print(f"# plan saved to {args.out}")
@@ -976,10 +991,10 @@ def _push_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _confirm(the_plan: Plan) -> bool:
+def _confirm(the_plan: Plan, verbose: int = 0) -> bool:
     """Show the plan and ask on the terminal (only given when stdin is one)."""
-    _show_plan(the_plan)
-    answer = input(f"Write these {len(the_plan.writes)} item(s) to {the_plan.robot}? [y/N] ")
+    _show_plan(the_plan, verbose)
+    answer = input(f"Write these {_counted(the_plan)} to {the_plan.robot}? [y/N] ")
     return answer.strip().lower() in ("y", "yes")
 
 
@@ -1024,7 +1039,7 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
 
     return PushOptions(
         yes=args.yes,
-        confirm=_confirm if sys.stdin.isatty() else None,
+        confirm=(lambda plan: _confirm(plan, args.verbose)) if sys.stdin.isatty() else None,
         reason=args.reason,
         allow_dirty=getattr(args, "allow_dirty", False),
         outside_window=args.outside_window,
@@ -1053,17 +1068,21 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
                 f"{len(r.plan.writes)} item(s)",
                 file=sys.stderr,
             )
+            verbose = logging.getLogger().isEnabledFor(logging.INFO)  # -v: the wire too
+
+            def said(w: PlannedWrite) -> str:
+                return f"{w.name} ({w.command})" if verbose else w.name
+
             for w in r.written:
-                print(f"  written:     {w.name}: {w.command}", file=sys.stderr)
+                print(f"  written:     {said(w)}", file=sys.stderr)
             if r.failed is not None:
                 print(
-                    f"  unknown:     {r.failed.name}: {r.failed.command} (may or may not "
-                    "have been written)",
+                    f"  unknown:     {said(r.failed)} (may or may not have been written)",
                     file=sys.stderr,
                 )
             for w in r.not_written:
                 if w is not r.failed:
-                    print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
+                    print(f"  not written: {said(w)}", file=sys.stderr)
             print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
         for note in r.notes:
             print(f"harlsync: note: {note}", file=sys.stderr)

@@ -176,3 +176,35 @@ def test_log_folds_long_lists_hides_frames_and_old_reprs_unless_asked(tmp_path, 
     assert f"command position 0: 291H {frame}" in out  # the wire with -v
     assert cli.main(["log", "-vv"]) == 0
     assert frame in capsys.readouterr().out
+
+
+def test_plan_and_the_push_prompt_show_the_diff_of_what_is_written_and_the_wire_only_with_v(
+    edited, capsys, monkeypatch
+) -> None:
+    project = str(edited.project)
+    assert cli.main(["diff", project]) == 1
+    shown = capsys.readouterr().out.splitlines()[2:]  # after --- robot, +++ project
+    assert cli.main(["diff", project, "--format", "json"]) == 1
+    items = len(json.loads(capsys.readouterr().out)["changes"])
+    assert cli.main(["plan", project]) == 0
+    out = capsys.readouterr().out
+    readable(out)
+    lines = out.splitlines()
+    assert lines[:-1] == shown  # the same lines as diff: every difference is written
+    assert re.fullmatch(rf"# {items} item\(s\)( in \d+ write\(s\))? to \S+ \(.*\)", lines[-1])
+
+    assert cli.main(["plan", project, "-v"]) == 0
+    verbose = capsys.readouterr().out.splitlines()
+    commands = [line for line in verbose if line.startswith("# ") and ": " in line]
+    assert commands and verbose[: len(shown)] == shown
+
+    from harlsync.sync import engine
+
+    asked: list[str] = []
+    monkeypatch.setattr("builtins.input", lambda prompt: asked.append(prompt) or "n")
+    the_plan = engine.compare(project, lock_timeout=5).plan()
+    assert cli._confirm(the_plan) is False
+    out = capsys.readouterr().out
+    readable(out)
+    assert out.splitlines()[:-1] == shown
+    assert asked == [f"Write these {lines[-1][2:].split(' to ')[0]} to {the_plan.robot}? [y/N] "]

@@ -180,7 +180,9 @@ def test_plan_prints_the_commands_and_sends_none(served, repo, capsys) -> None:
     edit_timer(project, 0, "0.50")
     before = len(sim.received)
     assert main(["plan", str(project), "--port", url]) == 0
-    assert "SNT 0 0.50" in capsys.readouterr().out
+    assert "+0: 0.50" in capsys.readouterr().out  # as diff shows it
+    assert main(["plan", str(project), "--port", url, "-v"]) == 0
+    assert "# timer 0: SNT 0 0.50" in capsys.readouterr().out  # the wire with -v
     assert not [r for r in sim.received[before:] if r.is_write]
 
 

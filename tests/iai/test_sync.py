@@ -163,8 +163,13 @@ def test_plan_prints_each_291h_field_by_field_and_sends_nothing(served, repo, ca
     sent = len(sim.received)
     assert cli.main(["plan", str(project)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith(f"291H 00 {n:04X} 0001 | ")
-    assert "000007D0" in lines[0]  # 2.000 mm in 0.001 mm, two's complement
+    assert lines[0] == "@@ positions @@" and lines[1].startswith(f"-{n}: axes ")
+    assert "coords [2.000" in lines[2] and lines[3].startswith("# 1 item(s) to ")
+    assert "291H" not in "".join(lines)  # the wire only with -v (issue 22)
+    assert cli.main(["plan", str(project), "-v"]) == 0
+    [command] = [line for line in capsys.readouterr().out.splitlines() if "291H" in line]
+    assert command.startswith(f"# position {n}: 291H 00 {n:04X} 0001 | ")
+    assert "000007D0" in command  # 2.000 mm in 0.001 mm, two's complement
     assert not [r for r in sim.received[sent:] if r.is_write]
 
 
