@@ -188,9 +188,8 @@ def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run
     )
     assert took.total_seconds() >= 2, (report["started"], loader["last_success"])
     stamp = datetime.fromisoformat(loader["last_success"]).timestamp()
-    assert f'harlsync_backup_last_success_timestamp_seconds{{robot="loader"}} {stamp:.0f}' in (
-        metrics.read_text().splitlines()
-    )
+    series = 'harlsync_backup_last_success_timestamp_seconds{project="loader",robot="loader"}'
+    assert f"{series} {stamp:.0f}" in (metrics.read_text().splitlines())
     recorded = json.loads((plant.root / "loader" / ".harlsync" / "backup.json").read_text())
     assert recorded["last_success"] == loader["last_success"]
 
@@ -241,9 +240,9 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
     assert names == "loader" and "1 timer" in summary
     assert failed_out.read_text() == "garbage silent"
     text = metrics.read_text()
-    assert 'harlsync_backup_success{robot="loader"} 1' in text
-    assert 'harlsync_backup_success{robot="silent"} 0' in text
-    assert 'harlsync_backup_failed_attempts{robot="silent"} 1' in text
+    assert 'harlsync_backup_success{project="loader",robot="loader"} 1' in text
+    assert 'harlsync_backup_success{project="silent",robot="silent"} 0' in text
+    assert 'harlsync_backup_failed_attempts{project="silent",robot="silent"} 1' in text
 
 
 def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
@@ -367,7 +366,7 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
         "press-1/timers.yaml"
     ]
     assert failed_out.read_text() == "loader"
-    assert 'harlsync_backup_success{robot="loader"} 0' in metrics.read_text()
+    assert 'harlsync_backup_success{project="loader",robot="loader"} 0' in metrics.read_text()
     assert {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()} == before
 
 

@@ -69,15 +69,21 @@ class RobotOutcome:
     last_success: str | None = None
     stale: bool = False
     never_backed_up: bool = False
+    #: Its project's directory under the plant's (``lineA/cell``): apart from
+    #: another robot of the same name (see :func:`project_labels`).
+    project: str = ""
+    #: Its name as the report shows it: ``cell``, or ``cell (lineA/cell)`` when
+    #: another robot of the run has that name.
+    label: str = ""
 
     def line(self) -> str:
         """One line as it finishes: ``press: ok, changed: 1 program (1 step) (4.0 s)``."""
         took = f" ({self.duration:.1f} s)"
         if not self.ok:
             tries = f" after {len(self.attempts)} attempts" if len(self.attempts) > 1 else ""
-            return f"{self.name}: FAILED{tries}: {audit.shorten(self.error)}{took}"
+            return f"{self.label or self.name}: FAILED{tries}: {audit.shorten(self.error)}{took}"
         said = f"changed: {self.summary}" if self.changed else self.summary or "no change"
-        return f"{self.name}: ok, {said}{took}"
+        return f"{self.label or self.name}: ok, {said}{took}"
 
 
 @dataclass
@@ -120,11 +126,11 @@ class BackupReport:
     def commit_message(self) -> str:
         changed = self.changed
         head = f"backup: {len(changed)} of {len(self.robots)} robot(s) changed"
-        lines = [head, ""] + [f"- {r.name}: {r.summary}" for r in changed]
+        lines = [head, ""] + [f"- {r.label or r.name}: {r.summary}" for r in changed]
         failed = [r for r in self.robots if not r.ok]
         if failed:
             lines += ["", "Not backed up:"] + [
-                f"- {r.name}: {audit.shorten(r.error)}" for r in failed
+                f"- {r.label or r.name}: {audit.shorten(r.error)}" for r in failed
             ]
         return "\n".join(lines) + "\n"
 
@@ -144,7 +150,7 @@ class BackupReport:
             changes = r.summary if r.ok else (audit.shorten(r.error) or "")
             if flags:
                 changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
-            rows.append((r.name, result, changes, f"{r.duration:.1f}s"))
+            rows.append((r.label or r.name, result, changes, f"{r.duration:.1f}s"))
         # Long error texts do not widen the table for everyone: the duration
         # column stays where the other rows put it.
         widths = [min(max(len(row[i]) for row in rows), 48) for i in range(3)]
@@ -187,6 +193,27 @@ def find_projects(paths: Iterable[str | Path]) -> list[Path]:
         found += below
     unique: dict[Path, None] = {p.resolve(): None for p in found}
     return list(unique)
+
+
+def project_labels(paths: Iterable[Path]) -> dict[Path, str]:
+    """Each project's directory relative to the deepest one that holds them all
+    (``lineA/cell``), or its own name when it is alone: what tells two robots of
+    one name apart."""
+    found = [Path(p) for p in paths]
+    if not found:
+        return {}
+    top = Path(os.path.commonpath([str(p.resolve().parent) for p in found]))
+    return {p: p.resolve().relative_to(top).as_posix() for p in found}
+
+
+def shown_names(robots: Iterable[tuple[str, str]]) -> list[str]:
+    """Each (name, project label) as a person reads it: the name, or ``cell
+    (lineA/cell)`` when another robot has the same name."""
+    listed = list(robots)
+    count: dict[str, int] = {}
+    for name, _ in listed:
+        count[name] = count.get(name, 0) + 1
+    return [name if count[name] == 1 else f"{name} ({label})" for name, label in listed]
 
 
 def line_of(port: str) -> str:
@@ -402,7 +429,12 @@ def backup(
             stop.set()
             pool.shutdown(wait=True, cancel_futures=True)
             raise
-    outcomes.sort(key=lambda o: o.name)
+    labels = project_labels(projects)
+    for outcome in outcomes:
+        outcome.project = labels.get(Path(outcome.path), outcome.name)
+    outcomes.sort(key=lambda o: (o.name, o.project))
+    for outcome, shown in zip(outcomes, shown_names((o.name, o.project) for o in outcomes)):
+        outcome.label = shown
 
     for outcome in outcomes:
         outcome.never_backed_up = outcome.last_success is None
@@ -456,30 +488,33 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
 
     Raises SyncError when it cannot be written (the previous file is then kept).
     """
-    lines = [
-        "# HELP harlsync_backup_success Whether the robot's last backup run succeeded.",
-        "# TYPE harlsync_backup_success gauge",
-        "# HELP harlsync_backup_last_success_timestamp_seconds Time of the robot's last good backup.",
-        "# TYPE harlsync_backup_last_success_timestamp_seconds gauge",
-        "# HELP harlsync_backup_duration_seconds How long the robot's backup took.",
-        "# TYPE harlsync_backup_duration_seconds gauge",
-        "# HELP harlsync_backup_changed_items Items changed since the previous backup.",
-        "# TYPE harlsync_backup_changed_items gauge",
-        "# HELP harlsync_backup_failed_attempts Failed attempts in this run.",
-        "# TYPE harlsync_backup_failed_attempts gauge",
+
+    def escaped(text: str) -> str:
+        return text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+
+    def last(r: RobotOutcome) -> str:
+        return f"{datetime.fromisoformat(r.last_success).timestamp() if r.last_success else 0:.0f}"
+
+    families: list[tuple[str, str, Callable[[RobotOutcome], str]]] = [
+        ("success", "Whether the robot's last backup run succeeded.", lambda r: str(int(r.ok))),
+        ("last_success_timestamp_seconds", "Time of the robot's last good backup.", last),
+        ("duration_seconds", "How long the robot's backup took.", lambda r: f"{r.duration:.3f}"),
+        (
+            "changed_items",
+            "Items changed since the previous backup.",
+            lambda r: str(sum(v for k, v in r.counts.items() if k != "programs")),
+        ),
+        ("failed_attempts", "Failed attempts in this run.", lambda r: str(len(r.attempts))),
     ]
-    for r in report.robots:
-        escaped = r.name.replace("\\", "\\\\").replace('"', '\\"')
-        label = f'{{robot="{escaped}"}}'
-        last = datetime.fromisoformat(r.last_success).timestamp() if r.last_success else 0
-        changed = sum(v for k, v in r.counts.items() if k != "programs")
-        lines += [
-            f"harlsync_backup_success{label} {int(r.ok)}",
-            f"harlsync_backup_last_success_timestamp_seconds{label} {last:.0f}",
-            f"harlsync_backup_duration_seconds{label} {r.duration:.3f}",
-            f"harlsync_backup_changed_items{label} {changed}",
-            f"harlsync_backup_failed_attempts{label} {len(r.attempts)}",
-        ]
+    lines: list[str] = []
+    # Each metric's samples in one group, each robot once: by its project (two robots
+    # may share a name), and by name for the dashboards that used it alone.
+    for suffix, text, value in families:
+        name = f"harlsync_backup_{suffix}"
+        lines += [f"# HELP {name} {text}", f"# TYPE {name} gauge"]
+        for r in report.robots:
+            label = f'{{project="{escaped(r.project or r.name)}",robot="{escaped(r.name)}"}}'
+            lines.append(f"{name}{label} {value(r)}")
     if report.commit is not None or report.commit_error is not None:
         lines += [
             "# HELP harlsync_backup_git_commit_success Whether the run's git commit succeeded.",

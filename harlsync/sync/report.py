@@ -123,18 +123,20 @@ def _written(robot: RobotStatus) -> list[DiffLine]:
 def _events(robot: RobotStatus) -> list[Event]:
     """The robot's recent commits (backups, edits), pushes and a failed last backup."""
     events = [
-        Event(c.time, robot.name, "commit", f"{c.sha[:10]} {c.subject}", "ok")
+        Event(c.time, robot.label or robot.name, "commit", f"{c.sha[:10]} {c.subject}", "ok")
         for c in git.log(robot.path, ROBOT_EVENTS)
     ]
     events += [
-        Event(p.time or "", robot.name, p.action, f"{p.result} {p.details()}", p.result)
+        Event(
+            p.time or "", robot.label or robot.name, p.action, f"{p.result} {p.details()}", p.result
+        )
         for p in robot.pushes[-ROBOT_EVENTS:]
     ]
     if robot.last_result == "failed" and robot.last_attempt:
         events.append(
             Event(
                 robot.last_attempt,
-                robot.name,
+                robot.label or robot.name,
                 "failed",
                 f"backup failed: {audit.shorten(robot.last_error)}",
                 "failed",

@@ -29,7 +29,7 @@ from .. import families
 from ..errors import HarlsyncError
 from ..project import load_robot
 from . import audit, git, history
-from .backup import find_projects
+from .backup import find_projects, project_labels, shown_names
 from .engine import snapshots
 
 __all__ = [
@@ -142,6 +142,11 @@ class RobotStatus:
     snapshots: int = 0
     #: Every push and rollback of this robot the audit log holds, oldest first.
     pushes: list[PushRecord] = field(default_factory=list, repr=False)
+    #: Its project's directory under the plant's (``lineA/cell``).
+    project: str = ""
+    #: Its name as a person reads it: ``cell``, or ``cell (lineA/cell)`` when
+    #: another robot of the plant has that name.
+    label: str = ""
 
     @property
     def attention(self) -> bool:
@@ -221,7 +226,7 @@ class PlantStatus:
             push = r.last_push
             rows.append(
                 (
-                    r.name,
+                    r.label or r.name,
                     r.state,
                     r.family or "?",
                     r.port or "?",
@@ -233,11 +238,12 @@ class PlantStatus:
                     f"{local_time(push.time)} {push.action} {push.result}" if push else "-",
                 )
             )
+            shown = r.label or r.name
             if r.last_result == "failed":
-                notes.append(f"{r.name}: failed: {audit.shorten(r.last_error)}")
-            notes += [f"{r.name}: {text}" for text in r.unfinished]
+                notes.append(f"{shown}: failed: {audit.shorten(r.last_error)}")
+            notes += [f"{shown}: {text}" for text in r.unfinished]
             if push is not None:
-                notes.append(f"{r.name}: last {push.describe()}")
+                notes.append(f"{shown}: last {push.describe()}")
                 notes += [f"    {line}" for line in push.changes(3)]
         widths = [min(max(len(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
         lines = []
@@ -366,10 +372,15 @@ def collect(
     projects = find_projects(paths)
     warnings: list[str] = []
     records = _audit_records(warnings)
-    robots = sorted(
-        (_robot_status(p, records, now, stale_after, warnings) for p in projects),
-        key=lambda r: (r.name, r.path),
-    )
+    labels = project_labels(projects)
+    robots = []
+    for path in projects:
+        robot = _robot_status(path, records, now, stale_after, warnings)
+        robot.project = labels[path]
+        robots.append(robot)
+    robots.sort(key=lambda r: (r.name, r.project))
+    for robot, shown in zip(robots, shown_names((r.name, r.project) for r in robots)):
+        robot.label = shown
     return PlantStatus(
         robots,
         now.isoformat(timespec="seconds"),
