@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import re
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -115,8 +116,9 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
     for name, before in untouched.items():
         assert files_of(plant.root / name) == before
     log = git(plant.root, "log", "--format=%B", f"{head.strip()}..HEAD")
-    assert log.startswith("backup: 2 of 5 robot(s) changed")
-    assert "- loader: 1 timer" in log and "- press-2: 2 programs (2 steps)" in log
+    assert log.startswith("backup: 2 of 5 robot(s) changed: loader, press-2\n")
+    assert "- loader: 1 timer:\n    timer " in log  # each item named (issue 22)
+    assert "- press-2: 2 programs (2 steps):\n    " in log
     assert "- silent:" in log and "- garbage:" in log  # the failures are in the message too
     changed = git(plant.root, "show", "--name-only", "--format=", "HEAD").split()
     assert sorted(changed) == [
@@ -318,7 +320,7 @@ def test_the_documented_cron_line_runs_against_simulated_robots(
     assert "silent" in (tmp_path / "mail.txt").read_text()
     assert "harlsync_backup_success" in (tmp_path / "m.prom").read_text()
     pushed = git(bare, "log", "-1", "--format=%s", branch)
-    assert pushed.startswith("backup: 1 of 5 robot(s) changed")
+    assert re.fullmatch(r"backup: loader: timer \d+", pushed.strip())  # names what changed
 
 
 def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:

@@ -660,8 +660,10 @@ def test_pull_commit_says_what_changed_and_skips_an_empty_commit(served, repo) -
     sim.stations[1].data.programs[(ProgramType.MAIN, 0)][10] = Step.parse("END")
     result = engine.pull(project, port=url, commit=True)
     assert result.commit is not None
-    message = git(repo, "log", "-1", "--format=%s")
-    assert message.strip() == "pull cell: 1 program (1 step), 1 timer"
+    message = git(repo, "log", "-1", "--format=%B")
+    assert message.startswith(  # names each item (issue 22), then the summary
+        "pull cell: timer 1; MAIN program 0 step 10\n\n1 program (1 step), 1 timer:\n"
+    )
     head = git(repo, "rev-parse", "HEAD")
     assert engine.pull(project, port=url, commit=True).commit is None
     assert git(repo, "rev-parse", "HEAD") == head

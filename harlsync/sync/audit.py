@@ -451,3 +451,52 @@ def _narrow(
         (n, " ".join(x), " ".join(y)) for (n, x), (_, y) in zip(a, b) if x != y
     ]
     return differ if 0 < len(differ) < len(a) else [(name, old, new)]
+
+
+def changed_names(changes: Iterable[Any]) -> list[str]:
+    """What the changes (:class:`~.items.Change`) touch, item by item, with the fields
+    that differ where an item has several: ``MAIN program 0 step 4``, ``position 12
+    speed``, ``AccelS 3 decel``."""
+    names = []
+    for change in changes:
+        parts = [
+            part
+            for name, old, new in change.fields()
+            for part, _, _ in _narrow(name, old, new)
+            if part
+        ]
+        names.append(f"{change.name} {', '.join(parts)}" if parts else change.name)
+    return names
+
+
+def pushes_since(
+    port: str, station: int, project: Path, since: str | None, path: Path | None = None
+) -> list[str]:
+    """The pushes and rollbacks of the robot at ``port``/``station`` (or of
+    ``project``) recorded after ``since`` (a time as harlsync records them; None: all),
+    each as ``push ok 2026-11-24T20:23:50+00:00 by alice@pc: "faster pick"``; one in
+    the same second as ``since`` is named too (times are to the second).  The audit
+    log unreadable, none."""
+    try:
+        records = of_robot(results(path, []), port, station, project)
+    except OSError:
+        return []
+    found = []
+    for r in records:
+        when = r.get("time")
+        if since is not None and (
+            not isinstance(when, str)
+            or not statefile.timestamp(when)
+            or when_of(when) < when_of(since)
+        ):
+            continue
+        reason = f': "{r["reason"]}"' if r.get("reason") else ""
+        found.append(
+            f"{r.get('action', 'push')} {r.get('result', '?')} {when} by "
+            f"{r.get('user', '?')}@{r.get('host', '?')}{reason}"
+        )
+    return found
+
+
+def when_of(stamp: str) -> datetime:
+    return datetime.fromisoformat(stamp)

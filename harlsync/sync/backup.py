@@ -75,6 +75,10 @@ class RobotOutcome:
     #: Its name as the report shows it: ``cell``, or ``cell (lineA/cell)`` when
     #: another robot of the run has that name.
     label: str = ""
+    #: What changed, item by item (``MAIN program 0 step 4``, ``position 12 speed``).
+    items: list[str] = field(default_factory=list)
+    #: The pushes and rollbacks the audit log holds since its previous good backup.
+    pushed: list[str] = field(default_factory=list)
 
     def line(self) -> str:
         """One line as it finishes: ``press: ok, changed: 1 program (1 step) (4.0 s)``."""
@@ -124,9 +128,24 @@ class BackupReport:
         }
 
     def commit_message(self) -> str:
+        """Names what changed: ``backup: press: MAIN program 0 step 4; timer 3`` when one
+        robot changed, else which robots; then each robot's items and who pushed to it
+        since its last backup."""
         changed = self.changed
         head = f"backup: {len(changed)} of {len(self.robots)} robot(s) changed"
-        lines = [head, ""] + [f"- {r.label or r.name}: {r.summary}" for r in changed]
+        if len(changed) == 1:
+            one = changed[0]
+            subject = history.commit_message(
+                f"backup: {one.label or one.name}", one.summary, one.items, []
+            ).split("\n", 1)[0]
+        else:
+            subject = f"{head}: {', '.join(r.label or r.name for r in changed)}"
+        if len(subject) > 72:
+            subject = head
+        lines = [subject, ""]
+        for r in changed:
+            said = history.body(r.summary, r.items, r.pushed, "  ")
+            lines += [f"- {r.label or r.name}: {said[0].strip()}", *said[1:]]
         failed = [r for r in self.robots if not r.ok]
         if failed:
             lines += ["", "Not backed up:"] + [
@@ -284,6 +303,7 @@ def _pull_one(
         outcome.changed = result.changed
         outcome.summary = result.summary
         outcome.counts = summarize(catalogue(robot), result.changes or [])
+        outcome.items = audit.changed_names(result.changes or [])
         break
     outcome.duration = time.monotonic() - start
     return outcome
@@ -315,7 +335,11 @@ def _backup_one(
         except ProjectError as exc:  # another harlsync is saving it: one line, that robot
             outcome = _not_backed_up(path, exc)
         else:
-            outcome = _record(_pull_one(path, attempts, lock_timeout, progress), clock())
+            since = history.read(path).get("last_success")
+            outcome = _pull_one(path, attempts, lock_timeout, progress)
+            if outcome.ok and outcome.changed:
+                outcome.pushed = audit.pushes_since(outcome.port, outcome.station, path, since)
+            outcome = _record(outcome, clock())
     watch.finished(outcome)
     return outcome
 

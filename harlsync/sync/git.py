@@ -6,7 +6,10 @@ in force and adds no dependency.
 
 from __future__ import annotations
 
+import getpass
 import hashlib
+import os
+import socket
 import subprocess
 from collections.abc import Mapping
 from pathlib import Path
@@ -20,6 +23,7 @@ __all__ = [
     "changed_files",
     "commit",
     "head",
+    "identity",
     "log",
     "not_in_commit",
     "push",
@@ -34,12 +38,14 @@ def _git(
     check: bool = True,
     ok: tuple[int, ...] = (0,),
     stdin: str | None = None,
+    env: Mapping[str, str] | None = None,
 ) -> subprocess.CompletedProcess[str]:
     """Run git in ``cwd``; with ``check``, an exit status not in ``ok`` raises SyncError."""
     try:
         result = subprocess.run(
             ["git", *args],
             cwd=cwd,
+            env=env,
             capture_output=True,
             text=True,
             check=False,
@@ -160,8 +166,34 @@ def commit(paths: list[Path], message: str) -> str | None:
     staged = _git(root, "diff", "--cached", "--quiet", "--", *specs, check=False)
     if staged.returncode == 0:
         return None
-    _git(root, "commit", "--quiet", "-m", message, "--", *specs)
+    _git(root, "commit", "--quiet", "-m", message, "--", *specs, env=identity(root))
     return _git(root, "rev-parse", "HEAD").stdout.strip()
+
+
+def identity(root: Path) -> dict[str, str] | None:
+    """The environment a commit in ``root`` needs when git knows nobody to commit as
+    (cron and systemd: no HOME, no ~/.gitconfig); None when it does.
+
+    git's own identity always wins: ``user.name``/``user.email`` in the repository's,
+    the user's or the system's configuration, or ``GIT_AUTHOR_*``/``GIT_COMMITTER_*``
+    in the environment.  Without one, harlsync commits as ``harlsync (USER@HOST)
+    <USER@HOST>``: the account and machine that ran it.
+    """
+    if all(
+        _git(root, "var", ident, check=False).returncode == 0
+        for ident in ("GIT_AUTHOR_IDENT", "GIT_COMMITTER_IDENT")
+    ):
+        return None
+    try:
+        user = getpass.getuser()
+    except (KeyError, OSError):
+        user = "harlsync"
+    host = socket.gethostname() or "localhost"
+    env = dict(os.environ)
+    for who in ("AUTHOR", "COMMITTER"):
+        env.setdefault(f"GIT_{who}_NAME", f"harlsync ({user}@{host})")
+        env.setdefault(f"GIT_{who}_EMAIL", f"{user}@{host}")
+    return env
 
 
 def push(path: str | Path, remote: str | None = None) -> None:

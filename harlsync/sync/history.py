@@ -165,3 +165,29 @@ def _write(project: Path, state: dict[str, Any], what: str) -> dict[str, Any]:
     except OSError as exc:
         raise disk_error(exc, target, what) from exc
     return state
+
+
+#: How many items a commit message names per robot before "and 40 more".
+NAMED = 12
+
+
+def commit_message(head: str, summary: str, items: list[str], pushes: list[str]) -> str:
+    """A commit message that names what changed: ``pull press: MAIN program 0 step 4;
+    position 12 speed`` (shortened to fit a subject line), then the summary, every
+    item (folded) and who pushed to the robot since its last backup."""
+    named = "; ".join(items) or summary
+    subject = f"{head}: {named}"
+    if len(subject) > 72:
+        subject = f"{head}: {summary}"
+    lines = [subject, ""] + body(summary, items, pushes)
+    return "\n".join(lines) + "\n"
+
+
+def body(summary: str, items: list[str], pushes: list[str], indent: str = "") -> list[str]:
+    """The lines that say what changed and who pushed, for a commit message."""
+    lines = [f"{indent}{summary}:"] if items else [f"{indent}{summary}"]
+    lines += [f"{indent}  {item}" for item in statefile.fold(items, NAMED, "more")]
+    if pushes:
+        lines += [f"{indent}pushed since the last backup:"]
+        lines += [f"{indent}  {push}" for push in statefile.fold(pushes, NAMED, "more")]
+    return lines
