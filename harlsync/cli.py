@@ -803,7 +803,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
 def _add_diff(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "diff",
-        help="compare the project with the live robot",
+        help="compare the project with the live robot, or two versions of it (--rev)",
         description="Read the whole robot, as a pull does, and compare it with the project, "
         "item by item (program, step, table, field, timer; IAI: position). '-' "
         "lines are the robot, '+' lines the project. On a terminal it ends with "
@@ -819,6 +819,15 @@ def _add_diff(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="compare runtime data too (HARL-U2 registers, IAI flags and variables)",
     )
+    p.add_argument(
+        "--rev",
+        action="append",
+        metavar="REV",
+        help="compare versions of the project, not the robot: a git revision (HEAD~1, a "
+        "commit, a tag) or a snapshot number as 'harlsync snapshots' lists it; once: "
+        "that version against the project on disk, twice: the first against the second. "
+        "No robot is contacted",
+    )
     p.set_defaults(func=_cmd_diff)
 
 
@@ -826,6 +835,8 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     from .sync import engine
     from .sync.items import render_text, to_json
 
+    if args.rev:
+        return _diff_versions(args)
     progress = Feedback("diff")
     try:
         result = engine.compare(
@@ -860,6 +871,37 @@ def _cmd_diff(args: argparse.Namespace) -> int:
             render_text(result.changes, f"robot {result.target}", f"project {result.project.path}")
         )
     return EXIT_NO if result.changes else EXIT_OK
+
+
+def _diff_versions(args: argparse.Namespace) -> int:
+    """``diff DIR --rev A [--rev B]``: two versions of the project, no robot."""
+    from .sync import engine
+    from .sync.items import render_text, to_json
+    from .sync.revisions import compare_versions
+
+    if len(args.rev) > 2:
+        return _usage("diff: --rev at most twice (the old version, then the new one)")
+    if args.port or args.station is not None:
+        return _usage("diff: --rev compares versions of the project: no --port or --station")
+    old, new = args.rev[0], args.rev[1] if len(args.rev) == 2 else None
+    a, b, changes = compare_versions(_project_dir(args.dir), old, new, registers=args.registers)
+    if args.format == "json":
+        _print(
+            json.dumps(
+                {
+                    "robot": b.project.robot.name,
+                    "old": a.label,
+                    "new": b.label,
+                    "identical": not changes,
+                    "summary": engine.change_summary(changes),
+                    "changes": [to_json(c) for c in changes],
+                },
+                indent=2,
+            )
+        )
+    elif changes:
+        sys.stdout.write(render_text(changes, a.label, b.label))
+    return EXIT_NO if changes else EXIT_OK
 
 
 def _differ(changes: Sequence[Any]) -> str:

@@ -22,12 +22,14 @@ __all__ = [
     "Commit",
     "changed_files",
     "commit",
+    "files_at",
     "head",
     "identity",
     "log",
     "not_in_commit",
     "push",
     "repo_root",
+    "resolve",
     "show",
 ]
 
@@ -250,3 +252,31 @@ def show(commit: str, path: str | Path) -> str:
         check=False,
     )
     return result.stdout if result.returncode == 0 else ""
+
+
+def resolve(root: Path, rev: str) -> str | None:
+    """The commit ``rev`` names in the repository at ``root`` (None: no such commit)."""
+    if rev.startswith("-"):  # never an option to git
+        return None
+    result = _git(root, "rev-parse", "--verify", "--quiet", f"{rev}^{{commit}}", check=False)
+    return result.stdout.strip() if result.returncode == 0 else None
+
+
+def files_at(root: Path, commit: str, where: str) -> dict[str, bytes]:
+    """Every file under ``where`` (relative to ``root``) in ``commit``, by its path
+    relative to ``where``, with its bytes."""
+    listing = _git(root, "ls-tree", "-r", "-z", "--full-tree", commit, "--", where).stdout
+    found: dict[str, bytes] = {}
+    prefix = f"{where}/" if where not in ("", ".") else ""
+    for entry in filter(None, listing.split("\0")):
+        meta, _, name = entry.partition("\t")
+        _mode, kind, oid = meta.split(" ")
+        if kind != "blob" or not name.startswith(prefix):
+            continue
+        blob = subprocess.run(
+            ["git", "cat-file", "blob", oid], cwd=root, capture_output=True, check=False
+        )
+        if blob.returncode != 0:
+            raise SyncError(f"git cat-file failed in {root} for {name}")
+        found[name[len(prefix) :]] = blob.stdout
+    return found
