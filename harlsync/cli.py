@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import __version__
-from .errors import HarlsyncError, InterlockError, PolicyError
+from .errors import HarlsyncError, InterlockError, PolicyError, StalePlanError
 from .robotlog import RobotFilter
 from .terminal import BackupDisplay, Feedback
 
@@ -1149,11 +1149,30 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
 def _cmd_push(args: argparse.Namespace) -> int:
     from .sync import engine
 
+    if args.plan:  # a mistyped or foreign plan: one line, and no push to record
+        _check_plan_file(args.plan, args.dir)
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
         "push", lambda: engine.push(args.dir, opts, port=args.port, station=args.station), progress
     )
+
+
+def _check_plan_file(path: str, project: str) -> None:
+    """Refuse, before the robot is read, a plan file that cannot be read (ProjectFormatError)
+    or that was made for another robot (StalePlanError)."""
+    from .errors import StalePlanError
+    from .project import load_robot
+    from .sync.plan import Plan
+
+    saved = Plan.load_saved(path)
+    robot = load_robot(_project_dir(project))
+    if saved.get("robot") != robot.name:
+        raise StalePlanError(
+            f"the plan {path} was made for robot {saved.get('robot')} "
+            f"({saved.get('target')}), not {robot.name}; make one for this robot with "
+            f"'harlsync plan {project} --out FILE' and review it"
+        )
 
 
 def _add_rollback(sub: argparse._SubParsersAction) -> None:
@@ -1169,21 +1188,24 @@ def _add_rollback(sub: argparse._SubParsersAction) -> None:
     _push_args(p)
     p.add_argument(
         "--snapshot",
-        metavar="DIR",
-        help="the snapshot to restore (default: the latest, in DIR/.harlsync/snapshots)",
+        metavar="N",
+        help="the snapshot to restore: its number as 'harlsync snapshots DIR' shows it, "
+        "or its directory (default: the one taken before the last push)",
     )
     p.set_defaults(func=_cmd_rollback)
 
 
 def _cmd_rollback(args: argparse.Namespace) -> int:
     from .sync import engine
+    from .sync.revisions import snapshot_path
 
+    chosen = snapshot_path(_project_dir(args.dir), args.snapshot) if args.snapshot else None
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
         "rollback",
         lambda: engine.rollback(
-            args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station
+            args.dir, opts, snapshot=chosen, port=args.port, station=args.station
         ),
         progress,
     )
@@ -1274,7 +1296,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     _setup_logging(args.verbose)
     try:
         return int(args.func(args))
-    except (InterlockError, PolicyError) as exc:
+    except (InterlockError, PolicyError, StalePlanError) as exc:
         print(f"harlsync: refused: {_one_line(exc)}", file=sys.stderr)
         return EXIT_REFUSED
     except HarlsyncError as exc:

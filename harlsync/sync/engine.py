@@ -850,6 +850,12 @@ def _check_audit_log() -> None:
 def _check_plan(the_plan: Plan, opts: PushOptions) -> None:
     if opts.plan_file is not None:
         saved = Plan.load_saved(opts.plan_file)
+        if (saved.get("robot"), saved.get("target")) != (the_plan.robot, the_plan.target):
+            raise StalePlanError(
+                f"the plan {opts.plan_file} was made for {saved.get('robot')} "
+                f"({saved.get('target')}), not {the_plan.robot} ({the_plan.target}); make "
+                "a plan of this robot and review it"
+            )
         if saved["live_fingerprint"] != the_plan.live_fingerprint:
             raise StalePlanError(
                 f"the robot changed since the plan {opts.plan_file} was made; "

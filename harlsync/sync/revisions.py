@@ -23,7 +23,7 @@ from . import git
 from .engine import all_snapshots, catalogue
 from .items import Change, diff
 
-__all__ = ["Version", "compare_versions", "version_of"]
+__all__ = ["Version", "compare_versions", "snapshot_path", "version_of"]
 
 
 @dataclass
@@ -103,3 +103,17 @@ def compare_versions(
         )
     found: Any = catalogue(b.project.robot)
     return a, b, diff(found, a.project.data, b.project.data, registers=registers)
+
+
+def snapshot_path(path: str | Path, given: str) -> Path:
+    """The snapshot ``rollback --snapshot`` names: the number ``harlsync snapshots``
+    shows, or a snapshot directory.  Raises ProjectError for a number it does not list."""
+    if given.isdigit():
+        for taken in all_snapshots(path):
+            if taken.number == int(given):
+                return taken.path
+        listed = ", ".join(str(s.number) for s in all_snapshots(path)) or "none"
+        raise ProjectError(
+            f"{path}: no snapshot {given} (taken: {listed}); 'harlsync snapshots {path}' lists them"
+        )
+    return Path(given)

@@ -1,0 +1,84 @@
+"""The operator's rough edges of issue 22 (item 11), each as it was found."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from conftest import git
+from plantsim import SMALL
+
+from harlsync.cli import main
+from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.sim.protocol_sim import register, unregister
+from harlsync.sync import audit, engine
+from harlsync.sync.engine import PushOptions
+
+
+@dataclass
+class Robot:
+    sim: Simulator
+    url: str
+    project: Path
+    repo: Path
+
+    def timer(self, number: int) -> str:
+        return str(self.sim.stations[1].data.timers[number])
+
+    def edit_timer(self, number: int, value: str) -> None:
+        timers = self.project / "timers.yaml"
+        text = re.sub(rf"(?m)^  {number}: .*$", f"  {number}: {value}", timers.read_text())
+        timers.write_text(text)
+        git(self.repo, "commit", "-qam", f"timer {number} {value}")
+
+
+@pytest.fixture
+def robot(repo: Path) -> Iterator[Robot]:
+    sim = Simulator({1: SimState.generate(7, SMALL)})
+    url = register(sim)
+    project = repo / "press"
+    engine.pull(project, port=url, commit=True)
+    yield Robot(sim, url, project, repo)
+    unregister(url)
+
+
+def test_rollback_snapshot_takes_the_number_that_snapshots_shows(robot, capsys) -> None:
+    first = robot.timer(1)
+    robot.edit_timer(1, "0.80")
+    engine.push(robot.project, PushOptions(yes=True))  # snapshot 1: timer 1 as it was
+    robot.edit_timer(1, "0.90")
+    engine.push(robot.project, PushOptions(yes=True))  # snapshot 2: timer 1 0.80
+    assert main(["snapshots", str(robot.project)]) == 0
+    assert re.search(r"(?m)^     1  \S+ \S+  push ", capsys.readouterr().out)
+    assert main(["rollback", str(robot.project), "--yes", "--snapshot", "1"]) == 0
+    assert robot.timer(1) == first
+    assert main(["rollback", str(robot.project), "--yes", "--snapshot", "7"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no snapshot 7 (taken: 1, 2, 3)" in err
+
+
+def test_a_mistyped_plan_path_is_one_line_and_no_failed_push(robot, capsys) -> None:
+    robot.edit_timer(1, "0.80")
+    missing = robot.project.parent / "plan-typo.json"
+    assert main(["push", str(robot.project), "--yes", "--plan", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{missing}: cannot read the plan" in err
+    assert audit.read() == []  # no push was tried: none is recorded
+
+
+def test_a_plan_of_another_robot_says_so_and_a_stale_plan_exits_3(robot, tmp_path, capsys) -> None:
+    robot.edit_timer(1, "0.80")
+    saved = tmp_path / "plan.json"
+    assert main(["plan", str(robot.project), "--out", str(saved)]) == 0
+    other = robot.repo / "other"
+    engine.pull(other, port=robot.url, commit=True)
+    capsys.readouterr()
+    assert main(["push", str(other), "--yes", "--plan", str(saved)]) == 3
+    err = capsys.readouterr().err
+    assert "was made for robot press" in err and "not other" in err
+    robot.sim.stations[1].data.timers[2] = "4.44"  # the robot changed since the plan
+    assert main(["push", str(robot.project), "--yes", "--plan", str(saved)]) == 3
+    assert "the robot changed since the plan" in capsys.readouterr().err
