@@ -992,15 +992,15 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         the_plan.save(args.out)
         _print(f"# plan saved to {args.out}")
     progress.summary(found.project.robot.name, found.contents, _differ(found.changes))
+    from .sync.plan import policy_refusals
+
+    # Every reason a push would be refused now, not only the first it would meet.
+    reasons = policy_refusals(Path(args.dir), found.project.robot)
     if found.busy is not None:  # a push reads the state before anything else
-        _warn(
-            [
-                (
-                    f"robot {found.project.robot.name} ({found.target}) is not idle: "
-                    f"{found.busy}; a push would be refused now"
-                )
-            ]
+        reasons.append(
+            f"robot {found.project.robot.name} ({found.target}) is not idle: {found.busy}"
         )
+    _warn([f"a push would be refused now: {reason}" for reason in reasons])
     return EXIT_OK
 
 

@@ -291,8 +291,8 @@ def test_issue_14_plan_warns_that_a_push_would_be_refused_while_the_robot_runs(
     out, err = capsys.readouterr()
     assert out.splitlines()[-1].startswith("# 0 item(s) to cell (port sim://@rough-")
     assert re.fullmatch(
-        r"harlsync: warning: robot cell \(port sim://@rough-\S+ station \w+\) is not "
-        r"idle: .+; a push would be refused now\n",
+        r"harlsync: warning: a push would be refused now: robot cell \(port "
+        r"sim://@rough-\S+ station \w+\) is not idle: .+\n",
         err,
     ), err
     assert main(["push", str(project), "--yes"]) == 3  # as the warning said

@@ -82,3 +82,27 @@ def test_a_plan_of_another_robot_says_so_and_a_stale_plan_exits_3(robot, tmp_pat
     robot.sim.stations[1].data.timers[2] = "4.44"  # the robot changed since the plan
     assert main(["push", str(robot.project), "--yes", "--plan", str(saved)]) == 3
     assert "the robot changed since the plan" in capsys.readouterr().err
+
+
+def test_plan_lists_every_reason_a_push_would_be_refused(robot, capsys) -> None:
+    from datetime import datetime
+
+    from harlsync.project.robot import DAYS
+
+    other_day = DAYS[(datetime.now().weekday() + 3) % 7]
+    robot_yaml = robot.project / "robot.yaml"
+    window = f'maintenance_windows:\n  - days: [{other_day}]\n    start: "01:00"\n    end: "01:30"'
+    text = re.sub(r"(?m)^maintenance_windows:.*$", lambda _: window, robot_yaml.read_text())
+    robot_yaml.write_text(text)
+    git(robot.repo, "commit", "-qam", "a window")
+    timers = robot.project / "timers.yaml"
+    timers.write_text(re.sub(r"(?m)^  1: .*$", "  1: 0.80", timers.read_text()))  # uncommitted
+    robot.sim.control(robot.sim.family.busy_verb, robot.sim.stations[1], ())
+    assert main(["plan", str(robot.project)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 3 and all(
+        line.startswith("harlsync: warning: a push would be refused now: ") for line in err
+    ), err
+    assert "has uncommitted changes (press/timers.yaml)" in err[0]
+    assert f"outside its maintenance windows ({other_day} 01:00-01:30)" in err[1]
+    assert "is not idle: " in err[2]

@@ -17,15 +17,25 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 from ..errors import ProjectFormatError
 from ..families.base import Catalogue, Driver
 from ..project import statefile
+from . import git
 from .items import Change, diff
 
-__all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "covered", "fingerprint", "make_plan"]
+__all__ = [
+    "PLAN_FORMAT",
+    "Plan",
+    "PlannedWrite",
+    "covered",
+    "fingerprint",
+    "make_plan",
+    "policy_refusals",
+]
 
 PLAN_FORMAT = 1
 
@@ -229,3 +239,26 @@ def make_plan(
         unwritable=shape.unwritable,
         notes=shape.notes,
     )
+
+
+def policy_refusals(path: Path, robot: Any, now: datetime | None = None) -> list[str]:
+    """Why a push of the project at ``path`` would be refused now besides the robot's
+    state, each as a sentence: uncommitted changes, outside the maintenance windows.
+    For ``plan`` to list every reason at once (the push stops at the first)."""
+    found = []
+    dirty = git.changed_files(path)
+    if git.repo_root(path) is None:
+        found.append(f"{path} is not in a git repository (give --allow-dirty, or commit it)")
+    elif dirty:
+        shown = ", ".join(dirty[:3]) + (", ..." if len(dirty) > 3 else "")
+        found.append(
+            f"{path} has uncommitted changes ({shown}): commit them, or give --allow-dirty"
+        )
+    moment = now or datetime.now()
+    if not robot.in_window(moment):
+        windows = "; ".join(str(w) for w in robot.windows)
+        found.append(
+            f"{moment:%a %H:%M} is outside its maintenance windows ({windows}): wait for a "
+            "window or give --outside-window REASON"
+        )
+    return found
