@@ -490,9 +490,10 @@ def _add_status(sub: argparse._SubParsersAction) -> None:
         "the last backup changed, its last push (who, when, reason, result) and any "
         "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
         "and git only: no robot is contacted. A robot's state is the most urgent "
-        "of: unfinished push, never backed up, failed, stale, changed, ok. Exit 0 "
+        "of: unfinished push, partial push (stopped part way), never backed up, failed, "
+        "stale, changed, ok. Exit 0 "
         "when every robot is ok or changed, 1 when any is failed, stale, never "
-        "backed up or has an unfinished push, 2 on an error (no project found).",
+        "backed up or has an unfinished or partial push, 2 on an error (no project found).",
     )
     _plant_args(p)
     _format_arg(p)

@@ -106,3 +106,27 @@ def test_plan_lists_every_reason_a_push_would_be_refused(robot, capsys) -> None:
     assert "has uncommitted changes (press/timers.yaml)" in err[0]
     assert f"outside its maintenance windows ({other_day} 01:00-01:30)" in err[1]
     assert "is not idle: " in err[2]
+
+
+def test_a_push_refused_part_way_shows_in_status(robot, capsys) -> None:
+    robot.edit_timer(1, "0.80")
+    robot.edit_timer(2, "0.90")
+    real = engine._interlock
+    calls = []
+
+    def refuse_the_second_write(driver, robot_, before):  # the robot started meanwhile
+        calls.append(before)
+        if before.startswith("writing") and len([c for c in calls if c.startswith("writing")]) == 2:
+            from harlsync.errors import InterlockError
+
+            raise InterlockError("task 0 in execution")
+        return real(driver, robot_, before)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(engine, "_interlock", refuse_the_second_write)
+        assert main(["push", str(robot.project), "--yes"]) == 3
+    capsys.readouterr()
+    assert main(["status", str(robot.repo)]) == 1
+    out = capsys.readouterr().out
+    assert re.search(r"(?m)^press\s+partial push\s", out), out
+    assert "press: last push refused" in out and "wrote 1 of 2 item(s)" in out

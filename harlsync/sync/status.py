@@ -9,6 +9,8 @@ that holds a backup harlsync did not commit itself) and the snapshots.
 A robot's state is the first of these that applies::
 
     unfinished push   a push or rollback of it never ended (killed part way)
+    partial push      its last push or rollback stopped part way (refused or failed
+                      after writing some items): the robot holds some of it
     never backed up   no good backup recorded (on this machine: .harlsync is local)
     failed            its last pull or backup failed, or its project cannot be read
     stale             its last good backup is older than stale_after
@@ -45,9 +47,17 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 #: Every state, the most urgent first.
-STATES = ("unfinished push", "never backed up", "failed", "stale", "changed", "ok")
+STATES = (
+    "unfinished push",
+    "partial push",
+    "never backed up",
+    "failed",
+    "stale",
+    "changed",
+    "ok",
+)
 #: The states someone must look at: ``harlsync status`` exits 1 when a robot is in one.
-ATTENTION = frozenset(("unfinished push", "never backed up", "failed", "stale"))
+ATTENTION = frozenset(("unfinished push", "partial push", "never backed up", "failed", "stale"))
 
 
 @dataclass
@@ -265,6 +275,7 @@ _COLOURS = {
     "never backed up": "33",
     "failed": "1;31",  # bold red
     "unfinished push": "1;35",  # bold magenta
+    "partial push": "1;35",
 }
 
 
@@ -348,6 +359,9 @@ def _robot_status(
 def _state(r: RobotStatus) -> str:
     if r.unfinished:
         return "unfinished push"
+    push = r.last_push
+    if push is not None and push.result not in audit.SETTLED and push.written:
+        return "partial push"
     if r.never_backed_up:
         return "never backed up"
     if r.last_result == "failed":
