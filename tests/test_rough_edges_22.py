@@ -130,3 +130,33 @@ def test_a_push_refused_part_way_shows_in_status(robot, capsys) -> None:
     out = capsys.readouterr().out
     assert re.search(r"(?m)^press\s+partial push\s", out), out
     assert "press: last push refused" in out and "wrote 1 of 2 item(s)" in out
+
+
+def test_a_second_backup_while_one_runs_says_so_and_backs_up_nothing(robot, capsys) -> None:
+    import threading
+
+    from harlsync.project.lock import project_lock
+
+    holding, done = threading.Event(), threading.Event()
+
+    def first_backup() -> None:  # as a backup that runs: its run lock held
+        with project_lock(robot.repo.resolve() / ".harlsync-backup-run", command="backup"):
+            holding.set()
+            done.wait(30)
+
+    runner = threading.Thread(target=first_backup)
+    runner.start()
+    try:
+        assert holding.wait(30)
+        before = (robot.project / ".harlsync" / "backup.json").read_text()
+        assert main(["backup", str(robot.repo)]) == 2
+        err = capsys.readouterr().err
+        assert (
+            err.count("\n") == 1 and f"a backup of {robot.repo.resolve()} is running already" in err
+        )
+        assert "(harlsync backup)" in err and "backs up nothing" in err
+        assert (robot.project / ".harlsync" / "backup.json").read_text() == before
+    finally:
+        done.set()
+        runner.join()
+    assert main(["backup", str(robot.repo)]) == 0  # once it ended

@@ -26,11 +26,13 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any, Protocol
 
+import filelock
+
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..families.base import Progress
 from ..link import lock_key
 from ..project import load_robot
-from ..project.lock import project_lock
+from ..project.lock import holder, lock_path, project_lock
 from ..project.store import replace_file
 from ..robotlog import about
 from . import audit, git, history
@@ -393,7 +395,32 @@ def _record_commit(paths: list[Path], commit: str) -> None:
             log.warning("%s: %s", path.name, exc)
 
 
-def backup(
+def backup(paths: Iterable[str | Path], **options: Any) -> BackupReport:
+    """Pull every robot under ``paths``; commit and push once when asked (see
+    :func:`_run` for the ``options``).
+
+    One backup of a PATH runs at a time: a second one while the first runs (an
+    overlapping cron schedule, a run that hangs) raises SyncError at once, naming
+    the one that runs, and backs up nothing.
+    """
+    given = list(dict.fromkeys(Path(p).resolve() for p in paths))
+    with ExitStack() as running:
+        for path in given:
+            key = path / ".harlsync-backup-run"
+            try:
+                running.enter_context(project_lock(key, timeout=0, command="backup"))
+            except ProjectError as exc:
+                if not isinstance(exc.__cause__, filelock.Timeout):
+                    raise
+                raise SyncError(
+                    f"a backup of {path} is running already ({holder(lock_path(key))}); "
+                    "this one backs up nothing and stops. If cron starts the next before "
+                    "the last ends, space the runs out or give fewer robots to each"
+                ) from exc
+        return _run(given, **options)
+
+
+def _run(
     paths: Iterable[str | Path],
     *,
     jobs: int | None = None,
