@@ -751,9 +751,8 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
         "--family",
         choices=_family_names(),
         default=None,
-        help="the controller family of a first pull (default harl-u2; iai, or "
-        "epson with --port modbus://HOST:PORT); later commands read it from "
-        "robot.yaml",
+        help="the controller family of a first pull (default harl-u2, or epson for a "
+        "--port modbus://HOST:PORT; iai); later commands read it from robot.yaml",
     )
     p.add_argument(
         "--commit",
@@ -775,9 +774,38 @@ def _add_pull(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_pull)
 
 
+def _family_of_port(port: str | None) -> str | None:
+    """The family whose own URL scheme ``port`` has (``modbus://``: epson), or None."""
+    from . import families
+
+    scheme = port.partition("://")[0].lower() if port and "://" in port else None
+    for name in families.names():
+        if scheme and scheme in getattr(families.get(name), "port_schemes", ()):
+            return name
+    return None
+
+
+def _port_hint(port: str) -> str | None:
+    """What to give instead of a ``HOST:PORT`` without a scheme, which pyserial would
+    take for a device file."""
+    import re
+
+    if "://" in port or not re.fullmatch(
+        r"[A-Za-z0-9.-]+:\d{1,5}|\[[0-9A-Fa-f:.]+\]:\d{1,5}", port
+    ):
+        return None
+    return (
+        f"--port {port}: a network port is given as a URL: socket://{port} (a serial "
+        f"device server, the HARL-U2 and IAI families), or modbus://{port} (an Epson "
+        "controller)"
+    )
+
+
 def _cmd_pull(args: argparse.Namespace) -> int:
     from .sync import engine
 
+    if args.family is None and not (Path(args.dir) / "robot.yaml").exists():
+        args.family = _family_of_port(args.port)  # modbus:// is Epson's
     progress = Feedback("pull")
     try:
         result = engine.pull(
@@ -1295,6 +1323,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     _setup_logging(args.verbose)
+    hint = _port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
+    if hint is not None:
+        print(f"harlsync: error: {hint}", file=sys.stderr)
+        return EXIT_ERROR
     try:
         return int(args.func(args))
     except (InterlockError, PolicyError, StalePlanError) as exc:

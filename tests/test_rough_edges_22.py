@@ -160,3 +160,23 @@ def test_a_second_backup_while_one_runs_says_so_and_backs_up_nothing(robot, caps
         done.set()
         runner.join()
     assert main(["backup", str(robot.repo)]) == 0  # once it ended
+
+
+def test_a_host_and_port_without_a_scheme_suggests_socket_and_modbus(tmp_path, capsys) -> None:
+    assert main(["pull", str(tmp_path / "new"), "--port", "127.0.0.1:25020"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "socket://127.0.0.1:25020" in err and "modbus://127.0.0.1:25020" in err
+    assert not (tmp_path / "new").exists()
+
+
+def test_a_modbus_port_implies_the_epson_family(repo, capsys) -> None:
+    from harlsync.families.epson.sim import SimState as EpsonState
+    from harlsync.families.epson.sim import Simulator as EpsonSimulator
+    from tests.epson.sample import sample_data
+
+    sim = EpsonSimulator(EpsonState.from_data(sample_data()), execution_time=0.0)
+    with sim.serve() as server:
+        assert server.url.startswith("modbus://")
+        assert main(["pull", str(repo / "cell-3"), "--port", server.url]) == 0
+    assert "family: epson" in (repo / "cell-3" / "robot.yaml").read_text()

@@ -211,6 +211,9 @@ class Family(Protocol):
     #: the options :meth:`connect` takes beyond port and station (Epson:
     #: ``reset_function``); the engine refuses any other before connecting
     connect_options: frozenset[str]
+    # Optional, read with getattr (a family without it has none):
+    #   port_schemes: tuple[str, ...]  the port URL schemes only this family reads
+    #   (Epson: ``modbus``): a first pull with such a port needs no --family
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         """Read and check a project's files (path relative to the project -> content)."""

@@ -25,6 +25,8 @@ class EpsonFamily:
     #: :meth:`~.catalogue.EpsonCatalogue.plan`.
     deploy_notes: tuple[str, ...] = ()
     connect_options = frozenset({"reset_function"})
+    #: the port URL schemes only this family reads: a first pull with one needs no --family
+    port_schemes = ("modbus",)
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
         return layout.analyse(files)
