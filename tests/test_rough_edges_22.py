@@ -180,3 +180,29 @@ def test_a_modbus_port_implies_the_epson_family(repo, capsys) -> None:
         assert server.url.startswith("modbus://")
         assert main(["pull", str(repo / "cell-3"), "--port", server.url]) == 0
     assert "family: epson" in (repo / "cell-3" / "robot.yaml").read_text()
+
+
+def test_status_and_backup_tables_stay_aligned_whatever_a_cell_holds(robot, capsys) -> None:
+    from harlsync.sync.backup import BackupReport, RobotOutcome
+
+    long_port = "socket://" + "a-very-long-serial-device-server-name.plant.example" + ":4001"
+    robot_yaml = robot.project / "robot.yaml"
+    robot_yaml.write_text(robot_yaml.read_text().replace(robot.url, long_port))
+    git(robot.repo, "commit", "-qam", "a long port")
+    engine.pull(robot.repo / "second", port=robot.url, commit=True)
+    assert main(["status", str(robot.repo)]) in (0, 1)
+    lines = capsys.readouterr().out.splitlines()
+    table = lines[: lines.index("")]
+    starts = [m.start() for m in re.finditer(r"(?<=  )\S", table[0])]
+    for line in table[1:]:
+        for start in starts:  # every column starts under its header
+            assert line[start - 2 : start] == "  " and line[start] != " ", (line, start)
+
+    report = BackupReport(
+        [
+            RobotOutcome("a", "/a", "p", 1, ok=True, summary="no change", duration=1.0),
+            RobotOutcome("b", "/b", "p", 1, error="x" * 200, duration=12.5),
+        ]
+    )
+    rows = report.render().splitlines()[:3]
+    assert rows[1].index("1.0s") + 4 == rows[2].index("12.5s") + 5  # durations aligned right

@@ -157,7 +157,7 @@ class BackupReport:
 
     def render(self) -> str:
         """The summary a person reads in the morning."""
-        rows = [("robot", "result", "changes", "duration")]
+        rows = [("robot", "result", "duration", "changes")]
         for r in self.robots:
             if r.ok:
                 result = "ok"
@@ -171,12 +171,13 @@ class BackupReport:
             changes = r.summary if r.ok else (audit.shorten(r.error) or "")
             if flags:
                 changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
-            rows.append((r.label or r.name, result, changes, f"{r.duration:.1f}s"))
-        # Long error texts do not widen the table for everyone: the duration
-        # column stays where the other rows put it.
-        widths = [min(max(len(row[i]) for row in rows), 48) for i in range(3)]
+            rows.append((r.label or r.name, result, f"{r.duration:.1f}s", changes))
+        # What changed, or why not, is last: a long error text moves no other column.
+        widths = [max(len(row[i]) for row in rows) for i in range(3)]
         lines = [
-            "  ".join(cell.ljust(widths[i]) for i, cell in enumerate(row[:3])) + "  " + row[3]
+            "  ".join([row[0].ljust(widths[0]), row[1].ljust(widths[1]), row[2].rjust(widths[2])])
+            + "  "
+            + row[3]
             for row in rows
         ]
         ok = sum(r.ok for r in self.robots)

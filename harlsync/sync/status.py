@@ -258,7 +258,9 @@ class PlantStatus:
         widths = [min(max(len(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
         lines = []
         for row in rows:
-            cells = [cell.ljust(widths[i]) for i, cell in enumerate(row)]
+            # A cell longer than its column is cut ("…"), so every column starts where
+            # the header's does; the whole text is in the notes below or in --format json.
+            cells = [fit(cell, widths[i]) for i, cell in enumerate(row)]
             if color and row is not rows[0]:
                 cells[1] = _paint(row[1], cells[1])
             lines.append("  ".join(cells).rstrip())
@@ -277,6 +279,11 @@ _COLOURS = {
     "unfinished push": "1;35",  # bold magenta
     "partial push": "1;35",
 }
+
+
+def fit(cell: str, width: int) -> str:
+    """``cell`` padded to ``width``, or cut to it with an ellipsis."""
+    return cell.ljust(width) if len(cell) <= width else cell[: width - 1] + "…"
 
 
 def _paint(state: str, text: str) -> str:
