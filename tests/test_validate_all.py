@@ -77,3 +77,35 @@ def test_a_push_of_a_project_that_does_not_validate_writes_nothing(epson, capsys
     assert cli.main(["push", str(epson), "--yes"]) == 2
     err = capsys.readouterr().err
     assert "speed_r.0" in err and "connect" not in err.lower()
+
+
+def test_an_iai_schema_error_does_not_hide_the_range_checks_of_the_other_positions(
+    repo,
+) -> None:
+    import re
+
+    from harlsync.families.iai.sim import SimState, Simulator
+    from harlsync.sim.protocol_sim import register, unregister
+    from harlsync.sync import engine
+
+    url = register(Simulator({0x99: SimState.generate(5, position_range=(1, 20))}))
+    try:
+        project = repo / "cell-9"
+        engine.pull(project, port=url, station=0x99, family="iai")
+    finally:
+        unregister(url)
+    robot = project / "robot.yaml"
+    robot.write_text(re.sub(r"last_position: \d+", "last_position: 10", robot.read_text()))
+    positions = project / "positions.yaml"
+    numbers = [int(n) for n in re.findall(r"(?m)^  (\d+): ", positions.read_text())]
+    first = numbers[0]
+    positions.write_text(
+        re.sub(rf"(?m)^(  {first}: .*acc: )[0-9.]+", r"\g<1>fast", positions.read_text())
+    )
+    said = [str(issue) for issue in validate_project(project)]
+    assert any(f": positions.{first}.acc: 'fast' is not a number" in line for line in said)
+    beyond = [n for n in numbers if n > 10]
+    assert beyond and all(
+        any(f"position {n} is outside the robot's table (allowed: 1-10" in line for line in said)
+        for n in beyond
+    ), said
