@@ -1261,10 +1261,14 @@ _COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
 _NO_LINE = frozenset({"validate", "status", "log", "snapshots"})
 
 
-def _one_line(exc: BaseException) -> str:
+def _one_line(exc: BaseException, verbose: int = 0) -> str:
     """An error as one line for stderr and cron mail, whatever text it carries
-    (an OS message, a file name with a newline in it)."""
-    return "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+    (an OS message, a file name with a newline in it); a wire frame in it (a long
+    run of hex) is named by its size unless -vv."""
+    from .sync.audit import shorten
+
+    text = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+    return shorten(text, verbose) or text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -1330,10 +1334,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except (InterlockError, PolicyError, StalePlanError) as exc:
-        print(f"harlsync: refused: {_one_line(exc)}", file=sys.stderr)
+        print(f"harlsync: refused: {_one_line(exc, args.verbose)}", file=sys.stderr)
         return EXIT_REFUSED
     except HarlsyncError as exc:
-        print(f"harlsync: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"harlsync: error: {_one_line(exc, args.verbose)}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as exc:
         # The library names the file-system failures it expects (a full disk, a

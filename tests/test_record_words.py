@@ -208,3 +208,23 @@ def test_plan_and_the_push_prompt_show_the_diff_of_what_is_written_and_the_wire_
     readable(out)
     assert out.splitlines()[:-1] == shown
     assert asked == [f"Write these {lines[-1][2:].split(' to ')[0]} to {the_plan.robot}? [y/N] "]
+
+
+def test_an_error_line_names_a_frame_by_its_size_and_shows_it_with_vv(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    from harlsync.errors import ReplyError
+    from harlsync.sync import engine
+
+    frame = " ".join(f"{n:02X}" for n in range(60))
+
+    def refused(*args, **kwargs):
+        raise ReplyError(f"port sim://x station 99: the controller answered & to 291H: {frame}")
+
+    monkeypatch.setattr(engine, "compare", refused)
+    assert cli.main(["diff", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and frame not in err
+    assert "answered & to 291H: [a 60-byte frame: -vv shows it]" in err
+    assert cli.main(["-vv", "diff", str(tmp_path)]) == 2
+    assert frame in capsys.readouterr().err

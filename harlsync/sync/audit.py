@@ -332,8 +332,6 @@ _REPR = re.compile(r"^[A-Z]\w*\(.*\)$", re.DOTALL)
 _HEX = re.compile(
     r"(?<![0-9A-Za-z])(?=[0-9A-Fa-f ]*[A-Fa-f])(?:[0-9A-Fa-f]{2} ?){12,}(?![0-9A-Za-z])"
 )
-#: How long a recorded error may be on a line a person reads.
-ERROR_LENGTH = 500
 #: How many changes a push's entry shows before "and 40 more".
 SHOWN = 10
 #: What an item one side does not have is called (an empty step, an undefined position).
@@ -405,17 +403,17 @@ def written_lines(written: Iterable[dict[str, Any]], most: int | None = SHOWN) -
 
 def shorten(text: str | None, verbose: int = 0) -> str | None:
     """A recorded error as a line a person reads: a frame on the wire (a long run of
-    hex) named by its size, unless ``verbose`` >= 2, and at most ERROR_LENGTH characters."""
-    if text is None:
-        return None
-    if verbose < 2:
-        text = _HEX.sub(_frame, text)
-    text = " ".join(text.split())
-    return text if len(text) <= ERROR_LENGTH else text[: ERROR_LENGTH - 1] + "…"
+    hex) named by its size, unless ``verbose`` >= 2 (the advice around it is kept)."""
+    if text is None or verbose >= 2:
+        return text
+    return _HEX.sub(_frame, text)
 
 
 def _frame(match: re.Match[str]) -> str:
-    size = len(re.sub(r"\s", "", match.group())) // 2
+    found = match.group()
+    if found.strip() == found and len(found) in (40, 64):  # a git commit, a SHA-256
+        return found
+    size = len(re.sub(r"\s", "", found)) // 2
     return f"[a {size}-byte frame: -vv shows it]"
 
 
