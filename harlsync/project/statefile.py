@@ -129,25 +129,23 @@ class Fields:
     def flag(self, name: str) -> bool | None:
         return self._get(name, lambda v: isinstance(v, bool), "true or false")  # type: ignore[no-any-return]
 
-    def texts(self, name: str) -> list[str] | None:
-        """A list of text; an element of another type is left out."""
+    def _list(self, name: str, kind: type, what: str) -> list[Any] | None:
+        """A list whose elements are ``kind``; an element of another type is left out."""
         value = self._get(name, lambda v: isinstance(v, list), "a list")
         if value is None:
             return None
-        kept = [v for v in value if isinstance(v, str)]
+        kept = [v for v in value if isinstance(v, kind)]
         if len(kept) != len(value):
-            self.problems.append(f"{name} holds {len(value) - len(kept)} element(s) not text")
+            self.problems.append(f"{name} holds {len(value) - len(kept)} element(s) not {what}")
         return kept
+
+    def texts(self, name: str) -> list[str] | None:
+        """A list of text; an element of another type is left out."""
+        return self._list(name, str, "text")
 
     def objects(self, name: str) -> list[dict[str, Any]] | None:
         """A list of objects; an element of another type is left out."""
-        value = self._get(name, lambda v: isinstance(v, list), "a list")
-        if value is None:
-            return None
-        kept = [v for v in value if isinstance(v, dict)]
-        if len(kept) != len(value):
-            self.problems.append(f"{name} holds {len(value) - len(kept)} element(s) not objects")
-        return kept
+        return self._list(name, dict, "objects")
 
     def object(self, name: str) -> dict[str, Any] | None:
         return self._get(name, lambda v: isinstance(v, dict), "an object")  # type: ignore[no-any-return]

@@ -153,13 +153,7 @@ def _clean(record: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
             "station": of_robot.integer("station"),
         }
         fields.problems += [f"robot's {p}" for p in of_robot.problems]
-    changes = fields.objects("changes")  # a write record's, see written_entry
-    if changes is not None:
-        clean["changes"] = []
-        for change in changes:
-            of_change = Fields(change)
-            clean["changes"].append({n: of_change.text(n) for n in _CHANGE_TEXT})
-            fields.problems += of_change.problems
+    clean["changes"] = _changes(fields)  # a write record's, see written_entry
     written = fields.objects("written")
     if written is not None:
         clean["written"] = []
@@ -169,16 +163,25 @@ def _clean(record: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
             for name in _WRITTEN_TEXT:
                 if (value := one.text(name)) is not None:
                     kept[name] = value
-            changes = one.objects("changes")  # see written_entry
-            if changes is not None:
-                kept["changes"] = []
-                for change in changes:
-                    of_change = Fields(change)
-                    kept["changes"].append({n: of_change.text(n) for n in _CHANGE_TEXT})
-                    one.problems += of_change.problems
+            if (changes := _changes(one)) is not None:
+                kept["changes"] = changes
             clean["written"].append(kept)
             fields.problems += [f"written item's {p}" for p in one.problems]
     return {k: v for k, v in clean.items() if v is not None}, fields.problems
+
+
+def _changes(fields: Fields) -> list[dict[str, Any]] | None:
+    """The ``changes`` of a record or written entry (see :func:`written_entry`), each
+    field checked; what was wrong is added to ``fields.problems``."""
+    changes = fields.objects("changes")
+    if changes is None:
+        return None
+    found = []
+    for change in changes:
+        of_change = Fields(change)
+        found.append({n: of_change.text(n) for n in _CHANGE_TEXT})
+        fields.problems += of_change.problems
+    return found
 
 
 _KNOWN = frozenset((*_TEXT, *_TEXTS, "pid", "robot", "written", "changes"))
