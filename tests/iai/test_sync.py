@@ -396,8 +396,13 @@ def test_push_registers_writes_only_the_changed_ones_in_runs_and_converges(
     assert cli.main(["push", str(project), "--yes"]) == 0  # without --registers: nothing
     assert not writes(sim)
     capsys.readouterr()
-    assert cli.main(["plan", str(project), "--registers"]) == 0
-    assert capsys.readouterr().out.splitlines()[:5] == [
+    assert cli.main(["plan", str(project), "--registers", "-v"]) == 0  # -v: the wire
+    commands = [
+        line.split(": ", 1)[1]
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith("# ") and ": 24" in line
+    ]
+    assert commands[:5] == [
         "24CH 00 0C8 03 | FFFFFC18 | 00000001 | 00000002  # unsafe in automatic operation",
         "24CH 00 0D2 01 | 7FFFFFFF  # unsafe in automatic operation",
         "24DH 00 18F 01 | 3FB999999999999A  # unsafe in automatic operation",
