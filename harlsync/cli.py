@@ -19,7 +19,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import __version__, families
-from .errors import HarlsyncError, InterlockError, PartlyWritten, PolicyError, partly_words
+from .errors import (
+    HarlsyncError,
+    InterlockError,
+    PartlyWritten,
+    PolicyError,
+    StalePlanError,
+    partly_words,
+)
 from .families import DEFAULT
 from .families.base import AnyFamily, Option
 from .robotlog import RobotFilter
@@ -27,7 +34,7 @@ from .terminal import BackupDisplay, Feedback
 
 if TYPE_CHECKING:
     from .sync.deploy import PushOptions, PushResult
-    from .sync.plan import Plan
+    from .sync.plan import Plan, PlannedWrite
 
 __all__ = ["main"]
 
@@ -510,9 +517,10 @@ def _add_status(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         "the last backup changed, its last push (who, when, reason, result) and any "
         "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
         "and git only: no robot is contacted. A robot's state is the most urgent "
-        "of: unfinished push, never backed up, failed, stale, changed, ok. Exit 0 "
+        "of: unfinished push, partial push (stopped part way), never backed up, failed, "
+        "stale, changed, ok. Exit 0 "
         "when every robot is ok or changed, 1 when any is failed, stale, never "
-        "backed up or has an unfinished push, 2 on an error (no project found).",
+        "backed up or has an unfinished or partial push, 2 on an error (no project found).",
     )
     _plant_args(p)
     _format_arg(p)
@@ -579,7 +587,9 @@ def _cmd_log(args: argparse.Namespace) -> int:
 
     if args.max_count is not None and args.max_count < 1:
         return _usage("log: -n/--max-count must be 1 or more")
-    records = audit.results()
+    problems: list[str] = []
+    records = audit.results(problems=problems)
+    _warn(problems)
     if args.dir:
         robot = load_robot(_project_dir(args.dir))
         records = audit.of_robot(records, robot.port, robot.station, Path(args.dir))
@@ -597,14 +607,21 @@ def _cmd_log(args: argparse.Namespace) -> int:
         _print(head + (f"  commit {r.commit[:10]}" if r.commit else ""))
         if r.reason:
             _print(f"    reason: {r.reason}")
-        for w in r.written:
-            _print(f"    wrote {w.get('item')}: {w.get('old')} -> {w.get('new')}")
+        lines = audit.written_lines(r.written, None)
+        shown = lines if args.verbose or len(lines) <= audit.SHOWN else lines[: audit.SHOWN - 1]
+        for line in shown:
+            _print(f"    wrote {line}")
+        if len(shown) < len(lines):
+            _print(f"    and {len(lines) - len(shown)} more (-v shows them)")
+        if args.verbose:
+            for w in r.written:
+                _print(f"    command {w.get('item')}: {w.get('command')}")
         if r.partly_written:
             _print(f"    partly written: {r.partly_text()}")
         elif r.failed_item:
             _print(f"    unknown: {r.failed_item} (may or may not have been written)")
         if r.error and r.result != "ok":
-            _print(f"    error: {r.error}")
+            _print(f"    error: {audit.shorten(r.error, args.verbose)}")
     return EXIT_OK
 
 
@@ -779,8 +796,8 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "--family",
         choices=_family_names(),
         default=None,
-        help=f"the controller family of a first pull (default {DEFAULT}); later "
-        "commands read it from robot.yaml",
+        help=f"the controller family of a first pull (default {DEFAULT}, or the family "
+        "whose own URL scheme --port has); later commands read it from robot.yaml",
     )
     p.add_argument(
         "--commit",
@@ -802,9 +819,44 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=_cmd_pull)
 
 
+def _family_of_port(port: str | None) -> str | None:
+    """The family whose own URL scheme ``port`` has, or None."""
+    from . import families
+
+    scheme = port.partition("://")[0].lower() if port and "://" in port else None
+    for family in families.every():
+        if scheme and scheme in {s.name for s in family.schemes}:
+            return family.name
+    return None
+
+
+def _port_hint(port: str) -> str | None:
+    """What to give instead of a ``HOST:PORT`` without a scheme, which pyserial would
+    take for a device file."""
+    import re
+
+    if "://" in port or not re.fullmatch(
+        r"[A-Za-z0-9.-]+:\d{1,5}|\[[0-9A-Fa-f:.]+\]:\d{1,5}", port
+    ):
+        return None
+    from . import families
+
+    own = [
+        f"{scheme.name}://{port} ({scheme.help.partition(':')[0]})"
+        for family in families.every()
+        for scheme in family.schemes
+    ]
+    return (
+        f"--port {port}: a network port is given as a URL: socket://{port} (a serial "
+        f"device server){''.join(', or ' + text for text in own)}"
+    )
+
+
 def _cmd_pull(args: argparse.Namespace) -> int:
     from .sync import pulling
 
+    if args.family is None and not (Path(args.dir) / "robot.yaml").exists():
+        args.family = _family_of_port(args.port)
     progress = Feedback("pull")
     try:
         result = pulling.pull(
@@ -831,7 +883,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
 def _add_diff(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "diff",
-        help="compare the project with the live robot",
+        help="compare the project with the live robot, or two versions of it (--rev)",
         description="Read the whole robot, as a pull does, and compare it with the project, "
         "item by item (" + _per_family("items") + "). '-' "
         "lines are the robot, '+' lines the project. On a terminal it ends with "
@@ -847,6 +899,15 @@ def _add_diff(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         action="store_true",
         help="compare runtime data too (" + _per_family("runtime") + ")",
     )
+    p.add_argument(
+        "--rev",
+        action="append",
+        metavar="REV",
+        help="compare versions of the project, not the robot: a git revision (HEAD~1, a "
+        "commit, a tag) or a snapshot number as 'harlsync snapshots' lists it; once: "
+        "that version against the project on disk, twice: the first against the second. "
+        "No robot is contacted",
+    )
     p.set_defaults(func=_cmd_diff)
 
 
@@ -854,6 +915,8 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     from .sync import comparison, pulling
     from .sync.items import render_text, to_json
 
+    if args.rev:
+        return _diff_versions(args)
     progress = Feedback("diff")
     try:
         result = comparison.compare(
@@ -890,6 +953,37 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     return EXIT_NO if result.changes else EXIT_OK
 
 
+def _diff_versions(args: argparse.Namespace) -> int:
+    """``diff DIR --rev A [--rev B]``: two versions of the project, no robot."""
+    from .sync import pulling
+    from .sync.items import render_text, to_json
+    from .sync.revisions import compare_versions
+
+    if len(args.rev) > 2:
+        return _usage("diff: --rev at most twice (the old version, then the new one)")
+    if args.port or args.station is not None:
+        return _usage("diff: --rev compares versions of the project: no --port or --station")
+    old, new = args.rev[0], args.rev[1] if len(args.rev) == 2 else None
+    a, b, changes = compare_versions(_project_dir(args.dir), old, new, registers=args.registers)
+    if args.format == "json":
+        _print(
+            json.dumps(
+                {
+                    "robot": b.project.robot.name,
+                    "old": a.label,
+                    "new": b.label,
+                    "identical": not changes,
+                    "summary": pulling.change_summary(changes),
+                    "changes": [to_json(c) for c in changes],
+                },
+                indent=2,
+            )
+        )
+    elif changes:
+        sys.stdout.write(render_text(changes, a.label, b.label))
+    return EXIT_NO if changes else EXIT_OK
+
+
 def _differ(changes: Sequence[Any]) -> str:
     """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
     from .sync.pulling import change_summary
@@ -905,10 +999,12 @@ def _differ(changes: Sequence[Any]) -> str:
 def _add_plan(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "plan",
-        help="print the commands a push would send, and send none",
-        description="Read the whole robot, compare it with the project and print, in order, "
-        "the exact commands a push would send (" + _per_family("commands") + "). "
-        "Nothing is written. Warns when the robot is not idle: a push would be "
+        help="print what a push would write, and write nothing",
+        description="Read the whole robot, compare it with the project and print, in push "
+        "order, what a push would write, item by item as diff shows it, and how many "
+        "items in how many writes; with -v also the exact command of each write ("
+        + _per_family("commands")
+        + "). Nothing is written. Warns when the robot is not idle: a push would be "
         "refused now. --out saves the plan "
         "with a fingerprint of the robot and the project; push --plan refuses it "
         "if either changed since. The plan file is not part of the project: "
@@ -925,17 +1021,31 @@ def _add_plan(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=_cmd_plan)
 
 
-def _show_plan(the_plan: Plan[Any]) -> None:
+def _show_plan(the_plan: Plan[Any], verbose: int = 0) -> None:
+    """What a push of ``the_plan`` writes, as ``diff`` shows it, item by item; with -v
+    each write's wire command too."""
+    from .sync.items import render_text
+
     for line in the_plan.unwritable:
         _print(f"# cannot write: {line}")
     if the_plan.reconfiguration_note:
         _print(f"# {the_plan.reconfiguration_note}")
     for note in the_plan.notes:
         _print(f"# note: {note}")
-    for write in the_plan.writes:
-        flag = "  # unsafe in automatic operation" if write.unsafe else ""
-        _print(f"{write.command}{flag}")
-    _print(f"# {len(the_plan.writes)} write(s) to {the_plan.robot} ({the_plan.target})")
+    if the_plan.items:
+        for line in render_text(the_plan.items, "", "").splitlines()[2:]:
+            _print(line)
+    if verbose:
+        for write in the_plan.writes:
+            flag = "  # unsafe in automatic operation" if write.unsafe else ""
+            _print(f"# {write.name}: {write.command}{flag}")
+    _print(f"# {_counted(the_plan)} to {the_plan.robot} ({the_plan.target})")
+
+
+def _counted(the_plan: Plan[Any]) -> str:
+    """``5 item(s) in 2 write(s)``: the items as diff counts them, and the commands."""
+    items, writes = len(the_plan.items), len(the_plan.writes)
+    return f"{items} item(s) in {writes} write(s)" if items != writes else f"{items} item(s)"
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
@@ -957,20 +1067,20 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         progress.close()
     _warn(found.warnings)
     the_plan = found.plan()
-    _show_plan(the_plan)
+    _show_plan(the_plan, args.verbose)
     if args.out:
         the_plan.save(args.out)
         _print(f"# plan saved to {args.out}")
     progress.summary(found.project.robot.name, found.contents, _differ(found.changes))
+    from .sync.plan import policy_refusals
+
+    # Every reason a push would be refused now, not only the first it would meet.
+    reasons = policy_refusals(Path(args.dir), found.project.robot)
     if found.busy is not None:  # a push reads the state before anything else
-        _warn(
-            [
-                (
-                    f"robot {found.project.robot.name} ({found.target}) is not idle: "
-                    f"{found.busy}; a push would be refused now"
-                )
-            ]
+        reasons.append(
+            f"robot {found.project.robot.name} ({found.target}) is not idle: {found.busy}"
         )
+    _warn([f"a push would be refused now: {reason}" for reason in reasons])
     return EXIT_OK
 
 
@@ -1003,10 +1113,10 @@ def _push_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _confirm(the_plan: Plan[Any]) -> bool:
+def _confirm(the_plan: Plan[Any], verbose: int = 0) -> bool:
     """Show the plan and ask on the terminal (only given when stdin is one)."""
-    _show_plan(the_plan)
-    answer = input(f"Write these {len(the_plan.writes)} item(s) to {the_plan.robot}? [y/N] ")
+    _show_plan(the_plan, verbose)
+    answer = input(f"Write these {_counted(the_plan)} to {the_plan.robot}? [y/N] ")
     return answer.strip().lower() in ("y", "yes")
 
 
@@ -1046,7 +1156,7 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
 
     return PushOptions(
         yes=args.yes,
-        confirm=_confirm if sys.stdin.isatty() else None,
+        confirm=(lambda plan: _confirm(plan, args.verbose)) if sys.stdin.isatty() else None,
         reason=args.reason,
         allow_dirty=getattr(args, "allow_dirty", False),
         outside_window=args.outside_window,
@@ -1080,8 +1190,13 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
                 f"{len(r.plan.writes)} item(s)",
                 file=sys.stderr,
             )
+            verbose = logging.getLogger().isEnabledFor(logging.INFO)  # -v: the wire too
+
+            def said(w: PlannedWrite[Any]) -> str:
+                return f"{w.name} ({w.command})" if verbose else w.name
+
             for w in r.written:
-                print(f"  written:     {w.name}: {w.command}", file=sys.stderr)
+                print(f"  written:     {said(w)}", file=sys.stderr)
             if r.failed is not None and r.partly_written is not None:
                 print(
                     f"  partly written: {r.failed.name}: {_partly_text(r.partly_written)}",
@@ -1089,13 +1204,12 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
                 )
             elif r.failed is not None:
                 print(
-                    f"  unknown:     {r.failed.name}: {r.failed.command} (may or may not "
-                    "have been written)",
+                    f"  unknown:     {said(r.failed)} (may or may not have been written)",
                     file=sys.stderr,
                 )
             for w in r.not_written:
                 if w is not r.failed:
-                    print(f"  not written: {w.name}: {w.command}", file=sys.stderr)
+                    print(f"  not written: {said(w)}", file=sys.stderr)
             print(f"harlsync: run the same {action} again to finish", file=sys.stderr)
         for note in r.notes:
             print(f"harlsync: note: {note}", file=sys.stderr)
@@ -1120,11 +1234,30 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
 def _cmd_push(args: argparse.Namespace) -> int:
     from .sync import deploy
 
+    if args.plan:  # a mistyped or foreign plan: one line, and no push to record
+        _check_plan_file(args.plan, args.dir)
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
         "push", lambda: deploy.push(args.dir, opts, port=args.port, station=args.station), progress
     )
+
+
+def _check_plan_file(path: str, project: str) -> None:
+    """Refuse, before the robot is read, a plan file that cannot be read (ProjectFormatError)
+    or that was made for another robot (StalePlanError)."""
+    from .errors import StalePlanError
+    from .project import load_robot
+    from .sync.plan import Plan
+
+    saved = Plan.load_saved(path)
+    robot = load_robot(_project_dir(project))
+    if saved.get("robot") != robot.name:
+        raise StalePlanError(
+            f"the plan {path} was made for robot {saved.get('robot')} "
+            f"({saved.get('target')}), not {robot.name}; make one for this robot with "
+            f"'harlsync plan {project} --out FILE' and review it"
+        )
 
 
 def _add_rollback(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -1140,21 +1273,24 @@ def _add_rollback(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     _push_args(p)
     p.add_argument(
         "--snapshot",
-        metavar="DIR",
-        help="the snapshot to restore (default: the latest, in DIR/.harlsync/snapshots)",
+        metavar="N",
+        help="the snapshot to restore: its number as 'harlsync snapshots DIR' shows it, "
+        "or its directory (default: the one taken before the last push)",
     )
     p.set_defaults(func=_cmd_rollback)
 
 
 def _cmd_rollback(args: argparse.Namespace) -> int:
     from .sync import deploy
+    from .sync.revisions import snapshot_path
 
+    chosen = snapshot_path(_project_dir(args.dir), args.snapshot) if args.snapshot else None
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
         "rollback",
         lambda: deploy.rollback(
-            args.dir, opts, snapshot=args.snapshot, port=args.port, station=args.station
+            args.dir, opts, snapshot=chosen, port=args.port, station=args.station
         ),
         progress,
     )
@@ -1181,10 +1317,14 @@ _COMMANDS: list[Callable[[argparse._SubParsersAction[argparse.ArgumentParser]], 
 _NO_LINE = frozenset({"validate", "status", "log", "snapshots"})
 
 
-def _one_line(exc: BaseException) -> str:
+def _one_line(exc: BaseException, verbose: int = 0) -> str:
     """An error as one line for stderr and cron mail, whatever text it carries
-    (an OS message, a file name with a newline in it)."""
-    return "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+    (an OS message, a file name with a newline in it); a wire frame in it (a long
+    run of hex) is named by its size unless -vv."""
+    from .sync.audit import shorten
+
+    text = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+    return shorten(text, verbose) or text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -1245,13 +1385,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     _setup_logging(args.verbose)
+    hint = _port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
+    if hint is not None:
+        print(f"harlsync: error: {hint}", file=sys.stderr)
+        return EXIT_ERROR
     try:
         return int(args.func(args))
-    except (InterlockError, PolicyError) as exc:
-        print(f"harlsync: refused: {_one_line(exc)}", file=sys.stderr)
+    except (InterlockError, PolicyError, StalePlanError) as exc:
+        print(f"harlsync: refused: {_one_line(exc, args.verbose)}", file=sys.stderr)
         return EXIT_REFUSED
     except HarlsyncError as exc:
-        print(f"harlsync: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"harlsync: error: {_one_line(exc, args.verbose)}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as exc:
         # The library names the file-system failures it expects (a full disk, a

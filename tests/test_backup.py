@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import re
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -115,8 +116,9 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
     for name, before in untouched.items():
         assert files_of(plant.root / name) == before
     log = git(plant.root, "log", "--format=%B", f"{head.strip()}..HEAD")
-    assert log.startswith("backup: 2 of 5 robot(s) changed")
-    assert "- loader: 1 timer" in log and "- press-2: 2 programs (2 steps)" in log
+    assert log.startswith("backup: 2 of 5 robot(s) changed: loader, press-2\n")
+    assert "- loader: 1 timer:\n    timer " in log  # each item named (issue 22)
+    assert "- press-2: 2 programs (2 steps):\n    " in log
     assert "- silent:" in log and "- garbage:" in log  # the failures are in the message too
     changed = git(plant.root, "show", "--name-only", "--format=", "HEAD").split()
     assert sorted(changed) == [
@@ -188,9 +190,8 @@ def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run
     )
     assert took.total_seconds() >= 2, (report["started"], loader["last_success"])
     stamp = datetime.fromisoformat(loader["last_success"]).timestamp()
-    assert f'harlsync_backup_last_success_timestamp_seconds{{robot="loader"}} {stamp:.0f}' in (
-        metrics.read_text().splitlines()
-    )
+    series = 'harlsync_backup_last_success_timestamp_seconds{project="loader",robot="loader"}'
+    assert f"{series} {stamp:.0f}" in (metrics.read_text().splitlines())
     recorded = json.loads((plant.root / "loader" / ".harlsync" / "backup.json").read_text())
     assert recorded["last_success"] == loader["last_success"]
 
@@ -241,9 +242,9 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
     assert names == "loader" and "1 timer" in summary
     assert failed_out.read_text() == "garbage silent"
     text = metrics.read_text()
-    assert 'harlsync_backup_success{robot="loader"} 1' in text
-    assert 'harlsync_backup_success{robot="silent"} 0' in text
-    assert 'harlsync_backup_failed_attempts{robot="silent"} 1' in text
+    assert 'harlsync_backup_success{project="loader",robot="loader"} 1' in text
+    assert 'harlsync_backup_success{project="silent",robot="silent"} 0' in text
+    assert 'harlsync_backup_failed_attempts{project="silent",robot="silent"} 1' in text
 
 
 def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
@@ -319,7 +320,7 @@ def test_the_documented_cron_line_runs_against_simulated_robots(
     assert "silent" in (tmp_path / "mail.txt").read_text()
     assert "harlsync_backup_success" in (tmp_path / "m.prom").read_text()
     pushed = git(bare, "log", "-1", "--format=%s", branch)
-    assert pushed.startswith("backup: 1 of 5 robot(s) changed")
+    assert re.fullmatch(r"backup: loader: timer \d+", pushed.strip())  # names what changed
 
 
 def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:
@@ -367,7 +368,7 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
         "press-1/timers.yaml"
     ]
     assert failed_out.read_text() == "loader"
-    assert 'harlsync_backup_success{robot="loader"} 0' in metrics.read_text()
+    assert 'harlsync_backup_success{project="loader",robot="loader"} 0' in metrics.read_text()
     assert {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()} == before
 
 

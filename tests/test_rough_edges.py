@@ -289,10 +289,10 @@ def test_issue_14_plan_warns_that_a_push_would_be_refused_while_the_robot_runs(
         sim.control(sim.family.busy_verb, state, ())
     assert main(["plan", str(project)]) == 0
     out, err = capsys.readouterr()
-    assert out.splitlines()[-1].startswith("# 0 write(s) to cell (port sim://@rough-")
+    assert out.splitlines()[-1].startswith("# 0 item(s) to cell (port sim://@rough-")
     assert re.fullmatch(
-        r"harlsync: warning: robot cell \(port sim://@rough-\S+ station \w+\) is not "
-        r"idle: .+; a push would be refused now\n",
+        r"harlsync: warning: a push would be refused now: robot cell \(port "
+        r"sim://@rough-\S+ station \w+\) is not idle: .+\n",
         err,
     ), err
     assert main(["push", str(project), "--yes"]) == 3  # as the warning said

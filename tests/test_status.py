@@ -263,7 +263,7 @@ def test_the_page_is_self_contained_and_shows_markup_as_text(
     assert "<link" not in html
     # The changes: the step changed on the pendant, the position, what the push wrote.
     assert "+  2: MOVE &lt;script&gt;" in html and "cell-9/positions.yaml" in html
-    assert "timer 1: SNT 1 0.80" in html
+    assert re.search(r"timer 1: [0-9.]+ → 0.80", html)  # what it wrote, as diff shows it
     assert "position " in html and "may or may not have been written" in html
 
 
@@ -312,7 +312,7 @@ def test_log_prints_a_robots_pushes_the_latest_first(plant, records, capsys) -> 
     commit = git(plant.root, "log", "-1", "--format=%H", "--", "loader").strip()
     assert re.fullmatch(rf"\S+ \S+  loader  push ok  by \S+@\S+  commit {commit[:10]}", out[0])
     assert out[1] == f"    reason: faster pick {MARKUP}"
-    assert re.fullmatch(r"    wrote timer 1: \S+ -> 0\.80", out[2])
+    assert re.fullmatch(r"    wrote timer 1: \S+ → 0\.80", out[2])
     assert len(out) == 3  # the other robots' pushes are not this robot's
 
 

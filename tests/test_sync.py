@@ -190,7 +190,9 @@ def test_plan_prints_the_commands_and_sends_none(served, repo, capsys) -> None:
     edit_timer(project, 0, "0.50")
     before = len(sim.received)
     assert main(["plan", str(project), "--port", url]) == 0
-    assert "SNT 0 0.50" in capsys.readouterr().out
+    assert "+0: 0.50" in capsys.readouterr().out  # as diff shows it
+    assert main(["plan", str(project), "--port", url, "-v"]) == 0
+    assert "# timer 0: SNT 0 0.50" in capsys.readouterr().out  # the wire with -v
     assert not [r for r in sim.received[before:] if r.is_write]
 
 
@@ -420,7 +422,13 @@ def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path)
     assert ok["robot"] == {"name": "cell", "port": url, "station": 1}
     assert ok["plan"] == ["SNT 2 2.22"]
     assert ok["written"] == [
-        {"item": "timer 2", "command": "SNT 2 2.22", "old": old, "new": "2.22"}
+        {
+            "item": "timer 2",
+            "command": "SNT 2 2.22",
+            "old": old,
+            "new": "2.22",
+            "changes": [{"item": "timer 2", "field": None, "old": old, "new": "2.22"}],
+        }
     ]
     assert "task 0 in execution" in records[1]["error"] and records[1]["written"] == []
 
@@ -664,8 +672,10 @@ def test_pull_commit_says_what_changed_and_skips_an_empty_commit(served, repo) -
     sim.stations[1].data.programs[(ProgramType.MAIN, 0)][10] = Step.parse("END")
     result = engine.pull(project, port=url, commit=True)
     assert result.commit is not None
-    message = git(repo, "log", "-1", "--format=%s")
-    assert message.strip() == "pull cell: 1 program (1 step), 1 timer"
+    message = git(repo, "log", "-1", "--format=%B")
+    assert message.startswith(  # names each item (issue 22), then the summary
+        "pull cell: timer 1; MAIN program 0 step 10\n\n1 program (1 step), 1 timer:\n"
+    )
     head = git(repo, "rev-parse", "HEAD")
     assert engine.pull(project, port=url, commit=True).commit is None
     assert git(repo, "rev-parse", "HEAD") == head
@@ -801,7 +811,7 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
     err = capsys.readouterr().err
     assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.11", "SNT 1 1.11"]
     assert "push stopped: wrote 2 of 3 item(s)" in err
-    assert "  not written: timer 2: SNT 2 2.22" in err and "unknown:" not in err
+    assert "  not written: timer 2\n" in err and "unknown:" not in err  # -v adds the SN
     assert err.splitlines()[-1].startswith(
         "harlsync: refused: robot cell: Sun 04:00 is outside its maintenance windows "
         "(sat 22:00-04:00); stopped before writing timer 2"

@@ -269,7 +269,7 @@ class LineLock:
         who = "another harlsync"
         try:
             pid, _, host = _owner_path(path).read_text().strip().partition(" ")
-        except OSError:
+        except (OSError, ValueError):  # gone, or not text: the holder is only for the message
             pid, host = "", ""
         if pid == str(os.getpid()) and host == socket.gethostname():
             who = "another Link of this process"

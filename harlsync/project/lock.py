@@ -116,16 +116,23 @@ def _acquire(
     return lock
 
 
-def _busy_message(project: str | os.PathLike[str], path: Path) -> str:
+def holder(path: Path) -> str:
+    """Who holds the lock file ``path``, as its owner file says: ``pid 4242 (harlsync
+    backup)``, or ``another harlsync``."""
     try:
         pid, host, command = (_owner_path(path).read_text().split(" ", 2) + ["", ""])[:3]
-    except OSError:
+    except (OSError, ValueError):  # gone, or not text: the holder is only for the message
         pid, host, command = "", "", ""
     who = "another harlsync"
     if pid:
         where = "" if host == socket.gethostname() else f" on {host}"
         what = f" (harlsync {command.strip()})" if command.strip() else ""
         who = f"pid {pid}{where}{what}"
+    return who
+
+
+def _busy_message(project: str | os.PathLike[str], path: Path) -> str:
+    who = holder(path)
     return (
         f"project {project} is in use by {who}; wait for it to finish and run again, or "
         f"give --lock-timeout SECONDS to wait for it (lock file {path})"

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import lookup
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
-from . import yamlio
+from . import statefile, yamlio
 from .files import SCHEMAS_DIR, newer_format
 from .robot import Robot
 from .schema import Issue
@@ -322,7 +322,7 @@ def edited_since_save(
     root = Path(path)
     family = family or family_of(root)
     try:
-        record = json.loads((root / SAVED).read_bytes())["files"]
+        record = statefile.load(root / SAVED)["files"]
         if not isinstance(record, dict):
             raise TypeError("not a mapping")
     except (OSError, ValueError, KeyError, TypeError):
@@ -530,7 +530,7 @@ def recover(root: Path) -> bool:
     """
     journal = root / JOURNAL
     try:
-        record = json.loads(journal.read_bytes())
+        record = statefile.load(journal)
         pid = int(record["pid"])
         entries = [
             _Entry(

@@ -35,6 +35,7 @@ import getpass
 import json
 import logging
 import os
+import re
 import secrets
 import socket
 from collections.abc import Iterable
@@ -43,6 +44,8 @@ from pathlib import Path
 from typing import Any
 
 from ..link import lock_key
+from ..project import statefile
+from ..project.statefile import Fields, fold, kind_of
 
 __all__ = [
     "append",
@@ -117,27 +120,119 @@ def append(record: dict[str, Any], path: Path | None = None) -> Path:
     return path
 
 
-def read(path: Path | None = None) -> list[dict[str, Any]]:
-    """Every record, in order (a line that is not a JSON object is skipped, and logged)."""
+#: The fields of an audit record, by the type they must hold (anything else is read
+#: as missing, and said so once).
+_TEXT = (
+    "event", "id", "action", "user", "host", "project", "commit", "reason", "result",
+    "error", "failed_item", "snapshot", "item", "command", "outside_window", "time",
+)  # fmt: skip
+_TEXTS = ("plan", "warnings", "notes")
+_WRITTEN_TEXT = ("item", "command", "old", "new")
+_CHANGE_TEXT = ("item", "field", "old", "new")
+
+#: Problems already said by this process (path, line): a backup of 40 robots reads
+#: the log 40 times and says each once.
+_said: set[tuple[str, int]] = set()
+
+
+def _clean(record: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """The record with every field of the wrong type left out, and what was wrong."""
+    fields = Fields(record)
+    clean: dict[str, Any] = {k: v for k, v in record.items() if k not in _KNOWN}
+    for name in _TEXT:
+        clean[name] = fields.text(name)
+    clean["pid"] = fields.integer("pid")
+    for name in _TEXTS:
+        clean[name] = fields.texts(name)
+    robot = fields.object("robot")
+    if robot is not None:
+        of_robot = Fields(robot)
+        clean["robot"] = {
+            "name": of_robot.text("name"),
+            "port": of_robot.text("port"),
+            "station": of_robot.integer("station"),
+        }
+        fields.problems += [f"robot's {p}" for p in of_robot.problems]
+    clean["changes"] = _changes(fields)  # a write record's, see written_entry
+    written = fields.objects("written")
+    if written is not None:
+        clean["written"] = []
+        for entry in written:
+            one = Fields(entry)
+            kept: dict[str, Any] = {}
+            for name in _WRITTEN_TEXT:
+                if (value := one.text(name)) is not None:
+                    kept[name] = value
+            if (changes := _changes(one)) is not None:
+                kept["changes"] = changes
+            clean["written"].append(kept)
+            fields.problems += [f"written item's {p}" for p in one.problems]
+    return {k: v for k, v in clean.items() if v is not None}, fields.problems
+
+
+def _changes(fields: Fields) -> list[dict[str, Any]] | None:
+    """The ``changes`` of a record or written entry (see :func:`written_entry`), each
+    field checked; what was wrong is added to ``fields.problems``."""
+    changes = fields.objects("changes")
+    if changes is None:
+        return None
+    found = []
+    for change in changes:
+        of_change = Fields(change)
+        found.append({n: of_change.text(n) for n in _CHANGE_TEXT})
+        fields.problems += of_change.problems
+    return found
+
+
+_KNOWN = frozenset((*_TEXT, *_TEXTS, "pid", "robot", "written", "changes"))
+
+
+def read(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
+    """Every record, in order, each field of the type it must have.
+
+    A line that is not a JSON object is left out, a field of the wrong type is read
+    as missing; each is said once, naming the file and line: appended to
+    ``problems`` when given, else logged.  Raises OSError when the log cannot be read.
+    """
     path = path or audit_path()
     if not path.exists():
         return []
+    found: list[tuple[int, str]] = []
     records = []
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-        if not line.strip():
+    for number, raw in enumerate(path.read_bytes().splitlines(), 1):
+        if not raw.strip():
             continue
         try:
-            record = json.loads(line)
-        except ValueError:
-            record = None
-        if not isinstance(record, dict):
-            log.warning("%s:%d: not an audit record, skipped", path, number)
+            record = statefile.parse(raw.decode("utf-8"))
+        except ValueError as exc:  # UnicodeDecodeError too
+            why = str(exc) if not isinstance(exc, UnicodeDecodeError) else "not UTF-8 text"
+            found.append((number, f"{path}:{number}: not an audit record ({why}): {_LEFT_OUT}"))
             continue
+        if not isinstance(record, dict):
+            why = f"{kind_of(record)}, not an object"
+            found.append((number, f"{path}:{number}: not an audit record ({why}): {_LEFT_OUT}"))
+            continue
+        record, wrong = _clean(record)
+        if wrong:
+            what = "; ".join(fold(wrong, 3))
+            found.append((number, f"{path}:{number}: {what}: {_MISSING}"))
         records.append(record)
+    more = f"more malformed lines in {path}"
+    if problems is not None:
+        problems += fold([text for _, text in found], 5, more)
+    else:
+        fresh = [(n, text) for n, text in found if (str(path), n) not in _said]
+        _said.update((str(path), n) for n, _ in fresh)
+        for problem in fold([text for _, text in fresh], 5, more):
+            log.warning("%s", problem)
     return records
 
 
-def results(path: Path | None = None) -> list[dict[str, Any]]:
+_MISSING = "read as missing; fix that line, or move it to another file"
+_LEFT_OUT = "left out; move that line to another file to keep it (harlsync only appends)"
+
+
+def results(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
     """One record per push or rollback, in the order they started.
 
     A finished one is its end record.  An unfinished one is its start record
@@ -147,7 +242,7 @@ def results(path: Path | None = None) -> list[dict[str, Any]]:
     started: dict[str, dict[str, Any]] = {}
     where: dict[str, int] = {}
     order: list[dict[str, Any]] = []
-    for record in read(path):
+    for record in read(path, problems):
         event = record.get("event", "end")
         rid = record.get("id")
         if event == "start" and rid:
@@ -158,7 +253,9 @@ def results(path: Path | None = None) -> list[dict[str, Any]]:
             pending = started[rid]
             if pending["failed_item"] is not None:
                 pending["written"].append(pending["failed_item"])
-            pending["failed_item"] = {"item": record.get("item"), "command": record.get("command")}
+            pending["failed_item"] = {
+                k: record.get(k) for k in ("item", "command", "changes") if k in record
+            }
         elif event == "end":
             if rid in started:
                 del started[rid]
@@ -203,10 +300,12 @@ def unsettled(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     return found
 
 
-def unfinished(port: str, station: int, path: Path | None = None) -> list[dict[str, Any]]:
+def unfinished(
+    port: str, station: int, path: Path | None = None, problems: list[str] | None = None
+) -> list[dict[str, Any]]:
     """The unfinished pushes and rollbacks of the robot at ``port``/``station``
     that no later push or rollback of it has settled (see :func:`results`)."""
-    return unsettled(of_robot(results(path), port, station))
+    return unsettled(of_robot(results(path, problems), port, station))
 
 
 def describe_unfinished(record: dict[str, Any]) -> str:
@@ -226,3 +325,179 @@ def describe_unfinished(record: dict[str, Any]) -> str:
     if record.get("snapshot"):
         text += f"; the robot before it: {record['snapshot']}"
     return text
+
+
+# --- the record in the family's words ------------------------------------------------
+
+#: A value an older harlsync recorded as Python's repr: ``Position(axes=..., ...)``.
+_REPR = re.compile(r"^[A-Z]\w*\(.*\)$", re.DOTALL)
+#: A run of hex a person cannot read: a frame on the wire (at least 12 bytes).
+_HEX = re.compile(
+    r"(?<![0-9A-Za-z])(?=[0-9A-Fa-f ]*[A-Fa-f])(?:[0-9A-Fa-f]{2} ?){12,}(?![0-9A-Za-z])"
+)
+#: How many changes a push's entry shows before "and 40 more".
+SHOWN = 10
+#: What an item one side does not have is called (an empty step, an undefined position).
+EMPTY = "(empty)"
+
+
+def change_entries(changes: Iterable[Any]) -> list[dict[str, str | None]]:
+    """The changes (:class:`~.items.Change`) field by field, as ``diff`` shows them:
+    ``{"item": "position 3", "field": "speed", "old": "150", "new": "200"}``."""
+    found: list[dict[str, str | None]] = []
+    for change in changes:
+        for name, old, new in change.fields():
+            for part, a, b in _narrow(name, old, new):
+                found.append({"item": change.name, "field": part or None, "old": a, "new": b})
+    return found
+
+
+def difference(catalogue: Any, key: Any, old: Any, new: Any) -> str:
+    """How ``new`` differs from ``old`` for the item ``key``, in the family's words:
+    ``speed 150 → 200; acc 0.30 → 0.50`` (a run's values compared one by one)."""
+    pairs = list(zip(old, new)) if isinstance(old, tuple) and isinstance(new, tuple) else []
+    if not pairs or len(old) != len(new):
+        pairs = [(old, new)]
+    lines: list[str] = []
+    try:
+        for a, b in pairs:
+            for name, x, y in catalogue.fields(key, a, b):
+                for part, p, q in _narrow(name, x, y):
+                    lines.append(change_line({"item": None, "field": part, "old": p, "new": q}))
+    except (AttributeError, TypeError, ValueError):  # a value the family cannot show
+        return "its value differs"
+    texts = [line.split(": ", 1)[1] for line in lines]
+    return "; ".join(fold(texts, 4, "more")) or "its value differs"
+
+
+def written_entry(write: Any) -> dict[str, Any]:
+    """A write (:class:`~.plan.PlannedWrite`) as the audit log keeps it: the item, the
+    wire command (for the record; shown with -v only) and what it changes."""
+    changes = change_entries(write.items)
+    entry: dict[str, Any] = {"item": write.name, "command": write.command}
+    if len(changes) == 1 and changes[0]["field"] is None and changes[0]["item"] == write.name:
+        entry.update(old=changes[0]["old"], new=changes[0]["new"])  # as older records had
+    return entry | {"changes": changes}
+
+
+def change_line(entry: dict[str, Any]) -> str:
+    """``position 3: speed 150 → 200``."""
+    field = f"{entry['field']} " if entry.get("field") else ""
+    old, new = entry.get("old"), entry.get("new")
+    return f"{entry.get('item')}: {field}{EMPTY if old is None else old} → {EMPTY if new is None else new}"
+
+
+def written_lines(written: Iterable[dict[str, Any]], most: int | None = SHOWN) -> list[str]:
+    """What the written entries changed, a line per field (``position 3: speed 150 →
+    200``), at most ``most`` then ``and 40 more``.  An entry an older harlsync recorded
+    shows its values when they are the family's text, else only its item."""
+    lines: list[str] = []
+    for w in written:
+        if w.get("changes") is not None:
+            lines += [change_line(c) for c in w["changes"]]
+            continue
+        old, new = w.get("old"), w.get("new")
+        if any(isinstance(v, str) and _REPR.match(v) for v in (old, new)) or (old is new is None):
+            lines.append(f"{w.get('item')}: changed")
+        else:
+            lines.append(change_line({"item": w.get("item"), "old": old, "new": new}))
+    return lines if most is None else fold(lines, most, "more")
+
+
+def shorten(text: str | None, verbose: int = 0) -> str | None:
+    """A recorded error as a line a person reads: a frame on the wire (a long run of
+    hex) named by its size, unless ``verbose`` >= 2 (the advice around it is kept)."""
+    if text is None or verbose >= 2:
+        return text
+    return _HEX.sub(_frame, text)
+
+
+def _frame(match: re.Match[str]) -> str:
+    found = match.group()
+    if found.strip() == found and len(found) in (40, 64):  # a git commit, a SHA-256
+        return found
+    size = len(re.sub(r"\s", "", found)) // 2
+    return f"[a {size}-byte frame: -vv shows it]"
+
+
+_TOKEN = re.compile(r"\[[^\]]*\]|\S+")
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def _groups(text: str) -> list[tuple[str, list[str]]] | None:
+    """``axes [1, 2] acc 0.30 speed 150`` as [(axes, [[1, 2]]), (acc, [0.30]), ...];
+    None when it does not read so."""
+    groups: list[tuple[str, list[str]]] = []
+    for token in _TOKEN.findall(text):
+        if groups and (not groups[-1][1] or not _NAME.match(token)):
+            groups[-1][1].append(token)
+        elif _NAME.match(token):
+            groups.append((token, []))
+        else:
+            return None
+    return groups if groups and all(values for _, values in groups) else None
+
+
+def _narrow(
+    name: str, old: str | None, new: str | None
+) -> list[tuple[str, str | None, str | None]]:
+    """One field whose text reads ``name value name value ...`` on both sides with the
+    same names (an IAI position's line), narrowed to the names whose values differ."""
+    if name or old is None or new is None:
+        return [(name, old, new)]
+    a, b = _groups(old), _groups(new)
+    if a is None or b is None or len(a) < 3 or [n for n, _ in a] != [n for n, _ in b]:
+        return [(name, old, new)]
+    differ: list[tuple[str, str | None, str | None]] = [
+        (n, " ".join(x), " ".join(y)) for (n, x), (_, y) in zip(a, b) if x != y
+    ]
+    return differ if 0 < len(differ) < len(a) else [(name, old, new)]
+
+
+def changed_names(changes: Iterable[Any]) -> list[str]:
+    """What the changes (:class:`~.items.Change`) touch, item by item, with the fields
+    that differ where an item has several: ``MAIN program 0 step 4``, ``position 12
+    speed``, ``AccelS 3 decel``."""
+    names = []
+    for change in changes:
+        parts = [
+            part
+            for name, old, new in change.fields()
+            for part, _, _ in _narrow(name, old, new)
+            if part
+        ]
+        names.append(f"{change.name} {', '.join(parts)}" if parts else change.name)
+    return names
+
+
+def pushes_since(
+    port: str, station: int, project: Path, since: str | None, path: Path | None = None
+) -> list[str]:
+    """The pushes and rollbacks of the robot at ``port``/``station`` (or of
+    ``project``) recorded after ``since`` (a time as harlsync records them; None: all),
+    each as ``push ok 2026-11-24T20:23:50+00:00 by alice@pc: "faster pick"``; one in
+    the same second as ``since`` is named too (times are to the second).  The audit
+    log unreadable, none."""
+    try:
+        records = of_robot(results(path, []), port, station, project)
+    except OSError:
+        return []
+    found = []
+    for r in records:
+        when = r.get("time")
+        if since is not None and (
+            not isinstance(when, str)
+            or not statefile.timestamp(when)
+            or when_of(when) < when_of(since)
+        ):
+            continue
+        reason = f': "{r["reason"]}"' if r.get("reason") else ""
+        found.append(
+            f"{r.get('action', 'push')} {r.get('result', '?')} {when} by "
+            f"{r.get('user', '?')}@{r.get('host', '?')}{reason}"
+        )
+    return found
+
+
+def when_of(stamp: str) -> datetime:
+    return datetime.fromisoformat(stamp)

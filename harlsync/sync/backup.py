@@ -26,14 +26,16 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any, Protocol
 
+import filelock
+
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..families.base import AnyFamily, Progress
 from ..link import lock_key
 from ..project import family_of, load_robot
-from ..project.lock import project_lock
+from ..project.lock import holder, lock_path, project_lock
 from ..project.store import replace_file
 from ..robotlog import about
-from . import git, history
+from . import audit, git, history
 from .items import summarize
 from .pulling import pull
 
@@ -71,15 +73,25 @@ class RobotOutcome:
     never_backed_up: bool = False
     #: what the connection recovered on its own (also in the audit log)
     notes: list[str] = field(default_factory=list)
+    #: Its project's directory under the plant's (``lineA/cell``): apart from
+    #: another robot of the same name (see :func:`project_labels`).
+    project: str = ""
+    #: Its name as the report shows it: ``cell``, or ``cell (lineA/cell)`` when
+    #: another robot of the run has that name.
+    label: str = ""
+    #: What changed, item by item (``MAIN program 0 step 4``, ``position 12 speed``).
+    items: list[str] = field(default_factory=list)
+    #: The pushes and rollbacks the audit log holds since its previous good backup.
+    pushed: list[str] = field(default_factory=list)
 
     def line(self) -> str:
         """One line as it finishes: ``press: ok, changed: 1 program (1 step) (4.0 s)``."""
         took = f" ({self.duration:.1f} s)"
         if not self.ok:
             tries = f" after {len(self.attempts)} attempts" if len(self.attempts) > 1 else ""
-            return f"{self.name}: FAILED{tries}: {self.error}{took}"
+            return f"{self.label or self.name}: FAILED{tries}: {audit.shorten(self.error)}{took}"
         said = f"changed: {self.summary}" if self.changed else self.summary or "no change"
-        return f"{self.name}: ok, {said}{took}"
+        return f"{self.label or self.name}: ok, {said}{took}"
 
 
 @dataclass
@@ -120,17 +132,34 @@ class BackupReport:
         }
 
     def commit_message(self) -> str:
+        """Names what changed: ``backup: press: MAIN program 0 step 4; timer 3`` when one
+        robot changed, else which robots; then each robot's items and who pushed to it
+        since its last backup."""
         changed = self.changed
         head = f"backup: {len(changed)} of {len(self.robots)} robot(s) changed"
-        lines = [head, ""] + [f"- {r.name}: {r.summary}" for r in changed]
+        if len(changed) == 1:
+            one = changed[0]
+            subject = history.commit_message(
+                f"backup: {one.label or one.name}", one.summary, one.items, []
+            ).split("\n", 1)[0]
+        else:
+            subject = f"{head}: {', '.join(r.label or r.name for r in changed)}"
+        if len(subject) > 72:
+            subject = head
+        lines = [subject, ""]
+        for r in changed:
+            said = history.body(r.summary, r.items, r.pushed, "  ")
+            lines += [f"- {r.label or r.name}: {said[0].strip()}", *said[1:]]
         failed = [r for r in self.robots if not r.ok]
         if failed:
-            lines += ["", "Not backed up:"] + [f"- {r.name}: {r.error}" for r in failed]
+            lines += ["", "Not backed up:"] + [
+                f"- {r.label or r.name}: {audit.shorten(r.error)}" for r in failed
+            ]
         return "\n".join(lines) + "\n"
 
     def render(self) -> str:
         """The summary a person reads in the morning."""
-        rows = [("robot", "result", "changes", "duration")]
+        rows = [("robot", "result", "duration", "changes")]
         for r in self.robots:
             if r.ok:
                 result = "ok"
@@ -141,15 +170,16 @@ class BackupReport:
                 flags.append("never backed up")
             elif r.stale:
                 flags.append(f"stale: last good backup {r.last_success}")
-            changes = r.summary if r.ok else (r.error or "")
+            changes = r.summary if r.ok else (audit.shorten(r.error) or "")
             if flags:
                 changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
-            rows.append((r.name, result, changes, f"{r.duration:.1f}s"))
-        # Long error texts do not widen the table for everyone: the duration
-        # column stays where the other rows put it.
-        widths = [min(max(len(row[i]) for row in rows), 48) for i in range(3)]
+            rows.append((r.label or r.name, result, f"{r.duration:.1f}s", changes))
+        # What changed, or why not, is last: a long error text moves no other column.
+        widths = [max(len(row[i]) for row in rows) for i in range(3)]
         lines = [
-            "  ".join(cell.ljust(widths[i]) for i, cell in enumerate(row[:3])) + "  " + row[3]
+            "  ".join([row[0].ljust(widths[0]), row[1].ljust(widths[1]), row[2].rjust(widths[2])])
+            + "  "
+            + row[3]
             for row in rows
         ]
         ok = sum(r.ok for r in self.robots)
@@ -188,6 +218,27 @@ def find_projects(paths: Iterable[str | Path]) -> list[Path]:
         found += below
     unique: dict[Path, None] = {p.resolve(): None for p in found}
     return list(unique)
+
+
+def project_labels(paths: Iterable[Path]) -> dict[Path, str]:
+    """Each project's directory relative to the deepest one that holds them all
+    (``lineA/cell``), or its own name when it is alone: what tells two robots of
+    one name apart."""
+    found = [Path(p) for p in paths]
+    if not found:
+        return {}
+    top = Path(os.path.commonpath([str(p.resolve().parent) for p in found]))
+    return {p: p.resolve().relative_to(top).as_posix() for p in found}
+
+
+def shown_names(robots: Iterable[tuple[str, str]]) -> list[str]:
+    """Each (name, project label) as a person reads it: the name, or ``cell
+    (lineA/cell)`` when another robot has the same name."""
+    listed = list(robots)
+    count: dict[str, int] = {}
+    for name, _ in listed:
+        count[name] = count.get(name, 0) + 1
+    return [name if count[name] == 1 else f"{name} ({label})" for name, label in listed]
 
 
 def line_of(port: str) -> str:
@@ -266,6 +317,7 @@ def _pull_one(
         outcome.changed = result.changed
         outcome.summary = result.summary
         outcome.counts = summarize(family.catalogue, result.changes or [])
+        outcome.items = audit.changed_names(result.changes or [])
         break
     outcome.duration = time.monotonic() - start
     return outcome
@@ -308,7 +360,11 @@ def _backup_one(
         except ProjectError as exc:  # another harlsync is saving it: one line, that robot
             outcome = _not_backed_up(path, exc)
         else:
-            outcome = _record(_pull_one(path, attempts, lock_timeout, progress), clock())
+            since = history.read(path).get("last_success")
+            outcome = _pull_one(path, attempts, lock_timeout, progress)
+            if outcome.ok and outcome.changed:
+                outcome.pushed = audit.pushes_since(outcome.port, outcome.station, path, since)
+            outcome = _record(outcome, clock())
     watch.finished(outcome)
     return outcome
 
@@ -362,7 +418,32 @@ def _record_commit(paths: list[Path], commit: str) -> None:
             log.warning("%s: %s", path.name, exc)
 
 
-def backup(
+def backup(paths: Iterable[str | Path], **options: Any) -> BackupReport:
+    """Pull every robot under ``paths``; commit and push once when asked (see
+    :func:`_run` for the ``options``).
+
+    One backup of a PATH runs at a time: a second one while the first runs (an
+    overlapping cron schedule, a run that hangs) raises SyncError at once, naming
+    the one that runs, and backs up nothing.
+    """
+    given = list(dict.fromkeys(Path(p).resolve() for p in paths))
+    with ExitStack() as running:
+        for path in given:
+            key = path / ".harlsync-backup-run"
+            try:
+                running.enter_context(project_lock(key, timeout=0, command="backup"))
+            except ProjectError as exc:
+                if not isinstance(exc.__cause__, filelock.Timeout):
+                    raise
+                raise SyncError(
+                    f"a backup of {path} is running already ({holder(lock_path(key))}); "
+                    "this one backs up nothing and stops. If cron starts the next before "
+                    "the last ends, space the runs out or give fewer robots to each"
+                ) from exc
+        return _run(given, **options)
+
+
+def _run(
     paths: Iterable[str | Path],
     *,
     jobs: int | None = None,
@@ -422,7 +503,12 @@ def backup(
             stop.set()
             pool.shutdown(wait=True, cancel_futures=True)
             raise
-    outcomes.sort(key=lambda o: o.name)
+    labels = project_labels(projects)
+    for outcome in outcomes:
+        outcome.project = labels.get(Path(outcome.path), outcome.name)
+    outcomes.sort(key=lambda o: (o.name, o.project))
+    for outcome, shown in zip(outcomes, shown_names((o.name, o.project) for o in outcomes)):
+        outcome.label = shown
 
     for outcome in outcomes:
         outcome.never_backed_up = outcome.last_success is None
@@ -476,30 +562,33 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
 
     Raises SyncError when it cannot be written (the previous file is then kept).
     """
-    lines = [
-        "# HELP harlsync_backup_success Whether the robot's last backup run succeeded.",
-        "# TYPE harlsync_backup_success gauge",
-        "# HELP harlsync_backup_last_success_timestamp_seconds Time of the robot's last good backup.",
-        "# TYPE harlsync_backup_last_success_timestamp_seconds gauge",
-        "# HELP harlsync_backup_duration_seconds How long the robot's backup took.",
-        "# TYPE harlsync_backup_duration_seconds gauge",
-        "# HELP harlsync_backup_changed_items Items changed since the previous backup.",
-        "# TYPE harlsync_backup_changed_items gauge",
-        "# HELP harlsync_backup_failed_attempts Failed attempts in this run.",
-        "# TYPE harlsync_backup_failed_attempts gauge",
+
+    def escaped(text: str) -> str:
+        return text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+
+    def last(r: RobotOutcome) -> str:
+        return f"{datetime.fromisoformat(r.last_success).timestamp() if r.last_success else 0:.0f}"
+
+    families: list[tuple[str, str, Callable[[RobotOutcome], str]]] = [
+        ("success", "Whether the robot's last backup run succeeded.", lambda r: str(int(r.ok))),
+        ("last_success_timestamp_seconds", "Time of the robot's last good backup.", last),
+        ("duration_seconds", "How long the robot's backup took.", lambda r: f"{r.duration:.3f}"),
+        (
+            "changed_items",
+            "Items changed since the previous backup.",
+            lambda r: str(sum(v for k, v in r.counts.items() if k != "programs")),
+        ),
+        ("failed_attempts", "Failed attempts in this run.", lambda r: str(len(r.attempts))),
     ]
-    for r in report.robots:
-        escaped = r.name.replace("\\", "\\\\").replace('"', '\\"')
-        label = f'{{robot="{escaped}"}}'
-        last = datetime.fromisoformat(r.last_success).timestamp() if r.last_success else 0
-        changed = sum(v for k, v in r.counts.items() if k != "programs")
-        lines += [
-            f"harlsync_backup_success{label} {int(r.ok)}",
-            f"harlsync_backup_last_success_timestamp_seconds{label} {last:.0f}",
-            f"harlsync_backup_duration_seconds{label} {r.duration:.3f}",
-            f"harlsync_backup_changed_items{label} {changed}",
-            f"harlsync_backup_failed_attempts{label} {len(r.attempts)}",
-        ]
+    lines: list[str] = []
+    # Each metric's samples in one group, each robot once: by its project (two robots
+    # may share a name), and by name for the dashboards that used it alone.
+    for suffix, text, value in families:
+        name = f"harlsync_backup_{suffix}"
+        lines += [f"# HELP {name} {text}", f"# TYPE {name} gauge"]
+        for r in report.robots:
+            label = f'{{project="{escaped(r.project or r.name)}",robot="{escaped(r.name)}"}}'
+            lines.append(f"{name}{label} {value(r)}")
     if report.commit is not None or report.commit_error is not None:
         lines += [
             "# HELP harlsync_backup_git_commit_success Whether the run's git commit succeeded.",

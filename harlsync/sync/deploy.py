@@ -242,6 +242,7 @@ def run(
                     "time": audit.now(),
                     "item": w.name,
                     "command": w.command,
+                    "changes": audit.change_entries(w.items),
                 }
             ),
         )
@@ -273,10 +274,7 @@ def run(
         record["error"] = result.error
         raise
     finally:
-        record["written"] = [
-            {"item": w.name, "command": w.command, "old": _show(w.old), "new": _show(w.new)}
-            for w in result.written
-        ]
+        record["written"] = [audit.written_entry(w) for w in result.written]
         if result.failed is not None:
             record["failed_item"] = result.failed.name
             if result.partly_written is not None:
@@ -336,15 +334,15 @@ def _check_audit_log() -> None:
         ) from exc
 
 
-def _show(value: Any) -> Any:
-    if value is None or isinstance(value, str):
-        return value
-    return getattr(value, "text", None) or repr(value)
-
-
 def _check_plan(the_plan: Plan[Any], opts: PushOptions) -> None:
     if opts.plan_file is not None:
         saved = Plan.load_saved(opts.plan_file)
+        if (saved.get("robot"), saved.get("target")) != (the_plan.robot, the_plan.target):
+            raise StalePlanError(
+                f"the plan {opts.plan_file} was made for {saved.get('robot')} "
+                f"({saved.get('target')}), not {the_plan.robot} ({the_plan.target}); make "
+                "a plan of this robot and review it"
+            )
         if saved["live_fingerprint"] != the_plan.live_fingerprint:
             raise StalePlanError(
                 f"the robot changed since the plan {opts.plan_file} was made; "
@@ -378,20 +376,20 @@ def _write_all(
     if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
         # Live tuning covers timers and tables only: a plan that also holds any
         # other write needs an idle robot before its first write of any kind.
-        _interlock(driver, robot, family.words, f"the first write ({the_plan.writes[0].command})")
+        _interlock(driver, robot, family.words, f"the first write ({the_plan.writes[0].name})")
     for write in the_plan.writes:
         now = driver.read(write.key)
         if now != write.old:
             raise StalePlanError(
-                f"{write.name} changed on the robot since it was read (now {_show(now)!r}, "
-                f"planned over {_show(write.old)!r}); not overwriting it. Pull or diff to see "
-                "the change, then run again"
+                f"{write.name} changed on the robot since it was read "
+                f"({audit.difference(family.catalogue, write.key, write.old, now)}); not "
+                "overwriting it. Pull or diff to see the change, then run again"
             )
-        _check_window(robot, opts, f"writing {write.name} ({write.command})")
+        _check_window(robot, opts, f"writing {write.name}")
         announce(write)  # before the interlock: nothing between the status read and the write
         if not live(write):
             try:
-                _interlock(driver, robot, family.words, f"writing {write.name} ({write.command})")
+                _interlock(driver, robot, family.words, f"writing {write.name}")
             except InterlockError as exc:
                 raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
         result.failed = write
@@ -407,7 +405,9 @@ def _write_all(
         got = driver.read(write.key)
         if got != write.new:
             raise VerifyError(
-                f"{write.name} reads back as {_show(got)!r} after writing {_show(write.new)!r}"
+                f"{write.name} does not read back as written "
+                f"({audit.difference(family.catalogue, write.key, write.new, got)}, written → "
+                "read back)"
             )
         result.failed = None
         result.written.append(write)

@@ -6,7 +6,10 @@ in force and adds no dependency.
 
 from __future__ import annotations
 
+import getpass
 import hashlib
+import os
+import socket
 import subprocess
 from collections.abc import Mapping
 from pathlib import Path
@@ -19,11 +22,14 @@ __all__ = [
     "Commit",
     "changed_files",
     "commit",
+    "files_at",
     "head",
+    "identity",
     "log",
     "not_in_commit",
     "push",
     "repo_root",
+    "resolve",
     "show",
 ]
 
@@ -34,12 +40,14 @@ def _git(
     check: bool = True,
     ok: tuple[int, ...] = (0,),
     stdin: str | None = None,
+    env: Mapping[str, str] | None = None,
 ) -> subprocess.CompletedProcess[str]:
     """Run git in ``cwd``; with ``check``, an exit status not in ``ok`` raises SyncError."""
     try:
         result = subprocess.run(
             ["git", *args],
             cwd=cwd,
+            env=env,
             capture_output=True,
             text=True,
             check=False,
@@ -160,8 +168,34 @@ def commit(paths: list[Path], message: str) -> str | None:
     staged = _git(root, "diff", "--cached", "--quiet", "--", *specs, check=False)
     if staged.returncode == 0:
         return None
-    _git(root, "commit", "--quiet", "-m", message, "--", *specs)
+    _git(root, "commit", "--quiet", "-m", message, "--", *specs, env=identity(root))
     return _git(root, "rev-parse", "HEAD").stdout.strip()
+
+
+def identity(root: Path) -> dict[str, str] | None:
+    """The environment a commit in ``root`` needs when git knows nobody to commit as
+    (cron and systemd: no HOME, no ~/.gitconfig); None when it does.
+
+    git's own identity always wins: ``user.name``/``user.email`` in the repository's,
+    the user's or the system's configuration, or ``GIT_AUTHOR_*``/``GIT_COMMITTER_*``
+    in the environment.  Without one, harlsync commits as ``harlsync (USER@HOST)
+    <USER@HOST>``: the account and machine that ran it.
+    """
+    if all(
+        _git(root, "var", ident, check=False).returncode == 0
+        for ident in ("GIT_AUTHOR_IDENT", "GIT_COMMITTER_IDENT")
+    ):
+        return None
+    try:
+        user = getpass.getuser()
+    except (KeyError, OSError):
+        user = "harlsync"
+    host = socket.gethostname() or "localhost"
+    env = dict(os.environ)
+    for who in ("AUTHOR", "COMMITTER"):
+        env.setdefault(f"GIT_{who}_NAME", f"harlsync ({user}@{host})")
+        env.setdefault(f"GIT_{who}_EMAIL", f"{user}@{host}")
+    return env
 
 
 def push(path: str | Path, remote: str | None = None) -> None:
@@ -218,3 +252,31 @@ def show(commit: str, path: str | Path) -> str:
         check=False,
     )
     return result.stdout if result.returncode == 0 else ""
+
+
+def resolve(root: Path, rev: str) -> str | None:
+    """The commit ``rev`` names in the repository at ``root`` (None: no such commit)."""
+    if rev.startswith("-"):  # never an option to git
+        return None
+    result = _git(root, "rev-parse", "--verify", "--quiet", f"{rev}^{{commit}}", check=False)
+    return result.stdout.strip() if result.returncode == 0 else None
+
+
+def files_at(root: Path, commit: str, where: str) -> dict[str, bytes]:
+    """Every file under ``where`` (relative to ``root``) in ``commit``, by its path
+    relative to ``where``, with its bytes."""
+    listing = _git(root, "ls-tree", "-r", "-z", "--full-tree", commit, "--", where).stdout
+    found: dict[str, bytes] = {}
+    prefix = f"{where}/" if where not in ("", ".") else ""
+    for entry in filter(None, listing.split("\0")):
+        meta, _, name = entry.partition("\t")
+        _mode, kind, oid = meta.split(" ")
+        if kind != "blob" or not name.startswith(prefix):
+            continue
+        blob = subprocess.run(
+            ["git", "cat-file", "blob", oid], cwd=root, capture_output=True, check=False
+        )
+        if blob.returncode != 0:
+            raise SyncError(f"git cat-file failed in {root} for {name}")
+        found[name[len(prefix) :]] = blob.stdout
+    return found

@@ -21,11 +21,12 @@ one recorded.
 from __future__ import annotations
 
 import json
+import logging
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
-from ..project import store
+from ..project import statefile, store
 from ..project.store import disk_error, replace_file
 from . import git
 
@@ -34,6 +35,8 @@ __all__ = ["LOCAL_DIR", "committed", "ensure_local_dir", "read", "record", "stal
 #: harlsync's local, unversioned state inside a project.
 LOCAL_DIR = Path(store.LOCAL_DIR)
 _FILE = LOCAL_DIR / "backup.json"
+
+log = logging.getLogger(__name__)
 
 
 def ensure_local_dir(project: Path) -> Path:
@@ -52,11 +55,58 @@ def ensure_local_dir(project: Path) -> Path:
     return local
 
 
-def read(project: Path) -> dict[str, Any]:
+def read(project: Path, problems: list[str] | None = None) -> dict[str, Any]:
+    """What ``DIR/.harlsync/backup.json`` records, each field of its type.
+
+    A file that is not such a record reads as empty (the next pull or backup
+    rewrites it), a field of the wrong type as missing; either is said in one line
+    naming the file: appended to ``problems`` when given, else logged.
+    """
+    path = project / _FILE
     try:
-        return dict(json.loads((project / _FILE).read_text(encoding="utf-8")))
-    except (OSError, ValueError):
+        data = statefile.load(path)
+    except FileNotFoundError:
         return {}
+    except (OSError, ValueError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        _say(problems, f"{path}: cannot be read ({why}); {_REWRITTEN}")
+        return {}
+    if not isinstance(data, dict):
+        _say(
+            problems,
+            f"{path}: holds {statefile.kind_of(data)}, not harlsync's record; {_REWRITTEN}",
+        )
+        return {}
+    fields = statefile.Fields(data)
+    state: dict[str, Any] = {
+        "last_attempt": fields.time("last_attempt"),
+        "last_success": fields.time("last_success"),
+        "last_result": fields.text("last_result"),
+        "last_error": fields.text("last_error"),
+        "last_changed": fields.flag("last_changed"),
+        "last_changes": fields.text("last_changes"),
+        "last_commit": fields.text("last_commit"),
+    }
+    if state["last_result"] not in (None, "ok", "failed"):
+        fields.problems.append(f"last_result holds {state['last_result']!r}, not ok or failed")
+        state["last_result"] = None
+    if fields.problems:
+        _say(
+            problems,
+            f"{path}: {'; '.join(statefile.fold(fields.problems, 3))}: read as missing; {_REWRITTEN}",
+        )
+    # last_commit: null means "not committed by harlsync", and is kept as such.
+    return {k: v for k, v in state.items() if v is not None or k == "last_commit" and k in data}
+
+
+_REWRITTEN = "the next pull or backup of this robot writes it anew"
+
+
+def _say(problems: list[str] | None, text: str) -> None:
+    if problems is None:
+        log.warning("%s", text)
+    else:
+        problems.append(text)
 
 
 def stale(last_success: str | None, now: datetime, after: timedelta) -> bool:
@@ -115,3 +165,29 @@ def _write(project: Path, state: dict[str, Any], what: str) -> dict[str, Any]:
     except OSError as exc:
         raise disk_error(exc, target, what) from exc
     return state
+
+
+#: How many items a commit message names per robot before "and 40 more".
+NAMED = 12
+
+
+def commit_message(head: str, summary: str, items: list[str], pushes: list[str]) -> str:
+    """A commit message that names what changed: ``pull press: MAIN program 0 step 4;
+    position 12 speed`` (shortened to fit a subject line), then the summary, every
+    item (folded) and who pushed to the robot since its last backup."""
+    named = "; ".join(items) or summary
+    subject = f"{head}: {named}"
+    if len(subject) > 72:
+        subject = f"{head}: {summary}"
+    lines = [subject, ""] + body(summary, items, pushes)
+    return "\n".join(lines) + "\n"
+
+
+def body(summary: str, items: list[str], pushes: list[str], indent: str = "") -> list[str]:
+    """The lines that say what changed and who pushed, for a commit message."""
+    lines = [f"{indent}{summary}:"] if items else [f"{indent}{summary}"]
+    lines += [f"{indent}  {item}" for item in statefile.fold(items, NAMED, "more")]
+    if pushes:
+        lines += [f"{indent}pushed since the last backup:"]
+        lines += [f"{indent}  {push}" for push in statefile.fold(pushes, NAMED, "more")]
+    return lines

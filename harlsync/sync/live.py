@@ -123,9 +123,10 @@ def unfinished_pushes(robot: Robot, port: str | None, station: int | None) -> li
 
     Called with the line held, so no push in progress can be mistaken for one.
     """
+    problems: list[str] = []
     try:
         found = audit.unfinished(
-            port or robot.port, station if station is not None else robot.station
+            port or robot.port, station if station is not None else robot.station, problems=problems
         )
     except OSError as exc:
         return [
@@ -134,4 +135,4 @@ def unfinished_pushes(robot: Robot, port: str | None, station: int | None) -> li
                 "unfinished push"
             )
         ]
-    return [audit.describe_unfinished(record) for record in found]
+    return problems + [audit.describe_unfinished(record) for record in found]

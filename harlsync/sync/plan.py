@@ -16,14 +16,25 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Any, Generic
 
 from ..errors import ProjectFormatError
 from ..families.base import Catalogue, D, Driver, K
+from ..project import statefile
+from . import git
 from .items import Change, diff
 
-__all__ = ["PLAN_FORMAT", "Plan", "PlannedWrite", "fingerprint", "make_plan"]
+__all__ = [
+    "PLAN_FORMAT",
+    "Plan",
+    "PlannedWrite",
+    "covered",
+    "fingerprint",
+    "make_plan",
+    "policy_refusals",
+]
 
 PLAN_FORMAT = 1
 
@@ -39,6 +50,10 @@ class PlannedWrite(Generic[K]):
     unsafe: bool
     #: the item's name for people: ``MAIN program 2 step 3``
     name: str
+    #: the items of the diff this write changes (one, or a run of positions), as
+    #: ``diff`` shows them; a write of an item that did not differ (a step rewritten
+    #: after a reconfiguration) is its own change
+    items: tuple[Change[Any], ...] = ()
 
 
 @dataclass
@@ -70,6 +85,12 @@ class Plan(Generic[K]):
         return not self.writes
 
     @property
+    def items(self) -> list[Change[Any]]:
+        """The changes of the diff that the writes make, in push order: what a person
+        confirms (an IAI 291H writes several positions, each one item)."""
+        return [c for w in self.writes for c in w.items]
+
+    @property
     def commands(self) -> list[str]:
         return [w.command for w in self.writes]
 
@@ -93,11 +114,31 @@ class Plan(Generic[K]):
     def load_saved(path: str | Path) -> dict[str, Any]:
         """A saved plan's data.  Raises ProjectFormatError when unreadable."""
         try:
-            data = json.loads(Path(path).read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise ProjectFormatError(f"{path}: cannot read plan: {exc}") from exc
+            data = statefile.load(Path(path))
+        except OSError as exc:
+            raise ProjectFormatError(
+                f"{path}: cannot read the plan ({exc.strerror or exc}); give the file "
+                "'harlsync plan DIR --out FILE' saved"
+            ) from exc
+        except ValueError as exc:
+            raise ProjectFormatError(
+                f"{path}: not a harlsync plan ({exc}); make a new one with "
+                "'harlsync plan DIR --out FILE'"
+            ) from exc
         if not isinstance(data, dict) or data.get("format") != PLAN_FORMAT:
-            raise ProjectFormatError(f"{path}: not a harlsync plan of format {PLAN_FORMAT}")
+            raise ProjectFormatError(
+                f"{path}: not a harlsync plan of format {PLAN_FORMAT}; make a new one with "
+                "'harlsync plan DIR --out FILE'"
+            )
+        fields = statefile.Fields(data)
+        for name in ("live_fingerprint", "project_fingerprint"):
+            if fields.text(name) is None:
+                fields.problems.append(f"{name} is missing")
+        if fields.problems:
+            raise ProjectFormatError(
+                f"{path}: not a whole harlsync plan ({'; '.join(fields.problems)}); make a "
+                "new one with 'harlsync plan DIR --out FILE'"
+            )
         return data
 
 
@@ -119,6 +160,44 @@ def fingerprint(catalogue: Catalogue[K, D], data: D, *, registers: bool = False)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
+def covered(
+    catalogue: Catalogue[Any, Any], changes: list[Change[Any]], wanted: list[tuple[Any, Any, Any]]
+) -> list[tuple[Change[Any], ...]]:
+    """For each write (key, old, new) of ``wanted``, in order, the changes of the diff it
+    makes.
+
+    A write of one item is keyed as its change is.  A write of a run of items (IAI:
+    positions 3-7, written by one 291H) carries a tuple of their new values, in order:
+    each is matched to the first change not yet matched, of the same group, whose new
+    value it is.  A write that matches no change is its own.
+    """
+    by_key = {c.key: c for c in changes}
+    taken: set[int] = set()
+    found: list[tuple[Change[Any], ...]] = []
+    for key, old, new in wanted:
+        if key in by_key:
+            found.append((by_key[key],))
+            taken.add(id(by_key[key]))
+            continue
+        mine: list[Change[Any]] = []
+        if isinstance(new, tuple):
+            group = catalogue.group(key)
+            for value in new:
+                candidates = [
+                    c for c in changes if id(c) not in taken and catalogue.group(c.key) == group
+                ]
+                match = next((c for c in candidates if c.new is value), None) or next(
+                    (c for c in candidates if c.new == value), None
+                )
+                if match is not None:
+                    taken.add(id(match))
+                    mine.append(match)
+        if not mine and not isinstance(new, tuple):
+            mine = [Change(key, old, new, catalogue)]
+        found.append(tuple(mine))
+    return found
+
+
 def make_plan(
     catalogue: Catalogue[K, D],
     live: D,
@@ -134,11 +213,18 @@ def make_plan(
         live, project, [(c.key, c.old, c.new) for c in changes], registers=registers
     )
     wanted = sorted(shape.wanted, key=lambda w: catalogue.order(w[0]))
+    items = covered(catalogue, changes, wanted)
     writes = [
         PlannedWrite(
-            key, old, new, driver.command(key, new), driver.unsafe(key), catalogue.describe(key)
+            key,
+            old,
+            new,
+            driver.command(key, new),
+            driver.unsafe(key),
+            catalogue.describe(key),
+            items[n],
         )
-        for key, old, new in wanted
+        for n, (key, old, new) in enumerate(wanted)
     ]
     return Plan(
         robot=robot,
@@ -152,3 +238,26 @@ def make_plan(
         unwritable=shape.unwritable,
         notes=shape.notes,
     )
+
+
+def policy_refusals(path: Path, robot: Any, now: datetime | None = None) -> list[str]:
+    """Why a push of the project at ``path`` would be refused now besides the robot's
+    state, each as a sentence: uncommitted changes, outside the maintenance windows.
+    For ``plan`` to list every reason at once (the push stops at the first)."""
+    found = []
+    dirty = git.changed_files(path)
+    if git.repo_root(path) is None:
+        found.append(f"{path} is not in a git repository (give --allow-dirty, or commit it)")
+    elif dirty:
+        shown = ", ".join(dirty[:3]) + (", ..." if len(dirty) > 3 else "")
+        found.append(
+            f"{path} has uncommitted changes ({shown}): commit them, or give --allow-dirty"
+        )
+    moment = now or datetime.now()
+    if not robot.in_window(moment):
+        windows = "; ".join(str(w) for w in robot.windows)
+        found.append(
+            f"{moment:%a %H:%M} is outside its maintenance windows ({windows}): wait for a "
+            "window or give --outside-window REASON"
+        )
+    return found

@@ -157,9 +157,16 @@ def pull(
         contents=things.contents(live, registers=robot.keep_registers),
         notes=list(read.notes),
     )
+    since = history.read(path).get("last_success")
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
-        result.commit = git.commit([path], f"pull {robot.name}: {result.summary}")
+        message = history.commit_message(
+            f"pull {robot.name}",
+            result.summary,
+            audit.changed_names(result.changes or []),
+            audit.pushes_since(robot.port, robot.station, path, since),
+        )
+        result.commit = git.commit([path], message)
         if result.commit:
             history.committed(path, result.commit)
     return result

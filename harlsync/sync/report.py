@@ -20,13 +20,15 @@ import jinja2
 from .. import __version__
 from ..errors import SyncError
 from ..project.store import SCHEMAS_DIR, replace_file
-from . import git
+from . import audit, git
 from .status import PlantStatus, RobotStatus, local_time
 
 __all__ = ["DiffLine", "Event", "render_html", "write_html"]
 
 #: Diff lines shown per robot; the rest is one ``git show`` away.
 MAX_DIFF_LINES = 150
+#: Lines of what a push wrote (a field each) shown per robot.
+MAX_WRITTEN_LINES = 40
 #: Events in a robot's timeline, and in the plant's.
 ROBOT_EVENTS = 8
 PLANT_EVENTS = 20
@@ -34,7 +36,7 @@ PLANT_EVENTS = 20
 
 @dataclass(frozen=True)
 class DiffLine:
-    kind: str  # file, hunk, add, del, context
+    kind: str  # file, hunk, add, del, context, change (old → new)
     text: str
 
 
@@ -112,13 +114,7 @@ def _written(robot: RobotStatus) -> list[DiffLine]:
     push = robot.last_push
     if push is None:
         return []
-    lines = []
-    for w in push.written:
-        lines.append(DiffLine("hunk", f"{w.get('item')}: {w.get('command')}"))
-        if w.get("old") is not None:
-            lines.append(DiffLine("del", f"-{w['old']}"))
-        if w.get("new") is not None:
-            lines.append(DiffLine("add", f"+{w['new']}"))
+    lines = [DiffLine("change", line) for line in push.changes(MAX_WRITTEN_LINES)]
     if push.failed_item:
         lines.append(DiffLine("hunk", f"{push.failed_item}: may or may not have been written"))
     return lines
@@ -127,20 +123,22 @@ def _written(robot: RobotStatus) -> list[DiffLine]:
 def _events(robot: RobotStatus) -> list[Event]:
     """The robot's recent commits (backups, edits), pushes and a failed last backup."""
     events = [
-        Event(c.time, robot.name, "commit", f"{c.sha[:10]} {c.subject}", "ok")
+        Event(c.time, robot.label or robot.name, "commit", f"{c.sha[:10]} {c.subject}", "ok")
         for c in git.log(robot.path, ROBOT_EVENTS)
     ]
     events += [
-        Event(p.time or "", robot.name, p.action, f"{p.result} {p.details()}", p.result)
+        Event(
+            p.time or "", robot.label or robot.name, p.action, f"{p.result} {p.details()}", p.result
+        )
         for p in robot.pushes[-ROBOT_EVENTS:]
     ]
     if robot.last_result == "failed" and robot.last_attempt:
         events.append(
             Event(
                 robot.last_attempt,
-                robot.name,
+                robot.label or robot.name,
                 "failed",
-                f"backup failed: {robot.last_error}",
+                f"backup failed: {audit.shorten(robot.last_error)}",
                 "failed",
             )
         )
@@ -163,6 +161,7 @@ def _environment() -> jinja2.Environment:
         lstrip_blocks=True,
     )
     env.filters["local_time"] = local_time
+    env.filters["shorten"] = audit.shorten
     return env
 
 

@@ -9,6 +9,8 @@ that holds a backup harlsync did not commit itself) and the snapshots.
 A robot's state is the first of these that applies::
 
     unfinished push   a push or rollback of it never ended (killed part way)
+    partial push      its last push or rollback stopped part way (refused or failed
+                      after writing some items): the robot holds some of it
     never backed up   no good backup recorded (on this machine: .harlsync is local)
     failed            its last pull or backup failed, or its project cannot be read
     stale             its last good backup is older than stale_after
@@ -28,7 +30,7 @@ from typing import Any
 from ..errors import HarlsyncError, partly_words
 from ..project import family_of, load_robot
 from . import audit, git, history
-from .backup import find_projects
+from .backup import find_projects, project_labels, shown_names
 from .snapshots import snapshots
 
 __all__ = [
@@ -44,9 +46,17 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 #: Every state, the most urgent first.
-STATES = ("unfinished push", "never backed up", "failed", "stale", "changed", "ok")
+STATES = (
+    "unfinished push",
+    "partial push",
+    "never backed up",
+    "failed",
+    "stale",
+    "changed",
+    "ok",
+)
 #: The states someone must look at: ``harlsync status`` exits 1 when a robot is in one.
-ATTENTION = frozenset(("unfinished push", "never backed up", "failed", "stale"))
+ATTENTION = frozenset(("unfinished push", "partial push", "never backed up", "failed", "stale"))
 
 
 @dataclass
@@ -121,8 +131,13 @@ class PushRecord:
         if self.reason:
             text += f': "{self.reason}"'
         if self.error and self.result != "ok":
-            text += f" ({self.error})"
+            text += f" ({audit.shorten(self.error)})"
         return text
+
+    def changes(self, most: int | None = audit.SHOWN) -> list[str]:
+        """What it wrote, a line per field as ``diff`` shows it (``position 3: speed
+        150 → 200``), at most ``most`` then ``and 40 more``."""
+        return audit.written_lines(self.written, most)
 
 
 def _names(value: object) -> list[str]:
@@ -157,6 +172,11 @@ class RobotStatus:
     snapshots: int = 0
     #: Every push and rollback of this robot the audit log holds, oldest first.
     pushes: list[PushRecord] = field(default_factory=list, repr=False)
+    #: Its project's directory under the plant's (``lineA/cell``).
+    project: str = ""
+    #: Its name as a person reads it: ``cell``, or ``cell (lineA/cell)`` when
+    #: another robot of the plant has that name.
+    label: str = ""
 
     @property
     def attention(self) -> bool:
@@ -236,7 +256,7 @@ class PlantStatus:
             push = r.last_push
             rows.append(
                 (
-                    r.name,
+                    r.label or r.name,
                     r.state,
                     r.family or "?",
                     r.port or "?",
@@ -248,15 +268,19 @@ class PlantStatus:
                     f"{local_time(push.time)} {push.action} {push.result}" if push else "-",
                 )
             )
+            shown = r.label or r.name
             if r.last_result == "failed":
-                notes.append(f"{r.name}: failed: {r.last_error}")
-            notes += [f"{r.name}: {text}" for text in r.unfinished]
+                notes.append(f"{shown}: failed: {audit.shorten(r.last_error)}")
+            notes += [f"{shown}: {text}" for text in r.unfinished]
             if push is not None:
-                notes.append(f"{r.name}: last {push.describe()}")
+                notes.append(f"{shown}: last {push.describe()}")
+                notes += [f"    {line}" for line in push.changes(3)]
         widths = [min(max(len(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
         lines = []
         for row in rows:
-            cells = [cell.ljust(widths[i]) for i, cell in enumerate(row)]
+            # A cell longer than its column is cut ("…"), so every column starts where
+            # the header's does; the whole text is in the notes below or in --format json.
+            cells = [fit(cell, widths[i]) for i, cell in enumerate(row)]
             if color and row is not rows[0]:
                 cells[1] = _paint(row[1], cells[1])
             lines.append("  ".join(cells).rstrip())
@@ -273,7 +297,13 @@ _COLOURS = {
     "never backed up": "33",
     "failed": "1;31",  # bold red
     "unfinished push": "1;35",  # bold magenta
+    "partial push": "1;35",
 }
+
+
+def fit(cell: str, width: int) -> str:
+    """``cell`` padded to ``width``, or cut to it with an ellipsis."""
+    return cell.ljust(width) if len(cell) <= width else cell[: width - 1] + "…"
 
 
 def _paint(state: str, text: str) -> str:
@@ -292,7 +322,7 @@ def local_time(stamp: str | None) -> str:
 
 def _audit_records(warnings: list[str]) -> list[dict[str, Any]]:
     try:
-        return audit.results()
+        return audit.results(problems=warnings)
     except (OSError, ValueError) as exc:
         warnings.append(
             f"cannot read the audit log {audit.audit_path()} ({exc}): pushes are not shown"
@@ -301,7 +331,11 @@ def _audit_records(warnings: list[str]) -> list[dict[str, Any]]:
 
 
 def _robot_status(
-    path: Path, records: list[dict[str, Any]], now: datetime, stale_after: timedelta
+    path: Path,
+    records: list[dict[str, Any]],
+    now: datetime,
+    stale_after: timedelta,
+    warnings: list[str],
 ) -> RobotStatus:
     try:
         family = family_of(path)
@@ -318,7 +352,7 @@ def _robot_status(
             last_error=str(exc),
         )
     station = family.format_station(robot.station)
-    state = history.read(path)
+    state = history.read(path, warnings)
     status = RobotStatus(
         robot.name,
         str(path),
@@ -361,6 +395,9 @@ def _robot_status(
 def _state(r: RobotStatus) -> str:
     if r.unfinished:
         return "unfinished push"
+    push = r.last_push
+    if push is not None and push.result not in audit.SETTLED and push.written:
+        return "partial push"
     if r.never_backed_up:
         return "never backed up"
     if r.last_result == "failed":
@@ -385,10 +422,15 @@ def collect(
     projects = find_projects(paths)
     warnings: list[str] = []
     records = _audit_records(warnings)
-    robots = sorted(
-        (_robot_status(p, records, now, stale_after) for p in projects),
-        key=lambda r: (r.name, r.path),
-    )
+    labels = project_labels(projects)
+    robots = []
+    for path in projects:
+        robot = _robot_status(path, records, now, stale_after, warnings)
+        robot.project = labels[path]
+        robots.append(robot)
+    robots.sort(key=lambda r: (r.name, r.project))
+    for robot, shown in zip(robots, shown_names((r.name, r.project) for r in robots)):
+        robot.label = shown
     return PlantStatus(
         robots,
         now.isoformat(timespec="seconds"),

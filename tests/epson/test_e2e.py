@@ -141,13 +141,17 @@ def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsy
         "+AccelS 3 decel: 250.000\n"
     )
     assert cli.main(["plan", str(project)]) == 0
-    assert capsys.readouterr().out.splitlines() == [
-        (
-            "53 register AccelS table entry: 0035 0003 0001 871B 0003 D090  # unsafe in automatic "
-            "operation"
-        ),
-        f"# 1 write(s) to cell-3 ({url} unit 1)",
+    assert capsys.readouterr().out.splitlines() == [  # what diff shows (issue 22)
+        "@@ AccelS (volatile) @@",
+        "-AccelS 3 decel: 200.000",
+        "+AccelS 3 decel: 250.000",
+        f"# 1 item(s) to cell-3 ({url} unit 1)",
     ]
+    assert cli.main(["plan", str(project), "-v"]) == 0
+    assert (
+        "# AccelS 3: 53 register AccelS table entry: 0035 0003 0001 871B 0003 D090  # unsafe in "
+        "automatic operation"
+    ) in capsys.readouterr().out.splitlines()
     assert written(sim) == []
     before = dict(sim.stations[1].accel_s)
     taken = len(sim.commands())

@@ -163,8 +163,13 @@ def test_plan_prints_each_291h_field_by_field_and_sends_nothing(served, repo, ca
     sent = len(sim.received)
     assert cli.main(["plan", str(project)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith(f"291H 00 {n:04X} 0001 | ")
-    assert "000007D0" in lines[0]  # 2.000 mm in 0.001 mm, two's complement
+    assert lines[0] == "@@ positions @@" and lines[1].startswith(f"-{n}: axes ")
+    assert "coords [2.000" in lines[2] and lines[3].startswith("# 1 item(s) to ")
+    assert "291H" not in "".join(lines)  # the wire only with -v (issue 22)
+    assert cli.main(["plan", str(project), "-v"]) == 0
+    [command] = [line for line in capsys.readouterr().out.splitlines() if "291H" in line]
+    assert command.startswith(f"# position {n}: 291H 00 {n:04X} 0001 | ")
+    assert "000007D0" in command  # 2.000 mm in 0.001 mm, two's complement
     assert not [r for r in sim.received[sent:] if r.is_write]
 
 
@@ -391,8 +396,13 @@ def test_push_registers_writes_only_the_changed_ones_in_runs_and_converges(
     assert cli.main(["push", str(project), "--yes"]) == 0  # without --registers: nothing
     assert not writes(sim)
     capsys.readouterr()
-    assert cli.main(["plan", str(project), "--registers"]) == 0
-    assert capsys.readouterr().out.splitlines()[:5] == [
+    assert cli.main(["plan", str(project), "--registers", "-v"]) == 0  # -v: the wire
+    commands = [
+        line.split(": ", 1)[1]
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith("# ") and ": 24" in line
+    ]
+    assert commands[:5] == [
         "24CH 00 0C8 03 | FFFFFC18 | 00000001 | 00000002  # unsafe in automatic operation",
         "24CH 00 0D2 01 | 7FFFFFFF  # unsafe in automatic operation",
         "24DH 00 18F 01 | 3FB999999999999A  # unsafe in automatic operation",

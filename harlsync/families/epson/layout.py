@@ -341,7 +341,12 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     axes = None
     if "settings.yaml" in valid:
         axes = _check_settings(docs["settings.yaml"], result.robot, issues)
-    elif result.robot is not None:
+    elif "settings.yaml" in docs:  # a schema error must not hide the other items' checks
+        try:
+            axes = _check_settings(docs["settings.yaml"], result.robot, issues, partly=True)
+        except _UNCHECKABLE:  # the manipulator itself is broken: the schema said how
+            pass
+    if axes is None and result.robot is not None:
         axes = result.robot.options.get("axes")
     if "points.yaml" in valid:
         robot_type = None
@@ -516,10 +521,18 @@ def _check_value(kind: Kind, raw: Any, axes: int | None, issue: Callable[..., No
         issue(f"{len(raw)} joints (allowed: one value per joint, {axes} on a {axes}-axis robot)")
 
 
-def _check_settings(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> int:
+#: What checking a value the schema refused can raise: that value is skipped (the
+#: schema's issue names it), the others are still checked.
+_UNCHECKABLE = (KeyError, IndexError, TypeError, ValueError, AttributeError, ArithmeticError)
+
+
+def _check_settings(
+    doc: y.Parsed, robot: Robot | None, issues: list[Issue], *, partly: bool = False
+) -> int:
     """What the schema cannot say: the numbers' one form, coordinates and joints
     against the manipulator's axes, which agree with its type and robot.yaml.
-    Returns the axes."""
+    Returns the axes.  ``partly``: the file has schema errors; a setting that
+    cannot be checked is skipped, and the others are."""
     data = doc.data
 
     def issue_at(*at: str | int) -> Callable[..., None]:
@@ -547,14 +560,22 @@ def _check_settings(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> 
                     f"{wanted}: this project is of another robot, or robot.yaml is wrong)"
                 )
     for kind in KINDS.values():
-        raw = data[kind.key]
-        if not kind.numbered:
-            _check_value(kind, raw, axes, issue_at(kind.key))
-            continue
-        for key, n in numbers(raw):
-            if kind.key == "jrange" and n > axes:
-                issue_at(kind.key, key)(f"joint {n} of a {axes}-axis robot (allowed: 1-{axes})")
-            _check_value(kind, raw[key], axes, issue_at(kind.key, key))
+        try:
+            raw = data[kind.key]
+            if not kind.numbered:
+                _check_value(kind, raw, axes, issue_at(kind.key))
+                continue
+            for key, n in numbers(raw):
+                if kind.key == "jrange" and n > axes:
+                    issue_at(kind.key, key)(f"joint {n} of a {axes}-axis robot (allowed: 1-{axes})")
+                try:
+                    _check_value(kind, raw[key], axes, issue_at(kind.key, key))
+                except _UNCHECKABLE:
+                    if not partly:
+                        raise
+        except _UNCHECKABLE:
+            if not partly:
+                raise
     return axes
 
 

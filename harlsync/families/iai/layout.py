@@ -397,6 +397,8 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
         read(RECORDS_FILE, "records")
     if "positions.yaml" in valid:
         _check_positions(docs["positions.yaml"], result.robot, issues)
+    elif "positions.yaml" in docs:  # a schema error must not hide the other positions' checks
+        _check_positions(docs["positions.yaml"], result.robot, issues, partly=True)
     if RECORDS_FILE in valid:
         _check_records(docs[RECORDS_FILE], result.robot, issues)
     if VARIABLES_FILE in valid:
@@ -477,49 +479,73 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
     )
 
 
-def _check_positions(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> None:
+#: What checking a position the schema refused can raise: that one is skipped (the
+#: schema's issue names it), the others are still checked.
+_UNCHECKABLE = (KeyError, IndexError, TypeError, ValueError, AttributeError, ArithmeticError)
+
+
+def _check_positions(
+    doc: y.Parsed, robot: Robot | None, issues: list[Issue], *, partly: bool = False
+) -> None:
     """What the schema cannot say: the coordinates against the axes, canonical
-    numbers, and the robot's axes and range."""
-    table = doc.data["positions"]
+    numbers, and the robot's axes and range.  ``partly``: the file has schema
+    errors; a position that cannot be checked is skipped, and the others are."""
+    try:
+        table = doc.data["positions"]
+        found = numbers(table)
+    except _UNCHECKABLE:
+        if not partly:
+            raise
+        return
+    for key, n in found:
+        try:
+            _check_position(doc, robot, issues, table, key, n)
+        except _UNCHECKABLE:
+            if not partly:
+                raise
+
+
+def _check_position(
+    doc: y.Parsed, robot: Robot | None, issues: list[Issue], table: Any, key: Any, n: int
+) -> None:
     first, last = position_range(robot) if robot is not None else (1, 0xFFFF)
     axes_allowed = robot.options.get("axes") if robot is not None else None
-    for key, n in numbers(table):
-        entry = table[key]
-        at = ("positions", key)
+    entry = table[key]
+    at = ("positions", key)
 
-        def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
-            path = at + where
-            name = ".".join(str(p) for p in path)
-            issues.append(Issue("positions.yaml", doc.line(path), name, message))
+    def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
+        path = at + where
+        name = ".".join(str(p) for p in path)
+        issues.append(Issue("positions.yaml", doc.line(path), name, message))
 
-        if not first <= n <= last:
-            issue(
-                f"position {show(y.Number(key))} is outside the robot's table "
-                f"(allowed: {first}-{last}, robot.yaml controller.first_position/"
-                "last_position)"
-            )
-        axes = [int(a) for a in entry["axes"]]
-        if axes != sorted(axes):
-            issue(f"{axes} are not in ascending order (allowed: ascending, {sorted(axes)})", "axes")
-        if axes_allowed is not None and not set(axes) <= set(axes_allowed):
-            extra = sorted(set(axes) - set(axes_allowed))
-            issue(
-                f"axis {', '.join(map(str, extra))} is not one of the robot's "
-                f"(allowed: {', '.join(map(str, axes_allowed))}, robot.yaml "
-                "controller.axes)",
-                "axes",
-            )
-        coords = entry["coords"]
-        if len(coords) != len(axes):
-            issue(
-                f"{len(coords)} coordinate(s) for {len(axes)} axis/axes "
-                "(allowed: one coordinate per axis in axes)",
-                "coords",
-            )
-        for i, value in enumerate(coords):
-            check_canonical(issue, text_of(value), canonical_coord, "coords", i)
-        for name in ("acc", "dec"):
-            check_canonical(issue, text_of(entry[name]), canonical_g, name)
+    if not first <= n <= last:
+        issue(
+            f"position {show(y.Number(key))} is outside the robot's table "
+            f"(allowed: {first}-{last}, robot.yaml controller.first_position/"
+            "last_position)"
+        )
+    axes = [int(a) for a in entry["axes"]]
+    if axes != sorted(axes):
+        issue(f"{axes} are not in ascending order (allowed: ascending, {sorted(axes)})", "axes")
+    if axes_allowed is not None and not set(axes) <= set(axes_allowed):
+        extra = sorted(set(axes) - set(axes_allowed))
+        issue(
+            f"axis {', '.join(map(str, extra))} is not one of the robot's "
+            f"(allowed: {', '.join(map(str, axes_allowed))}, robot.yaml "
+            "controller.axes)",
+            "axes",
+        )
+    coords = entry["coords"]
+    if len(coords) != len(axes):
+        issue(
+            f"{len(coords)} coordinate(s) for {len(axes)} axis/axes "
+            "(allowed: one coordinate per axis in axes)",
+            "coords",
+        )
+    for i, value in enumerate(coords):
+        check_canonical(issue, text_of(value), canonical_coord, "coords", i)
+    for name in ("acc", "dec"):
+        check_canonical(issue, text_of(entry[name]), canonical_g, name)
 
 
 def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> None:

@@ -1,0 +1,54 @@
+"""``harlsync diff DIR --rev A [--rev B]``: the item-level diff between two backups (git
+revisions) or a snapshot, without a robot (issue 22 item 10)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+from conftest import git
+from plantsim import SMALL
+
+from harlsync.cli import main
+from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.sim.protocol_sim import register, unregister
+from harlsync.sync import engine
+from harlsync.sync.engine import PushOptions
+
+
+def test_diff_between_two_backups_and_a_snapshot_needs_no_robot(repo: Path, capsys) -> None:
+    sim = Simulator({1: SimState.generate(7, SMALL)})
+    url = register(sim)
+    project = repo / "press"
+    engine.pull(project, port=url, commit=True)
+    before = sim.stations[1].data.timers[1]
+    sim.stations[1].data.timers[1] = "6.66"
+    engine.pull(project, commit=True)  # the night's backup finds the pendant's change
+    timers = project / "timers.yaml"
+    timers.write_text(re.sub(r"(?m)^  2: .*$", "  2: 0.80", timers.read_text()))
+    git(repo, "commit", "-qam", "faster")
+    engine.push(project, PushOptions(yes=True))  # snapshot 1: the robot before it
+    unregister(url)  # no robot from here on: a command that opened its port would fail
+    capsys.readouterr()
+
+    assert main(["diff", str(project), "--rev", "HEAD~2", "--rev", "HEAD~1"]) == 1
+    out = capsys.readouterr().out
+    head = git(repo, "rev-parse", "HEAD~2").strip()[:10]
+    assert out.startswith(f"--- HEAD~2 ({head})\n+++ HEAD~1 (")
+    assert f"@@ timers @@\n-1: {before}\n+1: 6.66\n" in out
+
+    assert main(["diff", str(project), "--rev", "HEAD"]) == 0  # HEAD is what is on disk
+    assert capsys.readouterr().out == ""
+
+    assert main(["diff", str(project), "--rev", "1", "--format", "json"]) == 1
+    found = json.loads(capsys.readouterr().out)
+    assert found["old"] == "snapshot 1 (before a push)" and found["new"] == f"project {project}"
+    assert [c["item"] for c in found["changes"]] == ["timer 2"]
+
+    for bad in ("no-such-rev", "--all", "99"):
+        assert main(["diff", str(project), f"--rev={bad}"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "neither a git revision" in err, err
+    assert main(["diff", str(project), "--rev", "HEAD", "--port", url]) == 2
+    assert "no --port" in capsys.readouterr().err
