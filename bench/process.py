@@ -56,7 +56,7 @@ TARGET = 1.03
 def robot_yaml(robot: str, port: str, baud: int) -> str:
     """robot.yaml for ``robot`` on ``port`` at ``baud``, as its family writes it."""
     bot = bench_robot(robot, port, baud)
-    layout: Any = import_module(f"harlsync.families.{FAMILIES[bot.family]}.layout")
+    layout: Any = import_module(f"{FAMILIES[bot.family]}.layout")
     text: str = layout.render_robot(bot)
     return text
 

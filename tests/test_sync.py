@@ -31,7 +31,7 @@ from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.project import load_project, save_project, validate_project
 from harlsync.sim import Faults, Received
 from harlsync.sim.serve import PtyServer, TcpServer
-from harlsync.sync import PushFailed, PushOptions, deploy, engine
+from harlsync.sync import PushFailed, PushOptions, engine, writes
 from harlsync.sync import audit as audit_log
 from harlsync.sync import git as git_ops
 from harlsync.sync import snapshots as snapshot_store
@@ -805,7 +805,7 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
             inside, after = datetime(2026, 11, 28, 23, 0), datetime(2026, 11, 29, 4, 0)
             return (inside if len(sim.writes_received()) < 2 else after).replace(tzinfo=tz)
 
-    monkeypatch.setattr(deploy, "datetime", WindowClosesAfterTwoWrites)
+    monkeypatch.setattr(writes, "datetime", WindowClosesAfterTwoWrites)
     capsys.readouterr()
     assert main(["push", str(project), "--port", url, "--yes"]) == 3
     err = capsys.readouterr().err

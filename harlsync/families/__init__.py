@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING
 
 from .. import lookup
 from ..errors import ProjectError
-from ..project import store
 
 if TYPE_CHECKING:
     from .base import AnyFamily
@@ -91,6 +90,8 @@ def of_project(root: Path, *, strict: bool = False) -> AnyFamily:
     Raises ProjectFormatError, naming the file and line, for a family harlsync
     does not know, and (``strict``) for a robot.yaml that cannot be read.
     """
+    from ..project import store  # not at import: --help reads no project
+
     return store.family_of(root, strict=strict)
 
 

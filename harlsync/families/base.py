@@ -34,9 +34,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeAlias, TypeVar, cast
 
-from ..project.robot import Robot
-
 if TYPE_CHECKING:
+    from ..project.robot import Robot
     from ..project.schema import Issue
 
 __all__ = [
@@ -350,9 +349,6 @@ class Family(ABC, Generic[K, D]):
     name: str
     #: for people: ``Hirata HARL-U2``
     title: str
-    catalogue: Catalogue[K, D]
-    #: the project format version this harlsync reads and writes for the family
-    format: int = 1
     #: sub-directories of a project whose files the family manages
     directories: tuple[str, ...] = ()
     #: what a push's result and audit record must tell (e.g. positions not in flash)
@@ -374,6 +370,19 @@ class Family(ABC, Generic[K, D]):
     #: the stations robot.yaml and ``--station`` allow, and the one a first pull takes
     stations: range = range(1, 100)
     default_station: int = 1
+
+    @property
+    @abstractmethod
+    def catalogue(self) -> Catalogue[K, D]:
+        """Its items and how to plan writes of them.  A property, so that a family
+        may import its catalogue when it is first used: ``--help`` and the look-ups
+        of the registry need only the declarations above."""
+
+    @property
+    def format(self) -> int:
+        """The project format version this harlsync reads and writes for the family
+        (default 1; a property, for the same reason as :attr:`catalogue`)."""
+        return 1
 
     @property
     def connect_options(self) -> frozenset[str]:
@@ -431,6 +440,8 @@ class Family(ABC, Generic[K, D]):
     def new_robot(self, name: str, port: str, station: int | None, **fields: object) -> Robot:
         """The robot.yaml of a first pull: the family's defaults, then ``fields``
         (:class:`~harlsync.project.robot.Robot` fields)."""
+        from ..project.robot import Robot
+
         robot = Robot(
             family=self.name,
             name=name,

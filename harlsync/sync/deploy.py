@@ -28,6 +28,9 @@ the kinds the family's catalogue allows while the robot runs
 (``Catalogue.live_tuning``) and that are not ``unsafe``; it still reads the
 status before every other write, and a plan that holds any such write needs an
 idle robot before its first write.
+
+The "for each write" loop, with the interlock and window checks, is
+:mod:`.writes`; this module holds the steps around it and the audit record.
 """
 
 from __future__ import annotations
@@ -43,19 +46,13 @@ from typing import Any
 from ..errors import (
     HarlsyncError,
     InterlockError,
-    LinkTimeout,
-    NotWritten,
     PartlyWritten,
     PolicyError,
-    PortBusyError,
-    PortError,
-    ReplyError,
     StalePlanError,
     SyncError,
-    VerifyError,
 )
-from ..families.base import AnyFamily, Driver, Progress, Words
-from ..project import Project, Robot, load_project
+from ..families.base import Driver, Progress
+from ..project import Project, load_project
 from ..project.lock import holding_project
 from ..project.store import read_project
 from . import audit, git
@@ -63,6 +60,7 @@ from .live import Station, connect, station_number, unfinished_pushes
 from .plan import Plan, PlannedWrite, make_plan
 from .policy import check_committed
 from .snapshots import save_snapshot, snapshots
+from .writes import check_window, interlock, write_all
 
 __all__ = ["PushFailed", "PushOptions", "PushResult", "push", "rollback", "run"]
 
@@ -124,51 +122,6 @@ class PushFailed(SyncError):
         super().__init__(str(cause))
 
 
-def _check_window(robot: Robot, opts: PushOptions, before: str | None = None) -> None:
-    """Refuse outside the maintenance windows: before the port is opened, and again
-    ``before`` each write, so a long push stops when its window closes."""
-    now = opts.now or datetime.now()
-    if not opts.outside_window and not robot.in_window(now):
-        windows = "; ".join(str(w) for w in robot.windows)
-        stopped = f"; stopped before {before}" if before else ""
-        raise PolicyError(
-            f"robot {robot.name}: {now:%a %H:%M} is outside its maintenance windows ({windows})"
-            f"{stopped}; wait for a window or give --outside-window REASON"
-        )
-
-
-def _no_answer(exc: HarlsyncError) -> bool:
-    """The line failed without any robot answering: the port, or silence (wrong
-    station, cable, baud) rather than a status reply that makes no sense."""
-    if isinstance(exc, LinkTimeout):
-        return not isinstance(exc.__cause__, ReplyError)
-    return isinstance(exc, PortError | PortBusyError)
-
-
-def _interlock(driver: Driver[Any, Any], robot: Robot, words: Words, before: str) -> None:
-    """Raise InterlockError unless the robot's status (``words.state``, in the
-    family's words) shows it idle.
-
-    When no robot answers at all the link's own error goes through (exit 2, like
-    diff and pull): nothing can be written either way, and "refused for safety"
-    would send the reader looking for a running task instead of at the port.
-    """
-    try:
-        status = driver.status()
-    except HarlsyncError as exc:
-        if _no_answer(exc):
-            raise
-        raise InterlockError(
-            f"robot {robot.name} ({driver.label}): cannot read {words.state} before "
-            f"{before} ({exc}); not writing"
-        ) from exc
-    if not status.idle:
-        raise InterlockError(
-            f"robot {robot.name} ({driver.label}) is not idle: {status.describe()}; "
-            f"stopped before {before}. Stop the robot (or wait for the cycle to end) and run again"
-        )
-
-
 def run(
     action: str,
     project: Project,
@@ -202,7 +155,7 @@ def run(
                 f"nobody to confirm the {action} (no terminal to ask on) and no "
                 f"--yes: nothing was read or written; {review}give --yes"
             )
-        _check_window(robot, opts)
+        check_window(robot, opts)
         driver = connect(
             family,
             robot,
@@ -213,7 +166,7 @@ def run(
         )
         result.warnings = unfinished_pushes(robot, port, station)
         if not opts.allow_live_tuning:
-            _interlock(driver, robot, family.words, "reading the robot")
+            interlock(driver, robot, family.words, "reading the robot")
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
         result.plan = the_plan = make_plan(
             family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
@@ -228,7 +181,7 @@ def run(
         result.snapshot = save_snapshot(project.path, robot, live, action)
         record["snapshot"] = str(result.snapshot)
         _journal(dict(record, event="start"))
-        _write_all(
+        write_all(
             family,
             driver,
             robot,
@@ -357,93 +310,6 @@ def _check_plan(the_plan: Plan[Any], opts: PushOptions) -> None:
         raise PolicyError("cannot deploy: " + "; ".join(the_plan.unwritable))
     if the_plan.reconfiguration is not None and not opts.allow_reconfigure:
         raise PolicyError(the_plan.reconfiguration)
-
-
-def _write_all(
-    family: AnyFamily,
-    driver: Driver[Any, Any],
-    robot: Robot,
-    the_plan: Plan[Any],
-    opts: PushOptions,
-    result: PushResult,
-    announce: Callable[[PlannedWrite[Any]], None],
-) -> None:
-    tunable = family.catalogue.live_tuning
-
-    def live(write: PlannedWrite[Any]) -> bool:
-        return opts.allow_live_tuning and write.key.kind in tunable and not write.unsafe
-
-    if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
-        # Live tuning covers timers and tables only: a plan that also holds any
-        # other write needs an idle robot before its first write of any kind.
-        _interlock(driver, robot, family.words, f"the first write ({the_plan.writes[0].name})")
-    for write in the_plan.writes:
-        now = driver.read(write.key)
-        if now != write.old:
-            raise StalePlanError(
-                f"{write.name} changed on the robot since it was read "
-                f"({audit.difference(family.catalogue, write.key, write.old, now)}); not "
-                "overwriting it. Pull or diff to see the change, then run again"
-            )
-        _check_window(robot, opts, f"writing {write.name}")
-        announce(write)  # before the interlock: nothing between the status read and the write
-        if not live(write):
-            try:
-                _interlock(driver, robot, family.words, f"writing {write.name}")
-            except InterlockError as exc:
-                raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
-        result.failed = write
-        # A re-send after a lost reply is a write too: the same interlock applies.
-        try:
-            driver.write(write.key, write.new, write.old, needs_idle=not live(write))
-        except NotWritten:
-            result.failed = None  # refused, not lost: the item is not written
-            raise
-        except PartlyWritten as exc:
-            result.partly_written = exc
-            raise
-        got = driver.read(write.key)
-        if got != write.new:
-            raise VerifyError(
-                f"{write.name} does not read back as written "
-                f"({audit.difference(family.catalogue, write.key, write.new, got)}, written → "
-                "read back)"
-            )
-        result.failed = None
-        result.written.append(write)
-        log.info("wrote %s: %s", write.name, write.command)
-    if _last_guarded(result, live) is not None:
-        # The last write that needed an idle robot had no status read after it: one more
-        # tells whether the robot was started between the read before it and its arrival (no
-        # client can prevent that).
-        try:
-            status = driver.status()
-        except HarlsyncError as exc:
-            result.warnings.append(f"cannot read {family.words.state} after the last write ({exc})")
-            return
-        if not status.idle:
-            result.warnings.append(
-                f"robot {robot.name} ({driver.label}) is not idle at the end of the push: "
-                f"{status.describe()}{_maybe_hit(result, live)}"
-            )
-
-
-def _last_guarded(
-    result: PushResult, live: Callable[[PlannedWrite[Any]], bool]
-) -> PlannedWrite[Any] | None:
-    """The last write made that needed an idle robot (the last one a status read cleared)."""
-    return next((w for w in reversed(result.written) if not live(w)), None)
-
-
-def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite[Any]], bool]) -> str:
-    """What an operator must check when the robot turned out started mid-push."""
-    last = _last_guarded(result, live)
-    if last is None:
-        return ""
-    return (
-        f". It was started after the status read before {last.name}: that write may "
-        "have reached it while a task ran; check the robot"
-    )
 
 
 @holding_project("push")

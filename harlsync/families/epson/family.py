@@ -1,25 +1,30 @@
-"""Epson RC+ Remote Control as the engine sees it: its catalogue, files, robot and line."""
+"""Epson RC+ Remote Control as the engine sees it: its catalogue, files, robot and line.
+
+Only the declarations (name, options, schemes, words, stations, help) are made at
+import: the catalogue, the files' layout and the protocol are imported when the
+family is first used, so ``--help`` and the registry's look-ups stay cheap.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ...project.robot import Robot
-from ..base import Analysis, Driver, Family, Help, Option, Scheme, Words
-from . import layout, profile
-from .catalogue import CATALOGUE, Key
-from .model import KINDS, EpsonData, SettingKey
+from ..base import Analysis, Catalogue, Driver, Family, Help, Option, Scheme, Words
+from . import profile
+
+if TYPE_CHECKING:
+    from ...project.robot import Robot
+    from .catalogue import Key
+    from .model import EpsonData
 
 __all__ = ["FAMILY", "EpsonFamily"]
 
 
-class EpsonFamily(Family[Key, EpsonData]):
+class EpsonFamily(Family["Key", "EpsonData"]):
     name = "epson"
     title = "Epson (RC+ Remote Control over Modbus TCP)"
-    catalogue = CATALOGUE
-    format = layout.FORMAT
     directories: tuple[str, ...] = ()
     #: What a push writes is named by its plan (the memory card, points): see
     #: :meth:`~.catalogue.EpsonCatalogue.plan`.
@@ -58,14 +63,32 @@ class EpsonFamily(Family[Key, EpsonData]):
     #: one line harlsync says of the same failure.
     loggers = ("pymodbus",)
 
+    @property
+    def catalogue(self) -> Catalogue[Key, EpsonData]:
+        from .catalogue import CATALOGUE
+
+        return CATALOGUE
+
+    @property
+    def format(self) -> int:
+        from .layout import FORMAT
+
+        return FORMAT
+
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
+        from . import layout
+
         return layout.analyse(files)
 
     def render_files(self, robot: Robot, data: EpsonData) -> dict[str, str]:
+        from . import layout
+
         return layout.render_files(robot, data)
 
     def data_problems(self, data: EpsonData) -> list[str]:
         """A setting the data lacks (a controller never leaves one out)."""
+        from .model import KINDS, SettingKey
+
         return [
             f"{kind.name}: not read"
             for kind in KINDS.values()
@@ -73,6 +96,8 @@ class EpsonFamily(Family[Key, EpsonData]):
         ]
 
     def project_files(self, root: Path) -> list[str]:
+        from . import layout
+
         return [name for name in layout.ROOT_FILES if (root / name).is_file()]
 
     def stale_files(
@@ -81,9 +106,14 @@ class EpsonFamily(Family[Key, EpsonData]):
         return []
 
     def schemas(self) -> dict[str, str]:
+        from . import layout
+
         return layout.SCHEMAS.files()
 
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
+        from ...project.robot import Robot
+        from . import layout
+
         return Robot(
             family=self.name,
             name=name,
@@ -117,6 +147,7 @@ class EpsonFamily(Family[Key, EpsonData]):
     ) -> Driver[Key, EpsonData]:
         """``options``: ``reset_function`` resets a Remote Control function found in
         use or halted (§6.5.2), on a robot that is not Running."""
+        from . import layout
         from .controller import Controller
         from .driver import EpsonDriver
 

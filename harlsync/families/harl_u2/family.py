@@ -1,31 +1,36 @@
-"""The Hirata HARL-U2 as the engine sees it: its catalogue, files, robot and line."""
+"""The Hirata HARL-U2 as the engine sees it: its catalogue, files, robot and line.
+
+Only the declarations (name, words, stations, help) are made at import: the
+catalogue, the files' layout and the protocol are imported when the family is
+first used, so ``--help`` and the registry's look-ups stay cheap.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ...project.robot import Robot
-from ..base import Analysis, Driver, Family, Help, Words
-from . import layout
-from .catalogue import CATALOGUE, Key
-from .model import RobotData
+from ..base import Analysis, Catalogue, Driver, Family, Help, Words
+from .declared import FIRST_STATION, LAST_STATION, PROGRAMS_DIR, STATION_ALLOWED
+
+if TYPE_CHECKING:
+    from ...project.robot import Robot
+    from .catalogue import Key
+    from .model import RobotData
 
 __all__ = ["FAMILY", "HarlU2Family"]
 
 
-class HarlU2Family(Family[Key, RobotData]):
+class HarlU2Family(Family["Key", "RobotData"]):
     name = "harl-u2"
     title = "Hirata HARL-U2"
-    catalogue = CATALOGUE
-    format = layout.FORMAT
-    directories = (layout.PROGRAMS_DIR,)
+    directories = (PROGRAMS_DIR,)
     deploy_notes: tuple[str, ...] = ()
     words = Words(state="the task states")
-    stations = range(layout.FIRST_STATION, layout.LAST_STATION + 1)
+    stations = range(FIRST_STATION, LAST_STATION + 1)
     help = Help(
-        stations=f"{layout.STATION_ALLOWED}, as set on the pendant",
+        stations=f"{STATION_ALLOWED}, as set on the pendant",
         pull="the configuration, every program step, the parameters, the offset tables "
         "and the timers",
         items="program, step, table, field, timer",
@@ -37,10 +42,26 @@ class HarlU2Family(Family[Key, RobotData]):
         "parameters, configuration and registers never",
     )
 
+    @property
+    def catalogue(self) -> Catalogue[Key, RobotData]:
+        from .catalogue import CATALOGUE
+
+        return CATALOGUE
+
+    @property
+    def format(self) -> int:
+        from .layout import FORMAT
+
+        return FORMAT
+
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
+        from . import layout
+
         return layout.analyse(files)
 
     def render_files(self, robot: Robot, data: RobotData) -> dict[str, str]:
+        from . import layout
+
         return layout.render_files(robot, data)
 
     def data_problems(self, data: RobotData) -> list[str]:
@@ -54,6 +75,8 @@ class HarlU2Family(Family[Key, RobotData]):
         ]
 
     def project_files(self, root: Path) -> list[str]:
+        from . import layout
+
         names = [name for name in layout.ROOT_FILES if (root / name).is_file()]
         programs = root / layout.PROGRAMS_DIR
         if programs.is_dir():
@@ -67,6 +90,8 @@ class HarlU2Family(Family[Key, RobotData]):
     def stale_files(
         self, root: Path, texts: Mapping[str, str], robot: Robot, data: RobotData
     ) -> list[str]:
+        from . import layout
+
         stale = []
         keep_registers_file = robot.keep_registers and data.registers is None
         unwanted = "registers.yaml" not in texts and not keep_registers_file
@@ -81,9 +106,13 @@ class HarlU2Family(Family[Key, RobotData]):
         return stale
 
     def schemas(self) -> dict[str, str]:
+        from . import layout
+
         return layout.SCHEMAS.files()
 
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
+        from ...project.robot import Robot
+
         return Robot(
             family=self.name,
             name=name,
@@ -96,10 +125,10 @@ class HarlU2Family(Family[Key, RobotData]):
         """Decimal digits in robot.yaml's range, with its message (its schema's
         ``x-allowed``): ``0 is out of range (allowed: 1-99)``."""
         if not (text.isascii() and text.isdigit()):
-            raise ValueError(f"{text!r} is not a station (allowed: {layout.STATION_ALLOWED})")
+            raise ValueError(f"{text!r} is not a station (allowed: {STATION_ALLOWED})")
         station = int(text)
-        if not layout.FIRST_STATION <= station <= layout.LAST_STATION:
-            raise ValueError(f"{station} is out of range (allowed: {layout.STATION_ALLOWED})")
+        if not FIRST_STATION <= station <= LAST_STATION:
+            raise ValueError(f"{station} is out of range (allowed: {STATION_ALLOWED})")
         return station
 
     def format_station(self, station: int) -> str:
@@ -114,6 +143,7 @@ class HarlU2Family(Family[Key, RobotData]):
         lock_timeout: float,
         **options: bool,
     ) -> Driver[Key, RobotData]:
+        from . import layout
         from .controller import Controller
         from .driver import HarlU2Driver
 

@@ -35,6 +35,7 @@ from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
 from ...settings import SerialSettings
 from ..base import Analysis
+from .declared import FIRST_STATION, LAST_STATION, PROGRAMS_DIR, STATION_ALLOWED
 from .model import (
     CODE_RE,
     OFFSET_FIELDS,
@@ -86,11 +87,6 @@ __all__ = [
 #: The format number this harlsync reads and writes.
 FORMAT = 1
 
-#: The stations robot.yaml's schema allows (``connection.station``), as its
-#: ``x-allowed`` says them: --station is checked against the same.
-FIRST_STATION, LAST_STATION = 1, 99
-STATION_ALLOWED = f"{FIRST_STATION}-{LAST_STATION}"
-
 #: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind
 #: ``kind`` into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).
 #: Load applies them in turn up to :data:`FORMAT`; the next save writes the
@@ -106,7 +102,6 @@ ROOT_FILES = {
     "timers.yaml": "timers",
     "registers.yaml": "registers",
 }
-PROGRAMS_DIR = "programs"
 
 #: The file kinds, each with ``schemas/<kind>.schema.json`` in this package.
 KINDS = ("robot", "controller", "parameters", "offsets", "timers", "registers", "program")

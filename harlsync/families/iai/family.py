@@ -1,26 +1,30 @@
-"""IAI protocol B as the engine sees it: its catalogue, files, robot and line."""
+"""IAI protocol B as the engine sees it: its catalogue, files, robot and line.
+
+Only the declarations (name, options, schemes, words, stations, help) are made at
+import: the catalogue, the files' layout and the protocol are imported when the
+family is first used, so ``--help`` and the registry's look-ups stay cheap.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ...project.robot import Robot
-from ..base import Analysis, Driver, Family, Help, Words
-from . import layout, profile
-from .catalogue import CATALOGUE, Key
-from .codec import SETTINGS
-from .model import VARIABLE_SECTIONS, variable_problem
+from ..base import Analysis, Catalogue, Driver, Family, Help, Words
+from . import profile
+
+if TYPE_CHECKING:
+    from ...project.robot import Robot
+    from .catalogue import Key
+    from .layout import IaiData
 
 __all__ = ["FAMILY", "IaiFamily"]
 
 
-class IaiFamily(Family[Key, layout.IaiData]):
+class IaiFamily(Family["Key", "IaiData"]):
     name = "iai"
     title = "IAI (protocol B: TTA, X-SEL, SSEL/ASEL/PSEL, TT)"
-    catalogue = CATALOGUE
-    format = layout.FORMAT
     directories: tuple[str, ...] = ()
     deploy_notes = (profile.PERSISTENCE_NOTICE,)
     words = Words(state="the task states")
@@ -35,13 +39,31 @@ class IaiFamily(Family[Key, layout.IaiData]):
         busy="a program running, MANUAL, emergency stop, an axis in use, 215H and 212H",
     )
 
+    @property
+    def catalogue(self) -> Catalogue[Key, IaiData]:
+        from .catalogue import CATALOGUE
+
+        return CATALOGUE
+
+    @property
+    def format(self) -> int:
+        from .layout import FORMAT
+
+        return FORMAT
+
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
+        from . import layout
+
         return layout.analyse(files)
 
-    def render_files(self, robot: Robot, data: layout.IaiData) -> dict[str, str]:
+    def render_files(self, robot: Robot, data: IaiData) -> dict[str, str]:
+        from . import layout
+
         return layout.render_files(robot, data)
 
-    def data_problems(self, data: layout.IaiData) -> list[str]:
+    def data_problems(self, data: IaiData) -> list[str]:
+        from .model import VARIABLE_SECTIONS, variable_problem
+
         problems = [
             f"position {n}: {problem}"
             for n, position in sorted(data.positions.items())
@@ -59,15 +81,19 @@ class IaiFamily(Family[Key, layout.IaiData]):
         return problems
 
     def project_files(self, root: Path) -> list[str]:
+        from . import layout
+
         names = [*layout.ROOT_FILES, layout.VARIABLES_FILE, layout.RECORDS_FILE]
         return [name for name in names if (root / name).is_file()]
 
     def stale_files(
-        self, root: Path, texts: Mapping[str, str], robot: Robot, data: layout.IaiData
+        self, root: Path, texts: Mapping[str, str], robot: Robot, data: IaiData
     ) -> list[str]:
         """variables.yaml when the robot does not keep registers (a robot that keeps
         them but was read without them keeps its file); records.yaml when it keeps
         no read-only records."""
+        from . import layout
+
         stale = []
         if not (layout.VARIABLES_FILE in texts or (robot.keep_registers and not data.variables())):
             stale.append(layout.VARIABLES_FILE)
@@ -76,11 +102,16 @@ class IaiFamily(Family[Key, layout.IaiData]):
         return [name for name in stale if (root / name).is_file()]
 
     def schemas(self) -> dict[str, str]:
+        from . import layout
+
         return layout.SCHEMAS.files()
 
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
         """``options`` are :class:`Robot` fields (``serial``, ``windows``, ``description``,
         ``keep_registers``, ``options``: model, axes, first, last), over the profile's."""
+        from ...project.robot import Robot
+        from .codec import SETTINGS
+
         fields: dict[str, Any] = {
             "serial": SETTINGS,
             "options": {
@@ -101,6 +132,8 @@ class IaiFamily(Family[Key, layout.IaiData]):
     def parse_station(self, text: str) -> int:
         """Two hex digits, as robot.yaml holds them: ``--station 9`` is refused as
         robot.yaml's ``station: "9"`` is."""
+        from . import layout
+
         if not layout.STATION.fullmatch(text):
             raise ValueError(f"{text!r} is not a station (allowed: {profile.STATION_ALLOWED})")
         return int(text, 16)
@@ -116,7 +149,8 @@ class IaiFamily(Family[Key, layout.IaiData]):
         *,
         lock_timeout: float,
         **options: bool,
-    ) -> Driver[Key, layout.IaiData]:
+    ) -> Driver[Key, IaiData]:
+        from . import layout
         from .controller import Controller
         from .driver import IaiDriver
 

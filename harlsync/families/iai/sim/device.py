@@ -48,14 +48,9 @@ from ....sim.device import Refused
 from ....sim.family import Verb
 from .. import profile
 from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes, real_value
-from ..protocol import (
-    _FRAME_OVERHEAD,
-    Frame,
-    FrameDecoder,
-    _Fields,
-    parse_write_positions,
-    position_record,
-)
+from ..protocol import Frame, FrameDecoder, parse_write_positions, position_record
+from ..protocol.frame import _FRAME_OVERHEAD
+from ..protocol.request import _Fields
 from . import codes
 from .state import DEFAULT_AXES, MANUAL, SimState
 
