@@ -18,6 +18,7 @@ from fsfaults import read_only
 from harlsync.cli import main
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.families.harl_u2.sim.device import STATUS_BUSY
 from harlsync.sim import Faults
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
@@ -126,6 +127,21 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
         "press-2/programs/main-01.yaml",
         "press-2/programs/sub-00.yaml",
     ]
+
+
+def test_issue_20_a_robot_busy_at_the_offset_table_probe_fails_its_backup_not_passes_it(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Review finding 7: any E reply to the probe past the last offset table was
+    # taken for "no such table"; only the profile's NO_SUCH_TABLE is.
+    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    plant.sims["loader"].stations[1].errors["LNL 100"] = STATUS_BUSY
+    before = files_of(plant.root / "loader")
+    assert main(["backup", str(plant.root), "--commit", "--attempts", "1"]) == 1
+    rows = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()[1:6]}
+    assert rows["loader"].split()[1] == "FAILED"
+    assert f"offset table 100 answered error status E{STATUS_BUSY}" in rows["loader"]
+    assert files_of(plant.root / "loader") == before  # the changed timer is not saved either
 
 
 def test_nothing_changed_means_no_commit_and_exit_0(plant: Plant) -> None:

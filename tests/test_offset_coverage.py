@@ -16,7 +16,9 @@ import pytest
 
 from harlsync.cli import main
 from harlsync.families.harl_u2.model import Config, OffsetTable, ProgramArea
+from harlsync.families.harl_u2.protocol import profile
 from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.families.harl_u2.sim.device import STATUS_BUSY
 from harlsync.sim.serve import TcpServer
 from harlsync.sync import engine
 
@@ -94,3 +96,37 @@ def test_issue_20_a_pull_of_the_manuals_100_tables_says_the_range_it_covered(
         contents = engine.pull(tmp_path / "cell", port=server.url).contents
     assert "100 offset tables (0-99, the controller has no table 100)" in contents
     assert [r.payload for r in sim.received if r.command == "LNL"][-1] == "LNL 100"
+
+
+def test_issue_20_a_busy_answer_to_the_table_probe_fails_the_pull_it_is_not_no_such_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Review finding 7: any "E" reply to LNL 100 counted as "no such table", so a
+    # robot that was busy (or had a transient fault) at the probe passed a backup
+    # that may be short.  Only profile.NO_SUCH_TABLE means the table is absent.
+    sim = robot_with(100)
+    sim.stations[1].errors["LNL 100"] = STATUS_BUSY
+    assert STATUS_BUSY != profile.NO_SUCH_TABLE
+    with TcpServer(sim) as server:
+        assert main(["pull", str(tmp_path / "new"), "--port", server.url]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "command LNL 100" in err[0]
+    assert f"offset table 100 answered error status E{STATUS_BUSY}, not E21" in err[0]
+    assert "saves no backup" in err[0]
+    assert not (tmp_path / "new" / "offsets.yaml").exists()
+    assert [r.payload for r in sim.received if r.command == "LNL"][-1] == "LNL 100"
+    assert not sim.writes_received()
+
+
+def test_issue_20_the_simulator_answers_the_profiles_no_such_table_for_a_missing_table() -> None:
+    sim = robot_with(100)
+    state = sim.stations[1]
+    assert sim.handle(state, "LNL 100") == "E" + profile.NO_SUCH_TABLE
+    assert (
+        sim.handle(state, "SNL 100 0.00 0.00 0.00 0.00 0.00 0.00 0 0")
+        == "E" + profile.NO_SUCH_TABLE
+    )
+    assert sim.handle(state, "LNL 99") == "0.00 0.00 0.00 0.00 0.00 0.00 0 0"
+    state.errors["LNL 99"] = STATUS_BUSY
+    assert sim.handle(state, "LNL 99") == "E" + STATUS_BUSY

@@ -8,7 +8,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from harlsync.errors import FrameError, LRCError, ProtocolError, ReplyError
-from harlsync.families.harl_u2.model import Config, OffsetTable, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.model import (
+    Config,
+    OffsetTable,
+    Parameters,
+    ProgramArea,
+    ProgramType,
+    Step,
+)
 from harlsync.families.harl_u2.protocol import (
     Frame,
     FrameDecoder,
@@ -20,6 +27,7 @@ from harlsync.families.harl_u2.protocol import (
 from harlsync.families.harl_u2.protocol import commands as c
 from harlsync.families.harl_u2.protocol.commands import Ack, ErrorReply
 from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.families.harl_u2.sim.state import DEFAULT_PARAMETERS
 
 STX, ETX = b"\x02", b"\x03"
 
@@ -258,6 +266,32 @@ def test_the_encoder_cannot_encode_sno_snb_or_any_command_off_the_allow_list(pay
     letters, *args = payload.split(" ")
     with pytest.raises(FrameError, match="not on the HARL-U2 allow-list"):
         c.Request(letters, tuple(args)).encode(1)
+
+
+# Issue 19, review finding 9: the frame layer read the allow-list off a first field
+# of letters alone, so "SNOB1 1" and " SNOB 1 1" were encoded.  A request's first
+# field is exactly a sent command, and fields are separated by exactly one space.
+SIDESTEPS = ["SNOB1 1", " SNOB 1 1", "SN 1 1", "SnOB 5 1", "LNZ9", "sna 1", "LNT  1", "SNT 1 1.00 "]
+
+
+@pytest.mark.parametrize("payload", SIDESTEPS)
+def test_issue_19_a_request_needs_a_sent_command_as_its_exact_first_field_and_single_spaces(
+    payload: str,
+) -> None:
+    with pytest.raises(FrameError, match="allow-list|empty field"):
+        encode_frame(1, payload)
+
+
+@pytest.mark.parametrize("payload", ["LNT 1", "SNT 1 1.00", "5.00", "E21", "3 MOVE P010 S50", ""])
+def test_issue_19_requests_and_replies_with_single_spaces_still_encode(payload: str) -> None:
+    assert encode_frame(1, payload).startswith(STX + b"1 " + payload.encode())
+
+
+def test_issue_19_a_parameter_reply_that_would_read_as_a_command_is_refused_by_validate() -> None:
+    # The simulator's LNE reply is the 13 values: one beginning "SN" cannot be framed.
+    values = ["SNOB1", *DEFAULT_PARAMETERS.values[1:]]
+    back = c.read_back(c.write_parameters(Parameters.from_values(values)))
+    assert back.misread is not None and "'SNOB1'" in back.misread
 
 
 @pytest.mark.parametrize("letters", ["FOO", "LNZ", "SN", "SNOB"])

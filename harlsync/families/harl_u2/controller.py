@@ -318,15 +318,35 @@ class Controller(OnLink):
 
     def probe_offsets(self, count: int) -> None:
         """Make sure the controller has no offset table ``count`` (LNX does not
-        report how many it has): LNL ``count`` must answer an error.
+        report how many it has): LNL ``count`` must answer
+        ``E`` + ``profile.NO_SUCH_TABLE``.
 
         Raises :class:`TableBeyondRange` naming the table and robot.yaml's
-        ``offset_tables`` when it answers a table.
+        ``offset_tables`` when it answers a table, and :class:`ControllerError`
+        when it answers any other error status (busy, a fault): that does not
+        say the table is absent, so the backup could be short.
         """
         try:
             table = self.read_offset(count)
-        except ControllerError:
-            return  # "E" + status: there is no such table
+        except ControllerError as exc:
+            if exc.status == profile.NO_SUCH_TABLE:
+                return
+            raise ControllerError(
+                exc.status,
+                port=self.port,
+                station=self.station,
+                command=exc.command,
+                message=(
+                    f"offset table {count} answered error status "
+                    f"{profile.ERROR_PREFIX}{exc.status}, not "
+                    f"{profile.ERROR_PREFIX}{profile.NO_SUCH_TABLE} (no such table): "
+                    f"harlsync cannot tell whether the controller has more than the "
+                    f"{count} offset tables this pull reads, so it saves no backup; pull "
+                    "again when the robot answers normally (a controller that always "
+                    "answers this for a missing table needs NO_SUCH_TABLE set to it in "
+                    "harlsync's HARL-U2 profile)"
+                ),
+            ) from exc
         shown = " ".join(table.values)
         raise TableBeyondRange(
             f"port {self.port}, station {self.station}: offset table {count} answers "

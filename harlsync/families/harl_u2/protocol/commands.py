@@ -54,7 +54,7 @@ from ..model import (
     TaskState,
 )
 from . import profile
-from .frame import MAX_STATION, Frame, encode_frame, payload_room
+from .frame import MAX_STATION, Frame, encode_frame, off_allow_list, payload_room
 
 __all__ = [
     "READ_LETTERS",
@@ -352,6 +352,11 @@ def read_back(write: Request[Ack], station: int = MAX_STATION) -> ReadBack:
         misread = (
             f"would begin the {letters} reply with {profile.ERROR_PREFIX!r}, which "
             "reads as an error status"
+        )
+    elif (command := off_allow_list(reply)) is not None:
+        misread = (
+            f"would begin the {letters} reply with '{command}', which reads as a "
+            "command harlsync never sends, so no frame carries it"
         )
     return ReadBack(
         read=Request(letters, write.args[:naming]),

@@ -23,7 +23,15 @@ from functools import reduce
 from ....errors import FrameError, LRCError
 from . import profile
 
-__all__ = ["MAX_STATION", "Frame", "FrameDecoder", "encode_frame", "lrc", "payload_room"]
+__all__ = [
+    "MAX_STATION",
+    "Frame",
+    "FrameDecoder",
+    "encode_frame",
+    "lrc",
+    "off_allow_list",
+    "payload_room",
+]
 
 #: The widest station number a frame carries (two digits).
 MAX_STATION = 99
@@ -65,24 +73,36 @@ class Frame:
         return encode_frame(self.station, self.payload)
 
 
-#: A first field the controller would take as a command: LN or SN and more letters
-#: (the manual has no other kind of command; ``Z`` is "for semiconductors only").
-_COMMAND_WORD = re.compile(r"[LS]N[A-Z]*", re.IGNORECASE)
+#: A first field the controller could take for a command: LN or SN, in any case,
+#: whatever follows (``SNOB``, ``snob``, ``SNOB1``, ``SN``).  The manual has no
+#: other kind of command (``Z`` is "for semiconductors only").
+_COMMAND_START = re.compile(r"[LS]N", re.IGNORECASE)
+
+
+def off_allow_list(payload: str) -> str | None:
+    """The first field of ``payload`` when it reads as a command but is not exactly
+    one of ``profile.SENT_COMMANDS`` (such a payload is never encoded), else None."""
+    first = payload.split(" ", 1)[0]
+    if _COMMAND_START.match(first) and first not in profile.SENT_COMMANDS:
+        return first
+    return None
 
 
 def encode_frame(station: int, payload: str) -> bytes:
     """The bytes of one frame, LRC included.
 
-    A request payload must begin with a command of ``profile.SENT_COMMANDS``:
-    a payload whose first field reads as any other command (SNO, SNB, SNZ, ``snm``
-    ...) is refused here, so no layer above can put one on the wire.  Replies
-    (the simulator's side) begin with a digit, a sign, a decimal or ``E``.
+    Fields are separated by exactly one space, none empty (no leading, trailing or
+    double space).  A payload whose first field begins with LN or SN, in any case,
+    is a request: that field must be exactly a command of ``profile.SENT_COMMANDS``,
+    so SNO, SNB, SNZ, ``snm``, ``SNOB1`` ... are refused here and no layer above
+    can put one on the wire.  Replies (the simulator's side) begin with a digit,
+    a sign, a decimal or ``E``.
 
     Raises :class:`FrameError` when the payload holds a byte a frame cannot carry,
-    or begins with a command off the allow-list.
+    an empty field, or begins with a command off the allow-list.
     """
-    first = payload.split(" ", 1)[0]
-    if _COMMAND_WORD.fullmatch(first) and first not in profile.SENT_COMMANDS:
+    first = off_allow_list(payload)
+    if first is not None:
         raise FrameError(f"{first} is not on the HARL-U2 allow-list: it is never sent")
     if not 0 <= station <= MAX_STATION:
         raise FrameError(f"station {station} out of range")
@@ -92,6 +112,10 @@ def encode_frame(station: int, payload: str) -> bytes:
         raise FrameError(f"payload {payload!r} is not ASCII") from exc
     if _NOT_PRINTABLE.search(raw):
         raise FrameError(f"payload {payload!r} holds a control character")
+    if payload and "" in payload.split(" "):
+        raise FrameError(
+            f"payload '{payload}' has an empty field: fields are separated by exactly one space"
+        )
     body = f"{station} ".encode("ascii") + raw + bytes([profile.ETX])
     return bytes([profile.STX]) + body + _lrc_bytes(lrc(body))
 

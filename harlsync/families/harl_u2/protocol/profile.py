@@ -39,6 +39,19 @@ SN_OK = "0"
 #: An error reply is this letter followed directly by the raw status.
 ERROR_PREFIX = "E"
 
+#: The status an LNL read of a table the controller does not have answers
+#: (``E21``).  LNX does not report how many offset tables there are, so a pull
+#: reads robot.yaml's ``offset_tables`` and then asks for the next one: only this
+#: status tells it the controller has no such table.  The manual does not give
+#: it: it says only that a robot that cannot answer normally sends "E" + status
+#: and defers the codes to the HRCS-R3 manual, which we do not have.  ``21`` is a
+#: profile choice (the status this profile gives any number outside the
+#: configuration).  Any other status (the robot busy, a transient fault) says
+#: nothing about whether the table exists, so it fails the robot's pull instead of
+#: passing a backup that may be short.  A controller that answers another code
+#: for a missing table fails every pull in one line naming both codes: set it here.
+NO_SUCH_TABLE = "21"
+
 #: LNR reports this many tasks (0-4), four fields each: S K N L.
 TASK_COUNT = 5
 

@@ -37,13 +37,22 @@ from ..model import (
 from ..protocol import Frame, FrameDecoder, Request, encode_frame, parse_request, profile
 from .state import IO_BITS, MEM_BIT_BASE, SimState
 
-__all__ = ["SIM_FAMILY", "STATUS_COMMAND", "STATUS_DATA", "STATUS_RANGE", "Simulator"]
+__all__ = [
+    "SIM_FAMILY",
+    "STATUS_BUSY",
+    "STATUS_COMMAND",
+    "STATUS_DATA",
+    "STATUS_RANGE",
+    "Simulator",
+]
 
 #: Error statuses the simulator answers with (the real codes are in the HRCS-R3
-#: manual, which we do not have; harlsync only shows them raw).
+#: manual, which we do not have; harlsync shows them raw, and relies on one:
+#: ``profile.NO_SUCH_TABLE``, which an LNL or SNL of a table it lacks answers).
 STATUS_RANGE = "21"  # number outside the configuration
 STATUS_COMMAND = "10"  # unknown command or wrong number of fields
 STATUS_DATA = "22"  # value out of range for a write
+STATUS_BUSY = "30"  # cannot answer normally now (``SimState.errors``)
 
 
 class HarlU2SimFamily:
@@ -150,6 +159,8 @@ class Simulator(device.Simulator[SimState, Frame]):
             request = parse_request(payload)
         except ProtocolError:
             return profile.ERROR_PREFIX + STATUS_COMMAND
+        if payload in state.errors:
+            return profile.ERROR_PREFIX + state.errors[payload]
         try:
             if request.is_write:
                 reply = self._write(state, request)
@@ -174,7 +185,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             assert data.registers is not None
             return data.registers[_index(a[0], cfg.registers)]
         if letters == "LNL":
-            return " ".join(data.offsets[_index(a[0], state.offset_tables)].values)
+            return " ".join(data.offsets[_table(a[0], state.offset_tables)].values)
         if letters in ("LNIB", "LNOB"):
             bits = state.di if letters == "LNIB" else state.do
             return str(bits[_index(a[0], IO_BITS)])
@@ -219,7 +230,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             table = OffsetTable.from_values(a[1:])
             if table.problems():
                 raise Refused(STATUS_DATA)
-            data.offsets[_index(a[0], state.offset_tables)] = table
+            data.offsets[_table(a[0], state.offset_tables)] = table
         elif letters in ("SNOB", "SNBB"):
             bits = state.do if letters == "SNOB" else state.mem
             base, size = (0, IO_BITS) if letters == "SNOB" else (MEM_BIT_BASE, cfg.memory_bits)
@@ -262,6 +273,16 @@ def _index(text: str, size: int, base: int = 0) -> int:
     if not 0 <= n < size:
         raise Refused(STATUS_RANGE)
     return n
+
+
+def _table(text: str, count: int) -> int:
+    """An offset table number the robot has, else ``profile.NO_SUCH_TABLE``."""
+    try:
+        return _index(text, count)
+    except Refused as refusal:
+        if refusal.code == STATUS_RANGE:
+            raise Refused(profile.NO_SUCH_TABLE) from None
+        raise
 
 
 def _program_step(

@@ -63,6 +63,11 @@ class SimState:
     tasks: list[TaskState] = field(default_factory=_idle_tasks)
     #: How many offset tables the controller has: the manual's 0-99 "(variable)".
     offset_tables: int = OFFSET_TABLE_COUNT
+    #: Requests this robot answers with ``E`` + status instead of carrying them
+    #: out (request payload -> status): the manual's robot "under abnormal
+    #: conditions" that "is unable to return data normally", e.g.
+    #: ``{"LNL 100": STATUS_BUSY}``.  Not kept in battery-backed memory.
+    errors: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         cfg = self.data.config
