@@ -693,14 +693,42 @@ def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
     assert report.ok, report.render()
     note = (
         "the Remote Control function was found in use (ExtCmdSet 1, ExtCmdGet 1) with no "
-        "harlsync on the line and Running 0: left by a harlsync that is gone; reset (manual "
-        "6.5.2) before the backup"
+        "harlsync on the line and the robot at rest (Running, Paused, EStopOn and Error 0, "
+        "Ready 1): left by a harlsync that is gone; reset (manual 6.5.2) before the backup"
     )
     assert f"note: cell-3: {note}" in report.render()
     (record,) = [r for r in audit.read() if r.get("event") == "recover"]
     assert record["note"] == note and record["robot"]["name"] == "cell-3"
     assert audit.results() == []  # no push or rollback
+    (dropped,) = sim.remote().reset_drops  # the simulator saw one reset, at rest
+    assert not any(dropped[s] for s in ("Running", "Paused", "EStopOn", "Error"))
+    assert dropped["Ready"]
     assert cli.main(["diff", str(project)]) == 0
+
+
+@pytest.mark.parametrize(
+    ("verb", "signal"), [("pause", "Paused 1"), ("estop", "EStopOn 1"), ("error", "Error 1")]
+)
+def test_issue_22_a_nightly_backup_never_resets_the_function_of_a_robot_not_at_rest(
+    robot, repo, verb, signal
+) -> None:
+    """Review finding 1: Running 0 is not enough.  Dropping ExtCmdReset aborts a
+    paused task, and a robot in an emergency stop or an error wants a person, so
+    the function is left as found and the robot fails, naming why."""
+    sim, url = robot
+    pulled(repo, url)
+    _left_in_use(sim)
+    apply_command(sim, verb)
+    report = backup([repo])
+    apply_command(sim, "stop")
+    assert not report.ok
+    error = report.robots[0].error or ""
+    assert "the Remote Control function is in use (ExtCmdSet 1, ExtCmdGet 1)" in error
+    assert f"on a robot not at rest ({signal}" in error
+    assert "'harlsync pull --reset-function' clears it" in error
+    assert sim.remote().reset_drops == []  # ExtCmdReset never dropped
+    assert [r for r in audit.read() if r.get("event") == "recover"] == []
+    assert report.robots[0].notes == []
 
 
 def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(robot, repo) -> None:

@@ -46,7 +46,7 @@ from ...link.confirm import confirmed_write, refuse_unless_idle
 from ..base import Progress
 from . import profile
 from . import protocol as p
-from .handshake import Handshake, RemoteStatus
+from .handshake import FunctionBusy, Handshake, RemoteStatus
 from .layout import Connection
 from .model import (
     ATTRIBUTE_OF,
@@ -186,10 +186,13 @@ class Controller:
         usable (§6.2).  With ``reset_function``, a function found in use or halted
         is reset first (§6.5.2), and only while Running is 0.  ``unattended`` (a
         nightly backup) recovers on its own a function found in use, not halted, on
-        a robot with Running 0: with the line lock held here, no harlsync is using
-        it, so it was left by one that is gone; :attr:`notes` says so.
+        a robot at rest (Running, Paused, EStopOn and Error 0, Ready 1, the map
+        right): with the line lock held here, no harlsync is using it, so it was
+        left by one that is gone; :attr:`notes` says so.  On a robot not at rest
+        (a task paused, an emergency stop, an error) it is left alone.
 
-        Raises :class:`~harlsync.errors.PortError`, PortBusyError, LinkTimeout, and
+        Raises :class:`~harlsync.errors.PortError`, PortBusyError (FunctionBusy: a
+        function in use that ``unattended`` does not reset), LinkTimeout, and
         InterlockError for a reset asked of a robot that runs.
         """
         link = ModbusLink(
@@ -209,16 +212,23 @@ class Controller:
                     handshake.reset_function()
             elif unattended:
                 status = handshake.status()
-                if (
-                    not status.function_idle
-                    and not status["ExtError"]
-                    and status["Running"] is False
-                ):
+                if not status.function_idle and not status["ExtError"]:
                     left = status.function_signals()
-                    handshake.reset_function()
+                    if (why := status.unsettled) is not None:
+                        raise FunctionBusy(
+                            f"the Remote Control function is in use ({left}) on a robot "
+                            f"not at rest ({why}): a backup no person watches resets it "
+                            "only with Running, Paused, EStopOn and Error 0 and Ready 1; "
+                            "nothing sent. Look at the robot; once it is idle, "
+                            "'harlsync pull --reset-function' clears it",
+                            port=link.label,
+                            command="function reset",
+                        )
+                    handshake.reset_function(at_rest=True)  # the same check, on its own read
                     notes.append(
                         f"the Remote Control function was found in use ({left}) with no "
-                        "harlsync on the line and Running 0: left by a harlsync that is gone; "
+                        "harlsync on the line and the robot at rest (Running, Paused, "
+                        "EStopOn and Error 0, Ready 1): left by a harlsync that is gone; "
                         "reset (manual 6.5.2) before the backup"
                     )
                     log.warning("%s: %s", link.label, notes[-1])
