@@ -122,6 +122,39 @@ def test_points_past_the_range_fail_the_pull_and_the_backup_naming_the_setting(
     assert {150, 400} <= set(load_project(project).data.points())
 
 
+def test_issue_20_points_before_first_point_fail_the_pull_and_the_backup_naming_the_setting(
+    robot, repo, capsys, monkeypatch
+) -> None:
+    """Review finding 4: the probe looked only past last_point, so with first_point
+    20 the sample's P0, P12 and P13 dropped out of the backup and the pull said 0."""
+    monkeypatch.setattr(profile, "POINT_PROBE_END", 450)
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "first_point: 0", "first_point: 20")
+    before = (project / "points.yaml").read_text()
+    capsys.readouterr()
+    assert cli.main(["pull", str(project)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "3 point(s) defined before controller.first_point 20" in err[0]
+    assert "which this backup would leave out: P0, P12-P13" in err[0]
+    assert "set controller.first_point: 0 (or less) in robot.yaml and pull again" in err[0]
+    assert (project / "points.yaml").read_text() == before  # nothing saved
+    report = backup([repo])
+    assert not report.ok
+    assert "defined before controller.first_point 20" in (report.robots[0].error or "")
+    st = sim.stations[1]
+    st.points[14] = st.points.pop(0)
+    edit(project, repo, "robot.yaml", "first_point: 20", "first_point: 10")
+    result = engine.pull(project)
+    assert result.contents.endswith("points (P10-P29 read, none defined P0-P9 and P30-P450)")
+    text = (project / "points.yaml").read_text()
+    assert "P10-P29 read, none defined P0-P9 and P30-P450 when pulled" in text
+    data = load_project(project).data
+    assert set(data.points()) == {12, 13, 14}
+    assert (data.covered, data.probed_to) == ((10, 29), 450)  # kept by a load and a save
+
+
 def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsys) -> None:
     sim, url = robot
     project = pulled(repo, url)

@@ -494,8 +494,8 @@ class Controller:
     def read_all(self, progress: Progress | None = None, *, probe: bool = False) -> EpsonData:
         """The manipulator, every setting and every defined point of the range.
 
-        With ``probe`` (a pull), every point after the range up to
-        :data:`~.profile.POINT_PROBE_END` is looked for too (the manual has no
+        With ``probe`` (a pull), every point outside the range, from P0 up to
+        :data:`~.profile.POINT_PROBE_END`, is looked for too (the manual has no
         command that says how many there are): raises ProjectError naming those
         defined and the robot.yaml setting that takes them in; the data records
         the range covered.  ``progress(done, total)`` after each item.
@@ -506,8 +506,9 @@ class Controller:
         )
         keys: list[Key] = [*item_keys(axes)]
         keys += [PointKey("point", n) for n in range(self.first, self.last + 1)]
+        below = range(self.first) if probe else range(0)
         past = range(self.last + 1, profile.POINT_PROBE_END + 1) if probe else range(0)
-        total = len(keys) + 1 + len(past)
+        total = len(keys) + 1 + len(below) + len(past)
         if progress is not None:
             progress(1, total)
         for done, key in enumerate(keys, 2):
@@ -516,12 +517,21 @@ class Controller:
                 data.items[key] = value
             if progress is not None:
                 progress(done, total)
-        beyond = []
-        for done, n in enumerate(past, len(keys) + 2):
+        outside = []
+        for done, n in enumerate([*below, *past], len(keys) + 2):
             if self._point_coord(n, 0) is not None:
-                beyond.append(n)
+                outside.append(n)
             if progress is not None:
                 progress(done, total)
+        before = [n for n in outside if n < self.first]
+        beyond = [n for n in outside if n > self.last]
+        if before:
+            raise ProjectError(
+                f"{self.label}: {len(before)} point(s) defined before "
+                f"controller.first_point {self.first}, which this backup would leave out: "
+                f"{_numbers(before)}; set controller.first_point: {before[0]} (or less) in "
+                "robot.yaml and pull again"
+            )
         if beyond:
             raise ProjectError(
                 f"{self.label}: {len(beyond)} point(s) defined past controller.last_point "
@@ -529,7 +539,7 @@ class Controller:
                 f"controller.last_point: {beyond[-1]} (or more) in robot.yaml and pull again"
             )
         data.covered = (self.first, self.last)
-        data.probed_to = past.stop - 1 if probe and past else None
+        data.probed_to = profile.POINT_PROBE_END if below or past else None
         return data
 
     # --- writes ------------------------------------------------------------------------
