@@ -739,6 +739,29 @@ def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
     assert cli.main(["diff", str(project)]) == 0
 
 
+def test_issue_22_a_function_reset_is_in_the_audit_log_and_the_report_when_the_pull_then_fails(
+    robot, repo
+) -> None:
+    """Review finding 5: the note was recorded only after the read succeeded, so a
+    reset followed by a failed read (here a point taught past last_point since)
+    changed the robot and left no record of it."""
+    sim, url = robot
+    pulled(repo, url)
+    st = sim.stations[1]
+    st.points[40] = st.points[12]  # taught past last_point 29 since the last pull
+    _left_in_use(sim)
+    report = backup([repo])
+    assert not report.ok
+    (cell,) = report.robots
+    assert "defined past controller.last_point 29" in (cell.error or "")
+    assert len(sim.remote().reset_drops) == 1  # the robot was reset ...
+    (record,) = [r for r in audit.read() if r.get("event") == "recover"]  # ... and it says so
+    assert record["note"].startswith("the Remote Control function was found in use")
+    assert record["robot"]["name"] == "cell-3"
+    assert cell.notes == [record["note"]]
+    assert f"note: cell-3: {record['note']}" in report.render()
+
+
 @pytest.mark.parametrize(
     ("verb", "signal"), [("pause", "Paused 1"), ("estop", "EStopOn 1"), ("error", "Error 1")]
 )
