@@ -295,6 +295,7 @@ def _pull_one(
                 progress=progress,
                 family=family,
                 connect_options=_unattended(family),
+                noted=outcome.notes.append,  # a reset is told even when the read then fails
             )
         except _Stopped:
             raise
@@ -313,7 +314,6 @@ def _pull_one(
             outcome.error = f"unexpected {type(exc).__name__}: {exc} (please report it)"
             break
         outcome.ok, outcome.error = True, None
-        outcome.notes = result.notes
         outcome.changed = result.changed
         outcome.summary = result.summary
         outcome.counts = summarize(family.catalogue, result.changes or [])

@@ -3,7 +3,7 @@ say what the audit log knows of earlier pushes to it."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Generic
 
@@ -94,11 +94,14 @@ def read_live(
     idle_check: bool = False,
     options: Mapping[str, bool] | None = None,
     whole: bool = False,
+    noted: Callable[[Sequence[str]], None] | None = None,
 ) -> LiveRead[K, D]:
     """Everything the robot holds, read over a line opened and closed for it; with
     ``idle_check`` its state after the read too (what the interlock reads).
     ``options`` are the connection's (see :func:`connect`); ``whole`` (a pull): find
-    out how far each table goes and fail rather than read part of one."""
+    out how far each table goes and fail rather than read part of one.  ``noted`` is
+    given the driver's notes (what it did on its own) once the read is over, whether
+    it succeeded or not: what was done to the robot is told even when the read fails."""
     driver = connect(family, robot, port, station, lock_timeout=lock_timeout, options=options)
     try:
         warnings = unfinished_pushes(robot, port, station)
@@ -106,7 +109,11 @@ def read_live(
         busy = _busy(driver) if idle_check else None
         return LiveRead(driver, live, warnings, busy, tuple(driver.notes))
     finally:
-        driver.close()
+        try:
+            if noted is not None and driver.notes:
+                noted(tuple(driver.notes))
+        finally:
+            driver.close()
 
 
 def _busy(driver: Driver[K, D]) -> str | None:

@@ -4,8 +4,9 @@ refusing a controller that does not look like the robot backed up there."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -100,6 +101,7 @@ def pull(
     family: AnyFamily | None = None,
     new_robot: bool = False,
     connect_options: Mapping[str, bool] | None = None,
+    noted: Callable[[str], None] | None = None,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
@@ -114,7 +116,9 @@ def pull(
     earlier pull saved, untouched since, are not edits: this pull takes them over
     (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
     is the controller family of a first pull (default: the registry's default);
-    ``connect_options`` are the connection's (see :func:`connect`).
+    ``connect_options`` are the connection's (see :func:`connect`).  What the
+    connection recovered on its own goes to the audit log and to ``noted``, one
+    note a call, even when the pull then fails.
     """
     path = Path(path)
     family, robot = _robot_for(path, port, station, family)
@@ -136,9 +140,9 @@ def pull(
         lock_timeout=lock_timeout,
         options=connect_options,
         whole=True,  # a backup finds out how far each table goes
+        noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
     )
     live = read.live
-    _record_notes(path, robot, port, station, read.notes)  # it happened, whatever follows
     try:  # after the read: the first request need not wait for it (issue 15)
         previous: Any = load_project(path, family).data
     except ProjectError:
@@ -173,11 +177,19 @@ def pull(
 
 
 def _record_notes(
-    path: Path, robot: Robot, port: str | None, station: int | None, notes: tuple[str, ...]
+    path: Path,
+    robot: Robot,
+    port: str | None,
+    station: int | None,
+    noted: Callable[[str], None] | None,
+    notes: Sequence[str],
 ) -> None:
     """What a connection recovered on its own, in the audit log (event ``recover``,
-    which :func:`.audit.results` leaves out: it is no push or rollback)."""
+    which :func:`.audit.results` leaves out: it is no push or rollback), and told
+    to ``noted``."""
     for note in notes:
+        if noted is not None:
+            noted(note)
         record = audit.base_record("recover")
         record.update(
             event="recover",

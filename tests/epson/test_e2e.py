@@ -122,6 +122,39 @@ def test_points_past_the_range_fail_the_pull_and_the_backup_naming_the_setting(
     assert {150, 400} <= set(load_project(project).data.points())
 
 
+def test_issue_20_points_before_first_point_fail_the_pull_and_the_backup_naming_the_setting(
+    robot, repo, capsys, monkeypatch
+) -> None:
+    """Review finding 4: the probe looked only past last_point, so with first_point
+    20 the sample's P0, P12 and P13 dropped out of the backup and the pull said 0."""
+    monkeypatch.setattr(profile, "POINT_PROBE_END", 450)
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "first_point: 0", "first_point: 20")
+    before = (project / "points.yaml").read_text()
+    capsys.readouterr()
+    assert cli.main(["pull", str(project)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "3 point(s) defined before controller.first_point 20" in err[0]
+    assert "which this backup would leave out: P0, P12-P13" in err[0]
+    assert "set controller.first_point: 0 (or less) in robot.yaml and pull again" in err[0]
+    assert (project / "points.yaml").read_text() == before  # nothing saved
+    report = backup([repo])
+    assert not report.ok
+    assert "defined before controller.first_point 20" in (report.robots[0].error or "")
+    st = sim.stations[1]
+    st.points[14] = st.points.pop(0)
+    edit(project, repo, "robot.yaml", "first_point: 20", "first_point: 10")
+    result = engine.pull(project)
+    assert result.contents.endswith("points (P10-P29 read, none defined P0-P9 and P30-P450)")
+    text = (project / "points.yaml").read_text()
+    assert "P10-P29 read, none defined P0-P9 and P30-P450 when pulled" in text
+    data = load_project(project).data
+    assert set(data.points()) == {12, 13, 14}
+    assert (data.covered, data.probed_to) == ((10, 29), 450)  # kept by a load and a save
+
+
 def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsys) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -697,14 +730,65 @@ def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
     assert report.ok, report.render()
     note = (
         "the Remote Control function was found in use (ExtCmdSet 1, ExtCmdGet 1) with no "
-        "harlsync on the line and Running 0: left by a harlsync that is gone; reset (manual "
-        "6.5.2) before the backup"
+        "harlsync on the line and the robot at rest (Running, Paused, EStopOn and Error 0, "
+        "Ready 1): left by a harlsync that is gone; reset (manual 6.5.2) before the backup"
     )
     assert f"note: cell-3: {note}" in report.render()
     (record,) = [r for r in audit.read() if r.get("event") == "recover"]
     assert record["note"] == note and record["robot"]["name"] == "cell-3"
     assert audit.results() == []  # no push or rollback
+    (dropped,) = sim.remote().reset_drops  # the simulator saw one reset, at rest
+    assert not any(dropped[s] for s in ("Running", "Paused", "EStopOn", "Error"))
+    assert dropped["Ready"]
     assert cli.main(["diff", str(project)]) == 0
+
+
+def test_issue_22_a_function_reset_is_in_the_audit_log_and_the_report_when_the_pull_then_fails(
+    robot, repo
+) -> None:
+    """Review finding 5: the note was recorded only after the read succeeded, so a
+    reset followed by a failed read (here a point taught past last_point since)
+    changed the robot and left no record of it."""
+    sim, url = robot
+    pulled(repo, url)
+    st = sim.stations[1]
+    st.points[40] = st.points[12]  # taught past last_point 29 since the last pull
+    _left_in_use(sim)
+    report = backup([repo])
+    assert not report.ok
+    (cell,) = report.robots
+    assert "defined past controller.last_point 29" in (cell.error or "")
+    assert len(sim.remote().reset_drops) == 1  # the robot was reset ...
+    (record,) = [r for r in audit.read() if r.get("event") == "recover"]  # ... and it says so
+    assert record["note"].startswith("the Remote Control function was found in use")
+    assert record["robot"]["name"] == "cell-3"
+    assert cell.notes == [record["note"]]
+    assert f"note: cell-3: {record['note']}" in report.render()
+
+
+@pytest.mark.parametrize(
+    ("verb", "signal"), [("pause", "Paused 1"), ("estop", "EStopOn 1"), ("error", "Error 1")]
+)
+def test_issue_22_a_nightly_backup_never_resets_the_function_of_a_robot_not_at_rest(
+    robot, repo, verb, signal
+) -> None:
+    """Review finding 1: Running 0 is not enough.  Dropping ExtCmdReset aborts a
+    paused task, and a robot in an emergency stop or an error wants a person, so
+    the function is left as found and the robot fails, naming why."""
+    sim, url = robot
+    pulled(repo, url)
+    _left_in_use(sim)
+    apply_command(sim, verb)
+    report = backup([repo])
+    apply_command(sim, "stop")
+    assert not report.ok
+    error = report.robots[0].error or ""
+    assert "the Remote Control function is in use (ExtCmdSet 1, ExtCmdGet 1)" in error
+    assert f"on a robot not at rest ({signal}" in error
+    assert "'harlsync pull --reset-function' clears it" in error
+    assert sim.remote().reset_drops == []  # ExtCmdReset never dropped
+    assert [r for r in audit.read() if r.get("event") == "recover"] == []
+    assert report.robots[0].notes == []
 
 
 def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(robot, repo) -> None:

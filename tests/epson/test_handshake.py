@@ -208,6 +208,27 @@ def test_the_function_reset_is_refused_on_a_running_robot_and_changes_nothing() 
     assert blind.writes() == []
 
 
+@pytest.mark.parametrize(
+    ("signal", "map_", "said"),
+    [
+        ("Paused", None, "Paused 1"),
+        ("EStopOn", None, "EStopOn 1"),
+        ("Error", None, "Error 1"),
+        (None, {"signals": {"Ready": None}}, "no Ready signal"),
+    ],
+)
+def test_issue_22_a_reset_no_person_asked_for_needs_the_robot_at_rest(signal, map_, said) -> None:
+    """Review finding 1: the unattended reset checks the read just before the drop
+    for every interlock signal, Ready 1 and a right map, not only Running."""
+    fake = controller() if map_ is None else controller(map=RegisterMap.from_dict(map_))
+    fake.preset("ExtCmdReset", True)
+    if signal is not None:
+        fake.set_signal(signal, True)
+    with pytest.raises(InterlockError, match=f"{said}.*the function is not reset"):
+        handshake(fake).reset_function(at_rest=True)
+    assert fake.writes() == []
+
+
 def test_a_function_found_in_use_is_left_alone() -> None:
     fake = controller()
     fake.preset("ExtCmdReset", True)

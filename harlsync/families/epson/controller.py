@@ -46,7 +46,7 @@ from ...link.confirm import confirmed_write, refuse_unless_idle
 from ..base import Progress
 from . import profile
 from . import protocol as p
-from .handshake import Handshake, RemoteStatus
+from .handshake import FunctionBusy, Handshake, RemoteStatus
 from .layout import Connection
 from .model import (
     ATTRIBUTE_OF,
@@ -186,10 +186,13 @@ class Controller:
         usable (§6.2).  With ``reset_function``, a function found in use or halted
         is reset first (§6.5.2), and only while Running is 0.  ``unattended`` (a
         nightly backup) recovers on its own a function found in use, not halted, on
-        a robot with Running 0: with the line lock held here, no harlsync is using
-        it, so it was left by one that is gone; :attr:`notes` says so.
+        a robot at rest (Running, Paused, EStopOn and Error 0, Ready 1, the map
+        right): with the line lock held here, no harlsync is using it, so it was
+        left by one that is gone; :attr:`notes` says so.  On a robot not at rest
+        (a task paused, an emergency stop, an error) it is left alone.
 
-        Raises :class:`~harlsync.errors.PortError`, PortBusyError, LinkTimeout, and
+        Raises :class:`~harlsync.errors.PortError`, PortBusyError (FunctionBusy: a
+        function in use that ``unattended`` does not reset), LinkTimeout, and
         InterlockError for a reset asked of a robot that runs.
         """
         link = ModbusLink(
@@ -209,16 +212,23 @@ class Controller:
                     handshake.reset_function()
             elif unattended:
                 status = handshake.status()
-                if (
-                    not status.function_idle
-                    and not status["ExtError"]
-                    and status["Running"] is False
-                ):
+                if not status.function_idle and not status["ExtError"]:
                     left = status.function_signals()
-                    handshake.reset_function()
+                    if (why := status.unsettled) is not None:
+                        raise FunctionBusy(
+                            f"the Remote Control function is in use ({left}) on a robot "
+                            f"not at rest ({why}): a backup no person watches resets it "
+                            "only with Running, Paused, EStopOn and Error 0 and Ready 1; "
+                            "nothing sent. Look at the robot; once it is idle, "
+                            "'harlsync pull --reset-function' clears it",
+                            port=link.label,
+                            command="function reset",
+                        )
+                    handshake.reset_function(at_rest=True)  # the same check, on its own read
                     notes.append(
                         f"the Remote Control function was found in use ({left}) with no "
-                        "harlsync on the line and Running 0: left by a harlsync that is gone; "
+                        "harlsync on the line and the robot at rest (Running, Paused, "
+                        "EStopOn and Error 0, Ready 1): left by a harlsync that is gone; "
                         "reset (manual 6.5.2) before the backup"
                     )
                     log.warning("%s: %s", link.label, notes[-1])
@@ -484,8 +494,8 @@ class Controller:
     def read_all(self, progress: Progress | None = None, *, probe: bool = False) -> EpsonData:
         """The manipulator, every setting and every defined point of the range.
 
-        With ``probe`` (a pull), every point after the range up to
-        :data:`~.profile.POINT_PROBE_END` is looked for too (the manual has no
+        With ``probe`` (a pull), every point outside the range, from P0 up to
+        :data:`~.profile.POINT_PROBE_END`, is looked for too (the manual has no
         command that says how many there are): raises ProjectError naming those
         defined and the robot.yaml setting that takes them in; the data records
         the range covered.  ``progress(done, total)`` after each item.
@@ -496,8 +506,9 @@ class Controller:
         )
         keys: list[Key] = [*item_keys(axes)]
         keys += [PointKey("point", n) for n in range(self.first, self.last + 1)]
+        below = range(self.first) if probe else range(0)
         past = range(self.last + 1, profile.POINT_PROBE_END + 1) if probe else range(0)
-        total = len(keys) + 1 + len(past)
+        total = len(keys) + 1 + len(below) + len(past)
         if progress is not None:
             progress(1, total)
         for done, key in enumerate(keys, 2):
@@ -506,12 +517,21 @@ class Controller:
                 data.items[key] = value
             if progress is not None:
                 progress(done, total)
-        beyond = []
-        for done, n in enumerate(past, len(keys) + 2):
+        outside = []
+        for done, n in enumerate([*below, *past], len(keys) + 2):
             if self._point_coord(n, 0) is not None:
-                beyond.append(n)
+                outside.append(n)
             if progress is not None:
                 progress(done, total)
+        before = [n for n in outside if n < self.first]
+        beyond = [n for n in outside if n > self.last]
+        if before:
+            raise ProjectError(
+                f"{self.label}: {len(before)} point(s) defined before "
+                f"controller.first_point {self.first}, which this backup would leave out: "
+                f"{_numbers(before)}; set controller.first_point: {before[0]} (or less) in "
+                "robot.yaml and pull again"
+            )
         if beyond:
             raise ProjectError(
                 f"{self.label}: {len(beyond)} point(s) defined past controller.last_point "
@@ -519,7 +539,7 @@ class Controller:
                 f"controller.last_point: {beyond[-1]} (or more) in robot.yaml and pull again"
             )
         data.covered = (self.first, self.last)
-        data.probed_to = past.stop - 1 if probe and past else None
+        data.probed_to = profile.POINT_PROBE_END if below or past else None
         return data
 
     # --- writes ------------------------------------------------------------------------

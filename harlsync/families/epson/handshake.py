@@ -262,6 +262,19 @@ class RemoteStatus:
         return None
 
     @property
+    def unsettled(self) -> str | None:
+        """Why the robot is not plainly at rest, or None: what :attr:`blocked` says,
+        or a map without Ready (then nothing shows the controller up with no task
+        run).  A function reset no person asked for goes only to a robot at rest:
+        dropping ExtCmdReset aborts a paused task too (§4.1.1)."""
+        blocked = self.blocked
+        if blocked is not None:
+            return blocked
+        if self.signals.get(READY) is None:
+            return "the register map has no Ready signal (nothing shows that no task runs)"
+        return None
+
+    @property
     def function_off(self) -> tuple[str, ...]:
         """The signals that keep the function from taking a command (step 1):
         ExtCmdReset at 0, any other handshake signal at 1."""
@@ -472,12 +485,14 @@ class Handshake:
         """The controller's outputs now, and the interlock's answer.  Sends no command."""
         return self._snapshot()
 
-    def reset_function(self) -> None:
+    def reset_function(self, *, at_rest: bool = False) -> None:
         """The §6.5.2 function reset: ExtCmdReset, ExtCmdSet, ExtRespGet low, at
         least 30 ms, ExtCmdReset high; then wait for the function to be ready.
 
         Raises :class:`InterlockError` (and changes nothing) when Running is 1 or
-        the map has no Running signal: dropping ExtCmdReset aborts motion.
+        the map has no Running signal: dropping ExtCmdReset aborts motion.  With
+        ``at_rest`` (a reset no person asked for), also unless the same read shows
+        the robot at rest (:attr:`RemoteStatus.unsettled` is None).
         Raises :class:`HandshakeTimeout` when the function is not ready again
         within the deadline.
         """
@@ -492,6 +507,8 @@ class Handshake:
                 f"{self.label}: Running 1 (a task is executing): dropping "
                 "ExtCmdReset would abort motion; the function is not reset"
             )
+        if at_rest and (why := status.unsettled) is not None:
+            raise InterlockError(f"{self.label}: {why}: the function is not reset")
         self._drive(self.map.ext_cmd_reset, False)
         self._drive(self.map.ext_cmd_set, False)
         self._drive(self.map.ext_resp_get, False)

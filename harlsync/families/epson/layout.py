@@ -363,7 +363,9 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
 
 #: The comment :func:`render_points` writes of the range a pull covered.
 _COVERED = re.compile(
-    rb"^points: +# P(\d+)-P(\d+) read(?:, none defined P\d+-P(\d+))? when pulled;", re.MULTILINE
+    rb"^points: +# P(\d+)-P(\d+) read(?:, none defined (P\d+-P\d+(?: and P\d+-P\d+)?))? "
+    rb"when pulled;",
+    re.MULTILINE,
 )
 
 
@@ -373,8 +375,10 @@ def _covered(text: bytes) -> tuple[tuple[int, int] | None, int | None]:
     found = _COVERED.search(text)
     if found is None:
         return None, None
+    last = int(found.group(2))
     probed = found.group(3)
-    return (int(found.group(1)), int(found.group(2))), int(probed) if probed else None
+    ends = [int(end) for end in re.findall(rb"-P(\d+)", probed)] if probed else []
+    return (int(found.group(1)), last), max([last, *ends]) if ends else None
 
 
 def _plain(value: Any) -> Any:

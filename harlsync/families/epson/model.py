@@ -346,8 +346,8 @@ class EpsonData:
     unwritable: str | None = None
     #: what a plan must say of the register map it was read through (no Ready)
     map_note: str | None = None
-    #: the points a pull read (first, last) and the last one it found undefined
-    #: past them (the probe); None for data from the files
+    #: the points a pull read (first, last) and the end of the probe that found
+    #: none defined outside them (P0 up to it); None for data from the files
     covered: tuple[int, int] | None = None
     probed_to: int | None = None
 
@@ -360,12 +360,14 @@ class EpsonData:
 
 
 def covered_text(data: EpsonData) -> str:
-    """``P0-P99 read, none defined P100-P999`` (the range a pull covered)."""
+    """``P0-P99 read, none defined P100-P999``, ``P20-P99 read, none defined P0-P19
+    and P100-P999`` (the range a pull covered)."""
     assert data.covered is not None
     first, last = data.covered
     text = f"P{first}-P{last} read"
     if data.probed_to is not None:
-        text += f", none defined P{last + 1}-P{data.probed_to}"
+        probed = [(0, first - 1), (last + 1, data.probed_to)]
+        text += ", none defined " + " and ".join(f"P{a}-P{b}" for a, b in probed if a <= b)
     return text
 
 

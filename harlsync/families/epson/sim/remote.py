@@ -153,6 +153,9 @@ class RemoteIO:
         self.events: list[Event] = []
         #: every function error raised, in order
         self.faults: list[FunctionFault] = []
+        #: the controller's outputs each time ExtCmdReset went from 1 to 0 (a function
+        #: reset, §6.5.2: it aborts a command running and a task paused, §4.1.1)
+        self.reset_drops: list[dict[str, bool]] = []
         self._outputs = [
             (name, bit)
             for name, bit in self.map.signals()
@@ -289,6 +292,7 @@ class RemoteIO:
 
     def _function_off(self, now: float) -> None:
         """ExtCmdReset 0: the function stops; a command running is aborted (§4.1.1)."""
+        self.reset_drops.append(self.levels())
         if self.phase is Phase.EXECUTING:
             self.robot.abort(self._words, "ExtCmdReset dropped")
         self._cmd_get = self._resp_set = self._result = False
