@@ -214,14 +214,14 @@ def test_an_error_line_names_a_frame_by_its_size_and_shows_it_with_vv(
     tmp_path, capsys, monkeypatch
 ) -> None:
     from harlsync.errors import ReplyError
-    from harlsync.sync import engine
+    from harlsync.sync import comparison
 
     frame = " ".join(f"{n:02X}" for n in range(60))
 
     def refused(*args, **kwargs):
         raise ReplyError(f"port sim://x station 99: the controller answered & to 291H: {frame}")
 
-    monkeypatch.setattr(engine, "compare", refused)
+    monkeypatch.setattr(comparison, "compare", refused)
     assert cli.main(["diff", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and frame not in err

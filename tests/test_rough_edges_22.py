@@ -14,7 +14,7 @@ from plantsim import SMALL
 from harlsync.cli import main
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
-from harlsync.sync import audit, engine
+from harlsync.sync import audit, engine, writes
 from harlsync.sync.engine import PushOptions
 
 
@@ -111,19 +111,19 @@ def test_plan_lists_every_reason_a_push_would_be_refused(robot, capsys) -> None:
 def test_a_push_refused_part_way_shows_in_status(robot, capsys) -> None:
     robot.edit_timer(1, "0.80")
     robot.edit_timer(2, "0.90")
-    real = engine._interlock
+    real = writes.interlock
     calls = []
 
-    def refuse_the_second_write(driver, robot_, before):  # the robot started meanwhile
+    def refuse_the_second_write(driver, robot_, words, before):  # the robot started meanwhile
         calls.append(before)
         if before.startswith("writing") and len([c for c in calls if c.startswith("writing")]) == 2:
             from harlsync.errors import InterlockError
 
             raise InterlockError("task 0 in execution")
-        return real(driver, robot_, before)
+        return real(driver, robot_, words, before)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(engine, "_interlock", refuse_the_second_write)
+        patch.setattr(writes, "interlock", refuse_the_second_write)
         assert main(["push", str(robot.project), "--yes"]) == 3
     capsys.readouterr()
     assert main(["status", str(robot.repo)]) == 1
