@@ -20,7 +20,10 @@ The interlock (:meth:`Controller.status`) is 212H then 215H, back to back (215H
 last, so MANUAL mode and an emergency stop are the freshest read): AUTO mode, no
 program running, no flash write, system ready, no emergency stop, no critical
 error, drive source on, program (not positioner) mode, safety gate closed, and
-every axis of the robot reported and not in use.
+every axis of the robot reported and not in use.  With no axes in robot.yaml the
+robot's axes are every axis any 212H has reported (this session, and the pulls
+before it: controller.yaml ``axes``) and every axis a position read or written
+uses: an axis reported once and then left out of a reply is not idle.
 """
 
 from __future__ import annotations
@@ -139,6 +142,8 @@ class Controller(OnLink):
     sizes the queries (its send and receive buffers).  ``variables`` are the
     flags and variables :meth:`read_all` reads when asked, by section
     (``flags``, ``integers``, ``reals``) -> (first, last); the profile's by default.
+    ``known_axes`` are the axes earlier 212H replies reported (controller.yaml's
+    ``axes``): with no ``axes``, every later reply must report them too.
     """
 
     def __init__(
@@ -152,6 +157,7 @@ class Controller(OnLink):
         variables: Mapping[str, tuple[int, int]] = profile.DEFAULT_VARIABLE_RANGES,
         real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER,
         records: Mapping[str, tuple[int, int]] | None = None,
+        known_axes: Iterable[int] = (),
     ) -> None:
         self.link = link
         self.station = link.station
@@ -164,6 +170,8 @@ class Controller(OnLink):
         self.records = dict(records or {})
         #: axes of the positions read or written in this session (robot_axes)
         self._seen_axes: set[int] = set()
+        #: every axis a 212H reported, in this session or (known_axes) a pull before it
+        self._reported_axes: set[int] = set(known_axes)
         #: the status read last (the interlock's before the next write)
         self._last_status: IaiStatus | None = None
 
@@ -271,11 +279,14 @@ class Controller(OnLink):
         refusal = system.refusal
         if refusal is None:
             # Every axis of the robot must be reported; with no axes in robot.yaml,
-            # every axis reported is checked too.
+            # every axis any 212H reported (now, earlier, or at a pull before) is
+            # checked too: one left out of this reply cannot be seen to be idle.
             wanted = self.axes
             if wanted is None:
-                wanted = tuple(sorted(self._seen_axes | {a.axis for a in axes}))
+                reported = self._reported_axes | {a.axis for a in axes}
+                wanted = tuple(sorted(self._seen_axes | reported))
             refusal = axes_refusal(wanted, axes)
+        self._reported_axes.update(a.axis for a in axes)
         status = IaiStatus(system, axes, refusal)
         self._last_status = status
         return status
@@ -340,17 +351,22 @@ class Controller(OnLink):
         }
         return dict(readers[section](first, last))
 
-    def read_all(self, progress: Progress | None = None, *, variables: bool = False) -> IaiData:
+    def read_all(
+        self, progress: Progress | None = None, *, variables: bool = False, whole: bool = False
+    ) -> IaiData:
         """The version and every defined position of the robot's range, and with
         ``variables`` the flags and variables of their ranges; each table probed
         past its range (:meth:`probe_positions`, :meth:`probe_variables`), and the
-        range it covered recorded in :attr:`IaiData.covered`.
+        range it covered recorded in :attr:`IaiData.covered`.  With ``whole`` (a
+        pull) and no axes in robot.yaml, one 212H too: :attr:`IaiData.axes` keeps
+        every axis any 212H reported, for a later push's interlock.
 
         ``progress(done, total)`` after each position query and each section.
         Raises :class:`TableBeyondRange` when a table goes on past its range.
         """
         chunks = _chunks(self.first, self.last, max_positions_per_read(self.model))
-        total = 2 + len(chunks) + (3 if variables else 0)
+        axis_read = whole and self.axes is None
+        total = 2 + len(chunks) + (3 if variables else 0) + axis_read
         done = 0
 
         def tick() -> None:
@@ -361,6 +377,11 @@ class Controller(OnLink):
 
         data = IaiData(version=self.version(), model=self.model)
         tick()
+        if axis_read:
+            self._reported_axes.update(
+                a.axis for a in self.request(axis_status_request(ALL_AXES), "the robot's axes")
+            )
+            tick()
         for start, n in chunks:
             data.positions.update((p.number, p) for p in self.request(read_positions(start, n)))
             tick()
@@ -383,6 +404,8 @@ class Controller(OnLink):
             else:
                 setattr(data, section, self.read_coordinate_systems(section, first, last))
             data.covered[section] = Coverage(first, last, last)
+        if self.axes is None:
+            data.axes = tuple(sorted(self._reported_axes))
         return data
 
     def read_coordinate_systems(
