@@ -36,6 +36,7 @@ from typing import Any, TypeVar
 
 from ...errors import (
     ControllerError,
+    HarlsyncError,
     InterlockError,
     NotWritten,
     ReplyError,
@@ -604,7 +605,11 @@ class Controller(OnLink):
         old: T,
         what: str,
     ) -> None:
-        """Send one write, ``count`` items when its reply says how many, and confirm it."""
+        """Send one write, ``count`` items when its reply says how many, and confirm it.
+
+        An ``&`` reply raises WriteRefused (not written) only when the items read
+        back exactly as they were; otherwise ControllerError (may or may not have been).
+        """
         if request.frame_size > profile.BUFFERS[self.model].receive:
             raise ReplyError(
                 f"{request.payload[:12]}...: {request.frame_size} bytes do not fit "
@@ -612,7 +617,11 @@ class Controller(OnLink):
             )
 
         def sent() -> None:
-            written = self.request(request, what)
+            try:
+                written = self.request(request, what)
+            except WriteRefused as refused:
+                self._refused_unless_unchanged(refused, readback, old, what)
+                raise
             if count is not None and written != count:
                 raise ControllerError(
                     str(written),
@@ -631,6 +640,37 @@ class Controller(OnLink):
             before_resend=lambda lost: self._idle_before_resend(request, lost),
             what=what,
         )
+
+    def _refused_unless_unchanged(
+        self, refused: WriteRefused, readback: Callable[[], T], old: T, what: str
+    ) -> None:
+        """Return when ``what`` reads back exactly as before the refused write (it was
+        not written); otherwise raise ControllerError: it may or may not have been.
+
+        That the controller applies a write it answers ``&`` to whole or not at all
+        is only the profile's assumption for 291H, and not even that for 24CH/24DH:
+        the read-back is the evidence.
+        """
+        try:
+            now = readback()
+        except HarlsyncError as exc:
+            why = f"and it could not be read back ({exc})"
+        else:
+            if now == old:
+                return
+            why = "and it no longer reads back as it was before"
+        raise ControllerError(
+            refused.status,
+            port=self.port,
+            station=self.station,
+            command=refused.command,
+            station_text=f"{self.station:02X}",
+            message=(
+                f"{what} may or may not have been written: the controller refused it "
+                f"with error code {refused.status}H ({ERROR_CODE_NOTE}), {why}; pull to "
+                "see what the controller holds"
+            ),
+        ) from refused
 
     def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless the status, read now, shows the robot idle."""
