@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import logging
 import os
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -487,9 +488,16 @@ class Controller(OnLink):
 
     def probe_variables(self, section: str) -> Coverage:
         """Make sure no flag (or integer, or real variable) past the kept range is
-        set: one query of the largest size past its last, the flags from a
-        multiple of 8.  An ``&`` answer means the controller has no such numbers:
-        the table ends there.  Raises :class:`TableBeyondRange`."""
+        set, up to the last number the message can name
+        (:data:`profile.VARIABLE_NUMBER_END`), in queries of the largest size, the
+        flags from a multiple of 8.  A query answered ``&`` is narrowed (halved)
+        rather than taken for the table's end; a number refused alone (a flag
+        byte, for flags) is one the controller does not have: the probe goes on
+        one number at a time past it until one reads, then in whole queries again.
+
+        Returns the range covered, ``checked_to`` the last number actually read;
+        raises :class:`TableBeyondRange` naming the first set past the range.
+        """
         first, last = self.variables[section]
         end = profile.VARIABLE_NUMBER_END[section]
         if last >= end:
@@ -500,25 +508,49 @@ class Controller(OnLink):
             "reals": max_variables_per_read(self.model, "reals"),
         }[section]
         align = profile.FLAG_QUERY_ALIGNMENT if section == "flags" else 1
-        head = (last + 1) - (last + 1) % align
-        upto = min(end, head + step - 1)
-        try:
-            values = self.read_variables(section, last + 1, upto)
-        except ControllerError:
-            log.info(
-                "%s: %s end at %d (the controller has none past it)", self.label, section, last
-            )
-            return Coverage(first, last, upto)
         kept = {"flags": False, "integers": 0, "reals": "0.0"}[section]
-        beyond = [n for n, v in sorted(values.items()) if v != kept]
-        if beyond:
-            called = VARIABLE_SECTIONS[section]
-            raise TableBeyondRange(
-                f"{self.label}: {called} {beyond[0]} is set past the range this backup "
-                f"keeps ({first}-{last}), and is not backed up; set controller.{section}: "
-                f"{{first: {first}, last: {beyond[-1]}}} (or higher) in robot.yaml and run again"
+        checked = last
+        refused: list[int] = []  # the first number of each query refused alone
+        head = (last + 1) - (last + 1) % align
+        pending = deque(_chunks(head, end, step))
+        while pending:
+            start, n = pending.popleft()
+            try:
+                values = self.read_variables(section, max(start, last + 1), start + n - 1)
+            except ControllerError:
+                if n <= align:
+                    refused.append(start)
+                    # Past a number it does not have, one at a time until one reads.
+                    pending = deque(_chunks(start + n, end, align))
+                    continue
+                half = max(align, n // 2 // align * align)
+                pending.extendleft([(start + half, n - half), (start, half)])
+                continue
+            beyond = [n for n, v in sorted(values.items()) if v != kept]
+            if beyond:
+                called = VARIABLE_SECTIONS[section]
+                raise TableBeyondRange(
+                    f"{self.label}: {called} {beyond[0]} is set past the range this backup "
+                    f"keeps ({first}-{last}), and is not backed up; set controller.{section}: "
+                    f"{{first: {first}, last: {beyond[-1]}}} (or higher) in robot.yaml and run "
+                    "again"
+                )
+            checked = start + n - 1
+            if n == align and refused and refused[-1] + align == start:
+                # The first to read after refused ones: whole queries again from here.
+                pending = deque(_chunks(start + n, end, step))
+        if refused:
+            log.info(
+                "%s: the controller refused %d %s queries past %d (from %s): numbers "
+                "it does not have; the probe read up to %d",
+                self.label,
+                len(refused),
+                section,
+                last,
+                ", ".join(str(n) for n in refused[:5]) + (" ..." if len(refused) > 5 else ""),
+                checked,
             )
-        return Coverage(first, last, upto)
+        return Coverage(first, last, checked)
 
     # --- writes ---------------------------------------------------------------------
 
