@@ -1,5 +1,6 @@
-"""What the probe past the position table costs an IAI pull (issue 20): extra
-exchanges, bytes on the line and seconds.
+"""What the probe past the position table costs an IAI pull (issue 20), and the
+probe past the kept flags and variables (review finding 3): extra exchanges,
+bytes on the line and seconds.
 
     python bench/iai_probe.py                    TTA and TT, 9600 and 115200 baud (~2 min)
     python bench/iai_probe.py --baud 9600 --model TTA --repeat 3
@@ -9,7 +10,10 @@ defined, 1-1000, with wire-time emulation at the baud rate) is read by a
 :class:`~harlsync.families.iai.controller.Controller` in this process, the way a
 pull reads it: the whole table (``read_all``, which ends with the probe), then
 the probe alone (``probe_positions``: one 22DH for every number from 1001 to
-FFFFh; the range starts at 1, so there is none below it).  The simulator counts
+FFFFh; the range starts at 1, so there is none below it), then the probe past
+the profile's flag, integer and real ranges alone (``probe_variables``: each up
+to the last number its message names, 65535 flags and 4095 variables, in
+queries of the largest size; nothing set there).  The simulator counts
 the exchanges and the bytes both ways; the seconds are this process's monotonic
 clock.  The share is the probe's time over the whole read's.
 """
@@ -33,7 +37,7 @@ def measure(model: str, baud: int, repeat: int) -> dict[str, float]:
         settings = SerialSettings(baudrate=baud, timeout=0.5, retries=3)
         c = Controller.from_url(sim.ports[0], 0x99, settings, model=model, first=1, last=1000)
         try:
-            best_all = best_probe = float("inf")
+            best_all = best_probe = best_vars = float("inf")
             for _ in range(repeat):
                 sim.reset()
                 start = time.monotonic()
@@ -45,6 +49,12 @@ def measure(model: str, baud: int, repeat: int) -> dict[str, float]:
                 c.probe_positions()
                 best_probe = min(best_probe, time.monotonic() - start)
                 probe = sim.stats()[0]
+                sim.reset()
+                start = time.monotonic()
+                for section in ("flags", "integers", "reals"):
+                    c.probe_variables(section)
+                best_vars = min(best_vars, time.monotonic() - start)
+                variables = sim.stats()[0]
             assert len(data.positions) == 1000
         finally:
             c.close()
@@ -57,6 +67,9 @@ def measure(model: str, baud: int, repeat: int) -> dict[str, float]:
         "probe_bytes": probe["bytes_in"] + probe["bytes_out"],
         "seconds": best_all,
         "probe_seconds": best_probe,
+        "vars_exchanges": variables["exchanges"],
+        "vars_bytes": variables["bytes_in"] + variables["bytes_out"],
+        "vars_seconds": best_vars,
     }
 
 
@@ -69,7 +82,7 @@ def main() -> None:
     print(f"harlsync IAI probe bench: {describe()}")
     print(
         f"{'model':6} {'baud':>6} {'exchanges':>9} {'+probe':>6} {'bytes':>7} {'+probe':>6} "
-        f"{'read s':>7} {'probe s':>7} {'share':>6}"
+        f"{'read s':>7} {'probe s':>7} {'share':>6} {'vars ex':>7} {'vars B':>7} {'vars s':>6}"
     )
     for model in args.model.split(","):
         for baud in (int(b) for b in args.baud.split(",")):
@@ -77,7 +90,8 @@ def main() -> None:
             print(
                 f"{model:6} {baud:>6} {m['exchanges']:>9} {m['probe_exchanges']:>6} "
                 f"{m['bytes']:>7} {m['probe_bytes']:>6} {m['seconds']:>7.2f} "
-                f"{m['probe_seconds']:>7.3f} {m['probe_seconds'] / m['seconds']:>6.1%}"
+                f"{m['probe_seconds']:>7.3f} {m['probe_seconds'] / m['seconds']:>6.1%} "
+                f"{m['vars_exchanges']:>7} {m['vars_bytes']:>7} {m['vars_seconds']:>6.2f}"
             )
 
 

@@ -105,7 +105,9 @@ from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.model import Position, real_text, real_value
 from harlsync.families.iai.protocol import (
     Frame,
+    max_flags_per_read,
     max_positions_per_read,
+    max_variables_per_read,
     system_status,
     write_flag,
     write_integers,
@@ -501,6 +503,19 @@ def random_variables(
     return keeps
 
 
+def variable_reads(model: str, section: str, first: int, last: int) -> int:
+    """The queries a read of ``section`` ``first``-``last`` and its probe past ``last``
+    (up to the last number the message names) take, when no query is refused."""
+    step = (
+        max_flags_per_read(model) if section == "flags" else max_variables_per_read(model, section)
+    )
+    align = profile.FLAG_QUERY_ALIGNMENT if section == "flags" else 1
+    end = profile.VARIABLE_NUMBER_END[section]
+    read = -(-(last + 1 - (first - first % align)) // step)
+    head = (last + 1) - (last + 1) % align
+    return read + -(-(end + 1 - head) // step)
+
+
 def held(state: SimState, keeps: dict[str, tuple[int, int]] | None) -> IaiData:
     """What the controller holds: its table, and the flags and variables robot.yaml
     keeps (every number of their ranges: an unset one is off, or 0)."""
@@ -569,7 +584,8 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     first, last = state.position_range
     step = max_positions_per_read(state.model)
     reads = 3 + -(-(last - first + 1) // step)  # 212H, 215H, 201H, the 22DH pages
-    reads += 3 * registers  # the flags and variables, usually one query each
+    if registers and keeps is not None:  # each section's read, then its probe to the wire's end
+        reads += sum(variable_reads(state.model, s, *keeps[s]) for s in keeps)
     changes = sync_items.diff(CATALOGUE, before, target, registers=registers)
     horizon = reads + 6 * len(changes) + 8
     wait = deadline(settings)

@@ -350,7 +350,7 @@ def test_a_positions_only_pull_reads_no_flag_or_variable(served, repo) -> None:
     sim, url = served
     project = pulled(repo, url)
     assert not (project / "variables.yaml").exists()
-    assert {r.command for r in sim.received} <= {"201", "22D"}
+    assert {r.command for r in sim.received} <= {"201", "212", "22D"}  # 212H: its axes
 
 
 def test_diff_shows_flags_and_variables_changed_on_the_robot_only_with_registers(

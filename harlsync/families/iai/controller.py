@@ -20,19 +20,24 @@ The interlock (:meth:`Controller.status`) is 212H then 215H, back to back (215H
 last, so MANUAL mode and an emergency stop are the freshest read): AUTO mode, no
 program running, no flash write, system ready, no emergency stop, no critical
 error, drive source on, program (not positioner) mode, safety gate closed, and
-every axis of the robot reported and not in use.
+every axis of the robot reported and not in use.  With no axes in robot.yaml the
+robot's axes are every axis any 212H has reported (this session, and the pulls
+before it: controller.yaml ``axes``) and every axis a position read or written
+uses: an axis reported once and then left out of a reply is not idle.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from ...errors import (
     ControllerError,
+    HarlsyncError,
     InterlockError,
     NotWritten,
     ReplyError,
@@ -139,6 +144,8 @@ class Controller(OnLink):
     sizes the queries (its send and receive buffers).  ``variables`` are the
     flags and variables :meth:`read_all` reads when asked, by section
     (``flags``, ``integers``, ``reals``) -> (first, last); the profile's by default.
+    ``known_axes`` are the axes earlier 212H replies reported (controller.yaml's
+    ``axes``): with no ``axes``, every later reply must report them too.
     """
 
     def __init__(
@@ -152,6 +159,7 @@ class Controller(OnLink):
         variables: Mapping[str, tuple[int, int]] = profile.DEFAULT_VARIABLE_RANGES,
         real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER,
         records: Mapping[str, tuple[int, int]] | None = None,
+        known_axes: Iterable[int] = (),
     ) -> None:
         self.link = link
         self.station = link.station
@@ -164,6 +172,8 @@ class Controller(OnLink):
         self.records = dict(records or {})
         #: axes of the positions read or written in this session (robot_axes)
         self._seen_axes: set[int] = set()
+        #: every axis a 212H reported, in this session or (known_axes) a pull before it
+        self._reported_axes: set[int] = set(known_axes)
         #: the status read last (the interlock's before the next write)
         self._last_status: IaiStatus | None = None
 
@@ -271,11 +281,14 @@ class Controller(OnLink):
         refusal = system.refusal
         if refusal is None:
             # Every axis of the robot must be reported; with no axes in robot.yaml,
-            # every axis reported is checked too.
+            # every axis any 212H reported (now, earlier, or at a pull before) is
+            # checked too: one left out of this reply cannot be seen to be idle.
             wanted = self.axes
             if wanted is None:
-                wanted = tuple(sorted(self._seen_axes | {a.axis for a in axes}))
+                reported = self._reported_axes | {a.axis for a in axes}
+                wanted = tuple(sorted(self._seen_axes | reported))
             refusal = axes_refusal(wanted, axes)
+        self._reported_axes.update(a.axis for a in axes)
         status = IaiStatus(system, axes, refusal)
         self._last_status = status
         return status
@@ -340,17 +353,22 @@ class Controller(OnLink):
         }
         return dict(readers[section](first, last))
 
-    def read_all(self, progress: Progress | None = None, *, variables: bool = False) -> IaiData:
+    def read_all(
+        self, progress: Progress | None = None, *, variables: bool = False, whole: bool = False
+    ) -> IaiData:
         """The version and every defined position of the robot's range, and with
         ``variables`` the flags and variables of their ranges; each table probed
         past its range (:meth:`probe_positions`, :meth:`probe_variables`), and the
-        range it covered recorded in :attr:`IaiData.covered`.
+        range it covered recorded in :attr:`IaiData.covered`.  With ``whole`` (a
+        pull) and no axes in robot.yaml, one 212H too: :attr:`IaiData.axes` keeps
+        every axis any 212H reported, for a later push's interlock.
 
         ``progress(done, total)`` after each position query and each section.
         Raises :class:`TableBeyondRange` when a table goes on past its range.
         """
         chunks = _chunks(self.first, self.last, max_positions_per_read(self.model))
-        total = 2 + len(chunks) + (3 if variables else 0)
+        axis_read = whole and self.axes is None
+        total = 2 + len(chunks) + (3 if variables else 0) + axis_read
         done = 0
 
         def tick() -> None:
@@ -361,6 +379,11 @@ class Controller(OnLink):
 
         data = IaiData(version=self.version(), model=self.model)
         tick()
+        if axis_read:
+            self._reported_axes.update(
+                a.axis for a in self.request(axis_status_request(ALL_AXES), "the robot's axes")
+            )
+            tick()
         for start, n in chunks:
             data.positions.update((p.number, p) for p in self.request(read_positions(start, n)))
             tick()
@@ -383,6 +406,8 @@ class Controller(OnLink):
             else:
                 setattr(data, section, self.read_coordinate_systems(section, first, last))
             data.covered[section] = Coverage(first, last, last)
+        if self.axes is None:
+            data.axes = tuple(sorted(self._reported_axes))
         return data
 
     def read_coordinate_systems(
@@ -463,9 +488,16 @@ class Controller(OnLink):
 
     def probe_variables(self, section: str) -> Coverage:
         """Make sure no flag (or integer, or real variable) past the kept range is
-        set: one query of the largest size past its last, the flags from a
-        multiple of 8.  An ``&`` answer means the controller has no such numbers:
-        the table ends there.  Raises :class:`TableBeyondRange`."""
+        set, up to the last number the message can name
+        (:data:`profile.VARIABLE_NUMBER_END`), in queries of the largest size, the
+        flags from a multiple of 8.  A query answered ``&`` is narrowed (halved)
+        rather than taken for the table's end; a number refused alone (a flag
+        byte, for flags) is one the controller does not have: the probe goes on
+        one number at a time past it until one reads, then in whole queries again.
+
+        Returns the range covered, ``checked_to`` the last number actually read;
+        raises :class:`TableBeyondRange` naming the first set past the range.
+        """
         first, last = self.variables[section]
         end = profile.VARIABLE_NUMBER_END[section]
         if last >= end:
@@ -476,25 +508,49 @@ class Controller(OnLink):
             "reals": max_variables_per_read(self.model, "reals"),
         }[section]
         align = profile.FLAG_QUERY_ALIGNMENT if section == "flags" else 1
-        head = (last + 1) - (last + 1) % align
-        upto = min(end, head + step - 1)
-        try:
-            values = self.read_variables(section, last + 1, upto)
-        except ControllerError:
-            log.info(
-                "%s: %s end at %d (the controller has none past it)", self.label, section, last
-            )
-            return Coverage(first, last, upto)
         kept = {"flags": False, "integers": 0, "reals": "0.0"}[section]
-        beyond = [n for n, v in sorted(values.items()) if v != kept]
-        if beyond:
-            called = VARIABLE_SECTIONS[section]
-            raise TableBeyondRange(
-                f"{self.label}: {called} {beyond[0]} is set past the range this backup "
-                f"keeps ({first}-{last}), and is not backed up; set controller.{section}: "
-                f"{{first: {first}, last: {beyond[-1]}}} (or higher) in robot.yaml and run again"
+        checked = last
+        refused: list[int] = []  # the first number of each query refused alone
+        head = (last + 1) - (last + 1) % align
+        pending = deque(_chunks(head, end, step))
+        while pending:
+            start, n = pending.popleft()
+            try:
+                values = self.read_variables(section, max(start, last + 1), start + n - 1)
+            except ControllerError:
+                if n <= align:
+                    refused.append(start)
+                    # Past a number it does not have, one at a time until one reads.
+                    pending = deque(_chunks(start + n, end, align))
+                    continue
+                half = max(align, n // 2 // align * align)
+                pending.extendleft([(start + half, n - half), (start, half)])
+                continue
+            beyond = [n for n, v in sorted(values.items()) if v != kept]
+            if beyond:
+                called = VARIABLE_SECTIONS[section]
+                raise TableBeyondRange(
+                    f"{self.label}: {called} {beyond[0]} is set past the range this backup "
+                    f"keeps ({first}-{last}), and is not backed up; set controller.{section}: "
+                    f"{{first: {first}, last: {beyond[-1]}}} (or higher) in robot.yaml and run "
+                    "again"
+                )
+            checked = start + n - 1
+            if n == align and refused and refused[-1] + align == start:
+                # The first to read after refused ones: whole queries again from here.
+                pending = deque(_chunks(start + n, end, step))
+        if refused:
+            log.info(
+                "%s: the controller refused %d %s queries past %d (from %s): numbers "
+                "it does not have; the probe read up to %d",
+                self.label,
+                len(refused),
+                section,
+                last,
+                ", ".join(str(n) for n in refused[:5]) + (" ..." if len(refused) > 5 else ""),
+                checked,
             )
-        return Coverage(first, last, upto)
+        return Coverage(first, last, checked)
 
     # --- writes ---------------------------------------------------------------------
 
@@ -581,7 +637,11 @@ class Controller(OnLink):
         old: T,
         what: str,
     ) -> None:
-        """Send one write, ``count`` items when its reply says how many, and confirm it."""
+        """Send one write, ``count`` items when its reply says how many, and confirm it.
+
+        An ``&`` reply raises WriteRefused (not written) only when the items read
+        back exactly as they were; otherwise ControllerError (may or may not have been).
+        """
         if request.frame_size > profile.BUFFERS[self.model].receive:
             raise ReplyError(
                 f"{request.payload[:12]}...: {request.frame_size} bytes do not fit "
@@ -589,7 +649,11 @@ class Controller(OnLink):
             )
 
         def sent() -> None:
-            written = self.request(request, what)
+            try:
+                written = self.request(request, what)
+            except WriteRefused as refused:
+                self._refused_unless_unchanged(refused, readback, old, what)
+                raise
             if count is not None and written != count:
                 raise ControllerError(
                     str(written),
@@ -608,6 +672,37 @@ class Controller(OnLink):
             before_resend=lambda lost: self._idle_before_resend(request, lost),
             what=what,
         )
+
+    def _refused_unless_unchanged(
+        self, refused: WriteRefused, readback: Callable[[], T], old: T, what: str
+    ) -> None:
+        """Return when ``what`` reads back exactly as before the refused write (it was
+        not written); otherwise raise ControllerError: it may or may not have been.
+
+        That the controller applies a write it answers ``&`` to whole or not at all
+        is only the profile's assumption for 291H, and not even that for 24CH/24DH:
+        the read-back is the evidence.
+        """
+        try:
+            now = readback()
+        except HarlsyncError as exc:
+            why = f"and it could not be read back ({exc})"
+        else:
+            if now == old:
+                return
+            why = "and it no longer reads back as it was before"
+        raise ControllerError(
+            refused.status,
+            port=self.port,
+            station=self.station,
+            command=refused.command,
+            station_text=f"{self.station:02X}",
+            message=(
+                f"{what} may or may not have been written: the controller refused it "
+                f"with error code {refused.status}H ({ERROR_CODE_NOTE}), {why}; pull to "
+                "see what the controller holds"
+            ),
+        ) from refused
 
     def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless the status, read now, shows the robot idle."""

@@ -28,7 +28,7 @@ class IaiDriver(Driver[Key, IaiData]):
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False
     ) -> IaiData:
-        return self.controller.read_all(progress, variables=registers)
+        return self.controller.read_all(progress, variables=registers, whole=whole)
 
     def status(self) -> IaiStatus:
         return self.controller.status()

@@ -166,6 +166,7 @@ class IaiFamily(Family["Key", "IaiData"]):
             last=last,
             variables=layout.variable_ranges(robot),
             records=layout.record_ranges(robot),
+            known_axes=robot.options.get(layout.REPORTED_AXES, ()),
             real_word_order=str(
                 robot.options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
             ),

@@ -6,6 +6,7 @@
                        axes, position range and the flag and variable ranges,
                        maintenance windows, keep_registers (user-edited)
     controller.yaml    what 201H reports (model and unit codes, version, build date),
+                       the axes 212H reported (when robot.yaml names none),
                        and the range of each table the pull covered:
 
         covered:
@@ -85,6 +86,7 @@ __all__ = [
     "FORMAT",
     "RECORDS_FILE",
     "RECORD_SECTIONS",
+    "REPORTED_AXES",
     "ROOT_FILES",
     "STATION",
     "VARIABLES_FILE",
@@ -120,6 +122,10 @@ SCHEMAS = SchemaSet(
 FILES = FileSet(SCHEMAS, FORMAT)
 
 _ARMS = {name: n for n, name in ARM_NAMES.items()}
+#: The robot option that carries controller.yaml's ``axes`` (every axis an earlier
+#: 212H reported) to the connection; never written to robot.yaml.
+REPORTED_AXES = "reported_axes"
+
 #: A station as robot.yaml and --station write it (profile.STATION_ALLOWED).
 STATION = re.compile(r"[0-9A-Fa-f]{2}")
 
@@ -153,6 +159,9 @@ class IaiData:
     reals: dict[int, str] | None = None
     #: section (``positions``, ``flags`` ...) -> the range a pull covered
     covered: dict[str, Coverage] = field(default_factory=dict)
+    #: every axis a 212H reported (controller.yaml ``axes``) when robot.yaml names
+    #: none: a later push's interlock wants each of them in every 212H reply
+    axes: tuple[int, ...] = ()
     #: read-only records (None: not kept): coordinate system definitions by number,
     #: X, Y, Z and R as coordinate text; string variable rows by first column, the
     #: characters' codes as hex text (two digits each)
@@ -219,8 +228,14 @@ def render_robot(robot: Robot) -> str:
     return FILES.document("robot", "robot.yaml", items)
 
 
-def render_controller(version: Version, covered: Mapping[str, Coverage] | None = None) -> str:
+def render_controller(
+    version: Version,
+    covered: Mapping[str, Coverage] | None = None,
+    axes: tuple[int, ...] = (),
+) -> str:
     items = [("version", _version_node(version))]
+    if axes:
+        items.append(("axes", y.sequence([y.num(str(a)) for a in axes], flow=True)))
     if covered:
         items.append(
             (
@@ -321,7 +336,7 @@ def render_files(robot: Robot, data: IaiData) -> dict[str, str]:
     """
     out = {
         "robot.yaml": render_robot(robot),
-        "controller.yaml": render_controller(data.version, data.covered),
+        "controller.yaml": render_controller(data.version, data.covered, data.axes),
         "positions.yaml": render_positions(data.positions),
     }
     if robot.keep_registers and data.variables():
@@ -412,7 +427,10 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
                 section: Coverage(int(c["first"]), int(c["last"]), int(c["checked_to"]))
                 for section, c in docs["controller.yaml"].data.get("covered", {}).items()
             },
+            axes=tuple(sorted(int(a) for a in docs["controller.yaml"].data.get("axes", []))),
         )
+        if result.data.axes:  # the connection's interlock wants them from its first 212H
+            result.robot.options[REPORTED_AXES] = result.data.axes
         if VARIABLES_FILE in docs:
             _build_variables(docs[VARIABLES_FILE].data, result.data)
         if RECORDS_FILE in docs:
