@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 from conftest import git
+from test_sync import pulled
 
 from harlsync.cli import main
 from harlsync.families.base import align
@@ -72,11 +73,7 @@ def test_a_step_inserted_on_the_pendant_is_one_added_line_in_the_backups_git_dif
     robot: tuple[Simulator, str], repo: Path
 ) -> None:
     sim, url = robot
-    project = repo / "cell"
-    engine.pull(project, port=url)
-    git(repo, "add", "-A")
-    git(repo, "commit", "-qm", "first backup")
-
+    project = pulled(repo, url)
     insert_step(sim.stations[1].data.programs[(MAIN, 0)], 4, Step.parse(INSERTED))
     engine.pull(project, commit=True)
 
@@ -91,11 +88,7 @@ def test_a_step_deleted_on_the_pendant_is_one_removed_line(
     robot: tuple[Simulator, str], repo: Path
 ) -> None:
     sim, url = robot
-    project = repo / "cell"
-    engine.pull(project, port=url)
-    git(repo, "add", "-A")
-    git(repo, "commit", "-qm", "first backup")
-
+    project = pulled(repo, url)
     delete_step(sim.stations[1].data.programs[(MAIN, 0)], 6)
     engine.pull(project, commit=True)
 

@@ -13,7 +13,7 @@ on the next save; a newer format is refused.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from ...project import yamlio as y
@@ -34,7 +34,7 @@ from ...project.files import (
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
 from ...settings import SerialSettings
-from ..base import Analysis
+from ..base import Analysis, spans
 from .model import (
     CODE_RE,
     OFFSET_FIELDS,
@@ -402,19 +402,6 @@ def _span(count: int) -> str:
     return "none" if count <= 0 else ("0" if count == 1 else f"0-{count - 1}")
 
 
-def _ranges(numbers: Iterable[int]) -> str:
-    """``[0, 1, 2, 5]`` -> ``"0-2, 5"``."""
-    parts: list[str] = []
-    run: list[int] = []
-    for n in [*sorted(numbers), None]:
-        if run and n != run[-1] + 1:
-            parts.append(str(run[0]) if len(run) == 1 else f"{run[0]}-{run[-1]}")
-            run = []
-        if n is not None:
-            run.append(n)
-    return ", ".join(parts)
-
-
 def _check_numbered(
     name: str, doc: y.Parsed, key: str, count: int, what: str, issues: list[Issue]
 ) -> None:
@@ -440,7 +427,7 @@ def _check_numbered(
                 name,
                 doc.line((key,)),
                 key,
-                f"{what} {_ranges(missing)} missing (allowed: every {what} {_span(count)})",
+                f"{what} {spans(missing)} missing (allowed: every {what} {_span(count)})",
             )
         )
 
