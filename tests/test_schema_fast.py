@@ -33,9 +33,7 @@ EXAMPLE = ROOT / "projects" / "pick-and-place"
 
 
 def _schemas(family: str) -> SchemaSet:
-    module = __import__(
-        f"harlsync.families.{families.FAMILIES[family]}.layout", fromlist=["SCHEMAS"]
-    )
+    module = __import__(f"{families.FAMILIES[family]}.layout", fromlist=["SCHEMAS"])
     schemas: SchemaSet = module.SCHEMAS
     return schemas
 
