@@ -15,6 +15,7 @@ from harlsync.families.base import align
 from harlsync.families.harl_u2.catalogue import CATALOGUE, StepKey
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.project import load_project
 from harlsync.sim.serve import TcpServer
 from harlsync.sync import PushOptions, engine
 
@@ -204,3 +205,28 @@ def test_a_step_moved_is_one_move_and_a_step_edited_in_place_or_added_at_the_end
     assert align(CATALOGUE, _changes(old, edited)) == []
     assert align(CATALOGUE, _changes(old, [*old, "END"])) == []
     assert align(CATALOGUE, _changes(old, old[:-1])) == []
+
+
+def test_a_pull_into_a_format_1_backup_writes_format_2_with_the_same_steps(
+    robot: tuple[Simulator, str], repo: Path
+) -> None:
+    _, url = robot
+    project = pulled(repo, url)
+    path = project / "programs" / "main-00.yaml"
+    # The file as format 1 wrote it: steps keyed by number.
+    format_1 = "".join(
+        [
+            "# yaml-language-server: $schema=../.schemas/program.schema.json\n",
+            "format: 1\ntype: MAIN\nnumber: 0\nsteps:\n",
+            *(f"  {n}: {text}\n" for n, text in enumerate(PROGRAM)),
+        ]
+    )
+    format_2 = path.read_text(encoding="utf-8")
+    path.write_text(format_1, encoding="utf-8")
+    git(repo, "commit", "-qam", "as format 1 wrote it")
+    assert load_project(project).data.programs[(MAIN, 0)] == {
+        n: Step.parse(t) for n, t in enumerate(PROGRAM)
+    }
+
+    engine.pull(project, commit=True)
+    assert path.read_text(encoding="utf-8") == format_2
