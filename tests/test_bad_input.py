@@ -169,8 +169,8 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "pull_rate: 'a b' is not allowed (allowed: one token",
     ),
     ("parameters.yaml", "unknown key"): (
-        "format: 1\n",
-        "format: 1\nspeed: 3\n",
+        "format: 2\n",
+        "format: 2\nspeed: 3\n",
         "parameters.yaml:3",
         "speed: unknown key (allowed: format, pull_limit, ",
     ),
@@ -193,8 +193,8 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "tables.3.x: 10000.00 is out of range (allowed: -9999.99..9999.99",
     ),
     ("offsets.yaml", "unknown key"): (
-        "format: 1\n",
-        "format: 1\nspeed: 3\n",
+        "format: 2\n",
+        "format: 2\nspeed: 3\n",
         "offsets.yaml:3",
         "speed: unknown key (allowed: format, tables)",
     ),
@@ -217,8 +217,8 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "timers.3: 12.50 is out of range (allowed: 0.00-9.99, two decimals)",
     ),
     ("timers.yaml", "unknown key"): (
-        "format: 1\n",
-        "format: 1\nspeed: 3\n",
+        "format: 2\n",
+        "format: 2\nspeed: 3\n",
         "timers.yaml:3",
         "speed: unknown key (allowed: format, timers)",
     ),
@@ -229,16 +229,16 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "timers.4: timer 4 is outside the configuration (allowed: 0-3)",
     ),
     ("programs/main-00.yaml", "malformed"): (
-        "  2: CALLS S00\n",
-        "  2: [CALLS S00\n",
-        "programs/main-00.yaml:9",
+        "  - CALLS S00\n",
+        "  - CALLS: S00: x\n",
+        "programs/main-00.yaml:8",
         "YAML syntax error: ",
     ),
     ("programs/main-00.yaml", "wrong type"): (
-        "  2: CALLS S00\n",
-        "  2: [1, 2]\n",
+        "  - CALLS S00\n",
+        "  - [1, 2]\n",
         "programs/main-00.yaml:8",
-        "steps.2: a list is not text (allowed: a command and at most 4",
+        "steps.2: a list is not text or nothing (allowed: a command and at most 4",
     ),
     ("programs/main-00.yaml", "out of range"): (
         "number: 0\n",
@@ -247,21 +247,21 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "number: 100 is out of range (allowed: 0-99 (START: 0))",
     ),
     ("programs/main-00.yaml", "unknown key"): (
-        "format: 1\n",
-        "format: 1\nspeed: 3\n",
+        "format: 2\n",
+        "format: 2\nspeed: 3\n",
         "programs/main-00.yaml:3",
         "speed: unknown key (allowed: format, type, number, steps)",
     ),
     ("programs/main-00.yaml", "outside the configuration"): (
-        "  7: END\n",
-        "  7: END\n  8: END\n",
+        "  - END\n",
+        "  - END\n  - END\n",
         "programs/main-00.yaml:14",
-        "steps.8: step 8 is outside the configuration (allowed: 0-7)",
+        "steps.8: step 8 is outside the configuration (allowed: 0-7, controller.yaml ",
     ),
     # Issue 11: values the schemas let through, but the wire cannot carry or give back.
     ("parameters.yaml", "read back as an error status"): (
-        "format: 1\npull_limit: ",
-        "format: 1\npull_limit: E",
+        "format: 2\npull_limit: ",
+        "format: 2\npull_limit: E",
         "parameters.yaml:3",
         (
             "would begin the LNE reply with 'E', which reads as an error status: the robot "
@@ -269,8 +269,8 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         ),
     ),
     ("programs/main-00.yaml", "longer than a frame"): (
-        "  2: CALLS S00\n",
-        "  2: CALLS S" + "0" * 600 + "\n",
+        "  - CALLS S00\n",
+        "  - CALLS S" + "0" * 600 + "\n",
         "programs/main-00.yaml:8",
         "steps.2: 607 characters are more than a frame carries (allowed: at most 500 in this",
     ),
@@ -291,17 +291,17 @@ FILES = [
 ]
 for _file in FILES:
     DEFECTS[(_file, "newer format")] = (
-        "format: 1\n",
         "format: 2\n",
+        "format: 3\n",
         f"{_file}:2",
-        "format 2 is newer than this harlsync understands (1): upgrade harlsync",
+        "format 3 is newer than this harlsync understands (2): upgrade harlsync",
     )
     # Issue 11: the same key, spelled as JSON spells it, is the same newer format.
     DEFECTS[(_file, "newer format, quoted key")] = (
-        "format: 1\n",
-        '"format": 2\n',
+        "format: 2\n",
+        '"format": 3\n',
         f"{_file}:2",
-        "format 2 is newer than this harlsync understands (1): upgrade harlsync",
+        "format 3 is newer than this harlsync understands (2): upgrade harlsync",
     )
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 from datetime import time
 from pathlib import Path
@@ -31,8 +32,14 @@ from harlsync.project import (
     Robot,
     Window,
     load_project,
+    migrate_project,
     save_project,
+    validate_project,
 )
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
+#: The example project as format 1 wrote it (steps keyed by number), kept as it was.
+FORMAT_1 = Path(__file__).resolve().parent / "fixtures" / "format-1" / "pick-and-place"
 
 # Tokens YAML would misread if they were not quoted, or that look like numbers.
 TRICKY = [
@@ -191,19 +198,81 @@ def test_any_project_saves_loads_equal_and_saves_byte_identical(project: Project
         assert save_project(first, loaded) == []
 
 
-def test_empty_steps_are_left_out_of_a_program_file() -> None:
-    steps = {0: Step.parse("MOVE P010 S50"), 1: Step(), 5: Step.parse("END")}
+def test_steps_are_a_list_in_step_order_an_empty_one_null_trailing_ones_left_out() -> None:
+    # Format 2 (issue 23): a step inserted or deleted renumbers nothing in the file.
+    steps = {0: Step.parse("MOVE P010 S50"), 1: Step(), 3: Step.parse("END"), 7: Step()}
     text = render_program((ProgramType.MAIN, 2), steps)
-    assert text.splitlines()[2:] == [
+    assert text.splitlines()[1:] == [
+        "format: 2",
         "type: MAIN",
         "number: 2",
         "steps:",
-        "  0: MOVE P010 S50",
-        "  5: END",
+        "  - MOVE P010 S50",
+        "  - null",
+        "  - null",
+        "  - END",
     ]
     assert render_program((ProgramType.START, 0), {}).endswith(
-        "type: START\nnumber: 0\nsteps: {}\n"
+        "type: START\nnumber: 0\nsteps: []\n"
     )
+
+
+@pytest.mark.parametrize("empty", ["null", "~", "", "NULL"])
+def test_an_empty_step_may_be_written_as_any_yaml_null(empty: str, tmp_path: Path) -> None:
+    root = tmp_path / "cell"
+    shutil.copytree(EXAMPLE, root)
+    path = root / "programs" / "main-00.yaml"
+    text = path.read_text(encoding="utf-8")
+    path.write_text(text.replace("  - WAIT DI02 ON\n", f"  -{' ' * bool(empty)}{empty}\n"))
+    steps = load_project(root).data.programs[(ProgramType.MAIN, 0)]
+    assert 2 not in steps
+    assert steps[3] == Step.parse("MOVE P002 S30")
+
+
+def test_a_format_1_project_loads_to_the_same_data_and_saves_as_format_2_byte_exactly(
+    tmp_path: Path,
+) -> None:
+    # The example project as harlsync wrote it in format 1, before issue 23.
+    root = tmp_path / "old"
+    shutil.copytree(FORMAT_1, root)
+    old = load_project(root)
+    assert old.data == load_project(EXAMPLE).data
+    written = save_project(root, old)
+    assert "programs/main-00.yaml" in written and "robot.yaml" not in written
+    # Every file it rewrote is the one a pull of the same robot writes today, byte
+    # for byte; robot.yaml is a person's and is never rewritten (format 1 still loads).
+    for name in written:
+        assert (root / name).read_bytes() == (EXAMPLE / name).read_bytes(), name
+    assert (root / "robot.yaml").read_bytes() == (FORMAT_1 / "robot.yaml").read_bytes()
+    # ... and from then on the round trip is unchanged: the same data, no rewrite.
+    again = load_project(root)
+    assert again.data == old.data
+    assert save_project(root, again) == []
+
+
+def test_migrate_project_rewrites_a_format_1_project_without_a_robot(tmp_path: Path) -> None:
+    root = tmp_path / "old"
+    shutil.copytree(FORMAT_1, root)
+    written = migrate_project(root)
+    assert "programs/start.yaml" in written
+    assert (root / "programs/start.yaml").read_bytes() == (
+        EXAMPLE / "programs/start.yaml"
+    ).read_bytes()
+    assert migrate_project(root) == []  # a format-2 project: nothing to do
+
+
+def test_a_format_1_files_issues_name_the_line_the_step_is_written_on(tmp_path: Path) -> None:
+    root = tmp_path / "old"
+    shutil.copytree(FORMAT_1, root)
+    path = root / "programs" / "sub-00.yaml"
+    path.write_text(path.read_text(encoding="utf-8").replace("  5: END", "  5: 17"))
+    assert validate_project(root) == [
+        (
+            "programs/sub-00.yaml:11: steps.5: 17 is not text or nothing (allowed: a command and "
+            "at most 4 data items, printable ASCII tokens separated by single spaces, or null "
+            "for an empty step)"
+        )
+    ]
 
 
 def test_parameter_names_are_the_yaml_keys() -> None:

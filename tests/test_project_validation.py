@@ -35,6 +35,17 @@ def root(tmp_path: Path) -> Path:
     return target
 
 
+#: The example project as format 1 wrote it (steps keyed by number).
+FORMAT_1 = Path(__file__).resolve().parent / "fixtures" / "format-1" / "pick-and-place"
+
+
+@pytest.fixture
+def root1(tmp_path: Path) -> Path:
+    target = tmp_path / "format-1"
+    shutil.copytree(FORMAT_1, target)
+    return target
+
+
 def edit(root: Path, name: str, old: str, new: str) -> None:
     path = root / name
     text = path.read_text(encoding="utf-8")
@@ -52,15 +63,10 @@ def test_a_yaml_syntax_error_names_file_and_line_and_other_files_are_still_check
     root: Path,
 ) -> None:
     edit(root, "timers.yaml", "  3: 1.50", "  3: [1.50")
-    edit(
-        root,
-        "programs/main-00.yaml",
-        "  1: MOVE P001 S80",
-        "  1: MOVE P001 S80\n  1: MOVE P001 S10",
-    )
+    edit(root, "programs/main-00.yaml", "type: MAIN", "type: MAIN\ntype: SUB")
     issues = validate_project(root)
     assert issues[0].startswith("timers.yaml:8: YAML syntax error: ")
-    assert issues[1] == "programs/main-00.yaml:8: steps.1: written twice (lines 7 and 8)"
+    assert issues[1] == "programs/main-00.yaml:4: type: written twice (lines 3 and 4)"
     assert len(issues) == 2
     with pytest.raises(ProjectFormatError, match=r"^timers\.yaml:8: YAML syntax error"):
         load_project(root)
@@ -69,13 +75,14 @@ def test_a_yaml_syntax_error_names_file_and_line_and_other_files_are_still_check
 def test_a_value_of_the_wrong_type_is_reported(root: Path) -> None:
     edit(root, "timers.yaml", "  4: 0.05", "  4: abc")
     edit(root, "robot.yaml", "  station: 1", "  station: one")
-    edit(root, "programs/sub-00.yaml", "  5: END", "  5: 17")
+    edit(root, "programs/sub-00.yaml", "  - END", "  - 17")
     assert validate_project(root) == [
         "robot.yaml:7: connection.station: 'one' is not an integer (allowed: 1-99)",
         "timers.yaml:8: timers.4: 'abc' is not a number (allowed: 0.00-9.99, two decimals)",
         (
-            "programs/sub-00.yaml:11: steps.5: 17 is not text (allowed: a command and at most 4 "
-            "data items, printable ASCII tokens separated by single spaces)"
+            "programs/sub-00.yaml:11: steps.5: 17 is not text or nothing (allowed: a command and at most 4 "
+            "data items, printable ASCII tokens separated by single spaces, or null for an "
+            "empty step)"
         ),
     ]
     with pytest.raises(ProjectInvalid) as caught:
@@ -174,7 +181,7 @@ def test_issue_11_a_step_longer_than_a_frame_carries_is_refused_saying_how_long_
 ) -> None:
     # Issue 11: such a step passed validate; once written it could never be read back.
     text = "MOVE P" + "1" * (LONGEST_STEP + extra - len("MOVE P"))
-    edit(root, "programs/main-00.yaml", "  1: MOVE P001 S80", f"  1: {text}")
+    edit(root, "programs/main-00.yaml", "  - MOVE P001 S80", f"  - {text}")
     if extra == 0:
         assert validate_project(root) == []
         return
@@ -311,9 +318,10 @@ def test_a_missing_required_key_is_reported(root: Path) -> None:
 
 
 def test_a_step_outside_the_configured_steps_is_reported(root: Path) -> None:
-    edit(root, "programs/hand-02.yaml", "  2: END", "  2: END\n  16: END")
+    edit(root, "programs/hand-02.yaml", "  - END", "  - END" + "\n  - null" * 13 + "\n  - END")
     assert only_issue(root) == (
-        "programs/hand-02.yaml:9: steps.16: step 16 is outside the configuration (allowed: 0-15)"
+        "programs/hand-02.yaml:22: steps.16: step 16 is outside the configuration "
+        "(allowed: 0-15, controller.yaml programs.hand.steps)"
     )
 
 
@@ -349,7 +357,8 @@ def test_a_yaml_file_in_programs_with_another_name_is_reported(root: Path) -> No
     assert only_issue(root).startswith("programs/main-4.yaml:1: not a program file name")
 
 
-def test_a_step_written_twice_is_reported_with_both_lines(root: Path) -> None:
+def test_a_step_written_twice_in_format_1_is_reported_with_both_lines(root1: Path) -> None:
+    root = root1
     edit(root, "programs/main-01.yaml", "  5: MOVE P010 S50", "  5: MOVE P010 S50\n  3: HAND H02")
     assert only_issue(root) == "programs/main-01.yaml:12: steps.3: written twice (lines 9 and 12)"
     with pytest.raises(ProjectInvalid):
@@ -357,10 +366,10 @@ def test_a_step_written_twice_is_reported_with_both_lines(root: Path) -> None:
 
 
 def test_a_file_in_a_newer_format_is_refused_and_never_rewritten(root: Path) -> None:
-    edit(root, "programs/main-00.yaml", "format: 1", "format: 2")
+    edit(root, "programs/main-00.yaml", "format: 2", "format: 3")
     edit(root, "programs/main-00.yaml", "type: MAIN", "type: MAIN\nfuture: feature")
     message = (
-        "programs/main-00.yaml:2: format 2 is newer than this harlsync understands (1): "
+        "programs/main-00.yaml:2: format 3 is newer than this harlsync understands (2): "
         "upgrade harlsync"
     )
     assert validate_project(root) == [message]
@@ -375,15 +384,15 @@ def test_a_file_in_a_newer_format_is_refused_and_never_rewritten(root: Path) -> 
 
 
 def test_an_unknown_older_format_is_reported(root: Path) -> None:
-    edit(root, "parameters.yaml", "format: 1", "format: 0")
-    assert only_issue(root) == "parameters.yaml:2: format: 0 is not a known format (allowed: 1-1)"
+    edit(root, "parameters.yaml", "format: 2", "format: 0")
+    assert only_issue(root) == "parameters.yaml:2: format: 0 is not a known format (allowed: 1-2)"
 
 
 def test_a_missing_program_file_is_a_validation_error(root: Path) -> None:
     (root / "programs" / "sub-02.yaml").unlink()
     message = (
         "controller.yaml:7: programs.sub.count: 4 SUB programs configured, but "
-        "programs/sub-02.yaml is missing (an empty program is written `steps: {}`)"
+        "programs/sub-02.yaml is missing (an empty program is written `steps: []`)"
     )
     assert validate_project(root) == [message]
     with pytest.raises(ProjectInvalid) as caught:
@@ -415,11 +424,11 @@ def test_every_offset_table_must_be_present_and_numbered_0_to_99(root: Path) -> 
 
 
 def test_a_step_with_five_data_items_or_a_double_space_is_reported(root: Path) -> None:
-    edit(root, "programs/start.yaml", "  2: CALL M00", "  2: CALL M00 A B C D")
-    edit(root, "programs/start.yaml", "  4: CALL M01", "  4: CALL  M01")
+    edit(root, "programs/start.yaml", "  - CALL M00", "  - CALL M00 A B C D")
+    edit(root, "programs/start.yaml", "  - CALL M01", "  - CALL  M01")
     allowed = (
         "(allowed: a command and at most 4 data items, printable ASCII tokens separated by "
-        "single spaces)"
+        "single spaces, or null for an empty step)"
     )
     assert validate_project(root) == [
         f"programs/start.yaml:8: steps.2: 'CALL M00 A B C D' is not allowed {allowed}",
@@ -432,14 +441,14 @@ def test_a_bad_step_number_and_a_bad_step_among_valid_ones_are_each_reported_iss
 ) -> None:
     # The schema check passes a whole mapping at once while every key and value
     # is valid (issue 7); one bad one must still be found and worded as before.
-    edit(root, "programs/start.yaml", "  5: JUMP 7", "  5a: JUMP 7")
-    edit(root, "programs/start.yaml", "  9: CALLS S02", "  9: CALLS\tS02")
+    edit(root, "programs/start.yaml", "  - JUMP 7", "  - {JUMP: 7}")
+    edit(root, "programs/start.yaml", "  - CALLS S02", "  - CALLS\tS02")
     allowed = (
         "(allowed: a command and at most 4 data items, printable ASCII tokens separated by "
-        "single spaces)"
+        "single spaces, or null for an empty step)"
     )
     assert validate_project(root) == [
-        "programs/start.yaml:11: steps.5a: '5a' is not a valid key (allowed: step numbers 0, 1, 2, ...)",
+        f"programs/start.yaml:11: steps.5: a mapping is not text or nothing {allowed}",
         f"programs/start.yaml:15: steps.9: 'CALLS\\tS02' is not allowed {allowed}",
     ]
 
@@ -465,7 +474,7 @@ def test_every_issue_of_every_file_is_reported_in_one_run(root: Path) -> None:
         ),
         issues[4],
     ]
-    assert issues[4].startswith("programs/main-02.yaml:7: YAML syntax error")
+    assert issues[4].startswith("programs/main-02.yaml:6: YAML syntax error")
 
 
 def test_a_path_that_is_not_a_directory_cannot_be_validated(tmp_path: Path) -> None:
@@ -554,7 +563,7 @@ def test_an_older_format_is_migrated_on_load_and_written_as_current_on_save(
         return data
 
     monkeypatch.setitem(layout.MIGRATIONS, 0, tables_were_called_offsets)
-    edit(root, "offsets.yaml", "format: 1\ntables:", "format: 0\noffsets:")
+    edit(root, "offsets.yaml", "format: 2\ntables:", "format: 0\noffsets:")
     assert validate_project(root) == []
     project = load_project(root)
     assert project.data == load_project(EXAMPLE).data

@@ -262,7 +262,8 @@ def test_the_page_is_self_contained_and_shows_markup_as_text(
     assert not re.search(r"""(src|href)=["']?(https?:|//)""", html)  # no external asset
     assert "<link" not in html
     # The changes: the step changed on the pendant, the position, what the push wrote.
-    assert "+  2: MOVE &lt;script&gt;" in html and "cell-9/positions.yaml" in html
+    # (a format-2 program's git diff: the step's line, a list item)
+    assert "+  - MOVE &lt;script&gt;" in html and "cell-9/positions.yaml" in html
     assert re.search(r"timer 1: [0-9.]+ → 0.80", html)  # what it wrote, as diff shows it
     assert "position " in html and "may or may not have been written" in html
 
@@ -282,7 +283,7 @@ def test_a_browser_shows_every_robot_in_its_state(plant, records, tmp_path) -> N
     # The reason and the step were shown as text: the browser made no element of them.
     assert "script" not in dom.elements
     text = "".join(dom.text)
-    assert f"2: MOVE {MARKUP}" in text and f"faster pick {MARKUP}" in text
+    assert f"- MOVE {MARKUP}" in text and f"faster pick {MARKUP}" in text
 
 
 def test_backup_writes_the_page_at_the_end_of_its_run(robot, tmp_path) -> None:

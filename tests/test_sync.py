@@ -512,7 +512,7 @@ EDITS = {
     "timer 0.80": ("timers.yaml", "  1: 0.80", None),
     "register 0012": ("registers.yaml", "  1: 0012", None),
     "parameter 51": ("parameters.yaml", "pull_rate: 51", None),
-    "step": ("programs/main-00.yaml", "  1: MOVE P010 S50", None),
+    "step": ("programs/main-00.yaml", "  - MOVE P010 S50", None),  # step 1
 }
 
 
@@ -532,13 +532,16 @@ def test_issue_11_a_push_of_a_validated_project_converges_on_a_controller_that_k
         engine.pull(project)
         file, line, one = EDITS[edit]
         path = project / file
-        key = line.split(":")[0] + ":"
         text = path.read_text()
-        assert f"\n{key} " in text, f"{key} not in {file}"
-        path.write_text(
-            "\n".join(line if old.startswith(key + " ") else old for old in text.splitlines())
-            + "\n"
-        )
+        lines = text.splitlines()
+        if line.startswith("  - "):  # a step: the list's second item is step 1
+            at = [i for i, old in enumerate(lines) if old.startswith("  - ")][1]
+        else:
+            key = line.split(":")[0] + ":"
+            assert f"\n{key} " in text, f"{key} not in {file}"
+            at = next(i for i, old in enumerate(lines) if old.startswith(key + " "))
+        lines[at] = line
+        path.write_text("\n".join(lines) + "\n")
         git(repo, "add", "-A")
         git(repo, "commit", "-qm", edit)
         issues = validate_project(project)

@@ -186,9 +186,12 @@ def test_the_writer_writes_the_layouts_it_is_for() -> None:
             ("start", yamlio.quoted("22:00")),
             ("on", yamlio.boolean(True)),
             ("off", yamlio.null()),
+            # a format-2 program's steps: a block sequence, an empty step null
+            ("listed", yamlio.sequence([yamlio.text("END"), yamlio.null(), yamlio.text("-1")])),
         ]
     )
     assert _same_as_emitter(node, "# yaml-language-server: $schema=x\n")
+    assert yamlio._Writer("").document(node) is not None
 
 
 # --- every file of any project, and the example ------------------------------------------

@@ -137,7 +137,22 @@ class FileSet:
             doc.data = self.migrations[number](kind, doc.data)
             number += 1
             doc.data["format"] = y.Number(str(number))
+            _listed_lines(doc)
         return True
+
+
+def _listed_lines(doc: y.Parsed) -> None:
+    """A migration that made a mapping keyed by number into a list (a HARL-U2
+    program's steps, format 1 to 2): give each item the line its key was on
+    (``("steps", "3")`` -> ``("steps", 3)``), so that issues name where it is written."""
+    for path, line in list(doc.lines.items()):
+        if (
+            len(path) >= 2
+            and isinstance(doc.data.get(path[0]), list)
+            and isinstance(path[1], str)
+            and _DIGITS.fullmatch(path[1])
+        ):
+            doc.lines.setdefault((path[0], int(path[1]), *path[2:]), line)
 
 
 def newer_format(name: str, raw: bytes, current: int) -> Issue | None:

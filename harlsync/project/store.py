@@ -69,6 +69,7 @@ __all__ = [
     "family_of",
     "load_project",
     "load_robot",
+    "migrate_project",
     "read_project",
     "replace_file",
     "require_project",
@@ -292,6 +293,17 @@ LOCAL_IGNORE = f"{LOCAL_DIR}/.gitignore"
 LOCAL_IGNORE_TEXT = b"# harlsync's local state (snapshots, backup times): not versioned\n*\n"
 #: What the last save left: ``{"files": {name: sha256}}`` for every file it manages.
 SAVED = f"{LOCAL_DIR}/saved.json"
+
+
+def migrate_project(path: str | os.PathLike[str], family: AnyFamily | None = None) -> list[str]:
+    """Rewrite the project's files in the current format, from the files alone (no
+    robot): what the save after a pull does to them.  The data is unchanged;
+    ``robot.yaml``, a person's file, is left as it is (its format still loads).
+
+    Returns the paths written, as :func:`save_project` does; raises as
+    :func:`load_project` does (a newer format is refused, nothing is written).
+    """
+    return save_project(path, load_project(path, family))
 
 
 def _saved_record(files: dict[str, bytes]) -> bytes:

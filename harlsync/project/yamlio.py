@@ -465,9 +465,10 @@ class _Writer:
     of the result: the data and the line of every path.
 
     Handled: a block mapping at the top; in block mappings, scalars, non-empty block
-    mappings, and flow mappings and sequences of scalars (empty ones as ``{}`` and
-    ``[]``), flow mappings also of flow mappings and sequences; scalars that the emitter writes plain or quoted without escapes or line
-    breaks.  Anything else (block sequences, keys to quote, duplicate keys, non-ASCII
+    mappings, block sequences of scalars, and flow mappings and sequences of scalars
+    (empty ones as ``{}`` and ``[]``), flow mappings also of flow mappings and
+    sequences; scalars that the emitter writes plain or quoted without escapes or line
+    breaks.  Anything else (other block sequences, keys to quote, duplicate keys, non-ASCII
     text, tags to write) raises :class:`_Bail` inside and gives ``None``: the caller
     uses the emitter.
     """
@@ -523,8 +524,25 @@ class _Writer:
             ):
                 text, result[key] = self._flow_sequence(value, at)
                 self._emit(f"{indent}{shown}: {text}")
+            elif isinstance(value, SequenceNode) and value.tag == SEQ:
+                self._emit(f"{indent}{shown}:")
+                result[key] = self._block_sequence(value, indent + "  ", at)
             else:
                 raise _Bail
+        return result
+
+    def _block_sequence(self, node: SequenceNode, indent: str, path: KeyPath) -> list[Any]:
+        """A block sequence of scalars, an item a line (a program's steps)."""
+        self.nodes.append(id(node))
+        self.parsed.lines.setdefault(path, self.line)
+        result = []
+        for i, value in enumerate(node.value):
+            if not isinstance(value, ScalarNode):
+                raise _Bail
+            self.parsed.lines.setdefault((*path, i), self.line)
+            text, data = self._scalar(value)
+            self._emit(f"{indent}- {text}")
+            result.append(data)
         return result
 
     def _flow_mapping(self, node: MappingNode, path: KeyPath) -> tuple[str, dict[str, Any]]:

@@ -19,7 +19,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, Generic
 
-from ..families.base import Catalogue, Change3, D, K
+from ..families.base import Catalogue, Change3, D, K, Shift, align
 
 __all__ = ["Change", "diff", "render_text", "summarize", "to_json"]
 
@@ -80,18 +80,62 @@ def to_json(change: Change[K]) -> dict[str, object]:
 
 
 def render_text(changes: list[Change[K]], old_label: str, new_label: str) -> str:
-    """The changes as a unified-diff-like text: ``-`` the robot, ``+`` the project."""
+    """The changes as a unified-diff-like text: ``-`` the robot, ``+`` the project.
+
+    A sequence (a program's steps, :meth:`Catalogue.position`) is aligned: an item
+    inserted, deleted or moved shows as that, under a header that says which numbers
+    it shifts (``@@ MAIN program 0: insert at 4 (steps 4-16 move to 5-17) @@``); the
+    items that only moved along are not shown as changed.
+    """
     lines = [f"--- {old_label}", f"+++ {new_label}"]
+    shifts: dict[str, list[Shift]] = {}
+    if changes:
+        for shift in align(changes[0].catalogue, _triples(changes)):
+            shifts.setdefault(shift.group, []).append(shift)
     group = None
     for change in changes:
-        here = change.catalogue.group(change.key)
+        catalogue = change.catalogue
+        here = catalogue.group(change.key)
+        where = catalogue.position(change.key)
+        if here in shifts and where is not None:
+            if here != group:
+                group = here
+                _shifted(lines, here, shifts[here], changes)
+            continue
         if here != group:
             group = here
             lines.append(f"@@ {group} @@")
+        for name, old, new in change.fields():
+            label = catalogue.label(change.key, name)
+            if old is not None:
+                lines.append(f"-{label}: {old}")
+            if new is not None:
+                lines.append(f"+{label}: {new}")
+    return "\n".join(lines) + "\n"
+
+
+def _shifted(lines: list[str], group: str, shifts: list[Shift], changes: list[Change[K]]) -> None:
+    """An aligned sequence: each shift under its own header, then the changes in
+    place that no shift covers (a step edited where it is)."""
+    covered: set[int] = set()
+    for shift in shifts:
+        moved = f" ({'; '.join(shift.moved)})" if shift.moved else ""
+        lines.append(f"@@ {group}: {shift.what}{moved} @@")
+        lines += [f"{sign}{n}: {text}" for sign, n, text in shift.lines]
+        covered.update(shift.rewrites)
+    rest = [
+        c
+        for c in changes
+        if c.catalogue.group(c.key) == group
+        and (where := c.catalogue.position(c.key)) is not None
+        and where[1] not in covered
+    ]
+    if rest:
+        lines.append(f"@@ {group} @@")
+    for change in rest:
         for name, old, new in change.fields():
             label = change.catalogue.label(change.key, name)
             if old is not None:
                 lines.append(f"-{label}: {old}")
             if new is not None:
                 lines.append(f"+{label}: {new}")
-    return "\n".join(lines) + "\n"

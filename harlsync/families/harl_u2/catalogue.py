@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
-from ..base import Catalogue, PlanShape
+from ..base import Catalogue, PlanShape, align, spans
 from .model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
 
 __all__ = ["CATALOGUE", "BlockKey", "HarlU2Catalogue", "Key", "NumberKey", "StepKey"]
@@ -103,6 +103,11 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
                 return "START program"
             return f"{key.program_type} program {key.program}"
         return {"timer": "timers", "register": "registers"}.get(key.kind, self.describe(key))
+
+    def position(self, key: Key) -> tuple[str, int] | None:
+        """A program is a sequence of steps: diff and plan align it, so that a step
+        inserted reads as one step inserted."""
+        return (self.group(key), key.step) if isinstance(key, StepKey) else None
 
     def label(self, key: Key, field: str) -> str:
         if isinstance(key, StepKey):
@@ -243,7 +248,18 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
                 for key, value in self.items(project).items()
                 if isinstance(key, StepKey)
             ]
+        # An insertion or deletion rewrites every step it moves along (each step whose
+        # content changed is one SN write, as ever): say so in the program's terms.
+        notes = (
+            [
+                f"{shift.group}: {shift.what}: rewrites {_steps(shift.rewrites)}"
+                for shift in align(self, [c for c in wanted if isinstance(c[0], StepKey)])
+            ]
+            if not reconfigure
+            else []
+        )
         return PlanShape(
+            notes=notes,
             wanted=wanted,
             unwritable=unwritable,
             reconfigure=(
@@ -261,6 +277,11 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
 
 
 CATALOGUE = HarlU2Catalogue()
+
+
+def _steps(numbers: list[int]) -> str:
+    """``steps 4-17``, ``step 16``."""
+    return f"step{'s' * (len(numbers) != 1)} {spans(numbers)}"
 
 
 def _tables(count: int) -> str:

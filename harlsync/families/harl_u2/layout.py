@@ -13,7 +13,7 @@ on the next save; a newer format is refused.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from ...project import yamlio as y
@@ -34,7 +34,7 @@ from ...project.files import (
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
 from ...settings import SerialSettings
-from ..base import Analysis
+from ..base import Analysis, spans
 from .declared import FIRST_STATION, LAST_STATION, PROGRAMS_DIR, STATION_ALLOWED
 from .model import (
     CODE_RE,
@@ -84,14 +84,40 @@ __all__ = [
     "render_timers",
 ]
 
-#: The format number this harlsync reads and writes.
-FORMAT = 1
+#: The format number this harlsync reads and writes.  Format 2 writes a program's
+#: steps as a list in step order (format 1: a mapping keyed by step number).
+FORMAT = 2
 
 #: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind
 #: ``kind`` into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).
 #: Load applies them in turn up to :data:`FORMAT`; the next save writes the
-#: result.  Empty while there has only been one format.
+#: result.
 MIGRATIONS: dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]] = {}
+
+#: The most steps a program area has (controller.yaml's schema: ``steps`` 0-9999).
+MAX_STEPS = 9999
+_STEP_NUMBER = re.compile(r"0|[1-9][0-9]{0,3}")
+
+
+def migrate_1_to_2(kind: str, data: dict[str, Any]) -> dict[str, Any]:
+    """Format 1 to 2: a program's ``steps`` mapping (step number -> step, empty steps
+    left out) becomes the list of its steps in step order, an empty step ``null``.
+
+    A mapping that is not a format-1 step mapping (a key that is no step number) is
+    left as it is, for the schema to report; every other file is unchanged.
+    """
+    steps = data.get("steps") if kind == "program" else None
+    if not isinstance(steps, dict) or not all(
+        isinstance(k, str) and _STEP_NUMBER.fullmatch(k) and int(k) <= MAX_STEPS for k in steps
+    ):
+        return data
+    listed: list[Any] = [None] * (max((int(k) for k in steps), default=-1) + 1)
+    for k, step in steps.items():
+        listed[int(k)] = step
+    return {**data, "steps": listed}
+
+
+MIGRATIONS[1] = migrate_1_to_2
 
 #: Top-level files in the order they are checked and reported.
 ROOT_FILES = {
@@ -217,16 +243,21 @@ def render_registers(registers: Mapping[int, str]) -> str:
 
 
 def render_program(key: ProgramKey, steps: Mapping[int, Step]) -> str:
-    """One program file; empty steps are left out."""
+    """One program file: its steps as a list in step order, up to the last step used;
+    an empty step before it is ``null``, so that inserting a step renumbers nothing."""
     ptype, number = key
-    kept = {n: s.text for n, s in steps.items() if not s.empty}
+    used = [n for n, s in steps.items() if not s.empty]
+    nodes = [
+        y.text(steps[n].text) if n in steps and not steps[n].empty else y.null()
+        for n in range(max(used, default=-1) + 1)
+    ]
     return FILES.document(
         "program",
         program_path(key),
         [
             ("type", y.text(ptype.value)),
             ("number", y.num(str(number))),
-            ("steps", numbered(kept, y.text)),
+            ("steps", y.sequence(nodes, flow=not nodes)),
         ],
     )
 
@@ -330,6 +361,15 @@ def _get(doc: y.Parsed, key: str) -> Any:
     return doc.data.get(key) if isinstance(doc.data, dict) else None
 
 
+def _steps(doc: y.Parsed) -> list[tuple[int, Any]]:
+    """A program's used steps as (step number, what is written); [] when ``steps`` is
+    not a list (the schema reports it)."""
+    steps = _get(doc, "steps")
+    if not isinstance(steps, list):
+        return []
+    return [(n, step) for n, step in enumerate(steps) if step is not None]
+
+
 def _check_program_header(name: str, key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
     ptype, number = key
     found_type, found_number = _get(doc, "type"), _get(doc, "number")
@@ -357,19 +397,6 @@ def _span(count: int) -> str:
     return "none" if count <= 0 else ("0" if count == 1 else f"0-{count - 1}")
 
 
-def _ranges(numbers: Iterable[int]) -> str:
-    """``[0, 1, 2, 5]`` -> ``"0-2, 5"``."""
-    parts: list[str] = []
-    run: list[int] = []
-    for n in [*sorted(numbers), None]:
-        if run and n != run[-1] + 1:
-            parts.append(str(run[0]) if len(run) == 1 else f"{run[0]}-{run[-1]}")
-            run = []
-        if n is not None:
-            run.append(n)
-    return ", ".join(parts)
-
-
 def _check_numbered(
     name: str, doc: y.Parsed, key: str, count: int, what: str, issues: list[Issue]
 ) -> None:
@@ -395,7 +422,7 @@ def _check_numbered(
                 name,
                 doc.line((key,)),
                 key,
-                f"{what} {_ranges(missing)} missing (allowed: every {what} {_span(count)})",
+                f"{what} {spans(missing)} missing (allowed: every {what} {_span(count)})",
             )
         )
 
@@ -434,15 +461,16 @@ def _check_against_config(
                 )
             )
             continue
-        for text, step in numbers(_get(doc, "steps")):
+        for step, _ in _steps(doc):
             if step >= area.steps:
                 issues.append(
                     Issue(
                         name,
-                        doc.line(("steps", text)),
-                        f"steps.{text}",
-                        f"step {show(y.Number(text))} is outside the configuration "
-                        f"(allowed: {_span(area.steps)})",
+                        doc.line(("steps", step)),
+                        f"steps.{step}",
+                        f"step {step} is outside the configuration "
+                        f"(allowed: {_span(area.steps)}, controller.yaml "
+                        f"programs.{ptype.value.lower()}.steps)",
                     )
                 )
     controller = docs["controller.yaml"]
@@ -455,7 +483,7 @@ def _check_against_config(
                     controller.line(field_path),
                     ".".join(field_path),
                     f"{config.area(key[0]).count} {key[0].value} programs configured, but "
-                    f"{program_path(key)} is missing (an empty program is written `steps: {{}}`)",
+                    f"{program_path(key)} is missing (an empty program is written `steps: []`)",
                 )
             )
 
@@ -537,20 +565,18 @@ _STEP_WRITE_PREFIX = len(f"SNM 99 {HUGE} ")
 
 def _check_steps(key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
     ptype, number = key
-    steps = doc.data["steps"]
     # A step this short fits a frame in its write, and in the reply that reads it back
     # (the step number, then the step: shorter than the write); that reply begins with
     # the step number, never with the error prefix.  Only longer steps are worked out.
     surely_fits = payload_room(MAX_STATION) - _STEP_WRITE_PREFIX
-    for text, n in numbers(steps):
-        step = steps[text]
+    for n, step in _steps(doc):
         if len(step) <= surely_fits:
             continue
         write = cmd.write_step(ptype, number, n, Step.parse(step))
         back = cmd.read_back(write)
         if not back.excess and back.misread is None:
             continue
-        where = (program_path(key), doc.line(("steps", text)), f"steps.{text}")
+        where = (program_path(key), doc.line(("steps", n)), f"steps.{n}")
         if back.excess:
             issues.append(
                 Issue(
@@ -630,7 +656,7 @@ def _build_data(
     for key in sorted(programs, key=_program_order):
         parsed = programs[key]
         assert parsed is not None
-        steps[key] = {int(n): Step.parse(text) for n, text in parsed.data["steps"].items()}
+        steps[key] = {n: Step.parse(text) for n, text in _steps(parsed)}
     return RobotData(
         version=doc("controller.yaml")["version"],
         config=config,
