@@ -164,7 +164,12 @@ def test_plan_says_an_insertion_rewrites_the_steps_it_shifts_and_the_push_writes
     assert main(["plan", str(project), "--port", url]) == 0
     out = capsys.readouterr().out.splitlines()
     assert "# note: MAIN program 0: insert at 4: rewrites steps 4-17" in out
-    writes = [line for line in out if not line.startswith("#")]
+    # Without -v the plan shows the insertion as diff does, and the count of writes.
+    assert "+4: WAIT DI05 ON" in out and not any("SNM" in line for line in out)
+    assert out[-1].startswith("# 14 item(s) to ")
+    assert main(["-v", "plan", str(project), "--port", url]) == 0
+    shown = capsys.readouterr().out.splitlines()
+    writes = [line.partition(": ")[2] for line in shown if ": SNM " in line]
     # Minimal: one SN write per step whose content changed (4-17), nothing else.
     assert len(writes) == 14
     assert all(line.startswith("SNM 0 ") for line in writes)
