@@ -60,7 +60,14 @@ __all__ = [
 
 
 class HarlsyncError(Exception):
-    """Root of every error harlsync raises on purpose."""
+    """Root of every error harlsync raises on purpose.
+
+    ``notes`` are what harlsync did to the robot on its own before the error (an
+    Epson function reset begun and not finished), one sentence each: whoever
+    records a failure records them too, so a record never denies an action.
+    """
+
+    notes: tuple[str, ...] = ()
 
 
 class ProtocolError(HarlsyncError):

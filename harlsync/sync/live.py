@@ -102,7 +102,12 @@ def read_live(
     out how far each table goes and fail rather than read part of one.  ``noted`` is
     given the driver's notes (what it did on its own) once the read is over, whether
     it succeeded or not: what was done to the robot is told even when the read fails."""
-    driver = connect(family, robot, port, station, lock_timeout=lock_timeout, options=options)
+    try:
+        driver = connect(family, robot, port, station, lock_timeout=lock_timeout, options=options)
+    except HarlsyncError as exc:  # what was done to the robot before the line failed
+        if noted is not None and exc.notes:
+            noted(exc.notes)
+        raise
     try:
         warnings = unfinished_pushes(robot, port, station)
         live = driver.read_all(registers=registers, progress=progress, whole=whole)

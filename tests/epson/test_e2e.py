@@ -766,6 +766,41 @@ def test_issue_22_a_function_reset_is_in_the_audit_log_and_the_report_when_the_p
     assert f"note: cell-3: {record['note']}" in report.render()
 
 
+def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_and_the_report(
+    robot, repo, monkeypatch
+) -> None:
+    """Review finding 5, its last gap: a reset that drops ExtCmdReset and then never
+    sees the function ready fails the connection itself, before any driver holds a
+    note.  The error carries the note, so the record still says the robot was reset."""
+    from harlsync.families.epson import handshake as hs
+
+    sim, url = robot
+    pulled(repo, url)
+    _left_in_use(sim)
+    real = hs.Handshake.reset_function
+
+    def not_ready_after(self: hs.Handshake, **kwargs: bool) -> None:
+        real(self, **kwargs)  # ExtCmdReset dropped and raised again, on the simulator
+        raise hs.HandshakeTimeout(
+            "the function is not ready after its reset",
+            port=self.label,
+            command="function reset",
+            step=hs.Step.FUNCTION_READY,
+            acquired=False,
+        )
+
+    monkeypatch.setattr(hs.Handshake, "reset_function", not_ready_after)
+    report = backup([repo])
+    (cell,) = report.robots
+    # The first attempt failed on the reset; the next found the function idle again.
+    assert "not ready after its reset" in cell.attempts[0] and report.ok
+    assert len(sim.remote().reset_drops) == 1  # the robot was reset ...
+    (record,) = [r for r in audit.read() if r.get("event") == "recover"]  # ... and it says so
+    assert "a reset (manual 6.5.2) was begun and did not finish" in record["note"]
+    assert cell.notes == [record["note"]]
+    assert f"note: cell-3: {record['note']}" in report.render()
+
+
 @pytest.mark.parametrize(
     ("verb", "signal"), [("pause", "Paused 1"), ("estop", "EStopOn 1"), ("error", "Error 1")]
 )

@@ -35,6 +35,7 @@ from typing import Any, TypeVar
 from ...errors import (
     ControllerError,
     HarlsyncError,
+    InterlockError,
     LinkError,
     LinkTimeout,
     PartlyWritten,
@@ -224,7 +225,20 @@ class Controller:
                             port=link.label,
                             command="function reset",
                         )
-                    handshake.reset_function(at_rest=True)  # the same check, on its own read
+                    try:
+                        handshake.reset_function(at_rest=True)  # the same check, its own read
+                    except InterlockError:
+                        raise  # refused on that read: nothing was sent
+                    except HarlsyncError as exc:
+                        exc.notes = (
+                            *exc.notes,
+                            (
+                                f"the Remote Control function was found in use ({left}) with "
+                                "no harlsync on the line and the robot at rest: a reset "
+                                f"(manual 6.5.2) was begun and did not finish ({exc})"
+                            ),
+                        )
+                        raise
                     notes.append(
                         f"the Remote Control function was found in use ({left}) with no "
                         "harlsync on the line and the robot at rest (Running, Paused, "
