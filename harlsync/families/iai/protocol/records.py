@@ -62,5 +62,5 @@ def read_strings(start: int, count: int, program: int = 0) -> Request[tuple[int,
 
 def _code_from_wire(wire: str) -> int:
     if not (len(wire) == 2 and _HEX_RE.fullmatch(wire)):
-        raise ValueError(f"character code {wire!r} is not 2 hex digits")
+        raise ValueError("a character code is not 2 hex digits")
     return int(wire, 16)

@@ -1,5 +1,6 @@
 """A request: a message id and its data, and how its reply is decoded."""
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
@@ -7,6 +8,8 @@ from typing import Generic, TypeVar
 from ....errors import ReplyError
 from .. import profile
 from .frame import _FRAME_OVERHEAD, _HEX_RE, Frame, encode_frame
+
+log = logging.getLogger(__name__)
 
 T = TypeVar("T")
 #: A request's reply type: a ``Request[int]`` is a ``Request[object]`` too.
@@ -76,14 +79,18 @@ class Request(Generic[R_co]):
         if frame.kind == "&":
             return ErrorReply(frame.data)
         if frame.kind != "#":
-            raise ReplyError(f"{self.payload}: a command frame {frame.payload!r}, not a reply")
+            log.debug("%s: a command frame %s, not a reply", self.payload, frame.payload)
+            raise ReplyError(f"{self.payload}: a command frame, not a reply (-vv shows it)")
         if frame.message_id != self.message_id:
             raise ReplyError(f"{self.payload}: a reply to message {frame.payload[:3]}H")
         try:
             return self.parse(frame.data)
         except ValueError as exc:
-            shown = frame.data if len(frame.data) <= 48 else frame.data[:45] + "..."
-            raise ReplyError(f"{self.payload}: bad reply data {shown!r}: {exc}") from exc
+            log.debug("%s: bad reply data %s", self.payload, frame.data)
+            raise ReplyError(
+                f"{self.payload}: a reply of {len(frame.data)} characters that does not read "
+                f"as its answer: {exc} (-vv shows it)"
+            ) from exc
 
     def __str__(self) -> str:
         return self.payload
@@ -106,7 +113,7 @@ class _Fields:
     def hex(self, width: int, what: str) -> int:
         part = self.take(width, what)
         if not _HEX_RE.fullmatch(part):
-            raise ValueError(f"{what} {part!r} is not hex")
+            raise ValueError(f"{what} is not hex")
         return int(part, 16)
 
     def code(self, width: int, what: str) -> str:

@@ -63,7 +63,7 @@ def _read_variables(
 
 def _int_from_wire(wire: str) -> int:
     if not (len(wire) == 8 and _HEX_RE.fullmatch(wire)):
-        raise ValueError(f"integer {wire!r} is not 8 hex digits")
+        raise ValueError("an integer is not 8 hex digits")
     value = int(wire, 16)
     return value - (1 << 32) if value & 0x80000000 else value
 
@@ -74,7 +74,7 @@ def real_from_wire(wire: str, order: str = profile.DEFAULT_REAL_WORD_ORDER) -> f
     Raises :class:`ValueError` for anything but 16 hex digits, or an unknown order.
     """
     if not (len(wire) == 16 and _HEX_RE.fullmatch(wire)):
-        raise ValueError(f"real {wire!r} is not 16 hex digits")
+        raise ValueError("a real is not 16 hex digits")
     value: float = struct.unpack(">d", bytes.fromhex(_in_order(wire, order)))[0]
     return value
 
