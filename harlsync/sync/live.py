@@ -77,9 +77,6 @@ class LiveRead(Generic[K, D]):
     warnings: list[str]
     #: when asked and the robot is not idle: why a push would be refused now
     busy: str | None = None
-    #: what the driver did on its own to read the robot (an Epson function left in
-    #: use by a dead harlsync, reset): the driver's ``notes``
-    notes: tuple[str, ...] = ()
 
 
 def read_live(
@@ -112,7 +109,7 @@ def read_live(
         warnings = unfinished_pushes(robot, port, station)
         live = driver.read_all(registers=registers, progress=progress, whole=whole)
         busy = _busy(driver) if idle_check else None
-        return LiveRead(driver, live, warnings, busy, tuple(driver.notes))
+        return LiveRead(driver, live, warnings, busy)
     finally:
         try:
             if noted is not None and driver.notes:

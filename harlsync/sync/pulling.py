@@ -36,8 +36,6 @@ class PullResult:
     earlier: list[str] = field(default_factory=list)
     #: What was read, in the family's words (Catalogue.contents).
     contents: str = ""
-    #: What the connection recovered on its own before reading (also in the audit log).
-    notes: list[str] = field(default_factory=list)
 
     @property
     def changed(self) -> bool:
@@ -159,7 +157,6 @@ def pull(
         changes,
         earlier=earlier,
         contents=things.contents(live, registers=robot.keep_registers),
-        notes=list(read.notes),
     )
     since = history.read(path).get("last_success")
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
