@@ -44,6 +44,7 @@ from harlsync.families.harl_u2.model import (
 )
 from harlsync.families.harl_u2.protocol import FrameDecoder, decode_reply, encode_frame
 from harlsync.families.harl_u2.protocol import commands as c
+from harlsync.families.harl_u2.protocol.frame import off_allow_list
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.project import (
     Project,
@@ -66,7 +67,11 @@ _WIRE_BYTES = st.one_of(
     st.builds(
         encode_frame,
         st.integers(0, 99),
-        st.from_regex(r"[!-~]{1,6}( [!-~]{1,6}){0,3}", fullmatch=True),
+        # a reply's first field (a request's is one of the allow-list's, which the
+        # encoder checks; letters after it are anything)
+        st.from_regex(r"[0-9+\-.E][!-~]{0,5}( [!-~]{1,6}){0,3}", fullmatch=True).filter(
+            lambda p: off_allow_list(p) is None
+        ),
     ),
     st.binary(max_size=6),
 )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 from conftest import examples
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from harlsync.errors import FrameError, LRCError, ProtocolError, ReplyError
@@ -26,6 +26,7 @@ from harlsync.families.harl_u2.protocol import (
 )
 from harlsync.families.harl_u2.protocol import commands as c
 from harlsync.families.harl_u2.protocol.commands import Ack, ErrorReply
+from harlsync.families.harl_u2.protocol.frame import off_allow_list
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.families.harl_u2.sim.state import DEFAULT_PARAMETERS
 
@@ -187,6 +188,7 @@ def test_any_encoded_frame_decodes_to_itself_after_noise(
     station: int, fields, noise: bytes
 ) -> None:
     payload = " ".join(fields)
+    assume(off_allow_list(payload) is None)  # those are refused, tested above
     dec = FrameDecoder()
     dec.feed(noise.replace(STX, b"") + encode_frame(station, payload))
     frame = dec.next_frame()
@@ -279,6 +281,20 @@ def test_issue_19_a_request_needs_a_sent_command_as_its_exact_first_field_and_si
     payload: str,
 ) -> None:
     with pytest.raises(FrameError, match="allow-list|empty field"):
+        encode_frame(1, payload)
+
+
+# Last session's closing note: a first field of letters that does not begin LN or SN
+# ("S NOB 1", split so that no field reads as a command) was still encoded.  A first
+# field that begins with a letter is a command unless it is an error reply.
+LETTER_FIRST = ["S NOB 1", "N 1", "X1", "L NT 1", "s nob 5 1", "MOVE P010", "e21"]
+
+
+@pytest.mark.parametrize("payload", LETTER_FIRST)
+def test_a_first_field_of_letters_off_the_allow_list_is_refused_however_it_is_split(
+    payload: str,
+) -> None:
+    with pytest.raises(FrameError, match="not on the HARL-U2 allow-list"):
         encode_frame(1, payload)
 
 

@@ -80,10 +80,22 @@ _COMMAND_START = re.compile(r"[LS]N", re.IGNORECASE)
 
 
 def off_allow_list(payload: str) -> str | None:
-    """The first field of ``payload`` when it reads as a command but is not exactly
-    one of ``profile.SENT_COMMANDS`` (such a payload is never encoded), else None."""
+    """The first field of ``payload`` when it is not exactly one of
+    ``profile.SENT_COMMANDS`` yet could be read as a command (such a payload is never
+    encoded), else None.
+
+    A first field that begins with a letter is a command unless it is an error reply
+    (``profile.ERROR_PREFIX`` then the status): so ``S NOB 1``, ``N``, ``X1`` are
+    refused along with ``SNO`` and ``SNOB1``, and a layer above cannot split or
+    misspell its way round the list.  Replies otherwise begin with a digit, a sign
+    or a decimal point, never a letter.
+    """
     first = payload.split(" ", 1)[0]
-    if _COMMAND_START.match(first) and first not in profile.SENT_COMMANDS:
+    if first in profile.SENT_COMMANDS:
+        return None
+    if _COMMAND_START.match(first):
+        return first
+    if first[:1].isalpha() and not first.startswith(profile.ERROR_PREFIX):
         return first
     return None
 
