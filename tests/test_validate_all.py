@@ -109,3 +109,110 @@ def test_an_iai_schema_error_does_not_hide_the_range_checks_of_the_other_positio
         any(f"position {n} is outside the robot's table (allowed: 1-10" in line for line in said)
         for n in beyond
     ), said
+
+
+# -- HARL-U2: a schema error skips its own item's deeper checks, and nothing else --------
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
+#: A step as long as no frame carries (tests/test_project_validation.py words the limit).
+TOO_LONG = "MOVE P" + "1" * 600
+
+
+@pytest.fixture
+def harl(tmp_path: Path) -> Path:
+    import shutil
+
+    target = tmp_path / "pick-and-place"
+    shutil.copytree(EXAMPLE, target)
+    return target
+
+
+def said(root: Path) -> list[str]:
+    return [str(issue) for issue in validate_project(root)]
+
+
+def test_harl_a_bad_step_hides_neither_the_other_steps_nor_the_other_programs(harl) -> None:
+    main = harl / "programs" / "main-00.yaml"
+    replace(main, "  - OFFSET L00", "  - OFFSET  L00")  # a double space: the schema's
+    replace(main, "  - MOVE P001 S80", f"  - {TOO_LONG}")  # same file, the frame's
+    replace(harl / "programs" / "main-01.yaml", "steps:\n", f"steps:\n  - {TOO_LONG}\n")
+    sub = harl / "programs" / "sub-00.yaml"
+    sub.write_text(sub.read_text().rstrip("\n") + "\n" + "  - null\n" * 40 + "  - END\n")
+    lines = said(harl)
+    assert lines[0].startswith("programs/main-00.yaml:6: steps.0: 'OFFSET  L00' is not allowed")
+    assert lines[1].startswith("programs/main-00.yaml:7: steps.1: 606 characters are more than")
+    assert lines[2].startswith("programs/main-01.yaml:6: steps.0: 606 characters are more than")
+    assert lines[3].startswith("programs/sub-00.yaml:")
+    assert (
+        "is outside the configuration (allowed: 0-31, controller.yaml programs.sub.steps)"
+        in (lines[3])
+    )
+    assert len(lines) == 4, lines
+
+
+def test_harl_a_schema_error_in_controller_yaml_keeps_the_checks_its_sound_parts_make(
+    harl,
+) -> None:
+    replace(harl / "controller.yaml", "version: '5.00'", "version: '5 00'")
+    replace(
+        harl / "controller.yaml", "  sub: {count: 4, steps: 32}", "  sub: {count: four, steps: 32}"
+    )
+    replace(harl / "timers.yaml", "  3: 1.50", "  3: 1.50\n  99: 1.00")
+    (harl / "programs" / "hand-03.yaml").unlink()
+    (harl / "programs" / "main-04.yaml").write_text(
+        (harl / "programs" / "main-03.yaml").read_text().replace("number: 3", "number: 4")
+    )
+    assert said(harl) == [
+        (
+            "controller.yaml:3: version: '5 00' is not allowed (allowed: text without spaces, "
+            "e.g. '5.00')"
+        ),
+        "controller.yaml:7: programs.sub.count: 'four' is not an integer (allowed: 0-100)",
+        (
+            "controller.yaml:8: programs.hand.count: 4 HAND programs configured, but "
+            "programs/hand-03.yaml is missing (an empty program is written `steps: []`)"
+        ),
+        "timers.yaml:8: timers.99: timer 99 is outside the configuration (allowed: 0-15)",
+        (
+            "programs/main-04.yaml:4: number: MAIN program 4 is outside the configuration "
+            "(allowed: 0-3, controller.yaml programs.main.count)"
+        ),
+    ]
+
+
+def test_harl_a_schema_error_in_robot_yaml_keeps_its_offset_tables(harl) -> None:
+    robot = harl / "robot.yaml"
+    replace(robot, "keep_registers: false", "keep_registers: false\noffset_tables: 101\nbogus: 1")
+    table = "{x: 0.00, y: 0.00, z: 0.00, w: 0.00, r: 0.00, c: 0.00, m: 0, f: 0}"
+    replace(harl / "offsets.yaml", "  7: ", f"  100: {table}\n  7: ")
+    # robot.yaml's count is sound: table 100 is the robot's, not a problem
+    assert said(harl) == [
+        (
+            "robot.yaml:21: bogus: unknown key (allowed: format, family, name, description, "
+            "connection, maintenance_windows, keep_registers, offset_tables)"
+        )
+    ]
+    replace(robot, "offset_tables: 101", "offset_tables: many")
+    # ... and when the count is what is wrong, the tables are not checked against a guess
+    assert [line.split(": ")[1] for line in said(harl)] == ["offset_tables", "bogus"]
+
+
+def test_harl_a_bad_offset_table_hides_not_the_form_check_of_another(harl) -> None:
+    replace(harl / "offsets.yaml", "x: 120.50", "x: fast")  # table 7
+    replace(harl / "offsets.yaml", "  0: {x: 0.00,", "  0: {x: 00.00,")
+    lines = said(harl)
+    assert lines[0].startswith("offsets.yaml:4: tables.0.x: 00.00 is not written in its one form")
+    assert lines[1].startswith("offsets.yaml:11: tables.7.x: 'fast' is not a number")
+    assert len(lines) == 2, lines
+
+
+def test_harl_the_parameters_are_checked_when_each_of_them_passes_the_schema(harl) -> None:
+    params = harl / "parameters.yaml"
+    replace(params, "pull_limit: 80", "pull_limit: E12")
+    replace(params, "prg_count: 0", "prg_count: 0\nextra: 1")  # not a parameter
+    lines = said(harl)
+    assert [line.split(": ")[1] for line in lines] == ["pull_limit", "extra"], lines
+    assert "would begin the LNE reply with 'E'" in lines[0]
+    # a parameter the schema refuses makes the one SNE write unsound: it alone is said
+    replace(params, "pull_rate: 50", "pull_rate: 'a b'")
+    assert [line.split(": ")[1] for line in said(harl)] == ["pull_rate", "extra"]
