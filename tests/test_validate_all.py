@@ -216,3 +216,39 @@ def test_harl_the_parameters_are_checked_when_each_of_them_passes_the_schema(har
     # a parameter the schema refuses makes the one SNE write unsound: it alone is said
     replace(params, "pull_rate: 50", "pull_rate: 'a b'")
     assert [line.split(": ")[1] for line in said(harl)] == ["pull_rate", "extra"]
+
+
+def test_an_epson_point_the_schema_refuses_hides_not_the_checks_of_the_others(epson) -> None:
+    points = epson / "points.yaml"
+    replace(
+        points,
+        "u: 0.000, hand: Righty, elbow: Above, wrist: NoFlip",
+        "u: 0.000, hand: Sideways, elbow: Above, wrist: NoFlip",
+    )  # P0
+    replace(points, "  12: {x: 1.000,", "  12: {x: 01.000,")
+    replace(points, "  13: {", "  150: {")
+    assert said(epson) == [
+        "points.yaml:4: points.0.hand: 'Sideways' is not allowed (allowed: Lefty, Righty)",
+        (
+            "points.yaml:5: points.12.x: 01.000 is not written in its one form (write 1.000: the "
+            "controller reads it back so, and a push would never converge)"
+        ),
+        (
+            "points.yaml:6: points.150: P150 is outside the robot's range (allowed: 0-99, robot.yaml "
+            "controller.first_point/last_point)"
+        ),
+    ]
+
+
+def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(tmp_path) -> None:
+    from tests.iai.test_variables import KEPT, data, robot
+
+    path = tmp_path / "cell-9"
+    save_project(path, Project(path, robot(), data(**KEPT)))
+    variables = path / "variables.yaml"
+    replace(variables, "  601: true", "  601: maybe")
+    replace(variables, "  201: -1000", "  201: -01000")
+    replace(variables, "  300: 0.0", "  399: 0.0")
+    lines = said(path)
+    assert [line.split(": ")[1] for line in lines] == ["flags.601", "integers.201", "reals.399"]
+    assert "is outside the robot's range (allowed: 300-305" in lines[2], lines

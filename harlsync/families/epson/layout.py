@@ -41,6 +41,7 @@ from typing import Any
 from ...project import yamlio as y
 from ...project.files import (
     FileSet,
+    Flaws,
     build_windows,
     canonical_integer,
     check_canonical,
@@ -325,13 +326,16 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     issues: list[Issue] = []
     docs: dict[str, y.Parsed] = {}
     valid: set[str] = set()
+    flaws: dict[str, Flaws] = {}
     for name, kind in ROOT_FILES.items():
         if name not in files:
             issues.append(Issue(name, None, None, "missing", fatal=True))
             continue
+        before = len(issues)
         doc, ok = FILES.read(name, kind, files[name], issues)
         if doc is not None:
             docs[name] = doc
+            flaws[name] = Flaws.of(issues[before:], name)
         if ok:
             valid.add(name)
 
@@ -348,11 +352,13 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
             pass
     if axes is None and result.robot is not None:
         axes = result.robot.options.get("axes")
-    if "points.yaml" in valid:
+    if "points.yaml" in docs:  # each point the schema passed, whatever the others hold
         robot_type = None
-        if "settings.yaml" in valid:
+        if "settings.yaml" in docs and flaws["settings.yaml"].sound("manipulator", "type"):
             robot_type = type_code(docs["settings.yaml"].data["manipulator"]["type"])
-        _check_points(docs["points.yaml"], result.robot, axes, issues, robot_type)
+        _check_points(
+            docs["points.yaml"], flaws["points.yaml"], result.robot, axes, issues, robot_type
+        )
     if not issues and result.robot is not None:
         data = _build_data(docs["settings.yaml"].data, docs["points.yaml"].data)
         data.covered, data.probed_to = _covered(files["points.yaml"])
@@ -585,15 +591,20 @@ def _check_settings(
 
 def _check_points(
     doc: y.Parsed,
+    flaws: Flaws,
     robot: Robot | None,
     axes: int | None,
     issues: list[Issue],
     robot_type: int | None = None,
 ) -> None:
-    table = doc.data["points"]
+    """What the schema cannot say of each point it passed: the robot's range, the
+    coordinates against the axes, the type's own attributes."""
+    table: Any = doc.data.get("points") if isinstance(doc.data, dict) else None
     first, last = point_range(robot) if robot is not None else (0, 0xFFFF)
     for key, n in numbers(table):
         at = ("points", key)
+        if not flaws.sound(*at):
+            continue
 
         def issue(message: str, *where: str | int, at: tuple[str, str] = at) -> None:
             path = at + where
