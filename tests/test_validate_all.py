@@ -252,3 +252,20 @@ def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(t
     lines = said(path)
     assert [line.split(": ")[1] for line in lines] == ["flags.601", "integers.201", "reals.399"]
     assert "is outside the robot's range (allowed: 300-305" in lines[2], lines
+
+
+@pytest.mark.parametrize(("words", "refused"), [(3, True), (5, True), (6, False), (8, False)])
+def test_epson_response_words_fewer_than_the_reads_need_are_refused_by_validate(
+    epson, capsys, words, refused
+) -> None:
+    replace(epson / "robot.yaml", "response_words: 8", f"response_words: {words}")
+    assert cli.main(["validate", str(epson)]) == int(refused)
+    out = capsys.readouterr().out.strip().splitlines()
+    if refused:
+        assert out == [
+            (
+                f"robot.yaml:16: connection.map.response_words: {words} words are fewer than "
+                "harlsync's reads need: 210 (SpeedS speed and depart table 0) answers in 6 "
+                "(allowed: 6-8, as many assigned in RC+)"
+            )
+        ]

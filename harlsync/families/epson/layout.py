@@ -76,6 +76,7 @@ from .model import (
 )
 from .profile import RegisterMap, RegisterMapInvalid
 from .protocol import ROBOT_TYPES, Limits, canonical_real
+from .protocol.reads import fewest_response_words
 
 __all__ = [
     "FILES",
@@ -413,6 +414,24 @@ def _map_issue(doc: y.Parsed, message: str) -> Issue:
     return Issue("robot.yaml", doc.line(at), ".".join(at), message)
 
 
+def _too_few_words(doc: y.Parsed, register_map: RegisterMap) -> list[Issue]:
+    """A map whose response words are fewer than a backup's reads need: every pull,
+    diff and push of the robot would stop at that read (the schema allows what the
+    manual does, 3-8; harlsync's reads need more)."""
+    widest = fewest_response_words()
+    need, have = widest.response_words, register_map.response_words
+    if have >= need:
+        return []
+    return [
+        _map_issue(
+            doc,
+            f"response_words: {have} words are fewer than harlsync's reads need: {widest} "
+            f"answers in {need} (allowed: {need}-{profile.WORDS_RANGE[1]}, as many "
+            "assigned in RC+)",
+        )
+    ]
+
+
 def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot | None:
     data = doc.data
     conn = data["connection"]
@@ -422,13 +441,14 @@ def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot 
     options["map"] = _plain(conn.get("map", {}))
     found: list[Issue] = []
     try:
-        RegisterMap.from_dict(options["map"])
+        register_map = RegisterMap.from_dict(options["map"])
     except RegisterMapInvalid as exc:
         found += [_map_issue(doc, message) for message in exc.issues]
     else:
-        ready = RegisterMap.from_dict(options["map"]).ready_note
+        ready = register_map.ready_note
         if ready is not None:
             notes.append(f"robot.yaml: connection.map: {ready}")
+        found += _too_few_words(doc, register_map)
     controller = data.get("controller", {})
     first, last = profile.DEFAULT_POINT_RANGE
     options["first"] = int(controller.get("first_point", first))
