@@ -6,7 +6,9 @@ that does not validate writes nothing."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import git
@@ -269,3 +271,105 @@ def test_epson_response_words_fewer_than_the_reads_need_are_refused_by_validate(
                 "(allowed: 6-8, as many assigned in RC+)"
             )
         ]
+
+
+# -- a push of a project that does not validate writes nothing, for every family ---------
+
+#: Each family's simulated robot, its project, and two edits (file, pattern, new text):
+#: a change a push would write, then a value the controller refuses.
+PUSHES: dict[str, tuple[Callable[[], Any], str, list[tuple[str, str, str]]]] = {}
+
+
+def _harl_sim() -> Any:
+    from harlsync.families.harl_u2.model import Config, ProgramArea
+    from harlsync.families.harl_u2.sim import SimState, Simulator
+
+    small = Config(
+        ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4
+    )
+    return Simulator(SimState.generate(11, small))
+
+
+def _iai_sim() -> Any:
+    from harlsync.families.iai.sim import SimState, Simulator
+
+    return Simulator({0x99: SimState.generate(5, position_range=(1, 20))})
+
+
+def _epson_sim() -> Any:
+    from harlsync.families.epson.sim import SimState, Simulator
+
+    return Simulator(SimState.from_data(sample_data()), execution_time=0.0)
+
+
+PUSHES["harl-u2"] = (
+    _harl_sim,
+    "1",
+    [
+        ("timers.yaml", r"(?m)^  0: \d\.\d\d$", "  0: 1.23"),
+        ("timers.yaml", r"(?m)^  1: \d\.\d\d$", "  1: 12.00"),  # 0.00-9.99
+    ],
+)
+PUSHES["iai"] = (
+    _iai_sim,
+    "99",
+    [
+        ("positions.yaml", r"(?m)^(  \d+: .*speed: )\d+", r"\g<1>77"),
+        ("positions.yaml", r"(?m)^(  \d+: .*acc: )[0-9.]+", r"\g<1>700.00"),  # 0-655.35
+    ],
+)
+PUSHES["epson"] = (
+    _epson_sim,
+    "1",
+    [
+        # Weight: the write the issue saw reach the memory card before the refusal
+        ("settings.yaml", r"weight: \{weight: 2\.000,", "weight: {weight: 3.000,"),
+        ("settings.yaml", r"(?m)^  0: 720\.000$", "  0: 0.000"),  # SpeedR above 0
+    ],
+)
+
+
+def _edit(path: Path, pattern: str, new: str) -> None:
+    import re
+
+    text, count = re.subn(pattern, new, path.read_text(), count=1)
+    assert count == 1, pattern
+    path.write_text(text)
+
+
+@pytest.mark.parametrize("name", list(PUSHES))
+def test_a_push_of_a_project_that_does_not_validate_writes_nothing_to_the_robot(
+    repo, capsys, name
+) -> None:
+    from harlsync.sim.serve import TcpServer
+
+    make, station, (change, refused) = PUSHES[name][0], PUSHES[name][1], PUSHES[name][2]
+    sim = make()
+    if name == "epson":  # Modbus TCP, its own server
+        server: Any = sim.serve()
+        url = server.url
+    else:
+        server = TcpServer(sim)
+        url = server.start()
+    project = repo / "cell"
+    try:
+        pull = ["pull", str(project), "--family", name, "--port", url, "--station", station]
+        assert cli.main(pull) == 0
+        _edit(project / change[0], change[1], change[2])
+        fixed = (project / refused[0]).read_text()
+        _edit(project / refused[0], refused[1], refused[2])
+        git(repo, "add", "-A")
+        git(repo, "commit", "-qm", "a change, and a value the controller refuses")
+        capsys.readouterr()
+        assert cli.main(["push", str(project), "--port", url, "--yes"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err and all("Traceback" not in line for line in err), err
+        # the simulator's own record: no write received, none carried out
+        assert (sim.writes_received(), sim.writes) == ([], 0)
+        # the change alone is written: what the refusal held back was a real write
+        (project / refused[0]).write_text(fixed)
+        git(repo, "commit", "-qam", "the refused value put back")
+        assert cli.main(["push", str(project), "--port", url, "--yes"]) == 0
+        assert sim.writes_received() and sim.writes > 0
+    finally:
+        server.stop()
