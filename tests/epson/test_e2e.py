@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from conftest import git
@@ -571,13 +572,18 @@ def test_a_push_or_diff_to_a_controller_of_another_model_is_refused_in_one_line(
     assert err == [f"harlsync: error: {project}: not compared: {why}"], err
 
 
+def with_words(robot, repo, words: int) -> tuple[Simulator, Path, int]:
+    """The robot pulled, its map given ``words`` response words; the commands so far."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "response_words: 8", f"response_words: {words}")
+    return sim, project, len(sim.commands())
+
+
 def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     robot, repo, capsys
 ) -> None:
-    sim, url = robot
-    project = pulled(repo, url)
-    edit(project, repo, "robot.yaml", "response_words: 8", "response_words: 5")
-    taken = len(sim.commands())
+    sim, project, taken = with_words(robot, repo, 5)
     capsys.readouterr()
     assert cli.main(["diff", str(project)]) == 2
     assert capsys.readouterr().err.strip() == (
@@ -593,10 +599,7 @@ def test_a_map_of_the_fewest_words_the_reads_need_backs_the_robot_up_in_halves(
 ) -> None:
     # fewest_response_words is what protocol/reads.py makes of the controller's reads:
     # a read added to the controller that needs more words fails this pull.
-    sim, url = robot
-    project = pulled(repo, url)
-    edit(project, repo, "robot.yaml", "response_words: 8", "response_words: 6")
-    taken = len(sim.commands())
+    sim, project, taken = with_words(robot, repo, 6)
     assert cli.main(["diff", str(project)]) == 0
     sent = set(numbers(sim.commands()[taken:]))
     assert {59, 210, 211} <= sent and 209 not in sent  # SpeedS was read in halves
