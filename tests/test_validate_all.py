@@ -6,7 +6,9 @@ that does not validate writes nothing."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import git
@@ -109,3 +111,265 @@ def test_an_iai_schema_error_does_not_hide_the_range_checks_of_the_other_positio
         any(f"position {n} is outside the robot's table (allowed: 1-10" in line for line in said)
         for n in beyond
     ), said
+
+
+# -- HARL-U2: a schema error skips its own item's deeper checks, and nothing else --------
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
+#: A step as long as no frame carries (tests/test_project_validation.py words the limit).
+TOO_LONG = "MOVE P" + "1" * 600
+
+
+@pytest.fixture
+def harl(tmp_path: Path) -> Path:
+    import shutil
+
+    target = tmp_path / "pick-and-place"
+    shutil.copytree(EXAMPLE, target)
+    return target
+
+
+def said(root: Path) -> list[str]:
+    return [str(issue) for issue in validate_project(root)]
+
+
+def test_harl_a_bad_step_hides_neither_the_other_steps_nor_the_other_programs(harl) -> None:
+    main = harl / "programs" / "main-00.yaml"
+    replace(main, "  - OFFSET L00", "  - OFFSET  L00")  # a double space: the schema's
+    replace(main, "  - MOVE P001 S80", f"  - {TOO_LONG}")  # same file, the frame's
+    replace(harl / "programs" / "main-01.yaml", "steps:\n", f"steps:\n  - {TOO_LONG}\n")
+    sub = harl / "programs" / "sub-00.yaml"
+    sub.write_text(sub.read_text().rstrip("\n") + "\n" + "  - null\n" * 40 + "  - END\n")
+    lines = said(harl)
+    assert lines[0].startswith("programs/main-00.yaml:6: steps.0: 'OFFSET  L00' is not allowed")
+    assert lines[1].startswith("programs/main-00.yaml:7: steps.1: 606 characters are more than")
+    assert lines[2].startswith("programs/main-01.yaml:6: steps.0: 606 characters are more than")
+    assert lines[3].startswith("programs/sub-00.yaml:")
+    assert (
+        "is outside the configuration (allowed: 0-31, controller.yaml programs.sub.steps)"
+        in (lines[3])
+    )
+    assert len(lines) == 4, lines
+
+
+def test_harl_a_schema_error_in_controller_yaml_keeps_the_checks_its_sound_parts_make(
+    harl,
+) -> None:
+    replace(harl / "controller.yaml", "version: '5.00'", "version: '5 00'")
+    replace(
+        harl / "controller.yaml", "  sub: {count: 4, steps: 32}", "  sub: {count: four, steps: 32}"
+    )
+    replace(harl / "timers.yaml", "  3: 1.50", "  3: 1.50\n  99: 1.00")
+    (harl / "programs" / "hand-03.yaml").unlink()
+    (harl / "programs" / "main-04.yaml").write_text(
+        (harl / "programs" / "main-03.yaml").read_text().replace("number: 3", "number: 4")
+    )
+    assert said(harl) == [
+        (
+            "controller.yaml:3: version: '5 00' is not allowed (allowed: text without spaces, "
+            "e.g. '5.00')"
+        ),
+        "controller.yaml:7: programs.sub.count: 'four' is not an integer (allowed: 0-100)",
+        (
+            "controller.yaml:8: programs.hand.count: 4 HAND programs configured, but "
+            "programs/hand-03.yaml is missing (an empty program is written `steps: []`)"
+        ),
+        "timers.yaml:8: timers.99: timer 99 is outside the configuration (allowed: 0-15)",
+        (
+            "programs/main-04.yaml:4: number: MAIN program 4 is outside the configuration "
+            "(allowed: 0-3, controller.yaml programs.main.count)"
+        ),
+    ]
+
+
+def test_harl_a_schema_error_in_robot_yaml_keeps_its_offset_tables(harl) -> None:
+    robot = harl / "robot.yaml"
+    replace(robot, "keep_registers: false", "keep_registers: false\noffset_tables: 101\nbogus: 1")
+    table = "{x: 0.00, y: 0.00, z: 0.00, w: 0.00, r: 0.00, c: 0.00, m: 0, f: 0}"
+    replace(harl / "offsets.yaml", "  7: ", f"  100: {table}\n  7: ")
+    # robot.yaml's count is sound: table 100 is the robot's, not a problem
+    assert said(harl) == [
+        (
+            "robot.yaml:21: bogus: unknown key (allowed: format, family, name, description, "
+            "connection, maintenance_windows, keep_registers, offset_tables)"
+        )
+    ]
+    replace(robot, "offset_tables: 101", "offset_tables: many")
+    # ... and when the count is what is wrong, the tables are not checked against a guess
+    assert [line.split(": ")[1] for line in said(harl)] == ["offset_tables", "bogus"]
+
+
+def test_harl_a_bad_offset_table_hides_not_the_form_check_of_another(harl) -> None:
+    replace(harl / "offsets.yaml", "x: 120.50", "x: fast")  # table 7
+    replace(harl / "offsets.yaml", "  0: {x: 0.00,", "  0: {x: 00.00,")
+    lines = said(harl)
+    assert lines[0].startswith("offsets.yaml:4: tables.0.x: 00.00 is not written in its one form")
+    assert lines[1].startswith("offsets.yaml:11: tables.7.x: 'fast' is not a number")
+    assert len(lines) == 2, lines
+
+
+def test_harl_the_parameters_are_checked_when_each_of_them_passes_the_schema(harl) -> None:
+    params = harl / "parameters.yaml"
+    replace(params, "pull_limit: 80", "pull_limit: E12")
+    replace(params, "prg_count: 0", "prg_count: 0\nextra: 1")  # not a parameter
+    lines = said(harl)
+    assert [line.split(": ")[1] for line in lines] == ["pull_limit", "extra"], lines
+    assert "would begin the LNE reply with 'E'" in lines[0]
+    # a parameter the schema refuses makes the one SNE write unsound: it alone is said
+    replace(params, "pull_rate: 50", "pull_rate: 'a b'")
+    assert [line.split(": ")[1] for line in said(harl)] == ["pull_rate", "extra"]
+
+
+def test_an_epson_point_the_schema_refuses_hides_not_the_checks_of_the_others(epson) -> None:
+    points = epson / "points.yaml"
+    replace(
+        points,
+        "u: 0.000, hand: Righty, elbow: Above, wrist: NoFlip",
+        "u: 0.000, hand: Sideways, elbow: Above, wrist: NoFlip",
+    )  # P0
+    replace(points, "  12: {x: 1.000,", "  12: {x: 01.000,")
+    replace(points, "  13: {", "  150: {")
+    assert said(epson) == [
+        "points.yaml:4: points.0.hand: 'Sideways' is not allowed (allowed: Lefty, Righty)",
+        (
+            "points.yaml:5: points.12.x: 01.000 is not written in its one form (write 1.000: the "
+            "controller reads it back so, and a push would never converge)"
+        ),
+        (
+            "points.yaml:6: points.150: P150 is outside the robot's range (allowed: 0-99, robot.yaml "
+            "controller.first_point/last_point)"
+        ),
+    ]
+
+
+def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(tmp_path) -> None:
+    from tests.iai.test_variables import KEPT, data, robot
+
+    path = tmp_path / "cell-9"
+    save_project(path, Project(path, robot(), data(**KEPT)))
+    variables = path / "variables.yaml"
+    replace(variables, "  601: true", "  601: maybe")
+    replace(variables, "  201: -1000", "  201: -01000")
+    replace(variables, "  300: 0.0", "  399: 0.0")
+    lines = said(path)
+    assert [line.split(": ")[1] for line in lines] == ["flags.601", "integers.201", "reals.399"]
+    assert "is outside the robot's range (allowed: 300-305" in lines[2], lines
+
+
+@pytest.mark.parametrize(("words", "refused"), [(3, True), (5, True), (6, False), (8, False)])
+def test_epson_response_words_fewer_than_the_reads_need_are_refused_by_validate(
+    epson, capsys, words, refused
+) -> None:
+    replace(epson / "robot.yaml", "response_words: 8", f"response_words: {words}")
+    assert cli.main(["validate", str(epson)]) == int(refused)
+    out = capsys.readouterr().out.strip().splitlines()
+    if refused:
+        assert out == [
+            (
+                f"robot.yaml:16: connection.map.response_words: {words} words are fewer than "
+                "harlsync's reads need: 210 (SpeedS speed and depart table 0) answers in 6 "
+                "(allowed: 6-8, as many assigned in RC+)"
+            )
+        ]
+
+
+# -- a push of a project that does not validate writes nothing, for every family ---------
+
+#: Each family's simulated robot, its project, and two edits (file, pattern, new text):
+#: a change a push would write, then a value the controller refuses.
+PUSHES: dict[str, tuple[Callable[[], Any], str, list[tuple[str, str, str]]]] = {}
+
+
+def _harl_sim() -> Any:
+    from harlsync.families.harl_u2.model import Config, ProgramArea
+    from harlsync.families.harl_u2.sim import SimState, Simulator
+
+    small = Config(
+        ProgramArea(1, 8), ProgramArea(2, 12), ProgramArea(2, 8), ProgramArea(1, 6), 4, 16, 4
+    )
+    return Simulator(SimState.generate(11, small))
+
+
+def _iai_sim() -> Any:
+    from harlsync.families.iai.sim import SimState, Simulator
+
+    return Simulator({0x99: SimState.generate(5, position_range=(1, 20))})
+
+
+def _epson_sim() -> Any:
+    from harlsync.families.epson.sim import SimState, Simulator
+
+    return Simulator(SimState.from_data(sample_data()), execution_time=0.0)
+
+
+PUSHES["harl-u2"] = (
+    _harl_sim,
+    "1",
+    [
+        ("timers.yaml", r"(?m)^  0: \d\.\d\d$", "  0: 1.23"),
+        ("timers.yaml", r"(?m)^  1: \d\.\d\d$", "  1: 12.00"),  # 0.00-9.99
+    ],
+)
+PUSHES["iai"] = (
+    _iai_sim,
+    "99",
+    [
+        ("positions.yaml", r"(?m)^(  \d+: .*speed: )\d+", r"\g<1>77"),
+        ("positions.yaml", r"(?m)^(  \d+: .*acc: )[0-9.]+", r"\g<1>700.00"),  # 0-655.35
+    ],
+)
+PUSHES["epson"] = (
+    _epson_sim,
+    "1",
+    [
+        # Weight: the write the issue saw reach the memory card before the refusal
+        ("settings.yaml", r"weight: \{weight: 2\.000,", "weight: {weight: 3.000,"),
+        ("settings.yaml", r"(?m)^  0: 720\.000$", "  0: 0.000"),  # SpeedR above 0
+    ],
+)
+
+
+def _edit(path: Path, pattern: str, new: str) -> None:
+    import re
+
+    text, count = re.subn(pattern, new, path.read_text(), count=1)
+    assert count == 1, pattern
+    path.write_text(text)
+
+
+@pytest.mark.parametrize("name", list(PUSHES))
+def test_a_push_of_a_project_that_does_not_validate_writes_nothing_to_the_robot(
+    repo, capsys, name
+) -> None:
+    from harlsync.sim.serve import TcpServer
+
+    make, station, (change, refused) = PUSHES[name][0], PUSHES[name][1], PUSHES[name][2]
+    sim = make()
+    if name == "epson":  # Modbus TCP, its own server
+        server: Any = sim.serve()
+        url = server.url
+    else:
+        server = TcpServer(sim)
+        url = server.start()
+    project = repo / "cell"
+    try:
+        pull = ["pull", str(project), "--family", name, "--port", url, "--station", station]
+        assert cli.main(pull) == 0
+        _edit(project / change[0], change[1], change[2])
+        fixed = (project / refused[0]).read_text()
+        _edit(project / refused[0], refused[1], refused[2])
+        git(repo, "add", "-A")
+        git(repo, "commit", "-qm", "a change, and a value the controller refuses")
+        capsys.readouterr()
+        assert cli.main(["push", str(project), "--port", url, "--yes"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err and all("Traceback" not in line for line in err), err
+        # the simulator's own record: no write received, none carried out
+        assert (sim.writes_received(), sim.writes) == ([], 0)
+        # the change alone is written: what the refusal held back was a real write
+        (project / refused[0]).write_text(fixed)
+        git(repo, "commit", "-qam", "the refused value put back")
+        assert cli.main(["push", str(project), "--port", url, "--yes"]) == 0
+        assert sim.writes_received() and sim.writes > 0
+    finally:
+        server.stop()

@@ -24,6 +24,7 @@ from .schema import Issue, SchemaSet, show
 __all__ = [
     "SCHEMAS_DIR",
     "FileSet",
+    "Flaws",
     "build_serial",
     "build_windows",
     "canonical_integer",
@@ -139,6 +140,49 @@ class FileSet:
             doc.data["format"] = y.Number(str(number))
             _listed_lines(doc)
         return True
+
+
+@dataclass(frozen=True)
+class Flaws:
+    """Where one file's reading found problems (the schema's, a key written twice),
+    so that a file with one bad value still has its other values checked in depth:
+    only what lies at, under or above a flawed field is skipped.
+
+    ``Flaws.of(issues, name)`` takes the issues :meth:`FileSet.read` reported of
+    ``name``; an issue that names no field (the file itself) flaws everything.
+    """
+
+    fields: frozenset[str] = frozenset()
+    whole: bool = False
+
+    @classmethod
+    def of(cls, issues: Iterable[Issue], name: str) -> Flaws:
+        mine = [issue for issue in issues if issue.file == name]
+        return cls(
+            frozenset(i.field for i in mine if i.field is not None),
+            any(i.field is None or i.field == "(top)" for i in mine),
+        )
+
+    def sound(self, *path: str | int) -> bool:
+        """No problem at ``path``, inside it or in what holds it."""
+        if self.whole:
+            return False
+        at = ".".join(str(p) for p in path)
+        return not any(
+            field == at or field.startswith(at + ".") or at.startswith(field + ".")
+            for field in self.fields
+        )
+
+    def number(self, *path: str | int, data: Any) -> int | None:
+        """The whole number at ``path`` of ``data`` when it is sound, else None."""
+        if not self.sound(*path):
+            return None
+        value = data
+        for part in path:
+            if not isinstance(value, dict) or part not in value:
+                return None
+            value = value[part]
+        return int(value) if isinstance(value, y.Number) and value.integral else None
 
 
 def _listed_lines(doc: y.Parsed) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from conftest import git
@@ -571,23 +572,37 @@ def test_a_push_or_diff_to_a_controller_of_another_model_is_refused_in_one_line(
     assert err == [f"harlsync: error: {project}: not compared: {why}"], err
 
 
+def with_words(robot, repo, words: int) -> tuple[Simulator, Path, int]:
+    """The robot pulled, its map given ``words`` response words; the commands so far."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "response_words: 8", f"response_words: {words}")
+    return sim, project, len(sim.commands())
+
+
 def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     robot, repo, capsys
 ) -> None:
-    sim, url = robot
-    project = pulled(repo, url)
-    edit(project, repo, "robot.yaml", "response_words: 8", "response_words: 5")
-    taken = len(sim.commands())
+    sim, project, taken = with_words(robot, repo, 5)
     capsys.readouterr()
     assert cli.main(["diff", str(project)]) == 2
     assert capsys.readouterr().err.strip() == (
-        f"harlsync: error: {url} unit 1: 210 (SpeedS speed and depart table 0) needs 6 response "
-        "words, the register map has 5: assign more words in RC+ and in robot.yaml "
-        "connection.map"
+        "harlsync: error: robot.yaml:16: connection.map.response_words: 5 words "
+        "are fewer than harlsync's reads need: 210 (SpeedS speed and depart table 0) answers "
+        "in 6 (allowed: 6-8, as many assigned in RC+)"
     )
+    assert sim.commands()[taken:] == []  # validate refused it: nothing was sent
+
+
+def test_a_map_of_the_fewest_words_the_reads_need_backs_the_robot_up_in_halves(
+    robot, repo, capsys
+) -> None:
+    # fewest_response_words is what protocol/reads.py makes of the controller's reads:
+    # a read added to the controller that needs more words fails this pull.
+    sim, project, taken = with_words(robot, repo, 6)
+    assert cli.main(["diff", str(project)]) == 0
     sent = set(numbers(sim.commands()[taken:]))
-    assert {60, 61} <= sent and 59 not in sent  # AccelS was read in halves
-    assert 210 not in sent
+    assert {59, 210, 211} <= sent and 209 not in sent  # SpeedS was read in halves
 
 
 @pytest.mark.parametrize(

@@ -41,6 +41,7 @@ from typing import Any
 from ...project import yamlio as y
 from ...project.files import (
     FileSet,
+    Flaws,
     build_windows,
     canonical_integer,
     check_canonical,
@@ -75,6 +76,7 @@ from .model import (
 )
 from .profile import RegisterMap, RegisterMapInvalid
 from .protocol import ROBOT_TYPES, Limits, canonical_real
+from .protocol.reads import fewest_response_words
 
 __all__ = [
     "FILES",
@@ -325,13 +327,16 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     issues: list[Issue] = []
     docs: dict[str, y.Parsed] = {}
     valid: set[str] = set()
+    flaws: dict[str, Flaws] = {}
     for name, kind in ROOT_FILES.items():
         if name not in files:
             issues.append(Issue(name, None, None, "missing", fatal=True))
             continue
+        before = len(issues)
         doc, ok = FILES.read(name, kind, files[name], issues)
         if doc is not None:
             docs[name] = doc
+            flaws[name] = Flaws.of(issues[before:], name)
         if ok:
             valid.add(name)
 
@@ -348,11 +353,13 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
             pass
     if axes is None and result.robot is not None:
         axes = result.robot.options.get("axes")
-    if "points.yaml" in valid:
+    if "points.yaml" in docs:  # each point the schema passed, whatever the others hold
         robot_type = None
-        if "settings.yaml" in valid:
+        if "settings.yaml" in docs and flaws["settings.yaml"].sound("manipulator", "type"):
             robot_type = type_code(docs["settings.yaml"].data["manipulator"]["type"])
-        _check_points(docs["points.yaml"], result.robot, axes, issues, robot_type)
+        _check_points(
+            docs["points.yaml"], flaws["points.yaml"], result.robot, axes, issues, robot_type
+        )
     if not issues and result.robot is not None:
         data = _build_data(docs["settings.yaml"].data, docs["points.yaml"].data)
         data.covered, data.probed_to = _covered(files["points.yaml"])
@@ -407,6 +414,24 @@ def _map_issue(doc: y.Parsed, message: str) -> Issue:
     return Issue("robot.yaml", doc.line(at), ".".join(at), message)
 
 
+def _too_few_words(doc: y.Parsed, register_map: RegisterMap) -> list[Issue]:
+    """A map whose response words are fewer than a backup's reads need: every pull,
+    diff and push of the robot would stop at that read (the schema allows what the
+    manual does, 3-8; harlsync's reads need more)."""
+    widest = fewest_response_words()
+    need, have = widest.response_words, register_map.response_words
+    if have >= need:
+        return []
+    return [
+        _map_issue(
+            doc,
+            f"response_words: {have} words are fewer than harlsync's reads need: {widest} "
+            f"answers in {need} (allowed: {need}-{profile.WORDS_RANGE[1]}, as many "
+            "assigned in RC+)",
+        )
+    ]
+
+
 def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot | None:
     data = doc.data
     conn = data["connection"]
@@ -416,13 +441,14 @@ def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot 
     options["map"] = _plain(conn.get("map", {}))
     found: list[Issue] = []
     try:
-        RegisterMap.from_dict(options["map"])
+        register_map = RegisterMap.from_dict(options["map"])
     except RegisterMapInvalid as exc:
         found += [_map_issue(doc, message) for message in exc.issues]
     else:
-        ready = RegisterMap.from_dict(options["map"]).ready_note
+        ready = register_map.ready_note
         if ready is not None:
             notes.append(f"robot.yaml: connection.map: {ready}")
+        found += _too_few_words(doc, register_map)
     controller = data.get("controller", {})
     first, last = profile.DEFAULT_POINT_RANGE
     options["first"] = int(controller.get("first_point", first))
@@ -585,15 +611,20 @@ def _check_settings(
 
 def _check_points(
     doc: y.Parsed,
+    flaws: Flaws,
     robot: Robot | None,
     axes: int | None,
     issues: list[Issue],
     robot_type: int | None = None,
 ) -> None:
-    table = doc.data["points"]
+    """What the schema cannot say of each point it passed: the robot's range, the
+    coordinates against the axes, the type's own attributes."""
+    table: Any = doc.data.get("points") if isinstance(doc.data, dict) else None
     first, last = point_range(robot) if robot is not None else (0, 0xFFFF)
     for key, n in numbers(table):
         at = ("points", key)
+        if not flaws.sound(*at):
+            continue
 
         def issue(message: str, *where: str | int, at: tuple[str, str] = at) -> None:
             path = at + where

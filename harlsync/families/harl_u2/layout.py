@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from ...project import yamlio as y
@@ -21,6 +22,7 @@ from ...project.files import (
     HUGE,
     SCHEMAS_DIR,
     FileSet,
+    Flaws,
     build_serial,
     build_windows,
     not_canonical,
@@ -293,21 +295,23 @@ def _program_order(key: ProgramKey) -> tuple[int, int]:
 def analyse(files: Mapping[str, bytes]) -> Analysis:
     """Read and check a project's files (path relative to the project -> content).
 
-    Every file is checked even when others are broken, and the checks against
-    the configuration (program numbers, steps, timers, tables) run on every file
-    that could be parsed, as long as ``controller.yaml`` is valid.  ``robot`` is
-    set when robot.yaml is valid, ``data`` only when there is no issue at all.
+    Every file is checked even when others are broken, and a schema error skips the
+    deeper checks of its own item only (a step, a table, the parameters): the checks
+    against the configuration (program numbers, steps, timers, tables) and of what
+    the wire carries run on every other item, with whatever part of controller.yaml
+    and robot.yaml is sound.  ``robot`` is set when robot.yaml is valid, ``data``
+    only when there is no issue at all.
     """
     issues: list[Issue] = []
     docs: dict[str, y.Parsed] = {}  # every file that could be parsed
-    valid: set[str] = set()  # ... and those that also match their schema
+    flaws: dict[str, Flaws] = {}  # ... and where each has a problem
 
     def read(name: str, kind: str) -> y.Parsed | None:
-        doc, ok = FILES.read(name, kind, files[name], issues)
+        before = len(issues)
+        doc, _ = FILES.read(name, kind, files[name], issues)
         if doc is not None:
             docs[name] = doc
-        if ok:
-            valid.add(name)
+            flaws[name] = Flaws.of(issues[before:], name)
         return doc
 
     for name, kind in ROOT_FILES.items():
@@ -319,9 +323,15 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
         read(name, kind)
 
     result = Analysis(issues=issues)
-    if "robot.yaml" in valid:
-        result.robot = _build_robot(docs["robot.yaml"].data)
-    keep = result.robot is None or result.robot.keep_registers
+    robot_doc = docs.get("robot.yaml")
+    if robot_doc is not None and flaws["robot.yaml"] == Flaws():
+        result.robot = _build_robot(robot_doc.data)
+    # registers.yaml is checked unless robot.yaml soundly says it is not kept
+    keep = not (
+        robot_doc is not None
+        and flaws["robot.yaml"].sound("keep_registers")
+        and _get(robot_doc, "keep_registers") in (False, None)
+    )
     if keep and "registers.yaml" in files:
         read("registers.yaml", "registers")
 
@@ -345,16 +355,52 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
         if doc is not None:
             _check_program_header(name, key, doc, issues)
 
-    config = None
-    if "controller.yaml" in valid:
-        config = _build_config(docs["controller.yaml"].data)
-        _check_against_config(config, docs, programs, issues, offset_tables(result.robot))
-    _check_wire(docs, valid, programs, issues)
+    if "controller.yaml" in docs:
+        limits = _Limits.of(docs["controller.yaml"], flaws["controller.yaml"])
+        tables = _offset_tables(robot_doc, flaws.get("robot.yaml"))
+        _check_against_config(limits, docs, programs, issues, tables)
+    _check_wire(docs, flaws, programs, issues)
 
-    if not issues and config is not None:
+    if not issues:
+        config = _build_config(docs["controller.yaml"].data)
         result.data = _build_data(config, docs, programs)
     result.issues = unique(issues, list(ROOT_FILES))
     return result
+
+
+@dataclass(frozen=True)
+class _Limits:
+    """What controller.yaml says that the other files are checked against, each part
+    None when controller.yaml has a problem there (its checks are then skipped)."""
+
+    counts: Mapping[ProgramType, int | None]
+    steps: Mapping[ProgramType, int | None]
+    timers: int | None
+    registers: int | None
+
+    @classmethod
+    def of(cls, doc: y.Parsed, flaws: Flaws) -> _Limits:
+        data = doc.data
+
+        def area(ptype: ProgramType, part: str) -> int | None:
+            return flaws.number("programs", ptype.value.lower(), part, data=data)
+
+        return cls(
+            counts={t: area(t, "count") for t in ProgramType},
+            steps={t: area(t, "steps") for t in ProgramType},
+            timers=flaws.number("timers", data=data),
+            registers=flaws.number("registers", data=data),
+        )
+
+
+def _offset_tables(doc: y.Parsed | None, flaws: Flaws | None) -> int | None:
+    """How many offset tables robot.yaml gives (:func:`offset_tables`), or None when
+    it cannot say: robot.yaml is unreadable, or has a problem at ``offset_tables``."""
+    if doc is None or flaws is None or not flaws.sound("offset_tables"):
+        return None
+    if _get(doc, "offset_tables") is None:
+        return OFFSET_TABLE_COUNT
+    return flaws.number("offset_tables", data=doc.data)
 
 
 def _get(doc: y.Parsed, key: str) -> Any:
@@ -428,91 +474,98 @@ def _check_numbered(
 
 
 def _check_against_config(
-    config: Config,
+    limits: _Limits,
     docs: Mapping[str, y.Parsed],
     programs: Mapping[ProgramKey, y.Parsed | None],
     issues: list[Issue],
-    tables: int = OFFSET_TABLE_COUNT,
+    tables: int | None = OFFSET_TABLE_COUNT,
 ) -> None:
     """What the schemas cannot say: numbers that depend on controller.yaml (and the
-    offset tables' count on robot.yaml)."""
-    if (doc := docs.get("offsets.yaml")) is not None:
-        _check_numbered("offsets.yaml", doc, "tables", tables, "table", issues)
-    if (doc := docs.get("timers.yaml")) is not None:
-        _check_numbered("timers.yaml", doc, "timers", config.timers, "timer", issues)
-    if (doc := docs.get("registers.yaml")) is not None:
-        _check_numbered("registers.yaml", doc, "registers", config.registers, "register", issues)
+    offset tables' count on robot.yaml); a check whose limit is unsound is skipped."""
+    for file, numbered_key, limit, what in (
+        ("offsets.yaml", "tables", tables, "table"),
+        ("timers.yaml", "timers", limits.timers, "timer"),
+        ("registers.yaml", "registers", limits.registers, "register"),
+    ):
+        if (numbered_doc := docs.get(file)) is not None and limit is not None:
+            _check_numbered(file, numbered_doc, numbered_key, limit, what, issues)
 
     for key, doc in programs.items():
         ptype, number = key
-        area = config.area(ptype)
+        count, steps = limits.counts[ptype], limits.steps[ptype]
         if doc is None:
             continue
         name = program_path(key)
-        if number >= area.count:
+        if count is not None and number >= count:
             issues.append(
                 Issue(
                     name,
                     doc.line(("number",)),
                     "number",
                     f"{ptype.value} program {number} is outside the configuration "
-                    f"(allowed: {_span(area.count)}, controller.yaml "
+                    f"(allowed: {_span(count)}, controller.yaml "
                     f"programs.{ptype.value.lower()}.count)",
                 )
             )
             continue
         for step, _ in _steps(doc):
-            if step >= area.steps:
+            if steps is not None and step >= steps:
                 issues.append(
                     Issue(
                         name,
                         doc.line(("steps", step)),
                         f"steps.{step}",
                         f"step {step} is outside the configuration "
-                        f"(allowed: {_span(area.steps)}, controller.yaml "
+                        f"(allowed: {_span(steps)}, controller.yaml "
                         f"programs.{ptype.value.lower()}.steps)",
                     )
                 )
     controller = docs["controller.yaml"]
-    for key in config.programs():
-        if key not in programs:
-            field_path = ("programs", key[0].value.lower(), "count")
-            issues.append(
-                Issue(
-                    "controller.yaml",
-                    controller.line(field_path),
-                    ".".join(field_path),
-                    f"{config.area(key[0]).count} {key[0].value} programs configured, but "
-                    f"{program_path(key)} is missing (an empty program is written `steps: []`)",
+    for kind, configured in limits.counts.items():
+        for wanted in [(kind, n) for n in range(configured or 0)]:
+            if wanted not in programs:
+                field_path = ("programs", kind.value.lower(), "count")
+                issues.append(
+                    Issue(
+                        "controller.yaml",
+                        controller.line(field_path),
+                        ".".join(field_path),
+                        f"{configured} {kind.value} programs configured, but "
+                        f"{program_path(wanted)} is missing (an empty program is written "
+                        "`steps: []`)",
+                    )
                 )
-            )
 
 
 def _check_wire(
     docs: Mapping[str, y.Parsed],
-    valid: set[str],
+    flaws: Mapping[str, Flaws],
     programs: Mapping[ProgramKey, y.Parsed | None],
     issues: list[Issue],
 ) -> None:
     """What the schemas cannot say about a value: that the controller would give it
     back in another form (a push would never converge), or that the wire cannot
-    carry it or give it back (:func:`.protocol.commands.read_back`).
+    carry it or give it back (:func:`.protocol.commands.read_back`).  Each item the
+    schema passed is checked (a table, the parameters, a step), whatever is wrong
+    with the others.
 
     Timers and registers have one form each (``d.dd``, ``dddd``) and a fixed
     length, so only offsets, parameters and steps can break these.
     """
-    if "offsets.yaml" in valid:
-        _check_offsets(docs["offsets.yaml"], issues)
-    if "parameters.yaml" in valid:
-        _check_parameters(docs["parameters.yaml"], issues)
+    if "offsets.yaml" in docs:
+        _check_offsets(docs["offsets.yaml"], flaws["offsets.yaml"], issues)
+    if "parameters.yaml" in docs:
+        _check_parameters(docs["parameters.yaml"], flaws["parameters.yaml"], issues)
     for key, doc in programs.items():
-        if doc is not None and program_path(key) in valid:
-            _check_steps(key, doc, issues)
+        if doc is not None:
+            _check_steps(key, doc, flaws[program_path(key)], issues)
 
 
-def _check_offsets(doc: y.Parsed, issues: list[Issue]) -> None:
-    tables = doc.data["tables"]
+def _check_offsets(doc: y.Parsed, flaws: Flaws, issues: list[Issue]) -> None:
+    tables = _get(doc, "tables")
     for key, _ in numbers(tables):
+        if not flaws.sound("tables", key):
+            continue
         for field in OFFSET_FIELDS:
             text = text_of(tables[key][field])
             one = canonical_code(text) if field in ("m", "f") else canonical_offset(text)
@@ -527,7 +580,10 @@ def _check_offsets(doc: y.Parsed, issues: list[Issue]) -> None:
                 )
 
 
-def _check_parameters(doc: y.Parsed, issues: list[Issue]) -> None:
+def _check_parameters(doc: y.Parsed, flaws: Flaws, issues: list[Issue]) -> None:
+    """The 13 parameters are one write (SNE): checked when the schema passed each."""
+    if not all(flaws.sound(name) for name, _ in PARAMETER_NAMES):
+        return
     data = doc.data
     values = {name: text_of(data[name]) for name, _ in PARAMETER_NAMES}
     write = cmd.write_parameters(Parameters(**values))
@@ -563,14 +619,14 @@ def _check_parameters(doc: y.Parsed, issues: list[Issue]) -> None:
 _STEP_WRITE_PREFIX = len(f"SNM 99 {HUGE} ")
 
 
-def _check_steps(key: ProgramKey, doc: y.Parsed, issues: list[Issue]) -> None:
+def _check_steps(key: ProgramKey, doc: y.Parsed, flaws: Flaws, issues: list[Issue]) -> None:
     ptype, number = key
     # A step this short fits a frame in its write, and in the reply that reads it back
     # (the step number, then the step: shorter than the write); that reply begins with
     # the step number, never with the error prefix.  Only longer steps are worked out.
     surely_fits = payload_room(MAX_STATION) - _STEP_WRITE_PREFIX
     for n, step in _steps(doc):
-        if len(step) <= surely_fits:
+        if not flaws.sound("steps", n) or len(step) <= surely_fits:
             continue
         write = cmd.write_step(ptype, number, n, Step.parse(step))
         back = cmd.read_back(write)

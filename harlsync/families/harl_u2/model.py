@@ -42,13 +42,14 @@ __all__ = [
 
 #: One wire token: printable ASCII, no space (fields never contain SP, STX or ETX).
 TOKEN_RE = re.compile(r"[!-~]+")
-#: Timer value, 0.00-9.99.
+#: Timer value, 0.00-9.99 (manual 3.1.5 LNT, p. 3-4; 3.2.5 SNT, p. 3-14).
 TIMER_RE = re.compile(r"[0-9]\.[0-9]{2}")
-#: Register value, 0000-9999, zero padded.
+#: Register value, 0000-9999, zero padded (manual 3.1.6 LND, p. 3-4; 3.2.6 SND, p. 3-14).
 REGISTER_RE = re.compile(r"[0-9]{4}")
-#: Offset X Y Z W R C: -9999.99..9999.99 with two decimals.
+#: Offset X Y Z W R C: -9999.99..9999.99 with two decimals (manual 3.1.7 LNL, p. 3-4;
+#: 3.2.7 SNL, p. 3-14).
 OFFSET_RE = re.compile(r"-?[0-9]{1,4}\.[0-9]{2}")
-#: Offset M data and F code: 0-99.
+#: Offset M data and F code: 0-99 (manual 3.1.7 LNL, 3.2.7 SNL).
 CODE_RE = re.compile(r"[0-9]{1,2}")
 
 #: At most four data items follow a step's command.
@@ -272,7 +273,11 @@ def canonical_code(text: str) -> str:
     return str(int(text))
 
 
-#: The 13 expanded parameters (LNE/SNE), wire order: (YAML key, manual's name).
+#: The 13 expanded parameters (LNE/SNE), wire order: (YAML key, manual's name).  The
+#: manual names them and gives no range, unit or form for any (3.1.11 LNE, p. 3-9;
+#: 3.2.10 SNE, p. 3-17): validate refuses what the wire cannot carry or give back
+#: (one token, the SNE request and the LNE reply within a frame, PULL LIMIT not
+#: read as an error status), and no range it would have to invent.
 PARAMETER_NAMES: tuple[tuple[str, str], ...] = (
     ("pull_limit", "PULL LIMIT"),
     ("arch_motion", "ARCH MOTION"),

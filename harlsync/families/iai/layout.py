@@ -55,6 +55,7 @@ from ...project import yamlio as y
 from ...project.files import (
     HUGE,
     FileSet,
+    Flaws,
     build_serial,
     build_windows,
     check_canonical,
@@ -387,11 +388,14 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     issues: list[Issue] = []
     docs: dict[str, y.Parsed] = {}
     valid: set[str] = set()
+    flaws: dict[str, Flaws] = {}
 
     def read(name: str, kind: str) -> None:
+        before = len(issues)
         doc, ok = FILES.read(name, kind, files[name], issues)
         if doc is not None:
             docs[name] = doc
+            flaws[name] = Flaws.of(issues[before:], name)
         if ok:
             valid.add(name)
 
@@ -414,10 +418,11 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
         _check_positions(docs["positions.yaml"], result.robot, issues)
     elif "positions.yaml" in docs:  # a schema error must not hide the other positions' checks
         _check_positions(docs["positions.yaml"], result.robot, issues, partly=True)
-    if RECORDS_FILE in valid:
-        _check_records(docs[RECORDS_FILE], result.robot, issues)
-    if VARIABLES_FILE in valid:
-        _check_variables(docs[VARIABLES_FILE], result.robot, issues)
+    # each record and variable the schema passed, whatever the others hold
+    if RECORDS_FILE in docs:
+        _check_records(docs[RECORDS_FILE], flaws[RECORDS_FILE], result.robot, issues)
+    if VARIABLES_FILE in docs:
+        _check_variables(docs[VARIABLES_FILE], flaws[VARIABLES_FILE], result.robot, issues)
     if not issues and result.robot is not None:
         result.data = IaiData(
             version=_build_version(docs["controller.yaml"].data["version"]),
@@ -566,16 +571,18 @@ def _check_position(
         check_canonical(issue, text_of(entry[name]), canonical_g, name)
 
 
-def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> None:
-    """What the schema cannot say: each number within the robot's range for it,
-    and integers and reals in their one form."""
+def _check_variables(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: list[Issue]) -> None:
+    """What the schema cannot say of each variable it passed: its number within the
+    robot's range for it, and integers and reals in their one form."""
     ranges = variable_ranges(robot) if robot is not None else {}
     canonical = {"integers": canonical_integer, "reals": canonical_real}
     for section, called in VARIABLE_SECTIONS.items():
-        table = doc.data.get(section)
+        table: Any = doc.data.get(section) if isinstance(doc.data, dict) else None
         first, last = ranges.get(section, (0, HUGE))
         for key, n in numbers(table):
             at = (section, key)
+            if not flaws.sound(*at):
+                continue
 
             def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
                 issues.append(Issue(VARIABLES_FILE, doc.line(at), ".".join(at), message))
@@ -589,15 +596,17 @@ def _check_variables(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) ->
                 check_canonical(issue, text_of(table[key]), canonical[section])
 
 
-def _check_records(doc: y.Parsed, robot: Robot | None, issues: list[Issue]) -> None:
-    """What the schema cannot say: each number within robot.yaml's range for its
-    section, and coordinates in their one form."""
+def _check_records(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: list[Issue]) -> None:
+    """What the schema cannot say of each record it passed: its number within
+    robot.yaml's range for its section, and coordinates in their one form."""
     ranges = record_ranges(robot) if robot is not None else {}
     for section in RECORD_SECTIONS:
-        table = doc.data.get(section)
+        table: Any = doc.data.get(section) if isinstance(doc.data, dict) else None
         first, last = ranges.get(section, (0, HUGE))
         for key, n in numbers(table):
             at = (section, key)
+            if not flaws.sound(*at):
+                continue
 
             def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
                 path = at + where
