@@ -17,6 +17,7 @@ from harlsync.families.iai import profile
 from harlsync.families.iai import protocol as p
 from harlsync.families.iai.model import AxisStatus, Position, SystemStatus, Version
 from harlsync.families.iai.protocol import ChecksumError, ErrorReply, Frame, FrameDecoder
+from harlsync.families.iai.protocol import positions as positions_module
 
 CRLF = b"\r\n"
 R = TypeVar("R")
@@ -827,6 +828,59 @@ def test_positions_round_trip_through_291h_and_a_22dh_reply(
     records = "".join(p.position_record(pos, numbered=True) for pos in written)
     answer = Frame("#", 0x99, 0x22D, f"00{len(written):04X}{records}").encode()
     assert reply(p.read_positions(start, len(written)), answer, feed_bytewise) == tuple(written)
+
+
+def _field_by_field(request: p.Request[tuple[Position, ...]], data: str) -> object:
+    """What ``request`` reads ``data`` as with its one-pass reading switched off:
+    the positions, or the ValueError it names."""
+    quick = positions_module._positions_in
+    positions_module._positions_in = lambda *args: None
+    try:
+        return request.parse(data)
+    except ValueError as exc:
+        return type(exc)
+    finally:
+        positions_module._positions_in = quick
+
+
+@st.composite
+def edited_22dh_replies(draw: st.DrawFn) -> tuple[int, int, str]:
+    """(head, count, data) of a 22DH reply, well formed or with one edit: a
+    character changed, inserted or removed anywhere (lower case, a sign, a space)."""
+    head = draw(st.integers(1, 0xFFFF - 30))
+    count = draw(st.integers(1, 24))
+    numbers = sorted(draw(st.sets(st.integers(head, head + count - 1), max_size=count)))
+    records = "".join(p.position_record(draw(positions(n)), numbered=True) for n in numbers)
+    data = f"00{len(numbers):04X}{records}"
+    edit = draw(st.sampled_from(["none", "change", "insert", "remove"]))
+    if edit != "none" and data:
+        at = draw(st.integers(0, len(data) - 1))
+        char = draw(st.sampled_from("0179AFaf+- _xG"))
+        data = {
+            "change": data[:at] + char + data[at + 1 :],
+            "insert": data[:at] + char + data[at:],
+            "remove": data[:at] + data[at + 1 :],
+        }[edit]
+    return head, count, data
+
+
+@given(edited_22dh_replies())
+def test_a_22dh_reply_reads_the_same_in_one_pass_as_field_by_field(
+    reply_: tuple[int, int, str],
+) -> None:
+    """Issue 24: the one-pass reading of a 22DH reply gives exactly what the
+    field-by-field reading gives, or leaves the reply to it (which names what is
+    wrong); never other positions."""
+    head, count, data = reply_
+    request = p.read_positions(head, count)
+    quick = positions_module._positions_in(data, head, count)
+    slow = _field_by_field(request, data)
+    if quick is not None:
+        assert quick == slow
+    try:
+        assert request.parse(data) == slow
+    except ValueError as exc:
+        assert type(exc) is slow
 
 
 # --- numbers ------------------------------------------------------------------------

@@ -66,8 +66,10 @@ __all__ = [
     "canonical_integer",
     "canonical_real",
     "coord_from_wire",
+    "coord_from_word",
     "coord_to_wire",
     "extended_from_arms",
+    "g_from_units",
     "g_from_wire",
     "g_to_wire",
     "pattern_from_axes",
@@ -109,6 +111,9 @@ _HEX_RE = re.compile(r"[0-9A-Fa-f]+")
 _INTEGER_RE = re.compile(r"[-+]?[0-9]+")
 _REAL_RE = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
 _NOT_FINITE_RE = re.compile(r"[-+]?\.?(nan|inf|infinity)", re.IGNORECASE)
+#: Decimal text with exactly that many decimals (the form the project keeps): its
+#: units are its digits, read as one integer.  Anything else takes the general way.
+_EXACT_RE = {decimals: re.compile(rf"-?[0-9]+\.[0-9]{{{decimals}}}") for decimals in (2, 3)}
 
 
 # --- numbers: text <-> units <-> wire ------------------------------------------------
@@ -120,6 +125,9 @@ def _units(text: str, decimals: int, what: str) -> int:
     Raises :class:`ValueError` for anything but plain decimal text, or for more
     significant decimals than the unit carries.
     """
+    exact = _EXACT_RE.get(decimals)
+    if exact is not None and exact.fullmatch(text):  # "-12.345": the units are -12345
+        return int(text.replace(".", "", 1))
     match = _DECIMAL_RE.fullmatch(text)
     if match is None or not (match[2] or match[3]):
         raise ValueError(f"{what} {text!r} is not a decimal number")
@@ -132,10 +140,13 @@ def _units(text: str, decimals: int, what: str) -> int:
 
 
 def _text(units: int, decimals: int) -> str:
-    sign = "-" if units < 0 else ""
-    scale: int = 10**decimals
-    whole, frac = divmod(abs(units), scale)
-    return f"{sign}{whole}.{frac:0{decimals}d}"
+    """``units`` of 10**-decimals as decimal text: ``(-1000, 3)`` -> ``"-1.000"``.
+    (Cut from the digits: a 22DH reply has a hundred of these.)"""
+    if units < 0:
+        digits = str(-units).zfill(decimals + 1)
+        return f"-{digits[:-decimals]}.{digits[-decimals:]}"
+    digits = str(units).zfill(decimals + 1)
+    return f"{digits[:-decimals]}.{digits[-decimals:]}"
 
 
 def _hex_value(wire: str, digits: int, what: str) -> int:
@@ -170,8 +181,13 @@ def coord_to_wire(text: str) -> str:
 
 def coord_from_wire(wire: str) -> str:
     """``"FFFFFC18"`` -> ``"-1.000"``; either hex case.  Raises :class:`ValueError`."""
-    value = _hex_value(wire, 8, "coordinate")
-    return _text(value - (1 << 32) if value & 0x80000000 else value, 3)
+    return coord_from_word(_hex_value(wire, 8, "coordinate"))
+
+
+def coord_from_word(word: int) -> str:
+    """A 32-bit coordinate word, 0.001 units in two's complement, as text:
+    ``0xFFFFFC18`` -> ``"-1.000"``."""
+    return _text(word - (1 << 32) if word & 0x80000000 else word, 3)
 
 
 def canonical_g(text: str, what: str = "acceleration") -> str:
@@ -197,7 +213,12 @@ def g_to_wire(text: str, what: str = "acceleration") -> str:
 
 def g_from_wire(wire: str) -> str:
     """``"001E"`` -> ``"0.30"``.  Raises :class:`ValueError`."""
-    return _text(_hex_value(wire, 4, "acceleration"), 2)
+    return g_from_units(_hex_value(wire, 4, "acceleration"))
+
+
+def g_from_units(units: int) -> str:
+    """A count of 0.01 G as text: ``30`` -> ``"0.30"``."""
+    return _text(units, 2)
 
 
 def speed_to_wire(speed: int) -> str:
