@@ -17,15 +17,23 @@ requests.
 
 The minimum the §6.3 handshake allows for one command, when the controller is quick
 enough that every poll finds what it waits for at the first read: the step-1 status
-read, the command words, ExtCmdSet 1, one read for ExtCmdGet (step 4), ExtCmdSet 0,
-one read for ExtRespSet with the response (steps 6-8), ExtRespGet 1, one read for
-ExtRespSet 0 (step 9), ExtRespGet 0: 9 round trips (5 writes, 4 reads).  harlsync
-adds one: it reads its own control register back before each command's step 1 (a
-restarted controller has it at 0 again), so 10 is its floor.  Items: a table entry
+read, the command words with ExtCmdSet 1 in one write (steps 2-3, issue 24), one read
+for ExtCmdGet (step 4), ExtCmdSet 0, one read for ExtRespSet with the response (steps
+6-8), ExtRespGet 1, one read for ExtRespSet 0 (step 9), ExtRespGet 0: 8 round trips
+(4 writes, 4 reads); 9 when the words and ExtCmdSet are two writes (``--split``, what
+harlsync did before issue 24, and what it does where the map or the slave does not
+allow one).  harlsync adds one: it reads its own control register back before each
+command's step 1 (a restarted controller has it at 0 again), so 9 is its floor (10
+split).  The simulator counts the register accesses it answers too: its figure is
+printed beside the client's.  Items: a table entry
 is read by one command (two for AccelS/AccelR/SpeedS, which need more response
 words than some maps have: the profile's 8 words read them whole), a Box, XYLim in
 Rn sequences of one command an axis; an undefined point costs one command (its first
 coordinate answers 2004), a defined one a command a coordinate and attribute.
+
+``--split`` also runs every pull with the words and ExtCmdSet in two writes
+(``Handshake(block_write_whole=False)`` on the profile's map), alternating with the
+default one, so both are measured under the same load.
 
 ``--probe``: the same pull of P0-P119 (every point the generated robots have) with
 and without the probe a pull makes past the range (one 1222 read of each point
@@ -48,8 +56,12 @@ from harlsync.families.epson.handshake import Handshake
 from harlsync.families.epson.sim import SimState, Simulator
 from harlsync.families.epson.transport import ModbusLink
 
-MINIMUM = 9
-HARLSYNC_FLOOR = MINIMUM + 1
+#: round trips a command: the §6.3 handshake's least, with steps 2-3 in one write
+MINIMUM = 8
+#: and with them in two (--split)
+MINIMUM_SPLIT = MINIMUM + 1
+#: harlsync reads its control register back before each command
+READ_BACK = 1
 
 
 def serve(seed: int, robot_type: int, execution: float, conn: Any) -> None:
@@ -57,7 +69,7 @@ def serve(seed: int, robot_type: int, execution: float, conn: Any) -> None:
     with sim.serve("127.0.0.1", 0) as server:
         conn.send(server.url)
         conn.recv()  # until the parent is done
-        conn.send(len(sim.commands()))
+        conn.send((len(sim.commands()), sum(sim.accesses().values()), sim.stale_requests))
 
 
 class Counting:
@@ -86,7 +98,13 @@ class Counting:
 
 
 def one_pull(
-    seed: int, robot_type: int, execution: float, *, last: int = 99, probe: bool = False
+    seed: int,
+    robot_type: int,
+    execution: float,
+    *,
+    last: int = 99,
+    probe: bool = False,
+    split: bool = False,
 ) -> dict[str, Any]:
     parent, child = mp.Pipe()
     proc = mp.Process(target=serve, args=(seed, robot_type, execution, child), daemon=True)
@@ -95,7 +113,7 @@ def one_pull(
     try:
         with ModbusLink(url, lock_dir=None) as link:
             counting = Counting(link)
-            hs = Handshake(counting)
+            hs = Handshake(counting, block_write_whole=not split)
             commands = Counter[str]()
             execute = hs.execute
 
@@ -109,7 +127,7 @@ def one_pull(
             data = controller.read_all(probe=probe)
             took = time.perf_counter() - start
         parent.send("done")
-        served = parent.recv()
+        served, sim_accesses, stale = parent.recv()
     finally:
         proc.join(5)
     n = commands["all"]
@@ -117,6 +135,7 @@ def one_pull(
     points = len(data.points())
     return {
         "robot": f"type {data.robot_type} ({data.axes} axes)",
+        "writes_of_steps_2_3": 2 if split else 1,
         "execution_s": execution,
         "items": items,
         "points_defined": points,
@@ -125,6 +144,8 @@ def one_pull(
         "commands": n,
         "commands_served": served,
         "round_trips": counting.requests,
+        "round_trips_sim_counted": sim_accesses,
+        "stale_requests": len(stale),
         "reads": counting.reads,
         "writes": counting.writes,
         "round_trips_per_command": round(counting.requests / n, 2),
@@ -140,22 +161,37 @@ def main() -> None:
     ap.add_argument("--exec", default="0.002", help="execution times, seconds, comma-separated")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--probe", action="store_true", help="the cost of the probe past P119")
+    ap.add_argument(
+        "--split",
+        action="store_true",
+        help="also pull with the command words and ExtCmdSet in two writes, alternating",
+    )
     args = ap.parse_args()
     mp.set_start_method("spawn")
     if args.probe:
         probe_cost(float(args.exec.split(",")[0]), args.repeat)
         return
     print(
-        f"minimum per command (§6.3): {MINIMUM} round trips; harlsync's floor "
-        f"{HARLSYNC_FLOOR} (the control register read back before step 1)"
+        f"minimum per command (§6.3): {MINIMUM} round trips with steps 2-3 in one write "
+        f"({MINIMUM_SPLIT} in two); harlsync's floor {MINIMUM + READ_BACK} "
+        f"({MINIMUM_SPLIT + READ_BACK}): the control register read back before step 1"
     )
+    layouts = (False, True) if args.split else (False,)
     for execution in (float(x) for x in args.exec.split(",")):
         for seed, robot_type in ((5, 3), (6, 5)):
-            runs = [one_pull(seed, robot_type, execution) for _ in range(args.repeat)]
-            best = min(runs, key=lambda r: r["seconds"])
-            best["seconds_median"] = round(statistics.median(r["seconds"] for r in runs), 3)
-            best["execution_share"] = round(execution * best["commands"] / best["seconds"], 3)
-            print(json.dumps(best))
+            runs: dict[bool, list[dict[str, Any]]] = {split: [] for split in layouts}
+            for _ in range(args.repeat):
+                for split in layouts:  # alternating: both under the same load
+                    runs[split].append(one_pull(seed, robot_type, execution, split=split))
+            for split in layouts:
+                best = min(runs[split], key=lambda r: r["seconds"])
+                median = statistics.median(r["seconds"] for r in runs[split])
+                best["seconds_median"] = round(median, 3)
+                best["ms_per_command_median"] = round(median / best["commands"] * 1000, 3)
+                best["execution_share"] = round(execution * best["commands"] / best["seconds"], 3)
+                floor = (MINIMUM_SPLIT if split else MINIMUM) + READ_BACK
+                best["round_trips_over_floor"] = round(best["round_trips_per_command"] - floor, 2)
+                print(json.dumps(best))
 
 
 def probe_cost(execution: float, repeat: int) -> None:

@@ -91,6 +91,14 @@ class FakeController:
     #: Ready follows the state signals, as the controller's does (Ready 1 when no
     #: task runs or pauses, no error, no emergency stop); False: set by hand only
     ready_follows: bool = True
+    #: whether a write reaches the controller whole (the profile's assumption,
+    #: BLOCK_WRITE_WHOLE); False: a register at a time, in address order, the
+    #: controller reacting after each (a slave that hands them over so)
+    whole_writes: bool = True
+    #: the requests whose command words were not all written since the request
+    #: before (ExtCmdSet rose over stale words): never, from harlsync
+    stale_requests: list[tuple[int, ...]] = field(default_factory=list)
+    _fresh: set[int] = field(default_factory=set)
 
     def __post_init__(self) -> None:
         self._follow()
@@ -123,7 +131,11 @@ class FakeController:
         self.log.append(Op("write", address, tuple(values), self.clock.now))
         for i, value in enumerate(values):
             self.holding[address + i] = value
-        self._react()
+            self._fresh.add(address + i)
+            if not self.whole_writes:
+                self._react()
+        if self.whole_writes:
+            self._react()
 
     # --- what the tests set and look at -----------------------------------------------
 
@@ -159,8 +171,14 @@ class FakeController:
         return [op for op in self.log if op.kind == "write"]
 
     def command_writes(self) -> list[tuple[int, ...]]:
-        """The command words harlsync wrote, in order."""
-        return [op.values for op in self.writes() if op.address == self.map.command_base]
+        """The command words harlsync wrote, in order (alone, or in one write with
+        ExtCmdSet's register)."""
+        base, count = self.map.command_base, self.map.command_words
+        return [
+            op.values[base - op.address : base - op.address + count]
+            for op in self.writes()
+            if op.address <= base and op.address + len(op.values) >= base + count
+        ]
 
     # --- the controller ---------------------------------------------------------------
 
@@ -208,7 +226,11 @@ class FakeController:
             if self.state != "idle":  # a second request while one is unanswered
                 self._function_error(0x0001)
                 return
-            self._latched = tuple(self.holding[m.command_base + i] for i in range(m.command_words))
+            words = range(m.command_base, m.command_base + m.command_words)
+            self._latched = tuple(self.holding[r] for r in words)
+            if not self._fresh.issuperset(words):
+                self.stale_requests.append(self._latched)
+            self._fresh.clear()
             if self.fail_next is not None:
                 detail, self.fail_next = self.fail_next, None
                 self._function_error(detail)

@@ -4,6 +4,7 @@ command while one is unanswered, a function found in use or running, the reset."
 
 from __future__ import annotations
 
+import itertools
 import logging
 
 import pytest
@@ -54,8 +55,9 @@ def test_one_command_goes_through_the_ten_steps_in_order() -> None:
     writes = [(op.address, op.values) for op in fake.writes()]
     assert writes == [
         (0, (0b100,)),  # §6.2: ExtCmdReset 1
-        (1, (0x003B, 0x000F, 0, 0, 0, 0, 0, 0)),  # step 2: one write, unused words 0
-        (0, (0b101,)),  # step 3: ExtCmdSet 1
+        # steps 2 and 3 in one write: ExtCmdSet's register and the words after it
+        # (unused words 0), which the profile's slave hands over whole
+        (0, (0b101, 0x003B, 0x000F, 0, 0, 0, 0, 0, 0)),
         (0, (0b100,)),  # step 5: ExtCmdSet 0
         (0, (0b110,)),  # step 8: ExtRespGet 1
         (0, (0b100,)),  # step 10: ExtRespGet 0
@@ -66,8 +68,78 @@ def test_one_command_goes_through_the_ten_steps_in_order() -> None:
     assert [op.kind for op in fake.log].count("read_input") == 5
     assert [op.kind for op in fake.log].count("read_holding") == 1
     assert fake.taken == [(0x003B, 0x000F, 0, 0, 0, 0, 0, 0)]
+    assert fake.stale_requests == []
     assert fake.function_errors == []
     assert fake.state == "idle"
+
+
+def test_issue_24_a_command_costs_nine_register_accesses_when_every_poll_finds_its_step() -> None:
+    fake = controller()
+    hs = handshake(fake)
+    hs.execute(p.read_tool())
+    before = len(fake.log)
+    hs.execute(p.read_accel_s(15))
+    # the control register read back, the step 1 status, the words with ExtCmdSet,
+    # a poll for ExtCmdGet, ExtCmdSet 0, a poll for ExtRespSet with the response,
+    # ExtRespGet 1, a poll for ExtRespSet 0, ExtRespGet 0
+    assert [op.kind for op in fake.log[before:]] == [
+        "read_holding",
+        "read_input",
+        "write",
+        "read_input",
+        "write",
+        "read_input",
+        "write",
+        "read_input",
+        "write",
+    ]
+
+
+def test_issue_24_a_slave_that_hands_over_a_register_at_a_time_gets_the_words_first() -> None:
+    # the default map has ExtCmdSet's register before the words: one write would
+    # raise ExtCmdSet over the last command's words on such a slave
+    careless = controller(whole_writes=False)
+    hs = Handshake(careless, careless.map, clock=careless.clock)
+    with pytest.raises(ReplyError, match="response word 0 is 0000H"):
+        hs.execute(p.read_tool())  # the controller took the words as they were: zeros
+    assert careless.stale_requests == [(0,) * 8]  # and the fake flags it
+    # so without the profile's assumption the words go first, ExtCmdSet after
+    fake = controller(whole_writes=False)
+    hs = Handshake(fake, fake.map, clock=fake.clock, block_write_whole=False)
+    hs.execute(p.read_tool())
+    assert hs.execute(p.read_accel_s(15)) == VALUES
+    assert [(op.address, len(op.values)) for op in fake.writes()][1:3] == [(1, 8), (0, 1)]
+    assert fake.stale_requests == [] and fake.function_errors == []
+    assert fake.taken == [(0x01F5, 0, 0, 0, 0, 0, 0, 0), (0x003B, 0x000F, 0, 0, 0, 0, 0, 0)]
+
+
+def test_issue_24_extcmdset_after_the_words_is_one_write_on_any_slave() -> None:
+    after = RegisterMap.from_dict({"in_base": 8, "command_base": 0})
+    assert after.command_block(whole=False) == 0
+    fake = controller(map=after, whole_writes=False)
+    hs = Handshake(fake, after, clock=fake.clock, block_write_whole=False)
+    hs.execute(p.read_tool())
+    assert hs.execute(p.read_accel_s(15)) == VALUES
+    assert fake.writes()[-4].address == 0
+    assert fake.writes()[-4].values == (0x003B, 0x000F, 0, 0, 0, 0, 0, 0, 0b101)
+    assert fake.stale_requests == [] and fake.function_errors == []
+
+
+def test_issue_24_polls_keep_to_the_interval_however_long_a_poll_takes() -> None:
+    fake = controller(delays=Delays(execute=3))
+    read_input = fake.read_input
+
+    def slow_read(address: int, count: int) -> list[int]:
+        fake.clock.now += 0.002  # a line that takes 2 ms a read
+        return read_input(address, count)
+
+    fake.read_input = slow_read  # type: ignore[method-assign]
+    hs = handshake(fake)
+    assert hs.execute(p.read_accel_s(15)) == VALUES
+    reads = [op.time for op in fake.log if op.kind == "read_input"]
+    # the four polls of step 6 (3 polls' delay, then ExtRespSet): 5 ms apart, not 7
+    step6 = reads[-5:-1]
+    assert [round(b - a, 6) for a, b in itertools.pairwise(step6)] == [0.005, 0.005, 0.005]
 
 
 def test_start_clears_the_other_inputs_before_it_raises_the_reset() -> None:

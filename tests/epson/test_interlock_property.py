@@ -245,9 +245,10 @@ class Operator(Simulator):
             result = station.read_holding(address, values)
         else:
             assert not isinstance(values, int)
-            if address == m.command_base:
+            at = m.command_base - address  # the words, alone or after ExtCmdSet's register
+            if 0 <= at < len(values):
                 self._words_seen = self.last_read
-                if self.writing_from is None and values and values[0] in WRITES:
+                if self.writing_from is None and values[at] in WRITES:
                     self.writing_from = index
             station.write_holding(address, list(values))
         for entry in list(self.schedule):
@@ -641,6 +642,7 @@ def check_interlock(case: Case, got: Outcome, tally: EpsonTally) -> None:
     sim = case.sim
     assert not sim.off_list(), case.why(f"off the lists: {sim.off_list()}")
     assert not sim.function_errors, case.why(f"function error: {sim.function_errors}")
+    assert not sim.stale_requests, case.why(f"ExtCmdSet over stale words: {sim.stale_requests}")
     commands = sim.commands()
     for i in range(got.first, len(commands)):
         r: CommandReceived = commands[i]

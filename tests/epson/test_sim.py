@@ -20,7 +20,7 @@ import pytest
 from serial import SerialException
 from simprocess import harlsync_sim
 
-from harlsync.errors import InterlockError, LinkTimeout
+from harlsync.errors import InterlockError, LinkTimeout, ReplyError
 from harlsync.families.epson import protocol as p
 from harlsync.families.epson.handshake import FunctionError, Handshake, HandshakeTimeout, Step
 from harlsync.families.epson.profile import RegisterMap
@@ -81,10 +81,11 @@ def robot(robot_type: int = SCARA) -> SimState:
 
 def no_function_error(sim: Simulator) -> None:
     """What every correct run leaves: no function error, nothing off the lists, no
-    write while the robot was busy."""
+    write while the robot was busy, no request over command words not all written."""
     assert sim.function_errors == []
     assert sim.off_list() == []
     assert sim.writes_while_busy() == []
+    assert sim.stale_requests == []
 
 
 @contextmanager
@@ -725,6 +726,41 @@ def test_a_request_while_the_reset_is_low_is_ignored_and_is_no_function_error(
     assert [e.kind for e in sim.remote().events] == ["ignored"]
     assert [(r.number, r.answered) for r in sim.commands()] == [(501, True)]
     assert sim.function_errors == []
+
+
+def test_issue_24_a_request_over_words_not_all_written_is_flagged_and_taken_as_is() -> None:
+    # a slave that hands a write over a register at a time, and a client that
+    # writes ExtCmdSet's register and the words after it in one: ExtCmdSet rises first
+    sim = Simulator(robot(), execution_time=0.0, whole_writes=False)
+    with connected(sim) as (_, link):
+        careless = Handshake(link, sim.register_map, block_write_whole=True)
+        with pytest.raises(ReplyError, match="response word 0 is 0000H"):
+            careless.execute(p.read_tool())  # the controller took words 0: command 0
+        assert len(sim.stale_requests) == 1
+        assert "words 0, 1, 2, 3, 4, 5, 6, 7 not written" in sim.stale_requests[0]
+        # the handshake without the profile's assumption writes the words first
+        fresh = Handshake(link, sim.register_map, block_write_whole=False)
+        before = sim.accesses()["write"]
+        assert fresh.execute(p.read_tool()) == sim.stations[1].tool
+        assert sim.accesses()["write"] - before == 5
+    # what the stale request was: command 0, Accel set, a write off the lists
+    assert len(sim.stale_requests) == 1
+    assert [(r.number, r.is_write) for r in sim.off_list()] == [(0, True)]
+
+
+def test_issue_24_the_handshake_writes_words_and_extcmdset_in_one_request(
+    client: Handshake, sim: Simulator
+) -> None:
+    client.execute(p.read_tool())
+    before = sim.accesses()
+    assert client.execute(p.read_arch(3)) is not None
+    after = sim.accesses()
+    # read back, step 1, the words with ExtCmdSet, 3 polls, 3 writes of signals
+    assert {k: after[k] - before[k] for k in after} == {
+        "read_holding": 1,
+        "read_input": 4,
+        "write": 4,
+    }
 
 
 def test_only_a_function_reset_of_30_ms_clears_the_function_error() -> None:

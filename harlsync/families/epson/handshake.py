@@ -7,8 +7,9 @@ How this works::
     after ExtCmdSet and ExtRespGet are 0; never dropped on a function found on)
 
      1  function ready?  ExtCmdSet 0 ExtRespGet 0 | ExtCmdGet 0 ExtRespSet 0 ExtError 0
-     2  command words ------------------------->
-     3  ExtCmdSet 1 --------------------------->
+     2  command words ---+--------------------> (one write, the words and
+     3  ExtCmdSet 1 -----+                       ExtCmdSet's register, where
+                                                 the map allows: see below)
      4                                 <-------- ExtCmdGet 1     (polled)
      5  ExtCmdSet 0 --------------------------->
      6                                 <-------- ExtRespSet 1    (polled: the same read
@@ -17,8 +18,20 @@ How this works::
      9                                 <-------- ExtRespSet 0    (polled)
     10  ExtRespGet 0 -------------------------->
 
+Steps 2 and 3 are one Modbus write (function 16) of the command words and the
+register that holds ExtCmdSet, when the two are contiguous and the controller
+sees the words no later than ExtCmdSet's rise: ExtCmdSet's register just after
+the words (the registers' order is the manual's), or just before them on a
+slave that applies a write whole (the profile's default map and assumption,
+:data:`~.profile.BLOCK_WRITE_WHOLE`; :meth:`RegisterMap.command_block`).
+Elsewhere they are two writes, the words first.
+
 Every poll is one read of the input registers that hold all the controller's
-outputs and response words (:attr:`RegisterMap.input_span`).  The handshake
+outputs and response words (:attr:`RegisterMap.input_span`); the poll that
+sees ExtRespSet 1 holds ExtCmdResult and the response words, so the response
+costs no read of its own.  A wait polls at once, then on the poll interval
+counted from its start (a poll's own round trip is not added to the
+interval), the last poll at the deadline.  The handshake
 keeps its own inputs as it wrote them, and reads them back once before each
 command's step 1 (one holding register read in the profile's map): a
 controller that restarted has them at 0 again, and driving a signal from a
@@ -341,9 +354,12 @@ class Handshake:
         poll_interval: float = profile.POLL_INTERVAL,
         deadline: float = profile.COMMAND_DEADLINE,
         clock: Clock | None = None,
+        block_write_whole: bool = profile.BLOCK_WRITE_WHOLE,
     ) -> None:
         self.registers = registers
         self.map = register_map if register_map is not None else RegisterMap()
+        #: where the one write of steps 2 and 3 starts; None: two writes
+        self._block = self.map.command_block(whole=block_write_whole)
         self.poll_interval = poll_interval
         self.deadline = deadline
         self.clock: Clock = clock if clock is not None else SystemClock()
@@ -440,8 +456,10 @@ class Handshake:
 
         Raises :class:`HandshakeTimeout` when the deadline passes first (ExtCmdReset
         stays 0)."""
-        deadline = self.clock.monotonic() + self.deadline
+        since = self.clock.monotonic()
+        deadline, polls = since + self.deadline, 0
         while not (status := self._snapshot()).operable:
+            polls += 1
             if self.clock.monotonic() >= deadline:
                 raise HandshakeTimeout(
                     f"Ready is still 0 after {self.deadline:g} s, and no task, error or "
@@ -457,7 +475,7 @@ class Handshake:
                 self.label,
                 status.describe(),
             )
-            self.clock.sleep(self.poll_interval)
+            self._pause(since, polls, deadline)
 
     def _refresh(self) -> None:
         """Before a command's step 1: read the control registers again (one read in
@@ -519,9 +537,11 @@ class Handshake:
         self._started = True
         self._pending = None
         log.info("%s: function reset (§6.5.2)", self.label)
-        deadline = self.clock.monotonic() + self.deadline
+        since = self.clock.monotonic()
+        deadline, polls = since + self.deadline, 0
         while True:
             status = self._snapshot()
+            polls += 1
             if status.function_idle:
                 return
             if self.clock.monotonic() >= deadline:
@@ -533,7 +553,7 @@ class Handshake:
                     step=Step.FUNCTION_READY,
                     acquired=False,
                 )
-            self.clock.sleep(self.poll_interval)
+            self._pause(since, polls, deadline)
 
     # --- commands -----------------------------------------------------------------------
 
@@ -587,9 +607,13 @@ class Handshake:
         words = request.encode(self.map.command_words)
         log.debug("%s: command %s", self.label, " ".join(f"{w:04X}" for w in words))
         self._pending = _Pending(request, Step.COMMAND_WORDS)
-        self.registers.write_holding(self.map.command_base, words)
-        self._pending.step = Step.COMMAND_SET
-        self._drive(self.map.ext_cmd_set, True)
+        if self._block is None:
+            self.registers.write_holding(self.map.command_base, words)
+            self._pending.step = Step.COMMAND_SET
+            self._drive(self.map.ext_cmd_set, True)
+        else:
+            self._pending.step = Step.COMMAND_SET
+            self._write_command(self._block, words)
         self._wait(deadline, Step.COMMAND_ACQUIRED, lambda s: bool(s["ExtCmdGet"]))
         self._pending.acquired = True
         self._pending.step = Step.COMMAND_SET_CLEARED
@@ -635,6 +659,31 @@ class Handshake:
                 return reply
         return None
 
+    def _write_command(self, first: int, words: Sequence[int]) -> None:
+        """Steps 2 and 3 in one write: the command words and ExtCmdSet's register
+        with ExtCmdSet 1 (its other bits as :meth:`_drive` keeps them), from
+        ``first`` (:meth:`RegisterMap.command_block`)."""
+        control = self._load_control()
+        bit = self.map.ext_cmd_set
+        value = control[bit.register] | 1 << bit.bit
+        block = [value, *words] if first == bit.register else [*words, value]
+        try:
+            self.registers.write_holding(first, block)
+        except LinkError:
+            self._control = None  # ExtCmdSet may or may not have risen: read it again
+            raise
+        control[bit.register] = value
+
+    def _pause(self, since: float, polls: int, deadline: float) -> None:
+        """Sleep until poll ``polls + 1`` of a wait begun at ``since`` is due: the
+        polls keep to their interval from the first one (the time a poll takes is
+        not added to it), and none is later than ``deadline``.  A poll that is
+        already due (the line slower than the interval) goes at once."""
+        due = min(since + polls * self.poll_interval, deadline)
+        left = due - self.clock.monotonic()
+        if left > 0:
+            self.clock.sleep(left)
+
     def _fits(self, request: Request[object]) -> None:
         for what, need, have in (
             ("command", request.command_words, self.map.command_words),
@@ -653,16 +702,17 @@ class Handshake:
         pending = self._pending
         assert pending is not None
         pending.step = step
+        since, polls = self.clock.monotonic(), 0
         while True:
             status = self._snapshot()
+            polls += 1
             if status["ExtError"]:
                 self._function_error(status, pending.request)
             if done(status):
                 return status
-            now = self.clock.monotonic()
-            if now >= deadline:
+            if self.clock.monotonic() >= deadline:
                 self._timeout(pending)
-            self.clock.sleep(min(self.poll_interval, deadline - now))
+            self._pause(since, polls, deadline)
 
     def _timeout(self, pending: _Pending) -> None:
         """Leave ExtCmdSet and ExtRespGet low, keep the command pending, raise."""
@@ -751,8 +801,10 @@ class Handshake:
             return
         self._drive(self.map.ext_cmd_set, False)
         self._drive(self.map.ext_resp_get, False)
+        since, polls = self.clock.monotonic(), 0
         while True:
             status = self._snapshot()
+            polls += 1
             if status["ExtError"]:
                 self._function_error(status, pending.request)
             if status["ExtRespSet"]:
@@ -788,4 +840,4 @@ class Handshake:
                     step=pending.step,
                     acquired=pending.acquired,
                 )
-            self.clock.sleep(min(self.poll_interval, deadline - now))
+            self._pause(since, polls, deadline)

@@ -44,6 +44,7 @@ from types import MappingProxyType
 from typing import Any, NamedTuple, TypeGuard
 
 __all__ = [
+    "BLOCK_WRITE_WHOLE",
     "COMMAND_DEADLINE",
     "DEFAULT_POINT_RANGE",
     "DEFAULT_PORT",
@@ -95,6 +96,19 @@ COMMAND_DEADLINE = 2.0
 #: Seconds all three inputs stay low in the §6.5.2 function reset (the manual: at
 #: least 30 ms, its only timing value).
 FUNCTION_RESET_LOW = 0.030
+#: Whether the controller's Modbus slave hands one write of several holding
+#: registers (function 16) to the Remote inputs whole: the controller sees every
+#: register of it change at once, never a part.  The Modbus specification defines
+#: the request, not when the slave's device sees its registers, and the manual
+#: does not name the fieldbus at all, so this is the profile's assumption (a
+#: fieldbus slave exchanges its process image a request at a time).  It decides
+#: steps 2 and 3 of §6.3 when ExtCmdSet's register lies just before the command
+#: words (the default map): True, one write of that register and the words; False,
+#: the words, then ExtCmdSet (one round trip more).  A map with ExtCmdSet's
+#: register just after the words has them in one write either way: the registers'
+#: order is then the manual's (the words before ExtCmdSet rises), whole or not.
+#: (:meth:`RegisterMap.command_block`)
+BLOCK_WRITE_WHOLE = True
 
 # --- answers the manual leaves open ---------------------------------------------------
 
@@ -369,6 +383,21 @@ class RegisterMap:
                 {self.ext_cmd_set.register, self.ext_resp_get.register, self.ext_cmd_reset.register}
             )
         )
+
+    def command_block(self, *, whole: bool = BLOCK_WRITE_WHOLE) -> int | None:
+        """Where one write of the command words with ExtCmdSet's register starts
+        (§6.3 steps 2 and 3 in one request), or None when they must be two.
+
+        They are one when ExtCmdSet's register lies just after the words (the
+        register order is then the manual's: the words are there before ExtCmdSet
+        rises), or just before them and the slave applies a write ``whole``
+        (:data:`BLOCK_WRITE_WHOLE`); anywhere else they are not contiguous."""
+        register = self.ext_cmd_set.register
+        if register == self.command_base + self.command_words:
+            return self.command_base
+        if whole and register == self.command_base - 1:
+            return register
+        return None
 
     @cached_property
     def input_span(self) -> tuple[int, int]:

@@ -168,6 +168,7 @@ class _Station:
             clock=sim.clock,
             acquire_time=sim.acquire_time,
             reset_low=sim.reset_low,
+            whole_writes=sim.whole_writes,
         )
         self._taken: tuple[float, bool] = (0.0, False)  # when, and whether busy
 
@@ -239,6 +240,8 @@ class Simulator(device.Device[SimState]):
     before a request is taken; ``reset_low`` how long ExtCmdReset must be 0 for a
     function reset.  ``busy_after_writes`` starts a task once that many writes
     have taken effect (a split or Rn write counts once, at its last step).
+    ``whole_writes`` False: its Modbus slave hands a write to the controller a
+    register at a time (:class:`~.remote.RemoteIO`), not whole as the profile has it.
     """
 
     family = SIM_FAMILY
@@ -254,12 +257,14 @@ class Simulator(device.Device[SimState]):
         faults: Faults | None = None,
         busy_after_writes: int = 0,
         clock: Callable[[], float] = time.monotonic,
+        whole_writes: bool = True,
     ) -> None:
         super().__init__(stations, faults=faults, busy_after_writes=busy_after_writes, clock=clock)
         self.register_map = register_map if register_map is not None else RegisterMap()
         self.execution_time = execution_time
         self.acquire_time = acquire_time
         self.reset_low = reset_low
+        self.whole_writes = whole_writes
         self.server: ModbusServer | None = None
         self._drop_next = 0
         self._controllers = {n: _Station(self, n) for n in self.stations}
@@ -352,6 +357,28 @@ class Simulator(device.Device[SimState]):
         with self.lock:
             faults = [f for c in self._controllers.values() for f in c.remote.faults]
         return sorted(faults, key=lambda f: f.at)
+
+    @property
+    def stale_requests(self) -> list[str]:
+        """Every request any station took with command words not written since the
+        request before (ExtCmdSet raised before the words were all there)."""
+        with self.lock:
+            return [
+                e.detail
+                for c in self._controllers.values()
+                for e in c.remote.events
+                if e.kind == "stale words"
+            ]
+
+    def accesses(self) -> dict[str, int]:
+        """Register accesses answered over all stations, by kind (read_holding,
+        read_input, write): the round trips as the controller counts them."""
+        with self.lock:
+            total = dict.fromkeys(("read_holding", "read_input", "write"), 0)
+            for c in self._controllers.values():
+                for kind, n in c.remote.accesses.items():
+                    total[kind] += n
+            return total
 
     def remote(self, station: int | None = None) -> RemoteIO:
         """A station's Remote I/O (default: the lowest station), for tests."""

@@ -7,7 +7,9 @@ How this works::
     OFF        ExtCmdReset 0: the function is inactive (§4.1.1)      ExtCmdGet, ExtRespSet,
                                                                      ExtCmdResult 0
     IDLE       waits for ExtCmdSet 0 -> 1 while ExtCmdReset is 1; raised while the
-               reset is 0, or in the same write as the reset, it is no request (§6.2)
+               reset is 0, or in the same write as the reset, it is no request (§6.2);
+               raised over command words not all written since the last request,
+               the request is flagged ("stale words": the data comes first, §4.1.1)
     REQUESTED  the command words latched; taken after ``acquire_time``
                (ExtCmdSet back to 0 before that: withdrawn, back to IDLE)
     EXECUTING  taken: it runs for its execution time                 ExtCmdGet 1
@@ -88,6 +90,7 @@ EventKind = Literal[
     "short reset",
     "still halted",
     "stray ExtRespGet",
+    "stale words",
 ]
 
 
@@ -133,6 +136,10 @@ class RemoteIO:
 
     ``acquire_time`` is the seconds between a request and ExtCmdGet;
     ``reset_low`` how long ExtCmdReset must stay 0 for a function reset (§6.5.2).
+    ``whole_writes``: a write of several registers reaches the controller at
+    once (the profile's BLOCK_WRITE_WHOLE); False, a register at a time in
+    address order, the controller reacting to each (a slave that hands them over
+    so: ExtCmdSet before the words in one write then requests the old words).
     """
 
     def __init__(
@@ -143,12 +150,17 @@ class RemoteIO:
         clock: Callable[[], float] = time.monotonic,
         acquire_time: float = 0.0,
         reset_low: float = profile.FUNCTION_RESET_LOW,
+        whole_writes: bool = True,
     ) -> None:
         self.robot = robot
         self.map = register_map if register_map is not None else RegisterMap()
         self.clock = clock
         self.acquire_time = acquire_time
         self.reset_low = reset_low
+        self.whole_writes = whole_writes
+        #: register accesses answered, by kind (read_holding, read_input, write):
+        #: the client's round trips, as the controller counts them
+        self.accesses: dict[str, int] = {"read_holding": 0, "read_input": 0, "write": 0}
         #: what the controller passed over, in order
         self.events: list[Event] = []
         #: every function error raised, in order
@@ -174,23 +186,32 @@ class RemoteIO:
         self._due = 0.0
         self._set_cleared = False
         self._reset_low_since = self.clock()
+        #: command word registers written since the last request was latched
+        self._fresh: set[int] = set()
 
     # --- the registers -------------------------------------------------------------------
 
     def read_holding(self, address: int, count: int) -> list[int]:
+        self.accesses["read_holding"] += 1
         return [self.holding.get(address + i, 0) for i in range(count)]
 
     def read_input(self, address: int, count: int) -> list[int]:
+        self.accesses["read_input"] += 1
         self.advance()
         levels = self.levels()
         return [self._input_register(address + i, levels) for i in range(count)]
 
     def write_holding(self, address: int, values: list[int]) -> None:
+        self.accesses["write"] += 1
         self.advance()
         before = self._inputs()
         for i, value in enumerate(values):
             self.holding[address + i] = value & 0xFFFF
-        self._react(before, self._inputs())
+            self._fresh.add(address + i)
+            if not self.whole_writes:
+                before = self._react(before, self._inputs())
+        if self.whole_writes:
+            self._react(before, self._inputs())
         self.advance()
 
     def _input_register(self, address: int, levels: Mapping[str, bool] | None = None) -> int:
@@ -232,8 +253,11 @@ class RemoteIO:
 
     # --- the handshake ---------------------------------------------------------------------
 
-    def _react(self, before: tuple[bool, bool, bool], after: tuple[bool, bool, bool]) -> None:
-        """The edges of one write, as the controller sees them: the reset first."""
+    def _react(
+        self, before: tuple[bool, bool, bool], after: tuple[bool, bool, bool]
+    ) -> tuple[bool, bool, bool]:
+        """The edges of one write, as the controller sees them: the reset first.
+        Returns ``after``."""
         (was_set, was_get, was_reset), (cmd_set, resp_get, reset) = before, after
         now = self.clock()
         if was_reset and not reset:
@@ -249,7 +273,7 @@ class RemoteIO:
         elif was_set and not cmd_set:
             self._command_set_dropped(now)
         if not reset:
-            return
+            return after
         if resp_get and not was_get:
             if self.phase is Phase.RESPONDED:
                 self._resp_set = False
@@ -260,11 +284,22 @@ class RemoteIO:
                 )
         elif was_get and not resp_get and self.phase is Phase.RELEASED:
             self.phase = Phase.IDLE
+        return after
 
     def _request(self, now: float) -> None:
-        words = tuple(
-            self.holding.get(self.map.command_base + i, 0) for i in range(self.map.command_words)
-        )
+        registers = range(self.map.command_base, self.map.command_base + self.map.command_words)
+        words = tuple(self.holding.get(r, 0) for r in registers)
+        stale = [r - self.map.command_base for r in registers if r not in self._fresh]
+        self._fresh.clear()
+        if stale:
+            # the controller takes what the words hold: a client that raised
+            # ExtCmdSet before writing them all (§4.1.1: the command data first)
+            self._note(
+                now,
+                "stale words",
+                f"ExtCmdSet raised over command words {', '.join(map(str, stale))} not "
+                f"written since the last request: command {words[0]} taken as they were",
+            )
         if self.fault is not None:
             self._note(
                 now,
