@@ -46,6 +46,7 @@ __all__ = [
     "backup",
     "find_projects",
     "line_of",
+    "lines_of",
     "run_hook",
     "write_metrics",
 ]
@@ -245,6 +246,20 @@ def line_of(port: str) -> str:
     """The physical line a port URL names, so robots sharing it are pulled in turn:
     the same identity the line lock uses."""
     return lock_key(port) or port
+
+
+def lines_of(projects: Iterable[Path]) -> dict[str, list[Path]]:
+    """The projects by line (:func:`line_of` their port), in order: each line's are
+    read one after the other.  A project whose robot.yaml cannot be read is a line
+    of its own (it fails, naming why)."""
+    lines: dict[str, list[Path]] = {}
+    for path in projects:
+        try:
+            port = load_robot(path).port
+        except HarlsyncError:
+            port = f"unreadable:{path}"
+        lines.setdefault(line_of(port), []).append(path)
+    return lines
 
 
 class BackupWatch(Protocol):
@@ -484,16 +499,8 @@ def _run(
         return now + timedelta(seconds=time.monotonic() - started)
 
     projects = find_projects(paths)
-    lines: dict[str, list[Path]] = {}
-    for path in projects:
-        try:
-            port = load_robot(path).port
-        except HarlsyncError:
-            port = f"unreadable:{path}"
-        lines.setdefault(line_of(port), []).append(path)
-
     outcomes = fleet.read_lines(
-        lines,
+        lines_of(projects),
         fleet.Task(attempts, lock_timeout, clock),
         workers=fleet.default_workers() if workers is None else max(1, workers),
         jobs=jobs,
