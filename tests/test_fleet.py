@@ -13,6 +13,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import sys
 import threading
 from collections.abc import Iterator
@@ -259,3 +260,47 @@ def test_ctrl_c_during_a_backup_in_two_workers_leaves_no_partial_file_and_no_loc
         lock.acquire(timeout=0)
     for lock in taken:
         lock.release()
+
+
+class KillsTheWorker(Where):
+    """Kills this process's worker (its only child) as soon as the worker says it
+    started a robot."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.killed: list[int] = []
+
+    def started(self, path: Path, name: str) -> None:
+        super().started(path, name)
+        if self.of[name] == "worker" and not self.killed:
+            [pid] = [
+                int(child)
+                for task in Path(f"/proc/{os.getpid()}/task").iterdir()
+                for child in (task / "children").read_text().split()
+            ]
+            os.kill(pid, signal.SIGKILL)
+            self.killed.append(pid)
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="finds the worker in /proc")
+def test_a_worker_killed_mid_run_fails_its_robots_and_the_run_goes_on(plant: Plant) -> None:
+    plant.sims["local"].stations[1].data.timers[1] = "6.66"
+    before = files_of(plant.root)
+    watch = KillsTheWorker()
+    report = backup([plant.root], workers=2, commit=True, watch=watch)
+    assert watch.killed
+    rows = {r.name: r for r in report.robots}
+    failed = sorted(n for n, r in rows.items() if not r.ok)
+    assert failed == sorted(in_a_worker(plant, 2) + ["st-1", "st-2"])  # its whole share
+    for name in failed:
+        assert rows[name].error == (
+            "the backup's worker process ended before this robot was backed up (killed by "
+            "SIGKILL); its previous backup is kept"
+        )
+        assert {k: v for k, v in files_of(plant.root / name).items()} == {
+            k.removeprefix(f"{name}/"): v for k, v in before.items() if k.startswith(f"{name}/")
+        }
+    assert rows["local"].ok and rows["local"].changed  # this process's share went on
+    assert report.commit and git(
+        plant.root, "show", "--name-only", "--format=", "HEAD"
+    ).split() == ["local/timers.yaml"]

@@ -31,6 +31,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -273,7 +274,9 @@ class _Child:
             for path in paths:
                 if str(path) in self.finished:
                     continue
-                why = self.fatal or f"exit status {code}"
+                why = self.fatal or (
+                    f"killed by {_signal_name(-code)}" if code < 0 else f"exit status {code}"
+                )
                 self.watch.finished(
                     not_backed_up(
                         path,
@@ -283,6 +286,13 @@ class _Child:
                         ),
                     )
                 )
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
 
 
 def _levels() -> dict[str, int]:
