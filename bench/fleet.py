@@ -249,7 +249,8 @@ def main() -> None:
     )
     print(
         f"harlsync's CPU by process: this one {own_cpu:.1f} s ({own_cpu / total:.0%} of a core), "
-        f"the workers {client_cpu - own_cpu:.1f} s ({(client_cpu - own_cpu) / total:.0%})"
+        f"its children (the workers; git, which a pull asks) {client_cpu - own_cpu:.1f} s "
+        f"({(client_cpu - own_cpu) / total:.0%})"
     )
     print(f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}).")
     if floor:

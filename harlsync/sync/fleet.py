@@ -56,13 +56,18 @@ log = logging.getLogger(__name__)
 
 #: What a worker process runs.
 _WORKER = "from harlsync.sync.fleet import worker; worker()"
+#: Whether a run can have worker processes (see :func:`default_workers`).
+_SPREADS = os.name == "posix"
 #: A worker tells a robot's progress at most this often (a live display redraws
 #: about as often; a night's 100,000 exchanges need not cross the pipe).
 _PROGRESS_EVERY = 0.1
 
 
 def default_workers() -> int:
-    """One per core this process may run on."""
+    """One per core this process may run on (on Windows 1: a worker is handed its
+    events pipe by descriptor, which only POSIX passes)."""
+    if not _SPREADS:
+        return 1
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not Linux
@@ -153,6 +158,7 @@ def read_lines(
     sends it only then).  Raises KeyboardInterrupt when interrupted, once every
     read has stopped."""
     here = [line for line, paths in lines.items() if any(_local(p) for p in paths)]
+    workers = workers if _SPREADS else 1
     shares = plan(lines, workers if jobs is None else min(workers, jobs), here)
     threads = _threads(jobs, shares)
     collect = _Collect(watch)
