@@ -250,6 +250,7 @@ def test_ctrl_c_during_a_backup_in_two_workers_leaves_no_partial_file_and_no_loc
     assert seen.code == 130, seen.raw
     assert seen.screen[-1] == "harlsync: interrupted", seen.screen
     assert "Traceback" not in seen.raw.decode()
+    assert not [line for line in seen.screen if "FAILED" in line]  # stopped, as in one process
     assert files_of(repo) == before  # every backup, and its record, as it was
     assert git(repo, "status", "--porcelain", "--ignored") == status
     assert not list(lock_dir.glob("*.owner"))  # every holder gave its lock back

@@ -180,7 +180,7 @@ def read_lines(
                 child.stop()
             pool.shutdown(wait=True, cancel_futures=True)
             for child in children:
-                child.wait()
+                child.wait(stopped=True)
             raise
     return collect.outcomes
 
@@ -270,12 +270,15 @@ class _Child:
         except OSError:  # it has ended already
             pass
 
-    def wait(self) -> None:
-        """Wait for the worker to end; fail each robot it did not finish."""
+    def wait(self, *, stopped: bool = False) -> None:
+        """Wait for the worker to end; fail each robot it did not finish, unless it
+        was ``stopped`` (a robot stopped is told of no more than in this process)."""
         self._reader.join()
         code = self.process.wait()
         if self.process.stdin and not self.process.stdin.closed:
             self.stop()
+        if stopped:
+            return
         for paths in self.share:
             for path in paths:
                 if str(path) in self.finished:
