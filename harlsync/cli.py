@@ -470,6 +470,8 @@ def _cmd_backup(args: argparse.Namespace) -> int:
 
     if args.push and not args.commit:
         return _usage("backup: --push needs --commit")
+    if args.workers is not None and args.workers < 1:
+        return _usage(f"backup: --workers {args.workers}: give 1 or more processes")
     display = BackupDisplay()
     try:
         report = backup.backup(

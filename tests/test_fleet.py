@@ -305,3 +305,9 @@ def test_a_worker_killed_mid_run_fails_its_robots_and_the_run_goes_on(plant: Pla
     assert report.commit and git(
         plant.root, "show", "--name-only", "--format=", "HEAD"
     ).split() == ["local/timers.yaml"]
+
+
+def test_workers_below_one_is_one_line_and_exit_2(tmp_path: Path, capsys) -> None:
+    assert main(["backup", str(tmp_path), "--workers", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == [err.strip()] and "--workers 0: give 1 or more processes" in err
