@@ -5,7 +5,8 @@
     python bench/fleet.py --quick            32 small-full robots: ~15 s
     python bench/fleet.py --robots 32 --processes 4     the simulators as before issue
                                              15: 8 lines a process, two threads a line
-    python bench/fleet.py --split 4 --tick 0.004        the backup in 4 processes, and
+    python bench/fleet.py --workers 1        the backup in one process, as before issue 24
+    python bench/fleet.py --split 4 --tick 0.004        4 backups of a share each, and
                                              bytes delivered every 4 ms as a USB
                                              adapter's latency timer does
 
@@ -20,11 +21,12 @@ nightly backup with no change).  First one robot alone is backed up
 backup's default) or ``--jobs``.  Every robot reads the same bytes, so the one alone
 is the slowest single robot.
 
-Printed beside the times: harlsync's CPU during the fleet backup (this process: the
-backup runs in it) and its share of one core; the simulator's CPU and how late its
+Printed beside the times: harlsync's CPU during the fleet backup (this process, which
+reads a share of the lines, and the worker processes it starts for the others: one
+per core by default, ``--workers N``) and its share of one core; the simulator's CPU and how late its
 replies were (the emulation's own error, on top of the figures); the load average.
 
-Target (issue 15): 128 robots at 19200 baud in at most 1.10 x one robot alone.
+Target (issues 15 and 24): 128 robots at 19200 baud in at most 1.10 x one robot alone.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_fr
 from harlsync.project import Project, new_robot, save_project
 from harlsync.settings import SerialSettings
 from harlsync.sync.backup import BackupReport, backup
+from harlsync.sync.fleet import default_workers
 
 TARGET = 1.10
 
@@ -122,6 +125,9 @@ def main() -> None:
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--jobs", type=int, help="backup's --jobs (default: its default)")
     parser.add_argument(
+        "--workers", type=int, help="backup's --workers (default: its default, one per core)"
+    )
+    parser.add_argument(
         "--processes",
         type=int,
         default=0,
@@ -150,14 +156,16 @@ def main() -> None:
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "default-full")
     count = args.robots or (32 if args.quick else 128)
-    jobs = {} if args.jobs is None else {"jobs": args.jobs}
+    jobs: dict[str, int] = {} if args.jobs is None else {"jobs": args.jobs}
+    if args.workers is not None:
+        jobs["workers"] = args.workers
     processes = args.processes or 1
     per_process = -(-count // processes)
 
     print(f"harlsync fleet bench: {describe()}")
     print(
         f"{count} {robot} robots on separate lines at {args.baud} baud, backup jobs: "
-        f"{args.jobs or 'default'}; simulated by "
+        f"{args.jobs or 'default'}, workers: {args.workers or default_workers()}; simulated by "
         + (
             "one process, one event loop"
             if not args.processes
@@ -206,7 +214,8 @@ def main() -> None:
             fleet = backup([plant], **jobs)
         total = time.perf_counter() - start
         after = os.times()
-        client_cpu = sum(after[:4]) - sum(cpu[:4])  # with the split's processes
+        client_cpu = sum(after[:4]) - sum(cpu[:4])  # with the split's or the workers' processes
+        own_cpu = sum(after[:2]) - sum(cpu[:2])  # this process alone
         load_after = os.getloadavg()
         stats = [sim.stats() for sim in sims]
         sim_cpu = sum(s[0]["cpu"] for s in stats) - sim_before
@@ -237,6 +246,11 @@ def main() -> None:
         f"one core, {client_cpu / exchanges * 1e6:.0f} us an exchange); the simulator "
         f"{sim_cpu:.1f} s ({sim_cpu / total:.0%} of one core), on {os.cpu_count()} cores; "
         f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after"
+    )
+    print(
+        f"harlsync's CPU by process: this one {own_cpu:.1f} s ({own_cpu / total:.0%} of a core), "
+        f"its children (the workers; git, which a pull asks) {client_cpu - own_cpu:.1f} s "
+        f"({(client_cpu - own_cpu) / total:.0%})"
     )
     print(f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}).")
     if floor:

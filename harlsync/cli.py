@@ -392,8 +392,8 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         "backup",
         help="back up every robot of a plant (for cron and systemd)",
         description="Pull every robot project found in PATH (a project directory, or a directory "
-        "of projects): in parallel across separate lines, one at a time for stations "
-        "that share a line. A robot that fails keeps its previous backup and the others "
+        "of projects): in parallel across separate lines, spread over a worker process "
+        "per core, one at a time for stations that share a line. A robot that fails keeps its previous backup and the others "
         "go on. On a terminal it shows a live line per robot (exchanges with the "
         "controller, rate, time left) and a result line as each ends. Exit 0 when "
         "every robot was backed up, 1 when any failed or the git commit or push "
@@ -406,6 +406,14 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         default=None,
         metavar="N",
         help="lines read at once (default: every line at once)",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes the lines are spread over, a thread a line in each "
+        "(default: one per core; 1: all in this process)",
     )
     p.add_argument(
         "--commit",
@@ -462,11 +470,14 @@ def _cmd_backup(args: argparse.Namespace) -> int:
 
     if args.push and not args.commit:
         return _usage("backup: --push needs --commit")
+    if args.workers is not None and args.workers < 1:
+        return _usage(f"backup: --workers {args.workers}: give 1 or more processes")
     display = BackupDisplay()
     try:
         report = backup.backup(
             args.paths,
             jobs=args.jobs,
+            workers=args.workers,
             commit=args.commit,
             push=args.push,
             stale_after=timedelta(hours=args.stale_after),

@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 
-__all__ = ["RobotFilter", "about"]
+__all__ = ["RobotFilter", "about", "current"]
 
 _robot: ContextVar[str | None] = ContextVar("harlsync_robot", default=None)
 
@@ -39,3 +39,8 @@ class RobotFilter(logging.Filter):
         name = _robot.get()
         record.robot = f"{name}: " if name else ""
         return True
+
+
+def current() -> str | None:
+    """The robot this thread's log records are about now, if any (see :func:`about`)."""
+    return _robot.get()

@@ -16,6 +16,7 @@ import subprocess
 import sys
 import termios
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,9 +45,13 @@ class Seen:
         return "\n".join(self.screen)
 
 
-def run(*args: str, cwd: Path | None = None, interrupt_when: str | None = None) -> Seen:
+def run(
+    *args: str,
+    cwd: Path | None = None,
+    interrupt_when: str | Callable[[list[str]], bool] | None = None,
+) -> Seen:
     """``harlsync ARGS`` on a terminal; with ``interrupt_when``, ^C is typed as soon as
-    that text is on the screen."""
+    that text is on the screen (or as soon as it holds for the screen's lines)."""
     controller, terminal = os.openpty()
     fcntl.ioctl(terminal, termios.TIOCSWINSZ, struct.pack("HHHH", LINES, COLUMNS, 0, 0))
     process = subprocess.Popen(
@@ -77,7 +82,7 @@ def run(*args: str, cwd: Path | None = None, interrupt_when: str | None = None) 
                 break
             raw += data
             stream.feed(data)
-            if interrupt_when and any(interrupt_when in line for line in screen.display):
+            if interrupt_when and _holds(interrupt_when, screen.display):
                 os.write(controller, b"\x03")
                 interrupt_when = None
         else:
@@ -87,3 +92,9 @@ def run(*args: str, cwd: Path | None = None, interrupt_when: str | None = None) 
         process.kill()
         os.close(controller)
     return Seen(code, [line.rstrip() for line in screen.display if line.strip()], bytes(raw))
+
+
+def _holds(when: str | Callable[[list[str]], bool], lines: list[str]) -> bool:
+    if isinstance(when, str):
+        return any(when in line for line in lines)
+    return when(lines)

@@ -302,7 +302,8 @@ def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeyp
         return real(path, **kwargs)
 
     monkeypatch.setattr(backup_module, "pull", broken_for_the_loader)
-    report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1)
+    # The bug is patched into this process: a worker process would not have it.
+    report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1, workers=1)
     outcome = {r.name: r for r in report.robots}
     assert not outcome["loader"].ok and "RuntimeError" in outcome["loader"].error
     assert outcome["press-1"].ok
@@ -364,6 +365,8 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
             [
                 "backup",
                 str(plant.root),
+                "--workers",  # the fault is patched into this process only
+                "1",
                 "--commit",
                 "--attempts",
                 "2",

@@ -1,7 +1,8 @@
 """The nightly plant backup: pull every robot, one commit per run, a report.
 
 Robots on separate lines are pulled in parallel (every line at once, or at
-most ``jobs`` lines at once);
+most ``jobs`` lines at once), spread over a worker process per core
+(:mod:`harlsync.sync.fleet`);
 robots that share a line (stations of one HNC on one port) are pulled one after
 the other by the same worker, so their frames never interleave.  A robot that
 fails leaves its previous backup as it was (a pull is atomic) and the others go
@@ -19,7 +20,6 @@ import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterable
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta, timezone
@@ -46,6 +46,7 @@ __all__ = [
     "backup",
     "find_projects",
     "line_of",
+    "lines_of",
     "run_hook",
     "write_metrics",
 ]
@@ -247,9 +248,24 @@ def line_of(port: str) -> str:
     return lock_key(port) or port
 
 
+def lines_of(projects: Iterable[Path]) -> dict[str, list[Path]]:
+    """The projects by line (:func:`line_of` their port), in order: each line's are
+    read one after the other.  A project whose robot.yaml cannot be read is a line
+    of its own (it fails, naming why)."""
+    lines: dict[str, list[Path]] = {}
+    for path in projects:
+        try:
+            port = load_robot(path).port
+        except HarlsyncError:
+            port = f"unreadable:{path}"
+        lines.setdefault(line_of(port), []).append(path)
+    return lines
+
+
 class BackupWatch(Protocol):
     """What a backup tells while it runs, for a live display (the CLI's, on a
-    terminal).  Called from the worker threads, one per line.  Progress is in
+    terminal).  Called from this process's threads, one per line it reads and one per
+    worker process (:mod:`harlsync.sync.fleet`).  Progress is in
     exchanges with the controller, as a pull's."""
 
     def started(self, path: Path, name: str) -> None:
@@ -273,7 +289,7 @@ class _Unwatched:
         pass
 
 
-class _Stopped(Exception):
+class Stopped(Exception):
     """The run was interrupted (Ctrl-C): a robot's read stops at its next exchange."""
 
 
@@ -297,7 +313,7 @@ def _pull_one(
                 connect_options=_unattended(family),
                 noted=outcome.notes.append,  # a reset is told even when the read then fails
             )
-        except _Stopped:
+        except Stopped:
             raise
         except LinkError as exc:  # the line may recover: try again, bounded
             outcome.attempts.append(f"attempt {attempt}: {exc}")
@@ -334,7 +350,7 @@ def _unattended(family: AnyFamily) -> dict[str, bool]:
 UNATTENDED = "unattended"
 
 
-def _backup_one(
+def backup_one(
     path: Path,
     attempts: int,
     lock_timeout: float,
@@ -344,11 +360,11 @@ def _backup_one(
 ) -> RobotOutcome:
     """Back up one robot, holding its project from the pull to the record of it,
     which says when it ended (``clock()``).  Every log line meanwhile names the
-    robot (:mod:`harlsync.robotlog`).  Raises _Stopped once ``stop`` is set."""
+    robot (:mod:`harlsync.robotlog`).  Raises Stopped once ``stop`` is set."""
 
     def progress(done: int, total: int) -> None:
         if stop.is_set():
-            raise _Stopped
+            raise Stopped
         watch.progress(path, done, total)
 
     name = _name_of(path)
@@ -358,7 +374,7 @@ def _backup_one(
         try:
             held.enter_context(project_lock(path, timeout=lock_timeout, command="backup"))
         except ProjectError as exc:  # another harlsync is saving it: one line, that robot
-            outcome = _not_backed_up(path, exc)
+            outcome = not_backed_up(path, exc)
         else:
             since = history.read(path).get("last_success")
             outcome = _pull_one(path, attempts, lock_timeout, progress)
@@ -377,7 +393,7 @@ def _name_of(path: Path) -> str:
         return path.name
 
 
-def _not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
+def not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
     """The outcome of a robot not even tried, reading only what it needs to name it."""
     try:
         robot = load_robot(path)
@@ -447,6 +463,7 @@ def _run(
     paths: Iterable[str | Path],
     *,
     jobs: int | None = None,
+    workers: int | None = None,
     commit: bool = False,
     push: bool = False,
     stale_after: timedelta = timedelta(hours=36),
@@ -461,13 +478,18 @@ def _run(
     at it, and each robot's good backup is recorded as ``now`` plus the time the
     run took until that robot was done.
 
-    ``jobs`` is how many lines are read at once (default: all of them).  Each
-    line spends nearly all its time waiting for the wire, so a worker per line
-    costs a thread, not a core: a fixed pool of 4 made 32 robots take 8 times
-    as long as one.  ``watch`` hears of each robot as it starts, reads and ends.
+    ``workers`` is how many processes read the lines (default: one per core, see
+    :mod:`harlsync.sync.fleet`), ``jobs`` how many lines are read at once in all
+    (default: all of them).  Each line spends nearly all its time waiting for the
+    wire, so a line costs a thread, not a core: a fixed pool of 4 made 32 robots
+    take 8 times as long as one; but at a hundred lines one process needs its
+    whole core.  ``watch`` hears of each robot as it starts, reads and ends.
     Interrupted (KeyboardInterrupt), every robot's read stops at its next exchange,
-    leaving its previous backup as it was, before the interruption goes on.
+    in every worker, leaving its previous backup as it was, before the
+    interruption goes on.
     """
+    from . import fleet
+
     started = time.monotonic()
     now = now or datetime.now(timezone.utc)
 
@@ -477,32 +499,14 @@ def _run(
         return now + timedelta(seconds=time.monotonic() - started)
 
     projects = find_projects(paths)
-    lines: dict[str, list[Path]] = {}
-    for path in projects:
-        try:
-            port = load_robot(path).port
-        except HarlsyncError:
-            port = f"unreadable:{path}"
-        lines.setdefault(line_of(port), []).append(path)
-
-    watching: BackupWatch = watch or _Unwatched()
-    stop = threading.Event()
-
-    def run_line(paths_on_line: list[Path]) -> list[RobotOutcome]:
-        return [
-            _backup_one(p, attempts, lock_timeout, clock, watching, stop)
-            for p in paths_on_line
-            if not stop.is_set()
-        ]
-
-    workers = len(lines) if jobs is None else jobs
-    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-        try:
-            outcomes = [o for group in pool.map(run_line, lines.values()) for o in group]
-        except BaseException:  # Ctrl-C: every read stops at its next exchange, none starts
-            stop.set()
-            pool.shutdown(wait=True, cancel_futures=True)
-            raise
+    outcomes = fleet.read_lines(
+        lines_of(projects),
+        fleet.Task(attempts, lock_timeout, clock),
+        workers=fleet.default_workers() if workers is None else max(1, workers),
+        jobs=jobs,
+        watch=watch or _Unwatched(),
+        watched=watch is not None,
+    )
     labels = project_labels(projects)
     for outcome in outcomes:
         outcome.project = labels.get(Path(outcome.path), outcome.name)

@@ -1,0 +1,313 @@
+"""Issue 24, item 3: ``harlsync backup`` spread over worker processes.
+
+The robots are simulators served in this process over TCP (and one ``sim://@name``
+only this process can open), so a worker process reads them as it would real
+lines; a watch that notes which thread told it a robot started shows where each
+was read: a worker's events reach this process on a thread of their own.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import re
+import shutil
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import filelock
+import pytest
+from conftest import git
+from ptyscreen import run
+
+from harlsync.cli import main
+from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
+from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.link.lock import LineLock, lock_path
+from harlsync.sim import Faults
+from harlsync.sim.protocol_sim import register, unregister
+from harlsync.sim.serve import TcpServer
+from harlsync.sync import engine, fleet
+from harlsync.sync.backup import RobotOutcome, backup, find_projects, lines_of
+
+SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
+#: The thread that tells this process what a worker process does.
+IN_A_WORKER = "fleet-worker"
+
+
+@dataclass
+class Plant:
+    root: Path
+    sims: dict[str, Simulator]
+    ports: dict[str, str]
+
+
+class Where:
+    """A backup watch noting where each robot was read: ``here`` or in a ``worker``."""
+
+    def __init__(self) -> None:
+        self.of: dict[str, str] = {}
+
+    def started(self, path: Path, name: str) -> None:
+        thread = threading.current_thread().name
+        self.of[name] = "worker" if thread == IN_A_WORKER else "here"
+
+    def progress(self, path: Path, done: int, total: int) -> None:
+        pass
+
+    def finished(self, outcome: RobotOutcome) -> None:
+        pass
+
+
+@pytest.fixture
+def plant(tmp_path: Path) -> Iterator[Plant]:
+    """Six robots first backed up: ``local`` on a sim://@ port of this process, ``a``-``d``
+    each on a TCP line of its own, ``st-1`` and ``st-2`` two stations of one TCP line
+    (named ``localhost`` for one, ``127.0.0.1`` for the other: one line all the same)."""
+    root = tmp_path / "plant"
+    root.mkdir()
+    git(root, "init", "-q")
+    shared = Simulator({1: SimState.generate(51, SMALL), 2: SimState.generate(52, SMALL)})
+    sims = {n: Simulator(SimState.generate(seed, SMALL)) for seed, n in enumerate("abcd", 40)}
+    sims |= {"local": Simulator(SimState.generate(50, SMALL)), "st-1": shared, "st-2": shared}
+    servers = {n: TcpServer(sims[n]) for n in "abcd"}
+    ports = {n: server.start() for n, server in servers.items()}
+    line = TcpServer(shared)
+    servers["st"] = line
+    ports["st-1"] = line.start()
+    ports["st-2"] = line.url.replace("127.0.0.1", "localhost")
+    ports["local"] = register(sims["local"], f"fleet-{tmp_path.name}")
+    for name, url in ports.items():
+        engine.pull(root / name, port=url, station=2 if name == "st-2" else 1)
+        robot = root / name / "robot.yaml"
+        robot.write_text(robot.read_text().replace("timeout: 1.0", "timeout: 0.2"))
+    git(root, "add", "-A")
+    git(root, "commit", "-qm", "first backup")
+    yield Plant(root, sims, ports)
+    unregister(ports["local"])
+    for server in servers.values():
+        server.stop()
+
+
+def files_of(root: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(root)): p.read_bytes()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and ".git" not in p.parts
+    }
+
+
+def in_a_worker(plant: Plant, workers: int) -> list[str]:
+    """The robots, alone on their line, that a backup of ``workers`` reads in a worker
+    process (by the plan, which the run's watch then confirms)."""
+    lines = lines_of(find_projects([plant.root]))
+    here = [k for k, paths in lines.items() if any(p.name == "local" for p in paths)]
+    shares = fleet.plan(lines, workers, here)
+    return [lines[k][0].name for share in shares[1:] for k in share if len(lines[k]) == 1]
+
+
+def test_the_plan_keeps_a_line_whole_and_gives_each_line_to_the_share_with_fewest_robots() -> None:
+    lines = {
+        k: [Path(f"{k}{n}") for n in range(size)] for k, size in zip("uvwxyz", (1, 3, 1, 2, 1, 1))
+    }
+    shares = fleet.plan(lines, 2, here=["u"])
+    assert shares == [["u", "x", "w", "z"], ["v", "y"]]  # 5 robots and 4
+    assert sorted(itertools.chain(*shares)) == sorted(lines)  # every line once
+    assert fleet.plan(lines, 16) == [["v"], ["x"], ["u"], ["w"], ["y"], ["z"]]  # a share a line
+    assert fleet.plan(lines, 1, here=["u"]) == [["u", "v", "x", "w", "y", "z"]]
+    assert fleet.plan({}, 4) == [[]]
+    assert fleet.in_process("sim://@fleet-1") and fleet.in_process("loop://")
+    assert not fleet.in_process("socket://127.0.0.1:4001") and not fleet.in_process("/dev/ttyS0")
+
+
+def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) -> None:
+    plant.sims["a"].stations[1].data.timers[1] = "6.66"
+    plant.sims["st-2"].stations[2].data.programs[(ProgramType.MAIN, 1)][7] = Step.parse(
+        "MOVE P123 S80"
+    )
+    plant.sims["local"].stations[1].data.timers[2] = "1.25"
+    plant.sims["d"].faults = Faults(drop=1.0)
+    twin = plant.root.parent / "twin"
+    shutil.copytree(plant.root, twin)
+
+    def result(root: Path, workers: int) -> tuple[object, ...]:
+        watch = Where()
+        report = backup([root], workers=workers, commit=True, attempts=1, watch=watch)
+        robots = [
+            {k: v for k, v in r.items() if k not in ("duration", "last_success", "path")}
+            for r in report.to_json()["robots"]
+        ]
+        message = git(root, "log", "-1", "--format=%B")
+        names = git(root, "show", "--name-only", "--format=", "HEAD").split()
+        kept = {k: v for k, v in files_of(root).items() if not k.endswith("backup.json")}
+        return watch.of, robots, message, names, kept
+
+    alone, *one = result(plant.root, 1)
+    spread, *two = result(twin, 2)
+    assert set(alone.values()) == {"here"}
+    assert set(spread.values()) == {"here", "worker"}, spread
+    assert spread["local"] == "here"  # its port is this process's
+    assert one == two
+    robots = {r["name"]: r for r in one[0]}
+    assert [n for n, r in robots.items() if not r["ok"]] == ["d"]
+    assert robots["a"]["changed"] and robots["st-2"]["changed"] and robots["local"]["changed"]
+
+
+def test_a_robot_failed_in_a_worker_is_one_row_of_the_one_report_commit_and_metrics(
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    failing = in_a_worker(plant, 2)[0]
+    plant.sims[failing].faults = Faults(drop=1.0)
+    plant.sims["local"].stations[1].data.timers[1] = "6.66"
+    changed = "st-2"  # a station of the shared line, which the plan gives a worker too
+    plant.sims[changed].stations[2].data.timers[3] = "3.21"
+    head = git(plant.root, "rev-parse", "HEAD").strip()
+    metrics = tmp_path / "harlsync.prom"
+    code = main(
+        ["backup", str(plant.root), "--workers", "2", "--commit", "--attempts", "1"]
+        + ["--metrics", str(metrics), "--format", "json"]
+    )
+    assert code == 1
+    report = json.loads(capsys.readouterr().out)
+    rows = {r["name"]: r for r in report["robots"]}
+    assert len(report["robots"]) == 7
+    assert [n for n, r in rows.items() if not r["ok"]] == [failing]
+    assert "station 1" in rows[failing]["error"]
+    assert git(plant.root, "rev-list", f"{head}..HEAD").split() == [report["commit"]]
+    message = git(plant.root, "log", "-1", "--format=%B")
+    assert message.startswith(
+        f"backup: 2 of 7 robot(s) changed: {', '.join(sorted([changed, 'local']))}"
+    )
+    assert f"Not backed up:\n- {failing}: " in message
+    text = metrics.read_text()
+    assert len(re.findall(r"^harlsync_backup_success\{", text, re.MULTILINE)) == 7
+    assert f'harlsync_backup_success{{project="{failing}",robot="{failing}"}} 0' in text
+    assert f'harlsync_backup_success{{project="{changed}",robot="{changed}"}} 1' in text
+    # And the failure was read in a worker, as the plan said.
+    watch = Where()
+    backup([plant.root], workers=2, attempts=1, watch=watch)
+    assert watch.of[failing] == watch.of[changed] == "worker" and watch.of["local"] == "here"
+
+
+def test_two_robots_on_one_line_in_a_worker_are_read_in_turn_and_its_line_lock_holds(
+    plant: Plant,
+) -> None:
+    shared = plant.sims["st-1"]
+    before = len(shared.received)
+    watch = Where()
+    report = backup([plant.root], workers=2, watch=watch)
+    assert report.ok, report.render()
+    assert watch.of["st-1"] == watch.of["st-2"] == "worker"
+    stations = [r.station for r in shared.received[before:]]
+    assert set(stations) == {1, 2}
+    assert sum(a != b for a, b in itertools.pairwise(stations)) == 1  # never interleaved
+
+    # This process holds a worker's line: that robot waits, then fails naming us.
+    busy = in_a_worker(plant, 2)[0]
+    held = LineLock(plant.ports[busy], lock_path(plant.ports[busy]))
+    held.acquire(0)
+    try:
+        watch = Where()
+        report = backup([plant.root], workers=2, attempts=1, lock_timeout=0, watch=watch)
+    finally:
+        held.release()
+    assert watch.of[busy] == "worker"
+    rows = {r.name: r for r in report.robots}
+    assert [n for n, r in rows.items() if not r.ok] == [busy]
+    assert f"in use by another harlsync (pid {os.getpid()})" in (rows[busy].error or "")
+
+
+pty_only = pytest.mark.skipif(sys.platform == "win32", reason="a pty is POSIX")
+
+
+@pty_only
+def test_ctrl_c_during_a_backup_in_two_workers_leaves_no_partial_file_and_no_lock_held(
+    repo: Path, lock_dir: Path
+) -> None:
+    names = ("loader", "press", "welder", "sealer")
+    for seed, name in enumerate(names, 1):  # about 30 s each at 9600: ^C comes long before
+        project = repo / name
+        engine.pull(project, port=f"sim://?seed={seed}&baud=0")
+        robot = project / "robot.yaml"
+        robot.write_text(robot.read_text().replace("baud=0", "baud=9600"))
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "first backups")
+    before = files_of(repo)
+    status = git(repo, "status", "--porcelain", "--ignored")
+
+    def every_robot_reading(screen: list[str]) -> bool:
+        return all(
+            any(re.match(rf"{name}: +\d+%\|.*\| [1-9]\d*/\d+ exchanges", line) for line in screen)
+            for name in names
+        )
+
+    seen = run("backup", ".", "--workers", "2", cwd=repo, interrupt_when=every_robot_reading)
+    assert seen.code == 130, seen.raw
+    assert seen.screen[-1] == "harlsync: interrupted", seen.screen
+    assert "Traceback" not in seen.raw.decode()
+    assert not [line for line in seen.screen if "FAILED" in line]  # stopped, as in one process
+    assert files_of(repo) == before  # every backup, and its record, as it was
+    assert git(repo, "status", "--porcelain", "--ignored") == status
+    assert not list(lock_dir.glob("*.owner"))  # every holder gave its lock back
+    locks = sorted(lock_dir.glob("*.lock"))
+    assert len(locks) >= len(names)  # a line lock each (and the projects' locks)
+    taken = [filelock.FileLock(str(path)) for path in locks]
+    for lock in taken:  # nobody holds any: every worker has ended
+        lock.acquire(timeout=0)
+    for lock in taken:
+        lock.release()
+
+
+class KillsTheWorker(Where):
+    """Kills this process's worker (its only child) as soon as the worker says it
+    started a robot."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.killed: list[int] = []
+
+    def started(self, path: Path, name: str) -> None:
+        super().started(path, name)
+        if self.of[name] == "worker" and not self.killed:
+            [pid] = [
+                int(child)
+                for task in Path(f"/proc/{os.getpid()}/task").iterdir()
+                for child in (task / "children").read_text().split()
+            ]
+            os.kill(pid, signal.SIGKILL)
+            self.killed.append(pid)
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="finds the worker in /proc")
+def test_a_worker_killed_mid_run_fails_its_robots_and_the_run_goes_on(plant: Plant) -> None:
+    plant.sims["local"].stations[1].data.timers[1] = "6.66"
+    before = files_of(plant.root)
+    watch = KillsTheWorker()
+    report = backup([plant.root], workers=2, commit=True, watch=watch)
+    assert watch.killed
+    rows = {r.name: r for r in report.robots}
+    failed = sorted(n for n, r in rows.items() if not r.ok)
+    assert failed == sorted(in_a_worker(plant, 2) + ["st-1", "st-2"])  # its whole share
+    for name in failed:
+        assert rows[name].error == (
+            "the backup's worker process ended before this robot was backed up (killed by "
+            "SIGKILL); its previous backup is kept"
+        )
+        assert {k: v for k, v in files_of(plant.root / name).items()} == {
+            k.removeprefix(f"{name}/"): v for k, v in before.items() if k.startswith(f"{name}/")
+        }
+    assert rows["local"].ok and rows["local"].changed  # this process's share went on
+    assert report.commit and git(
+        plant.root, "show", "--name-only", "--format=", "HEAD"
+    ).split() == ["local/timers.yaml"]
+
+
+def test_workers_below_one_is_one_line_and_exit_2(tmp_path: Path, capsys) -> None:
+    assert main(["backup", str(tmp_path), "--workers", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == [err.strip()] and "--workers 0: give 1 or more processes" in err
