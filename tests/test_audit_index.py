@@ -200,7 +200,9 @@ def test_malformed_lines_are_named_by_file_and_line_five_at_most(tmp_path: Path)
     assert problems[-1] == f"and 4 more malformed lines in {log}"
 
 
-@pytest.mark.parametrize("change", ["truncated", "replaced", "rewritten", "index garbage"])
+@pytest.mark.parametrize(
+    "change", ["truncated", "replaced", "rewritten", "index garbage", "index without its marks"]
+)
 def test_an_index_that_no_longer_matches_its_log_is_built_again(
     tmp_path: Path, change: str
 ) -> None:
@@ -216,6 +218,10 @@ def test_an_index_that_no_longer_matches_its_log_is_built_again(
     elif change == "rewritten":  # same size, other content
         text = log.read_text()
         log.write_text(text.replace('"sim://a"', '"sim://c"'))
+    elif change == "index without its marks":
+        saved = json.loads(auditindex.index_path(log).read_text())
+        del saved["ino"], saved["head"]
+        auditindex.index_path(log).write_text(json.dumps(saved))
     else:
         auditindex.index_path(log).write_text('{"version": 1, "size": "x"}')
     index = assert_as_whole(log)

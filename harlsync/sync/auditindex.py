@@ -349,9 +349,9 @@ def load(path: Path | None = None) -> AuditIndex:
             if saved is None:
                 raise _Stale("none")
             index.restore(saved)
-            if saved["ino"] != ino or os.fstat(f.fileno()).st_size < index.size:
+            if saved.get("ino") != ino or os.fstat(f.fileno()).st_size < index.size:
                 raise _Stale("another file")
-            if [saved["head"], saved["tail"]] != list(_marks(f, index.size)):
+            if [saved.get("head"), saved.get("tail")] != list(_marks(f, index.size)):
                 raise _Stale("changed")
         except _Stale as why:
             log.debug("%s: reading the whole audit log (%s)", index_path(path), why)
