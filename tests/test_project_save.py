@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 from collections.abc import Callable
@@ -196,7 +197,7 @@ def test_a_step_with_data_but_no_command_is_refused(tmp_path: Path) -> None:
 
 def saved_in_a_child_killed_at(root: Path, project: Project, kill_at: int) -> bool:
     """Save ``project`` to ``root`` in a forked child that SIGKILLs itself at its
-    ``kill_at``-th file-system step (link, fsync, rename, unlink).  Returns whether
+    ``kill_at``-th file-system step (link, fsync, syncfs, rename, unlink).  Returns whether
     it was killed (False: the save ended before that step)."""
     child = os.fork()
     if child == 0:  # pragma: no cover - the child's exit status is the result
@@ -214,6 +215,7 @@ def saved_in_a_child_killed_at(root: Path, project: Project, kill_at: int) -> bo
 
         for name in ("link", "fsync", "replace", "unlink"):
             setattr(os, name, deadly(getattr(os, name)))
+        store._syncfs = deadly(store._syncfs)  # type: ignore[method-assign]
         try:
             save_project(root, project)
         finally:
@@ -304,3 +306,89 @@ def test_issue_11_a_save_that_changes_nothing_writes_nothing(
     save_project(root, project)
     read_only(monkeypatch, root)
     assert save_project(root, project) == []
+
+
+# --- issue 24: one sync for all the files, then the renames, then the directories ----------
+
+
+def test_issue_24_a_save_syncs_every_file_at_once_before_the_first_rename_then_the_names(
+    root: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    if store._load_syncfs() is None:
+        pytest.skip("no syncfs(2) here: each file is fsynced (the next test)")
+    project = changed_project(root)
+    steps: list[tuple[str, str]] = []
+    real_fsync, real_replace, real_syncfs = os.fsync, os.replace, store._syncfs
+
+    def fsync(fd: int) -> None:
+        steps.append(("fsync dir" if stat.S_ISDIR(os.fstat(fd).st_mode) else "fsync file", ""))
+        real_fsync(fd)
+
+    def replace_(src: Any, dst: Any) -> None:
+        steps.append(("rename", Path(dst).name))
+        real_replace(src, dst)
+
+    def syncfs(fd: int) -> None:
+        steps.append(("syncfs", ""))
+        real_syncfs(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", replace_)
+    monkeypatch.setattr(store, "_syncfs", syncfs)
+    written = save_project(root, project)
+
+    kinds = [kind for kind, _ in steps]
+    assert "fsync file" not in kinds
+    renames = [i for i, (kind, name) in enumerate(steps) if kind == "rename"]
+    # The journal is put in place before the one sync of every file, the files after it.
+    assert steps[renames[0]] == ("rename", store.JOURNAL)
+    assert renames[0] < kinds.index("syncfs") < renames[1]
+    assert "syncfs" not in kinds[renames[1] : renames[-1]]
+    assert {name for kind, name in steps[renames[1] :] if kind == "rename"} >= {
+        Path(name).name for name in written if not name.startswith("programs/main-0")
+    }
+    # Then the new names, and the root once the journal is gone.
+    assert kinds[renames[-1] + 1 :] == ["syncfs", "fsync dir"]
+    assert load_project(root).data == project.data
+
+
+def test_issue_24_without_syncfs_each_file_is_fsynced_as_before(
+    root: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(store, "_load_syncfs", lambda: None)
+    project = changed_project(root)
+    files = 0
+    real_fsync = os.fsync
+
+    def fsync(fd: int) -> None:
+        nonlocal files
+        files += not stat.S_ISDIR(os.fstat(fd).st_mode)
+        real_fsync(fd)
+
+    temps: list[Path] = []
+    real_write = store._write_temp
+
+    def write_temp(target: Path, data: bytes, *, fsync: bool = True) -> Path:
+        temps.append(target)
+        return real_write(target, data, fsync=fsync)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(store, "_write_temp", write_temp)
+    save_project(root, project)
+    # Every file written (the local record too), and the journal, each on its own.
+    assert root / store.JOURNAL in temps and root / "timers.yaml" in temps
+    assert files == len(temps)
+    assert load_project(root).data == project.data
+
+
+def test_issue_24_a_sync_that_fails_leaves_the_previous_project_and_no_temporary(
+    root: Path,
+) -> None:
+    def failing(fd: int) -> None:
+        raise OSError(5, "Input/output error")
+
+    def fault(patch: pytest.MonkeyPatch) -> None:
+        patch.setattr(store, "_syncfs", failing)
+        patch.setattr(store, "_load_syncfs", lambda: failing)
+
+    save_fails_and_changes_nothing(root, fault, "Input/output error")

@@ -26,6 +26,14 @@ killed after its start record (SIGKILL, power loss) has no end record:
 for the next push, rollback or diff of that robot, until a push or rollback of
 that robot ends ok.  Records written before these events existed have no
 ``event`` and count as end records.
+
+The log only grows, and it is never rotated: a log of any size, an older
+harlsync's included, is one file read the one way.  Only ``harlsync log`` reads
+it whole (:func:`results`); a pull, push, rollback, diff and status ask
+:func:`index` (:mod:`.auditindex`, a cache beside the log that the readers keep),
+which reads what was appended since the last reader.  Rotation into segments
+would bound the file but not the question: a push killed a year ago is still
+unsettled, so the reader would still have to open every segment to find it.
 """
 
 from __future__ import annotations
@@ -41,17 +49,21 @@ import socket
 from collections.abc import Iterable
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..link import lock_key
 from ..project import statefile
 from ..project.statefile import Fields, fold, kind_of
+
+if TYPE_CHECKING:
+    from .auditindex import AuditIndex
 
 __all__ = [
     "append",
     "audit_path",
     "base_record",
     "describe_unfinished",
+    "index",
     "of_robot",
     "read",
     "results",
@@ -187,6 +199,50 @@ def _changes(fields: Fields) -> list[dict[str, Any]] | None:
 _KNOWN = frozenset((*_TEXT, *_TEXTS, "pid", "robot", "written", "changes"))
 
 
+def parse_line(raw: bytes) -> tuple[dict[str, Any] | None, str | None]:
+    """One line of the log: the record (each field of the type it must have; None
+    when the line is no record) and what was wrong with it (None: nothing)."""
+    try:
+        record = statefile.parse(raw.decode("utf-8"))
+    except ValueError as exc:  # UnicodeDecodeError too
+        why = str(exc) if not isinstance(exc, UnicodeDecodeError) else "not UTF-8 text"
+        return None, f"not an audit record ({why}): {_LEFT_OUT}"
+    if not isinstance(record, dict):
+        return None, f"not an audit record ({kind_of(record)}, not an object): {_LEFT_OUT}"
+    record, wrong = _clean(record)
+    return record, (f"{'; '.join(fold(wrong, 3))}: {_MISSING}" if wrong else None)
+
+
+def report(
+    path: Path, found: list[tuple[int, str]], problems: list[str] | None, total: int | None = None
+) -> None:
+    """Say what was wrong with the log's lines: ``found`` (line number, problem), the
+    first of ``total`` (default: all of them).  Appended to ``problems`` when given,
+    else logged, each line once per process; at most 5 lines, then ``and 40 more``."""
+    total = len(found) if total is None else total
+    if problems is None:
+        fresh = [(number, text) for number, text in found if (str(path), number) not in _said]
+        _said.update((str(path), number) for number, _ in fresh)
+        # The lines past the first few were said with them, or are new with them.
+        total = len(fresh) + (total - len(found) if len(fresh) == len(found) else 0)
+        found = fresh
+    texts = [f"{path}:{number}: {text}" for number, text in found]
+    if total > SHOWN_PROBLEMS:
+        texts = [
+            *texts[: SHOWN_PROBLEMS - 1],
+            f"and {total - SHOWN_PROBLEMS + 1} more malformed lines in {path}",
+        ]
+    if problems is not None:
+        problems += texts
+    else:
+        for text in texts:
+            log.warning("%s", text)
+
+
+#: How many malformed lines are named, the last of them as ``and 40 more``.
+SHOWN_PROBLEMS = 5
+
+
 def read(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
     """Every record, in order, each field of the type it must have.
 
@@ -202,29 +258,12 @@ def read(path: Path | None = None, problems: list[str] | None = None) -> list[di
     for number, raw in enumerate(path.read_bytes().splitlines(), 1):
         if not raw.strip():
             continue
-        try:
-            record = statefile.parse(raw.decode("utf-8"))
-        except ValueError as exc:  # UnicodeDecodeError too
-            why = str(exc) if not isinstance(exc, UnicodeDecodeError) else "not UTF-8 text"
-            found.append((number, f"{path}:{number}: not an audit record ({why}): {_LEFT_OUT}"))
-            continue
-        if not isinstance(record, dict):
-            why = f"{kind_of(record)}, not an object"
-            found.append((number, f"{path}:{number}: not an audit record ({why}): {_LEFT_OUT}"))
-            continue
-        record, wrong = _clean(record)
-        if wrong:
-            what = "; ".join(fold(wrong, 3))
-            found.append((number, f"{path}:{number}: {what}: {_MISSING}"))
-        records.append(record)
-    more = f"more malformed lines in {path}"
-    if problems is not None:
-        problems += fold([text for _, text in found], 5, more)
-    else:
-        fresh = [(n, text) for n, text in found if (str(path), n) not in _said]
-        _said.update((str(path), n) for n, _ in fresh)
-        for problem in fold([text for _, text in fresh], 5, more):
-            log.warning("%s", problem)
+        record, problem = parse_line(raw)
+        if problem is not None:
+            found.append((number, problem))
+        if record is not None:
+            records.append(record)
+    report(path, found, problems)
     return records
 
 
@@ -232,8 +271,27 @@ _MISSING = "read as missing; fix that line, or move it to another file"
 _LEFT_OUT = "left out; move that line to another file to keep it (harlsync only appends)"
 
 
+def pending(start: dict[str, Any]) -> dict[str, Any]:
+    """An unfinished push or rollback, from its start record (see :func:`results`)."""
+    return {**start, "result": "unfinished", "written": [], "failed_item": None}
+
+
+def add_write(push: dict[str, Any], write: dict[str, Any]) -> None:
+    """One more write record of the unfinished ``push``: the one before it was written."""
+    if push["failed_item"] is not None:
+        push["written"].append(push["failed_item"])
+    push["failed_item"] = {k: write.get(k) for k in ("item", "command", "changes") if k in write}
+
+
+def unended(push: dict[str, Any]) -> dict[str, Any]:
+    """``push`` as :func:`results` gives it once the log has no more of it."""
+    push["failed_item"] = (push["failed_item"] or {}).get("item")
+    return push
+
+
 def results(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
-    """One record per push or rollback, in the order they started.
+    """One record per push or rollback, in the order they started: the whole log
+    (``harlsync log``; the other commands ask :func:`index`).
 
     A finished one is its end record.  An unfinished one is its start record
     with ``result: "unfinished"``, ``written`` (the write records but the last)
@@ -242,28 +300,25 @@ def results(path: Path | None = None, problems: list[str] | None = None) -> list
     started: dict[str, dict[str, Any]] = {}
     where: dict[str, int] = {}
     order: list[dict[str, Any]] = []
+    pushes: list[dict[str, Any]] = []  # every start: one whose id came back is unended too
     for record in read(path, problems):
         event = record.get("event", "end")
         rid = record.get("id")
         if event == "start" and rid:
-            started[rid] = {**record, "result": "unfinished", "written": [], "failed_item": None}
+            started[rid] = pending(record)
+            pushes.append(started[rid])
             where[rid] = len(order)
             order.append(started[rid])
         elif event == "write" and rid in started:
-            pending = started[rid]
-            if pending["failed_item"] is not None:
-                pending["written"].append(pending["failed_item"])
-            pending["failed_item"] = {
-                k: record.get(k) for k in ("item", "command", "changes") if k in record
-            }
+            add_write(started[rid], record)
         elif event == "end":
             if rid in started:
                 del started[rid]
                 order[where[rid]] = record
             else:
                 order.append(record)
-    for pending in started.values():
-        pending["failed_item"] = (pending["failed_item"] or {}).get("item")
+    for push in pushes:
+        unended(push)
     return order
 
 
@@ -300,12 +355,23 @@ def unsettled(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     return found
 
 
+def index(path: Path | None = None, problems: list[str] | None = None) -> AuditIndex:
+    """The log's index (:mod:`.auditindex`), brought up to its end: what a command
+    asks of one robot, read without reading the whole log.  What is wrong with the
+    log's lines is said as :func:`read` says it.  Raises OSError."""
+    from . import auditindex
+
+    found = auditindex.load(path)
+    found.report(problems)
+    return found
+
+
 def unfinished(
     port: str, station: int, path: Path | None = None, problems: list[str] | None = None
 ) -> list[dict[str, Any]]:
     """The unfinished pushes and rollbacks of the robot at ``port``/``station``
     that no later push or rollback of it has settled (see :func:`results`)."""
-    return unsettled(of_robot(results(path, problems), port, station))
+    return index(path, problems).robot(port, station).unsettled
 
 
 def describe_unfinished(record: dict[str, Any]) -> str:
@@ -479,7 +545,10 @@ def pushes_since(
     the same second as ``since`` is named too (times are to the second).  The audit
     log unreadable, none."""
     try:
-        records = of_robot(results(path, []), port, station, project)
+        latest = index(path, []).robot(port, station, project)
+        records = latest.recent
+        if not latest.complete and not _reaches(records, since):  # more than it keeps
+            records = of_robot(results(path, []), port, station, project)
     except OSError:
         return []
     found = []
@@ -497,6 +566,17 @@ def pushes_since(
             f"{r.get('user', '?')}@{r.get('host', '?')}{reason}"
         )
     return found
+
+
+def _reaches(records: list[dict[str, Any]], since: str | None) -> bool:
+    """Whether ``records`` (a robot's latest) go back to before ``since``."""
+    first = records[0].get("time") if records else None
+    return (
+        since is not None
+        and isinstance(first, str)
+        and statefile.timestamp(first)
+        and when_of(first) < when_of(since)
+    )
 
 
 def when_of(stamp: str) -> datetime:

@@ -30,6 +30,7 @@ from typing import Any
 from ..errors import HarlsyncError, partly_words
 from ..project import family_of, load_robot
 from . import audit, git, history
+from .auditindex import AuditIndex, RobotRecords
 from .backup import find_projects, project_labels, shown_names
 from .snapshots import snapshots
 
@@ -170,7 +171,7 @@ class RobotStatus:
     unfinished: list[str] = field(default_factory=list)
     #: How many snapshots a rollback can restore.
     snapshots: int = 0
-    #: Every push and rollback of this robot the audit log holds, oldest first.
+    #: Its latest pushes and rollbacks (at most :data:`.auditindex.RECENT`), oldest first.
     pushes: list[PushRecord] = field(default_factory=list, repr=False)
     #: Its project's directory under the plant's (``lineA/cell``).
     project: str = ""
@@ -320,19 +321,33 @@ def local_time(stamp: str | None) -> str:
         return stamp
 
 
-def _audit_records(warnings: list[str]) -> list[dict[str, Any]]:
+def _audit_index(warnings: list[str]) -> AuditIndex | None:
     try:
-        return audit.results(problems=warnings)
+        return audit.index(problems=warnings)
     except (OSError, ValueError) as exc:
         warnings.append(
             f"cannot read the audit log {audit.audit_path()} ({exc}): pushes are not shown"
         )
-        return []
+        return None
+
+
+def _pushes(
+    log: AuditIndex | None, port: str, station: int, path: Path, warnings: list[str]
+) -> RobotRecords:
+    """The robot's latest pushes and its unsettled ones; none when the log cannot be read."""
+    try:
+        if log is not None:
+            return log.robot(port, station, path)
+    except OSError as exc:
+        warnings.append(
+            f"cannot read the audit log {audit.audit_path()} ({exc}): pushes are not shown"
+        )
+    return RobotRecords([], [], True)
 
 
 def _robot_status(
     path: Path,
-    records: list[dict[str, Any]],
+    log: AuditIndex | None,
     now: datetime,
     stale_after: timedelta,
     warnings: list[str],
@@ -376,10 +391,10 @@ def _robot_status(
         status.last_commit = found[0].sha if found else None
     status.never_backed_up = status.last_success is None
     status.stale = history.stale(status.last_success, now, stale_after)
-    mine = audit.of_robot(records, robot.port, robot.station, path)
-    status.pushes = [PushRecord.from_record(r) for r in mine]
+    mine = _pushes(log, robot.port, robot.station, path, warnings)
+    status.pushes = [PushRecord.from_record(r) for r in mine.recent]
     status.last_push = status.pushes[-1] if status.pushes else None
-    status.unfinished = [audit.describe_unfinished(r) for r in audit.unsettled(mine)]
+    status.unfinished = [audit.describe_unfinished(r) for r in mine.unsettled]
     last = status.last_push
     if last is not None and last.partly_written:
         # The item holds neither what it held nor what the push wanted, until the
@@ -421,11 +436,11 @@ def collect(
     now = now or datetime.now(timezone.utc)
     projects = find_projects(paths)
     warnings: list[str] = []
-    records = _audit_records(warnings)
+    log = _audit_index(warnings)
     labels = project_labels(projects)
     robots = []
     for path in projects:
-        robot = _robot_status(path, records, now, stale_after, warnings)
+        robot = _robot_status(path, log, now, stale_after, warnings)
         robot.project = labels[path]
         robots.append(robot)
     robots.sort(key=lambda r: (r.name, r.project))
