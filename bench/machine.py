@@ -226,12 +226,25 @@ class SimProcess:
     def stats(self) -> list[dict[str, int]]:
         """Per line: ``exchanges``, ``bytes_in``, ``bytes_out``, ``letters`` (request counts),
         ``first_in`` and ``last_due`` (``time.monotonic``: the first request byte read,
-        the last reply byte due), and on a pty ``late_mean``/``late_worst``."""
+        the last reply byte due), ``gaps`` (seconds from each reply's last byte due to
+        the next request's first byte read, in all), and on a pty
+        ``late_mean``/``late_worst``."""
         result: list[dict[str, int]] = self._ask("stats")
         return result
 
     def reset(self) -> None:
         self._ask("reset")
+
+    def record(self) -> None:
+        """From now on the simulator keeps every byte each way (:meth:`wire`)."""
+        self._ask("record")
+
+    def wire(self) -> list[tuple[bytes, bytes]]:
+        """Per line: the bytes the client sent and the reply bytes, in order, since the
+        last :meth:`reset` (kept once :meth:`record` was asked)."""
+        return [
+            (bytes.fromhex(line["in"]), bytes.fromhex(line["out"])) for line in self._ask("wire")
+        ]
 
     def close(self) -> None:
         if self._proc.stdin:
@@ -337,6 +350,7 @@ def timed_process(
         "save": end - counted["last_due"],
         "whole": end - start,
         "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
+        "gaps": counted["gaps"],
         "late_mean": counted.get("late_mean", 0.0),
         "late_worst": counted.get("late_worst", 0.0),
     }
