@@ -76,10 +76,13 @@ if __name__ == "__main__" and sys.argv[1:2] == ["--replay"]:
 
 # The rest is the bench around the floor, which the floor's own process never imports.
 import argparse
+import re
 import shutil
 import statistics
+import subprocess
 import tempfile
 import time
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -191,6 +194,83 @@ def run_case(robot: str, baud: int, repeat: int, tmp: Path) -> tuple[Any, ...]:
     return robot, baud, best, floor, best["whole"] / floor["whole"], median
 
 
+SYSCALLS = (
+    "read,write,ioctl,fcntl,poll,ppoll,select,pselect6,epoll_wait,clock_nanosleep,"
+    "nanosleep,openat,recvfrom,sendto"
+)
+_CALL = re.compile(r"^(\d+)\s+(\w+)\((.*)")
+
+
+def count_syscalls(trace: Path, port: str) -> tuple[int, Counter[str]]:
+    """The system calls of an ``strace -f`` log from the first request written to the
+    port to the last reply read from it, by name, on the port's descriptor (waits:
+    on any); and the thread that did them.  Calls on other descriptors in that
+    span are counted as ``other``."""
+    lines = trace.read_text().splitlines()
+    fd = None
+    calls: list[tuple[int, str, str]] = []
+    for line in lines:
+        m = _CALL.match(line)
+        if not m:
+            continue
+        pid, name, rest = int(m[1]), m[2], m[3]
+        if name == "openat" and f'"{port}"' in rest and fd is None:
+            fd = int(rest.rsplit("=", 1)[1].split()[0])
+            continue
+        calls.append((pid, name, rest))
+    if fd is None:
+        sys.exit(f"floor: {port} is never opened in {trace}")
+    mine = f"{fd},"
+    on_port = [
+        n
+        for n, (_, name, rest) in enumerate(calls)
+        if name in ("read", "write") and rest.startswith(mine)
+    ]
+    first = next(n for n in on_port if calls[n][1] == "write")
+    last = next(n for n in reversed(on_port) if calls[n][1] == "read")
+    thread = calls[first][0]
+    counted: Counter[str] = Counter()
+    for pid, name, rest in calls[first : last + 1]:
+        if pid != thread:
+            counted["other thread"] += 1
+        elif rest.startswith(mine) or f"fd={fd}," in rest or name.endswith("sleep"):
+            counted[name + (" (nothing there)" if "EAGAIN" in rest else "")] += 1
+        else:
+            counted["other"] += 1
+    return thread, counted
+
+
+def syscalls(robot: str, baud: int, tmp: Path) -> None:
+    """One harlsync pull and one floor under ``strace -f``: system calls per exchange."""
+    from machine import SimProcess, harlsync_command, process_env
+    from process import robot_yaml
+
+    if not shutil.which("strace"):
+        sys.exit("floor: --syscalls needs strace (apt-get install strace)")
+    locks = tmp / "locks"
+    with SimProcess(robot, baud=baud) as sim:
+        text = robot_yaml(robot, sim.ports[0], baud)
+        sim.record()
+        pull(sim, baud, text, tmp / "recorded", locks)
+        record(sim, robot, tmp / "floor")
+        exchanges = sim.stats()[0]["exchanges"]
+        project = tmp / "traced"
+        project.mkdir()
+        (project / "robot.yaml").write_text(text)
+        for who, command in (
+            ("harlsync", [*harlsync_command(), "pull", str(project)]),
+            ("floor", [sys.executable, __file__, "--replay", str(tmp / "floor")]),
+        ):
+            trace = tmp / f"{who}.strace"
+            traced = ["strace", "-f", "-qq", "-e", f"trace={SYSCALLS}", "-o", str(trace)]
+            subprocess.run([*traced, *command], env=process_env(locks), check=True)
+            _, counted = count_syscalls(trace, sim.ports[0])
+            total = sum(counted.values())
+            print(f"{robot} at {baud}, {who}: {total / exchanges:.2f} system calls an exchange")
+            for name, n in counted.most_common():
+                print(f"    {name:28} {n:>7,}  {n / exchanges:6.2f} an exchange")
+
+
 def main() -> None:
     from machine import IAI_ROBOTS, ROBOTS, describe, minutes
 
@@ -204,10 +284,22 @@ def main() -> None:
     )
     parser.add_argument("--baud", help="comma-separated (default 19200,115200)")
     parser.add_argument("--repeat", type=int, help="alternations per case (default 3)")
+    parser.add_argument(
+        "--syscalls",
+        action="store_true",
+        help="instead: one pull and one floor under strace, system calls per exchange",
+    )
     args = parser.parse_args()
     robots = args.robot or (["default"] if args.quick else ["default", "max-full"])
     bauds = [int(b) for b in (args.baud or ("115200" if args.quick else "19200,115200")).split(",")]
     repeat = args.repeat or (2 if args.quick else 3)
+    if args.syscalls:
+        print(f"harlsync floor bench, system calls: {describe()}")
+        for robot in robots:
+            for baud in bauds:
+                with tempfile.TemporaryDirectory() as tmp:
+                    syscalls(robot, baud, Path(tmp))
+        return
 
     print(f"harlsync floor bench: {describe()}")
     print(
