@@ -272,26 +272,18 @@ def syscalls(robot: str, baud: int, tmp: Path) -> None:
 
 
 def main() -> None:
-    from machine import IAI_ROBOTS, ROBOTS, describe, minutes
+    from machine import case_options, cases, describe, minutes
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="default at 115200, 2 alternations")
-    parser.add_argument(
-        "--robot",
-        action="append",
-        choices=sorted(ROBOTS | IAI_ROBOTS),
-        help="default: default and max-full (repeat the option for several)",
-    )
-    parser.add_argument("--baud", help="comma-separated (default 19200,115200)")
-    parser.add_argument("--repeat", type=int, help="alternations per case (default 3)")
+    case_options(parser, ["default", "max-full"], "default")
+    parser.add_argument("--repeat", type=int, help="alternations per case (default 3, --quick 2)")
     parser.add_argument(
         "--syscalls",
         action="store_true",
         help="instead: one pull and one floor under strace, system calls per exchange",
     )
     args = parser.parse_args()
-    robots = args.robot or (["default"] if args.quick else ["default", "max-full"])
-    bauds = [int(b) for b in (args.baud or ("115200" if args.quick else "19200,115200")).split(",")]
+    robots, bauds = cases(args, ["default", "max-full"], "default")
     repeat = args.repeat or (2 if args.quick else 3)
     if args.syscalls:
         print(f"harlsync floor bench, system calls: {describe()}")

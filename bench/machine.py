@@ -3,6 +3,7 @@ and a simulator served from a process of its own."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import platform
@@ -260,6 +261,26 @@ class SimProcess:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def case_options(parser: argparse.ArgumentParser, robots: list[str], quick: str) -> None:
+    """``--quick``, ``--robot`` and ``--baud`` of a bench that pulls ``robots`` at
+    19200 and 115200 baud (``--quick``: ``quick`` at 115200); read by :func:`cases`."""
+    parser.add_argument("--quick", action="store_true", help=f"{quick} at 115200 only")
+    parser.add_argument(
+        "--robot",
+        action="append",
+        choices=sorted(ROBOTS | IAI_ROBOTS),
+        help=f"default: {' and '.join(robots)} (repeat the option for several)",
+    )
+    parser.add_argument("--baud", help="comma-separated (default 19200,115200)")
+
+
+def cases(args: argparse.Namespace, robots: list[str], quick: str) -> tuple[list[str], list[int]]:
+    """The robots and baud rates :func:`case_options` asked for."""
+    chosen = args.robot or ([quick] if args.quick else robots)
+    bauds = args.baud or ("115200" if args.quick else "19200,115200")
+    return chosen, [int(b) for b in bauds.split(",")]
 
 
 def timed_pull(port: str, into: Path) -> tuple[float, float]:
