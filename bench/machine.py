@@ -3,6 +3,7 @@ and a simulator served from a process of its own."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import platform
@@ -226,12 +227,25 @@ class SimProcess:
     def stats(self) -> list[dict[str, int]]:
         """Per line: ``exchanges``, ``bytes_in``, ``bytes_out``, ``letters`` (request counts),
         ``first_in`` and ``last_due`` (``time.monotonic``: the first request byte read,
-        the last reply byte due), and on a pty ``late_mean``/``late_worst``."""
+        the last reply byte due), ``gaps`` (seconds from each reply's last byte due to
+        the next request's first byte read, in all), and on a pty
+        ``late_mean``/``late_worst``."""
         result: list[dict[str, int]] = self._ask("stats")
         return result
 
     def reset(self) -> None:
         self._ask("reset")
+
+    def record(self) -> None:
+        """From now on the simulator keeps every byte each way (:meth:`wire`)."""
+        self._ask("record")
+
+    def wire(self) -> list[tuple[bytes, bytes]]:
+        """Per line: the bytes the client sent and the reply bytes, in order, since the
+        last :meth:`reset` (kept once :meth:`record` was asked)."""
+        return [
+            (bytes.fromhex(line["in"]), bytes.fromhex(line["out"])) for line in self._ask("wire")
+        ]
 
     def close(self) -> None:
         if self._proc.stdin:
@@ -247,6 +261,26 @@ class SimProcess:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def case_options(parser: argparse.ArgumentParser, robots: list[str], quick: str) -> None:
+    """``--quick``, ``--robot`` and ``--baud`` of a bench that pulls ``robots`` at
+    19200 and 115200 baud (``--quick``: ``quick`` at 115200); read by :func:`cases`."""
+    parser.add_argument("--quick", action="store_true", help=f"{quick} at 115200 only")
+    parser.add_argument(
+        "--robot",
+        action="append",
+        choices=sorted(ROBOTS | IAI_ROBOTS),
+        help=f"default: {' and '.join(robots)} (repeat the option for several)",
+    )
+    parser.add_argument("--baud", help="comma-separated (default 19200,115200)")
+
+
+def cases(args: argparse.Namespace, robots: list[str], quick: str) -> tuple[list[str], list[int]]:
+    """The robots and baud rates :func:`case_options` asked for."""
+    chosen = args.robot or ([quick] if args.quick else robots)
+    bauds = args.baud or ("115200" if args.quick else "19200,115200")
+    return chosen, [int(b) for b in bauds.split(",")]
 
 
 def timed_pull(port: str, into: Path) -> tuple[float, float]:
@@ -337,6 +371,7 @@ def timed_process(
         "save": end - counted["last_due"],
         "whole": end - start,
         "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
+        "gaps": counted["gaps"],
         "late_mean": counted.get("late_mean", 0.0),
         "late_worst": counted.get("late_worst", 0.0),
     }

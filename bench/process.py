@@ -37,10 +37,10 @@ from pathlib import Path
 from typing import Any
 
 from machine import (
-    IAI_ROBOTS,
-    ROBOTS,
     SimProcess,
     bench_robot,
+    case_options,
+    cases,
     describe,
     harlsync_command,
     minutes,
@@ -111,18 +111,10 @@ def show(r: dict[str, Any]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="medium at 115200 only")
-    parser.add_argument(
-        "--robot",
-        action="append",
-        choices=sorted(ROBOTS | IAI_ROBOTS),
-        help="default: medium and max-full (repeat the option for several)",
-    )
-    parser.add_argument("--baud", help="comma-separated (default 19200,115200)")
+    case_options(parser, ["medium", "max-full"], "medium")
     parser.add_argument("--repeat", type=int, default=1, help="pulls per case (the best is shown)")
     args = parser.parse_args()
-    robots = args.robot or (["medium"] if args.quick else ["medium", "max-full"])
-    bauds = [int(b) for b in (args.baud or ("115200" if args.quick else "19200,115200")).split(",")]
+    robots, bauds = cases(args, ["medium", "max-full"], "medium")
 
     print(f"harlsync pull process bench: {describe()}")
     print(

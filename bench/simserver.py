@@ -5,8 +5,11 @@
 ROBOT is a HARL-U2 robot of ``machine.ROBOTS`` or an IAI one of ``machine.IAI_ROBOTS``.
 Prints one JSON line ``{"ports": [...]}``, then answers commands on stdin with one
 JSON line each: ``stats`` (per line: exchanges, bytes each way, requests by command,
-when the first request byte came and the last reply byte was due, and the CPU this
-process used so far), ``reset``.  Exits at end of input.  bench/machine.py's
+when the first request byte came and the last reply byte was due, the gaps from a
+reply's last byte to the next request's first, and the CPU this process used so far),
+``reset``, ``record`` (from now on keep every byte each way; ``reset`` drops what was
+kept) and ``wire`` (per line: what was kept, hex, ``in`` and ``out``: bench/floor.py
+replays it).  Exits at end of input.  bench/machine.py's
 SimProcess runs it.
 
 Each line is served by the framework's PtyServer or TcpServer (two threads a line),
@@ -46,7 +49,11 @@ class Counting:
     ``first_in`` is when the first request bytes were read (``time.monotonic``, the
     same clock in every process of the machine); ``last_due`` when the last reply
     byte is due on the emulated line (the server writes it then, late by what
-    :func:`late` reports).
+    :func:`late` reports).  ``gaps`` adds up, for every request after the first,
+    the time from the last reply byte due before it to its first bytes read: the
+    client's time between a reply and its next request, plus this process's wake-up
+    to read it (the same for every client).  With ``recording`` every byte read and
+    every reply byte is kept, in order (``wire_in``, ``wire_out``).
     """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
@@ -54,6 +61,11 @@ class Counting:
         self.letters: Counter[str] = Counter()
         self.first_in: float | None = None
         self.last_due = 0.0
+        self.gaps = 0.0
+        self._replied = False  # a reply is queued and no request has come since
+        self.recording = False
+        self.wire_in = bytearray()
+        self.wire_out = bytearray()
         self.listeners.append(self._count)  # type: ignore[attr-defined]
 
     def receive(
@@ -66,8 +78,16 @@ class Counting:
         with self.lock:  # type: ignore[attr-defined]
             if self.first_in is None:
                 self.first_in = now
+            if self._replied and data:
+                self.gaps += max(0.0, now - self.last_due)
+                self._replied = False
             if chunks:
                 self.last_due = max(self.last_due, now + max(delay for delay, _ in chunks))
+                self._replied = True
+            if self.recording:
+                self.wire_in += data
+                for _, reply in chunks:
+                    self.wire_out += reply
         return chunks
 
     def _count(self, record: Received) -> None:
@@ -83,7 +103,12 @@ class Counting:
                 "letters": dict(self.letters),
                 "first_in": self.first_in,
                 "last_due": self.last_due,
+                "gaps": self.gaps,
             }
+
+    def wire(self) -> dict[str, str]:
+        with self.lock:  # type: ignore[attr-defined]
+            return {"in": self.wire_in.hex(), "out": self.wire_out.hex()}
 
     def reset(self) -> None:
         with self.lock:  # type: ignore[attr-defined]
@@ -91,6 +116,10 @@ class Counting:
             self.bytes_in = self.bytes_out = 0
             self.first_in = None
             self.last_due = 0.0
+            self.gaps = 0.0
+            self._replied = False
+            self.wire_in.clear()
+            self.wire_out.clear()
 
 
 class CountingSimulator(Counting, HarlSimulator):
@@ -275,6 +304,12 @@ def main() -> None:
             for sim in sims:
                 sim.reset()
             print("{}", flush=True)
+        elif command == "record":
+            for sim in sims:
+                sim.recording = True
+            print("{}", flush=True)
+        elif command == "wire":
+            print(json.dumps([sim.wire() for sim in sims]), flush=True)
     for server in dict.fromkeys(servers):
         server.stop()
 

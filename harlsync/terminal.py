@@ -70,13 +70,15 @@ class Feedback:
         self._bar: Any = None
         self._drawn = False
         self._finished = False
+        self._off_terminal = False  # stderr is no terminal: asked once, not per exchange
 
     def __call__(self, done: int, total: int) -> None:
         self.exchanges = done
-        if self._finished:
+        if self._finished or self._off_terminal:
             return
         if self._bar is None:
             if not is_terminal():
+                self._off_terminal = True
                 return
             from tqdm import tqdm
 

@@ -8,6 +8,7 @@ after every bar was redrawn and erased, and a ^C is one typed on that terminal.
 
 from __future__ import annotations
 
+import io
 import re
 import subprocess
 import sys
@@ -23,6 +24,7 @@ from harlsync.families.iai.catalogue import CATALOGUE as IAI
 from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.sim import SimState as IaiState
 from harlsync.sync import engine
+from harlsync.terminal import Feedback
 
 #: The robot ``sim://?seed=N`` generates: 1080 exchanges read it whole (with the probe past the offset tables).
 CONTENTS = {
@@ -169,3 +171,25 @@ def test_each_family_says_what_a_read_found_in_its_own_words() -> None:
     assert IAI.contents(data, registers=True) == (
         f"{len(state.positions)} positions, 2 integer variables, 0 real variables, 1 flag"
     )
+
+
+class _CountedStream(io.StringIO):
+    """stderr off a terminal, counting how often it is asked whether it is one."""
+
+    asked = 0
+
+    def isatty(self) -> bool:
+        self.asked += 1
+        return False
+
+
+def test_issue_24_off_a_terminal_the_progress_asks_once_not_per_exchange(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    stream = _CountedStream()
+    monkeypatch.setattr(sys, "stderr", stream)
+    progress = Feedback("pull")
+    for done in range(1, 101):
+        progress(done, 100)
+    progress.close()
+    assert stream.asked == 1 and stream.getvalue() == "" and progress.exchanges == 100

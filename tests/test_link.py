@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import os
+import select
 import socket
 import subprocess
 import sys
@@ -492,6 +493,7 @@ def test_any_exception_from_port_io_becomes_port_error(
     link: Link, monkeypatch: pytest.MonkeyPatch, name: str, exc: BaseException
 ) -> None:
     monkeypatch.setattr(link, "_port", _Failing(link._port, name, exc))
+    monkeypatch.setattr(link, "_direct", None)  # read through pyserial, as sim:// and spy://
     with pytest.raises(PortError) as info:
         link.exchange(cmd.read_version())
     message = str(info.value)
@@ -499,6 +501,119 @@ def test_any_exception_from_port_io_becomes_port_error(
     assert "check that the USB-serial adapter is still plugged in" in message
     assert "\n" not in message
     assert info.value.__cause__ is exc
+
+
+def test_a_failed_read_of_the_descriptor_the_link_reads_itself_becomes_port_error(
+    link: Link, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from harlsync.link import exchange
+
+    gone = OSError(5, "Input/output error")
+
+    def read(fd: int, size: int) -> bytes:
+        raise gone
+
+    assert link._direct is not None  # a pty: read with os.read, not through pyserial
+    monkeypatch.setattr(exchange.os, "read", read)
+    with pytest.raises(PortError) as info:
+        link.exchange(cmd.read_version())
+    assert str(info.value) == (
+        f"port {link.url}, station 1, command LNV: port went away: [Errno 5] Input/output "
+        "error; check that the USB-serial adapter is still plugged in and the cable is seated"
+    )
+    assert info.value.__cause__ is gone
+
+
+def test_a_peer_that_closes_its_socket_is_a_port_gone_not_a_silent_line(
+    sim: ScriptedSim,
+) -> None:
+    with TcpServer(sim) as server, Link(server.url, 1, FAST) as link:
+        assert link.exchange(cmd.read_version()) == "5.00"
+        server.stop()
+        with pytest.raises(PortError, match="port went away: the other end closed") as info:
+            link.exchange(cmd.read_timer(2))
+    assert "\n" not in str(info.value)
+
+
+class _Counted:
+    """os.read and os.write as the link module calls them, on one descriptor: the
+    writes, and the reads that got bytes (a read that finds nothing, a timer that woke
+    before the reply on a busy machine, is no receive)."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd, self.reads, self.writes = fd, 0, 0
+        self._read, self._write = os.read, os.write
+
+    def read(self, fd: int, size: int) -> bytes:
+        data = self._read(fd, size)  # nothing there raises: only reads that got bytes count
+        self.reads += fd == self.fd
+        return data
+
+    def write(self, fd: int, data: bytes) -> int:
+        self.writes += fd == self.fd
+        return self._write(fd, data)
+
+
+def test_issue_24_a_read_after_a_read_is_one_write_and_one_read_and_no_terminal_call(
+    link: Link, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert link.exchange(cmd.read_timer(0)) == "1.00"
+    assert link._direct is not None
+    counted = _Counted(link._direct)
+    monkeypatch.setattr(os, "read", counted.read)  # the link's and pyserial's os module
+    monkeypatch.setattr(os, "write", counted.write)
+
+    def terminal_call(self: Any) -> int:
+        raise AssertionError("in_waiting asked during an exchange")
+
+    monkeypatch.setattr(type(link._port), "in_waiting", property(terminal_call))
+    for n in [1, 2, 3, 0] * 2:
+        assert link.exchange(cmd.read_timer(n)) == f"{n + 1}.{n}0"
+    # The simulator writes each reply at once: one read takes it whole.
+    assert (counted.writes, counted.reads) == (8, 8)
+
+
+def test_issue_24_a_repeated_reply_read_with_the_reply_is_drained_before_the_next_read(
+    link: Link, sim: ScriptedSim
+) -> None:
+    sim.plan("LNT 2", Act(wire=lambda frame: [(0.0, frame + frame)]))
+    assert link.exchange(cmd.read_timer(2)) == "3.20"
+    assert link.exchange(cmd.read_timer(3)) == "4.30"  # not the repeated 3.20
+    assert link.stats.unrequested == 1 and link.stats.unfitting == 0
+
+
+def _wait_for_the_stray(link: Link) -> None:
+    """Until the stray frame is on the port, or read with the reply (a busy machine)."""
+    assert link._fd is not None
+    if not link._decoder.pending:
+        assert select.select([link._fd], [], [], 5)[0], "the stray frame never came"
+
+
+@pytest.mark.parametrize(
+    "request_",
+    [cmd.write_timer(1, "1.11"), cmd.read_status()],
+    ids=["write", "volatile read"],
+)
+def test_issue_24_a_frame_that_came_after_the_reply_is_drained_before_a_write_or_volatile_read(
+    link: Link, sim: ScriptedSim, request_: Any
+) -> None:
+    stray = encode_frame(1, "4 MOVE P004 S20")
+    sim.plan("LNT 2", Act(wire=lambda frame: [(0.0, frame), (0.002, stray)]))
+    assert link.exchange(cmd.read_timer(2)) == "3.20"
+    _wait_for_the_stray(link)
+    link.exchange(request_)
+    assert link.stats.unrequested == 1 and link.stats.unfitting == 0  # drained, not decoded
+
+
+def test_issue_24_a_read_long_after_the_last_one_drains_the_line_first(
+    link: Link, sim: ScriptedSim
+) -> None:
+    sim.plan("LNT 2", Act(wire=lambda frame: [(0.0, frame), (0.002, encode_frame(1, "3.20"))]))
+    assert link.exchange(cmd.read_timer(2)) == "3.20"
+    _wait_for_the_stray(link)
+    link._read_at -= 1.0  # as after a pause: a whole frame may have come since
+    assert link.exchange(cmd.read_timer(3)) == "4.30"  # not the stray 3.20
+    assert link.stats.unrequested == 1
 
 
 def test_a_write_timeout_blames_flow_control_not_a_lost_port(

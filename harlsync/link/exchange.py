@@ -53,21 +53,39 @@ at a time (a 30-byte reply at 9600 baud is some 30 arrivals, a 2 KiB IAI reply
 2,000), and waking for each costs more CPU than the rest of the exchange.  So
 when the recent exchanges of the same kind (the same command, and for IAI the
 same longest reply) say that the reply's last bytes come later than
-:data:`MIN_SLEEP` after the request, the link sleeps until just before the
-soonest of them, then waits in ``poll`` for the rest::
+:data:`MIN_SLEEP` after the request, the link sleeps until then and reads the
+reply whole, in one read; what is still missing it waits for in ``poll``::
 
     send                      (asleep: the reply is on the wire)       last bytes
     |-------------------------------------------------------------|~~~~|
-                                                         wake 1 (timer)  wake 2 (poll)
+                                                        wake (timer): one read
 
-A reply as long as the shortest recent one is two wake-ups, one longer is read
-as it comes.  Only a reply quicker than all of them (an END after full steps) is
-taken late, when the timer wakes.  The next of its kind is timed for a reply as
-short when it was a little shorter than them all (IAI positions vary by a few
-digits: :data:`LEARN_SHORTER`), or else afresh, by poll.  Fast
-lines and whole replies are read as they come, one wake-up a piece.  Ports
-without a descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read
-with pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
+A reply as long as the shortest recent one is one wake-up and one read, a
+longer one or a slower one is read as it comes after that.  Only a reply much
+quicker than all of them (an END after full steps) is taken late, when the
+timer wakes; the next of its kind is timed afresh, by poll.  Fast lines and
+whole replies are read as they come, one wake-up a piece.  Ports without a
+descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read with
+pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
+
+Reading.  A port of our own with a descriptor (a device path, ``socket://``:
+:func:`~harlsync.link.port.direct_fd`) is read with one ``os.read`` of all that
+is there and written with one ``write``: no ``in_waiting`` ioctl, no ``select``
+around them.  Others (``spy://``, which logs in its ``read``) go through pyserial.
+
+Draining.  Before each request the link reads the line and drops what it holds
+(replies owed, frames nobody asked for), so that nothing that came before the
+request passes for its answer.  Between two plain reads (not a write, not a
+volatile read) it skips that read when it knows what it would find: the last
+reply was taken with nothing after it, no reply is owed, and the line was read
+less than :data:`MIN_FRAME` character times ago, too short for a whole frame to
+have come in since.  A frame that began to come in meanwhile ends up before the
+next reply, where the link meets it as it meets one that comes between the drain
+and the request: a frame that does not fit is discarded and counted, one that
+fits and comes again makes the second unrequested frame that fails the line.
+Every write and every volatile read (the interlock's state, I/O) is drained as
+before, and so is the first read after one of them, after a retry, or after a
+pause.
 
 Errors.  Whatever a pyserial call on the port raises (SerialException, OSError,
 but also termios.error from a pty that went away, or TypeError from a port
@@ -100,7 +118,7 @@ from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyErro
 from ..settings import SerialSettings
 from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
-from .port import SerialPort, describe, fileno, gone_hint, open_port
+from .port import SerialPort, describe, direct_fd, fileno, gone_hint, open_port
 
 __all__ = ["Link", "LinkStats"]
 
@@ -113,13 +131,17 @@ MAX_REASONS = 500
 #: line repeats replies, and a repeated reply may pass for the answer to the next
 #: request.
 UNREQUESTED_LIMIT = 2
-#: Seconds before the last bytes of a reply are due that the link stops sleeping and
-#: waits for them in ``poll`` (on top of half a character time): a timer may wake a
-#: little late, and the reply comes when it comes.
-WAKE_GUARD = 0.0001
-#: The shortest sleep worth a timer.  Below it the few arrivals of a reply cost less
-#: than waking from a sleep with cold caches (about 0.1 ms of CPU on a VM).
-MIN_SLEEP = 0.005
+#: The shortest sleep worth a timer.  Below it a reply is a byte or two, read as it
+#: comes; above it, reading it as it comes is a wake-up per arrival (a simulated line
+#: writes every millisecond, a USB adapter every latency tick).
+MIN_SLEEP = 0.001
+#: Bytes in the shortest frame of any family (HARL-U2 ``STX 1 SP payload ETX LRC``
+#: is 7 at least, IAI protocol B more): the time this many characters take on the
+#: line is too short for a whole frame to have come in since the link last read it.
+MIN_FRAME = 6
+#: How much one read takes from a descriptor the link reads itself: more than any
+#: reply of any family, so that a reply waiting whole is one read.
+READ_SIZE = 65536
 #: A reply whole when the link woke, shorter than every recent one of its kind by at
 #: most 1/LEARN_SHORTER of its length, teaches the kind its length.  After a much
 #: shorter one (an END after full steps) the kind is timed afresh: timed for the
@@ -208,6 +230,7 @@ class Link(Generic[F]):
         self.stats = LinkStats()
         self._port: SerialPort | None = None
         self._fd: int | None = None  # the port's file descriptor, when poll() can wait on it
+        self._direct: int | None = None  # ... when the link reads it with os.read itself
         self._poll = select.poll()
         self._line_lock = LineLock(url, self.lock_path)
         self._lock = threading.RLock()
@@ -221,7 +244,10 @@ class Link(Generic[F]):
         self._sent = b""  # the last frame sent, to know its echo
         # Pacing the wait for a reply (module docstring, "Waiting").
         self._char = _char_time(self.settings)
-        self._guard = self._char / 2 + WAKE_GUARD
+        # Skipping the drain before a request (module docstring, "Draining").
+        self._quiet = MIN_FRAME * self._char
+        self._read_at = 0.0  # when the port was last read (data or none)
+        self._clean = False  # the last exchange was a plain read that left nothing behind
         self._took: dict[_Kind, _Took] = {}
         self._frame_bytes = 0  # bytes of the last frame taken from the decoder
         self._sent_at = 0.0  # when the request was sent
@@ -251,6 +277,8 @@ class Link(Generic[F]):
                 raise
             self._port = port
             self._fd = fileno(port)
+            self._direct = direct_fd(port)
+            self._clean = False
             self._poll = select.poll()
             if self._fd is not None:
                 self._poll.register(self._fd, select.POLLIN)
@@ -278,7 +306,7 @@ class Link(Generic[F]):
         error that is already on its way out.  It is logged as a warning.
         """
         with self._lock:
-            port, self._port, self._fd = self._port, None, None
+            port, self._port, self._fd, self._direct = self._port, None, None, None
             try:
                 if port is not None:
                     port.close()
@@ -324,7 +352,10 @@ class Link(Generic[F]):
                     station_text=self.codec.station_text(st),
                 )
             self.stats.exchanges += 1
-            self._settle(port, st, command, wait=True)
+            plain = not (request.is_write or request.volatile)
+            if not (plain and self._drained(st)):
+                self._settle(port, st, command, wait=True)
+            self._clean = False
             self._check_line(st)
             attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
             failure = _Failure("not sent")
@@ -350,6 +381,7 @@ class Link(Generic[F]):
                 if not isinstance(result, _Failure):
                     if not request.is_write:  # a write's ack stands: it was sent, it took
                         self._check_line(st)
+                    self._clean = plain and attempt == 0
                     return result.value
                 failure = result
                 self.stats.timeouts += 1
@@ -413,15 +445,53 @@ class Link(Generic[F]):
         self._sent_at = time.monotonic()
         return self._sent_at
 
+    def _drained(self, station: int) -> bool:
+        """Whether the line is known to hold nothing for the next request, without
+        reading it: the last exchange was a plain read whose reply left nothing
+        behind, no reply is owed or overdue, and the port was read too recently for
+        a whole frame to have come in since (module docstring, "Draining")."""
+        return (
+            self._clean
+            and not self._owed
+            and not self._overdue.get(station)
+            and not self._decoder.pending
+            and time.monotonic() - self._read_at < self._quiet
+        )
+
     def _take(self, port: SerialPort, station: int, command: str, *, ready: bool = False) -> bytes:
         """Whatever input is there, without waiting.  ``ready``: ``poll`` said there
-        is some, so at least a byte is read (or pyserial says the port is gone)."""
+        is some, so at least a byte is read (or pyserial says the port is gone).
+
+        A port of our own with a descriptor is one ``os.read`` of what is there
+        (non-blocking: nothing there is ``BlockingIOError``), no ``in_waiting``
+        ioctl before it; an empty read when ``poll`` said there is input is the
+        other end gone (a socket closed, a pty hung up).  Other ports go through
+        pyserial.
+        """
+        fd = self._direct
+        if fd is not None:
+            try:
+                data = os.read(fd, READ_SIZE)
+            except BlockingIOError:
+                data = b""
+            except OSError as exc:
+                raise self._gone(exc, station, command, "") from exc
+            self._read_at = time.monotonic()
+            if not data and ready:
+                raise self._gone(
+                    ConnectionResetError("the other end closed the connection"),
+                    station,
+                    command,
+                    "",
+                )
+            return self._fed(data)
         try:
             waiting = port.in_waiting
-            data: bytes = port.read(waiting or 1) if waiting or ready else b""
+            got: bytes = port.read(waiting or 1) if waiting or ready else b""
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, "") from exc
-        return self._fed(data)
+        self._read_at = time.monotonic()
+        return self._fed(got)
 
     def _wait(self, port: SerialPort, station: int, command: str, until: float) -> bytes:
         """Wait until input arrives or ``until`` (``time.monotonic``) passes; what came.
@@ -451,6 +521,7 @@ class Link(Generic[F]):
                 data += port.read(port.in_waiting)
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, "") from exc
+        self._read_at = time.monotonic()
         return self._fed(data)
 
     def _fed(self, data: bytes) -> bytes:
@@ -465,19 +536,20 @@ class Link(Generic[F]):
     def _learn(self, kind: _Kind) -> None:
         """Remember how long the exchange just done took, when that is known: when poll
         woke for the reply's last bytes.  A reply found whole on waking from the timer
-        came sooner than the recent ones and may have waited: when it was shorter than
-        all of them, that is why, and the next of its kind is timed for one as short;
-        otherwise the controller answered sooner, and the next is timed afresh, by poll."""
+        came no later than the recent ones said (the timer is set for then): the next
+        of its kind is timed the same, and for a reply as short when this one was a
+        little shorter than all of them.  One much shorter than them all (an END after
+        full steps) may have waited long: the next is timed afresh, by poll."""
         sent, got = len(self._sent), self._frame_bytes
         took = self._took.get(kind)
         if self._polled:
             took = took or self._took.setdefault(kind, _Took())
             took.turnaround.append(self._got_at - self._sent_at - (sent + got) * self._char)
             took.longer.append(got - sent)
-        elif took and 0 < (min(took.longer) - (got - sent)) * LEARN_SHORTER <= got:
-            # A little shorter than every recent one (IAI positions of fewer digits):
-            # that is why it was whole, and the next of its kind is timed for a reply
-            # as short, at the same turnaround.
+        elif took and (min(took.longer) - (got - sent)) * LEARN_SHORTER <= got:
+            # As long as the recent ones, or a little shorter (IAI positions of fewer
+            # digits): the next of its kind is timed for a reply as short, at the same
+            # turnaround.
             took.turnaround.append(min(took.turnaround))
             took.longer.append(got - sent)
         else:
@@ -639,13 +711,9 @@ class Link(Generic[F]):
         shown = self.codec.station_text(station)
         kind = _Kind(command[:3], getattr(request, "reply_bytes", None))
         took = self._took.get(kind)
-        # When to look first: just before the reply's last bytes are due, if the
-        # recent exchanges of this kind say when that is.
-        look = (
-            self._sent_at + took.shortest(len(self._sent), self._char) - self._guard
-            if took
-            else 0.0
-        )
+        # When to look first: when the reply's last bytes are due, if the recent
+        # exchanges of this kind say when that is.
+        look = self._sent_at + took.shortest(len(self._sent), self._char) if took else 0.0
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):

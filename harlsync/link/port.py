@@ -37,6 +37,7 @@ __all__ = [
     "POLL_INTERVAL",
     "SerialPort",
     "describe",
+    "direct_fd",
     "fileno",
     "gone_hint",
     "open_error",
@@ -195,7 +196,25 @@ class _SocketPort(protocol_socket.Serial):
     pyserial's ``in_waiting`` is 1 when anything is waiting, so a reader that reads
     what is waiting took a reply a byte per wake-up; here it is the byte count
     (``FIONREAD``, where the platform has it).
+
+    pyserial's ``write`` waits in ``select`` after every ``send``, with a timer
+    object; here a frame the socket's buffer takes whole is one ``send`` (the rest,
+    and every error, goes to pyserial's, as for :class:`_DevicePort`).
     """
+
+    def write(self, b: Buffer, /) -> int:
+        data = bytes(b)
+        sock: socket.socket | None = getattr(self, "_socket", None)
+        done = 0
+        if self.is_open and sock is not None:
+            try:
+                done = sock.send(data)
+            except OSError:
+                done = 0  # pyserial's write tells a full buffer from a connection gone
+            if done == len(data):
+                return done
+        rest: int | None = super().write(data[done:])
+        return done + (rest or 0)
 
     REOPEN_GAP = 0.3
     _closed_at: ClassVar[dict[str, float]] = {}  # address -> when last closed
@@ -271,6 +290,21 @@ if os.name == "posix":
                     return data
             rest: bytes = super().read(size - len(data))
             return data + rest
+
+
+def direct_fd(port: object) -> int | None:
+    """The descriptor of a port the link may read with ``os.read`` itself: one of
+    ours (a device path, ``socket://``), open, non-blocking as pyserial leaves it,
+    and nothing between the descriptor and the bytes (``spy://`` logs them in its
+    ``read``: it is read through pyserial).  None for any other port."""
+    if _PosixSerial is not None and type(port) is _DevicePort:
+        fd: int | None = port.fd
+    elif type(port) is _SocketPort:
+        sock: socket.socket | None = getattr(port, "_socket", None)
+        fd = sock.fileno() if sock is not None else None
+    else:
+        return None
+    return fd if isinstance(fd, int) and fd >= 0 else None
 
 
 def fileno(port: object) -> int | None:

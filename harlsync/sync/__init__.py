@@ -1,10 +1,23 @@
-"""Pull, diff, plan, push and rollback: knows projects and controllers, not bytes."""
+"""Pull, diff, plan, push and rollback: knows projects and controllers, not bytes.
 
-from .comparison import Comparison, compare, plan
-from .deploy import PushFailed, PushOptions, PushResult, push, rollback
-from .items import Change, diff
-from .plan import Plan, PlannedWrite
-from .pulling import PullResult, pull
+The names below are imported when first asked for (PEP 562), not with the package:
+``harlsync pull`` imports :mod:`.pulling` and what it needs, and none of the push,
+plan and comparison machinery, before its first request (issue 24).
+"""
+
+from __future__ import annotations
+
+import sys
+from importlib import import_module
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .comparison import Comparison, compare, plan
+    from .deploy import PushFailed, PushOptions, PushResult, push, rollback
+    from .items import Change, diff
+    from .plan import Plan, PlannedWrite
+    from .pulling import PullResult, pull
 
 __all__ = [
     "Change",
@@ -22,3 +35,44 @@ __all__ = [
     "push",
     "rollback",
 ]
+
+#: each public name -> the module of this package that defines it
+_HOME = {
+    "Comparison": "comparison",
+    "compare": "comparison",
+    "plan": "comparison",
+    "PushFailed": "deploy",
+    "PushOptions": "deploy",
+    "PushResult": "deploy",
+    "push": "deploy",
+    "rollback": "deploy",
+    "Change": "items",
+    "diff": "items",
+    "Plan": "plan",
+    "PlannedWrite": "plan",
+    "PullResult": "pulling",
+    "pull": "pulling",
+}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f"{__name__}.{home}"), name)
+    globals()[name] = value  # once: the next look-up is a plain attribute
+    return value
+
+
+class _Package(ModuleType):
+    """This package, whose ``plan`` stays :func:`.comparison.plan` when the submodule
+    ``plan`` is imported (the import system sets a submodule on its package as it
+    loads it; the eager ``__init__`` this replaces bound the function after)."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "plan" and isinstance(value, ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

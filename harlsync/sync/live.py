@@ -106,8 +106,10 @@ def read_live(
             noted(exc.notes)
         raise
     try:
-        warnings = unfinished_pushes(robot, port, station)
         live = driver.read_all(registers=registers, progress=progress, whole=whole)
+        # After the read, the line still held: the first request does not wait for
+        # the audit log (issue 24), and what it says is the same.
+        warnings = unfinished_pushes(robot, port, station)
         busy = _busy(driver) if idle_check else None
         return LiveRead(driver, live, warnings, busy)
     finally:
