@@ -191,7 +191,7 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         type=int,
         default=0,
         metavar="N",
-        help="become busy after N writes (see --auto)",
+        help="become busy after N writes, once (see --auto); 'stop' disarms it",
     )
     p.add_argument(
         "--record",
