@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import git
 from plantsim import SMALL
 
 from harlsync.cli import main
@@ -94,15 +93,9 @@ def served(request, repo: Path) -> Iterator[tuple[str, Served, Path]]:
         robot = FAMILIES[request.param](stack)
         project = repo / "cell"
         if request.param == "epson":  # the sample as its backup, points 0-29: a quick read
-            from harlsync import families
-            from harlsync.project import Project, save_project
-            from tests.epson.sample import sample_data
+            from tests.epson.projects import saved
 
-            backup = families.get("epson").new_robot("cell", robot.url, 1)
-            backup.options["last"] = 29
-            save_project(project, Project(project, backup, sample_data()))
-            git(repo, "add", "-A")
-            git(repo, "commit", "-qm", "backup")
+            saved(repo, robot.url, "cell")
         else:
             pull = ["pull", str(project), "--port", robot.url, "--commit", *robot.family]
             assert main(pull) == 0

@@ -11,7 +11,6 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from conftest import git
 from plantsim import SMALL
 
 from harlsync.cli import main
@@ -50,20 +49,13 @@ def iai(repo: Path) -> Iterator[tuple[object, Path]]:
 
 @pytest.fixture
 def epson(repo: Path) -> Iterator[tuple[object, Path]]:
-    from harlsync import families
     from harlsync.families.epson.sim import SimState, Simulator
-    from harlsync.project import Project, save_project
+    from tests.epson.projects import saved
     from tests.epson.sample import sample_data
 
     sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
     with sim.serve() as server:
-        project = repo / "scara"
-        robot = families.get("epson").new_robot("scara", server.url, 1)
-        robot.options["last"] = 29
-        save_project(project, Project(project, robot, sample_data()))
-        git(repo, "add", "-A")
-        git(repo, "commit", "-qm", "backup")
-        yield sim, project
+        yield sim, saved(repo, server.url, "scara")
 
 
 def test_a_harl_u2_of_another_version_is_refused_after_lnx_and_lnv(harl_u2, capsys) -> None:

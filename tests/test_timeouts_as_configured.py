@@ -75,19 +75,13 @@ def test_a_reply_that_never_comes_names_the_configured_timeout(family, repo, cap
 
 
 def test_an_epson_transaction_that_never_answers_names_the_configured_timeout(repo, capsys) -> None:
-    from harlsync import families
     from harlsync.families.epson.sim import SimState, Simulator
-    from harlsync.project import Project, save_project
+    from tests.epson.projects import saved
     from tests.epson.sample import sample_data
 
     sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
     with sim.serve() as server:
-        project = repo / "scara"
-        robot = families.get("epson").new_robot("scara", server.url, 1)
-        robot.options.update(timeout=0.05432198, retries=1)
-        save_project(project, Project(project, robot, sample_data()))
-        git(repo, "add", "-A")
-        git(repo, "commit", "-qm", "backup")
+        project = saved(repo, server.url, "scara", timeout=0.05432198, retries=1)
         assert "timeout: 0.05432198" in (project / "robot.yaml").read_text()
         sim.faults = Faults(drop=1.0)
         capsys.readouterr()
