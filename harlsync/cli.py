@@ -191,7 +191,7 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         type=int,
         default=0,
         metavar="N",
-        help="become busy after N writes (see --auto)",
+        help="become busy after N writes, once (see --auto); 'stop' disarms it",
     )
     p.add_argument(
         "--record",
@@ -686,13 +686,15 @@ def _cmd_snapshots(args: argparse.Namespace) -> int:
         )
         for s, when in latest_first
     ]
-    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    from .columns import ljust, rjust, width
+
+    widths = [max(width(row[i]) for row in rows) for i in range(3)]
     for row in rows:
         _print(
             "  ".join(
                 [
-                    row[0].rjust(widths[0]),
-                    *(c.ljust(w) for c, w in zip(row[1:3], widths[1:])),
+                    rjust(row[0], widths[0]),
+                    *(ljust(c, w) for c, w in zip(row[1:3], widths[1:])),
                     row[3],
                 ]
             )
@@ -1373,6 +1375,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _setup_logging(verbose: int) -> None:
+    from .terminal import LogHandler
+
     if verbose >= 2:
         level = logging.DEBUG
     elif verbose == 1:
@@ -1380,7 +1384,11 @@ def _setup_logging(verbose: int) -> None:
     else:
         # Quiet under cron: only errors when nobody is watching.
         level = logging.WARNING if sys.stderr.isatty() else logging.ERROR
-    logging.basicConfig(level=level, format="harlsync: %(levelname)s: %(robot)s%(message)s")
+    logging.basicConfig(  # each line above a progress bar drawn meanwhile
+        level=level,
+        format="harlsync: %(levelname)s: %(robot)s%(message)s",
+        handlers=[LogHandler()],
+    )
     for handler in logging.getLogger().handlers:  # %(robot)s: which robot, under backup
         if not any(isinstance(f, RobotFilter) for f in handler.filters):
             handler.addFilter(RobotFilter())

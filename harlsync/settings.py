@@ -10,8 +10,18 @@ file that leaves a setting out means what it always meant.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from decimal import Decimal
 
-__all__ = ["SerialSettings"]
+__all__ = ["SerialSettings", "seconds"]
+
+
+def seconds(value: float) -> str:
+    """A duration as robot.yaml writes it and a person configured it: the shortest
+    text that reads back as the same number (``0.5``, ``1.0``, ``0.1234567``), never
+    rounded to fewer digits (``:g`` makes ``0.1234567`` ``0.123457``) nor in
+    exponent form (``1e-05`` is ``0.00001``)."""
+    text = repr(float(value))
+    return format(Decimal(text), "f") if "e" in text else text
 
 
 @dataclass(frozen=True)
@@ -38,5 +48,5 @@ class SerialSettings:
         flow = "RTS/CTS" if self.rtscts else "no flow control"
         return (
             f"{self.baudrate} {self.bytesize}{self.parity}{stop}, {flow}, "
-            f"reply timeout {self.timeout:g} s, {self.retries} retries"
+            f"reply timeout {seconds(self.timeout)} s, {self.retries} retries"
         )

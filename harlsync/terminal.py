@@ -14,22 +14,28 @@ result line printed above it as each robot finishes::
     welder: connecting                                  <- the block, redrawn in place
 
 Whatever stops them (the end, an error, Ctrl-C), :meth:`close` takes every bar
-off the screen: nothing is left half drawn under the next line printed.
+off the screen: nothing is left half drawn under the next line printed.  A line
+printed while one is drawn (a warning the log gives, from any thread) goes above
+it (:func:`above`, :class:`LogHandler`): the bar or block is taken off, the line
+printed, the bar drawn again, so no remnant of it stays on the screen.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
 if TYPE_CHECKING:
     from .sync.backup import RobotOutcome
 
-__all__ = ["UNIT", "BackupDisplay", "Feedback", "is_terminal"]
+__all__ = ["UNIT", "BackupDisplay", "Feedback", "LogHandler", "above", "is_terminal"]
 
 #: The progress unit, as every bar and summary says it.
 UNIT = "exchanges with the controller"
@@ -45,6 +51,41 @@ def is_terminal(stream: TextIO | None = None) -> bool:
         return stream.isatty()
     except (AttributeError, ValueError):  # closed or not a real stream
         return False
+
+
+class _Live(Protocol):
+    """What is drawn live at the bottom of stderr: a bar, the backup's block."""
+
+    def hide(self) -> None: ...
+
+    def show(self) -> None: ...
+
+
+#: Held while stderr is written to around what is drawn live (by any thread).
+_screen = threading.RLock()
+_live: list[_Live] = []
+
+
+@contextmanager
+def above() -> Iterator[None]:
+    """Print to stderr above what is drawn live: it is taken off the screen for the
+    ``with`` block and drawn again after (nothing drawn: nothing to do)."""
+    with _screen:
+        for live in _live:
+            live.hide()
+        try:
+            yield
+        finally:
+            for live in _live:
+                live.show()
+
+
+class LogHandler(logging.StreamHandler):  # type: ignore[type-arg]
+    """The log's lines on stderr, each above what is drawn live (see :func:`above`)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        with above():
+            super().emit(record)
 
 
 def seconds(elapsed: float) -> str:
@@ -76,6 +117,10 @@ class Feedback:
         self.exchanges = done
         if self._finished or self._off_terminal:
             return
+        with _screen:
+            self._draw(done, total)
+
+    def _draw(self, done: int, total: int) -> None:
         if self._bar is None:
             if not is_terminal():
                 self._off_terminal = True
@@ -95,20 +140,34 @@ class Feedback:
                 leave=False,
                 ncols=width,
             )
+            _live.append(self)
         self._bar.total = total
         self._bar.update(done - self._bar.n)
         if done >= total:  # clear the line before anything else is printed (a plan, a prompt)
             self.close()
 
-    def close(self) -> None:
-        self._finished = True
+    def hide(self) -> None:
         if self._bar is not None:
-            self._bar.close()
-            self._bar = None
-        if self._drawn:
-            self._drawn = False
-            sys.stderr.write("\r\x1b[K")  # whatever is left, and a "^C" echoed after it
+            self._bar.clear()
+            sys.stderr.write("\r\x1b[K")
             sys.stderr.flush()
+
+    def show(self) -> None:
+        if self._bar is not None:
+            self._bar.refresh()
+
+    def close(self) -> None:
+        with _screen:
+            self._finished = True
+            if self in _live:
+                _live.remove(self)
+            if self._bar is not None:
+                self._bar.close()
+                self._bar = None
+            if self._drawn:
+                self._drawn = False
+                sys.stderr.write("\r\x1b[K")  # whatever is left, and a "^C" echoed after it
+                sys.stderr.flush()
 
     def summary(self, robot: str, contents: str, tail: str = "") -> None:
         """``harlsync: diff cell-1: read CONTENTS in 12.3 s (1160 exchanges with the
@@ -156,8 +215,11 @@ class BackupDisplay:
         self._rows: dict[Path, _Row] = {}
         self._drawn = 0
         self._last_draw = 0.0
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()
         self._closed = False
+        if self.live:
+            with _screen:
+                _live.append(self)
 
     # --- what the backup reports -------------------------------------------------------
 
@@ -188,10 +250,21 @@ class BackupDisplay:
 
     def close(self) -> None:
         """Take the block off the screen; later reports are ignored."""
-        with self._lock:
+        with _screen, self._lock:
+            if self in _live:
+                _live.remove(self)
             if self.live and not self._closed:
                 self._clear()
             self._closed = True
+
+    def hide(self) -> None:
+        with self._lock:
+            if self.live and not self._closed:
+                self._clear()
+
+    def show(self) -> None:
+        with self._lock:
+            self._redraw(force=True)
 
     # --- drawing -----------------------------------------------------------------------
 

@@ -193,3 +193,23 @@ def test_issue_24_off_a_terminal_the_progress_asks_once_not_per_exchange(
         progress(done, 100)
     progress.close()
     assert stream.asked == 1 and stream.getvalue() == "" and progress.exchanges == 100
+
+
+@pytest.mark.parametrize("command", [["pull", "loader"], ["backup", "."]])
+def test_issue_22_a_warning_while_a_bar_is_drawn_goes_above_it_and_leaves_no_remnant(
+    repo: Path, command: list[str]
+) -> None:
+    for name, seed in (("loader", 1), ("press", 2)):  # replies lost: the link warns, retries
+        project = robot_at(repo, name, seed, 115200)
+        robot = project / "robot.yaml"
+        text = robot.read_text().replace("baud=115200", "baud=115200&drop=0.03")
+        robot.write_text(text.replace("timeout: 1.0", "timeout: 0.05"))
+    git(repo, "commit", "-qam", "lossy lines")
+    seen = run(*command, cwd=repo)
+    assert seen.code == 0, seen.raw
+    no_bar_left(seen.screen)
+    assert not any(line.endswith(": connecting") for line in seen.screen), seen.screen
+    warnings = [line for line in seen.screen if "WARNING" in line]
+    assert warnings, seen.screen  # some replies were lost: the test saw what it is about
+    for line in warnings:  # each whole, on a line of its own, not after a bar's remnant
+        assert re.fullmatch(r"harlsync: WARNING: .*retry \d/3 after no reply within 0\.05 s", line)

@@ -621,7 +621,7 @@ def test_a_write_timeout_blames_flow_control_not_a_lost_port(
 ) -> None:
     stuck = serial.SerialTimeoutException("Write timeout")
     monkeypatch.setattr(link, "_port", _Failing(link._port, "write", stuck))
-    with pytest.raises(PortError, match="write timed out after 1 s: ") as info:
+    with pytest.raises(PortError, match="write timed out after 1.0 s: ") as info:
         link.exchange(cmd.read_version())
     assert "rtscts" in str(info.value) and info.value.__cause__ is stuck
 

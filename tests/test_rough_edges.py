@@ -201,7 +201,7 @@ def test_issue_14_backup_v_names_the_robot_of_every_line_and_no_python_repr(plan
         assert "SerialSettings(" not in line
     assert (
         "harlsync: INFO: press: opened sim://?seed=2&baud=0 (station 1, 9600 8N1, no flow "
-        "control, reply timeout 1 s, 3 retries)"
+        "control, reply timeout 1.0 s, 3 retries)"
     ) in lines
 
 

@@ -206,3 +206,31 @@ def test_status_and_backup_tables_stay_aligned_whatever_a_cell_holds(robot, caps
     )
     rows = report.render().splitlines()[:3]
     assert rows[1].index("1.0s") + 4 == rows[2].index("12.5s") + 5  # durations aligned right
+
+
+def test_tables_align_by_terminal_columns_with_wide_characters(robot, capsys) -> None:
+    from harlsync.columns import fit, width
+    from harlsync.sync.backup import BackupReport, RobotOutcome
+
+    assert (width("プレス1"), width("é"), width("e\u0301")) == (7, 1, 1)
+    assert fit("プレス1", 5) == "プレ…" and width(fit("プレス1", 5)) == 5
+    robot_yaml = robot.project / "robot.yaml"
+    robot_yaml.write_text(re.sub(r"(?m)^name: .*$", "name: プレス1", robot_yaml.read_text()))
+    git(robot.repo, "commit", "-qam", "a name in Japanese")
+    engine.pull(robot.repo / "second", port=robot.url, commit=True)
+    assert main(["status", str(robot.repo)]) in (0, 1)
+    lines = capsys.readouterr().out.splitlines()
+    shown = [re.sub(r"[\u3000-\u30ff]", "xx", line) for line in lines[: lines.index("")]]
+    assert any("xx" in line for line in shown), lines  # the wide name is in the table
+    starts = [m.start() for m in re.finditer(r"(?<=  )\S", shown[0])]
+    for line in shown[1:]:
+        for start in starts:  # every column starts under its header, on the screen
+            assert line[start - 2 : start] == "  " and line[start] != " ", (line, start)
+    report = BackupReport(
+        [
+            RobotOutcome("プレス1", "/a", "p", 1, ok=True, summary="no change", duration=1.0),
+            RobotOutcome("b", "/b", "p", 1, ok=True, summary="no change", duration=12.5),
+        ]
+    )
+    rows = [re.sub(r"[\u3000-\u30ff]", "xx", row) for row in report.render().splitlines()[:3]]
+    assert rows[1].index("ok") == rows[2].index("ok") == rows[0].index("result")

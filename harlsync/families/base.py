@@ -131,6 +131,22 @@ class Driver(ABC, Generic[K, D]):
     def status(self) -> Status:
         """The interlock state; ``Status.idle`` says whether writing is allowed."""
 
+    def identity(self) -> Mapping[str, str] | None:
+        """What the robot says it is, by the names :meth:`Catalogue.robot_identity`
+        gives (``{"version": "5.00", ...}``), read with only the requests that tell
+        it, so that a swapped controller is refused at its first exchanges rather
+        than after a whole read; the next :meth:`read_all` uses what it read and
+        asks nothing twice.  None when the family cannot tell before a whole read
+        (the default): the engine then checks the data a read returns."""
+        return None
+
+    def advice(self, status: Status) -> str:
+        """What a person does about a ``status`` that is not idle, one sentence in the
+        family's words (``Release the emergency stop ...``), for the interlock's
+        refusal and the plan's warning; empty when :meth:`Status.describe` says it
+        already.  Default: stop the robot."""
+        return "Stop the robot (or wait for the cycle to end) and run again"
+
     @abstractmethod
     def read(self, key: K) -> object:
         """The item's current value (``None`` for an empty one)."""
@@ -419,7 +435,14 @@ class Catalogue(ABC, Generic[K, D]):
     def other_robot(self, live: D, project: D) -> str | None:
         """Why the controller read (``live``) is not the project's robot, for diff,
         plan and push (a pull asks :meth:`robot_identity`); None when it is.
-        Default: None (nothing more to tell than a pull checks)."""
+        Default: what :meth:`other_identity` says of its identity."""
+        return self.other_identity(self.robot_identity(live), project)
+
+    def other_identity(self, now: Mapping[str, str], project: D) -> str | None:
+        """Why a controller whose identity is ``now`` (:meth:`robot_identity`'s names,
+        from :meth:`Driver.identity` or a read) is not the project's robot, for diff,
+        plan and push; None when it may be.  Default: None (nothing more to tell than
+        a pull checks)."""
         return None
 
     def contents(self, data: D, *, registers: bool) -> str:

@@ -115,7 +115,7 @@ from typing import Generic, NamedTuple, TypeVar
 import serial
 
 from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyError, WriteUnconfirmed
-from ..settings import SerialSettings
+from ..settings import SerialSettings, seconds
 from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
 from .port import SerialPort, describe, direct_fd, fileno, gone_hint, open_port
@@ -433,7 +433,7 @@ class Link(Generic[F]):
             port.write(frame)
         except serial.SerialTimeoutException as exc:
             raise PortError(
-                f"write timed out after {self._write_timeout:g} s: the line takes no data; check "
+                f"write timed out after {seconds(self._write_timeout)} s: the line takes no data; check "
                 "the cable and the rtscts (hardware flow control) setting in robot.yaml",
                 port=self.url,
                 station=station,
@@ -706,7 +706,7 @@ class Link(Generic[F]):
     ) -> _Reply[T] | _Failure:
         """The decoded reply, or a :class:`_Failure` once ``timeout`` has passed."""
         deadline = time.monotonic() + timeout
-        failure = _Failure(f"no reply within {timeout:g} s")
+        failure = _Failure(f"no reply within {_within(timeout, self.settings.timeout)}")
         command = request.payload
         shown = self.codec.station_text(station)
         kind = _Kind(command[:3], getattr(request, "reply_bytes", None))
@@ -777,6 +777,15 @@ class _Kind(NamedTuple):
 
     command: str
     longest: int | None
+
+
+def _within(timeout: float, configured: float) -> str:
+    """The deadline a reply missed, as configured (``0.5 s``), and the time the
+    codec added for a reply long on the wire, if any."""
+    extra = timeout - configured
+    return f"{seconds(configured)} s" + (
+        f" (+{extra:.3f} s for its time on the wire)" if extra >= 0.0005 else ""
+    )
 
 
 def _char_time(settings: SerialSettings) -> float:

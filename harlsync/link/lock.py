@@ -9,10 +9,20 @@ holder, whose pid and host sit in a file beside the lock::
 
     <lock dir>/dev_ttyUSB0-3f2a9c1b7d04.lock          the lock (a readable name + a hash)
     <lock dir>/dev_ttyUSB0-3f2a9c1b7d04.lock.owner    "4242 cell-pc"
+
+Both files go when the lock is released, so that the directory does not fill with
+one file per line and project ever used.  On POSIX the lock is ``flock(2)`` held by
+:class:`LockFile`, which removes its file while it still holds it; a taker checks,
+once it holds the lock, that the file it locked is still the one at the path, and
+starts again if not.  (:class:`filelock.FileLock` leaves the file in place on POSIX
+by design, so that waiters share its inode: it cannot remove it safely; on Windows it
+removes it itself.)  A holder killed without releasing leaves both files, its flock
+gone with it: the next lock taken in the directory reclaims them (:func:`reclaim_dead`).
 """
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import ipaddress
 import logging
@@ -20,7 +30,9 @@ import os
 import re
 import socket
 import stat
+import time
 from pathlib import Path
+from typing import Protocol
 from urllib.parse import urlsplit
 
 import filelock
@@ -32,13 +44,16 @@ __all__ = [
     "DEFAULT_LOCK_TIMEOUT",
     "FALLBACK_LOCK_DIR",
     "SYSTEM_LOCK_DIRS",
+    "HeldLock",
     "LineLock",
+    "LockFile",
     "add_tcp_scheme",
     "default_lock_dir",
     "is_com_port",
     "lock_key",
     "lock_path",
     "port_number",
+    "reclaim_dead",
     "take_lock_file",
     "unusable_hint",
 ]
@@ -109,10 +124,102 @@ def default_lock_dir() -> Path:
     return FALLBACK_LOCK_DIR
 
 
-def take_lock_file(path: Path, timeout: float) -> filelock.BaseFileLock:
+class HeldLock(Protocol):
+    """A lock file this process holds (:class:`LockFile`, or filelock's on Windows)."""
+
+    @property
+    def lock_file(self) -> str: ...
+
+    def release(self) -> None: ...
+
+
+#: Seconds between two tries of a lock another process holds.
+_POLL = 0.05
+_CONTENDED = frozenset({errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK})
+
+
+class LockFile:
+    """A lock file held with ``flock(2)`` through the descriptor ``fd``: closing it
+    releases the lock, and :meth:`release` removes the file first (while the lock is
+    still held, so that no other process can have taken it)."""
+
+    def __init__(self, path: Path, fd: int) -> None:
+        self.path = path
+        self._fd: int | None = fd
+
+    @property
+    def lock_file(self) -> str:
+        return str(self.path)
+
+    @classmethod
+    def take(cls, path: Path, timeout: float) -> LockFile:
+        """Hold ``path``, waiting up to ``timeout`` seconds for another holder
+        (negative: for ever).  Raises :class:`filelock.Timeout` past it, OSError when
+        the file cannot be opened or made."""
+        import fcntl  # POSIX only: Windows takes filelock's lock
+
+        deadline = None if timeout < 0 else time.monotonic() + timeout
+        while True:
+            fd = _open_lock_file(path)
+            if fd is None:
+                continue  # removed by its holder between our two opens
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                os.close(fd)
+                if exc.errno not in _CONTENDED:
+                    raise
+                if deadline is not None and time.monotonic() >= deadline:
+                    raise filelock.Timeout(str(path)) from None
+                time.sleep(_POLL)
+                continue
+            try:
+                if os.path.samestat(os.fstat(fd), os.stat(path, follow_symlinks=False)):
+                    return cls(path, fd)
+            except FileNotFoundError:
+                pass
+            os.close(fd)  # its last holder removed that file as we locked it: take the new one
+
+    def release(self) -> None:
+        """Remove the file, then give the lock back (nothing when it is not held)."""
+        fd, self._fd = self._fd, None
+        if fd is None:
+            return
+        try:
+            if os.path.samestat(os.fstat(fd), os.stat(self.path, follow_symlinks=False)):
+                self.path.unlink()
+        except OSError as exc:  # another user's file in a sticky directory: it stays, empty
+            log.debug("cannot remove the lock file %s: %s", self.path, exc)
+        finally:
+            os.close(fd)
+
+
+def _open_lock_file(path: Path) -> int | None:
+    """A descriptor of the lock file ``path``, made (mode 0666) when there is none;
+    None when it went between the tries.  An existing file is opened without
+    ``O_CREAT``, which Linux refuses (``fs.protected_regular``) for another user's
+    file in a sticky directory."""
+    flags = os.O_RDWR | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        return os.open(path, flags)
+    except FileNotFoundError:
+        pass
+    try:
+        fd = os.open(path, flags | os.O_CREAT | os.O_EXCL, 0o666)
+    except FileExistsError:
+        return None
+    try:
+        os.fchmod(fd, 0o666)  # whatever the umask: root's cron job and a user share it
+    except OSError:
+        pass
+    return fd
+
+
+def take_lock_file(path: Path, timeout: float) -> HeldLock:
     """Hold the lock file ``path``, making its directory first if need be: one every
     user of the machine may use (sticky and writable by all, like ``/tmp``), since
-    root's cron job and an engineer's shell must meet in it.
+    root's cron job and an engineer's shell must meet in it.  The locks that
+    processes of this machine died holding are reclaimed first (:func:`reclaim_dead`).
 
     Raises :class:`filelock.Timeout` when another holder keeps it past ``timeout``
     seconds, and :class:`OSError` when the directory or the file cannot be made.
@@ -125,9 +232,62 @@ def take_lock_file(path: Path, timeout: float) -> filelock.BaseFileLock:
             pass  # another harlsync made it meanwhile: it set the mode
         else:
             os.chmod(directory, 0o1777)
-    lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
-    lock.acquire(timeout=timeout)
-    return lock
+    if os.name == "nt":
+        lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
+        lock.acquire(timeout=timeout)
+        return lock
+    reclaim_dead(directory)
+    return LockFile.take(path, timeout)
+
+
+def _owner_pid(owner: Path) -> int | None:
+    """The pid an owner file names when it is of this machine, else None."""
+    try:
+        pid, host = (owner.read_text().split() + ["", ""])[:2]
+        return int(pid) if host == socket.gethostname() else None
+    except (OSError, ValueError):
+        return None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process, or a pid we may not ask about
+        return True
+    return True
+
+
+def reclaim_dead(directory: Path) -> list[Path]:
+    """Remove the locks in ``directory`` whose owner file names a process of this
+    machine that is gone (killed while it held them: the kernel released its lock,
+    the files stayed), and return the lock files removed.  A lock some process holds
+    now, or one of another machine, is left alone."""
+    removed: list[Path] = []
+    try:
+        owners = [p for p in directory.iterdir() if p.name.endswith(".lock.owner")]
+    except OSError:
+        return removed
+    for owner in owners:
+        pid = _owner_pid(owner)
+        if pid is None or _alive(pid):
+            continue
+        path = owner.with_name(owner.name[: -len(".owner")])
+        try:
+            lock = LockFile.take(path, 0)
+        except (filelock.Timeout, OSError):
+            continue  # taken again meanwhile, or not ours to take
+        try:
+            if _owner_pid(owner) == pid:  # not rewritten by a new holder meanwhile
+                owner.unlink()
+        except OSError:
+            pass
+        finally:
+            lock.release()
+        log.debug("reclaimed the lock %s of pid %d, which is gone", path, pid)
+        removed.append(path)
+    return removed
 
 
 def unusable_hint(directory: Path) -> str:
@@ -227,7 +387,7 @@ class LineLock:
     def __init__(self, url: str, path: Path | None) -> None:
         self.url = url
         self.path = path
-        self._lock: filelock.BaseFileLock | None = None
+        self._lock: HeldLock | None = None
 
     def acquire(self, timeout: float) -> None:
         """Take the lock and record this process as its holder.

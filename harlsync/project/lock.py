@@ -6,7 +6,8 @@ it, two pulls of one directory over two different lines (the line lock does not
 meet them) each read their robot and save, and the project ends up as a mix of
 the two robots, or as one of them with the other's summary and commit.
 
-The lock is a :class:`filelock.FileLock` in the directory of the line locks
+The lock is a lock file (:func:`harlsync.link.lock.take_lock_file`, removed when
+released) in the directory of the line locks
 (:func:`harlsync.link.default_lock_dir`), named after the project's resolved
 path, with the holder's pid, host and command beside it for the message of a
 command that finds it taken.  It lives outside the project so that a project
@@ -33,7 +34,7 @@ import filelock
 
 from ..errors import ProjectError
 from ..link import default_lock_dir
-from ..link.lock import take_lock_file, unusable_hint
+from ..link.lock import HeldLock, take_lock_file, unusable_hint
 
 __all__ = ["holding_project", "lock_path", "project_lock"]
 
@@ -97,9 +98,7 @@ def project_lock(
         lock.release()
 
 
-def _acquire(
-    project: str | os.PathLike[str], path: Path, timeout: float, command: str
-) -> filelock.BaseFileLock:
+def _acquire(project: str | os.PathLike[str], path: Path, timeout: float, command: str) -> HeldLock:
     try:
         lock = take_lock_file(path, timeout)
     except filelock.Timeout as exc:

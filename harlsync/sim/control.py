@@ -3,9 +3,11 @@
 ``harlsync sim`` reads these from its standard input, so a person or a test can
 make a robot busy while a client is connected.  Every family takes::
 
-    status                      one line per station: its mode, and the writes carried out
-    BUSY-after-writes N         make the written station busy after N more writes
+    status                      one line per station: its mode, the writes carried out,
+                                and the BUSY-after-writes schedule when one is armed
+    BUSY-after-writes N         make the written station busy after N more writes, once
                                 (BUSY is the family's busy verb: auto-after-writes, run-after-writes)
+    stop [STATION]              every family's verb for idle; it disarms the schedule too
 
 and its own verbs (:attr:`~harlsync.sim.SimFamily.verbs`), each with the
 station first (the family's notation; default: the lowest station), e.g.
@@ -18,7 +20,10 @@ from typing import Any
 
 from .device import Device
 
-__all__ = ["after_writes_verb", "apply_command", "describe"]
+__all__ = ["IDLE_VERB", "after_writes_verb", "apply_command", "describe"]
+
+#: Every family's verb that makes a station idle; it disarms ``BUSY-after-writes``.
+IDLE_VERB = "stop"
 
 
 def after_writes_verb(busy_verb: str) -> str:
@@ -28,12 +33,14 @@ def after_writes_verb(busy_verb: str) -> str:
 
 def describe(sim: Device[Any]) -> str:
     with sim.lock:
+        armed = sim.armed
+        schedule = "" if armed is None else f"; {sim.family.busy_verb} after {armed} more writes"
         return (
             "; ".join(
                 f"station {sim.show_station(n)}: {sim.describe(s)}"
                 for n, s in sorted(sim.stations.items())
             )
-            + f"; {sim.writes} writes received"
+            + f"; {sim.writes} writes received{schedule}"
         )
 
 
@@ -59,4 +66,6 @@ def apply_command(sim: Device[Any], line: str) -> str:
         if station not in sim.stations:
             raise ValueError(f"no station {sim.show_station(station)}")
         sim.control(verb, sim.stations[station], args[1:])
+        if verb == IDLE_VERB:  # idle means idle: no switch to busy scheduled behind it
+            sim.busy_after_writes = 0
     return describe(sim)

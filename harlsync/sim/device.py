@@ -288,14 +288,26 @@ class Device(ABC, Generic[S]):
 
     def wrote(self, state: S) -> None:
         """Count one write carried out on ``state``, and make the station busy when
-        :attr:`busy_after_writes` is reached.  A family calls it after each write."""
+        :attr:`busy_after_writes` is reached; the schedule then goes (it fires once:
+        a station stopped afterwards stays idle).  A family calls it after each write."""
         self.writes += 1
         due = self.busy_after_writes and self.writes >= self.busy_after_writes
-        if due and not self.busy(state):
+        if not due:
+            return
+        self.busy_after_writes = 0
+        if not self.busy(state):
             log.info(
                 "sim: scheduled switch after %d writes: %s", self.writes, self.family.busy_verb
             )
             self.control(self.family.busy_verb, state, ())
+
+    @property
+    def armed(self) -> int | None:
+        """How many more writes until the scheduled switch to busy, or None when
+        none is scheduled."""
+        if not self.busy_after_writes:
+            return None
+        return max(0, self.busy_after_writes - self.writes)
 
     def writes_received(self, station: int | None = None) -> list[Received]:
         with self.lock:

@@ -28,6 +28,7 @@ from typing import Any, Protocol
 
 import filelock
 
+from .. import columns
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..families.base import AnyFamily, Progress
 from ..link import lock_key
@@ -176,9 +177,10 @@ class BackupReport:
                 changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
             rows.append((r.label or r.name, result, f"{r.duration:.1f}s", changes))
         # What changed, or why not, is last: a long error text moves no other column.
-        widths = [max(len(row[i]) for row in rows) for i in range(3)]
+        widths = [max(columns.width(row[i]) for row in rows) for i in range(3)]
+        left, right = columns.ljust, columns.rjust  # terminal columns, not characters
         lines = [
-            "  ".join([row[0].ljust(widths[0]), row[1].ljust(widths[1]), row[2].rjust(widths[2])])
+            "  ".join([left(row[0], widths[0]), left(row[1], widths[1]), right(row[2], widths[2])])
             + "  "
             + row[3]
             for row in rows

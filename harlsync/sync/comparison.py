@@ -67,6 +67,13 @@ def compare(
     ``idle_check`` also say whether a push would be refused now (robot not idle)."""
     project = load_project(path)
     station = station_number(project.family, station)
+    things = project.family.catalogue
+
+    def not_another_robot(now: Mapping[str, str], where: str) -> None:
+        why = things.other_identity(now, project.data)
+        if why is not None:  # at its first exchanges, not after a whole read
+            raise ProjectError(f"{project.path}: not compared: {why}")
+
     read = read_live(
         project.family,
         project.robot,
@@ -77,8 +84,8 @@ def compare(
         lock_timeout=lock_timeout,
         idle_check=idle_check,
         options=connect_options,
+        identified=not_another_robot,
     )
-    things = project.family.catalogue
     why = things.other_robot(read.live, project.data)
     if why is not None:
         raise ProjectError(f"{project.path}: not compared: {why}")

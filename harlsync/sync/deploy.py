@@ -165,6 +165,10 @@ def run(
             options=opts.connect_options,
         )
         result.warnings = unfinished_pushes(robot, port, station)
+        now = driver.identity()  # a swapped controller is refused at its first exchanges
+        other = None if now is None else family.catalogue.other_identity(now, target)
+        if other is not None:
+            raise PolicyError(f"cannot deploy: {other}")
         if not opts.allow_live_tuning:
             interlock(driver, robot, family.words, "reading the robot")
         live = driver.read_all(registers=opts.registers, progress=opts.progress)

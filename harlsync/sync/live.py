@@ -92,13 +92,17 @@ def read_live(
     options: Mapping[str, bool] | None = None,
     whole: bool = False,
     noted: Callable[[Sequence[str]], None] | None = None,
+    identified: Callable[[Mapping[str, str], str], None] | None = None,
 ) -> LiveRead[K, D]:
     """Everything the robot holds, read over a line opened and closed for it; with
     ``idle_check`` its state after the read too (what the interlock reads).
     ``options`` are the connection's (see :func:`connect`); ``whole`` (a pull): find
     out how far each table goes and fail rather than read part of one.  ``noted`` is
     given the driver's notes (what it did on its own) once the read is over, whether
-    it succeeded or not: what was done to the robot is told even when the read fails."""
+    it succeeded or not: what was done to the robot is told even when the read fails.
+    ``identified`` is given what the robot says it is (:meth:`Driver.identity`) and
+    where it is, before anything else is read, when the family can tell it first:
+    it raises to refuse a swapped controller before the long read."""
     try:
         driver = connect(family, robot, port, station, lock_timeout=lock_timeout, options=options)
     except HarlsyncError as exc:  # what was done to the robot before the line failed
@@ -106,6 +110,10 @@ def read_live(
             noted(exc.notes)
         raise
     try:
+        if identified is not None:
+            now = driver.identity()
+            if now is not None:
+                identified(now, driver.label)
         live = driver.read_all(registers=registers, progress=progress, whole=whole)
         # After the read, the line still held: the first request does not wait for
         # the audit log (issue 24), and what it says is the same.
@@ -126,7 +134,10 @@ def _busy(driver: Driver[K, D]) -> str | None:
         status = driver.status()
     except HarlsyncError as exc:
         return f"cannot read its state ({exc})"
-    return None if status.idle else status.describe()
+    if status.idle:
+        return None
+    advice = driver.advice(status)
+    return status.describe() + (f". {advice}" if advice else "")
 
 
 def unfinished_pushes(robot: Robot, port: str | None, station: int | None) -> list[str]:

@@ -128,6 +128,26 @@ def pull(
             f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
             f"commit or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
         )
+    loaded: list[Any] = []
+
+    def backup() -> Any:
+        """The backup in ``path`` (None: none), loaded once the line is open: the
+        first request need not wait for it (issue 15)."""
+        if not loaded:
+            try:
+                loaded.append(load_project(path, family).data)
+            except ProjectError:
+                loaded.append(None)
+        return loaded[0]
+
+    def same_identity(now: Mapping[str, str], where: str) -> None:
+        """A swapped controller is refused at its first exchanges, not after a whole read."""
+        previous = backup()
+        if previous is not None and not new_robot:
+            differ = _identity_differs(things.robot_identity(previous), now)
+            if differ:
+                raise _not_this_robot(path, where, differ)
+
     read = read_live(
         family,
         robot,
@@ -139,12 +159,10 @@ def pull(
         options=connect_options,
         whole=True,  # a backup finds out how far each table goes
         noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
+        identified=same_identity,
     )
     live = read.live
-    try:  # after the read: the first request need not wait for it (issue 15)
-        previous: Any = load_project(path, family).data
-    except ProjectError:
-        previous = None
+    previous = backup()
     if previous is not None and not new_robot:
         _same_robot(path, things, previous, live, read.driver.label)
     save_project(path, Project(path, robot, live, family))
@@ -223,12 +241,7 @@ def _same_robot(
 
     Each kind is judged alone: a hundred tables, most of them unused and alike
     on every robot, must not hide that every program step changed."""
-    was, now = things.robot_identity(backup), things.robot_identity(live)
-    differ = [
-        f"{name} {now.get(name)!r} (the backup has {value!r})"
-        for name, value in was.items()
-        if now.get(name) != value
-    ]
+    differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
     if not differ:
         held = things.items(backup, registers=False).keys() | things.items(live, registers=False)
         changes = diff(things, backup, live)
@@ -245,12 +258,25 @@ def _same_robot(
                 ]
                 break
     if differ:
-        raise PolicyError(
-            f"{path}: the controller at {where} does not look like the robot backed up "
-            f"here: {'; '.join(differ)}. The backup was left as it was. If this is the "
-            f"robot (replaced, reconfigured, updated), accept it with "
-            f"'harlsync pull {path} --new-robot'"
-        )
+        raise _not_this_robot(path, where, differ)
+
+
+def _identity_differs(was: Mapping[str, str], now: Mapping[str, str]) -> list[str]:
+    """Each part of the robot's identity that differs from the backup's, for a message."""
+    return [
+        f"{name} {now.get(name)!r} (the backup has {value!r})"
+        for name, value in was.items()
+        if now.get(name) != value
+    ]
+
+
+def _not_this_robot(path: Path, where: str, differ: list[str]) -> PolicyError:
+    return PolicyError(
+        f"{path}: the controller at {where} does not look like the robot backed up "
+        f"here: {'; '.join(differ)}. The backup was left as it was. If this is the "
+        f"robot (replaced, reconfigured, updated), accept it with "
+        f"'harlsync pull {path} --new-robot'"
+    )
 
 
 def change_summary(changes: list[Change[Any]]) -> str:

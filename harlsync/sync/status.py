@@ -27,6 +27,7 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
+from .. import columns
 from ..errors import HarlsyncError, partly_words
 from ..project import family_of, load_robot
 from . import audit, git, history
@@ -276,7 +277,7 @@ class PlantStatus:
             if push is not None:
                 notes.append(f"{shown}: last {push.describe()}")
                 notes += [f"    {line}" for line in push.changes(3)]
-        widths = [min(max(len(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
+        widths = [min(max(columns.width(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
         lines = []
         for row in rows:
             # A cell longer than its column is cut ("…"), so every column starts where
@@ -303,8 +304,8 @@ _COLOURS = {
 
 
 def fit(cell: str, width: int) -> str:
-    """``cell`` padded to ``width``, or cut to it with an ellipsis."""
-    return cell.ljust(width) if len(cell) <= width else cell[: width - 1] + "…"
+    """``cell`` padded to ``width`` terminal columns, or cut to them with an ellipsis."""
+    return columns.fit(cell, width)
 
 
 def _paint(state: str, text: str) -> str:

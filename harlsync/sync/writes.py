@@ -74,9 +74,10 @@ def interlock(driver: Driver[Any, Any], robot: Robot, words: Words, before: str)
             f"{before} ({exc}); not writing"
         ) from exc
     if not status.idle:
+        advice = driver.advice(status)
         raise InterlockError(
             f"robot {robot.name} ({driver.label}) is not idle: {status.describe()}; "
-            f"stopped before {before}. Stop the robot (or wait for the cycle to end) and run again"
+            f"stopped before {before}" + (f". {advice}" if advice else "")
         )
 
 

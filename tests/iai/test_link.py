@@ -119,9 +119,10 @@ def test_a_silent_controller_times_out_naming_what_to_check_on_an_iai(
     ):
         link.exchange(p.system_status())
     message = str(info.value)
-    # The deadline is the profile's: the timeout plus 1.5 x the wire time of 25 bytes.
-    deadline = 0.1 + profile.REPLY_DEADLINE_FACTOR * 25 * 10 / 9600
-    assert f"(last: no reply within {deadline:g} s)" in message
+    # The deadline is the profile's: the timeout plus 1.5 x the wire time of 25 bytes,
+    # said as configured and the wire's part apart (issue 22 item 11).
+    wire = profile.REPLY_DEADLINE_FACTOR * 25 * 10 / 9600
+    assert f"(last: no reply within 0.1 s (+{wire:.3f} s for its time on the wire))" in message
     assert message.endswith(
         "check that the controller speaks protocol B (I/O parameter No. 90 = 2), that its "
         "station is 99 (hex, as --station and robot.yaml give it), that it is in AUTO mode "

@@ -25,7 +25,7 @@ A plan names the persistent items it writes (the controller's memory card).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
 from ..base import Catalogue, PlanShape
@@ -204,18 +204,19 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
         )
         return text + (f" ({covered_text(data)})" if data.covered is not None else "")
 
-    def other_robot(self, live: EpsonData, project: EpsonData) -> str | None:
-        """Why the controller read (``live``) is not the project's robot: another
-        manipulator type, axis count or model (2153, 2154); None when it is."""
-        if (live.robot_type, live.axes) != (project.robot_type, project.axes):
+    def other_identity(self, now: Mapping[str, str], project: EpsonData) -> str | None:
+        """Why the controller that reports ``now`` (:meth:`robot_identity`) is not the
+        project's robot: another manipulator type, axis count or model (2153,
+        2154); None when it is."""
+        if (now["robot type"], now["axes"]) != (project.type_name, str(project.axes)):
             return (
                 f"the project is of a {project.type_name} robot with {project.axes} axes, the "
-                f"controller reports a {live.type_name} with {live.axes}: check the port (or "
-                "pull into a new project)"
+                f"controller reports a {now['robot type']} with {now['axes']}: check the port "
+                "(or pull into a new project)"
             )
-        if live.model != project.model:
+        if now["model"] != project.model:
             return (
-                f"the project is of a {project.model}, the controller reports a {live.model} "
+                f"the project is of a {project.model}, the controller reports a {now['model']} "
                 "(2154): another robot, or a replaced one; check the port, or accept it with "
                 "'harlsync pull DIR --new-robot'"
             )

@@ -505,16 +505,23 @@ class Controller:
             return self.read_point(key.number)
         return self.read_setting(key.kind, key.number)
 
-    def read_all(self, progress: Progress | None = None, *, probe: bool = False) -> EpsonData:
+    def read_all(
+        self,
+        progress: Progress | None = None,
+        *,
+        probe: bool = False,
+        identity: tuple[int, int, str] | None = None,
+    ) -> EpsonData:
         """The manipulator, every setting and every defined point of the range.
 
         With ``probe`` (a pull), every point outside the range, from P0 up to
         :data:`~.profile.POINT_PROBE_END`, is looked for too (the manual has no
         command that says how many there are): raises ProjectError naming those
         defined and the robot.yaml setting that takes them in; the data records
-        the range covered.  ``progress(done, total)`` after each item.
+        the range covered.  ``progress(done, total)`` after each item.  ``identity``
+        is what :meth:`identify` just returned: not asked for again.
         """
-        code, axes, model = self.identify()
+        code, axes, model = self.identify() if identity is None else identity
         data = EpsonData(
             code, axes, model, unwritable=self.map.unwritable, map_note=self.map.ready_note
         )

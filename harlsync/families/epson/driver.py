@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...errors import ProjectError
-from ..base import Driver, Progress
+from ..base import Driver, Progress, Status
 from .catalogue import CATALOGUE, Key, PointWrite
 from .controller import Controller, WriteStep
 from .handshake import RemoteStatus
@@ -15,18 +15,45 @@ from .model import EpsonData, PointKey
 
 __all__ = ["EpsonDriver"]
 
+#: What a person does about each interlock signal at 1, the gravest first.
+_ADVICE = {
+    "EStopOn": (
+        "Find why the emergency stop is on; when it is safe, release it and reset the "
+        "controller (Reset in RC+ or the Reset input), then run again"
+    ),
+    "Error": (
+        "Read the error in RC+ (its number says what it is), remove its cause and reset "
+        "the controller (Reset in RC+ or the Reset input), then run again"
+    ),
+    "Paused": (
+        "A paused task goes on where it stopped: stop it from RC+ or the operator's "
+        "controls (a push never resumes or aborts a task), then run again"
+    ),
+    "Running": (
+        "Stop the task from RC+ or the operator's controls (or wait for it to end) and run again"
+    ),
+}
+
 
 class EpsonDriver(Driver[Key, EpsonData]):
     def __init__(self, controller: Controller) -> None:
         self.controller = controller
         self.label = controller.label
+        self._identity: tuple[int, int, str] | None = None
+
+    def identity(self) -> dict[str, str]:
+        """2153 and 2154 (the manipulator), the first commands of a read: kept for
+        :meth:`read_all`."""
+        self._identity = code, axes, model = self.controller.identify()
+        return CATALOGUE.robot_identity(EpsonData(code, axes, model))
 
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False
     ) -> EpsonData:
         """Every setting and point (an Epson robot has no runtime data to add);
         ``whole``: probe past the point range too (see :meth:`Controller.read_all`)."""
-        return self.controller.read_all(progress, probe=whole)
+        identity, self._identity = self._identity, None
+        return self.controller.read_all(progress, probe=whole, identity=identity)
 
     @property
     def notes(self) -> list[str]:
@@ -35,6 +62,30 @@ class EpsonDriver(Driver[Key, EpsonData]):
 
     def status(self) -> RemoteStatus:
         return self.controller.status()
+
+    def advice(self, status: Status) -> str:
+        """By the signal that refuses, the gravest first: EStopOn, Error, Paused,
+        Running; then Ready 0 and a function in use.  A map that can never allow a
+        write says what to do itself."""
+        if not isinstance(status, RemoteStatus):
+            return super().advice(status)
+        if status.unwritable is not None or status.mismapped is not None:
+            return ""
+        for signal, advice in _ADVICE.items():
+            if signal in status.busy:
+                return advice
+        if status.not_ready:
+            return (
+                "Wait for the controller to finish starting up (Ready 1); if Ready stays "
+                "0, check robot.yaml connection.map against RC+"
+            )
+        if not status.function_idle:
+            return (
+                "Wait for the command of the other Remote Control client to end; a "
+                "function an earlier harlsync left in use is reset by 'harlsync pull DIR "
+                "--reset-function' (on an idle robot)"
+            )
+        return super().advice(status)
 
     def read(self, key: Key) -> Any:
         if isinstance(key, PointWrite):

@@ -72,6 +72,7 @@ from types import MappingProxyType
 from typing import Protocol, TypeVar
 
 from ...errors import ControllerError, InterlockError, LinkError, LinkTimeout, PortBusyError
+from ...settings import seconds
 from . import profile
 from .profile import HANDSHAKE_INPUTS, INTERLOCK_SIGNALS, READY, Bit, RegisterMap
 from .protocol import FUNCTION_ERROR, ErrorReply, Request, WriteSequence, describe_code
@@ -462,7 +463,7 @@ class Handshake:
             polls += 1
             if self.clock.monotonic() >= deadline:
                 raise HandshakeTimeout(
-                    f"Ready is still 0 after {self.deadline:g} s, and no task, error or "
+                    f"Ready is still 0 after {seconds(self.deadline)} s, and no task, error or "
                     "emergency stop shows: the controller is not operable yet, or Ready is "
                     "mapped to a bit it does not drive; ExtCmdReset not raised (§6.2)",
                     port=self.label,
@@ -546,7 +547,7 @@ class Handshake:
                 return
             if self.clock.monotonic() >= deadline:
                 raise HandshakeTimeout(
-                    f"the function is not ready {self.deadline:g} s after its reset "
+                    f"the function is not ready {seconds(self.deadline)} s after its reset "
                     f"({status.describe()}): reset the controller",
                     port=self.label,
                     command="function reset",
@@ -725,7 +726,7 @@ class Handshake:
         if pending.acquired and pending.request.is_write:
             note = "; the controller took the write: it may or may not have taken effect"
         raise HandshakeTimeout(
-            f"no answer within {self.deadline:g} s: stopped at step {pending.step.value} of "
+            f"no answer within {seconds(self.deadline)} s: stopped at step {pending.step.value} of "
             f"§6.3 ({pending.step.text}){note}",
             port=self.label,
             command=str(pending.request),
@@ -832,7 +833,7 @@ class Handshake:
                 return
             if now >= deadline:
                 raise HandshakeTimeout(
-                    f"still unanswered after {self.deadline:g} s more (stopped at step "
+                    f"still unanswered after {seconds(self.deadline)} s more (stopped at step "
                     f"{pending.step.value} of §6.3, {pending.step.text}): nothing else is sent "
                     "while it may run (a second request halts the function, §6.5.1)",
                     port=self.label,

@@ -30,6 +30,7 @@ from typing_extensions import Self
 
 from ...errors import LinkError, LinkTimeout, PortError
 from ...link.lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
+from ...settings import seconds
 from . import profile
 
 __all__ = ["SCHEME", "ModbusLink", "ModbusRefused", "parse_url"]
@@ -194,7 +195,7 @@ class ModbusLink:
         except ModbusIOException as exc:
             tries = f"{self.retries + 1} tries" if self.retries else "1 try"
             raise LinkTimeout(
-                f"{what}: no answer within {self.timeout:g} s ({tries})", port=self.label
+                f"{what}: no answer within {seconds(self.timeout)} s ({tries})", port=self.label
             ) from exc
         except ConnectionException as exc:
             raise PortError(

@@ -21,7 +21,15 @@ from typing import Any, NamedTuple
 from ..base import Catalogue, PlanShape, align, spans
 from .model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
 
-__all__ = ["CATALOGUE", "BlockKey", "HarlU2Catalogue", "Key", "NumberKey", "StepKey"]
+__all__ = [
+    "CATALOGUE",
+    "BlockKey",
+    "HarlU2Catalogue",
+    "Key",
+    "NumberKey",
+    "StepKey",
+    "identity_of",
+]
 
 
 class BlockKey(NamedTuple):
@@ -179,15 +187,7 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
 
     def robot_identity(self, data: RobotData) -> dict[str, str]:
         """The version (LNV) and the program configuration (LNX)."""
-        cfg = data.config
-        areas = ", ".join(f"{t.value} {cfg.area(t).count}x{cfg.area(t).steps}" for t in ProgramType)
-        return {
-            "version": data.version,
-            "program configuration": (
-                f"{areas} (programs x steps), {_many(cfg.timers, 'timer')}, "
-                f"{_many(cfg.memory_bits, 'memory bit')}, {_many(cfg.registers, 'register')}"
-            ),
-        }
+        return identity_of(data.version, data.config)
 
     def contents(self, data: RobotData, *, registers: bool) -> str:
         """What a live read holds: programs, timers and registers to the sizes LNX
@@ -277,6 +277,19 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
 
 
 CATALOGUE = HarlU2Catalogue()
+
+
+def identity_of(version: str, cfg: Config) -> dict[str, str]:
+    """The robot's identity (:meth:`HarlU2Catalogue.robot_identity`) from its
+    version (LNV) and program configuration (LNX)."""
+    areas = ", ".join(f"{t.value} {cfg.area(t).count}x{cfg.area(t).steps}" for t in ProgramType)
+    return {
+        "version": version,
+        "program configuration": (
+            f"{areas} (programs x steps), {_many(cfg.timers, 'timer')}, "
+            f"{_many(cfg.memory_bits, 'memory bit')}, {_many(cfg.registers, 'register')}"
+        ),
+    }
 
 
 def _steps(numbers: list[int]) -> str:

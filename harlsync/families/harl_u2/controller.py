@@ -363,6 +363,7 @@ class Controller(OnLink):
         progress: Progress | None = None,
         *,
         offset_tables: int = OFFSET_TABLE_COUNT,
+        known: tuple[Config, str] | None = None,
     ) -> RobotData:
         """Everything a backup holds, read in pull order.
 
@@ -374,9 +375,12 @@ class Controller(OnLink):
         the sizes LNX reports; only the offset tables' count is not reported.
         ``progress(done, total)`` is called after each item.
 
+        ``known`` is the configuration and version just read (the robot's identity,
+        :meth:`HarlU2Driver.identity`): not asked for again.
+
         Raises :class:`TableBeyondRange` when the controller has more offset tables.
         """
-        config = self.config()
+        config = self.config() if known is None else known[0]
         registers = config.registers if include_registers else 0
         total = 4 + config.step_count + offset_tables + config.timers + registers
         done = 0
@@ -389,7 +393,7 @@ class Controller(OnLink):
             return value
 
         tick(config)
-        version = tick(self.version())
+        version = tick(self.version() if known is None else known[1])
         parameters = tick(self.read_parameters())
         programs: dict[ProgramKey, dict[int, Step]] = {
             (ptype, number): self.read_program(

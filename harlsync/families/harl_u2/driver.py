@@ -7,13 +7,25 @@ from collections.abc import Callable
 from typing import Any
 
 from ..base import Driver, Progress
-from .catalogue import Key, NumberKey, StepKey
+from ..base import Status as AnyStatus
+from .catalogue import Key, NumberKey, StepKey, identity_of
 from .controller import Controller
-from .model import OFFSET_TABLE_COUNT, ProgramType, RobotData, Status, Step
+from .model import (
+    OFFSET_TABLE_COUNT,
+    TASK_STATUS_NAMES,
+    Config,
+    ProgramType,
+    RobotData,
+    Status,
+    Step,
+)
 from .protocol import Request
 from .protocol import commands as cmd
 
 __all__ = ["HarlU2Driver"]
+
+#: LNR's task status "suspended" (profile: the statuses are bit flags).
+_SUSPENDED = 2
 
 
 class HarlU2Driver(Driver[Key, RobotData]):
@@ -24,17 +36,51 @@ class HarlU2Driver(Driver[Key, RobotData]):
         #: robot.yaml's ``offset_tables``: how many tables a read of everything reads
         self.offset_tables = offset_tables
         self.label = f"port {controller.port} station {controller.station}"
+        self._known: tuple[Config, str] | None = None
+
+    def identity(self) -> dict[str, str]:
+        """LNX and LNV, the first two requests of a read: kept for :meth:`read_all`."""
+        config = self.controller.config()
+        self._known = config, self.controller.version()
+        return identity_of(self._known[1], config)
 
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False
     ) -> RobotData:
+        known, self._known = self._known, None
         return self.controller.read_all(
-            include_registers=registers, progress=progress, offset_tables=self.offset_tables
+            include_registers=registers,
+            progress=progress,
+            offset_tables=self.offset_tables,
+            known=known,
         )
 
     def status(self) -> Status:
         """The interlock's reading: LNR twice in a row, both idle (``Controller.idle_status``)."""
         return self.controller.idle_status()
+
+    def advice(self, status: AnyStatus) -> str:
+        """By the tasks LNR reports: one in execution, one suspended, a status the
+        profile does not know, or not every task reported."""
+        if not isinstance(status, Status):
+            return super().advice(status)
+        if len(status.tasks) != status.expected_tasks:
+            return (
+                "Check that the station is this robot's (LNR reports every task of the "
+                "controller at that station) and the line, then run again"
+            )
+        states = {t.status for t in status.active_tasks}
+        if any(s not in TASK_STATUS_NAMES for s in states):
+            return (
+                "A task status the profile does not know is taken as running: stop every "
+                "task on the controller and run again"
+            )
+        if states and all(s & _SUSPENDED for s in states):
+            return (
+                "A suspended task goes on where it stopped: stop it on the controller (a "
+                "push never resumes or stops a task), then run again"
+            )
+        return super().advice(status)
 
     def _request(self, key: Key, value: Any) -> Request[Any]:
         if isinstance(key, StepKey):

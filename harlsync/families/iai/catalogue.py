@@ -30,7 +30,7 @@ from typing import Any, NamedTuple
 
 from ..base import Catalogue, PlanShape
 from .layout import IaiData
-from .model import ARM_NAMES, VARIABLE_SECTIONS, Position
+from .model import ARM_NAMES, VARIABLE_SECTIONS, Position, Version
 from .protocol import max_positions_per_write, max_variables_per_write
 
 __all__ = [
@@ -41,6 +41,7 @@ __all__ = [
     "RecordKey",
     "Run",
     "VariableKey",
+    "identity_of",
     "runs",
 ]
 
@@ -176,6 +177,11 @@ def value_text(value: object) -> str | None:
     return str(value)
 
 
+def identity_of(v: Version) -> dict[str, str]:
+    """The unit's identity (:meth:`IaiCatalogue.robot_identity`) from its 201H reply."""
+    return {"model code": v.model_code, "unit code": v.unit_code, "version": v.version}
+
+
 class IaiCatalogue(Catalogue[Key, IaiData]):
     #: No IAI write is allowed while a program runs.
     live_tuning: frozenset[str] = frozenset()
@@ -249,8 +255,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
 
     def robot_identity(self, data: IaiData) -> dict[str, str]:
         """What 201H says the unit is: its model and unit codes and its version."""
-        v = data.version
-        return {"model code": v.model_code, "unit code": v.unit_code, "version": v.version}
+        return identity_of(data.version)
 
     def contents(self, data: IaiData, *, registers: bool) -> str:
         """Positions, and the flags and variables read with them, each with the

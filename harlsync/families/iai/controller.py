@@ -54,11 +54,13 @@ from . import profile
 from .codec import CODEC
 from .layout import Coverage, IaiData
 from .model import (
+    READ_AGAIN_ADVICE,
     VARIABLE_SECTIONS,
     AxisStatus,
     Position,
     SystemStatus,
     Version,
+    axes_advice,
     axes_refusal,
     real_text,
     real_value,
@@ -127,6 +129,8 @@ class IaiStatus:
     system: SystemStatus
     axes: tuple[AxisStatus, ...]
     refusal: str | None
+    #: what a person does about :attr:`refusal`, in IAI's words (None when idle)
+    advice: str | None = None
 
     @property
     def idle(self) -> bool:
@@ -275,10 +279,11 @@ class Controller(OnLink):
                 axes,
                 f"212H and 215H could not be read back to back "
                 f"({rounds} times 215H had to be sent again)",
+                READ_AGAIN_ADVICE,
             )
             self._last_status = status
             return status
-        refusal = system.refusal
+        refusal, advice = system.refusal, system.advice
         if refusal is None:
             # Every axis of the robot must be reported; with no axes in robot.yaml,
             # every axis any 212H reported (now, earlier, or at a pull before) is
@@ -287,9 +292,9 @@ class Controller(OnLink):
             if wanted is None:
                 reported = self._reported_axes | {a.axis for a in axes}
                 wanted = tuple(sorted(self._seen_axes | reported))
-            refusal = axes_refusal(wanted, axes)
+            refusal, advice = axes_refusal(wanted, axes), axes_advice(wanted, axes)
         self._reported_axes.update(a.axis for a in axes)
-        status = IaiStatus(system, axes, refusal)
+        status = IaiStatus(system, axes, refusal, advice)
         self._last_status = status
         return status
 
@@ -354,7 +359,12 @@ class Controller(OnLink):
         return dict(readers[section](first, last))
 
     def read_all(
-        self, progress: Progress | None = None, *, variables: bool = False, whole: bool = False
+        self,
+        progress: Progress | None = None,
+        *,
+        variables: bool = False,
+        whole: bool = False,
+        version: Version | None = None,
     ) -> IaiData:
         """The version and every defined position of the robot's range, and with
         ``variables`` the flags and variables of their ranges; each table probed
@@ -364,7 +374,9 @@ class Controller(OnLink):
         every axis any 212H reported, for a later push's interlock.
 
         ``progress(done, total)`` after each position query and each section.
-        Raises :class:`TableBeyondRange` when a table goes on past its range.
+        ``version`` is the 201H reply just read (:meth:`IaiDriver.identity`): not
+        asked for again.  Raises :class:`TableBeyondRange` when a table goes on past
+        its range.
         """
         chunks = _chunks(self.first, self.last, max_positions_per_read(self.model))
         axis_read = whole and self.axes is None
@@ -377,7 +389,7 @@ class Controller(OnLink):
             if progress is not None:
                 progress(done, total)
 
-        data = IaiData(version=self.version(), model=self.model)
+        data = IaiData(version=self.version() if version is None else version, model=self.model)
         tick()
         if axis_read:
             self._reported_axes.update(

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..base import Driver, Progress
-from .catalogue import Key, PositionKey, RecordKey, Run, VariableKey
+from ..base import Driver, Progress, Status
+from .catalogue import Key, PositionKey, RecordKey, Run, VariableKey, identity_of
 from .controller import Controller, IaiStatus
 from .layout import IaiData
-from .model import real_value
+from .model import Version, real_value
 from .profile import STRING_ROW
 from .protocol import position_fields, write_flag, write_integers, write_positions, write_reals
 
@@ -24,14 +24,27 @@ class IaiDriver(Driver[Key, IaiData]):
     def __init__(self, controller: Controller) -> None:
         self.controller = controller
         self.label = controller.label
+        self._version: Version | None = None
+
+    def identity(self) -> dict[str, str]:
+        """201H, the first request of a read: kept for :meth:`read_all`."""
+        self._version = self.controller.version()
+        return identity_of(self._version)
 
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False
     ) -> IaiData:
-        return self.controller.read_all(progress, variables=registers, whole=whole)
+        version, self._version = self._version, None
+        return self.controller.read_all(progress, variables=registers, whole=whole, version=version)
 
     def status(self) -> IaiStatus:
         return self.controller.status()
+
+    def advice(self, status: Status) -> str:
+        """The advice of the reason 212H or 215H refused (see :class:`IaiStatus`)."""
+        if isinstance(status, IaiStatus) and status.advice is not None:
+            return status.advice
+        return super().advice(status)
 
     def read(self, key: Key) -> Any:
         c = self.controller

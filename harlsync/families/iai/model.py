@@ -28,6 +28,7 @@ import math
 import re
 import sys
 from dataclasses import dataclass
+from types import MappingProxyType
 
 __all__ = [
     "ARM_NAMES",
@@ -42,6 +43,7 @@ __all__ = [
     "MODE_NAMES",
     "NO_CRITICAL_ERROR",
     "POSITION_NUMBER_MAX",
+    "READ_AGAIN_ADVICE",
     "REAL_MAX",
     "S1_EMERGENCY_STOP",
     "S1_SAFETY_GATE_OPEN",
@@ -59,6 +61,7 @@ __all__ = [
     "SystemStatus",
     "Version",
     "arms_from_extended",
+    "axes_advice",
     "axes_from_pattern",
     "axes_refusal",
     "canonical_coord",
@@ -472,47 +475,68 @@ class SystemStatus:
     status3: int
     status4: int
 
-    @property
-    def refusals(self) -> tuple[str, ...]:
-        """Every reason the profile's interlock forbids a write now, in its order."""
-        out: list[str] = []
+    def _refused(self) -> list[tuple[str, str]]:
+        """Every reason the profile's interlock forbids a write now, in its order, each
+        with what a person does about it."""
+        out: list[tuple[str, str]] = []
         if self.mode != 1:
             name = MODE_NAMES.get(self.mode)
             out.append(
-                f"{name} mode (215H mode {self.mode})"
+                (f"{name} mode (215H mode {self.mode})", _ADVICE["mode"])
                 if name
-                else f"unknown system mode {self.mode} (215H)"
+                else (f"unknown system mode {self.mode} (215H)", _ADVICE["unknown mode"])
             )
         checks = (
-            (self.status2 & S2_PROGRAM_RUNNING, "program running (215H status byte 2 bit 5)"),
+            (
+                self.status2 & S2_PROGRAM_RUNNING,
+                "program running (215H status byte 2 bit 5)",
+                "program",
+            ),
             (
                 self.status2 & S2_FLASH_ROM_WRITING,
                 "flash ROM write in progress (215H status byte 2 bit 0)",
+                "flash",
             ),
             (
                 self.status2 & S2_SLAVE_PARAMETER_WRITING,
                 "slave parameter writing (215H status byte 2 bit 1)",
+                "slave",
             ),
             (
                 self.status3 & S3_OPERATING_IN_AUTO,
                 "operating in AUTO mode (215H status byte 3 bit 1)",
+                "auto",
             ),
-            (not self.status3 & S3_SYSTEM_READY, "system not ready (215H status byte 3 bit 2)"),
-            (self.status1 & S1_EMERGENCY_STOP, "emergency stop (215H status byte 1 bit 3)"),
+            (
+                not self.status3 & S3_SYSTEM_READY,
+                "system not ready (215H status byte 3 bit 2)",
+                "ready",
+            ),
+            (
+                self.status1 & S1_EMERGENCY_STOP,
+                "emergency stop (215H status byte 1 bit 3)",
+                "estop",
+            ),
             (
                 self.critical_error.upper() != NO_CRITICAL_ERROR,
                 (
                     f"critical error {self.critical_error.upper()} on the controller "
                     "(215H critical-level system error number)"
                 ),
+                "error",
             ),
-            (self.status3 & S3_DRIVE_CUT_OFF, "drive source cut off (215H status byte 3 bit 0)"),
+            (
+                self.status3 & S3_DRIVE_CUT_OFF,
+                "drive source cut off (215H status byte 3 bit 0)",
+                "cutoff",
+            ),
             (
                 self.status3 & S3_POSITIONER_MODE,
                 (
                     "positioner mode: a PLC can move the robot to a position number with no "
                     "program running (215H status byte 3 bit 4)"
                 ),
+                "positioner",
             ),
             (
                 self.status1 & S1_SAFETY_GATE_OPEN,
@@ -520,16 +544,79 @@ class SystemStatus:
                     "safety gate open, or the enable switch on a TTA, X-SEL P/Q/R/S or "
                     "SSEL/ASEL/PSEL (215H status byte 1 bit 2)"
                 ),
+                "gate",
             ),
         )
-        out += [reason for refused, reason in checks if refused]
-        return tuple(out)
+        out += [(reason, _ADVICE[cause]) for refused, reason, cause in checks if refused]
+        return out
+
+    @property
+    def refusals(self) -> tuple[str, ...]:
+        """Every reason the profile's interlock forbids a write now, in its order."""
+        return tuple(reason for reason, _ in self._refused())
 
     @property
     def refusal(self) -> str | None:
         """The first reason a write is forbidden, or None when the system is idle."""
         refusals = self.refusals
         return refusals[0] if refusals else None
+
+    @property
+    def advice(self) -> str | None:
+        """What a person does about :attr:`refusal` (one sentence), or None when idle."""
+        refused = self._refused()
+        return refused[0][1] if refused else None
+
+
+#: What a person does about each reason the interlock refuses a write, in IAI's words.
+_ADVICE = MappingProxyType(
+    {
+        "mode": (
+            "Set the controller's mode switch to AUTO (protocol B writes only in AUTO mode, "
+            "with no program running) and run again"
+        ),
+        "unknown mode": (
+            "Check the controller's mode on its display or the teaching pendant, set it to "
+            "AUTO and run again"
+        ),
+        "program": "Stop the program (or wait for it to end) and run again",
+        "flash": (
+            "Wait for the flash ROM write to finish (do not switch the controller off "
+            "meanwhile), then run again"
+        ),
+        "slave": "Wait for the slave parameter write to finish, then run again",
+        "auto": "Stop the automatic operation (the program or a PLC's start) and run again",
+        "ready": "Wait for the controller to be ready (see its display), then run again",
+        "estop": (
+            "Find why the emergency stop is on; when it is safe, release it and reset the "
+            "controller's alarm, then run again"
+        ),
+        "error": (
+            "Look the code up in the controller's error list, remove its cause and clear "
+            "the error on the controller, then run again"
+        ),
+        "cutoff": "Restore the drive source (the motor power) and run again",
+        "positioner": (
+            "Take the controller out of positioner mode (in it a PLC can move the robot "
+            "at any time) and run again"
+        ),
+        "gate": (
+            "Close the safety gate (a TTA, X-SEL P/Q/R/S or SSEL/ASEL/PSEL: release the "
+            "enable switch) and run again"
+        ),
+        "axis in use": (
+            "Wait for the axis to stop (a program, the teaching pendant or a PLC holds it) "
+            "and run again"
+        ),
+        "axis unseen": (
+            "Check that the axis's driver is connected and that robot.yaml's axes are the "
+            "robot's, then run again"
+        ),
+        "read again": (
+            "Check the line (cable, noise: the status had to be asked for again) and run again"
+        ),
+    }
+)
 
 
 @dataclass(frozen=True)
@@ -572,18 +659,39 @@ def axes_refusal(axes: tuple[int, ...], statuses: tuple[AxisStatus, ...]) -> str
     connected, or a reply that lists fewer axes than asked for) cannot be seen
     to be idle, so it refuses; so does a reply that reports no axis at all.
     """
+    refused = _axes_refused(axes, statuses)
+    return None if refused is None else refused[0]
+
+
+def axes_advice(axes: tuple[int, ...], statuses: tuple[AxisStatus, ...]) -> str | None:
+    """What a person does about :func:`axes_refusal`'s reason, or None."""
+    refused = _axes_refused(axes, statuses)
+    return None if refused is None else refused[1]
+
+
+#: What a person does when 212H and 215H could not be read back to back.
+READ_AGAIN_ADVICE = _ADVICE["read again"]
+
+
+def _axes_refused(
+    axes: tuple[int, ...], statuses: tuple[AxisStatus, ...]
+) -> tuple[str, str] | None:
     by_axis = {s.axis: s for s in statuses}
     for axis in axes:
         status = by_axis.get(axis)
         if status is None:
-            return (
+            reason = (
                 f"axis {axis} not reported by 212H (its reply lists "
                 f"{_axes_listed(statuses)}): an axis it does not report cannot be seen to be idle"
             )
+            return reason, _ADVICE["axis unseen"]
         if status.refusal is not None:
-            return status.refusal
+            return status.refusal, _ADVICE["axis in use"]
     if not statuses:
-        return "212H reports no axis: an axis it does not report cannot be seen to be idle"
+        return (
+            "212H reports no axis: an axis it does not report cannot be seen to be idle",
+            _ADVICE["axis unseen"],
+        )
     return None
 
 

@@ -1,0 +1,147 @@
+"""Lock files do not pile up (issue 22 item 11): a released lock leaves no file in the
+lock directory, and the lock of a process that died holding it is reclaimed."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import textwrap
+from collections.abc import Iterator
+from pathlib import Path
+
+import filelock
+import pytest
+from conftest import git
+from plantsim import SMALL
+
+from harlsync.cli import main
+from harlsync.errors import ProjectError
+from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.link import lock as line_lock
+from harlsync.link.lock import LineLock, LockFile, lock_path
+from harlsync.project.lock import lock_path as project_lock_path
+from harlsync.project.lock import project_lock
+from harlsync.sim.protocol_sim import register, unregister
+
+pytestmark = pytest.mark.skipif(os.name == "nt", reason="flock(2) locks; Windows has filelock's")
+
+#: Takes a project's lock and a line's, says so, then waits for its standard input
+#: to close, or is killed holding them.
+HOLDER = textwrap.dedent(
+    """
+    import os, sys
+    from harlsync.link.lock import LineLock, lock_path
+    from harlsync.project.lock import project_lock
+    with project_lock(sys.argv[1], command="pull"):
+        line = LineLock(sys.argv[2], lock_path(sys.argv[2]))
+        line.acquire(0)
+        print("held", flush=True)
+        if sys.argv[3] == "die":
+            os.kill(os.getpid(), 9)
+        sys.stdin.read()
+        line.release()
+    """
+)
+
+
+@pytest.fixture
+def robot(repo: Path) -> Iterator[tuple[str, Path]]:
+    sim = Simulator({1: SimState.generate(7, SMALL)})
+    url = register(sim)
+    yield url, repo / "press"
+    unregister(url)
+
+
+def holder(project: Path, line: str, how: str) -> subprocess.Popen[str]:
+    process = subprocess.Popen(
+        [sys.executable, "-c", HOLDER, str(project), line, how],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert process.stdout is not None and process.stdout.readline() == "held\n"
+    return process
+
+
+def test_a_day_of_commands_leaves_no_lock_file_behind(robot, lock_dir, capsys) -> None:
+    url, project = robot
+    assert main(["pull", str(project), "--port", url, "--commit"]) == 0
+    assert sorted(os.listdir(lock_dir)) == []
+    timers = project / "timers.yaml"
+    timers.write_text(re.sub(r"(?m)^  1: .*$", "  1: 0.80", timers.read_text()))
+    git(project.parent, "commit", "-qam", "timer 1")
+    assert main(["diff", str(project)]) == 1
+    assert main(["push", str(project), "--yes"]) == 0
+    assert main(["rollback", str(project), "--yes"]) == 0
+    assert main(["backup", str(project.parent)]) == 0
+    assert main(["status", str(project.parent)]) in (0, 1)
+    capsys.readouterr()
+    assert sorted(os.listdir(lock_dir)) == []
+
+
+def test_the_locks_of_a_killed_harlsync_are_reclaimed_by_the_next_one(robot, lock_dir) -> None:
+    url, project = robot
+    gone = project.parent / "a-project-never-used-again"
+    process = holder(gone, "socket://192.0.2.7:4001", "die")
+    assert process.wait(30) == -signal.SIGKILL
+    left = sorted(os.listdir(lock_dir))
+    assert len(left) == 4 and sum(name.endswith(".owner") for name in left) == 2, left
+    assert main(["pull", str(project), "--port", url]) == 0
+    assert sorted(os.listdir(lock_dir)) == []
+
+
+def test_a_live_holders_lock_is_left_alone_and_goes_when_it_ends(robot, lock_dir) -> None:
+    url, project = robot
+    other = project.parent / "other"
+    process = holder(other, "socket://192.0.2.7:4001", "wait")
+    try:
+        held = sorted(os.listdir(lock_dir))
+        assert main(["pull", str(project), "--port", url]) == 0
+        assert sorted(os.listdir(lock_dir)) == held and len(held) == 4
+        assert line_lock.reclaim_dead(lock_dir) == []
+        with pytest.raises(ProjectError, match="in use by pid"), project_lock(other):
+            pass  # it holds it still
+    finally:
+        assert process.stdin is not None
+        process.stdin.close()
+        assert process.wait(30) == 0
+    assert sorted(os.listdir(lock_dir)) == []
+
+
+def test_a_lock_whose_file_was_removed_as_it_was_locked_is_taken_again_on_the_new_file(
+    tmp_path, monkeypatch
+) -> None:
+    path = tmp_path / "line.lock"
+    real = line_lock._open_lock_file
+    stale = []
+
+    def open_a_file_its_last_holder_removes(path_: Path) -> int | None:
+        if not stale:  # as a holder that removed it and released it just now
+            fd = real(path_)
+            path_.unlink()
+            stale.append(fd)
+            return fd
+        return real(path_)
+
+    monkeypatch.setattr(line_lock, "_open_lock_file", open_a_file_its_last_holder_removes)
+    lock = LockFile.take(path, 5)
+    try:
+        assert os.path.samestat(os.stat(path), os.fstat(lock._fd))  # type: ignore[arg-type]
+        with pytest.raises(filelock.Timeout):  # the lock at the path is held: by this one
+            LockFile.take(path, 0)
+    finally:
+        lock.release()
+    assert not path.exists()
+
+
+def test_a_line_lock_and_a_project_lock_go_with_their_owner_files(tmp_path, lock_dir) -> None:
+    line = LineLock("socket://192.0.2.7:4001", lock_path("socket://192.0.2.7:4001"))
+    line.acquire(0)
+    with project_lock(tmp_path / "p", command="pull"):
+        assert project_lock_path(tmp_path / "p").exists() and line.path is not None
+        assert line.path.with_name(line.path.name + ".owner").exists()
+    line.release()
+    assert os.listdir(lock_dir) == []
