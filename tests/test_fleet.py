@@ -264,8 +264,7 @@ def test_ctrl_c_during_a_backup_in_two_workers_leaves_no_partial_file_and_no_loc
 
 
 class KillsTheWorker(Where):
-    """Kills this process's worker (its only child) as soon as the worker says it
-    started a robot."""
+    """Kills this process's worker as soon as the worker says it started a robot."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -274,13 +273,21 @@ class KillsTheWorker(Where):
     def started(self, path: Path, name: str) -> None:
         super().started(path, name)
         if self.of[name] == "worker" and not self.killed:
-            [pid] = [
+            children = [
                 int(child)
                 for task in Path(f"/proc/{os.getpid()}/task").iterdir()
                 for child in (task / "children").read_text().split()
-            ]
+            ]  # the worker, and any git a pull of this process runs meanwhile
+            [pid] = [pid for pid in children if b"harlsync.sync.fleet" in _cmdline(pid)]
             os.kill(pid, signal.SIGKILL)
             self.killed.append(pid)
+
+
+def _cmdline(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:  # a git that ended meanwhile
+        return b""
 
 
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="finds the worker in /proc")
