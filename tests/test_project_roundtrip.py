@@ -135,9 +135,10 @@ def robot_data(draw: st.DrawFn) -> RobotData:
     return RobotData(
         version=draw(token),
         config=cfg,
-        # The first parameter leads the LNE reply: validate refuses one beginning with E.
+        # The first parameter leads the LNE reply: validate refuses one beginning with a
+        # letter (E reads as an error status, any other as a command never sent).
         parameters=Parameters(
-            draw(token.filter(lambda t: not t.startswith("E"))),
+            draw(token.filter(lambda t: not t[:1].isalpha())),
             *draw(st.lists(token, min_size=12, max_size=12)),
         ),
         programs=programs,

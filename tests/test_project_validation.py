@@ -161,7 +161,7 @@ def longest_payload(station: int) -> int:
     length = 0
     while True:
         decoder = FrameDecoder()
-        decoder.feed(encode_frame(station, "A" * (length + 1)))
+        decoder.feed(encode_frame(station, "1" * (length + 1)))
         try:
             if decoder.next_frame() is None:
                 return length
