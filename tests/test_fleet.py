@@ -254,8 +254,9 @@ def test_ctrl_c_during_a_backup_in_two_workers_leaves_no_partial_file_and_no_loc
     assert files_of(repo) == before  # every backup, and its record, as it was
     assert git(repo, "status", "--porcelain", "--ignored") == status
     assert not list(lock_dir.glob("*.owner"))  # every holder gave its lock back
+    # a released lock removes its file (issue 22: lock files do not pile up), so
+    # what is left is a lock some process still holds, or one it left behind
     locks = sorted(lock_dir.glob("*.lock"))
-    assert len(locks) >= len(names)  # a line lock each (and the projects' locks)
     taken = [filelock.FileLock(str(path)) for path in locks]
     for lock in taken:  # nobody holds any: every worker has ended
         lock.acquire(timeout=0)

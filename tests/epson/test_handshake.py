@@ -55,9 +55,11 @@ def test_one_command_goes_through_the_ten_steps_in_order() -> None:
     writes = [(op.address, op.values) for op in fake.writes()]
     assert writes == [
         (0, (0b100,)),  # §6.2: ExtCmdReset 1
-        # steps 2 and 3 in one write: ExtCmdSet's register and the words after it
-        # (unused words 0), which the profile's slave hands over whole
-        (0, (0b101, 0x003B, 0x000F, 0, 0, 0, 0, 0, 0)),
+        # step 2, the words (unused words 0), then step 3, ExtCmdSet 1: the default
+        # map has ExtCmdSet's register before the words, and the profile does not
+        # take it that the slave hands one write over whole (BLOCK_WRITE_WHOLE)
+        (1, (0x003B, 0x000F, 0, 0, 0, 0, 0, 0)),
+        (0, (0b101,)),
         (0, (0b100,)),  # step 5: ExtCmdSet 0
         (0, (0b110,)),  # step 8: ExtRespGet 1
         (0, (0b100,)),  # step 10: ExtRespGet 0
@@ -74,8 +76,8 @@ def test_one_command_goes_through_the_ten_steps_in_order() -> None:
 
 
 def test_issue_24_a_command_costs_nine_register_accesses_when_every_poll_finds_its_step() -> None:
-    fake = controller()
-    hs = handshake(fake)
+    fake = controller()  # on a slave that hands a write over whole, with the block write
+    hs = Handshake(fake, fake.map, clock=fake.clock, block_write_whole=True)
     hs.execute(p.read_tool())
     before = len(fake.log)
     hs.execute(p.read_accel_s(15))
@@ -99,7 +101,7 @@ def test_issue_24_a_slave_that_hands_over_a_register_at_a_time_gets_the_words_fi
     # the default map has ExtCmdSet's register before the words: one write would
     # raise ExtCmdSet over the last command's words on such a slave
     careless = controller(whole_writes=False)
-    hs = Handshake(careless, careless.map, clock=careless.clock)
+    hs = Handshake(careless, careless.map, clock=careless.clock, block_write_whole=True)
     with pytest.raises(ReplyError, match="response word 0 is 0000H"):
         hs.execute(p.read_tool())  # the controller took the words as they were: zeros
     assert careless.stale_requests == [(0,) * 8]  # and the fake flags it

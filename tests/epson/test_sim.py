@@ -749,8 +749,16 @@ def test_issue_24_a_request_over_words_not_all_written_is_flagged_and_taken_as_i
 
 
 def test_issue_24_the_handshake_writes_words_and_extcmdset_in_one_request(
-    client: Handshake, sim: Simulator
+    sim: Simulator,
 ) -> None:
+    # a site whose slave hands a write over whole (profile.BLOCK_WRITE_WHOLE True)
+    with connected(sim) as (_, link):
+        client = Handshake(link, sim.register_map, block_write_whole=True)
+        trips(client, sim)
+    no_function_error(sim)
+
+
+def trips(client: Handshake, sim: Simulator) -> None:
     client.execute(p.read_tool())
     before = sim.accesses()
     assert client.execute(p.read_arch(3)) is not None

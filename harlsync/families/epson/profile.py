@@ -100,15 +100,18 @@ FUNCTION_RESET_LOW = 0.030
 #: registers (function 16) to the Remote inputs whole: the controller sees every
 #: register of it change at once, never a part.  The Modbus specification defines
 #: the request, not when the slave's device sees its registers, and the manual
-#: does not name the fieldbus at all, so this is the profile's assumption (a
-#: fieldbus slave exchanges its process image a request at a time).  It decides
+#: does not name the fieldbus at all.  False, the safe choice: on a slave that
+#: hands a write over a register at a time, ExtCmdSet (first in the block) would
+#: rise over the last command's words, and the controller would run that command
+#: (the simulator's ``whole_writes=False`` shows command 0, an Accel write, run so).
+#: A site whose slave is known to apply a write whole sets True.  It decides
 #: steps 2 and 3 of §6.3 when ExtCmdSet's register lies just before the command
 #: words (the default map): True, one write of that register and the words; False,
 #: the words, then ExtCmdSet (one round trip more).  A map with ExtCmdSet's
 #: register just after the words has them in one write either way: the registers'
 #: order is then the manual's (the words before ExtCmdSet rises), whole or not.
 #: (:meth:`RegisterMap.command_block`)
-BLOCK_WRITE_WHOLE = True
+BLOCK_WRITE_WHOLE = False
 
 # --- answers the manual leaves open ---------------------------------------------------
 
