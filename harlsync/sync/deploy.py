@@ -165,12 +165,14 @@ def run(
             options=opts.connect_options,
         )
         result.warnings = unfinished_pushes(robot, port, station)
-        now = driver.identity()  # a swapped controller is refused at its first exchanges
+        if not opts.allow_live_tuning:
+            interlock(driver, robot, family.words, "reading the robot")
+        # A swapped controller is refused at its first reads, not after the long read
+        # (the interlock's status comes first: a robot that is not idle is told so).
+        now = driver.identity()
         other = None if now is None else family.catalogue.other_identity(now, target)
         if other is not None:
             raise PolicyError(f"cannot deploy: {other}")
-        if not opts.allow_live_tuning:
-            interlock(driver, robot, family.words, "reading the robot")
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
         result.plan = the_plan = make_plan(
             family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
