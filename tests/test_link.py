@@ -573,8 +573,25 @@ def test_issue_24_a_read_after_a_read_is_one_write_and_one_read_and_no_terminal_
     monkeypatch.setattr(type(link._port), "in_waiting", property(terminal_call))
     for n in [1, 2, 3, 0] * 2:
         assert link.exchange(cmd.read_timer(n)) == f"{n + 1}.{n}0"
-    # The simulator writes each reply at once: one read takes it whole.
-    assert (counted.writes, counted.reads) == (8, 8)
+    # The simulator writes each reply at once: one read takes it whole, after the
+    # drain's one read that finds the line empty (a read after a read is drained too).
+    assert (counted.writes, counted.reads) == (8, 8 + 8)
+
+
+def test_issue_24_review_a_frame_begun_before_a_read_after_a_read_is_not_taken_for_its_reply(
+    link: Link, sim: ScriptedSim
+) -> None:
+    # A second device, or a device server that repeats: a frame that fits any timer
+    # read, its first bytes on the line before the next request, the rest after.
+    stray = encode_frame(1, "9.99")
+    sim.plan(
+        "LNT 2", Act(wire=lambda frame: [(0.0, frame), (0.0005, stray[:3]), (0.01, stray[3:])])
+    )
+    assert link.exchange(cmd.read_timer(2)) == "3.20"
+    assert link._fd is not None
+    assert select.select([link._fd], [], [], 5)[0], "the stray's first bytes never came"
+    assert link.exchange(cmd.read_timer(3)) == "4.30"  # not 9.99, the stray's value
+    assert link.exchange(cmd.read_timer(1)) == "2.10"
 
 
 def test_issue_24_a_repeated_reply_read_with_the_reply_is_drained_before_the_next_read(

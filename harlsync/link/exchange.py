@@ -75,17 +75,12 @@ around them.  Others (``spy://``, which logs in its ``read``) go through pyseria
 
 Draining.  Before each request the link reads the line and drops what it holds
 (replies owed, frames nobody asked for), so that nothing that came before the
-request passes for its answer.  Between two plain reads (not a write, not a
-volatile read) it skips that read when it knows what it would find: the last
-reply was taken with nothing after it, no reply is owed, and the line was read
-less than :data:`MIN_FRAME` character times ago, too short for a whole frame to
-have come in since.  A frame that began to come in meanwhile ends up before the
-next reply, where the link meets it as it meets one that comes between the drain
-and the request: a frame that does not fit is discarded and counted, one that
-fits and comes again makes the second unrequested frame that fails the line.
-Every write and every volatile read (the interlock's state, I/O) is drained as
-before, and so is the first read after one of them, after a retry, or after a
-pause.
+request passes for its answer.  It does so before every request, a read after a
+read too: a frame that began to come in just before the request (a second device
+on the station, a device server that repeats) would otherwise keep its first
+bytes and be taken whole as the reply when it fits, and its value saved in the
+backup (issue 24's review).  On a port of our own that read is one ``os.read``
+that finds nothing: no ioctl.
 
 Errors.  Whatever a pyserial call on the port raises (SerialException, OSError,
 but also termios.error from a pty that went away, or TypeError from a port
@@ -244,10 +239,6 @@ class Link(Generic[F]):
         self._sent = b""  # the last frame sent, to know its echo
         # Pacing the wait for a reply (module docstring, "Waiting").
         self._char = _char_time(self.settings)
-        # Skipping the drain before a request (module docstring, "Draining").
-        self._quiet = MIN_FRAME * self._char
-        self._read_at = 0.0  # when the port was last read (data or none)
-        self._clean = False  # the last exchange was a plain read that left nothing behind
         self._took: dict[_Kind, _Took] = {}
         self._frame_bytes = 0  # bytes of the last frame taken from the decoder
         self._sent_at = 0.0  # when the request was sent
@@ -278,7 +269,6 @@ class Link(Generic[F]):
             self._port = port
             self._fd = fileno(port)
             self._direct = direct_fd(port)
-            self._clean = False
             self._poll = select.poll()
             if self._fd is not None:
                 self._poll.register(self._fd, select.POLLIN)
@@ -352,10 +342,7 @@ class Link(Generic[F]):
                     station_text=self.codec.station_text(st),
                 )
             self.stats.exchanges += 1
-            plain = not (request.is_write or request.volatile)
-            if not (plain and self._drained(st)):
-                self._settle(port, st, command, wait=True)
-            self._clean = False
+            self._settle(port, st, command, wait=True)
             self._check_line(st)
             attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
             failure = _Failure("not sent")
@@ -381,7 +368,6 @@ class Link(Generic[F]):
                 if not isinstance(result, _Failure):
                     if not request.is_write:  # a write's ack stands: it was sent, it took
                         self._check_line(st)
-                    self._clean = plain and attempt == 0
                     return result.value
                 failure = result
                 self.stats.timeouts += 1
@@ -445,19 +431,6 @@ class Link(Generic[F]):
         self._sent_at = time.monotonic()
         return self._sent_at
 
-    def _drained(self, station: int) -> bool:
-        """Whether the line is known to hold nothing for the next request, without
-        reading it: the last exchange was a plain read whose reply left nothing
-        behind, no reply is owed or overdue, and the port was read too recently for
-        a whole frame to have come in since (module docstring, "Draining")."""
-        return (
-            self._clean
-            and not self._owed
-            and not self._overdue.get(station)
-            and not self._decoder.pending
-            and time.monotonic() - self._read_at < self._quiet
-        )
-
     def _take(self, port: SerialPort, station: int, command: str, *, ready: bool = False) -> bytes:
         """Whatever input is there, without waiting.  ``ready``: ``poll`` said there
         is some, so at least a byte is read (or pyserial says the port is gone).
@@ -476,7 +449,6 @@ class Link(Generic[F]):
                 data = b""
             except OSError as exc:
                 raise self._gone(exc, station, command, "") from exc
-            self._read_at = time.monotonic()
             if not data and ready:
                 raise self._gone(
                     ConnectionResetError("the other end closed the connection"),
@@ -490,7 +462,6 @@ class Link(Generic[F]):
             got: bytes = port.read(waiting or 1) if waiting or ready else b""
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, "") from exc
-        self._read_at = time.monotonic()
         return self._fed(got)
 
     def _wait(self, port: SerialPort, station: int, command: str, until: float) -> bytes:
@@ -521,7 +492,6 @@ class Link(Generic[F]):
                 data += port.read(port.in_waiting)
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, "") from exc
-        self._read_at = time.monotonic()
         return self._fed(data)
 
     def _fed(self, data: bytes) -> bytes:
