@@ -195,3 +195,11 @@ def test_an_epson_robot_is_its_manipulator_and_a_read_says_its_tables_settings_a
         "model": "LS3-B401S",
     }
     assert EPSON.contents(data, registers=False) == "1 table entry, 2 settings, 1 point"
+
+
+def test_a_part_of_the_identity_the_controller_did_not_give_reads_none_not_python() -> None:
+    from harlsync.sync.pulling import _identity_differs
+
+    assert _identity_differs({"version": "5.00", "model": "21"}, {"model": "21"}) == [
+        "version none (the backup has '5.00')"
+    ]

@@ -264,10 +264,16 @@ def _same_robot(
 def _identity_differs(was: Mapping[str, str], now: Mapping[str, str]) -> list[str]:
     """Each part of the robot's identity that differs from the backup's, for a message."""
     return [
-        f"{name} {now.get(name)!r} (the backup has {value!r})"
+        f"{name} {_quoted(now.get(name))} (the backup has {_quoted(value)})"
         for name, value in was.items()
         if now.get(name) != value
     ]
+
+
+def _quoted(value: str | None) -> str:
+    """A part of an identity in a person's words: in quotes, or "none" when the
+    controller did not give it (never Python's None or its string escapes)."""
+    return "none" if value is None else f"'{value}'"
 
 
 def _not_this_robot(path: Path, where: str, differ: list[str]) -> PolicyError:
