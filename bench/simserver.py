@@ -39,7 +39,8 @@ from harlsync.families.harl_u2.sim import Simulator as HarlSimulator
 from harlsync.families.iai.sim import Simulator as IaiSimulator
 from harlsync.sim import Received, serve
 from harlsync.sim.device import Decoder
-from harlsync.sim.serve import PtyServer, TcpServer, _precise_timers
+from harlsync.sim.serve import PtyServer, TcpServer
+from harlsync.timers import precise_timers
 
 
 class Counting:
@@ -211,7 +212,7 @@ class LoopServer:
                 )
 
     def _run(self) -> None:
-        _precise_timers()
+        precise_timers()
         poller = select.epoll()
         lines = {fd: n for n, fd in enumerate(self._masters)}
         for fd in self._masters:

@@ -850,3 +850,29 @@ def test_a_device_server_address_without_a_port_number_says_what_to_give(url: st
         r"number from 1 to 65535",
     ):
         Link(url).open()
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="timer slack is Linux's")
+def test_issue_24_the_thread_that_waits_for_replies_keeps_its_deadlines(link: Link) -> None:
+    """The kernel's default timer slack (50 us) lets each sleep for a reply end late;
+    the thread that exchanges has it lowered, from its first exchange on."""
+    import ctypes
+
+    from harlsync.timers import SLACK_NS
+
+    def slack() -> int:
+        value: int = ctypes.CDLL(None).prctl(30, 0, 0, 0, 0)  # PR_GET_TIMERSLACK
+        return value
+
+    seen: list[int] = []
+
+    def exchanging() -> None:
+        ctypes.CDLL(None).prctl(29, 50_000, 0, 0, 0)  # the default (a new thread inherits)
+        seen.append(slack())
+        link.exchange(cmd.read_version())
+        seen.append(slack())
+
+    thread = threading.Thread(target=exchanging)
+    thread.start()
+    thread.join()
+    assert seen == [50_000, SLACK_NS]

@@ -63,7 +63,10 @@ reply whole, in one read; what is still missing it waits for in ``poll``::
 A reply as long as the shortest recent one is one wake-up and one read, a
 longer one or a slower one is read as it comes after that.  Only a reply much
 quicker than all of them (an END after full steps) is taken late, when the
-timer wakes; the next of its kind is timed afresh, by poll.  Fast lines and
+timer wakes; the next of its kind is timed afresh, by poll.  The thread that waits
+has the kernel's timer slack lowered to 1 us (:mod:`harlsync.timers`): by default
+a sleep may end 50 us late, which at 115200 baud is a quarter of the time between
+a reply and the next request.  Fast lines and
 whole replies are read as they come, one wake-up a piece.  Ports without a
 descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read with
 pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
@@ -111,6 +114,7 @@ import serial
 
 from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyError, WriteUnconfirmed
 from ..settings import SerialSettings, seconds
+from ..timers import precise_timers
 from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
 from .port import SerialPort, describe, direct_fd, fileno, gone_hint, open_port
@@ -675,6 +679,7 @@ class Link(Generic[F]):
         self, port: SerialPort, request: Request[F, T], station: int, timeout: float
     ) -> _Reply[T] | _Failure:
         """The decoded reply, or a :class:`_Failure` once ``timeout`` has passed."""
+        precise_timers()  # once a thread, while the first request is on the line
         deadline = time.monotonic() + timeout
         failure = _Failure(f"no reply within {_within(timeout, self.settings.timeout)}")
         command = request.payload

@@ -10,12 +10,10 @@ paces each reply's bytes at the line's character rate.
 
 from __future__ import annotations
 
-import ctypes
 import logging
 import os
 import select
 import socket
-import sys
 import threading
 import time
 import tty
@@ -23,6 +21,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
+from ..timers import precise_timers
 from .device import Simulator
 
 __all__ = ["PtyServer", "ReplyScheduler", "TcpServer"]
@@ -33,20 +32,6 @@ log = logging.getLogger(__name__)
 TICK = 0.001
 #: The scheduler sleeps until this long before a deadline, then spins to it.
 SPIN = 0.0002
-
-
-def _precise_timers() -> None:
-    """Lower this thread's timer slack to 1 us (Linux; elsewhere nothing).
-
-    The kernel lets a sleeping thread wake up to 50 us late by default, to group
-    wake-ups; a wire-time emulation wants its deadlines.
-    """
-    if sys.platform != "linux":
-        return
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(29, 1000, 0, 0, 0)  # PR_SET_TIMERSLACK, ns
-    except (OSError, AttributeError) as exc:
-        log.debug("sim: cannot lower the timer slack: %s", exc)
 
 
 class ReplyScheduler:
@@ -137,7 +122,7 @@ class ReplyScheduler:
             log.debug("sim: reply not delivered: %s", exc)
 
     def _run(self) -> None:
-        _precise_timers()
+        precise_timers()
         with self._cond:
             while not self._closed:
                 if not self._queue:
