@@ -1392,7 +1392,6 @@ def _setup_logging(verbose: int) -> None:
     for handler in logging.getLogger().handlers:  # %(robot)s: which robot, under backup
         if not any(isinstance(f, RobotFilter) for f in handler.filters):
             handler.addFilter(RobotFilter())
-    logging.getLogger("filelock").setLevel(max(level, logging.INFO))  # its debug lines are noise
     # The libraries a family uses may log their own ERROR lines above the one line
     # harlsync says of the same failure: -vv shows their warnings.
     for family in _families():
