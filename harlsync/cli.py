@@ -16,7 +16,7 @@ import sys
 import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from . import __version__, families
 from .errors import (
@@ -90,7 +90,42 @@ def _sim_busy() -> str:
     return "; ".join(parts)
 
 
-class _SimHelp(argparse.HelpFormatter):
+def _columns() -> int:
+    """The terminal's width as :func:`shutil.get_terminal_size` measures it: $COLUMNS,
+    else standard output's terminal, else 80."""
+    try:
+        columns = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns or 80
+
+
+class _Help(argparse.HelpFormatter):
+    """argparse's help, as wide as argparse makes it, measured without importing
+    :mod:`shutil` (and bz2 and lzma with it): argparse makes a formatter for every
+    option it adds, so a pull paid for it before its first request (issue 24)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        if len(args) < 4 and kwargs.get("width") is None:
+            kwargs["width"] = _columns() - 2
+        super().__init__(*args, **kwargs)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose help is :class:`_Help` unless told otherwise (its
+    command parsers too: argparse makes them of the class of their parent)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", _Help)
+        super().__init__(**kwargs)
+
+
+class _SimHelp(_Help):
     """Fills in :func:`_sim_verbs` when the help is shown: only then are the
     families' simulators imported."""
 
@@ -1311,19 +1346,20 @@ def _cmd_rollback(args: argparse.Namespace) -> int:
 
 # --- main -------------------------------------------------------------------------------
 
-_COMMANDS: list[Callable[[argparse._SubParsersAction[argparse.ArgumentParser]], None]] = [
-    _add_pull,
-    _add_diff,
-    _add_plan,
-    _add_push,
-    _add_rollback,
-    _add_backup,
-    _add_status,
-    _add_log,
-    _add_snapshots,
-    _add_validate,
-    _add_sim,
-]
+#: Each command (in ``--help`` order) -> what adds its parser.
+_COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParser]], None]] = {
+    "pull": _add_pull,
+    "diff": _add_diff,
+    "plan": _add_plan,
+    "push": _add_push,
+    "rollback": _add_rollback,
+    "backup": _add_backup,
+    "status": _add_status,
+    "log": _add_log,
+    "snapshots": _add_snapshots,
+    "validate": _add_validate,
+    "sim": _add_sim,
+}
 
 
 #: Commands that open no line to a robot: -v has no traffic to show for them.
@@ -1340,8 +1376,12 @@ def _one_line(exc: BaseException, verbose: int = 0) -> str:
     return shorten(text, verbose) or text
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; ``only``: of that command alone, for a command line
+    that runs it (:func:`_command_of`): the others' parsers, some 60 options with
+    their help, are a tenth of a pull's start-up, and such a command line never
+    reaches them (only ``--help`` lists them, and a wrong command)."""
+    parser = _Parser(
         prog="harlsync",
         description="Keep robot programs and settings under version control ("
         + ", ".join(f.title for f in _families())
@@ -1359,9 +1399,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=0,
         help="more output: -v what it does, -vv raw traffic on a robot's line as hex",
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for add in _COMMANDS:
-        add(sub)
+    sub = cast(
+        "argparse._SubParsersAction[argparse.ArgumentParser]",
+        parser.add_subparsers(dest="command", required=True, metavar="COMMAND"),
+    )
+    for name, add in _COMMANDS.items():
+        if only in (None, name):
+            add(sub)
     for name, command in sub.choices.items():  # -v works after the command too
         traffic = ", -vv raw traffic as hex" if name not in _NO_LINE else ""
         command.add_argument(
@@ -1392,7 +1436,6 @@ def _setup_logging(verbose: int) -> None:
     for handler in logging.getLogger().handlers:  # %(robot)s: which robot, under backup
         if not any(isinstance(f, RobotFilter) for f in handler.filters):
             handler.addFilter(RobotFilter())
-    logging.getLogger("filelock").setLevel(max(level, logging.INFO))  # its debug lines are noise
     # The libraries a family uses may log their own ERROR lines above the one line
     # harlsync says of the same failure: -vv shows their warnings.
     for family in _families():
@@ -1400,8 +1443,20 @@ def _setup_logging(verbose: int) -> None:
             logging.getLogger(name).setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
 
 
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` runs, when it says so plainly: its first word that is not
+    ``-v`` (``-vv``, ``--verbose``).  None for anything else first (``--help``,
+    ``--version``, an abbreviation, a typo), which the whole parser takes."""
+    for word in argv:
+        if word == "--verbose" or (word.startswith("-") and word.strip("v") == "-"):
+            continue
+        return word if word in _COMMANDS else None
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     _setup_logging(args.verbose)
     hint = _port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None

@@ -20,7 +20,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-import filelock
 import pytest
 from conftest import git
 from ptyscreen import run
@@ -28,7 +27,7 @@ from ptyscreen import run
 from harlsync.cli import main
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.sim import SimState, Simulator
-from harlsync.link.lock import LineLock, lock_path
+from harlsync.link.lock import LineLock, lock_path, take_lock_file
 from harlsync.sim import Faults
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sim.serve import TcpServer
@@ -257,9 +256,7 @@ def test_ctrl_c_during_a_backup_in_two_workers_leaves_no_partial_file_and_no_loc
     # a released lock removes its file (issue 22: lock files do not pile up), so
     # what is left is a lock some process still holds, or one it left behind
     locks = sorted(lock_dir.glob("*.lock"))
-    taken = [filelock.FileLock(str(path)) for path in locks]
-    for lock in taken:  # nobody holds any: every worker has ended
-        lock.acquire(timeout=0)
+    taken = [take_lock_file(path, 0) for path in locks]  # nobody holds any: every worker ended
     for lock in taken:
         lock.release()
 

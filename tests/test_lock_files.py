@@ -3,6 +3,7 @@ lock directory, and the lock of a process that died holding it is reclaimed."""
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import signal
@@ -12,21 +13,20 @@ import textwrap
 from collections.abc import Iterator
 from pathlib import Path
 
-import filelock
 import pytest
 from conftest import git
 from plantsim import SMALL
 
 from harlsync.cli import main
-from harlsync.errors import ProjectError
+from harlsync.errors import PortBusyError, PortError, ProjectError
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.link import lock as line_lock
-from harlsync.link.lock import LineLock, LockFile, lock_path
+from harlsync.link.lock import LineLock, LockFile, LockTimeout, WindowsLockFile, lock_path
 from harlsync.project.lock import lock_path as project_lock_path
 from harlsync.project.lock import project_lock
 from harlsync.sim.protocol_sim import register, unregister
 
-pytestmark = pytest.mark.skipif(os.name == "nt", reason="flock(2) locks; Windows has filelock's")
+pytestmark = pytest.mark.skipif(os.name == "nt", reason="flock(2) locks; Windows has msvcrt's")
 
 #: Takes a project's lock and a line's, says so, then waits for its standard input
 #: to close, or is killed holding them.
@@ -130,7 +130,7 @@ def test_a_lock_whose_file_was_removed_as_it_was_locked_is_taken_again_on_the_ne
     lock = LockFile.take(path, 5)
     try:
         assert os.path.samestat(os.stat(path), os.fstat(lock._fd))  # type: ignore[arg-type]
-        with pytest.raises(filelock.Timeout):  # the lock at the path is held: by this one
+        with pytest.raises(LockTimeout):  # the lock at the path is held: by this one
             LockFile.take(path, 0)
     finally:
         lock.release()
@@ -145,3 +145,53 @@ def test_a_line_lock_and_a_project_lock_go_with_their_owner_files(tmp_path, lock
         assert line.path.with_name(line.path.name + ".owner").exists()
     line.release()
     assert os.listdir(lock_dir) == []
+
+
+class FakeMsvcrt:
+    """``msvcrt.locking`` as Windows answers it, over flock(2): what
+    :class:`WindowsLockFile` calls, so that its waiting, timeout and clean-up run here."""
+
+    LK_UNLCK, LK_NBLCK = 0, 2
+
+    def locking(self, fd: int, mode: int, nbytes: int) -> None:
+        import fcntl
+
+        assert nbytes == 1
+        try:
+            fcntl.flock(
+                fd, fcntl.LOCK_UN if mode == self.LK_UNLCK else fcntl.LOCK_EX | fcntl.LOCK_NB
+            )
+        except BlockingIOError:
+            raise OSError(errno.EACCES, "Permission denied") from None
+
+
+def test_issue_24_the_windows_lock_waits_times_out_and_removes_its_file(
+    tmp_path, monkeypatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "msvcrt", FakeMsvcrt())
+    path = tmp_path / "COM3-0123456789ab.lock"
+    lock = WindowsLockFile.take(path, 0)
+    try:
+        with pytest.raises(LockTimeout, match="COM3"):
+            WindowsLockFile.take(path, 0)
+        line = LineLock("COM3", path)
+        with pytest.raises(PortBusyError, match=r"^port COM3: in use by another harlsync;"):
+            monkeypatch.setattr(line_lock, "take_lock_file", WindowsLockFile.take)
+            line.acquire(0)
+    finally:
+        lock.release()
+    assert not path.exists()
+    again = WindowsLockFile.take(path, 0)  # released: free to take
+    again.release()
+    lock.release()  # twice: nothing
+    assert os.listdir(tmp_path) == []
+
+
+def test_issue_24_without_any_file_locking_a_line_lock_says_so_in_one_error(
+    tmp_path, monkeypatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "msvcrt", None)  # import msvcrt: ImportError
+    monkeypatch.setattr(line_lock, "take_lock_file", WindowsLockFile.take)
+    line = LineLock("COM3", tmp_path / "COM3.lock")
+    with pytest.raises(PortError, match="neither flock.2. nor msvcrt.locking"):
+        line.acquire(0)

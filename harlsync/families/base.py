@@ -27,7 +27,6 @@ and hands them back, nothing more.
 
 from __future__ import annotations
 
-import difflib
 from abc import ABC, abstractmethod
 from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
@@ -243,6 +242,8 @@ def align(
     sequences (:meth:`Catalogue.position`), one :class:`Shift` per stretch of items
     they move along: an alignment of the changed stretch (difflib), so that a step
     inserted at 4 of 17 is one insertion, not 14 changed steps."""
+    import difflib  # not at import: every command imports this module
+
     groups: dict[str, tuple[dict[int, str | None], dict[int, str | None]]] = {}
     for key, old, new in changes:
         where = catalogue.position(key)
@@ -635,6 +636,13 @@ class Family(ABC, Generic[K, D]):
     def stale_files(self, root: Path, texts: Mapping[str, str], robot: Robot, data: D) -> list[str]:
         """Managed files on disk that a save of ``texts`` must remove (default: none)."""
         return []
+
+    def quick_robot(self, data: Mapping[str, Any]) -> Robot | None:
+        """The robot of robot.yaml's ``data`` as :func:`harlsync.project.quick.parse`
+        reads it (no project store, no YAML: a pull's first request waits for it),
+        when the family is sure the full reading (:meth:`analyse`) finds the same
+        robot and no issue; None (the default) to have the file read the whole way."""
+        return None
 
     def new_robot(self, name: str, port: str, station: int | None, **fields: object) -> Robot:
         """The robot.yaml of a first pull: the family's defaults, then ``fields``

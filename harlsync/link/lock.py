@@ -1,8 +1,8 @@
 """The line lock: one harlsync at a time on a line, whatever the port is called.
 
 pyserial's ``exclusive=True`` is advisory and device-only, so the link also holds
-an inter-process :class:`filelock.FileLock` named after the line (see
-:func:`lock_path`) for as long as it is open: processes that share a line
+an inter-process lock file named after the line (see :func:`lock_path`) for as
+long as it is open: processes that share a line
 (several stations on one controller) never interleave frames.  A second harlsync waits for
 it up to its lock timeout, then fails with :class:`PortBusyError` naming the
 holder, whose pid and host sit in a file beside the lock::
@@ -14,10 +14,15 @@ Both files go when the lock is released, so that the directory does not fill wit
 one file per line and project ever used.  On POSIX the lock is ``flock(2)`` held by
 :class:`LockFile`, which removes its file while it still holds it; a taker checks,
 once it holds the lock, that the file it locked is still the one at the path, and
-starts again if not.  (:class:`filelock.FileLock` leaves the file in place on POSIX
-by design, so that waiters share its inode: it cannot remove it safely; on Windows it
-removes it itself.)  A holder killed without releasing leaves both files, its flock
-gone with it: the next lock taken in the directory reclaims them (:func:`reclaim_dead`).
+starts again if not.  On Windows it is a byte of the file locked with
+``msvcrt.locking`` (:class:`WindowsLockFile`): a file another process has open
+cannot be removed there, so its last holder removes it.  A holder killed without
+releasing leaves both files, its flock gone with it: the next lock taken in the
+directory reclaims them (:func:`reclaim_dead`).
+
+Both are a few system calls of this module's own, not a library's: a pull takes the
+lock before its first request, and every module imported before it is start-up
+(issue 24; ``filelock`` was 21 modules).
 """
 
 from __future__ import annotations
@@ -35,8 +40,6 @@ from pathlib import Path
 from typing import Protocol
 from urllib.parse import urlsplit
 
-import filelock
-
 from .. import lookup
 from ..errors import PortBusyError, PortError
 
@@ -47,6 +50,8 @@ __all__ = [
     "HeldLock",
     "LineLock",
     "LockFile",
+    "LockTimeout",
+    "WindowsLockFile",
     "add_tcp_scheme",
     "default_lock_dir",
     "is_com_port",
@@ -125,7 +130,7 @@ def default_lock_dir() -> Path:
 
 
 class HeldLock(Protocol):
-    """A lock file this process holds (:class:`LockFile`, or filelock's on Windows)."""
+    """A lock file this process holds (:class:`LockFile`, :class:`WindowsLockFile`)."""
 
     @property
     def lock_file(self) -> str: ...
@@ -136,6 +141,10 @@ class HeldLock(Protocol):
 #: Seconds between two tries of a lock another process holds.
 _POLL = 0.05
 _CONTENDED = frozenset({errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK})
+
+
+class LockTimeout(TimeoutError):
+    """Another process held the lock file past the timeout (its path is the message)."""
 
 
 class LockFile:
@@ -154,9 +163,9 @@ class LockFile:
     @classmethod
     def take(cls, path: Path, timeout: float) -> LockFile:
         """Hold ``path``, waiting up to ``timeout`` seconds for another holder
-        (negative: for ever).  Raises :class:`filelock.Timeout` past it, OSError when
+        (negative: for ever).  Raises :class:`LockTimeout` past it, OSError when
         the file cannot be opened or made."""
-        import fcntl  # POSIX only: Windows takes filelock's lock
+        import fcntl  # POSIX only: Windows has WindowsLockFile
 
         deadline = None if timeout < 0 else time.monotonic() + timeout
         while True:
@@ -170,7 +179,7 @@ class LockFile:
                 if exc.errno not in _CONTENDED:
                     raise
                 if deadline is not None and time.monotonic() >= deadline:
-                    raise filelock.Timeout(str(path)) from None
+                    raise LockTimeout(str(path)) from None
                 time.sleep(_POLL)
                 continue
             try:
@@ -215,13 +224,71 @@ def _open_lock_file(path: Path) -> int | None:
     return fd
 
 
+class WindowsLockFile:
+    """Windows: the first byte of the lock file locked with ``msvcrt.locking``, through
+    the descriptor ``fd``.  :meth:`release` unlocks and closes it, then removes the
+    file, which Windows refuses while another process has it open (a waiter): the
+    last holder removes it."""
+
+    def __init__(self, path: Path, fd: int) -> None:
+        self.path = path
+        self._fd: int | None = fd
+
+    @property
+    def lock_file(self) -> str:
+        return str(self.path)
+
+    @classmethod
+    def take(cls, path: Path, timeout: float) -> WindowsLockFile:
+        """As :meth:`LockFile.take`: raises :class:`LockTimeout` past ``timeout``
+        seconds (negative: waits for ever), OSError when the file cannot be opened."""
+        try:
+            import msvcrt
+        except ImportError:
+            raise OSError(
+                errno.ENOSYS, "this system has neither flock(2) nor msvcrt.locking"
+            ) from None
+        deadline = None if timeout < 0 else time.monotonic() + timeout
+        flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOINHERIT", 0)
+        while True:
+            fd = os.open(path, flags, 0o666)
+            try:
+                msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)  # type: ignore[attr-defined,unused-ignore]
+            except OSError as exc:
+                os.close(fd)
+                if exc.errno not in _CONTENDED | {errno.EDEADLK}:
+                    raise
+                if deadline is not None and time.monotonic() >= deadline:
+                    raise LockTimeout(str(path)) from None
+                time.sleep(_POLL)
+                continue
+            return cls(path, fd)
+
+    def release(self) -> None:
+        """Unlock and close the file, then remove it unless another process has it
+        open (nothing when it is not held)."""
+        import msvcrt
+
+        fd, self._fd = self._fd, None
+        if fd is None:
+            return
+        try:
+            msvcrt.locking(fd, msvcrt.LK_UNLCK, 1)  # type: ignore[attr-defined,unused-ignore]
+        finally:
+            os.close(fd)
+        try:
+            self.path.unlink()
+        except OSError as exc:  # a waiter has it open: it is that one's now
+            log.debug("cannot remove the lock file %s: %s", self.path, exc)
+
+
 def take_lock_file(path: Path, timeout: float) -> HeldLock:
     """Hold the lock file ``path``, making its directory first if need be: one every
     user of the machine may use (sticky and writable by all, like ``/tmp``), since
     root's cron job and an engineer's shell must meet in it.  The locks that
     processes of this machine died holding are reclaimed first (:func:`reclaim_dead`).
 
-    Raises :class:`filelock.Timeout` when another holder keeps it past ``timeout``
+    Raises :class:`LockTimeout` when another holder keeps it past ``timeout``
     seconds, and :class:`OSError` when the directory or the file cannot be made.
     """
     directory = path.parent
@@ -233,9 +300,7 @@ def take_lock_file(path: Path, timeout: float) -> HeldLock:
         else:
             os.chmod(directory, 0o1777)
     if os.name == "nt":
-        lock = filelock.FileLock(str(path), mode=0o666, thread_local=False)
-        lock.acquire(timeout=timeout)
-        return lock
+        return WindowsLockFile.take(path, timeout)
     reclaim_dead(directory)
     return LockFile.take(path, timeout)
 
@@ -276,7 +341,7 @@ def reclaim_dead(directory: Path) -> list[Path]:
         path = owner.with_name(owner.name[: -len(".owner")])
         try:
             lock = LockFile.take(path, 0)
-        except (filelock.Timeout, OSError):
+        except OSError:  # LockTimeout too
             continue  # taken again meanwhile, or not ours to take
         try:
             if _owner_pid(owner) == pid:  # not rewritten by a new holder meanwhile
@@ -401,7 +466,7 @@ class LineLock:
             return
         try:
             lock = take_lock_file(path, timeout)
-        except filelock.Timeout as exc:
+        except LockTimeout as exc:
             raise PortBusyError(self._busy_message(path), port=self.url) from exc
         except OSError as exc:
             raise PortError(

@@ -4,11 +4,12 @@ closing the link only when it opened it (``from_url``), also as a ``with`` block
 from __future__ import annotations
 
 from types import TracebackType
-from typing import Any, TypeVar
-
-from typing_extensions import Self
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from .exchange import Link
+
+if TYPE_CHECKING:  # for the checker only: not imported before a first request
+    from typing_extensions import Self
 
 __all__ = ["OnLink"]
 

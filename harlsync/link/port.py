@@ -22,16 +22,18 @@ import stat
 import sys
 import time
 from collections.abc import Iterator
-from typing import ClassVar, Protocol
+from typing import TYPE_CHECKING, ClassVar, Protocol
 from urllib.parse import urlsplit
 
 import serial
 from serial.urlhandler import protocol_socket
-from typing_extensions import Buffer
 
 from ..errors import LinkError, PortBusyError, PortError
 from ..settings import SerialSettings
 from .lock import is_com_port, lock_key, port_number
+
+if TYPE_CHECKING:  # for the checker only: not imported before a first request
+    from typing_extensions import Buffer
 
 __all__ = [
     "POLL_INTERVAL",

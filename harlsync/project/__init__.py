@@ -10,20 +10,31 @@ journal, YAML I/O and the schema validator.
         .schemas/             copies of the family's JSON Schemas, for editors
 
 See docs/project-format.md for the format and how it evolves.
+
+The names below are imported when first asked for (PEP 562), not with the package:
+:mod:`.robot` (the Robot a line is opened for) does not bring the store, YAML and
+the schemas with it, which ``harlsync pull`` needs only after its first request
+(issue 24).
 """
 
-from .robot import DAYS, Robot, Window, new_robot
-from .store import (
-    Project,
-    family_of,
-    load_project,
-    load_robot,
-    migrate_project,
-    project_notes,
-    save_project,
-    validate_project,
-)
-from .yamlio import Number
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .robot import DAYS, Robot, Window, new_robot
+    from .store import (
+        Project,
+        family_of,
+        load_project,
+        load_robot,
+        migrate_project,
+        project_notes,
+        save_project,
+        validate_project,
+    )
+    from .yamlio import Number
 
 __all__ = [
     "DAYS",
@@ -40,3 +51,29 @@ __all__ = [
     "save_project",
     "validate_project",
 ]
+
+#: each public name -> the module of this package that defines it
+_HOME = {
+    "DAYS": "robot",
+    "Robot": "robot",
+    "Window": "robot",
+    "new_robot": "robot",
+    "Project": "store",
+    "family_of": "store",
+    "load_project": "store",
+    "load_robot": "store",
+    "migrate_project": "store",
+    "project_notes": "store",
+    "save_project": "store",
+    "validate_project": "store",
+    "Number": "yamlio",
+}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f"{__name__}.{home}"), name)
+    globals()[name] = value  # once: the next look-up is a plain attribute
+    return value

@@ -13,12 +13,11 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from datetime import time
 from typing import Any
 
 from ..settings import SerialSettings
 from . import yamlio as y
-from .robot import Robot, Window
+from .robot import Robot, build_serial, build_windows
 from .schema import Issue, SchemaSet, show
 
 __all__ = [
@@ -312,19 +311,6 @@ def serial_items(serial: SerialSettings) -> list[tuple[str, Any]]:
     ]
 
 
-def build_serial(connection: Mapping[str, Any], defaults: SerialSettings) -> SerialSettings:
-    """robot.yaml's serial settings, each missing one the family's default."""
-    return SerialSettings(
-        baudrate=int(connection.get("baudrate", defaults.baudrate)),
-        bytesize=int(connection.get("bytesize", defaults.bytesize)),
-        parity=str(connection.get("parity", defaults.parity)),
-        stopbits=int(connection.get("stopbits", defaults.stopbits)),
-        rtscts=bool(connection.get("rtscts", defaults.rtscts)),
-        timeout=float(connection.get("timeout", defaults.timeout)),
-        retries=int(connection.get("retries", defaults.retries)),
-    )
-
-
 def robot_items(
     robot: Robot, connection: list[tuple[str, Any]], controller: list[tuple[str, Any]]
 ) -> list[tuple[str, Any]]:
@@ -354,16 +340,3 @@ def window_nodes(robot: Robot) -> Any:
         for w in robot.windows
     ]
     return y.sequence(windows, flow=not windows)
-
-
-def _time(value: str) -> time:
-    hours, minutes = value.split(":")
-    return time(int(hours), int(minutes))
-
-
-def build_windows(data: Mapping[str, Any]) -> list[Window]:
-    """robot.yaml's maintenance windows (the schema has checked them)."""
-    return [
-        Window(tuple(w["days"]), _time(w["start"]), _time(w["end"]))
-        for w in data.get("maintenance_windows", [])
-    ]

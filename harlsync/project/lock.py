@@ -30,11 +30,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import ParamSpec, TypeVar
 
-import filelock
-
 from ..errors import ProjectError
 from ..link import default_lock_dir
-from ..link.lock import HeldLock, take_lock_file, unusable_hint
+from ..link.lock import HeldLock, LockTimeout, take_lock_file, unusable_hint
 
 __all__ = ["holding_project", "lock_path", "project_lock"]
 
@@ -101,7 +99,7 @@ def project_lock(
 def _acquire(project: str | os.PathLike[str], path: Path, timeout: float, command: str) -> HeldLock:
     try:
         lock = take_lock_file(path, timeout)
-    except filelock.Timeout as exc:
+    except LockTimeout as exc:
         raise ProjectError(_busy_message(project, path)) from exc
     except OSError as exc:
         raise ProjectError(

@@ -4,13 +4,16 @@ this is what the engine needs of it."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import datetime, time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..settings import SerialSettings
 
-__all__ = ["DAYS", "Robot", "Window", "new_robot"]
+if TYPE_CHECKING:
+    from datetime import datetime, time
+
+__all__ = ["DAYS", "Robot", "Window", "build_serial", "build_windows", "new_robot"]
 
 #: Day names as robot.yaml writes them, Monday first (``datetime.weekday()`` order).
 DAYS = ("mon", "tue", "wed", "thu", "fri", "sat", "sun")
@@ -77,3 +80,34 @@ def new_robot(name: str, port: str, station: int = 1, **options: Any) -> Robot:
     ``windows``, ``serial``).
     """
     return Robot(name=name, port=port, station=station, **options)
+
+
+# -- from robot.yaml's data (the full reading's, or harlsync.project.quick's) ------------
+
+
+def build_serial(connection: Mapping[str, Any], defaults: SerialSettings) -> SerialSettings:
+    """robot.yaml's serial settings, each missing one the family's default."""
+    return SerialSettings(
+        baudrate=int(connection.get("baudrate", defaults.baudrate)),
+        bytesize=int(connection.get("bytesize", defaults.bytesize)),
+        parity=str(connection.get("parity", defaults.parity)),
+        stopbits=int(connection.get("stopbits", defaults.stopbits)),
+        rtscts=bool(connection.get("rtscts", defaults.rtscts)),
+        timeout=float(connection.get("timeout", defaults.timeout)),
+        retries=int(connection.get("retries", defaults.retries)),
+    )
+
+
+def _time(value: str) -> time:
+    from datetime import time  # not at import: most robots have no window
+
+    hours, minutes = value.split(":")
+    return time(int(hours), int(minutes))
+
+
+def build_windows(data: Mapping[str, Any]) -> list[Window]:
+    """robot.yaml's maintenance windows (the schema has checked them)."""
+    return [
+        Window(tuple(w["days"]), _time(w["start"]), _time(w["end"]))
+        for w in data.get("maintenance_windows", [])
+    ]

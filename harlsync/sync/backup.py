@@ -26,12 +26,11 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any, Protocol
 
-import filelock
-
 from .. import columns
 from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..families.base import AnyFamily, Progress
 from ..link import lock_key
+from ..link.lock import LockTimeout
 from ..project import family_of, load_robot
 from ..project.lock import holder, lock_path, project_lock
 from ..project.store import replace_file
@@ -451,7 +450,7 @@ def backup(paths: Iterable[str | Path], **options: Any) -> BackupReport:
             try:
                 running.enter_context(project_lock(key, timeout=0, command="backup"))
             except ProjectError as exc:
-                if not isinstance(exc.__cause__, filelock.Timeout):
+                if not isinstance(exc.__cause__, LockTimeout):
                     raise
                 raise SyncError(
                     f"a backup of {path} is running already ({holder(lock_path(key))}); "

@@ -7,18 +7,18 @@ in force and adds no dependency.
 from __future__ import annotations
 
 import getpass
-import hashlib
 import os
 import socket
 import subprocess
+import threading
 from collections.abc import Mapping
 from pathlib import Path
 from typing import NamedTuple
 
 from ..errors import SyncError
-from ..project.store import IN_PROGRESS
 
 __all__ = [
+    "Asked",
     "Commit",
     "changed_files",
     "commit",
@@ -55,26 +55,42 @@ def _git(
             errors="surrogateescape",  # file names as os.listdir gives them, whatever bytes
         )
     except FileNotFoundError as exc:
-        raise SyncError("git is not installed: install git or run without --commit") from exc
+        raise _not_installed() from exc
     if check and result.returncode not in ok:
-        lines = [ln.strip() for ln in (result.stderr or result.stdout).splitlines() if ln.strip()]
-        detail = next((ln for ln in lines if ln.startswith(("fatal:", "error:"))), None)
-        detail = detail or (lines[0] if lines else f"exit status {result.returncode}")
-        if "index.lock" in detail:  # left by a git that was killed or crashed
-            detail += " (if no git is running there, remove that file)"
-        # The subcommand only: the paths of a backup's add would fill the line.
-        command = next(a for a in args if not a.startswith("-"))
-        raise SyncError(f"git {command} failed in {cwd}: {detail}")
+        raise _failed(cwd, args, result)
     return result
+
+
+def _not_installed() -> SyncError:
+    return SyncError("git is not installed: install git or run without --commit")
+
+
+def _failed(
+    cwd: Path, args: tuple[str, ...], result: subprocess.CompletedProcess[str]
+) -> SyncError:
+    """The one line saying that git ``args`` failed in ``cwd``, with git's own reason."""
+    lines = [ln.strip() for ln in (result.stderr or result.stdout).splitlines() if ln.strip()]
+    detail = next((ln for ln in lines if ln.startswith(("fatal:", "error:"))), None)
+    detail = detail or (lines[0] if lines else f"exit status {result.returncode}")
+    if "index.lock" in detail:  # left by a git that was killed or crashed
+        detail += " (if no git is running there, remove that file)"
+    # The subcommand only: the paths of a backup's add would fill the line.
+    command = next(a for a in args if not a.startswith("-"))
+    return SyncError(f"git {command} failed in {cwd}: {detail}")
+
+
+def _where(path: Path) -> Path:
+    """The directory git runs in for ``path`` (resolved): itself, or the nearest
+    directory above it that exists."""
+    cwd = path if path.is_dir() else path.parent
+    while not cwd.exists():
+        cwd = cwd.parent
+    return cwd
 
 
 def repo_root(path: str | Path) -> Path | None:
     """The top of the git work tree that holds ``path``, or None outside any."""
-    path = Path(path).resolve()
-    cwd = path if path.is_dir() else path.parent
-    while not cwd.exists():
-        cwd = cwd.parent
-    result = _git(cwd, "rev-parse", "--show-toplevel", check=False)
+    result = _git(_where(Path(path).resolve()), "rev-parse", "--show-toplevel", check=False)
     return Path(result.stdout.strip()) if result.returncode == 0 else None
 
 
@@ -88,6 +104,88 @@ def changed_files(path: str | Path) -> list[str]:
         root, "status", "--porcelain", "--untracked-files=all", "--", str(Path(path).resolve())
     )
     return [line[3:] for line in status.stdout.splitlines() if line.strip()]
+
+
+class Asked:
+    """What :func:`changed_files` and :func:`repo_root` say of ``path``, asked now
+    and answered when :meth:`changed_files` is called: their two git processes run
+    meanwhile (a pull opens its line and reads its robot; issue 24), started by a
+    thread of their own, so that the caller does not wait for either to start.
+    :meth:`close` ends them if the answer is never taken.
+
+    ``git status --porcelain`` names files relative to the top of the repository
+    from any directory in it, so both start at once, in the directory of ``path``.
+    The answer raises SyncError as :func:`changed_files` does (git not installed,
+    git status failing).
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._runs: list[tuple[tuple[str, ...], subprocess.Popen[str]]] = []
+        self._failed: SyncError | None = None
+        self._answer: tuple[Path | None, list[str]] | None = None
+        self._starting = threading.Thread(target=self._start, name="git status", daemon=True)
+        self._starting.start()
+
+    def _start(self) -> None:
+        resolved = self.path.resolve()
+        cwd = _where(resolved)
+        asks: list[tuple[str, ...]] = [("rev-parse", "--show-toplevel")]
+        if self.path.exists():  # a path that does not exist yet has no changes
+            asks.append(("status", "--porcelain", "--untracked-files=all", "--", str(resolved)))
+        for args in asks:
+            try:
+                process = subprocess.Popen(
+                    ["git", *args],
+                    cwd=cwd,
+                    stdin=subprocess.DEVNULL,
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.PIPE,
+                    text=True,
+                    errors="surrogateescape",  # file names as os.listdir gives them
+                )
+            except FileNotFoundError as exc:
+                self._failed = _not_installed()
+                self._failed.__cause__ = exc
+                return
+            self._runs.append((args, process))
+
+    def _take(self) -> tuple[Path | None, list[str]]:
+        if self._answer is None:
+            self._starting.join()
+            if self._failed is not None:
+                raise self._failed
+            done = []
+            for args, process in self._runs:
+                out, err = process.communicate()
+                done.append((args, subprocess.CompletedProcess(args, process.returncode, out, err)))
+            self._runs = []
+            top = Path(done[0][1].stdout.strip()) if done[0][1].returncode == 0 else None
+            changed: list[str] = []
+            if top is not None and len(done) > 1:
+                args, status = done[1]
+                if status.returncode != 0:
+                    raise _failed(top, args, status)
+                changed = [line[3:] for line in status.stdout.splitlines() if line.strip()]
+            self._answer = top, changed
+        return self._answer
+
+    def root(self) -> Path | None:
+        """As :func:`repo_root` of ``path``."""
+        return self._take()[0]
+
+    def changed_files(self) -> list[str]:
+        """As :func:`changed_files` of ``path``: raises SyncError as it does."""
+        return self._take()[1]
+
+    def close(self) -> None:
+        """End the processes whose answer was not taken (nothing once it was)."""
+        self._starting.join()
+        runs, self._runs = self._runs, []
+        for _, process in runs:
+            if process.poll() is None:
+                process.kill()
+            process.communicate()
 
 
 def head(path: str | Path) -> str | None:
@@ -141,13 +239,18 @@ def not_in_commit(root: Path, rev: str | None, files: Mapping[str, bytes]) -> di
 def _blob_id(data: bytes, like: str) -> str:
     """The id git gives ``data`` as a blob, in the hash of the object id ``like``
     (SHA-1, or SHA-256 in a repository made with ``--object-format=sha256``)."""
+    import hashlib
+
     digest = hashlib.sha256 if len(like) == 64 else hashlib.sha1
     return digest(b"blob %d\0" % len(data) + data).hexdigest()
 
 
-#: What a save in progress leaves beside the files (harlsync.project.store): a
-#: commit made meanwhile by another process must not take it.
-_NEVER_COMMITTED = tuple(f":(exclude,glob)**/{pattern}" for pattern in IN_PROGRESS)
+def _never_committed() -> tuple[str, ...]:
+    """What a save in progress leaves beside the files (harlsync.project.store): a
+    commit made meanwhile by another process must not take it."""
+    from ..project.store import IN_PROGRESS  # not at import: a pull asks git first
+
+    return tuple(f":(exclude,glob)**/{pattern}" for pattern in IN_PROGRESS)
 
 
 def commit(paths: list[Path], message: str) -> str | None:
@@ -164,7 +267,7 @@ def commit(paths: list[Path], message: str) -> str | None:
     root = roots.pop()
     assert root is not None
     specs = [str(Path(p).resolve()) for p in paths]
-    _git(root, "add", "--all", "--", *specs, *_NEVER_COMMITTED)
+    _git(root, "add", "--all", "--", *specs, *_never_committed())
     staged = _git(root, "diff", "--cached", "--quiet", "--", *specs, check=False)
     if staged.returncode == 0:
         return None

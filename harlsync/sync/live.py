@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Generic
+from typing import TYPE_CHECKING, Generic
 
 from ..errors import HarlsyncError, ProjectError
 from ..families.base import AnyFamily, D, Driver, Family, K, Progress
-from ..project import Robot
-from . import audit
+
+if TYPE_CHECKING:
+    from ..project.robot import Robot
 
 __all__ = [
     "LiveRead",
@@ -145,6 +146,8 @@ def unfinished_pushes(robot: Robot, port: str | None, station: int | None) -> li
 
     Called with the line held, so no push in progress can be mistaken for one.
     """
+    from . import audit  # not at import: the first request does not wait for it
+
     problems: list[str] = []
     try:
         found = audit.unfinished(

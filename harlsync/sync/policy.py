@@ -23,18 +23,22 @@ def listed(files: list[str]) -> str:
     return ", ".join(files[:3]) + (", ..." if len(files) > 3 else "")
 
 
-def earlier_pull_and_edits(path: Path, family: AnyFamily) -> tuple[list[str], str]:
+def earlier_pull_and_edits(
+    path: Path, family: AnyFamily, asked: git.Asked | None = None
+) -> tuple[list[str], str]:
     """What a pull finds uncommitted under ``path`` (robot.yaml aside, which it never
     rewrites): the files an earlier pull saved and nobody touched since, and the
-    others, for a message ('' when none).
+    others, for a message ('' when none).  ``asked`` is git's answer for ``path``
+    asked earlier (:class:`~harlsync.sync.git.Asked`); None: asked now.
 
     The first are harlsync's own backup whose commit failed (a stale index.lock,
     a pull killed between its save and its commit): the save's record of what it
     wrote (:func:`~harlsync.project.store.edited_since_save`) tells them from a
     person's edit, which a pull must never overwrite.
     """
-    dirty = [f for f in git.changed_files(path) if Path(f).name != "robot.yaml"]
-    top = git.repo_root(path)
+    asked = asked or git.Asked(path)
+    dirty = [f for f in asked.changed_files() if Path(f).name != "robot.yaml"]
+    top = asked.root()
     if not dirty or top is None:
         return [], ""
     inside = {f: (top / f).relative_to(path.resolve()).as_posix() for f in dirty}

@@ -8,17 +8,18 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from .. import lookup
 from ..errors import PolicyError, ProjectError
 from ..families.base import AnyFamily, Catalogue, Progress
-from ..project import Project, Robot, load_project, load_robot, save_project
 from ..project.lock import holding_project
-from ..project.store import family_of
-from . import audit, git, history
-from .items import Change, diff
+from ..project.robot import Robot
+from . import git
 from .live import Station, read_live, station_number
-from .policy import earlier_pull_and_edits, listed
+
+if TYPE_CHECKING:
+    from .items import Change
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +46,8 @@ class PullResult:
 
     @property
     def summary(self) -> str:
+        from .policy import listed
+
         said = "first backup" if self.changes is None else change_summary(self.changes)
         if self.earlier:
             said += f"; with an earlier pull's backup, never committed ({listed(self.earlier)})"
@@ -53,26 +56,67 @@ class PullResult:
 
 def _robot_for(
     path: Path, port: str | None, station: Station, family: AnyFamily | None
-) -> tuple[AnyFamily, Robot]:
+) -> tuple[AnyFamily, Robot, bool]:
     """The project's family and robot: robot.yaml's, or a first pull's (``family``,
-    by default the default family)."""
+    by default the default family); and whether robot.yaml was read by the quick
+    reader (:mod:`harlsync.project.quick`), which :func:`_read_robot` is to check
+    once the line is open."""
     if (path / "robot.yaml").exists():
-        found = family_of(path)
-        if family is not None and family.name != found.name:
-            raise ProjectError(
-                f"{path / 'robot.yaml'}: the robot is of family {found.name}, not "
-                f"{family.name}; drop --family (it is only for a first pull) or pull "
-                "into another directory"
-            )
-        return found, load_robot(path, found)
+        from ..project import quick
+
+        found = quick.robot(path, family)
+        if found is not None:
+            return found[0], found[1], True
+        return (*_read_robot(path, family), False)
     if not port:
         raise ProjectError(
             f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
         )
-    family = family or family_of(path)
-    return family, family.new_robot(
-        path.resolve().name, _absolute_sim_path(port), station_number(family, station)
+    family = family or lookup.family(None)  # no robot.yaml: the default
+    return (
+        family,
+        family.new_robot(
+            path.resolve().name, _absolute_sim_path(port), station_number(family, station)
+        ),
+        False,
     )
+
+
+def _read_robot(path: Path, family: AnyFamily | None) -> tuple[AnyFamily, Robot]:
+    """robot.yaml read the whole way, through the project store (which first finishes
+    an interrupted save): its family and robot, or its problems raised."""
+    from ..project.store import family_of, load_robot
+
+    found = family_of(path)
+    if family is not None and family.name != found.name:
+        raise ProjectError(
+            f"{path / 'robot.yaml'}: the robot is of family {found.name}, not "
+            f"{family.name}; drop --family (it is only for a first pull) or pull "
+            "into another directory"
+        )
+    return found, load_robot(path, found)
+
+
+def _same_reading(
+    path: Path, quick: tuple[AnyFamily, Robot], full: tuple[AnyFamily, Robot]
+) -> None:
+    """Raise ProjectError unless robot.yaml's quick reading found what the full one
+    does (never otherwise, unless harlsync has a bug: the line was opened with it)."""
+    (quick_family, quick_robot), (family, robot) = quick, full
+    differ = [
+        name
+        for name in ("family", "name", "port", "station", "serial", "windows", "keep_registers")
+        + ("description", "options")
+        if getattr(quick_robot, name) != getattr(robot, name)
+    ]
+    if quick_family.name != family.name and "family" not in differ:
+        differ.insert(0, "family")
+    if differ:
+        raise ProjectError(
+            f"{path / 'robot.yaml'}: harlsync read {', '.join(differ)} otherwise before "
+            "the line opened than when it read the file the whole way; nothing was saved. "
+            "This is a bug in harlsync: please report it with that file"
+        )
 
 
 def _absolute_sim_path(port: str) -> str:
@@ -119,21 +163,86 @@ def pull(
     note a call, even when the pull then fails.
     """
     path = Path(path)
-    family, robot = _robot_for(path, port, station, family)
+    given = family
+    family, robot, quick = _robot_for(path, port, station, given)
     station = station_number(family, station)
-    things = family.catalogue
-    earlier, dirty = ([], "") if allow_dirty else earlier_pull_and_edits(path, family)
-    if dirty:
-        raise PolicyError(
-            f"{path}: uncommitted changes a pull would overwrite ({dirty}); "
-            f"commit or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
+    # git's answer on uncommitted edits, asked now and taken once the line is open:
+    # its processes run meanwhile (issue 24).  A read writes nothing to the
+    # controller, so a dirty project is refused then, before anything is saved.
+    asked = None if allow_dirty else git.Asked(path)
+    try:
+        return _pull(
+            path,
+            family,
+            robot,
+            quick=(family, robot) if quick else None,
+            given=given,
+            asked=asked,
+            port=port,
+            station=station,
+            commit=commit,
+            progress=progress,
+            lock_timeout=lock_timeout,
+            new_robot=new_robot,
+            connect_options=connect_options,
+            noted=noted,
         )
+    finally:
+        if asked is not None:
+            asked.close()
+
+
+def _pull(
+    path: Path,
+    family: AnyFamily,
+    robot: Robot,
+    *,
+    quick: tuple[AnyFamily, Robot] | None,
+    given: AnyFamily | None,
+    asked: git.Asked | None,
+    port: str | None,
+    station: int | None,
+    commit: bool,
+    progress: Progress | None,
+    lock_timeout: float,
+    new_robot: bool,
+    connect_options: Mapping[str, bool] | None,
+    noted: Callable[[str], None] | None,
+) -> PullResult:
+    """:func:`pull` once robot.yaml is read (``quick``: by the quick reader, as
+    found) and git asked (``asked``; None: ``allow_dirty``)."""
+    earlier: list[str] = []
+    settled: list[bool] = []
     loaded: list[Any] = []
+
+    def settle() -> None:
+        """What waits for the line to be open, done once, before anything else is
+        read or saved: robot.yaml read the whole way when the quick reader read it
+        (its problems raised as before the line opened), and git's answer."""
+        nonlocal robot, earlier
+        if settled:
+            return
+        settled.append(True)
+        if quick is not None:
+            full = _read_robot(path, given)
+            _same_reading(path, quick, full)
+            robot = full[1]
+        if asked is not None:
+            from .policy import earlier_pull_and_edits
+
+            earlier, dirty = earlier_pull_and_edits(path, family, asked)
+            if dirty:
+                raise PolicyError(
+                    f"{path}: uncommitted changes a pull would overwrite ({dirty}); commit "
+                    f"or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
+                )
 
     def backup() -> Any:
         """The backup in ``path`` (None: none), loaded once the line is open: the
         first request need not wait for it (issue 15)."""
         if not loaded:
+            from ..project.store import load_project
+
             try:
                 loaded.append(load_project(path, family).data)
             except ProjectError:
@@ -142,9 +251,10 @@ def pull(
 
     def same_identity(now: Mapping[str, str], where: str) -> None:
         """A swapped controller is refused at its first exchanges, not after a whole read."""
+        settle()
         previous = backup()
         if previous is not None and not new_robot:
-            differ = _identity_differs(things.robot_identity(previous), now)
+            differ = _identity_differs(family.catalogue.robot_identity(previous), now)
             if differ:
                 raise _not_this_robot(path, where, differ)
 
@@ -161,6 +271,12 @@ def pull(
         noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
         identified=same_identity,
     )
+    settle()  # a family that cannot tell its identity first: after the read
+    from ..project.store import Project, save_project
+    from . import audit, history
+    from .items import diff
+
+    things = family.catalogue
     live = read.live
     previous = backup()
     if previous is not None and not new_robot:
@@ -202,6 +318,8 @@ def _record_notes(
     """What a connection recovered on its own, in the audit log (event ``recover``,
     which :func:`.audit.results` leaves out: it is no push or rollback), and told
     to ``noted``."""
+    from . import audit
+
     for note in notes:
         if noted is not None:
             noted(note)
@@ -241,6 +359,8 @@ def _same_robot(
 
     Each kind is judged alone: a hundred tables, most of them unused and alike
     on every robot, must not hide that every program step changed."""
+    from .items import diff
+
     differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
     if not differ:
         held = things.items(backup, registers=False).keys() | things.items(live, registers=False)

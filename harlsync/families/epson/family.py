@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..base import Analysis, Catalogue, Driver, Family, Help, Option, Scheme, Words
-from . import profile
+from . import declared
 
 if TYPE_CHECKING:
     from ...project.robot import Robot
@@ -41,7 +41,7 @@ class EpsonFamily(Family["Key", "EpsonData"]):
     schemes = (
         Scheme(
             "modbus",
-            profile.DEFAULT_PORT,
+            declared.DEFAULT_PORT,
             "an Epson controller's Modbus TCP slave: modbus://HOST[:PORT]",
         ),
     )
@@ -50,9 +50,9 @@ class EpsonFamily(Family["Key", "EpsonData"]):
     engine_options = frozenset({"unattended"})
     words = Words(state="the Remote Control status")
     stations = range(256)
-    default_station = profile.DEFAULT_UNIT
+    default_station = declared.DEFAULT_UNIT
     help = Help(
-        stations=f"the Modbus unit id, 0-255, {profile.DEFAULT_UNIT} by default",
+        stations=f"the Modbus unit id, 0-255, {declared.DEFAULT_UNIT} by default",
         pull="the settings, the tables and the points",
         items="setting, table entry, point",
         commands="each Remote Control command's words in hex",
@@ -118,7 +118,7 @@ class EpsonFamily(Family["Key", "EpsonData"]):
             family=self.name,
             name=name,
             port=port,
-            station=profile.DEFAULT_UNIT if station is None else station,
+            station=declared.DEFAULT_UNIT if station is None else station,
             options=layout.new_options(),
             **options,
         )
@@ -129,7 +129,7 @@ class EpsonFamily(Family["Key", "EpsonData"]):
         if not 0 <= unit <= 255:
             raise ValueError(
                 f"unit id {text!r} is out of range (allowed: a Modbus unit id, "
-                f"0-255; {profile.DEFAULT_UNIT} by default)"
+                f"0-255; {declared.DEFAULT_UNIT} by default)"
             )
         return unit
 

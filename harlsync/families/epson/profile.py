@@ -43,6 +43,8 @@ from functools import cached_property
 from types import MappingProxyType
 from typing import Any, NamedTuple, TypeGuard
 
+from .declared import DEFAULT_PORT, DEFAULT_UNIT
+
 __all__ = [
     "BLOCK_WRITE_WHOLE",
     "COMMAND_DEADLINE",
@@ -73,10 +75,6 @@ __all__ = [
 
 # --- the line ------------------------------------------------------------------------
 
-#: Modbus TCP port when the URL gives none (``modbus://HOST[:PORT]``).
-DEFAULT_PORT = 502
-#: Modbus unit id when the robot file gives none.
-DEFAULT_UNIT = 1
 #: Seconds one Modbus transaction may take before it is sent again.
 MODBUS_TIMEOUT = 0.5
 #: How often a transaction is sent again after no answer.  Safe: every request

@@ -110,6 +110,11 @@ class HarlU2Family(Family["Key", "RobotData"]):
 
         return layout.SCHEMAS.files()
 
+    def quick_robot(self, data: Mapping[str, Any]) -> Robot | None:
+        from .robotfile import quick_robot
+
+        return quick_robot(data)
+
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
         from ...project.robot import Robot
 
@@ -143,9 +148,9 @@ class HarlU2Family(Family["Key", "RobotData"]):
         lock_timeout: float,
         **options: bool,
     ) -> Driver[Key, RobotData]:
-        from . import layout
         from .controller import Controller
         from .driver import HarlU2Driver
+        from .model import offset_tables
 
         controller = Controller.from_url(
             port or robot.port,
@@ -153,7 +158,7 @@ class HarlU2Family(Family["Key", "RobotData"]):
             robot.serial,
             lock_timeout=lock_timeout,
         )
-        return HarlU2Driver(controller, offset_tables=layout.offset_tables(robot))
+        return HarlU2Driver(controller, offset_tables=offset_tables(robot))
 
 
 #: The family, as the registry hands it out.

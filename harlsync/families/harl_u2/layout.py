@@ -23,8 +23,6 @@ from ...project.files import (
     SCHEMAS_DIR,
     FileSet,
     Flaws,
-    build_serial,
-    build_windows,
     not_canonical,
     numbered,
     numbers,
@@ -35,7 +33,6 @@ from ...project.files import (
 )
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
-from ...settings import SerialSettings
 from ..base import Analysis, spans
 from .declared import FIRST_STATION, LAST_STATION, PROGRAMS_DIR, STATION_ALLOWED
 from .model import (
@@ -56,10 +53,12 @@ from .model import (
     Step,
     canonical_code,
     canonical_offset,
+    offset_tables,
 )
 from .protocol import commands as cmd
 from .protocol import profile
 from .protocol.frame import MAX_STATION, payload_room
+from .robotfile import build_robot
 
 __all__ = [
     "FIRST_STATION",
@@ -149,14 +148,6 @@ FILES = FileSet(SCHEMAS, FORMAT, MIGRATIONS)
 
 _DIGITS = re.compile(r"[0-9]+")
 _PROGRAM_NAME = re.compile(r"(start|(main|sub|hand)-([0-9]{2}))\.yaml")
-
-
-def offset_tables(robot: Robot | None) -> int:
-    """How many offset tables the robot has, 0 to N - 1: robot.yaml's ``offset_tables``,
-    else the manual's 100 (LNX does not report it; a pull probes table N)."""
-    if robot is None:
-        return OFFSET_TABLE_COUNT
-    return int(robot.options.get("offset_tables", OFFSET_TABLE_COUNT))
 
 
 def program_path(key: ProgramKey) -> str:
@@ -325,7 +316,7 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     result = Analysis(issues=issues)
     robot_doc = docs.get("robot.yaml")
     if robot_doc is not None and flaws["robot.yaml"] == Flaws():
-        result.robot = _build_robot(robot_doc.data)
+        result.robot = build_robot(robot_doc.data)
     # registers.yaml is checked unless robot.yaml soundly says it is not kept
     keep = not (
         robot_doc is not None
@@ -659,21 +650,6 @@ def _both_fit(write: cmd.Request[cmd.Ack], back: cmd.ReadBack, its: str = "") ->
 
 
 # -- building the model from valid documents ---------------------------------------------
-
-
-def _build_robot(data: dict[str, Any]) -> Robot:
-    connection = data["connection"]
-    return Robot(
-        family=str(data.get("family", "harl-u2")),
-        name=data["name"],
-        port=connection["port"],
-        station=int(connection.get("station", 1)),
-        serial=build_serial(connection, SerialSettings()),
-        windows=build_windows(data),
-        keep_registers=bool(data.get("keep_registers", False)),
-        description=data.get("description"),
-        options=({"offset_tables": int(data["offset_tables"])} if "offset_tables" in data else {}),
-    )
 
 
 def _build_config(data: dict[str, Any]) -> Config:

@@ -14,6 +14,10 @@ import enum
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ...project.robot import Robot
 
 __all__ = [
     "CODE_RE",
@@ -38,6 +42,7 @@ __all__ = [
     "TaskState",
     "canonical_code",
     "canonical_offset",
+    "offset_tables",
 ]
 
 #: One wire token: printable ASCII, no space (fields never contain SP, STX or ETX).
@@ -56,6 +61,14 @@ CODE_RE = re.compile(r"[0-9]{1,2}")
 MAX_STEP_DATA = 4
 #: Offset tables 0-99 (the manual's fixed count; LNX does not report it).
 OFFSET_TABLE_COUNT = 100
+
+
+def offset_tables(robot: Robot | None) -> int:
+    """How many offset tables the robot has, 0 to N - 1: robot.yaml's ``offset_tables``,
+    else the manual's 100 (LNX does not report it; a pull probes table N)."""
+    if robot is None:
+        return OFFSET_TABLE_COUNT
+    return int(robot.options.get("offset_tables", OFFSET_TABLE_COUNT))
 
 
 class ProgramType(enum.Enum):
