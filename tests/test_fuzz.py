@@ -35,6 +35,8 @@ from hypothesis import strategies as st
 from harlsync.errors import ProjectError, ProtocolError, ReplyError
 from harlsync.families.harl_u2.layout import analyse, render_files
 from harlsync.families.harl_u2.model import (
+    MAX_STEP_DATA,
+    TOKEN_RE,
     Config,
     OffsetTable,
     Parameters,
@@ -460,3 +462,32 @@ def test_hostile_yaml_is_a_one_line_issue_at_its_file(valid: Path, name: str, ho
         assert any(issue.startswith(name) for issue in validate_project(valid))
     finally:
         target.write_bytes(before)
+
+
+def _problems_token_by_token(step: Step) -> list[str]:
+    """Step.problems as it was before issue 24's one-test path: each rule on its own."""
+    out = []
+    if step.command is None and step.data:
+        out.append("data without a command")
+    if len(step.data) > MAX_STEP_DATA:
+        out.append(f"{len(step.data)} data items (at most {MAX_STEP_DATA})")
+    for token in step.tokens:
+        if not TOKEN_RE.fullmatch(token):
+            out.append(f"token {token!r} has a space or a control character")
+    return out
+
+
+token = st.one_of(
+    st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=5),
+    st.text(max_size=3),
+    st.sampled_from(["MOVE", "P001", "", " ", "a b", "\x00", "x\x00y", "~", "!"]),
+)
+
+
+@settings(max_examples=examples(500))
+@given(st.one_of(st.none(), token), st.lists(token, max_size=6))
+def test_issue_24_step_problems_in_one_test_are_the_rules_one_by_one(
+    command: str | None, data: list[str]
+) -> None:
+    step = Step(command, tuple(data))
+    assert step.problems() == _problems_token_by_token(step)

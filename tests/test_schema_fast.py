@@ -189,3 +189,13 @@ def test_reading_a_valid_robot_yaml_needs_no_jsonschema() -> None:
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("family", sorted(families.FAMILIES))
+def test_issue_24_a_schema_is_read_as_the_resources_api_reads_it(family: str) -> None:
+    from importlib.resources import files
+
+    schemas = _schemas(family)
+    for kind in schemas.kinds:
+        name = f"{kind}.schema.json"
+        assert schemas.text(kind) == files(schemas.package).joinpath(name).read_text("utf-8")

@@ -12,8 +12,11 @@ carries an ``x-allowed`` annotation quoted in error messages.
 
 from __future__ import annotations
 
+import importlib
 import json
+import os
 import re
+import sys
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from decimal import Decimal
@@ -160,9 +163,22 @@ class SchemaSet:
         self._fast: dict[str, _Check | None] = {}
 
     def text(self, kind: str) -> str:
-        """The schema file's exact text (copied into each project's ``.schemas/``)."""
+        """The schema file's exact text (copied into each project's ``.schemas/``).
+
+        Read from the package's folder as a file, as ``importlib.resources`` reads
+        it there; only a package that is no folder (a zip) goes through that API,
+        whose first use imports its readers (about 1.5 ms, paid by every save)."""
+        name = f"{kind}.schema.json"
+        module = sys.modules.get(self.package) or importlib.import_module(self.package)
+        origin = getattr(module, "__file__", None)
+        if isinstance(origin, str) and os.path.basename(origin) == "__init__.py":
+            try:
+                with open(os.path.join(os.path.dirname(origin), name), encoding="utf-8") as f:
+                    return f.read()
+            except FileNotFoundError:
+                pass  # not unpacked: the resources API finds it, or says so
         folder: Any = files(self.package)
-        text: str = folder.joinpath(f"{kind}.schema.json").read_text(encoding="utf-8")
+        text: str = folder.joinpath(name).read_text(encoding="utf-8")
         return text
 
     def schema(self, kind: str) -> dict[str, Any]:
@@ -257,10 +273,9 @@ def _compile(
     if schema is False or not isinstance(schema, dict) or depth > 32:
         return None
     rules = {k: v for k, v in schema.items() if k not in _ANNOTATIONS}
-    if rules.keys() == {"type", "pattern"} and rules["type"] == "string":
-        # The commonest leaf (a step, a token): one test, as jsonschema's two.
-        text = re.compile(rules["pattern"])
-        return lambda v: isinstance(v, str) and text.search(v) is not None
+    leaf = _text_leaf(rules) or _number_leaf(rules, formats)
+    if leaf is not None:  # the commonest leaves, in one test each
+        return leaf
     if rules.keys() == {"pattern"}:  # a property name, always text
         name = re.compile(rules["pattern"])
         return lambda v: not isinstance(v, str) or name.search(v) is not None
@@ -272,6 +287,11 @@ def _compile(
         if check is None:
             return None
         checks.append(check)
+    return _every(checks)
+
+
+def _every(checks: list[_Check]) -> _Check:
+    """A check that passes what every one of ``checks`` passes."""
     if not checks:
         return lambda v: True
     if len(checks) == 1:
@@ -279,7 +299,71 @@ def _compile(
     if len(checks) == 2:
         first, second = checks
         return lambda v: first(v) and second(v)
-    return lambda v: all(check(v) for check in checks)
+    chain = tuple(checks)
+
+    def every(v: Any) -> bool:
+        for check in chain:  # a loop, not all() of a generator: checked per value
+            if not check(v):
+                return False
+        return True
+
+    return every
+
+
+def _text_leaf(rules: Mapping[str, Any]) -> _Check | None:
+    """``type`` (text, or text or other scalar types) with a ``pattern``, in one test:
+    a step (text or null), a token (text or a number).  None for any other rules."""
+    if rules.keys() != {"type", "pattern"} or not isinstance(rules["pattern"], str):
+        return None
+    kinds = [rules["type"]] if isinstance(rules["type"], str) else rules["type"]
+    if not isinstance(kinds, list) or "string" not in kinds:
+        return None
+    if not all(kind in _TYPES for kind in kinds):
+        return None
+    text = re.compile(rules["pattern"])
+    others = [_TYPES[kind] for kind in kinds if kind != "string"]
+    if not others:
+        return lambda v: isinstance(v, str) and text.search(v) is not None
+    if others == [_TYPES["null"]]:
+        return lambda v: v is None or (isinstance(v, str) and text.search(v) is not None)
+    # pattern says nothing of a value that is not text: the other types pass as they are
+    return lambda v: (
+        text.search(v) is not None if isinstance(v, str) else any(test(v) for test in others)
+    )
+
+
+def _number_leaf(rules: Mapping[str, Any], formats: Mapping[str, re.Pattern[str]]) -> _Check | None:
+    """``type`` number or integer with any of ``format`` and the four limits, in one
+    test (a coordinate, an offset, a timer: most values of a file): once the value is
+    a :class:`Number`, each keyword's test of another type falls away.  None for any
+    other rules."""
+    kind = rules.get("type")
+    if kind not in ("number", "integer") or not rules.keys() <= _NUMBER_LEAF:
+        return None
+    limits = {k: v for k, v in rules.items() if k in _LIMITS}
+    if any(isinstance(v, bool) or not isinstance(v, (int, Decimal)) for v in limits.values()):
+        return None
+    integral = kind == "integer"
+    exact = formats.get(rules["format"]) if "format" in rules else None
+    low, high = limits.get("minimum"), limits.get("maximum")
+    above, below = limits.get("exclusiveMinimum"), limits.get("exclusiveMaximum")
+
+    def number(v: Any) -> bool:
+        return (
+            isinstance(v, Number)
+            and (not integral or v.integral)
+            and (exact is None or exact.fullmatch(v.text) is not None)
+            and (low is None or v >= low)
+            and (high is None or v <= high)
+            and (above is None or v > above)
+            and (below is None or v < below)
+        )
+
+    return number
+
+
+_LIMITS = frozenset({"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"})
+_NUMBER_LEAF = _LIMITS | {"type", "format"}
 
 
 def _keyword(
@@ -298,6 +382,8 @@ def _keyword(
         if not all(kind in _TYPES for kind in kinds):
             return None
         tests = [_TYPES[kind] for kind in kinds]
+        if len(tests) == 1:
+            return tests[0]
         return lambda v: any(test(v) for test in tests)
     if keyword in ("enum", "const"):
         members = value if keyword == "enum" else [value]
@@ -356,18 +442,24 @@ def _keyword(
         item = sub(value)
         if item is None:
             return None
-        return lambda v: not isinstance(v, list) or all(item(each) for each in v)
+        return lambda v: not isinstance(v, list) or all(map(item, v))
     if keyword == "required":
-        names = list(value)
-        return lambda v: not isinstance(v, dict) or all(name in v for name in names)
+        names = frozenset(value)
+        return lambda v: not isinstance(v, dict) or v.keys() >= names
     if keyword == "properties":
         props = {name: sub(subschema) for name, subschema in value.items()}
         if any(check is None for check in props.values()):
             return None
-        pairs = [(name, check) for name, check in props.items() if check is not None]
-        return lambda v: (
-            not isinstance(v, dict) or all(check(v[name]) for name, check in pairs if name in v)
-        )
+        pairs = tuple((name, check) for name, check in props.items() if check is not None)
+
+        def properties(v: Any) -> bool:
+            if isinstance(v, dict):
+                for name, check in pairs:
+                    if name in v and not check(v[name]):
+                        return False
+            return True
+
+        return properties
     if keyword == "additionalProperties":
         if "patternProperties" in schema:
             return None
@@ -379,10 +471,15 @@ def _keyword(
             return None
         if not known:  # every value is an additional one (a program's steps)
             return lambda v: not isinstance(v, dict) or all(map(extra, v.values()))
-        return lambda v: (
-            not isinstance(v, dict)
-            or all(extra(each) for name, each in v.items() if name not in known)
-        )
+
+        def additional(v: Any) -> bool:
+            if isinstance(v, dict):
+                for name, each in v.items():
+                    if name not in known and not extra(each):
+                        return False
+            return True
+
+        return additional
     if keyword == "propertyNames":
         name_check = sub(value)
         if name_check is None:

@@ -503,6 +503,8 @@ class _Batch:
 
     def watch(self, directory: Path) -> None:
         """Call before writing a file in ``directory``."""
+        if directory in self._dirs:
+            return
         self._dirs.add(directory)
         if self.per_file:
             return
@@ -551,13 +553,16 @@ def _commit(root: Path, writes: dict[str, bytes], removes: list[str]) -> None:
     entries: list[_Entry] = []
     batch = _Batch()
     try:
+        present: set[Path] = set()  # directories found or made: each looked at once
         for name, data in writes.items():
             target = root / name
-            for parent in reversed([target.parent, *target.parent.parents]):
-                if not parent.exists():
-                    batch.watch(parent.parent)  # where its name is
-                    parent.mkdir()
-                    made_dirs.append(parent)
+            if target.parent not in present:
+                for parent in reversed([target.parent, *target.parent.parents]):
+                    if parent not in present and not parent.exists():
+                        batch.watch(parent.parent)  # where its name is
+                        parent.mkdir()
+                        made_dirs.append(parent)
+                    present.add(parent)
             batch.watch(target.parent)
             # The old file's second name first: until the temporary exists the
             # entry reads as a removal, which an undo restores from that name.

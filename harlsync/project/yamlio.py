@@ -534,30 +534,34 @@ class _Writer:
     def _block_sequence(self, node: SequenceNode, indent: str, path: KeyPath) -> list[Any]:
         """A block sequence of scalars, an item a line (a program's steps)."""
         self.nodes.append(id(node))
-        self.parsed.lines.setdefault(path, self.line)
+        lines, line, out, scalar = self.parsed.lines, self.line, self.out, self._scalar
+        lines.setdefault(path, line)
         result = []
+        dash = f"{indent}- "
         for i, value in enumerate(node.value):
             if not isinstance(value, ScalarNode):
                 raise _Bail
-            self.parsed.lines.setdefault((*path, i), self.line)
-            text, data = self._scalar(value)
-            self._emit(f"{indent}- {text}")
+            lines.setdefault((*path, i), line)
+            text, data = scalar(value)
+            out.append(dash + text)
             result.append(data)
+            line += 1
+        self.line = line
         return result
 
     def _flow_mapping(self, node: MappingNode, path: KeyPath) -> tuple[str, dict[str, Any]]:
         self.nodes.append(id(node))
-        lines, line = self.parsed.lines, self.line
+        lines, line, scalar, key_of = self.parsed.lines, self.line, self._scalar, self._key
         lines.setdefault(path, line)
         parts, result = [], {}
         for key_node, value in node.value:
-            shown, key = self._key(key_node)
+            shown, key = key_of(key_node)
             if key in result:
                 raise _Bail
             at = (*path, key)
             lines[at] = line
             if isinstance(value, ScalarNode):
-                text, result[key] = self._scalar(value)
+                text, result[key] = scalar(value)
             elif _flow(value, SequenceNode, SEQ):  # a position's axes and coords, say
                 text, result[key] = self._flow_sequence(value, at)
             elif _flow(value, MappingNode, MAP):
@@ -571,13 +575,12 @@ class _Writer:
         self.nodes.append(id(node))
         lines, line = self.parsed.lines, self.line
         lines.setdefault(path, line)
-        parts, result = [], []
+        parts, result, scalar = [], [], self._scalar
         for i, value in enumerate(node.value):
             if not isinstance(value, ScalarNode):
                 raise _Bail
-            at = (*path, i)
-            lines.setdefault(at, line)
-            text, data = self._scalar(value)
+            lines.setdefault((*path, i), line)
+            text, data = scalar(value)
             parts.append(text)
             result.append(data)
         return "[" + ", ".join(parts) + "]", result
@@ -599,37 +602,75 @@ class _Writer:
             and (value[0] != "0" or value == "0")
         ):
             return value, value  # a step or table number: plain, and parse keeps it so
-        if not _PLAIN.fullmatch(value) or _implicit(value) != node.tag:
-            raise _Bail
-        return value, _key(node)
+        known = _KEYS.get((node.tag, value))
+        if known is None:
+            if not _PLAIN.fullmatch(value) or _implicit(value) != node.tag:
+                raise _Bail
+            known = _remembered(_KEYS, (node.tag, value), (value, _key(node)))
+        return known
 
     def _scalar(self, node: ScalarNode) -> tuple[str, Any]:
         """How a scalar is written, and its value as parse gives it (the same in a
         block and in a flow: the plain scalars written hold no flow indicator)."""
         self.nodes.append(id(node))
-        value, tag = node.value, node.tag
-        if node.style == '"':
-            if tag != STR or not _DOUBLE_QUOTABLE.fullmatch(value):
-                raise _Bail
-            return f'"{value}"', value
-        if node.style:
+        seen = (node.tag, node.style, node.value)
+        known = _SCALARS.get(seen)
+        if known is None:
+            known = _remembered(_SCALARS, seen, _write_scalar(node))
+        return known
+
+
+#: How each scalar (tag, style, text) and each key (tag, text) is written and what it
+#: reads back as, as :class:`_Writer` worked it out: a project repeats most of them (a
+#: table's keys, axes and speeds, a program's commands), and a value read back (text,
+#: a Number, true, null) is never changed.  Bounded: emptied when full.
+_SCALARS: dict[tuple[str, Any, str], tuple[str, Any]] = {}
+_KEYS: dict[tuple[str, str], tuple[str, str]] = {}
+_REMEMBERED_MAX = 8192
+
+
+def _remembered(memo: dict[Any, Any], key: Any, value: Any) -> Any:
+    if len(memo) >= _REMEMBERED_MAX:
+        memo.clear()
+    memo[key] = value
+    return value
+
+
+def _write_scalar(node: ScalarNode) -> tuple[str, Any]:
+    """How :class:`_Writer` writes a scalar, and its value as parse gives it; raises
+    :class:`_Bail` for one it leaves to the emitter."""
+    value, tag = node.value, node.tag
+    if node.style == '"':
+        if tag != STR or not _DOUBLE_QUOTABLE.fullmatch(value):
             raise _Bail
-        implicit = _implicit(value)
-        if implicit == tag and _PLAIN.fullmatch(value):
-            if tag == STR:
-                return value, value
-            if tag in (INT, FLOAT) and is_number_text(value):
-                return value, Number(value)
-            if tag == BOOL and value in ("true", "false"):
-                return value, value == "true"
-            if tag == NULL and value == "null":
-                return value, None
-            raise _Bail
-        # Text that would read back as another type ('5.00', 'true'): the emitter quotes
-        # it, in single quotes when nothing in it needs escaping.
-        if tag == STR and implicit != STR and _SINGLE_QUOTABLE.fullmatch(value):
-            return "'" + value.replace("'", "''") + "'", value
+        return f'"{value}"', value
+    if node.style:
         raise _Bail
+    if tag == INT and _DECIMAL_INT.fullmatch(value):  # what num() makes: plain, an int
+        return value, Number(value)
+    if tag == FLOAT and _FRACTION.fullmatch(value):  # ... and plain, a float
+        return value, Number(value)
+    implicit = _implicit(value)
+    if implicit == tag and _PLAIN.fullmatch(value):
+        if tag == STR:
+            return value, value
+        if tag in (INT, FLOAT) and is_number_text(value):
+            return value, Number(value)
+        if tag == BOOL and value in ("true", "false"):
+            return value, value == "true"
+        if tag == NULL and value == "null":
+            return value, None
+        raise _Bail
+    # Text that would read back as another type ('5.00', 'true'): the emitter quotes
+    # it, in single quotes when nothing in it needs escaping.
+    if tag == STR and implicit != STR and _SINGLE_QUOTABLE.fullmatch(value):
+        return "'" + value.replace("'", "''") + "'", value
+    raise _Bail
+
+
+#: A decimal number that is not an integer (``1.50``, ``.5``, ``1.``, ``5E-3``): the
+#: core schema's float, and written plain (``_PLAIN`` takes every character of it).
+_FRACTION = re.compile(r"[-+]?(\.[0-9]+|[0-9]+\.[0-9]*|[0-9]+(\.[0-9]*)?[eE][-+]?[0-9]+)")
 
 
 def _flow(node: Node, kind: type[CollectionNode], tag: str) -> bool:

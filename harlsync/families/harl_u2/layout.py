@@ -685,10 +685,17 @@ def _build_data(
     if "registers.yaml" in docs:
         registers = {int(n): text_of(v) for n, v in doc("registers.yaml")["registers"].items()}
     steps: dict[ProgramKey, dict[int, Step]] = {}
+    # A Step is immutable: each text is parsed once, however often a robot repeats it
+    made: dict[str, Step] = {}
     for key in sorted(programs, key=_program_order):
         parsed = programs[key]
         assert parsed is not None
-        steps[key] = {n: Step.parse(text) for n, text in _steps(parsed)}
+        program = steps[key] = {}
+        for n, text in _steps(parsed):
+            step = made.get(text)
+            if step is None:
+                step = made[text] = Step.parse(text)
+            program[n] = step
     return RobotData(
         version=doc("controller.yaml")["version"],
         config=config,

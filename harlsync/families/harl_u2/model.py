@@ -59,6 +59,9 @@ CODE_RE = re.compile(r"[0-9]{1,2}")
 
 #: At most four data items follow a step's command.
 MAX_STEP_DATA = 4
+#: A step's tokens joined by NUL when each is one TOKEN_RE and there are at most
+#: 1 + MAX_STEP_DATA (and no token holds a NUL): :meth:`Step.problems` in one test.
+_SOUND_TOKENS = re.compile(rf"[!-~]+(?:\0[!-~]+){{0,{MAX_STEP_DATA}}}")
 #: Offset tables 0-99 (the manual's fixed count; LNX does not report it).
 OFFSET_TABLE_COUNT = 100
 
@@ -130,6 +133,11 @@ class Step:
 
     def problems(self) -> list[str]:
         """What makes this step unwritable, as short phrases (empty when fine)."""
+        if self.command is not None:
+            joined = "\0".join((self.command, *self.data))
+            # every NUL a separator (none in a token), each token one TOKEN_RE
+            if joined.count("\0") == len(self.data) and _SOUND_TOKENS.fullmatch(joined):
+                return []  # a command and at most four data items
         out = []
         if self.command is None and self.data:
             out.append("data without a command")
