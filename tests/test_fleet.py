@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import logging
 import os
 import re
 import shutil
@@ -31,7 +32,7 @@ from harlsync.link.lock import LineLock, lock_path, take_lock_file
 from harlsync.sim import Faults
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sim.serve import TcpServer
-from harlsync.sync import engine, fleet
+from harlsync.sync import engine, fleet, history
 from harlsync.sync.backup import RobotOutcome, backup, find_projects, lines_of
 
 SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
@@ -104,24 +105,134 @@ def files_of(root: Path) -> dict[str, bytes]:
 def in_a_worker(plant: Plant, workers: int) -> list[str]:
     """The robots, alone on their line, that a backup of ``workers`` reads in a worker
     process (by the plan, which the run's watch then confirms)."""
-    lines = lines_of(find_projects([plant.root]))
-    here = [k for k, paths in lines.items() if any(p.name == "local" for p in paths)]
-    shares = fleet.plan(lines, workers, here)
-    return [lines[k][0].name for share in shares[1:] for k in share if len(lines[k]) == 1]
+    return [name for share in worker_shares(plant, workers) for name in share if "-" not in name]
 
 
-def test_the_plan_keeps_a_line_whole_and_gives_each_line_to_the_share_with_fewest_robots() -> None:
+def worker_shares(plant: Plant, workers: int) -> list[list[str]]:
+    """The robots of each worker's share, by the plan a backup of ``workers`` makes."""
+    here: set[str] = set()
+    lines = lines_of(find_projects([plant.root]), here)
+    shares = fleet.plan(lines, workers, here, fleet.weights(lines))
+    return [[p.name for k in share for p in lines[k]] for share in shares[1:]]
+
+
+def test_the_plan_keeps_a_line_whole_and_gives_the_heaviest_first_to_the_lightest_worker() -> None:
     lines = {
         k: [Path(f"{k}{n}") for n in range(size)] for k, size in zip("uvwxyz", (1, 3, 1, 2, 1, 1))
     }
+    # By robots (no weight): v 3, x 2, then w, y, z 1 each, each to the lighter worker.
     shares = fleet.plan(lines, 2, here=["u"])
-    assert shares == [["u", "x", "w", "z"], ["v", "y"]]  # 5 robots and 4
+    assert shares == [["u"], ["v", "y"], ["x", "w", "z"]]  # 4 robots and 4
     assert sorted(itertools.chain(*shares)) == sorted(lines)  # every line once
-    assert fleet.plan(lines, 16) == [["v"], ["x"], ["u"], ["w"], ["y"], ["z"]]  # a share a line
-    assert fleet.plan(lines, 1, here=["u"]) == [["u", "v", "x", "w", "y", "z"]]
+    # By exchanges: the heavy line alone, the others together.
+    weight = {"u": 1.0, "v": 100.0, "w": 500.0, "x": 50.0, "y": 60.0, "z": 300.0}
+    assert fleet.plan(lines, 2, ["u"], weight) == [["u"], ["w"], ["z", "v", "y", "x"]]
+    assert fleet.plan(lines, 16) == [[], ["v"], ["x"], ["u"], ["w"], ["y"], ["z"]]  # a line each
+    assert fleet.plan(lines, 1, here=["u"]) == [["u", "v", "w", "x", "y", "z"]]  # all here
+    assert fleet.plan({"u": [], "v": []}, 4, here=["u"]) == [["u", "v"]]  # one line to spread
     assert fleet.plan({}, 4) == [[]]
     assert fleet.in_process("sim://@fleet-1") and fleet.in_process("loop://")
     assert not fleet.in_process("socket://127.0.0.1:4001") and not fleet.in_process("/dev/ttyS0")
+
+
+#: A robot of about twice a SMALL one's exchanges (296 against 140).
+BIG = Config(
+    ProgramArea(1, 16), ProgramArea(4, 32), ProgramArea(2, 16), ProgramArea(1, 8), 8, 16, 8
+)
+
+
+def shares_read(caplog: pytest.LogCaptureFixture) -> list[list[str]]:
+    """The lines each worker read in the last run, as its debug record says."""
+    figures = [getattr(r, "fleet", None) for r in caplog.records]
+    return [f["keys"] for f in figures if f and f["process"].startswith("worker")]
+
+
+def test_a_backup_weighs_the_next_ones_shares_by_the_exchanges_each_robot_made(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    root = tmp_path / "plant"
+    sims = {"big": Simulator(SimState.generate(60, BIG))}
+    sims |= {f"small-{n}": Simulator(SimState.generate(60 + n, SMALL)) for n in range(1, 5)}
+    servers = [TcpServer(sim) for sim in sims.values()]
+    line = {}
+    try:
+        for (name, sim), server in zip(sims.items(), servers):
+            url = server.start()
+            engine.pull(root / name, port=url)  # a pull counts no exchanges: no weight yet
+            line[lines_of([root / name]).popitem()[0]] = name
+        caplog.set_level(logging.DEBUG, logger="harlsync.sync.fleet")
+
+        def run() -> tuple[dict[str, int], list[int]]:
+            """Each robot's exchanges, as its simulator answered them, and each worker's."""
+            before = {n: len(sim.received) for n, sim in sims.items()}
+            caplog.clear()
+            watch = Where()
+            report = backup([root], workers=2, watch=watch)
+            assert report.ok, report.render()
+            assert set(watch.of.values()) == {"worker"}  # this process only coordinates
+            made = {n: len(sim.received) - before[n] for n, sim in sims.items()}
+            shares = shares_read(caplog)
+            assert sorted(line[k] for share in shares for k in share) == sorted(sims)
+            return made, sorted(sum(made[line[k]] for k in share) for share in shares)
+
+        made, first = run()
+        for name, count in made.items():  # each robot's record: what its simulator answered
+            assert history.read(root / name)["last_exchanges"] == count
+        assert made["big"] > 2 * made["small-1"]
+        # By robots (none had a count): big and two small against two small.
+        assert first == sorted([made["big"] + 2 * made["small-1"], 2 * made["small-1"]])
+
+        made, second = run()
+        # By exchanges: big and one small against three small, within one robot's.
+        assert second == sorted([made["big"] + made["small-1"], 3 * made["small-1"]])
+        assert second[1] - second[0] < first[1] - first[0]
+        assert second[1] - second[0] <= made["small-1"]
+    finally:
+        for server in servers:
+            server.stop()
+
+
+def test_a_robot_never_backed_up_weighs_what_the_others_did_on_average(tmp_path: Path) -> None:
+    lines = {}
+    for name, count in (("a", 100), ("b", 300), ("c", None)):
+        project = tmp_path / name
+        project.mkdir()
+        if count is not None:
+            history.record(project, ok=True, exchanges=count)
+        lines[name] = [project]
+    lines["ab"] = [tmp_path / "a", tmp_path / "b"]  # two stations of one line
+    assert fleet.weights(lines) == {"a": 100, "b": 300, "c": 200, "ab": 400}
+    history.record(tmp_path / "a", ok=False, error="no reply")  # a failure keeps the count
+    history.record(tmp_path / "b", ok=True)  # as does a good one that did not count
+    assert fleet.weights(lines)["ab"] == 400
+    (tmp_path / "b" / ".harlsync" / "backup.json").write_text('{"last_exchanges": "many"}')
+    assert fleet.weights({"a": [tmp_path / "a"], "b": [tmp_path / "b"]}) == {"a": 100, "b": 100}
+    assert fleet.weights({"c": [tmp_path / "c"], "d": [tmp_path / "d"]}) == {"c": 1, "d": 1}
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="finds the workers in /proc")
+def test_workers_left_without_a_share_end_and_one_line_is_read_here(
+    plant: Plant, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Workers are started for the two stations' projects before their line is known:
+    one line, nothing to spread, read here; the workers end at once."""
+    caplog.set_level(logging.DEBUG, logger="harlsync.sync.fleet")
+    watch = Where()
+    report = backup([plant.root / "st-1", plant.root / "st-2"], workers=4, watch=watch)
+    assert report.ok, report.render()
+    assert watch.of == {"st-1": "here", "st-2": "here"}
+    [this] = [r.fleet for r in caplog.records if getattr(r, "fleet", {}).get("process") == "this"]
+    assert this["workers"] == 2 and this["lines"] == 1 and not shares_read(caplog)
+    assert _children() == []  # every worker ended, and was waited for
+
+
+def _children() -> list[int]:
+    """This process's children (workers, or a git a pull runs)."""
+    return [
+        int(child)
+        for task in Path(f"/proc/{os.getpid()}/task").iterdir()
+        for child in (task / "children").read_text().split()
+    ]
 
 
 def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) -> None:
@@ -262,7 +373,7 @@ def test_ctrl_c_during_a_backup_in_two_workers_leaves_no_partial_file_and_no_loc
 
 
 class KillsTheWorker(Where):
-    """Kills this process's worker as soon as the worker says it started a robot."""
+    """Kills one of this process's workers as soon as a worker says it started a robot."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -271,12 +382,8 @@ class KillsTheWorker(Where):
     def started(self, path: Path, name: str) -> None:
         super().started(path, name)
         if self.of[name] == "worker" and not self.killed:
-            children = [
-                int(child)
-                for task in Path(f"/proc/{os.getpid()}/task").iterdir()
-                for child in (task / "children").read_text().split()
-            ]  # the worker, and any git a pull of this process runs meanwhile
-            [pid] = [pid for pid in children if b"harlsync.sync.fleet" in _cmdline(pid)]
+            children = _children()  # the workers, and any git a pull of this process runs
+            pid = min(pid for pid in children if b"harlsync.sync.fleet" in _cmdline(pid))
             os.kill(pid, signal.SIGKILL)
             self.killed.append(pid)
 
@@ -297,7 +404,7 @@ def test_a_worker_killed_mid_run_fails_its_robots_and_the_run_goes_on(plant: Pla
     assert watch.killed
     rows = {r.name: r for r in report.robots}
     failed = sorted(n for n, r in rows.items() if not r.ok)
-    assert failed == sorted(in_a_worker(plant, 2) + ["st-1", "st-2"])  # its whole share
+    assert failed in [sorted(share) for share in worker_shares(plant, 2)]  # its whole share
     for name in failed:
         assert rows[name].error == (
             "the backup's worker process ended before this robot was backed up (killed by "
@@ -307,6 +414,7 @@ def test_a_worker_killed_mid_run_fails_its_robots_and_the_run_goes_on(plant: Pla
             k.removeprefix(f"{name}/"): v for k, v in before.items() if k.startswith(f"{name}/")
         }
     assert rows["local"].ok and rows["local"].changed  # this process's share went on
+    assert all(rows[n].ok for share in worker_shares(plant, 2) for n in share if n not in failed)
     assert report.commit and git(
         plant.root, "show", "--name-only", "--format=", "HEAD"
     ).split() == ["local/timers.yaml"]

@@ -45,6 +45,7 @@ __all__ = [
     "RobotOutcome",
     "backup",
     "find_projects",
+    "in_process",
     "line_of",
     "lines_of",
     "run_hook",
@@ -249,17 +250,29 @@ def line_of(port: str) -> str:
     return lock_key(port) or port
 
 
-def lines_of(projects: Iterable[Path]) -> dict[str, list[Path]]:
+def in_process(port: str) -> bool:
+    """Whether only this process can open ``port``: a peer registered in it
+    (``sim://@name``, :class:`harlsync.sim.protocol_sim.Registry`) or ``loop://``."""
+    return "://@" in port or lock_key(port) is None
+
+
+def lines_of(projects: Iterable[Path], here: set[str] | None = None) -> dict[str, list[Path]]:
     """The projects by line (:func:`line_of` their port), in order: each line's are
     read one after the other.  A project whose robot.yaml cannot be read is a line
-    of its own (it fails, naming why)."""
+    of its own (it fails, naming why).  ``here``, when given, gets the lines only
+    this process can read: a port :func:`in_process`, or a robot.yaml that cannot
+    be read (this process says why as well as any)."""
     lines: dict[str, list[Path]] = {}
     for path in projects:
         try:
             port = load_robot(path).port
+            local = in_process(port)
         except HarlsyncError:
-            port = f"unreadable:{path}"
-        lines.setdefault(line_of(port), []).append(path)
+            port, local = f"unreadable:{path}", True
+        key = line_of(port)
+        lines.setdefault(key, []).append(path)
+        if local and here is not None:
+            here.add(key)
     return lines
 
 
@@ -363,9 +376,12 @@ def backup_one(
     which says when it ended (``clock()``).  Every log line meanwhile names the
     robot (:mod:`harlsync.robotlog`).  Raises Stopped once ``stop`` is set."""
 
+    read = [0]  # the exchanges of the last attempt's read, as the pull counts them
+
     def progress(done: int, total: int) -> None:
         if stop.is_set():
             raise Stopped
+        read[0] = total
         watch.progress(path, done, total)
 
     name = _name_of(path)
@@ -381,7 +397,7 @@ def backup_one(
             outcome = _pull_one(path, attempts, lock_timeout, progress)
             if outcome.ok and outcome.changed:
                 outcome.pushed = audit.pushes_since(outcome.port, outcome.station, path, since)
-            outcome = _record(outcome, clock())
+            outcome = _record(outcome, clock(), read[0])
     watch.finished(outcome)
     return outcome
 
@@ -407,15 +423,19 @@ def not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
     return outcome
 
 
-def _record(outcome: RobotOutcome, now: datetime) -> RobotOutcome:
-    """Record the attempt in the robot's history (``DIR/.harlsync/backup.json``).
+def _record(outcome: RobotOutcome, now: datetime, exchanges: int = 0) -> RobotOutcome:
+    """Record the attempt in the robot's history (``DIR/.harlsync/backup.json``),
+    a good one with the ``exchanges`` its read took (what the next run weighs the
+    robot's line by, :func:`harlsync.sync.fleet.plan`).
 
     A history that cannot be written (a read-only or full disk) fails that robot
     only: a robot backed up fine becomes a failure naming it.
     """
     path = Path(outcome.path)
     try:
-        state = history.record(path, ok=outcome.ok, error=outcome.error, now=now)
+        state = history.record(
+            path, ok=outcome.ok, error=outcome.error, now=now, exchanges=exchanges or None
+        )
     except HarlsyncError as exc:
         log.warning("%s", exc)
         if outcome.ok:
@@ -501,7 +521,7 @@ def _run(
 
     projects = find_projects(paths)
     outcomes = fleet.read_lines(
-        lines_of(projects),
+        projects,
         fleet.Task(attempts, lock_timeout, clock),
         workers=fleet.default_workers() if workers is None else max(1, workers),
         jobs=jobs,

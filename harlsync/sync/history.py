@@ -10,8 +10,11 @@ touching a robot::
      "last_success":  "2026-11-25T02:00:41+00:00",  the last good one
      "last_changed":  true,                          whether that one changed the backup
      "last_changes":  "2 programs (5 steps)",        what it changed, in the family's words
-     "last_commit":   "3f9a1c2e4b..." | null}        the git commit that holds it (null:
+     "last_commit":   "3f9a1c2e4b..." | null,        the git commit that holds it (null:
                                                      not committed by harlsync)
+     "last_exchanges": 1080}                         how many exchanges the last good
+                                                     backup's read took: a backup's
+                                                     fleet weighs its shares by it
 
 Every successful pull updates it, so a robot set up with ``harlsync pull`` is
 not reported as never backed up.  A failed attempt keeps what the last good
@@ -86,6 +89,7 @@ def read(project: Path, problems: list[str] | None = None) -> dict[str, Any]:
         "last_changed": fields.flag("last_changed"),
         "last_changes": fields.text("last_changes"),
         "last_commit": fields.text("last_commit"),
+        "last_exchanges": fields.integer("last_exchanges"),
     }
     if state["last_result"] not in (None, "ok", "failed"):
         fields.problems.append(f"last_result holds {state['last_result']!r}, not ok or failed")
@@ -123,12 +127,14 @@ def record(
     now: datetime | None = None,
     changed: bool | None = None,
     changes: str | None = None,
+    exchanges: int | None = None,
 ) -> dict[str, Any]:
     """Record one attempt; return the updated state.
 
     A good one that says what it ``changed`` (``changes``, in the family's words)
     replaces what the previous good one said; one that changed anything is not
-    committed until :func:`committed` says so.  Raises ProjectError when the
+    committed until :func:`committed` says so.  A good one that says how many
+    ``exchanges`` its read took replaces the count of the previous one.  Raises ProjectError when the
     disk refuses (read-only, full): the previous record is then kept.
     """
     stamp = (now or datetime.now(timezone.utc)).isoformat(timespec="seconds")
@@ -136,6 +142,8 @@ def record(
     if ok:
         state["last_success"] = stamp
         state.pop("last_error", None)
+        if exchanges is not None:
+            state["last_exchanges"] = exchanges
         if changed is not None:
             state["last_changed"] = changed
             state["last_changes"] = changes
