@@ -340,7 +340,7 @@ def test_issue_24_robot_yaml_read_otherwise_before_the_line_opened_stops_the_pul
             return robot and dataclasses.replace(robot, description="not what the file says")
 
         monkeypatch.setattr(HarlU2Family, "quick_robot", misread)
-        with pytest.raises(ProjectError, match=r"robot.yaml: harlsync read description otherwise"):
+        with pytest.raises(ProjectError, match=r"robot.yaml: its description read otherwise now"):
             engine.pull(tmp_path / "cell")
     finally:
         unregister(url)
