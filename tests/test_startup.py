@@ -4,11 +4,17 @@ pays only for what the command uses)."""
 
 from __future__ import annotations
 
+import argparse
+import contextlib
+import io
 import json
 import os
 import subprocess
 import sys
+from datetime import time
 from pathlib import Path
+
+import pytest
 
 #: ``--help`` of every command, then the modules it left imported.
 HELP = """
@@ -107,3 +113,235 @@ def test_issue_24_a_pull_process_still_takes_the_line_lock_and_says_so_in_one_li
     assert done.stderr.startswith(f"harlsync: error: port {server.device}: in use by ")
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
     assert not (tmp_path / "cell" / "robot.yaml").exists()
+
+
+#: ``harlsync pull`` in this process, noting the modules it had imported when it
+#: first wrote to the port (argv[1]), in the file argv[2].
+AT_FIRST_WRITE = """
+import json, os, sys
+port, out = os.path.realpath(sys.argv[1]), sys.argv[2]
+write = os.write
+
+def noted(fd, data):
+    if not os.path.exists(out) and fd > 2 and os.isatty(fd) and os.ttyname(fd) == port:
+        with open(out, "w") as f:
+            json.dump(sorted(sys.modules), f)
+    return write(fd, data)
+
+os.write = noted
+from harlsync.cli import main
+sys.exit(main(["pull", *sys.argv[3:]]))
+"""
+
+#: What waits for the line to be open: the project store, YAML, the schemas (and
+#: jsonschema), the family's layout, git's answer, the audit log and history.
+AFTER_THE_FIRST_REQUEST = (
+    "yaml",
+    "jsonschema",
+    "filelock",
+    "harlsync.project.store",
+    "harlsync.project.yamlio",
+    "harlsync.project.schema",
+    "harlsync.project.files",
+    "harlsync.project.statefile",
+    "harlsync.families.harl_u2.layout",
+    "harlsync.sync.policy",
+    "harlsync.sync.audit",
+    "harlsync.sync.history",
+    "harlsync.sync.items",
+    "tqdm",
+    "jinja2",
+    "pymodbus",
+)
+
+
+def test_issue_24_a_pull_imports_the_link_and_codec_and_not_the_store_before_its_first_request(
+    tmp_path: Path,
+) -> None:
+    from conftest import git
+
+    from harlsync.families.harl_u2.layout import render_robot
+    from harlsync.families.harl_u2.sim import SimState, Simulator
+    from harlsync.project.robot import Robot, Window
+    from harlsync.sim.serve import PtyServer
+
+    git(tmp_path, "init", "-q")  # git is asked too: a pull checks for uncommitted edits
+    project, noted = tmp_path / "cell", tmp_path / "modules.json"
+    project.mkdir()
+    server = PtyServer(Simulator(SimState.generate(3)))
+    with server:
+        robot = Robot(name="cell", port=server.device, description="Cell 3: the press")
+        robot.windows.append(Window(("sat", "sun"), time(22, 0), time(6, 0)))
+        (project / "robot.yaml").write_text(render_robot(robot))
+        done = subprocess.run(
+            [sys.executable, "-c", AT_FIRST_WRITE, server.device, str(noted), str(project)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    assert done.returncode == 0, done.stderr
+    loaded = json.loads(noted.read_text())
+    assert {"harlsync.link.exchange", "harlsync.families.harl_u2.protocol.codec"} <= set(loaded)
+    assert [m for m in loaded if m.startswith(AFTER_THE_FIRST_REQUEST)] == []
+    assert (project / "controller.yaml").is_file()  # and the pull went on to save
+
+
+#: Command lines of every command, as a person or cron writes them.
+COMMAND_LINES = [
+    ["pull", "cell"],
+    ["-v", "pull", "cell", "--port", "/dev/ttyUSB0", "--station", "3", "--commit"],
+    ["-vv", "pull", "cell", "--allow-dirty", "--new-robot", "--lock-timeout", "2", "-v"],
+    ["--verbose", "diff", "cell", "--registers", "--format", "json"],
+    ["diff", "cell", "--rev", "HEAD~1", "--rev", "2"],
+    ["plan", "cell"],
+    ["push", "cell", "--yes", "--reason", "new timers", "--reset-function"],
+    ["rollback", "cell", "--yes"],
+    ["backup", "plant", "--commit", "--jobs", "4"],
+    ["status", "plant", "--format", "json"],
+    ["log", "cell"],
+    ["snapshots", "cell"],
+    ["validate", "cell"],
+    ["sim", "--family", "iai"],
+]
+
+
+def test_issue_24_the_parser_of_the_command_run_parses_as_the_whole_parser() -> None:
+    from harlsync.cli import _command_of, build_parser
+
+    whole = build_parser()
+    for argv in COMMAND_LINES:
+        command = _command_of(argv)
+        assert command == next(word for word in argv if not word.startswith("-")), argv
+        assert vars(build_parser(command).parse_args(argv)) == vars(whole.parse_args(argv))
+        assert _help(build_parser(command), [command, "--help"]) == _help(
+            whole, [command, "--help"]
+        )
+
+
+def _help(parser: argparse.ArgumentParser, argv: list[str]) -> str:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+        parser.parse_args(argv)
+    return out.getvalue()
+
+
+def test_issue_24_a_command_line_that_names_no_command_plainly_gets_the_whole_parser() -> None:
+    from harlsync.cli import _command_of
+
+    for argv in (
+        [],
+        ["--help"],
+        ["--version"],
+        ["pul", "cell"],
+        ["--verb", "pull"],
+        ["-x", "pull"],
+    ):
+        assert _command_of(argv) is None, argv
+
+
+def test_issue_24_help_is_as_wide_as_shutil_measures_the_terminal(monkeypatch) -> None:
+    import shutil
+
+    from harlsync.cli import _columns
+
+    for columns in ("100", "0", "abc", None):
+        if columns is None:
+            monkeypatch.delenv("COLUMNS", raising=False)
+        else:
+            monkeypatch.setenv("COLUMNS", columns)
+        assert _columns() == shutil.get_terminal_size().columns, columns
+
+
+def _pulled(repo: Path, url: str) -> Path:
+    from conftest import git
+
+    from harlsync.sync import engine
+
+    project = repo / "cell"
+    engine.pull(project, port=url)
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "backup")
+    return project
+
+
+def _files(project: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(project)): p.read_bytes() for p in project.rglob("*") if p.is_file()}
+
+
+def test_issue_24_a_dirty_project_is_refused_once_the_read_began_with_nothing_saved(repo) -> None:
+    from harlsync.errors import PolicyError
+    from harlsync.families.harl_u2.sim import SimState, Simulator
+    from harlsync.sim.protocol_sim import register, unregister
+    from harlsync.sync import engine
+
+    sim = Simulator(SimState.generate(5))
+    url = register(sim)
+    try:
+        project = _pulled(repo, url)
+        sim.stations[1].data.timers[1] = "7.77"  # a pull would change timers.yaml ...
+        programs = project / "programs"
+        edited = next(p for p in sorted(programs.iterdir()) if p.suffix == ".yaml")
+        edited.write_text(edited.read_text() + "# checked by hand\n")  # ... over an edit
+        before = _files(project)
+        sim.received.clear()
+        with pytest.raises(PolicyError) as refused:
+            engine.pull(project)
+    finally:
+        unregister(url)
+    assert str(refused.value) == (
+        f"{project}: uncommitted changes a pull would overwrite "
+        f"(cell/programs/{edited.name}); commit or stash them, or overwrite them with "
+        f"'harlsync pull {project} --allow-dirty'"
+    )
+    assert _files(project) == before  # nothing saved, not even the pull's record
+    # Refused after the first requests (git answered meanwhile), which were reads.
+    assert sim.received and not any(r.is_write for r in sim.received)
+
+
+def test_issue_24_without_git_a_pull_is_refused_in_one_line_and_saves_nothing(
+    repo, monkeypatch
+) -> None:
+    from harlsync.errors import SyncError
+    from harlsync.families.harl_u2.sim import SimState, Simulator
+    from harlsync.sim.protocol_sim import register, unregister
+    from harlsync.sync import engine
+
+    url = register(Simulator(SimState.generate(6)))
+    try:
+        project = _pulled(repo, url)
+        before = _files(project)
+        monkeypatch.setenv("PATH", str(repo / "no-git-here"))
+        with pytest.raises(SyncError, match=r"^git is not installed: install git"):
+            engine.pull(project)
+    finally:
+        unregister(url)
+    assert _files(project) == before
+
+
+def test_issue_24_robot_yaml_read_otherwise_before_the_line_opened_stops_the_pull(
+    tmp_path, monkeypatch
+) -> None:
+    import dataclasses
+
+    from harlsync.errors import ProjectError
+    from harlsync.families.harl_u2.family import HarlU2Family
+    from harlsync.families.harl_u2.sim import SimState, Simulator
+    from harlsync.sim.protocol_sim import register, unregister
+    from harlsync.sync import engine
+
+    url = register(Simulator(SimState.generate(7)))
+    try:
+        engine.pull(tmp_path / "cell", port=url)
+        before = _files(tmp_path / "cell")
+        quick = HarlU2Family.quick_robot
+
+        def misread(self: HarlU2Family, data: dict[str, object]) -> object:
+            robot = quick(self, data)
+            return robot and dataclasses.replace(robot, description="not what the file says")
+
+        monkeypatch.setattr(HarlU2Family, "quick_robot", misread)
+        with pytest.raises(ProjectError, match=r"robot.yaml: its description read otherwise now"):
+            engine.pull(tmp_path / "cell")
+    finally:
+        unregister(url)
+    assert _files(tmp_path / "cell") == before

@@ -100,22 +100,23 @@ def _read_robot(path: Path, family: AnyFamily | None) -> tuple[AnyFamily, Robot]
 def _same_reading(
     path: Path, quick: tuple[AnyFamily, Robot], full: tuple[AnyFamily, Robot]
 ) -> None:
-    """Raise ProjectError unless robot.yaml's quick reading found what the full one
-    does (never otherwise, unless harlsync has a bug: the line was opened with it)."""
+    """Raise ProjectError unless robot.yaml's quick reading, which the line was opened
+    with, found what the full one does: it always does, unless the file changed
+    meanwhile or harlsync has a bug."""
     (quick_family, quick_robot), (family, robot) = quick, full
+    fields = ("family", "name", "port", "station", "serial", "windows", "keep_registers")
     differ = [
         name
-        for name in ("family", "name", "port", "station", "serial", "windows", "keep_registers")
-        + ("description", "options")
+        for name in (*fields, "description", "options")
         if getattr(quick_robot, name) != getattr(robot, name)
     ]
     if quick_family.name != family.name and "family" not in differ:
         differ.insert(0, "family")
     if differ:
         raise ProjectError(
-            f"{path / 'robot.yaml'}: harlsync read {', '.join(differ)} otherwise before "
-            "the line opened than when it read the file the whole way; nothing was saved. "
-            "This is a bug in harlsync: please report it with that file"
+            f"{path / 'robot.yaml'}: its {', '.join(differ)} read otherwise now than when "
+            "the line was opened (the file changed meanwhile, or a bug in harlsync: please "
+            "report it); nothing was saved, run the pull again"
         )
 
 
