@@ -876,3 +876,19 @@ def test_issue_24_the_thread_that_waits_for_replies_keeps_its_deadlines(link: Li
     thread.start()
     thread.join()
     assert seen == [50_000, SLACK_NS]
+
+
+def test_issue_24_a_kind_timed_by_late_replies_is_timed_afresh_once_they_come_quicker(
+    link: Link, sim: ScriptedSim
+) -> None:
+    """The first replies of a kind came late (a busy start); the link times the next
+    by them and finds each whole when its timer wakes, which says only that it came no
+    later.  One exchange in RETIME is read as it comes, so the kind's timing follows
+    the quicker replies instead of waiting as long for the rest of the pull."""
+    from harlsync.link import exchange
+
+    sim.plan("LNT 2", *[Act(wire=slow(0.04))] * 3)
+    for _ in range(3 + exchange.RETIME):
+        assert link.exchange(cmd.read_timer(2)) == "3.20"
+    (took,) = link._took.values()  # the link's own timing of the kind
+    assert min(took.turnaround) < 0.02  # was 0.04 and more, for ever

@@ -61,7 +61,11 @@ reply whole, in one read; what is still missing it waits for in ``poll``::
                                                         wake (timer): one read
 
 A reply as long as the shortest recent one is one wake-up and one read, a
-longer one or a slower one is read as it comes after that.  Only a reply much
+longer one or a slower one is read as it comes after that.  One exchange in
+:data:`RETIME` of a kind is read as it comes from the start, to time the kind
+afresh: a reply found whole when the timer wakes says only that it came no later,
+so without it a kind timed by replies that came late once (a fleet's busy start)
+would wait as long for the rest of the pull.  Only a reply much
 quicker than all of them (an END after full steps) is taken late, when the
 timer wakes; the next of its kind is timed afresh, by poll.  The thread that waits
 has the kernel's timer slack lowered to 1 us (:mod:`harlsync.timers`): by default
@@ -150,6 +154,10 @@ LEARN_SHORTER = 8
 #: Exchanges of a kind whose durations the link keeps: it sleeps for the quickest,
 #: so that a reply is taken late only when it is quicker than all of them.
 RECENT = 64
+#: One exchange in this many of a kind is read as it comes, not by the timer, so
+#: that the kind's timing follows replies that got quicker (a timer that wakes after
+#: the reply came cannot tell how much sooner it was there).
+RETIME = 16
 
 
 @dataclass
@@ -688,7 +696,14 @@ class Link(Generic[F]):
         took = self._took.get(kind)
         # When to look first: when the reply's last bytes are due, if the recent
         # exchanges of this kind say when that is.
-        look = self._sent_at + took.shortest(len(self._sent), self._char) if took else 0.0
+        # Every RETIME-th exchange of a kind is timed afresh, by poll: a reply found
+        # whole when the timer woke says only that it came no later, so a kind timed
+        # by replies that came late once (a busy start) would wait as long for ever.
+        look = 0.0
+        if took:
+            took.timed += 1
+            if took.timed % RETIME:
+                look = self._sent_at + took.shortest(len(self._sent), self._char)
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
@@ -735,6 +750,7 @@ class _Took:
     def __init__(self) -> None:
         self.turnaround: deque[float] = deque(maxlen=RECENT)
         self.longer: deque[int] = deque(maxlen=RECENT)
+        self.timed = 0  # exchanges of the kind begun since it was first timed
 
     def __bool__(self) -> bool:
         return bool(self.turnaround)
