@@ -5,6 +5,7 @@ catalogue's push order."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from conftest import examples
@@ -29,3 +30,25 @@ def _by_the_rule(a: dict[Any, Any], b: dict[Any, Any]) -> list[tuple[Any, Any, A
 def test_diff_items_is_the_rule_item_by_item(a: dict[Any, Any], b: dict[Any, Any]) -> None:
     got = [(c.key, c.old, c.new) for c in diff_items(CATALOGUE, a, b)]
     assert got == _by_the_rule(a, b)
+
+
+def test_issue_24_git_log_in_one_process_gives_the_commits_under_a_path(
+    repo: Path, tmp_path: Path
+) -> None:
+    from conftest import git as run_git
+
+    from harlsync.sync import git
+
+    (repo / "a").mkdir()
+    (repo / "b").mkdir()
+    assert git.log(repo / "a") == []  # before the first commit
+    for name in ("a", "b", "a"):
+        (repo / name / "f").write_text(str(len(run_git(repo, "log", "--oneline", "--all"))))
+        run_git(repo, "add", "-A")
+        run_git(repo, "commit", "-qm", f"change {name}")
+    assert [c.subject for c in git.log(repo / "a")] == ["change a", "change a"]
+    assert [c.subject for c in git.log(repo / "b" / "f", 1)] == ["change b"]
+    assert git.log(repo / "a" / "not yet" / "x", 1) == []  # no file there ever changed
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    assert git.log(outside) == []
