@@ -56,6 +56,7 @@ __all__ = [
     "num",
     "parse",
     "quoted",
+    "row",
     "scalar_for",
     "sequence",
     "text",
@@ -384,6 +385,64 @@ def sequence(items: Iterable[Node], *, flow: bool = False) -> SequenceNode:
     return SequenceNode(SEQ, list(items), flow_style=flow)
 
 
+#: What a :func:`row` holds under a key: a number's text, a list of them, or a node.
+RowValue = str | list[str] | Node
+
+
+def row(items: Iterable[tuple[str, RowValue]]) -> MappingNode:
+    """A flow mapping of numbers, a table's row on one line (an IAI position), as
+    ``mapping(..., flow=True)`` with each number text given as :func:`num` and each
+    list of them as ``sequence([num(...), ...], flow=True)``, or a node given as it
+    is: the same document and the same data read back, without a node per number
+    (a full-size table has ten thousand of them).  Raises ValueError as :func:`num`
+    does, for a text that is not a decimal number."""
+    return _Row(list(items))
+
+
+class _Row(MappingNode):
+    """:func:`row`'s node: :class:`_Writer` writes its items directly; anything else
+    (PyYAML's emitter) finds the nodes ``mapping`` would have held, made when first
+    asked for."""
+
+    def __init__(self, items: list[tuple[str, RowValue]]) -> None:
+        for key, value in items:
+            if not isinstance(key, str):
+                raise TypeError(f"a row's key is text, not {key!r}")
+            if isinstance(value, str):
+                _number_text(value)
+            elif isinstance(value, list):
+                for each in value:
+                    _number_text(each)
+            elif not isinstance(value, Node):
+                raise TypeError(f"a row holds number texts, lists of them or nodes, not {value!r}")
+        self.items = items
+        self._nodes: list[tuple[Node, Node]] | None = None
+        super().__init__(MAP, None, flow_style=True)
+
+    @property
+    def value(self) -> list[tuple[Node, Node]]:
+        if self._nodes is None:
+            self._nodes = [(text(key), _row_node(value)) for key, value in self.items]
+        return self._nodes
+
+    @value.setter
+    def value(self, nodes: list[tuple[Node, Node]] | None) -> None:
+        self._nodes = nodes
+
+
+def _number_text(value: str) -> None:
+    if not _DECIMAL_FLOAT.fullmatch(value):  # every decimal integer matches it too
+        raise ValueError(f"not a decimal number: {value!r}")
+
+
+def _row_node(value: RowValue) -> Node:
+    if isinstance(value, str):
+        return num(value)
+    if isinstance(value, list):
+        return sequence([num(each) for each in value], flow=True)
+    return value
+
+
 class _IndentingEmitter(Emitter):
     """Indents block sequences under their key (PyYAML's default does not)."""
 
@@ -510,6 +569,9 @@ class _Writer:
             if isinstance(value, ScalarNode):
                 text, result[key] = self._scalar(value)
                 self._emit(f"{indent}{shown}: {text}")
+            elif type(value) is _Row:
+                text, result[key] = self._row(value, at)
+                self._emit(f"{indent}{shown}: {text}")
             elif isinstance(value, MappingNode) and value.tag == MAP:
                 if value.value and not value.flow_style:
                     self._emit(f"{indent}{shown}:")
@@ -562,13 +624,50 @@ class _Writer:
             lines[at] = line
             if isinstance(value, ScalarNode):
                 text, result[key] = scalar(value)
-            elif _flow(value, SequenceNode, SEQ):  # a position's axes and coords, say
-                text, result[key] = self._flow_sequence(value, at)
-            elif _flow(value, MappingNode, MAP):
-                text, result[key] = self._flow_mapping(value, at)
             else:
-                raise _Bail
+                text = self._flow_value(value, at, result, key)
             parts.append(f"{shown}: {text}")
+        return "{" + ", ".join(parts) + "}", result
+
+    def _flow_value(self, value: Node, at: KeyPath, result: dict[str, Any], key: str) -> str:
+        """A value in a flow mapping, written; what it reads back as put in ``result``."""
+        if isinstance(value, ScalarNode):
+            text, result[key] = self._scalar(value)
+        elif isinstance(value, SequenceNode) and _flow(value, SequenceNode, SEQ):
+            text, result[key] = self._flow_sequence(value, at)  # a position's axes, say
+        elif type(value) is _Row:
+            text, result[key] = self._row(value, at)
+        elif isinstance(value, MappingNode) and _flow(value, MappingNode, MAP):
+            text, result[key] = self._flow_mapping(value, at)
+        else:
+            raise _Bail
+        return text
+
+    def _row(self, node: _Row, path: KeyPath) -> tuple[str, dict[str, Any]]:
+        """A :func:`row` as :meth:`_flow_mapping` writes the mapping it stands for: a
+        number is plain (what num() takes is), a key plain when it is plain text."""
+        if node._nodes is not None or not all(_plain_key(key) for key, _ in node.items):
+            return self._flow_mapping(node, path)  # changed since, or keys to look at
+        self.nodes.append(id(node))
+        lines, line = self.parsed.lines, self.line
+        lines.setdefault(path, line)
+        parts: list[str] = []
+        result: dict[str, Any] = {}
+        for key, value in node.items:
+            if key in result:
+                raise _Bail
+            at = (*path, key)
+            lines[at] = line
+            if isinstance(value, str):
+                parts.append(f"{key}: {value}")
+                result[key] = Number(value)
+            elif isinstance(value, list):
+                for i in range(len(value)):
+                    lines.setdefault((*at, i), line)
+                parts.append(f"{key}: [{', '.join(value)}]")
+                result[key] = [Number(each) for each in value]
+            else:  # a node: as _flow_mapping writes one
+                parts.append(f"{key}: {self._flow_value(value, at, result, key)}")
         return "{" + ", ".join(parts) + "}", result
 
     def _flow_sequence(self, node: SequenceNode, path: KeyPath) -> tuple[str, list[Any]]:
@@ -627,6 +726,17 @@ class _Writer:
 _SCALARS: dict[tuple[str, Any, str], tuple[str, Any]] = {}
 _KEYS: dict[tuple[str, str], tuple[str, str]] = {}
 _REMEMBERED_MAX = 8192
+
+
+def _plain_key(key: str) -> bool:
+    """Whether text ``key`` is written as it is and parse keeps it so."""
+    known = _KEYS.get((STR, key))
+    if known is not None:
+        return True
+    if len(key) >= 128 or not _PLAIN.fullmatch(key) or _implicit(key) != STR:
+        return False
+    _remembered(_KEYS, (STR, key), (key, key))
+    return True
 
 
 def _remembered(memo: dict[Any, Any], key: Any, value: Any) -> Any:

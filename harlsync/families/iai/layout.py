@@ -272,17 +272,18 @@ def _version_node(version: Version) -> Any:
 
 
 def position_node(position: Position) -> Any:
-    items: list[tuple[str, Any]] = [
-        ("axes", y.sequence([y.num(str(a)) for a in position.axes], flow=True)),
-        ("coords", y.sequence([y.num(c) for c in position.coords], flow=True)),
-        ("acc", y.num(position.acc)),
-        ("dec", y.num(position.dec)),
-        ("speed", y.num(str(position.speed))),
+    """A position's line: a row of numbers (:func:`yamlio.row`, a thousand a table)."""
+    items: list[tuple[str, y.RowValue]] = [
+        ("axes", [str(a) for a in position.axes]),
+        ("coords", list(position.coords)),
+        ("acc", position.acc),
+        ("dec", position.dec),
+        ("speed", str(position.speed)),
     ]
     for name, arm in (("arm1", position.arm1), ("arm2", position.arm2)):
         if arm:
             items.append((name, y.text(ARM_NAMES.get(arm, str(arm)))))
-    return y.mapping(items, flow=True)
+    return y.row(items)
 
 
 def render_positions(positions: Mapping[int, Position]) -> str:
