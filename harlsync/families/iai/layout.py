@@ -80,6 +80,8 @@ from .model import (
     canonical_g,
     canonical_integer,
     canonical_real,
+    coord_in_one_form,
+    g_in_one_form,
 )
 
 __all__ = [
@@ -521,19 +523,26 @@ def _check_positions(
         if not partly:
             raise
         return
+    first, last = position_range(robot) if robot is not None else (1, 0xFFFF)
+    axes_allowed = robot.options.get("axes") if robot is not None else None
     for key, n in found:
         try:
-            _check_position(doc, robot, issues, table, key, n)
+            _check_position(doc, (first, last, axes_allowed), issues, table, key, n)
         except _UNCHECKABLE:
             if not partly:
                 raise
 
 
 def _check_position(
-    doc: y.Parsed, robot: Robot | None, issues: list[Issue], table: Any, key: Any, n: int
+    doc: y.Parsed,
+    robot: tuple[int, int, Any],
+    issues: list[Issue],
+    table: Any,
+    key: Any,
+    n: int,
 ) -> None:
-    first, last = position_range(robot) if robot is not None else (1, 0xFFFF)
-    axes_allowed = robot.options.get("axes") if robot is not None else None
+    """One position; ``robot``: its table's first and last number and its axes."""
+    first, last, axes_allowed = robot
     entry = table[key]
     at = ("positions", key)
 
@@ -567,9 +576,13 @@ def _check_position(
             "coords",
         )
     for i, value in enumerate(coords):
-        check_canonical(issue, text_of(value), canonical_coord, "coords", i)
+        text = text_of(value)
+        if not coord_in_one_form(text):  # the common case at once; else worked out
+            check_canonical(issue, text, canonical_coord, "coords", i)
     for name in ("acc", "dec"):
-        check_canonical(issue, text_of(entry[name]), canonical_g, name)
+        text = text_of(entry[name])
+        if not g_in_one_form(text):
+            check_canonical(issue, text, canonical_g, name)
 
 
 def _check_variables(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: list[Issue]) -> None:
