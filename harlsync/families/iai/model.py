@@ -395,11 +395,15 @@ class Position:
         if len(self.coords) != len(self.axes):
             out.append(f"{len(self.coords)} coordinates for {len(self.axes)} axes")
         for axis, coord in zip(self.axes, self.coords):
+            if isinstance(coord, str) and coord_in_one_form(coord):
+                continue  # surely a coordinate in range
             try:
                 _coord_units(coord)
             except ValueError as exc:
                 out.append(f"axis {axis}: {exc}")
         for what, value in (("acceleration", self.acc), ("deceleration", self.dec)):
+            if isinstance(value, str) and g_in_one_form(value):
+                continue
             try:
                 _g_units(value, what)
             except ValueError as exc:
