@@ -147,6 +147,8 @@ value = st.recursive(
         scalar,
         flow_collection,
         st.builds(lambda items: yamlio.sequence(items), st.lists(scalar, max_size=3)),
+        # a program's steps (issue 24): texts and nulls, without a node each
+        st.builds(yamlio.texts, st.lists(st.one_of(st.none(), word), max_size=4)),
     ),
     lambda inner: st.builds(_mapping, st.lists(st.tuples(key, inner), max_size=5), st.just(False)),
     max_leaves=20,
@@ -359,3 +361,26 @@ def test_issue_24_a_row_refuses_what_num_refuses(bad: str) -> None:
         yamlio.row([("a", bad)])
     with pytest.raises(ValueError):
         yamlio.row([("a", ["1", bad])])
+
+
+def test_issue_24_texts_are_written_as_the_sequence_they_stand_for() -> None:
+    steps = ["MOVE P001 S100", None, "END", "5.00", "- a", "true"]
+    as_nodes = yamlio.sequence([yamlio.null() if t is None else yamlio.text(t) for t in steps])
+    node = yamlio.mapping([("steps", yamlio.texts(steps)), ("none", yamlio.texts([]))])
+    assert not _same_as_emitter(node)  # "- a" is left to the emitter: so is all of it
+    ok = [t for t in steps if t != "- a"]
+    node = yamlio.mapping([("steps", yamlio.texts(ok)), ("none", yamlio.texts([]))])
+    assert _same_as_emitter(node)
+    expected = yamlio.mapping(
+        [
+            (
+                "steps",
+                yamlio.sequence([yamlio.null() if t is None else yamlio.text(t) for t in ok]),
+            ),
+            ("none", yamlio.sequence([], flow=True)),
+        ]
+    )
+    assert yamlio.dump(node) == yamlio._emit(expected, "")
+    assert yamlio._emit(yamlio.mapping([("s", yamlio.texts(steps))]), "") == yamlio._emit(
+        yamlio.mapping([("s", as_nodes)]), ""
+    )

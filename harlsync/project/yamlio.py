@@ -60,6 +60,7 @@ __all__ = [
     "scalar_for",
     "sequence",
     "text",
+    "texts",
 ]
 
 STR = "tag:yaml.org,2002:str"
@@ -430,6 +431,36 @@ class _Row(MappingNode):
         self._nodes = nodes
 
 
+def texts(values: Iterable[str | None]) -> SequenceNode:
+    """A block sequence of texts, an item a line, ``None`` written ``null`` (a
+    program's steps), as ``sequence([text(v) if v is not None else null() ...])``
+    would be, without a node per item (a full-size robot has 12,544 steps)."""
+    return _Texts(list(values))
+
+
+class _Texts(SequenceNode):
+    """:func:`texts`'s node: :class:`_Writer` writes its items directly; PyYAML's
+    emitter finds the nodes ``sequence`` would have held, made when first asked for."""
+
+    def __init__(self, items: list[str | None]) -> None:
+        for item in items:
+            if item is not None and not isinstance(item, str):
+                raise TypeError(f"texts holds text or None, not {item!r}")
+        self.items = items
+        self._nodes: list[Node] | None = None
+        super().__init__(SEQ, None, flow_style=False)
+
+    @property
+    def value(self) -> list[Node]:
+        if self._nodes is None:
+            self._nodes = [null() if item is None else text(item) for item in self.items]
+        return self._nodes
+
+    @value.setter
+    def value(self, nodes: list[Node] | None) -> None:
+        self._nodes = nodes
+
+
 def _number_text(value: str) -> None:
     if not _DECIMAL_FLOAT.fullmatch(value):  # every decimal integer matches it too
         raise ValueError(f"not a decimal number: {value!r}")
@@ -579,6 +610,13 @@ class _Writer:
                 else:
                     text, result[key] = self._flow_mapping(value, at)
                     self._emit(f"{indent}{shown}: {text}")
+            elif type(value) is _Texts and value._nodes is None:
+                if value.items:
+                    self._emit(f"{indent}{shown}:")
+                    result[key] = self._texts(value, indent + "  ", at)
+                else:  # as an empty sequence is written: []
+                    text, result[key] = self._flow_sequence(value, at)
+                    self._emit(f"{indent}{shown}: {text}")
             elif (
                 isinstance(value, SequenceNode)
                 and value.tag == SEQ
@@ -642,6 +680,30 @@ class _Writer:
         else:
             raise _Bail
         return text
+
+    def _texts(self, node: _Texts, indent: str, path: KeyPath) -> list[Any]:
+        """A :func:`texts` as :meth:`_block_sequence` writes the sequence it stands for."""
+        self.nodes.append(id(node))
+        lines, line, out = self.parsed.lines, self.line, self.out
+        lines.setdefault(path, line)
+        result: list[Any] = []
+        dash, null_line = f"{indent}- ", f"{indent}- null"
+        known = _SCALARS.get
+        for i, item in enumerate(node.items):
+            lines.setdefault((*path, i), line)
+            if item is None:
+                out.append(null_line)
+                result.append(None)
+            else:
+                seen = (STR, None, item)
+                written = known(seen)
+                if written is None:
+                    written = _remembered(_SCALARS, seen, _scalar_text(STR, None, item))
+                out.append(dash + written[0])
+                result.append(written[1])
+            line += 1
+        self.line = line
+        return result
 
     def _row(self, node: _Row, path: KeyPath) -> tuple[str, dict[str, Any]]:
         """A :func:`row` as :meth:`_flow_mapping` writes the mapping it stands for: a
@@ -749,12 +811,16 @@ def _remembered(memo: dict[Any, Any], key: Any, value: Any) -> Any:
 def _write_scalar(node: ScalarNode) -> tuple[str, Any]:
     """How :class:`_Writer` writes a scalar, and its value as parse gives it; raises
     :class:`_Bail` for one it leaves to the emitter."""
-    value, tag = node.value, node.tag
-    if node.style == '"':
+    return _scalar_text(node.tag, node.style, node.value)
+
+
+def _scalar_text(tag: str, style: str | None, value: str) -> tuple[str, Any]:
+    """:func:`_write_scalar` of a scalar node of ``tag``, ``style`` and ``value``."""
+    if style == '"':
         if tag != STR or not _DOUBLE_QUOTABLE.fullmatch(value):
             raise _Bail
         return f'"{value}"', value
-    if node.style:
+    if style:
         raise _Bail
     if tag == INT and _DECIMAL_INT.fullmatch(value):  # what num() makes: plain, an int
         return value, Number(value)
