@@ -268,12 +268,13 @@ def save_project(
         recover(root)
     family = project.family
     texts = family.render_files(project.robot, project.data)
+    rendered = {name: text.encode("utf-8") for name, text in texts.items()}
     issues = family.data_problems(project.data)
-    issues += [str(i) for i in family.analyse({k: v.encode() for k, v in texts.items()}).issues]
+    issues += [str(i) for i in family.analyse(rendered).issues]
     if issues:
         raise ProjectInvalid(issues)
 
-    wanted = {name: text.encode("utf-8") for name, text in texts.items()}
+    wanted = dict(rendered)
     if (root / "robot.yaml").exists() and not rewrite_robot:
         del wanted["robot.yaml"]
     for name, text in family.schemas().items():

@@ -708,14 +708,17 @@ class _Writer:
     def _row(self, node: _Row, path: KeyPath) -> tuple[str, dict[str, Any]]:
         """A :func:`row` as :meth:`_flow_mapping` writes the mapping it stands for: a
         number is plain (what num() takes is), a key plain when it is plain text."""
-        if node._nodes is not None or not all(_plain_key(key) for key, _ in node.items):
-            return self._flow_mapping(node, path)  # changed since, or keys to look at
-        self.nodes.append(id(node))
+        if node._nodes is not None:
+            return self._flow_mapping(node, path)  # changed since: its nodes
         lines, line = self.parsed.lines, self.line
         lines.setdefault(path, line)
         parts: list[str] = []
         result: dict[str, Any] = {}
         for key, value in node.items:
+            if key not in _KEYS_PLAIN and not _plain_key(key):
+                # a key to look at: as the mapping's nodes are written (the lines set
+                # so far are the ones that sets too)
+                return self._flow_mapping(node, path)
             if key in result:
                 raise _Bail
             at = (*path, key)
@@ -730,6 +733,7 @@ class _Writer:
                 result[key] = [Number(each) for each in value]
             else:  # a node: as _flow_mapping writes one
                 parts.append(f"{key}: {self._flow_value(value, at, result, key)}")
+        self.nodes.append(id(node))
         return "{" + ", ".join(parts) + "}", result
 
     def _flow_sequence(self, node: SequenceNode, path: KeyPath) -> tuple[str, list[Any]]:
@@ -792,13 +796,16 @@ _REMEMBERED_MAX = 8192
 
 def _plain_key(key: str) -> bool:
     """Whether text ``key`` is written as it is and parse keeps it so."""
-    known = _KEYS.get((STR, key))
-    if known is not None:
-        return True
     if len(key) >= 128 or not _PLAIN.fullmatch(key) or _implicit(key) != STR:
         return False
-    _remembered(_KEYS, (STR, key), (key, key))
+    if len(_KEYS_PLAIN) >= _REMEMBERED_MAX:
+        _KEYS_PLAIN.clear()
+    _KEYS_PLAIN.add(key)
     return True
+
+
+#: The texts :func:`_plain_key` found plain (a row's keys: a few, a thousand times).
+_KEYS_PLAIN: set[str] = set()
 
 
 def _remembered(memo: dict[Any, Any], key: Any, value: Any) -> Any:
