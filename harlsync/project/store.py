@@ -396,15 +396,26 @@ def _write_temp(target: Path, data: bytes, *, fsync: bool = True) -> Path:
     read-only) the temporary is removed before the OSError."""
     temp = _sibling(target, "new")
     try:
-        with open(temp, "xb") as f:
-            f.write(data)
-            f.flush()
+        # os.open as open(temp, "xb") opens it, without a file object around the
+        # descriptor (its fstat, isatty and seek: a save writes dozens of files)
+        fd = os.open(temp, _NEW_FILE, 0o666)
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view) :]
             if fsync:
-                os.fsync(f.fileno())
+                os.fsync(fd)
+        finally:
+            os.close(fd)
     except BaseException:
         _quietly(temp.unlink, missing_ok=True)
         raise
     return temp
+
+
+_NEW_FILE = (
+    os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+)
 
 
 def replace_file(target: Path, data: bytes) -> None:
