@@ -115,15 +115,28 @@ def _mapping(pairs: list[tuple[ScalarNode, Node]], flow: bool) -> MappingNode:
 flow_sequence = st.builds(
     lambda items: yamlio.sequence(items, flow=True), st.lists(scalar, max_size=5)
 )
+number_text = number.filter(yamlio.is_number_text)
+# A row of numbers (an IAI position's line): number texts, lists of them, or nodes.
+row = st.builds(
+    yamlio.row,
+    st.lists(
+        st.tuples(
+            word,
+            st.one_of(number_text, st.lists(number_text, max_size=4), scalar, flow_sequence),
+        ),
+        max_size=6,
+    ),
+)
 # Flow mappings of scalars, flow sequences and flow mappings (an IAI position's axes
 # and coords are sequences in a flow mapping).
 flow_collection = st.one_of(
     flow_sequence,
+    row,
     st.recursive(
         st.builds(_mapping, st.lists(st.tuples(key, scalar), max_size=5), st.just(True)),
         lambda inner: st.builds(
             _mapping,
-            st.lists(st.tuples(key, st.one_of(scalar, flow_sequence, inner)), max_size=5),
+            st.lists(st.tuples(key, st.one_of(scalar, flow_sequence, row, inner)), max_size=5),
             st.just(True),
         ),
         max_leaves=12,
@@ -134,6 +147,8 @@ value = st.recursive(
         scalar,
         flow_collection,
         st.builds(lambda items: yamlio.sequence(items), st.lists(scalar, max_size=3)),
+        # a program's steps (issue 24): texts and nulls, without a node each
+        st.builds(yamlio.texts, st.lists(st.one_of(st.none(), word), max_size=4)),
     ),
     lambda inner: st.builds(_mapping, st.lists(st.tuples(key, inner), max_size=5), st.just(False)),
     max_leaves=20,
@@ -287,3 +302,85 @@ def test_a_mapping_node_of_sequences_nested_is_left_to_the_emitter() -> None:
     inner = SequenceNode(yamlio.SEQ, [yamlio.text("a")], flow_style=True)
     node = yamlio.mapping([("x", yamlio.sequence([inner], flow=True))])
     assert yamlio._Writer("").document(node) is None
+
+
+# --- a row of numbers (issue 24: an IAI position's line without a node per number) ------
+
+
+def test_issue_24_a_row_is_written_as_the_mapping_it_stands_for() -> None:
+    items: list[tuple[str, yamlio.RowValue]] = [
+        ("axes", ["1", "2", "4"]),
+        ("coords", ["-0.500", "12.000", "1e5"]),
+        ("acc", "0.30"),
+        ("none", []),
+        ("arm1", yamlio.text("left")),
+        ("inner", yamlio.row([("x", "1")])),
+    ]
+    as_nodes = yamlio.mapping(
+        [
+            ("axes", yamlio.sequence([yamlio.num(n) for n in ("1", "2", "4")], flow=True)),
+            (
+                "coords",
+                yamlio.sequence([yamlio.num(n) for n in ("-0.500", "12.000", "1e5")], flow=True),
+            ),
+            ("acc", yamlio.num("0.30")),
+            ("none", yamlio.sequence([], flow=True)),
+            ("arm1", yamlio.text("left")),
+            ("inner", yamlio.mapping([("x", yamlio.num("1"))], flow=True)),
+        ],
+        flow=True,
+    )
+    row = yamlio.mapping([(yamlio.num("7"), yamlio.row(items))])
+    assert _same_as_emitter(row)
+    written = yamlio._Writer("").document(row)
+    assert written is not None
+    assert written[0] == yamlio._emit(yamlio.mapping([(yamlio.num("7"), as_nodes)]), "")
+
+
+@pytest.mark.parametrize("key", ["a: b", "5", "true", "", "x" * 130, "- a"])
+def test_issue_24_a_row_with_a_key_to_quote_is_still_written_as_the_emitter_writes_it(
+    key: str,
+) -> None:
+    _same_as_emitter(yamlio.mapping([("k", yamlio.row([(key, "1"), ("b", ["2"])]))]))
+
+
+def test_issue_24_a_row_shared_or_changed_is_written_as_its_nodes() -> None:
+    shared = yamlio.row([("a", "1")])
+    assert not _same_as_emitter(yamlio.mapping([("x", shared), ("y", shared)]))  # an alias
+    changed = yamlio.row([("a", "1")])
+    changed.value = [(yamlio.text("b"), yamlio.num("2"))]
+    assert _same_as_emitter(yamlio.mapping([("x", changed)]))
+    assert yamlio.dump(yamlio.mapping([("x", changed)])) == "x: {b: 2}\n"
+
+
+@pytest.mark.parametrize("bad", ["abc", "1.2.3", "", "0x1F", ".inf"])
+def test_issue_24_a_row_refuses_what_num_refuses(bad: str) -> None:
+    with pytest.raises(ValueError):
+        yamlio.num(bad)
+    with pytest.raises(ValueError):
+        yamlio.row([("a", bad)])
+    with pytest.raises(ValueError):
+        yamlio.row([("a", ["1", bad])])
+
+
+def test_issue_24_texts_are_written_as_the_sequence_they_stand_for() -> None:
+    steps = ["MOVE P001 S100", None, "END", "5.00", "- a", "true"]
+    as_nodes = yamlio.sequence([yamlio.null() if t is None else yamlio.text(t) for t in steps])
+    node = yamlio.mapping([("steps", yamlio.texts(steps)), ("none", yamlio.texts([]))])
+    assert not _same_as_emitter(node)  # "- a" is left to the emitter: so is all of it
+    ok = [t for t in steps if t != "- a"]
+    node = yamlio.mapping([("steps", yamlio.texts(ok)), ("none", yamlio.texts([]))])
+    assert _same_as_emitter(node)
+    expected = yamlio.mapping(
+        [
+            (
+                "steps",
+                yamlio.sequence([yamlio.null() if t is None else yamlio.text(t) for t in ok]),
+            ),
+            ("none", yamlio.sequence([], flow=True)),
+        ]
+    )
+    assert yamlio.dump(node) == yamlio._emit(expected, "")
+    assert yamlio._emit(yamlio.mapping([("s", yamlio.texts(steps))]), "") == yamlio._emit(
+        yamlio.mapping([("s", as_nodes)]), ""
+    )

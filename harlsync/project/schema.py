@@ -276,6 +276,8 @@ def _compile(
     leaf = _text_leaf(rules) or _number_leaf(rules, formats)
     if leaf is not None:  # the commonest leaves, in one test each
         return leaf
+    if rules.get("type") in ("array", "object") and rules.keys() <= _COLLECTION:
+        return _collection(rules, schema, root, formats, depth)
     if rules.keys() == {"pattern"}:  # a property name, always text
         name = re.compile(rules["pattern"])
         return lambda v: not isinstance(v, str) or name.search(v) is not None
@@ -360,6 +362,68 @@ def _number_leaf(rules: Mapping[str, Any], formats: Mapping[str, re.Pattern[str]
         )
 
     return number
+
+
+#: What :func:`_collection` takes of a list's or a mapping's rules.
+_COLLECTION = frozenset(
+    {"type", "minItems", "maxItems", "uniqueItems", "items"}
+    | {"required", "properties", "additionalProperties"}
+)
+
+
+def _collection(
+    rules: Mapping[str, Any],
+    schema: dict[str, Any],
+    root: dict[str, Any],
+    formats: Mapping[str, re.Pattern[str]],
+    depth: int,
+) -> _Check | None:
+    """``type`` array or object with its own keywords, in one function: the type
+    tested once, the sizes and the required names there, each other keyword's own
+    check after (a position, its axes and coordinates: thousands in a file)."""
+    kind = rules["type"]
+    wanted = {"array": ("minItems", "maxItems", "uniqueItems", "items")}.get(
+        kind, ("required", "properties", "additionalProperties")
+    )
+    if not rules.keys() - {"type"} <= set(wanted):
+        return None
+    sizes = [rules.get("minItems"), rules.get("maxItems")]
+    if any(n is not None and (isinstance(n, bool) or not isinstance(n, int)) for n in sizes):
+        return None
+    fewest, most = sizes
+    required = rules.get("required")
+    names = frozenset(required) if required is not None else None
+    checks = []
+    for keyword in ("uniqueItems", "items", "properties", "additionalProperties"):
+        if keyword in rules:
+            check = _keyword(keyword, rules[keyword], schema, root, formats, depth)
+            if check is None:
+                return None
+            checks.append(check)
+    rest = tuple(checks)
+    if kind == "array":
+
+        def array(v: Any) -> bool:
+            if not isinstance(v, list):
+                return False
+            if (fewest is not None and len(v) < fewest) or (most is not None and len(v) > most):
+                return False
+            for check in rest:
+                if not check(v):
+                    return False
+            return True
+
+        return array
+
+    def mapping(v: Any) -> bool:
+        if not isinstance(v, dict) or (names is not None and not v.keys() >= names):
+            return False
+        for check in rest:
+            if not check(v):
+                return False
+        return True
+
+    return mapping
 
 
 _LIMITS = frozenset({"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"})

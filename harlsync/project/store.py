@@ -268,12 +268,13 @@ def save_project(
         recover(root)
     family = project.family
     texts = family.render_files(project.robot, project.data)
+    rendered = {name: text.encode("utf-8") for name, text in texts.items()}
     issues = family.data_problems(project.data)
-    issues += [str(i) for i in family.analyse({k: v.encode() for k, v in texts.items()}).issues]
+    issues += [str(i) for i in family.analyse(rendered).issues]
     if issues:
         raise ProjectInvalid(issues)
 
-    wanted = {name: text.encode("utf-8") for name, text in texts.items()}
+    wanted = dict(rendered)
     if (root / "robot.yaml").exists() and not rewrite_robot:
         del wanted["robot.yaml"]
     for name, text in family.schemas().items():
@@ -395,15 +396,26 @@ def _write_temp(target: Path, data: bytes, *, fsync: bool = True) -> Path:
     read-only) the temporary is removed before the OSError."""
     temp = _sibling(target, "new")
     try:
-        with open(temp, "xb") as f:
-            f.write(data)
-            f.flush()
+        # os.open as open(temp, "xb") opens it, without a file object around the
+        # descriptor (its fstat, isatty and seek: a save writes dozens of files)
+        fd = os.open(temp, _NEW_FILE, 0o666)
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view) :]
             if fsync:
-                os.fsync(f.fileno())
+                os.fsync(fd)
+        finally:
+            os.close(fd)
     except BaseException:
         _quietly(temp.unlink, missing_ok=True)
         raise
     return temp
+
+
+_NEW_FILE = (
+    os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+)
 
 
 def replace_file(target: Path, data: bytes) -> None:

@@ -56,9 +56,11 @@ __all__ = [
     "num",
     "parse",
     "quoted",
+    "row",
     "scalar_for",
     "sequence",
     "text",
+    "texts",
 ]
 
 STR = "tag:yaml.org,2002:str"
@@ -384,6 +386,94 @@ def sequence(items: Iterable[Node], *, flow: bool = False) -> SequenceNode:
     return SequenceNode(SEQ, list(items), flow_style=flow)
 
 
+#: What a :func:`row` holds under a key: a number's text, a list of them, or a node.
+RowValue = str | list[str] | Node
+
+
+def row(items: Iterable[tuple[str, RowValue]]) -> MappingNode:
+    """A flow mapping of numbers, a table's row on one line (an IAI position), as
+    ``mapping(..., flow=True)`` with each number text given as :func:`num` and each
+    list of them as ``sequence([num(...), ...], flow=True)``, or a node given as it
+    is: the same document and the same data read back, without a node per number
+    (a full-size table has ten thousand of them).  Raises ValueError as :func:`num`
+    does, for a text that is not a decimal number."""
+    return _Row(list(items))
+
+
+class _Row(MappingNode):
+    """:func:`row`'s node: :class:`_Writer` writes its items directly; anything else
+    (PyYAML's emitter) finds the nodes ``mapping`` would have held, made when first
+    asked for."""
+
+    def __init__(self, items: list[tuple[str, RowValue]]) -> None:
+        for key, value in items:
+            if not isinstance(key, str):
+                raise TypeError(f"a row's key is text, not {key!r}")
+            if isinstance(value, str):
+                _number_text(value)
+            elif isinstance(value, list):
+                for each in value:
+                    _number_text(each)
+            elif not isinstance(value, Node):
+                raise TypeError(f"a row holds number texts, lists of them or nodes, not {value!r}")
+        self.items = items
+        self._nodes: list[tuple[Node, Node]] | None = None
+        super().__init__(MAP, None, flow_style=True)
+
+    @property
+    def value(self) -> list[tuple[Node, Node]]:
+        if self._nodes is None:
+            self._nodes = [(text(key), _row_node(value)) for key, value in self.items]
+        return self._nodes
+
+    @value.setter
+    def value(self, nodes: list[tuple[Node, Node]] | None) -> None:
+        self._nodes = nodes
+
+
+def texts(values: Iterable[str | None]) -> SequenceNode:
+    """A block sequence of texts, an item a line, ``None`` written ``null`` (a
+    program's steps), as ``sequence([text(v) if v is not None else null() ...])``
+    would be, without a node per item (a full-size robot has 12,544 steps)."""
+    return _Texts(list(values))
+
+
+class _Texts(SequenceNode):
+    """:func:`texts`'s node: :class:`_Writer` writes its items directly; PyYAML's
+    emitter finds the nodes ``sequence`` would have held, made when first asked for."""
+
+    def __init__(self, items: list[str | None]) -> None:
+        for item in items:
+            if item is not None and not isinstance(item, str):
+                raise TypeError(f"texts holds text or None, not {item!r}")
+        self.items = items
+        self._nodes: list[Node] | None = None
+        super().__init__(SEQ, None, flow_style=False)
+
+    @property
+    def value(self) -> list[Node]:
+        if self._nodes is None:
+            self._nodes = [null() if item is None else text(item) for item in self.items]
+        return self._nodes
+
+    @value.setter
+    def value(self, nodes: list[Node] | None) -> None:
+        self._nodes = nodes
+
+
+def _number_text(value: str) -> None:
+    if not _DECIMAL_FLOAT.fullmatch(value):  # every decimal integer matches it too
+        raise ValueError(f"not a decimal number: {value!r}")
+
+
+def _row_node(value: RowValue) -> Node:
+    if isinstance(value, str):
+        return num(value)
+    if isinstance(value, list):
+        return sequence([num(each) for each in value], flow=True)
+    return value
+
+
 class _IndentingEmitter(Emitter):
     """Indents block sequences under their key (PyYAML's default does not)."""
 
@@ -510,12 +600,22 @@ class _Writer:
             if isinstance(value, ScalarNode):
                 text, result[key] = self._scalar(value)
                 self._emit(f"{indent}{shown}: {text}")
+            elif type(value) is _Row:
+                text, result[key] = self._row(value, at)
+                self._emit(f"{indent}{shown}: {text}")
             elif isinstance(value, MappingNode) and value.tag == MAP:
                 if value.value and not value.flow_style:
                     self._emit(f"{indent}{shown}:")
                     result[key] = self._block(value, indent + "  ", at)
                 else:
                     text, result[key] = self._flow_mapping(value, at)
+                    self._emit(f"{indent}{shown}: {text}")
+            elif type(value) is _Texts and value._nodes is None:
+                if value.items:
+                    self._emit(f"{indent}{shown}:")
+                    result[key] = self._texts(value, indent + "  ", at)
+                else:  # as an empty sequence is written: []
+                    text, result[key] = self._flow_sequence(value, at)
                     self._emit(f"{indent}{shown}: {text}")
             elif (
                 isinstance(value, SequenceNode)
@@ -562,13 +662,78 @@ class _Writer:
             lines[at] = line
             if isinstance(value, ScalarNode):
                 text, result[key] = scalar(value)
-            elif _flow(value, SequenceNode, SEQ):  # a position's axes and coords, say
-                text, result[key] = self._flow_sequence(value, at)
-            elif _flow(value, MappingNode, MAP):
-                text, result[key] = self._flow_mapping(value, at)
             else:
-                raise _Bail
+                text = self._flow_value(value, at, result, key)
             parts.append(f"{shown}: {text}")
+        return "{" + ", ".join(parts) + "}", result
+
+    def _flow_value(self, value: Node, at: KeyPath, result: dict[str, Any], key: str) -> str:
+        """A value in a flow mapping, written; what it reads back as put in ``result``."""
+        if isinstance(value, ScalarNode):
+            text, result[key] = self._scalar(value)
+        elif isinstance(value, SequenceNode) and _flow(value, SequenceNode, SEQ):
+            text, result[key] = self._flow_sequence(value, at)  # a position's axes, say
+        elif type(value) is _Row:
+            text, result[key] = self._row(value, at)
+        elif isinstance(value, MappingNode) and _flow(value, MappingNode, MAP):
+            text, result[key] = self._flow_mapping(value, at)
+        else:
+            raise _Bail
+        return text
+
+    def _texts(self, node: _Texts, indent: str, path: KeyPath) -> list[Any]:
+        """A :func:`texts` as :meth:`_block_sequence` writes the sequence it stands for."""
+        self.nodes.append(id(node))
+        lines, line, out = self.parsed.lines, self.line, self.out
+        lines.setdefault(path, line)
+        result: list[Any] = []
+        dash, null_line = f"{indent}- ", f"{indent}- null"
+        known = _SCALARS.get
+        for i, item in enumerate(node.items):
+            lines.setdefault((*path, i), line)
+            if item is None:
+                out.append(null_line)
+                result.append(None)
+            else:
+                seen = (STR, None, item)
+                written = known(seen)
+                if written is None:
+                    written = _remembered(_SCALARS, seen, _scalar_text(STR, None, item))
+                out.append(dash + written[0])
+                result.append(written[1])
+            line += 1
+        self.line = line
+        return result
+
+    def _row(self, node: _Row, path: KeyPath) -> tuple[str, dict[str, Any]]:
+        """A :func:`row` as :meth:`_flow_mapping` writes the mapping it stands for: a
+        number is plain (what num() takes is), a key plain when it is plain text."""
+        if node._nodes is not None:
+            return self._flow_mapping(node, path)  # changed since: its nodes
+        lines, line = self.parsed.lines, self.line
+        lines.setdefault(path, line)
+        parts: list[str] = []
+        result: dict[str, Any] = {}
+        for key, value in node.items:
+            if key not in _KEYS_PLAIN and not _plain_key(key):
+                # a key to look at: as the mapping's nodes are written (the lines set
+                # so far are the ones that sets too)
+                return self._flow_mapping(node, path)
+            if key in result:
+                raise _Bail
+            at = (*path, key)
+            lines[at] = line
+            if isinstance(value, str):
+                parts.append(f"{key}: {value}")
+                result[key] = Number(value)
+            elif isinstance(value, list):
+                for i in range(len(value)):
+                    lines.setdefault((*at, i), line)
+                parts.append(f"{key}: [{', '.join(value)}]")
+                result[key] = [Number(each) for each in value]
+            else:  # a node: as _flow_mapping writes one
+                parts.append(f"{key}: {self._flow_value(value, at, result, key)}")
+        self.nodes.append(id(node))
         return "{" + ", ".join(parts) + "}", result
 
     def _flow_sequence(self, node: SequenceNode, path: KeyPath) -> tuple[str, list[Any]]:
@@ -629,6 +794,20 @@ _KEYS: dict[tuple[str, str], tuple[str, str]] = {}
 _REMEMBERED_MAX = 8192
 
 
+def _plain_key(key: str) -> bool:
+    """Whether text ``key`` is written as it is and parse keeps it so."""
+    if len(key) >= 128 or not _PLAIN.fullmatch(key) or _implicit(key) != STR:
+        return False
+    if len(_KEYS_PLAIN) >= _REMEMBERED_MAX:
+        _KEYS_PLAIN.clear()
+    _KEYS_PLAIN.add(key)
+    return True
+
+
+#: The texts :func:`_plain_key` found plain (a row's keys: a few, a thousand times).
+_KEYS_PLAIN: set[str] = set()
+
+
 def _remembered(memo: dict[Any, Any], key: Any, value: Any) -> Any:
     if len(memo) >= _REMEMBERED_MAX:
         memo.clear()
@@ -639,12 +818,16 @@ def _remembered(memo: dict[Any, Any], key: Any, value: Any) -> Any:
 def _write_scalar(node: ScalarNode) -> tuple[str, Any]:
     """How :class:`_Writer` writes a scalar, and its value as parse gives it; raises
     :class:`_Bail` for one it leaves to the emitter."""
-    value, tag = node.value, node.tag
-    if node.style == '"':
+    return _scalar_text(node.tag, node.style, node.value)
+
+
+def _scalar_text(tag: str, style: str | None, value: str) -> tuple[str, Any]:
+    """:func:`_write_scalar` of a scalar node of ``tag``, ``style`` and ``value``."""
+    if style == '"':
         if tag != STR or not _DOUBLE_QUOTABLE.fullmatch(value):
             raise _Bail
         return f'"{value}"', value
-    if node.style:
+    if style:
         raise _Bail
     if tag == INT and _DECIMAL_INT.fullmatch(value):  # what num() makes: plain, an int
         return value, Number(value)

@@ -319,17 +319,21 @@ class Commit(NamedTuple):
 
 def log(path: str | Path, limit: int = 10) -> list[Commit]:
     """The commits that changed files under ``path``, newest first (none outside git
-    or before the first commit)."""
-    root = repo_root(path)
-    if root is None:
-        return []
+    or before the first commit).
+
+    One git process, run where ``path`` is: git finds the repository itself, and
+    fails outside one (a pull that changed nothing asks this after the read)."""
+    path = Path(path).resolve()
+    cwd = path if path.is_dir() else path.parent
+    while not cwd.exists():
+        cwd = cwd.parent
     result = _git(
-        root,
+        cwd,
         "log",
         f"-n{limit}",
         "--format=%H%x1f%cI%x1f%s",
         "--",
-        str(Path(path).resolve()),
+        str(path),
         check=False,
     )
     if result.returncode != 0:

@@ -4,9 +4,11 @@ refusing a controller that does not look like the robot backed up there."""
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
+from operator import attrgetter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -280,12 +282,16 @@ def _pull(
     things = family.catalogue
     live = read.live
     previous = backup()
+    compared = None  # the changes without runtime data, when _same_robot found them
     if previous is not None and not new_robot:
-        _same_robot(path, things, previous, live, read.driver.label)
+        compared = _same_robot(path, things, previous, live, read.driver.label)
     save_project(path, Project(path, robot, live, family))
-    changes = (
-        None if previous is None else diff(things, previous, live, registers=robot.keep_registers)
-    )
+    if previous is None:
+        changes = None
+    elif compared is not None and not robot.keep_registers:
+        changes = compared
+    else:
+        changes = diff(things, previous, live, registers=robot.keep_registers)
     result = PullResult(
         path,
         robot,
@@ -352,23 +358,28 @@ FEW_ITEMS = 10
 
 def _same_robot(
     path: Path, things: Catalogue[Any, Any], backup: Any, live: Any, where: str
-) -> None:
+) -> list[Change[Any]]:
     """Raise PolicyError unless the controller read (``live``) looks like the robot
     backed up in ``path``: the same identity (the family's: version, configuration,
     model), and not most items of a kind changed at once (runtime data aside), which
     a wrong port or station, a swapped controller or a lost memory would do.
 
     Each kind is judged alone: a hundred tables, most of them unused and alike
-    on every robot, must not hide that every program step changed."""
-    from .items import diff
+    on every robot, must not hide that every program step changed.
+
+    Returns the changes, runtime data aside (``diff(things, backup, live)``): the
+    pull need not work them out again."""
+    from .items import diff_items
 
     differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
+    changes: list[Change[Any]] = []
     if not differ:
-        held = things.items(backup, registers=False).keys() | things.items(live, registers=False)
-        changes = diff(things, backup, live)
-        for kind in sorted({key.kind for key in held}):
+        was, now = things.items(backup, registers=False), things.items(live, registers=False)
+        changes = diff_items(things, was, now)
+        held = Counter(map(attrgetter("kind"), was.keys() | now.keys()))
+        for kind in sorted(held):
             of_kind = [c for c in changes if c.key.kind == kind]
-            count = sum(key.kind == kind for key in held)
+            count = held[kind]
             if count >= FEW_ITEMS and len(of_kind) > MOST * count:
                 differ = [
                     (
@@ -380,6 +391,7 @@ def _same_robot(
                 break
     if differ:
         raise _not_this_robot(path, where, differ)
+    return changes
 
 
 def _identity_differs(was: Mapping[str, str], now: Mapping[str, str]) -> list[str]:

@@ -1068,3 +1068,29 @@ def test_the_reply_deadline_is_half_a_second_plus_one_and_a_half_wire_times() ->
     assert profile.bits_per_char() == 10
     assert profile.bits_per_char(7, "E", 2) == 11
     assert profile.reply_deadline(25, 115200, 11) == pytest.approx(0.5 + 1.5 * 275 / 115200)
+
+
+#: Number-like texts near the edges of the one forms: signs, zeros, digits, dots.
+_near_numbers = st.one_of(
+    st.text(st.sampled_from("-+0123456789."), min_size=1, max_size=11),
+    st.integers(-(2**31) - 5, 2**31 + 5).map(lambda u: m._text(u, 3)),
+    st.integers(-5, 70000).map(lambda u: m._text(u, 2)),
+    st.sampled_from(["-0.000", "0.000", "2147483.647", "2147483.648", "-2147483.648", "655.35"]),
+)
+
+
+@settings(max_examples=examples(1000))
+@given(_near_numbers)
+def test_issue_24_a_text_said_to_be_in_its_one_form_is(text: str) -> None:
+    if m.coord_in_one_form(text):
+        assert m.canonical_coord(text) == text
+    if m.g_in_one_form(text):
+        assert m.canonical_g(text) == text
+
+
+@given(st.integers(-999_999_999, 999_999_999), st.integers(0, 9_999))
+def test_issue_24_what_the_wire_gives_is_said_at_once_to_be_in_its_one_form(
+    coord: int, g: int
+) -> None:
+    assert m.coord_in_one_form(m.coord_from_word(coord & 0xFFFFFFFF))
+    assert m.g_in_one_form(m.g_from_units(g))

@@ -82,9 +82,10 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
             for n, value in data.registers.items():
                 out[NumberKey("register", n)] = value
         for (ptype, number), steps in data.programs.items():
+            name = ptype.value  # once a program, not once a step: 12,544 in a full-size one
             for n, step in steps.items():
-                if not step.empty:
-                    out[StepKey("step", ptype.value, number, n)] = step
+                if step.command is not None:  # not step.empty
+                    out[StepKey("step", name, number, n)] = step
         return out
 
     def order(self, key: Key) -> tuple[Any, ...]:

@@ -239,18 +239,19 @@ def render_program(key: ProgramKey, steps: Mapping[int, Step]) -> str:
     """One program file: its steps as a list in step order, up to the last step used;
     an empty step before it is ``null``, so that inserting a step renumbers nothing."""
     ptype, number = key
-    used = [n for n, s in steps.items() if not s.empty]
-    nodes = [
-        y.text(steps[n].text) if n in steps and not steps[n].empty else y.null()
-        for n in range(max(used, default=-1) + 1)
-    ]
+    used = [n for n, s in steps.items() if s.command is not None]  # not s.empty
+    last = max(used, default=-1)
+    texts: list[str | None] = [None] * (last + 1)
+    for n in used:
+        if n >= 0:  # as range(last + 1) has them
+            texts[n] = steps[n].text
     return FILES.document(
         "program",
         program_path(key),
         [
             ("type", y.text(ptype.value)),
             ("number", y.num(str(number))),
-            ("steps", y.sequence(nodes, flow=not nodes)),
+            ("steps", y.texts(texts)),
         ],
     )
 

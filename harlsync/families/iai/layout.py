@@ -80,6 +80,8 @@ from .model import (
     canonical_g,
     canonical_integer,
     canonical_real,
+    coord_in_one_form,
+    g_in_one_form,
 )
 
 __all__ = [
@@ -272,17 +274,18 @@ def _version_node(version: Version) -> Any:
 
 
 def position_node(position: Position) -> Any:
-    items: list[tuple[str, Any]] = [
-        ("axes", y.sequence([y.num(str(a)) for a in position.axes], flow=True)),
-        ("coords", y.sequence([y.num(c) for c in position.coords], flow=True)),
-        ("acc", y.num(position.acc)),
-        ("dec", y.num(position.dec)),
-        ("speed", y.num(str(position.speed))),
+    """A position's line: a row of numbers (:func:`yamlio.row`, a thousand a table)."""
+    items: list[tuple[str, y.RowValue]] = [
+        ("axes", [str(a) for a in position.axes]),
+        ("coords", list(position.coords)),
+        ("acc", position.acc),
+        ("dec", position.dec),
+        ("speed", str(position.speed)),
     ]
     for name, arm in (("arm1", position.arm1), ("arm2", position.arm2)):
         if arm:
             items.append((name, y.text(ARM_NAMES.get(arm, str(arm)))))
-    return y.mapping(items, flow=True)
+    return y.row(items)
 
 
 def render_positions(positions: Mapping[int, Position]) -> str:
@@ -520,19 +523,26 @@ def _check_positions(
         if not partly:
             raise
         return
+    first, last = position_range(robot) if robot is not None else (1, 0xFFFF)
+    axes_allowed = robot.options.get("axes") if robot is not None else None
     for key, n in found:
         try:
-            _check_position(doc, robot, issues, table, key, n)
+            _check_position(doc, (first, last, axes_allowed), issues, table, key, n)
         except _UNCHECKABLE:
             if not partly:
                 raise
 
 
 def _check_position(
-    doc: y.Parsed, robot: Robot | None, issues: list[Issue], table: Any, key: Any, n: int
+    doc: y.Parsed,
+    robot: tuple[int, int, Any],
+    issues: list[Issue],
+    table: Any,
+    key: Any,
+    n: int,
 ) -> None:
-    first, last = position_range(robot) if robot is not None else (1, 0xFFFF)
-    axes_allowed = robot.options.get("axes") if robot is not None else None
+    """One position; ``robot``: its table's first and last number and its axes."""
+    first, last, axes_allowed = robot
     entry = table[key]
     at = ("positions", key)
 
@@ -566,9 +576,13 @@ def _check_position(
             "coords",
         )
     for i, value in enumerate(coords):
-        check_canonical(issue, text_of(value), canonical_coord, "coords", i)
+        text = text_of(value)
+        if not coord_in_one_form(text):  # the common case at once; else worked out
+            check_canonical(issue, text, canonical_coord, "coords", i)
     for name in ("acc", "dec"):
-        check_canonical(issue, text_of(entry[name]), canonical_g, name)
+        text = text_of(entry[name])
+        if not g_in_one_form(text):
+            check_canonical(issue, text, canonical_g, name)
 
 
 def _check_variables(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: list[Issue]) -> None:

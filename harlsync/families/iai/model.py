@@ -158,6 +158,24 @@ def _hex_value(wire: str, digits: int, what: str) -> int:
     return int(wire, 16)
 
 
+#: Coordinate text surely in its one form: three decimals, no leading zero, at most
+#: six digits before the point (the range has seven): canonical_coord gives it back.
+_ONE_FORM_COORD = re.compile(r"-?(?:0|[1-9][0-9]{0,5})\.[0-9]{3}")
+#: Acceleration text surely in its one form: 0.00-99.99 (the range goes to 655.35).
+_ONE_FORM_G = re.compile(r"(?:0|[1-9][0-9]?)\.[0-9]{2}")
+
+
+def coord_in_one_form(text: str) -> bool:
+    """Whether ``text`` is surely in its one form (``canonical_coord(text) == text``)
+    without working that out: False says nothing (ask :func:`canonical_coord`)."""
+    return _ONE_FORM_COORD.fullmatch(text) is not None and text != "-0.000"
+
+
+def g_in_one_form(text: str) -> bool:
+    """As :func:`coord_in_one_form`, of :func:`canonical_g`."""
+    return _ONE_FORM_G.fullmatch(text) is not None
+
+
 def canonical_coord(text: str) -> str:
     """Coordinate text in its one form: three decimals (``"0012.5"`` -> ``"12.500"``).
 
@@ -377,11 +395,15 @@ class Position:
         if len(self.coords) != len(self.axes):
             out.append(f"{len(self.coords)} coordinates for {len(self.axes)} axes")
         for axis, coord in zip(self.axes, self.coords):
+            if isinstance(coord, str) and coord_in_one_form(coord):
+                continue  # surely a coordinate in range
             try:
                 _coord_units(coord)
             except ValueError as exc:
                 out.append(f"axis {axis}: {exc}")
         for what, value in (("acceleration", self.acc), ("deceleration", self.dec)):
+            if isinstance(value, str) and g_in_one_form(value):
+                continue
             try:
                 _g_units(value, what)
             except ValueError as exc:
