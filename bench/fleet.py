@@ -3,6 +3,9 @@
     python bench/fleet.py                    128 default-full robots at 19200 baud, all
                                              served by one simulator thread: ~2 min
     python bench/fleet.py --quick            32 small-full robots: ~15 s
+    python bench/fleet.py --quick --workers 2,1 --rounds 3    one worker against two,
+                                             in turn, each round timing one robot alone
+                                             too: the ratios of one run, under one load
     python bench/fleet.py --robots 32 --processes 4     the simulators as before issue
                                              15: 8 lines a process, two threads a line
     python bench/fleet.py --workers 1        the backup in one process, as before issue 24
@@ -16,15 +19,23 @@ thread and one event loop (``--loop``), so that the simulated lines take as litt
 the machine's CPU as they can: ``--processes N`` splits them over N processes of the
 framework's servers instead (two threads a line).  Each robot is a project directory
 whose robot.yaml names its pty and the baud rate, holding what the robot holds (a
-nightly backup with no change).  First one robot alone is backed up
+nightly backup with no change).  Each round first backs up one robot alone
 (harlsync.sync.backup.backup), then all of them at once, every line at once (the
-backup's default) or ``--jobs``.  Every robot reads the same bytes, so the one alone
-is the slowest single robot.
+backup's default) or ``--jobs``, once for each ``--workers`` count.  Every robot
+reads the same bytes, so the one alone is the slowest single robot.
 
-Printed beside the times: harlsync's CPU during the fleet backup (this process, which
-reads a share of the lines, and the worker processes it starts for the others: one
-per core by default, ``--workers N``) and its share of one core; the simulator's CPU and how late its
-replies were (the emulation's own error, on top of the figures); the load average.
+Printed beside the times: harlsync's CPU during the fleet backup (the worker
+processes, one per core by default, and this process, which coordinates them) and
+its share of one core; the simulator's CPU and how late its replies were (the
+emulation's own error, on top of the figures); the load average.  Then, per
+process, from the fleet's debug records (harlsync.sync.fleet) and the simulator's
+counts: its lines, the exchanges its share was weighed at and those it made, when
+it was ready (imports done) and when its lines' first requests went out (after the
+run started), when their last replies were due, the gaps between a reply and the
+next request per line, and its CPU.  Load-independent: the exchanges and the CPU.
+
+The simulator runs on the same cores as harlsync: its cost is printed, not kept off
+them (there is no third core).
 
 Target (issues 15 and 24): 128 robots at 19200 baud in at most 1.10 x one robot alone.
 """
@@ -33,6 +44,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import os
 import select
 import subprocess
@@ -43,6 +55,7 @@ import tty
 from contextlib import ExitStack
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 from machine import BITS_PER_BYTE, ROBOTS, SimProcess, describe, minutes
 
@@ -51,7 +64,7 @@ from harlsync.families.harl_u2.model import ProgramType
 from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_frame
 from harlsync.project import Project, new_robot, save_project
 from harlsync.settings import SerialSettings
-from harlsync.sync.backup import BackupReport, backup
+from harlsync.sync.backup import BackupReport, backup, line_of
 from harlsync.sync.fleet import default_workers
 
 TARGET = 1.10
@@ -125,7 +138,12 @@ def main() -> None:
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--jobs", type=int, help="backup's --jobs (default: its default)")
     parser.add_argument(
-        "--workers", type=int, help="backup's --workers (default: its default, one per core)"
+        "--workers",
+        help="backup's --workers (default: its default, one per core); several, "
+        "comma-separated (2,1), are run in turn in each round",
+    )
+    parser.add_argument(
+        "--rounds", type=int, default=1, help="rounds of one robot alone, then each --workers"
     )
     parser.add_argument(
         "--processes",
@@ -156,16 +174,27 @@ def main() -> None:
     args = parser.parse_args()
     robot = args.robot or ("small-full" if args.quick else "default-full")
     count = args.robots or (32 if args.quick else 128)
-    jobs: dict[str, int] = {} if args.jobs is None else {"jobs": args.jobs}
-    if args.workers is not None:
-        jobs["workers"] = args.workers
+    counts: list[int | None] = [int(n) for n in args.workers.split(",")] if args.workers else [None]
     processes = args.processes or 1
     per_process = -(-count // processes)
+    records: list[dict[str, Any]] = []
+
+    class Figures(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            if hasattr(record, "fleet"):
+                records.append(record.fleet)
+
+    fleet_log = logging.getLogger("harlsync.sync.fleet")
+    fleet_log.setLevel(logging.DEBUG)
+    fleet_log.addHandler(Figures())
+    fleet_log.propagate = False
 
     print(f"harlsync fleet bench: {describe()}")
     print(
         f"{count} {robot} robots on separate lines at {args.baud} baud, backup jobs: "
-        f"{args.jobs or 'default'}, workers: {args.workers or default_workers()}; simulated by "
+        f"{args.jobs or 'default'}, workers: "
+        + ", ".join(str(n or default_workers()) for n in counts)
+        + "; simulated by "
         + (
             "one process, one event loop"
             if not args.processes
@@ -173,6 +202,7 @@ def main() -> None:
         )
         + f", pacing tick {(args.tick or 0.001) * 1e3:g} ms\n"
     )
+    summary: list[str] = []
     with tempfile.TemporaryDirectory() as tmp, ExitStack() as stack:
         os.environ["HARLSYNC_LOCK_DIR"] = str(Path(tmp) / "locks")
         os.environ["HARLSYNC_AUDIT_LOG"] = str(Path(tmp) / "audit.jsonl")
@@ -197,32 +227,67 @@ def main() -> None:
             save_project(path, Project(path, bot, data))
             assert f"baudrate: {args.baud}" in render_robot(bot)
 
-        start = time.perf_counter()
-        alone = backup([plant / "robot-000"], **jobs)
-        single = time.perf_counter() - start
-        counted = sims[0].stats()[0]
-        limit = (counted["bytes_in"] + counted["bytes_out"]) * BITS_PER_BYTE / args.baud
-        for sim in sims:
-            sim.reset()
-        sim_before = sum(sim.stats()[0]["cpu"] for sim in sims)
-
-        load_before = os.getloadavg()
-        start, cpu = time.perf_counter(), os.times()
-        if args.split > 1:
-            fleet = split_backup(sorted(plant.iterdir()), args.split, args.jobs)
-        else:
-            fleet = backup([plant], **jobs)
-        total = time.perf_counter() - start
-        after = os.times()
-        client_cpu = sum(after[:4]) - sum(cpu[:4])  # with the split's or the workers' processes
-        own_cpu = sum(after[:2]) - sum(cpu[:2])  # this process alone
-        load_after = os.getloadavg()
-        stats = [sim.stats() for sim in sims]
-        sim_cpu = sum(s[0]["cpu"] for s in stats) - sim_before
-        lines = [line for s in stats for line in s]
+        for round_ in range(1, args.rounds + 1):
+            for sim in sims:
+                sim.reset()
+            start = time.perf_counter()
+            alone = backup([plant / "robot-000"], workers=1)
+            single = time.perf_counter() - start
+            assert alone.ok, alone.render()
+            for workers in counts:
+                if args.rounds > 1 or len(counts) > 1:
+                    print(f"--- round {round_}, workers {workers or default_workers()}")
+                took = run_fleet(args, sims, ports, plant, workers, single, records)
+                summary.append(
+                    f"round {round_}: workers {workers or default_workers()}: "
+                    f"{took:.1f} s / {single:.1f} s alone = {took / single:.3f}"
+                )
         floor = one_thread_floor(ports, min(single, 10.0)) if args.floor else None
+    if len(summary) > 1:
+        print("\n" + "\n".join(summary))
+    if floor:
+        done, took, used = floor
+        print(
+            f"\nOne thread, one epoll loop, every line (raw frames, no link): {done / took:,.0f} "
+            f"exchanges/s, {used / took:.0%} of one core, {used / done * 1e6:.0f} us an exchange"
+        )
 
-    assert alone.ok and fleet.ok, (alone.render(), fleet.render())
+
+def run_fleet(
+    args: argparse.Namespace,
+    sims: list[SimProcess],
+    ports: list[str],
+    plant: Path,
+    workers: int | None,
+    single: float,
+    records: list[dict[str, Any]],
+) -> float:
+    """Back the fleet up once and print its figures; how long it took."""
+    jobs: dict[str, int] = {} if args.jobs is None else {"jobs": args.jobs}
+    if workers is not None:
+        jobs["workers"] = workers
+    for sim in sims:
+        sim.reset()
+    sim_before = sum(sim.stats()[0]["cpu"] for sim in sims)
+    records.clear()
+    load_before = os.getloadavg()
+    began = time.monotonic()
+    start, cpu = time.perf_counter(), os.times()
+    if args.split > 1:
+        fleet = split_backup(sorted(plant.iterdir()), args.split, args.jobs)
+    else:
+        fleet = backup([plant], **jobs)
+    total = time.perf_counter() - start
+    after = os.times()
+    client_cpu = sum(after[:4]) - sum(cpu[:4])  # with the split's or the workers' processes
+    own_cpu = sum(after[:2]) - sum(cpu[:2])  # this process alone
+    load_after = os.getloadavg()
+    stats = [sim.stats() for sim in sims]
+    sim_cpu = sum(s[0]["cpu"] for s in stats) - sim_before
+    lines = [line for s in stats for line in s]
+    assert fleet.ok, fleet.render()
+    first = lines[0]
+    limit = (first["bytes_in"] + first["bytes_out"]) * BITS_PER_BYTE / args.baud
     durations = sorted(r.duration for r in fleet.robots)
     exchanges = sum(s["exchanges"] for s in lines)
     late = max(s.get("late_worst", 0.0) for s in lines)
@@ -252,13 +317,48 @@ def main() -> None:
         f"its children (the workers; git, which a pull asks) {client_cpu - own_cpu:.1f} s "
         f"({(client_cpu - own_cpu) / total:.0%})"
     )
+    by_process(records, ports, lines, began)
     print(f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}).")
-    if floor:
-        done, took, used = floor
+    return total
+
+
+def by_process(
+    records: list[dict[str, Any]], ports: list[str], lines: list[dict[str, Any]], began: float
+) -> None:
+    """Each process's share and what became of it (see the module's text)."""
+    if not records:
+        return
+    index = {line_of(port): n for n, port in enumerate(ports)}
+    workers = [r for r in records if r["process"] != "this"]
+    theirs = {k for r in workers for k in r["keys"]}
+    print(
+        f"\n{'process':10} {'lines':>5} {'weighed':>9} {'made':>9} {'ready':>6} "
+        f"{'first requests':>15} {'last replies':>15} {'gaps/line':>9} {'CPU':>6}"
+    )
+    for record in workers + [r for r in records if r["process"] == "this"]:
+        if record["process"] == "this":
+            keys = [k for k in index if k not in theirs]
+            weighed, ready = "", ""
+        else:
+            keys = record["keys"]
+            weighed, ready = f"{record['weight']:,.0f}", f"{record['ready']:.2f}s"
+        own = [lines[index[k]] for k in keys if k in index]
+        firsts = [s["first_in"] - began for s in own if s.get("first_in") is not None]
+        lasts = [s["last_due"] - began for s in own]
+        reads = (
+            f"{min(firsts):>6.2f}-{max(firsts):.2f} s {min(lasts):>6.2f}-{max(lasts):.2f} s "
+            f"{sum(s['gaps'] for s in own) / len(own):>8.2f}s"
+            if firsts
+            else f"{'':>15} {'':>15} {'':>9}"
+        )
         print(
-            f"\nOne thread, one epoll loop, every line (raw frames, no link): {done / took:,.0f} "
-            f"exchanges/s, {used / took:.0%} of one core, {used / done * 1e6:.0f} us an "
-            f"exchange; the fleet needs {exchanges / single:,.0f}/s to keep every line busy"
+            f"{record['process']:10} {len(own):>5} {weighed:>9} "
+            f"{sum(s['exchanges'] for s in own):>9,} {ready:>6} {reads} {record['cpu']:>5.2f}s"
+            + (
+                f"  (relayed {record['events']:,} events: {record['relay_cpu']:.3f} s of CPU)"
+                if record["process"] == "this"
+                else ""
+            )
         )
 
 
