@@ -345,3 +345,22 @@ def test_issue_24_robot_yaml_read_otherwise_before_the_line_opened_stops_the_pul
     finally:
         unregister(url)
     assert _files(tmp_path / "cell") == before
+
+
+def test_issue_24_review_a_git_that_cannot_be_started_is_one_line_not_a_traceback(
+    repo, tmp_path, monkeypatch
+) -> None:
+    """A git on PATH that is not executable (or no process left to start it) is a
+    SyncError in words, as a missing git is, not a thread's traceback and an
+    IndexError."""
+    from harlsync.errors import SyncError
+    from harlsync.sync import git
+
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "git").write_text("#!/bin/sh\n")  # mode 644: not executable
+    monkeypatch.setenv("PATH", str(bin_dir))
+    asked = git.Asked(repo)
+    with pytest.raises(SyncError, match=r"^git could not be started \(Permission denied\)"):
+        asked.changed_files()
+    asked.close()

@@ -570,6 +570,12 @@ class Family(ABC, Generic[K, D]):
     #: the stations robot.yaml and ``--station`` allow, and the one a first pull takes
     stations: range = range(1, 100)
     default_station: int = 1
+    #: whether :meth:`connect` (or what a read does before the robot's identity) may
+    #: write to the controller: Epson's handshake drives its input signals when it
+    #: starts.  The engine then refuses a project with uncommitted edits before it
+    #: connects; a family whose connection only reads says False, and a pull asks git
+    #: while its first requests are on the line (issue 24).
+    connect_writes: bool = True
 
     @property
     @abstractmethod

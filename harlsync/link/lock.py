@@ -251,7 +251,15 @@ class WindowsLockFile:
         deadline = None if timeout < 0 else time.monotonic() + timeout
         flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOINHERIT", 0)
         while True:
-            fd = os.open(path, flags, 0o666)
+            try:
+                fd = os.open(path, flags, 0o666)
+            except PermissionError:
+                # the holder's file, removed as it let go while a scanner had it open,
+                # is "delete pending" until the scanner closes it: contended, not broken
+                if deadline is not None and time.monotonic() >= deadline:
+                    raise LockTimeout(str(path)) from None
+                time.sleep(_POLL)
+                continue
             try:
                 msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)  # type: ignore[attr-defined,unused-ignore]
             except OSError as exc:

@@ -208,7 +208,7 @@ def schema(path: Path) -> dict[str, Any] | None:
     """The JSON Schema at ``path`` (a family's own file), or None when it cannot be
     read here (a package not on disk): the full reading is then the only one."""
     try:
-        found: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+        found: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"), parse_float=Decimal)
     except (OSError, ValueError):
         return None
     return found

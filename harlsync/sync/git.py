@@ -148,6 +148,13 @@ class Asked:
                 self._failed = _not_installed()
                 self._failed.__cause__ = exc
                 return
+            except OSError as exc:  # not executable, no process left (EAGAIN): one line
+                self._failed = SyncError(
+                    f"git could not be started ({exc.strerror or exc}): check the git on "
+                    "PATH, or pull with --allow-dirty"
+                )
+                self._failed.__cause__ = exc
+                return
             self._runs.append((args, process))
 
     def _take(self) -> tuple[Path | None, list[str]]:
@@ -160,6 +167,8 @@ class Asked:
                 out, err = process.communicate()
                 done.append((args, subprocess.CompletedProcess(args, process.returncode, out, err)))
             self._runs = []
+            if not done:  # the thread ended before it started one: a failure it did not name
+                raise SyncError("git could not be started: check the git on PATH")
             top = Path(done[0][1].stdout.strip()) if done[0][1].returncode == 0 else None
             changed: list[str] = []
             if top is not None and len(done) > 1:

@@ -169,9 +169,10 @@ def pull(
     given = family
     family, robot, quick = _robot_for(path, port, station, given)
     station = station_number(family, station)
-    # git's answer on uncommitted edits, asked now and taken once the line is open:
-    # its processes run meanwhile (issue 24).  A read writes nothing to the
-    # controller, so a dirty project is refused then, before anything is saved.
+    # git's answer on uncommitted edits, asked now and taken before the family
+    # connects, or, for a family whose connection only reads (Family.connect_writes
+    # False), once the line is open: its processes run meanwhile (issue 24).  Either
+    # way a dirty project is refused before anything is written or saved.
     asked = None if allow_dirty else git.Asked(path)
     try:
         return _pull(
@@ -261,6 +262,8 @@ def _pull(
             if differ:
                 raise _not_this_robot(path, where, differ)
 
+    if family.connect_writes:  # a dirty project refused before anything is sent
+        settle()
     read = read_live(
         family,
         robot,

@@ -852,3 +852,19 @@ def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(robo
     assert [r for r in audit.read() if r.get("event") == "recover"] == []
     apply_command(sim, "stop")
     assert sim.stations[1].points and project.exists()
+
+
+def test_issue_24_review_a_dirty_project_is_refused_before_the_connection_drives_a_signal(
+    robot: tuple[Simulator, str], repo: Path
+) -> None:
+    """Epson's connection drives its handshake inputs when it starts (and with
+    --reset-function resets the function): a pull of a project with uncommitted edits
+    is refused before it connects, not once the line is open as a HARL-U2's is."""
+    sim, url = robot
+    project = pulled(repo, url)
+    (project / "robot.yaml").write_text((project / "robot.yaml").read_text())  # unchanged
+    points = next(p for p in sorted(project.rglob("*.yaml")) if p.name != "robot.yaml")
+    points.write_text(points.read_text() + "# checked by hand\n")
+    before = sim.accesses()
+    assert cli.main(["pull", str(project), "--reset-function"]) == cli.EXIT_REFUSED
+    assert sim.accesses() == before  # not a register read, not a signal driven

@@ -29,6 +29,9 @@ class HarlU2Family(Family["Key", "RobotData"]):
     deploy_notes: tuple[str, ...] = ()
     words = Words(state="the task states")
     stations = range(FIRST_STATION, LAST_STATION + 1)
+    #: the connection reads LNX and LNV; its codec cannot send anything but a read
+    #: before an interlock check (protocol/commands.py)
+    connect_writes = False
     help = Help(
         stations=f"{STATION_ALLOWED}, as set on the pendant",
         pull="the configuration, every program step, the parameters, the offset tables "
