@@ -147,10 +147,8 @@ class LockTimeout(TimeoutError):
     """Another process held the lock file past the timeout (its path is the message)."""
 
 
-class LockFile:
-    """A lock file held with ``flock(2)`` through the descriptor ``fd``: closing it
-    releases the lock, and :meth:`release` removes the file first (while the lock is
-    still held, so that no other process can have taken it)."""
+class _HeldFile:
+    """A lock file held through the descriptor ``fd`` (None once released)."""
 
     def __init__(self, path: Path, fd: int) -> None:
         self.path = path
@@ -159,6 +157,12 @@ class LockFile:
     @property
     def lock_file(self) -> str:
         return str(self.path)
+
+
+class LockFile(_HeldFile):
+    """A lock file held with ``flock(2)`` through the descriptor ``fd``: closing it
+    releases the lock, and :meth:`release` removes the file first (while the lock is
+    still held, so that no other process can have taken it)."""
 
     @classmethod
     def take(cls, path: Path, timeout: float) -> LockFile:
@@ -224,19 +228,11 @@ def _open_lock_file(path: Path) -> int | None:
     return fd
 
 
-class WindowsLockFile:
+class WindowsLockFile(_HeldFile):
     """Windows: the first byte of the lock file locked with ``msvcrt.locking``, through
     the descriptor ``fd``.  :meth:`release` unlocks and closes it, then removes the
     file, which Windows refuses while another process has it open (a waiter): the
     last holder removes it."""
-
-    def __init__(self, path: Path, fd: int) -> None:
-        self.path = path
-        self._fd: int | None = fd
-
-    @property
-    def lock_file(self) -> str:
-        return str(self.path)
 
     @classmethod
     def take(cls, path: Path, timeout: float) -> WindowsLockFile:

@@ -19,8 +19,9 @@ the schemas with it, which ``harlsync pull`` needs only after its first request
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ..lazy import attributes
 
 if TYPE_CHECKING:
     from .robot import DAYS, Robot, Window, new_robot
@@ -70,10 +71,4 @@ _HOME = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOME.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(f"{__name__}.{home}"), name)
-    globals()[name] = value  # once: the next look-up is a plain attribute
-    return value
+__getattr__ = attributes(__name__, _HOME)

@@ -8,9 +8,10 @@ plan and comparison machinery, before its first request (issue 24).
 from __future__ import annotations
 
 import sys
-from importlib import import_module
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
+
+from ..lazy import attributes
 
 if TYPE_CHECKING:
     from .comparison import Comparison, compare, plan
@@ -55,13 +56,7 @@ _HOME = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOME.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(f"{__name__}.{home}"), name)
-    globals()[name] = value  # once: the next look-up is a plain attribute
-    return value
+__getattr__ = attributes(__name__, _HOME)
 
 
 class _Package(ModuleType):
