@@ -62,8 +62,9 @@ reply whole, in one read; what is still missing it waits for in ``poll``::
 
 A reply as long as the shortest recent one is one wake-up and one read, a
 longer one or a slower one is read as it comes after that.  One exchange in
-:data:`RETIME` of a kind is read as it comes from the start, to time the kind
-afresh: a reply found whole when the timer wakes says only that it came no later,
+:data:`RETIME` of a kind wakes when the reply's bytes alone could have crossed the
+line and is timed by when its last bytes were there, to time the kind afresh: a
+reply found whole when the timer wakes says only that it came no later,
 so without it a kind timed by replies that came late once (a fleet's busy start)
 would wait as long for the rest of the pull.  Only a reply much
 quicker than all of them (an END after full steps) is taken late, when the
@@ -256,6 +257,7 @@ class Link(Generic[F]):
         self._sent_at = 0.0  # when the request was sent
         self._got_at = 0.0  # when bytes were last read
         self._polled = False  # ... and whether poll woke for them (not a timer)
+        self._retiming = False  # the exchange times its kind afresh (RETIME)
 
     # --- open / close ---------------------------------------------------------------
 
@@ -524,7 +526,9 @@ class Link(Generic[F]):
         full steps) may have waited long: the next is timed afresh, by poll."""
         sent, got = len(self._sent), self._frame_bytes
         took = self._took.get(kind)
-        if self._polled:
+        if self._polled or self._retiming:
+            # poll woke for the last bytes, or the timer woke as soon as they could have
+            # come and found them there: either way no later than they came
             took = took or self._took.setdefault(kind, _Took())
             took.turnaround.append(self._got_at - self._sent_at - (sent + got) * self._char)
             took.longer.append(got - sent)
@@ -696,14 +700,19 @@ class Link(Generic[F]):
         took = self._took.get(kind)
         # When to look first: when the reply's last bytes are due, if the recent
         # exchanges of this kind say when that is.
-        # Every RETIME-th exchange of a kind is timed afresh, by poll: a reply found
-        # whole when the timer woke says only that it came no later, so a kind timed
-        # by replies that came late once (a busy start) would wait as long for ever.
+        # Every RETIME-th exchange of a kind is timed afresh: a reply found whole when
+        # the timer woke says only that it came no later, so a kind timed by replies
+        # that came late once (a busy start) would wait as long for ever.  That one
+        # wakes when the bytes alone could have crossed the line (no turnaround) and
+        # is learnt from, whole then or read as it comes after.
         look = 0.0
+        self._retiming = False
         if took:
             took.timed += 1
-            if took.timed % RETIME:
-                look = self._sent_at + took.shortest(len(self._sent), self._char)
+            self._retiming = not took.timed % RETIME
+            look = self._sent_at + took.shortest(
+                len(self._sent), self._char, turnaround=not self._retiming
+            )
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
@@ -755,10 +764,13 @@ class _Took:
     def __bool__(self) -> bool:
         return bool(self.turnaround)
 
-    def shortest(self, request: int, char: float) -> float:
+    def shortest(self, request: int, char: float, *, turnaround: bool = True) -> float:
         """Seconds from sending a ``request``-byte request to the last byte of its
-        reply, for the quickest of the recent exchanges."""
-        return min(self.turnaround) + (2 * request + min(self.longer)) * char
+        reply, for the quickest of the recent exchanges (without ``turnaround``: the
+        bytes' time on the line alone, the soonest the reply can be whole)."""
+        return (min(self.turnaround) if turnaround else 0.0) + (
+            2 * request + min(self.longer)
+        ) * char
 
 
 class _Kind(NamedTuple):
