@@ -91,6 +91,18 @@ def _sim_busy() -> str:
     return "; ".join(parts)
 
 
+def _sim_variants() -> str:
+    """Each family's simulator variants (the guesses it can make otherwise), for its help."""
+    from .families import names
+    from .sim import sim_family
+
+    parts = []
+    for name in names():
+        declared = sim_family(name).variants
+        parts.append(f"{name}: {', '.join(str(v) for v in declared) or 'none'}")
+    return "; ".join(parts)
+
+
 def _columns() -> int:
     """The terminal's width as :func:`shutil.get_terminal_size` measures it: $COLUMNS,
     else standard output's terminal, else 80."""
@@ -132,6 +144,7 @@ class _SimHelp(_Help):
 
     VERBS = "<verbs>"
     BUSY = "<busy>"
+    VARIANTS = "<variants>"
 
     def add_text(self, text: str | None) -> None:
         if text and self.VERBS in text:
@@ -140,7 +153,11 @@ class _SimHelp(_Help):
 
     def _expand_help(self, action: argparse.Action) -> str:
         text = super()._expand_help(action)
-        return text.replace(self.BUSY, _sim_busy()) if self.BUSY in text else text
+        if self.BUSY in text:
+            text = text.replace(self.BUSY, _sim_busy())
+        if self.VARIANTS in text:
+            text = text.replace(self.VARIANTS, _sim_variants())
+        return text
 
 
 def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -214,6 +231,14 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "slow_delay (seconds), seed",
     )
     p.add_argument(
+        "--variant",
+        default="",
+        metavar="NAME=VALUE,...",
+        help="answer as a controller that fills a silence of its manual another way than "
+        "the profile's choice, the first value of each (docs/profile.md): "
+        f"{_SimHelp.VARIANTS}",
+    )
+    p.add_argument(
         "--auto",
         "--run",
         dest="busy",
@@ -252,6 +277,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
     from .sim.family import SimServer
     from .sim.protocol_sim import build_simulator
     from .sim.serve import PtyServer, TcpServer
+    from .sim.variants import parse as parse_variants
 
     if args.no_pty and not args.listen:
         return _usage("sim: --no-pty needs --listen HOST:PORT")
@@ -263,6 +289,10 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         faults = Faults.parse(args.faults)
     except ValueError as exc:
         return _usage(f"sim: --faults: {exc}")
+    try:
+        variant = parse_variants(args.variant)
+    except ValueError as exc:
+        return _usage(f"sim: --variant: {exc}")
     stations = None
     if args.stations:
         family = get(args.family or (project_family(args.project) if args.project else None))
@@ -270,16 +300,20 @@ def _cmd_sim(args: argparse.Namespace) -> int:
             stations = [family.parse_station(s) for s in args.stations.split(",")]
         except ValueError as exc:
             return _usage(f"sim: --stations: {exc}")
-    sim = build_simulator(
-        family=args.family,
-        project=args.project,
-        seed=args.seed,
-        stations=stations,
-        baudrate=args.baud or None,
-        turnaround=args.turnaround,
-        faults=faults,
-        busy_after_writes=args.busy_after_writes,
-    )
+    try:
+        sim = build_simulator(
+            family=args.family,
+            project=args.project,
+            seed=args.seed,
+            stations=stations,
+            baudrate=args.baud or None,
+            turnaround=args.turnaround,
+            faults=faults,
+            busy_after_writes=args.busy_after_writes,
+            variant=variant,
+        )
+    except ValueError as exc:  # a variant this family does not have
+        return _usage(f"sim: --variant: {exc}")
     if args.state:
         from .sim.memory import keep_state
 

@@ -332,3 +332,17 @@ def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Pa
         (1, "LNR", False),
         (1, "LNR", True),
     ]
+
+
+def test_issue_29_a_variant_the_family_lacks_is_one_line_on_the_command_line_and_in_a_url(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from harlsync import cli
+
+    assert cli.main(["sim", "--no-pty", "--listen", "127.0.0.1:0", "--variant", "nope=1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--variant" in err and "nope" in err and "\n" not in err
+    assert cli.main(["sim", "--no-pty", "--listen", "127.0.0.1:0", "--variant", "nope"]) == 2
+    assert "NAME=VALUE" in capsys.readouterr().err
+    with pytest.raises(serial.SerialException, match="nope"):
+        simulator_from_url("sim://?seed=1&nope=1")

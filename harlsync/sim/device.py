@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar, cast
 
 from .. import families
 from ..errors import ProtocolError
+from . import variants
 
 if TYPE_CHECKING:
     from .family import LineFamily, SimFamily
@@ -242,6 +243,14 @@ class Device(ABC, Generic[S]):
         #: The clock the device's times come from (tests give it one they move).
         self.clock = clock
         self.lock = threading.RLock()
+        #: How this controller fills each silence of its manual (name -> value, every
+        #: variant of :attr:`family` present): :meth:`vary` changes it.
+        self.variant: dict[str, str] = variants.defaults(self.family.variants)
+
+    def vary(self, chosen: Mapping[str, str]) -> None:
+        """Answer as ``chosen`` says where the manual is silent (the rest at the
+        profile's choice).  Raises ValueError for an unknown variant or value."""
+        self.variant = variants.choose(self.family.variants, chosen)
 
     def record(self, request: Received) -> None:
         """Keep ``request`` in :attr:`received` and tell the listeners."""

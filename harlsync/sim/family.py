@@ -21,6 +21,7 @@ from typing import Any, Protocol, runtime_checkable
 from .. import families
 from ..errors import ProjectError
 from .device import Decoder, Device, RequestFrame
+from .variants import Variant
 
 __all__ = [
     "LineFamily",
@@ -66,6 +67,12 @@ class SimFamily(Protocol):
     def busy_verb(self) -> str:
         """The verb that makes a station busy with no more arguments (``auto``,
         ``run``); it also names the schedule, ``auto-after-writes N``."""
+        ...
+
+    @property
+    def variants(self) -> tuple[Variant, ...]:
+        """Each choice its profile makes where the manual is silent, with the other
+        ways a controller may answer (:mod:`harlsync.sim.variants`)."""
         ...
 
     @property

@@ -22,6 +22,7 @@ from ....errors import ProtocolError
 from ....sim import device
 from ....sim.device import Refused
 from ....sim.family import Verb
+from ....sim.variants import Variant
 from ..model import (
     MAX_STEP_DATA,
     REGISTER_RE,
@@ -66,6 +67,8 @@ class HarlU2SimFamily:
     )
     busy_verb = "auto"
     default_station = 1
+    #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
+    variants: tuple[Variant, ...] = ()
 
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
