@@ -227,7 +227,7 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "--faults",
         default="",
         metavar="NAME=RATE,...",
-        help="fault injection: noise, drop, bad_checksum (bad_lrc), fragment, slow (rates 0-1), "
+        help="fault injection: noise, drop, bad_checksum, fragment, slow (rates 0-1), "
         "slow_delay (seconds), seed",
     )
     p.add_argument(

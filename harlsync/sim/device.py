@@ -131,7 +131,7 @@ class Faults:
     """Fault injection on replies: each rate is a probability per reply (0-1).
 
     ``noise`` prefixes random bytes, ``drop`` sends nothing, ``bad_checksum``
-    corrupts the checksum (the HARL-U2 LRC, the IAI SC), ``fragment`` splits the
+    corrupts the checksum (wherever the family's sits), ``fragment`` splits the
     reply into pieces sent with gaps, ``slow`` delays it by ``slow_delay``
     seconds (longer than the client's deadline by default).
     """
@@ -146,9 +146,6 @@ class Faults:
     seed: int | None = None
     _rng: random.Random = field(init=False, repr=False, compare=False)
 
-    #: Other spellings a user may give a setting in: the HARL-U2 name of its checksum.
-    SPELLINGS: ClassVar[Mapping[str, str]] = {"bad_lrc": "bad_checksum"}
-
     def __post_init__(self) -> None:
         self._rng = random.Random(self.seed)
 
@@ -160,7 +157,7 @@ class Faults:
     @classmethod
     def from_settings(cls, settings: Mapping[str, str]) -> Faults:
         """From name -> text (``{"noise": "0.1", "seed": "3"}``).  Raises ValueError."""
-        named = {cls.SPELLINGS.get(name, name): value for name, value in settings.items()}
+        named = dict(settings)
         unknown = set(named) - set(cls.names())
         if unknown:
             raise ValueError(
