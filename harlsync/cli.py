@@ -15,7 +15,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
@@ -161,7 +161,6 @@ class _SimHelp(_Help):
 
 
 def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from .families import names
 
     p = sub.add_parser(
         "sim",
@@ -181,7 +180,7 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--family",
         default=None,
-        choices=names(),
+        choices=_family_names(),
         help=f"the controller family (default: {DEFAULT}, or with --project the one "
         "its robot.yaml names)",
     )
@@ -855,10 +854,10 @@ def _connect_options(args: argparse.Namespace) -> dict[str, bool]:
     return {option.name: bool(getattr(args, option.name)) for option in _options()}
 
 
-def _family_names() -> tuple[str, ...]:
-    from .families import names
+def _family_names() -> Collection[str]:
+    from .families import KNOWN
 
-    return names()
+    return KNOWN
 
 
 def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
