@@ -19,7 +19,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Generic
 
-from ..families.base import Catalogue, Change3, D, K, Shift, align
+from ..alignment import Shift, align
+from ..families.base import Catalogue, Change3, D, K
 
 __all__ = ["Change", "diff", "diff_items", "render_text", "summarize", "to_json"]
 

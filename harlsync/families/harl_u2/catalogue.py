@@ -18,7 +18,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
-from ..base import Catalogue, PlanShape, align, spans
+from ...alignment import align, spans
+from ..base import Catalogue, PlanShape
 from .model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
 
 __all__ = [

@@ -17,6 +17,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ...alignment import spans
 from ...project import yamlio as y
 from ...project.files import (
     HUGE,
@@ -33,7 +34,7 @@ from ...project.files import (
 )
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
-from ..base import Analysis, spans
+from ..base import Analysis
 from .declared import FIRST_STATION, LAST_STATION, PROGRAMS_DIR, STATION_ALLOWED
 from .model import (
     CODE_RE,
