@@ -37,9 +37,6 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +48,7 @@ from ..errors import (
     StalePlanError,
     SyncError,
 )
-from ..families.base import Driver, Progress
+from ..families.base import Driver
 from ..project import Project, load_project
 from ..project.lock import holding_project
 from ..project.store import read_project
@@ -59,67 +56,13 @@ from . import audit, git
 from .live import Station, connect, station_number, unfinished_pushes
 from .plan import Plan, PlannedWrite, make_plan
 from .policy import check_committed
+from .pushtypes import PushFailed, PushOptions, PushResult
 from .snapshots import save_snapshot, snapshots
 from .writes import check_window, interlock, write_all
 
 __all__ = ["PushFailed", "PushOptions", "PushResult", "push", "rollback", "run"]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class PushOptions:
-    """Everything a person decides for one push or rollback."""
-
-    yes: bool = False
-    #: Asks a person to confirm the plan; without it and without ``yes`` the push is
-    #: refused before the robot is read.
-    confirm: Callable[[Plan[Any]], bool] | None = None
-    reason: str | None = None
-    allow_dirty: bool = False
-    outside_window: str | None = None
-    allow_reconfigure: bool = False
-    allow_live_tuning: bool = False
-    registers: bool = False
-    plan_file: str | Path | None = None
-    lock_timeout: float = 10.0
-    now: datetime | None = None
-    progress: Progress | None = None
-    #: the connection's family options (see :func:`connect`): ``reset_function``
-    connect_options: Mapping[str, bool] = field(default_factory=dict)
-
-
-@dataclass
-class PushResult:
-    """What a push did: the plan, what was written, and what was not."""
-
-    plan: Plan[Any] | None = None
-    written: list[PlannedWrite[Any]] = field(default_factory=list)
-    not_written: list[PlannedWrite[Any]] = field(default_factory=list)
-    failed: PlannedWrite[Any] | None = None
-    #: set when ``failed`` stopped part way (:class:`~harlsync.errors.PartlyWritten`):
-    #: its parts that went out, may have, and did not
-    partly_written: PartlyWritten | None = None
-    error: str | None = None
-    snapshot: Path | None = None
-    audit_log: Path | None = None
-    #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
-    warnings: list[str] = field(default_factory=list)
-    #: What the family says after anything was written (``Family.deploy_notes``).
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        return self.error is None
-
-
-class PushFailed(SyncError):
-    """A push stopped; ``result`` says exactly what was and was not written."""
-
-    def __init__(self, cause: HarlsyncError, result: PushResult) -> None:
-        self.cause = cause
-        self.result = result
-        super().__init__(str(cause))
 
 
 def run(
