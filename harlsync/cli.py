@@ -901,44 +901,11 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=_cmd_pull)
 
 
-def _family_of_port(port: str | None) -> str | None:
-    """The family whose own URL scheme ``port`` has, or None."""
-    from . import families
-
-    scheme = port.partition("://")[0].lower() if port and "://" in port else None
-    for family in families.every():
-        if scheme and scheme in {s.name for s in family.schemes}:
-            return family.name
-    return None
-
-
-def _port_hint(port: str) -> str | None:
-    """What to give instead of a ``HOST:PORT`` without a scheme, which pyserial would
-    take for a device file."""
-    import re
-
-    if "://" in port or not re.fullmatch(
-        r"[A-Za-z0-9.-]+:\d{1,5}|\[[0-9A-Fa-f:.]+\]:\d{1,5}", port
-    ):
-        return None
-    from . import families
-
-    own = [
-        f"{scheme.name}://{port} ({scheme.help.partition(':')[0]})"
-        for family in families.every()
-        for scheme in family.schemes
-    ]
-    return (
-        f"--port {port}: a network port is given as a URL: socket://{port} (a serial "
-        f"device server){''.join(', or ' + text for text in own)}"
-    )
-
-
 def _cmd_pull(args: argparse.Namespace) -> int:
     from .sync import pulling
 
     if args.family is None and not (Path(args.dir) / "robot.yaml").exists():
-        args.family = _family_of_port(args.port)
+        args.family = families.of_port(args.port)
     progress = Feedback("pull")
     try:
         result = pulling.pull(
@@ -1316,30 +1283,11 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
 def _cmd_push(args: argparse.Namespace) -> int:
     from .sync import deploy
 
-    if args.plan:  # a mistyped or foreign plan: one line, and no push to record
-        _check_plan_file(args.plan, args.dir)
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
         "push", lambda: deploy.push(args.dir, opts, port=args.port, station=args.station), progress
     )
-
-
-def _check_plan_file(path: str, project: str) -> None:
-    """Refuse, before the robot is read, a plan file that cannot be read (ProjectFormatError)
-    or that was made for another robot (StalePlanError)."""
-    from .errors import StalePlanError
-    from .project import load_robot
-    from .sync.plan import Plan
-
-    saved = Plan.load_saved(path)
-    robot = load_robot(_project_dir(project))
-    if saved.get("robot") != robot.name:
-        raise StalePlanError(
-            f"the plan {path} was made for robot {saved.get('robot')} "
-            f"({saved.get('target')}), not {robot.name}; make one for this robot with "
-            f"'harlsync plan {project} --out FILE' and review it"
-        )
 
 
 def _add_rollback(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -1494,7 +1442,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     _setup_logging(args.verbose)
-    hint = _port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
+    hint = families.port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
     if hint is not None:
         print(f"harlsync: error: {hint}", file=sys.stderr)
         return EXIT_ERROR

@@ -48,7 +48,9 @@ __all__ = [
     "every",
     "get",
     "names",
+    "of_port",
     "of_project",
+    "port_hint",
     "refuse_options",
     "register",
     "simulator_module",
@@ -165,6 +167,35 @@ def url_schemes() -> dict[str, int]:
     The families registered so far: one an entry point adds is registered as soon as
     a robot.yaml or ``--family`` names it, before its line is opened."""
     return {s.name: s.default_port for name in tuple(FAMILIES) for s in get(name).schemes}
+
+
+def of_port(port: str | None) -> str | None:
+    """The name of the family whose own URL scheme ``port`` has (``modbus://``), or None."""
+    scheme = port.partition("://")[0].lower() if port and "://" in port else None
+    for family in every():
+        if scheme and scheme in {s.name for s in family.schemes}:
+            return family.name
+    return None
+
+
+def port_hint(port: str) -> str | None:
+    """What to give instead of a ``HOST:PORT`` without a scheme, which pyserial would
+    take for a device file (None when ``port`` is not one)."""
+    import re
+
+    if "://" in port or not re.fullmatch(
+        r"[A-Za-z0-9.-]+:\d{1,5}|\[[0-9A-Fa-f:.]+\]:\d{1,5}", port
+    ):
+        return None
+    own = [
+        f"{scheme.name}://{port} ({scheme.help.partition(':')[0]})"
+        for family in every()
+        for scheme in family.schemes
+    ]
+    return (
+        f"--port {port}: a network port is given as a URL: socket://{port} (a serial "
+        f"device server){''.join(', or ' + text for text in own)}"
+    )
 
 
 def simulator_module(name: str | None) -> ModuleType:

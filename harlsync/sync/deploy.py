@@ -49,7 +49,7 @@ from ..errors import (
     SyncError,
 )
 from ..families.base import Driver
-from ..project import Project, load_project
+from ..project import Project, load_project, load_robot
 from ..project.lock import holding_project
 from ..project.store import read_project
 from . import audit, git
@@ -236,6 +236,19 @@ def _check_audit_log() -> None:
         ) from exc
 
 
+def _check_plan_file(path: str | Path, plan_file: str | Path) -> None:
+    """Refuse, before the robot is read, a plan file that cannot be read
+    (ProjectFormatError) or that was made for another robot (StalePlanError)."""
+    saved = Plan.load_saved(plan_file)
+    robot = load_robot(path)
+    if saved.get("robot") != robot.name:
+        raise StalePlanError(
+            f"the plan {plan_file} was made for robot {saved.get('robot')} "
+            f"({saved.get('target')}), not {robot.name}; make one for this robot with "
+            f"'harlsync plan {path} --out FILE' and review it"
+        )
+
+
 def _check_plan(the_plan: Plan[Any], opts: PushOptions) -> None:
     if opts.plan_file is not None:
         saved = Plan.load_saved(opts.plan_file)
@@ -272,8 +285,12 @@ def push(
     """Make the robot equal the project, safely.  Raises PushFailed with the result.
 
     An invalid or uncommitted project is refused before the port is opened, and
-    the refusal is audited like any other.
+    the refusal is audited like any other.  A plan file (``opts.plan_file``) that
+    cannot be read or was made for another robot is refused first: nothing was
+    asked of the robot, so there is no push to record.
     """
+    if opts.plan_file is not None:
+        _check_plan_file(path, opts.plan_file)
     try:
         project, files = read_project(path)
         station = station_number(project.family, station)
