@@ -961,8 +961,8 @@ def _add_diff(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _cmd_diff(args: argparse.Namespace) -> int:
-    from .sync import comparison, pulling
-    from .sync.items import render_text, to_json
+    from .sync import comparison
+    from .sync.items import changes_json, differ_words, render_text
 
     if args.rev:
         return _diff_versions(args)
@@ -980,18 +980,16 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     _warn(result.warnings)
-    progress.summary(result.project.robot.name, result.contents, _differ(result.changes))
+    progress.summary(result.project.robot.name, result.contents, differ_words(result.changes))
     if args.format == "json":
         _print(
             json.dumps(
-                {
-                    "robot": result.project.robot.name,
-                    "target": result.target,
-                    "project": str(result.project.path),
-                    "identical": not result.changes,
-                    "summary": pulling.change_summary(result.changes),
-                    "changes": [to_json(c) for c in result.changes],
-                },
+                changes_json(
+                    result.changes,
+                    robot=result.project.robot.name,
+                    target=result.target,
+                    project=str(result.project.path),
+                ),
                 indent=2,
             )
         )
@@ -1004,8 +1002,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 
 def _diff_versions(args: argparse.Namespace) -> int:
     """``diff DIR --rev A [--rev B]``: two versions of the project, no robot."""
-    from .sync import pulling
-    from .sync.items import render_text, to_json
+    from .sync.items import changes_json, render_text
     from .sync.revisions import compare_versions
 
     if len(args.rev) > 2:
@@ -1017,32 +1014,13 @@ def _diff_versions(args: argparse.Namespace) -> int:
     if args.format == "json":
         _print(
             json.dumps(
-                {
-                    "robot": b.project.robot.name,
-                    "old": a.label,
-                    "new": b.label,
-                    "identical": not changes,
-                    "summary": pulling.change_summary(changes),
-                    "changes": [to_json(c) for c in changes],
-                },
+                changes_json(changes, robot=b.project.robot.name, old=a.label, new=b.label),
                 indent=2,
             )
         )
     elif changes:
         sys.stdout.write(render_text(changes, a.label, b.label))
     return EXIT_NO if changes else EXIT_OK
-
-
-def _differ(changes: Sequence[Any]) -> str:
-    """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
-    from .sync.pulling import change_summary
-
-    if not changes:
-        return "; no differences"
-    return (
-        f"; {len(changes)} item{'s' * (len(changes) != 1)} "
-        f"differ{'s' * (len(changes) == 1)} ({change_summary(list(changes))})"
-    )
 
 
 def _add_plan(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -1099,6 +1077,7 @@ def _counted(the_plan: Plan[Any]) -> str:
 
 def _cmd_plan(args: argparse.Namespace) -> int:
     from .sync import comparison
+    from .sync.items import differ_words
 
     progress = Feedback("plan")
     try:
@@ -1120,7 +1099,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if args.out:
         the_plan.save(args.out)
         _print(f"# plan saved to {args.out}")
-    progress.summary(found.project.robot.name, found.contents, _differ(found.changes))
+    progress.summary(found.project.robot.name, found.contents, differ_words(found.changes))
     from .sync.plan import policy_refusals
 
     # Every reason a push would be refused now, not only the first it would meet.

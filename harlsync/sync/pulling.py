@@ -18,6 +18,7 @@ from ..families.base import AnyFamily, Catalogue, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
 from . import git
+from .items import change_summary
 from .live import Station, read_live, station_number
 
 if TYPE_CHECKING:
@@ -25,7 +26,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FEW_ITEMS", "MOST", "PullResult", "change_summary", "pull"]
+__all__ = ["FEW_ITEMS", "MOST", "PullResult", "pull"]
 
 
 @dataclass
@@ -419,10 +420,3 @@ def _not_this_robot(path: Path, where: str, differ: list[str]) -> PolicyError:
         f"robot (replaced, reconfigured, updated), accept it with "
         f"'harlsync pull {path} --new-robot'"
     )
-
-
-def change_summary(changes: list[Change[Any]]) -> str:
-    """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
-    if not changes:
-        return "no change"
-    return changes[0].catalogue.summary([(c.key, c.old, c.new) for c in changes])
