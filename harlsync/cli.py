@@ -34,6 +34,7 @@ from .robotlog import RobotFilter
 from .terminal import BackupDisplay, Feedback
 
 if TYPE_CHECKING:
+    from .sim.run import Running
     from .sync.deploy import PushOptions, PushResult
     from .sync.plan import Plan, PlannedWrite
 
@@ -270,112 +271,36 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .families import get
-    from .sim import Faults, Received, ServedFamily, Simulator, project_family
     from .sim.control import apply_command
-    from .sim.family import SimServer
-    from .sim.protocol_sim import build_simulator
-    from .sim.serve import PtyServer, TcpServer
-    from .sim.variants import parse as parse_variants
+    from .sim.run import SimOptions, start
 
-    if args.no_pty and not args.listen:
-        return _usage("sim: --no-pty needs --listen HOST:PORT")
-    try:
-        listen = _listen_address(args.listen) if args.listen else None
-    except ValueError as exc:
-        return _usage(f"sim: --listen: {exc}")
-    try:
-        faults = Faults.parse(args.faults)
-    except ValueError as exc:
-        return _usage(f"sim: --faults: {exc}")
-    try:
-        variant = parse_variants(args.variant)
-    except ValueError as exc:
-        return _usage(f"sim: --variant: {exc}")
-    stations = None
-    if args.stations:
-        family = get(args.family or (project_family(args.project) if args.project else None))
-        try:
-            stations = [family.parse_station(s) for s in args.stations.split(",")]
-        except ValueError as exc:
-            return _usage(f"sim: --stations: {exc}")
-    try:
-        sim = build_simulator(
-            family=args.family,
-            project=args.project,
-            seed=args.seed,
-            stations=stations,
-            baudrate=args.baud or None,
-            turnaround=args.turnaround,
-            faults=faults,
-            busy_after_writes=args.busy_after_writes,
-            variant=variant,
-        )
-    except ValueError as exc:  # a variant this family does not have
-        return _usage(f"sim: --variant: {exc}")
-    if args.state:
-        from .sim.memory import keep_state
-
-        keep_state(sim, args.state)
-    if args.busy:
-        for state in sim.stations.values():
-            sim.control(sim.family.busy_verb, state, ())
-    if args.record:
-        record = open(args.record, "a", encoding="utf-8")  # noqa: SIM115 - open for the run
-
-        def log_request(r: Received) -> None:
-            record.write(
-                json.dumps(
-                    {"station": r.station, "payload": r.payload, "busy": r.busy, "client": r.client}
-                )
-                + "\n"
-            )
-            record.flush()
-
-        sim.listeners.append(log_request)
+    opts = SimOptions(
+        family=args.family,
+        project=args.project,
+        seed=args.seed,
+        stations=args.stations,
+        listen=args.listen,
+        pty=not args.no_pty,
+        baud=args.baud,
+        turnaround=args.turnaround,
+        faults=args.faults,
+        variant=args.variant,
+        busy=args.busy,
+        busy_after_writes=args.busy_after_writes,
+        record=args.record,
+        state=args.state,
+    )
     stopped = threading.Event()  # from here on SIGTERM stops it cleanly, exit 0
     signal.signal(signal.SIGTERM, lambda *_: stopped.set())
-    servers: list[PtyServer | TcpServer | SimServer] = []
-    tcp: TcpServer | SimServer | None = None
-    try:  # before the pty: an address in use is one line, with nothing left serving
-        if isinstance(sim.family, ServedFamily):  # its own protocol and server
-            if listen is None:
-                return _usage(
-                    f"sim: the {sim.family.name} simulator is served over TCP only: "
-                    "give --listen HOST:PORT"
-                )
-            tcp = sim.family.serve(sim, *listen)
-        elif listen is not None:
-            assert isinstance(sim, Simulator)  # a line family's simulator is a serial line
-            tcp = TcpServer(sim, *listen)
-    except ValueError as exc:  # a fault its protocol cannot have
+    try:
+        running = start(opts)
+    except ValueError as exc:
         return _usage(f"sim: {exc}")
-    except OSError as exc:
-        # socket.create_server appends the address we already name to strerror
-        why = (exc.strerror or str(exc)).split(" (while attempting")[0]
-        return _usage(f"sim: --listen {args.listen}: cannot listen there: {why}")
-    if isinstance(sim, Simulator) and not args.no_pty:
-        pty = PtyServer(sim)
-        _print(f"pty: {pty.start()}")
-        servers.append(pty)
-    if tcp is not None:
-        _print(f"tcp: {tcp.start() if isinstance(tcp, TcpServer) else tcp.url}")
-        servers.append(tcp)
-    _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
-    _serve(
-        servers, stopped, (lambda line: apply_command(sim, line)) if _reads_input(args) else None
-    )
+    for line in running.said:
+        _print(line)
+    control = (lambda line: apply_command(running.sim, line)) if _reads_input(args) else None
+    _serve(running, stopped, control)
     return EXIT_OK
-
-
-def _listen_address(text: str) -> tuple[str, int]:
-    """``HOST:PORT`` (``:PORT`` is 127.0.0.1) as a socket address.  Raises ValueError."""
-    host, sep, port = text.rpartition(":")
-    if not sep or not (port.isascii() and port.isdigit()) or int(port) > 65535:
-        raise ValueError(
-            f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:5020; port 0 picks a free one)"
-        )
-    return host or "127.0.0.1", int(port)
 
 
 def _reads_input(args: argparse.Namespace) -> bool:
@@ -398,9 +323,7 @@ def _reads_input(args: argparse.Namespace) -> bool:
     return not background
 
 
-def _serve(
-    servers: Sequence[Any], done: threading.Event, control: Callable[[str], str] | None
-) -> None:
+def _serve(running: Running, done: threading.Event, control: Callable[[str], str] | None) -> None:
     """Serve until ``done`` is set (SIGTERM), Ctrl-C, or the end of the input
     ``control`` takes its commands from (every line, its answer printed); without
     ``control``, until one of the first two."""
@@ -426,8 +349,7 @@ def _serve(
         done.wait()
     except KeyboardInterrupt:
         pass
-    for server in servers:
-        server.stop()
+    running.stop()
 
 
 # --- backup -----------------------------------------------------------------------------
