@@ -419,8 +419,20 @@ def _plant_args(p: argparse.ArgumentParser) -> None:
         type=float,
         default=36.0,
         metavar="HOURS",
-        help="flag robots with no good backup for this long (default 36)",
+        help=f"flag robots with no good backup for this long (0 to {MAX_STALE_HOURS}, default 36)",
     )
+
+
+#: The longest --stale-after, in hours: ten years.  Beyond it no clock or backup
+#: record means anything, and Python's dates end (inf, 1e12 raised OverflowError).
+MAX_STALE_HOURS = 87600
+
+
+def _stale_after_problem(hours: float) -> str | None:
+    """Why ``--stale-after HOURS`` cannot be taken (nan, inf, negative, too long), or None."""
+    if 0 <= hours <= MAX_STALE_HOURS:  # nan is neither
+        return None
+    return f"--stale-after {hours:g}: give 0 to {MAX_STALE_HOURS} hours (ten years)"
 
 
 def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -508,6 +520,10 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         return _usage("backup: --push needs --commit")
     if args.workers is not None and args.workers < 1:
         return _usage(f"backup: --workers {args.workers}: give 1 or more processes")
+    if args.attempts < 1:
+        return _usage(f"backup: --attempts {args.attempts}: give 1 or more tries")
+    if (stale := _stale_after_problem(args.stale_after)) is not None:
+        return _usage(f"backup: {stale}")
     display = BackupDisplay()
     try:
         report = backup.backup(
@@ -589,6 +605,8 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
     from .sync import status
 
+    if (stale := _stale_after_problem(args.stale_after)) is not None:
+        return _usage(f"status: {stale}")
     plant = status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
     if args.html:
         from .sync import report
