@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from harlsync.cli import main
 from harlsync.errors import FrameError, ProjectFormatError, ProjectInvalid
 from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame
 from harlsync.link import SerialSettings
@@ -575,3 +576,17 @@ def test_an_older_format_is_migrated_on_load_and_written_as_current_on_save(
     assert project.data == load_project(EXAMPLE).data
     assert save_project(root, project) == ["offsets.yaml"]
     assert (root / "offsets.yaml").read_bytes() == (EXAMPLE / "offsets.yaml").read_bytes()
+
+
+def test_issue_34_item_15_validate_says_in_one_line_what_it_checked_when_the_project_is_valid(
+    root: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["validate", str(root)]) == 0
+    out, err = capsys.readouterr()
+    checked = [p for p in root.rglob("*.yaml") if ".schemas" not in p.relative_to(root).parts]
+    assert len(checked) == 18  # robot.yaml, four settings files, thirteen programs
+    assert out == (
+        f"{root}: valid harl-u2 project: 18 files checked against their schemas and "
+        "its own configuration\n"
+    )
+    assert err == ""
