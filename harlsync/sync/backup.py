@@ -48,6 +48,7 @@ __all__ = [
     "in_process",
     "line_of",
     "lines_of",
+    "record_not_backed_up",
     "run_hook",
     "write_metrics",
 ]
@@ -421,6 +422,17 @@ def not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
     outcome.attempts.append(f"attempt 1: {exc}")
     outcome.last_success = history.read(path).get("last_success")
     return outcome
+
+
+def record_not_backed_up(path: Path, exc: HarlsyncError, now: datetime) -> RobotOutcome:
+    """The outcome of a robot whose backup was started and never told its end (its
+    worker process was killed), recorded failed in its history as of ``now``: the
+    report fails it, so ``harlsync status`` must not show last night's "ok".
+
+    Its project lock died with the worker; a harlsync that took the project since
+    records its own result after this one (a record is replaced whole, never mixed).
+    """
+    return _record(not_backed_up(path, exc), now)
 
 
 def _record(outcome: RobotOutcome, now: datetime, exchanges: int = 0) -> RobotOutcome:
