@@ -26,6 +26,7 @@ from .errors import (
     PartlyWritten,
     PolicyError,
     StalePlanError,
+    SyncError,
     partly_words,
 )
 from .families import DEFAULT
@@ -524,6 +525,11 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         return _usage(f"backup: --attempts {args.attempts}: give 1 or more tries")
     if (stale := _stale_after_problem(args.stale_after)) is not None:
         return _usage(f"backup: {stale}")
+    outputs = {"--metrics": args.metrics, "--html": args.html}
+    hooks = {"--on-change": args.on_change, "--on-failure": args.on_failure}
+    problems = backup.output_problems(outputs, hooks)
+    if problems:  # every one of them, before a robot is read
+        raise SyncError("; ".join(problems) + "; no robot was read")
     display = BackupDisplay()
     try:
         report = backup.backup(
@@ -543,12 +549,12 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         _print(json.dumps(report.to_json(), indent=2))
     elif not args.quiet or not report.ok:
         sys.stdout.write(report.render())
-    unwritten: HarlsyncError | None = None
+    unwritten: list[str] = []  # checked before, yet the disk may fill meanwhile
     if args.metrics:
         try:
             backup.write_metrics(args.metrics, report)
         except HarlsyncError as exc:  # the hooks still run: they may be the only alarm
-            unwritten = exc
+            unwritten.append(str(exc))
     if args.html:
         from .sync import report as page
         from .sync import status
@@ -558,13 +564,13 @@ def _cmd_backup(args: argparse.Namespace) -> int:
                 args.html, status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
             )
         except HarlsyncError as exc:
-            unwritten = unwritten or exc
+            unwritten.append(str(exc))
     if args.on_change and report.changed:
         backup.run_hook(args.on_change, report, "change")
     if args.on_failure and not report.ok:
         backup.run_hook(args.on_failure, report, "failure")
-    if unwritten is not None:
-        raise unwritten
+    if unwritten:
+        raise SyncError("; ".join(unwritten))
     return EXIT_OK if report.ok else EXIT_NO
 
 

@@ -77,6 +77,7 @@ __all__ = [
     "Checked",
     "Project",
     "check_project",
+    "check_replaceable",
     "disk_error",
     "edited_since_save",
     "family_name",
@@ -448,6 +449,14 @@ def replace_file(target: Path, data: bytes) -> None:
         os.replace(temp, target)
     finally:
         _quietly(temp.unlink, missing_ok=True)
+
+
+def check_replaceable(target: Path) -> None:
+    """Raise OSError unless :func:`replace_file` could replace ``target`` now: it is
+    no directory, and a file can be made beside it (one is, and removed at once)."""
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(target))
+    _write_temp(target, b"", fsync=False).unlink()
 
 
 def disk_error(exc: OSError, where: Path, doing: str) -> ProjectError:
