@@ -31,6 +31,7 @@ __all__ = [
     "newer_format",
     "not_canonical",
     "numbers",
+    "older_format",
     "robot_items",
     "serial_items",
     "text_of",
@@ -213,6 +214,20 @@ def newer_format(name: str, raw: bytes, current: int) -> Issue | None:
     except (UnicodeDecodeError, y.YamlSyntaxError):
         return None
     return _newer(name, doc, current)
+
+
+def older_format(raw: bytes, current: int) -> int | None:
+    """The format of a file whose content is ``raw`` when it is older than
+    ``current`` (a load migrates it, a save rewrites it); None when it is not, or
+    cannot be read.  Read by the YAML parser, as :func:`newer_format` reads it."""
+    try:
+        doc = y.parse(raw.decode("utf-8"))
+    except (UnicodeDecodeError, y.YamlSyntaxError):
+        return None
+    value = doc.data.get("format") if isinstance(doc.data, dict) else None
+    if isinstance(value, y.Number) and value.integral and 0 < value < current:
+        return int(value)
+    return None
 
 
 def _newer(name: str, doc: y.Parsed, current: int) -> Issue | None:
