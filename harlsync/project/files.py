@@ -24,6 +24,7 @@ __all__ = [
     "SCHEMAS_DIR",
     "FileSet",
     "Flaws",
+    "MigrationError",
     "build_serial",
     "build_windows",
     "canonical_integer",
@@ -41,8 +42,19 @@ __all__ = [
 SCHEMAS_DIR = ".schemas"
 
 #: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind ``kind``
-#: into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).
+#: into a format-``n+1`` one (data as :func:`yamlio.parse` gives it), or raises
+#: :class:`MigrationError` naming what it cannot carry over.
 Migrations = dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]]
+
+
+class MigrationError(ValueError):
+    """What a migration cannot carry over from the older format, each problem a
+    (path in the document, message): the read reports each at the line it is on."""
+
+    def __init__(self, problems: Sequence[tuple[tuple[str | int, ...], str]]) -> None:
+        super().__init__("; ".join(message for _, message in problems))
+        self.problems = list(problems)
+
 
 _DIGITS = re.compile(r"[0-9]+")
 _INTEGER = re.compile(r"[-+]?[0-9]+")
@@ -135,7 +147,13 @@ class FileSet:
                     )
                 )
                 return False
-            doc.data = self.migrations[number](kind, doc.data)
+            try:
+                doc.data = self.migrations[number](kind, doc.data)
+            except MigrationError as exc:
+                for path, message in exc.problems:
+                    field_name = ".".join(str(p) for p in path) or None
+                    issues.append(Issue(name, doc.line(path), field_name, message))
+                return False
             number += 1
             doc.data["format"] = y.Number(str(number))
             _listed_lines(doc)
