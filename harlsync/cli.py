@@ -26,6 +26,7 @@ from .errors import (
     PartlyWritten,
     PolicyError,
     StalePlanError,
+    SyncError,
     partly_words,
 )
 from .families import DEFAULT
@@ -374,8 +375,20 @@ def _plant_args(p: argparse.ArgumentParser) -> None:
         type=float,
         default=36.0,
         metavar="HOURS",
-        help="flag robots with no good backup for this long (default 36)",
+        help=f"flag robots with no good backup for this long (0 to {MAX_STALE_HOURS}, default 36)",
     )
+
+
+#: The longest --stale-after, in hours: ten years.  Beyond it no clock or backup
+#: record means anything, and Python's dates end (inf, 1e12 raised OverflowError).
+MAX_STALE_HOURS = 87600
+
+
+def _stale_after_problem(hours: float) -> str | None:
+    """Why ``--stale-after HOURS`` cannot be taken (nan, inf, negative, too long), or None."""
+    if 0 <= hours <= MAX_STALE_HOURS:  # nan is neither
+        return None
+    return f"--stale-after {hours:g}: give 0 to {MAX_STALE_HOURS} hours (ten years)"
 
 
 def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -463,6 +476,15 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         return _usage("backup: --push needs --commit")
     if args.workers is not None and args.workers < 1:
         return _usage(f"backup: --workers {args.workers}: give 1 or more processes")
+    if args.attempts < 1:
+        return _usage(f"backup: --attempts {args.attempts}: give 1 or more tries")
+    if (stale := _stale_after_problem(args.stale_after)) is not None:
+        return _usage(f"backup: {stale}")
+    outputs = {"--metrics": args.metrics, "--html": args.html}
+    hooks = {"--on-change": args.on_change, "--on-failure": args.on_failure}
+    problems = backup.output_problems(outputs, hooks)
+    if problems:  # every one of them, before a robot is read
+        raise SyncError("; ".join(problems) + "; no robot was read")
     display = BackupDisplay()
     try:
         report = backup.backup(
@@ -482,12 +504,12 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         _print(json.dumps(report.to_json(), indent=2))
     elif not args.quiet or not report.ok:
         sys.stdout.write(report.render())
-    unwritten: HarlsyncError | None = None
+    unwritten: list[str] = []  # checked before, yet the disk may fill meanwhile
     if args.metrics:
         try:
             backup.write_metrics(args.metrics, report)
         except HarlsyncError as exc:  # the hooks still run: they may be the only alarm
-            unwritten = exc
+            unwritten.append(str(exc))
     if args.html:
         from .sync import report as page
         from .sync import status
@@ -497,13 +519,13 @@ def _cmd_backup(args: argparse.Namespace) -> int:
                 args.html, status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
             )
         except HarlsyncError as exc:
-            unwritten = unwritten or exc
+            unwritten.append(str(exc))
     if args.on_change and report.changed:
         backup.run_hook(args.on_change, report, "change")
     if args.on_failure and not report.ok:
         backup.run_hook(args.on_failure, report, "failure")
-    if unwritten is not None:
-        raise unwritten
+    if unwritten:
+        raise SyncError("; ".join(unwritten))
     return EXIT_OK if report.ok else EXIT_NO
 
 
@@ -544,6 +566,8 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
     from .sync import status
 
+    if (stale := _stale_after_problem(args.stale_after)) is not None:
+        return _usage(f"status: {stale}")
     plant = status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
     if args.html:
         from .sync import report
@@ -701,23 +725,28 @@ def _add_validate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         "validate",
         help="check a robot project against its schemas and its own configuration",
         description="Report every problem in a robot project, one per line as "
-        "file:line: field: what is wrong (allowed: ...). Exit 0 when valid, 1 when not.",
+        "file:line: field: what is wrong (allowed: ...); a valid one in one line saying "
+        "what was checked. Exit 0 when valid, 1 when not.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     p.set_defaults(func=_cmd_validate)
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .project import project_notes, validate_project
+    from .project.store import check_project
 
-    issues = validate_project(args.dir)
-    for issue in issues:
+    checked = check_project(args.dir)
+    for issue in checked.issues:
         _print(issue)
-    for note in project_notes(args.dir):
+    for note in checked.notes:
         _print(f"note: {note}")
-    if issues:
-        print(f"harlsync: {args.dir}: {len(issues)} problem(s)", file=sys.stderr)
+    if checked.issues:
+        print(f"harlsync: {args.dir}: {len(checked.issues)} problem(s)", file=sys.stderr)
         return EXIT_NO
+    _print(  # asked for: said even under cron
+        f"{args.dir}: valid {checked.family} project: {len(checked.files)} files checked "
+        "against their schemas and its own configuration"
+    )
     return EXIT_OK
 
 

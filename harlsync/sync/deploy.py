@@ -57,7 +57,7 @@ from .live import Station, connect, station_number, unfinished_pushes
 from .plan import Plan, PlannedWrite, make_plan
 from .policy import check_committed
 from .pushtypes import PushFailed, PushOptions, PushResult
-from .snapshots import save_snapshot, snapshots
+from .snapshots import load_snapshot, save_snapshot, snapshots
 from .writes import check_window, interlock, write_all
 
 __all__ = ["PushFailed", "PushOptions", "PushResult", "push", "rollback", "run"]
@@ -337,5 +337,5 @@ def rollback(
     chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
     if chosen is None:
         raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
-    saved = load_project(chosen, project.family)
+    saved = load_snapshot(path, chosen, project.family)
     return run("rollback", project, saved.data, opts, port, station)

@@ -40,18 +40,35 @@ class PullResult:
     earlier: list[str] = field(default_factory=list)
     #: What was read, in the family's words (Catalogue.contents).
     contents: str = ""
+    #: Every file the save wrote or removed (relative to the project).
+    written: list[str] = field(default_factory=list)
+    #: Those of them an older format had written: the save wrote them in the
+    #: current one, ``formats`` (the oldest found, the current).
+    migrated: list[str] = field(default_factory=list)
+    formats: tuple[int, int] = (0, 0)
 
     @property
     def changed(self) -> bool:
-        """Whether the backup in git changes: a first backup, a change, or an earlier
-        pull's files still to commit."""
-        return self.changes is None or bool(self.changes) or bool(self.earlier)
+        """Whether the backup in git changes: a first backup, a change, files the save
+        rewrote (a migration to the current format), or an earlier pull's files still
+        to commit."""
+        return (
+            self.changes is None or bool(self.changes) or bool(self.written) or bool(self.earlier)
+        )
 
     @property
     def summary(self) -> str:
         from .policy import listed
 
         said = "first backup" if self.changes is None else change_summary(self.changes)
+        if self.migrated:
+            count = len(self.migrated)
+            said += (
+                f"; {count} file{'s' * (count != 1)} migrated from format {self.formats[0]} "
+                f"to format {self.formats[1]}"
+            )
+        elif self.changes == [] and self.written:
+            said += f"; rewritten as this harlsync writes them: {listed(self.written)}"
         if self.earlier:
             said += f"; with an earlier pull's backup, never committed ({listed(self.earlier)})"
         return said
@@ -219,6 +236,7 @@ def _pull(
     earlier: list[str] = []
     settled: list[bool] = []
     loaded: list[Any] = []
+    read_from: dict[str, bytes] = {}  # the backup's files, as loaded
 
     def settle() -> None:
         """What waits for the line to be open, done once, before anything else is
@@ -246,10 +264,12 @@ def _pull(
         """The backup in ``path`` (None: none), loaded once the line is open: the
         first request need not wait for it (issue 15)."""
         if not loaded:
-            from ..project.store import load_project
+            from ..project.store import read_project
 
             try:
-                loaded.append(load_project(path, family).data)
+                project, files = read_project(path, family)
+                loaded.append(project.data)
+                read_from.update(files)
             except ProjectError:
                 loaded.append(None)
         return loaded[0]
@@ -289,7 +309,7 @@ def _pull(
     compared = None  # the changes without runtime data, when _same_robot found them
     if previous is not None and not new_robot:
         compared = _same_robot(path, things, previous, live, read.driver.label)
-    save_project(path, Project(path, robot, live, family))
+    written = save_project(path, Project(path, robot, live, family))
     if previous is None:
         changes = None
     elif compared is not None and not robot.keep_registers:
@@ -302,7 +322,9 @@ def _pull(
         changes,
         earlier=earlier,
         contents=things.contents(live, registers=robot.keep_registers),
+        written=written,
     )
+    _migrated(result, read_from, family.format)
     since = history.read(path).get("last_success")
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
@@ -316,6 +338,21 @@ def _pull(
         if result.commit:
             history.committed(path, result.commit)
     return result
+
+
+def _migrated(result: PullResult, was: Mapping[str, bytes], current: int) -> None:
+    """Note in ``result`` the files it wrote that ``was`` (the backup as loaded) had in
+    a format older than ``current``: a migration, which the pull says and commits."""
+    from ..project.files import older_format
+
+    found = {
+        name: number
+        for name in result.written
+        if name in was and (number := older_format(was[name], current)) is not None
+    }
+    if found:
+        result.migrated = sorted(found)
+        result.formats = (min(found.values()), current)
 
 
 def _record_notes(
