@@ -202,6 +202,21 @@ def record(sim: Any, robot: str, folder: Path) -> bytes:
     return sent
 
 
+def differ(robot: str, sent: bytes, again: bytes) -> str:
+    """Where the requests ``again`` part from the recorded ones ``sent``, in words."""
+    codec = codec_of(robot)
+    ours, theirs = frames(codec, sent), frames(codec, again)
+    n = next(
+        (n for n, (a, b) in enumerate(zip(ours, theirs)) if a != b), min(len(ours), len(theirs))
+    )
+    near = slice(max(0, n - 2), n + 3)
+    return (
+        f"{len(theirs)} requests against {len(ours)} recorded, the first other one number {n}: "
+        f"{theirs[near]} where the recording has {ours[near]} (a retry: the machine too busy "
+        "for the reply deadline?)"
+    )
+
+
 def yaml_baud(robot: str, baud: int, transport: str) -> int:
     """The baud rate robot.yaml gives: the line's on a pty, the family's default
     behind a device server (which sets the line's rate itself)."""
@@ -237,8 +252,12 @@ def run_case(
         for n in range(repeat):
             for who, source in clients:
                 runs[who].append(pull(sim, baud, text, tmp / f"{name}-{who}-{n}", locks, source))
-                if sim.wire()[0][0] != sent:
-                    sys.exit(f"floor: a {who} pull sent other requests than the recorded one")
+                again = sim.wire()[0][0]
+                if again != sent:
+                    sys.exit(
+                        f"floor: a {who} pull sent other requests: {differ(robot, sent, again)}"
+                        f"\nit said:\n{runs[who][-1]['output']}"
+                    )
                 show(case, who, runs[who][-1])
             runs["floor"].append(timed_process(sim, baud, floor_command, process_env(locks)))
             show(case, "floor", runs["floor"][-1])

@@ -377,6 +377,7 @@ def timed_process(
         "gaps": counted["gaps"],
         "late_mean": counted.get("late_mean", 0.0),
         "late_worst": counted.get("late_worst", 0.0),
+        "output": done.stdout + done.stderr,
     }
 
 
