@@ -107,6 +107,9 @@ class PushResult:
     warnings: list[str] = field(default_factory=list)
     #: What the family says after anything was written (``Family.deploy_notes``).
     notes: list[str] = field(default_factory=list)
+    #: The commit the robot's deployed ref holds after it (:mod:`.states`); None
+    #: outside git, or when it could not be moved (a warning says why).
+    deployed: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -339,7 +342,37 @@ def push(
     except HarlsyncError as exc:
         _audit_refusal("push", path, opts, exc)
         raise
-    return run("push", project, project.data, opts, port, station)
+    result = run("push", project, project.data, opts, port, station)
+    _deployed(Path(path), files, "push", project, opts, result)
+    return result
+
+
+def _deployed(
+    path: Path,
+    files: Mapping[str, bytes],
+    action: str,
+    project: Project,
+    opts: PushOptions,
+    result: PushResult,
+) -> None:
+    """Move the robot's deployed ref to what the finished push or rollback made it
+    hold (``files``); when it cannot move, a warning says so: the robot was written."""
+    from .states import record_deployed
+
+    try:
+        result.deployed = record_deployed(
+            path,
+            files,
+            action,
+            project.robot.name,
+            [w.name for w in result.written],
+            opts.reason,
+        )
+    except HarlsyncError as exc:
+        result.warnings.append(
+            f"the robot's deployed state was not recorded in git ({exc}): the next backup "
+            f"may report what this {action} wrote as pending"
+        )
 
 
 def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:
@@ -377,5 +410,7 @@ def rollback(
     chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
     if chosen is None:
         raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
-    saved = load_project(chosen, project.family)
-    return run("rollback", project, saved.data, opts, port, station)
+    saved, files = read_project(chosen, project.family)
+    result = run("rollback", project, saved.data, opts, port, station)
+    _deployed(Path(path), files, "rollback", project, opts, result)
+    return result

@@ -192,9 +192,11 @@ class ToyFamily(Family[SlotKey, ToyData]):
             except (UnicodeDecodeError, yamlio.YamlSyntaxError) as exc:
                 line = getattr(exc, "line", None)
                 issues.append(Issue(name, line, None, f"not YAML: {exc}", fatal=True))
-        if issues:
+        if "robot.yaml" not in docs:
             return Analysis(issues=issues)
-        robot = _robot(docs["robot.yaml"], issues)
+        robot = _robot(docs["robot.yaml"], issues)  # alone too: what load_robot reads
+        if "slots.yaml" not in docs:
+            return Analysis(robot=robot, issues=issues)
         slots_doc = docs["slots.yaml"]
         plain = _plain(slots_doc.data)
         for error in jsonschema.Draft202012Validator(json.loads(SCHEMA)).iter_errors(plain):
