@@ -871,7 +871,9 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "previous files as they were. DIR is created if missing; a first pull needs "
         "--port. A controller that does not look like the robot backed up in DIR "
         "(another version or program configuration, or most of the backup would "
-        "change) is refused (exit 3) until --new-robot.",
+        "change) is refused (exit 3) until --new-robot; so is a pull that would overwrite "
+        "changes the project's branch approved and no push deployed yet (pending) until "
+        "--discard-pending.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
@@ -891,6 +893,12 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "--allow-dirty",
         action="store_true",
         help="pull even over uncommitted edits in DIR (they are overwritten)",
+    )
+    p.add_argument(
+        "--discard-pending",
+        action="store_true",
+        help="pull even over changes the project's branch approved and no push has "
+        "deployed yet (pending: they are overwritten in the working tree)",
     )
     p.add_argument(
         "--new-robot",
@@ -953,6 +961,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
             family=families.get(args.family) if args.family else None,
             new_robot=args.new_robot,
             connect_options=_connect_options(args),
+            discard_pending=args.discard_pending,
         )
     finally:
         progress.close()
@@ -1118,6 +1127,8 @@ def _show_plan(the_plan: Plan[Any], verbose: int = 0) -> None:
     if the_plan.items:
         for line in render_text(the_plan.items, "", "").splitlines()[2:]:
             _print(line)
+    for name, said in the_plan.reverts.items():
+        _print(f"# {name}: {said}")
     if verbose:
         for write in the_plan.writes:
             flag = "  # unsafe in automatic operation" if write.unsafe else ""
@@ -1250,6 +1261,7 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
         lock_timeout=args.lock_timeout,
         progress=progress,
         connect_options=_connect_options(args),
+        told=lambda line: print(f"harlsync: {line}", file=sys.stderr),
     )
 
 
@@ -1343,6 +1355,44 @@ def _check_plan_file(path: str, project: str) -> None:
         )
 
 
+def _add_adopt(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "adopt",
+        help="write changes made on the robot, as the last backup kept them, into the project",
+        description="Write into the project the items the last backup read (kept on the "
+        "branch harlsync/backup) where the robot differs from the project: the ITEMs "
+        "named (as status and backup name them, e.g. 'MAIN program 0 step 2'), or every "
+        "item the robot changed since the last push or rollback (drift). Nothing is "
+        "committed and no robot is contacted: review the change (git diff) and commit "
+        "it; then the robot's change is approved. Refuses uncommitted edits (exit 3) "
+        "unless --allow-dirty.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    p.add_argument("items", nargs="*", metavar="ITEM", help="an item to adopt (default: the drift)")
+    p.add_argument(
+        "--allow-dirty",
+        action="store_true",
+        help="adopt even over uncommitted edits in DIR (they are overwritten)",
+    )
+    p.set_defaults(func=_cmd_adopt)
+
+
+def _cmd_adopt(args: argparse.Namespace) -> int:
+    from .sync.adopt import adopt
+    from .sync.states import date_of
+
+    found = adopt(_project_dir(args.dir), args.items, allow_dirty=args.allow_dirty)
+    source = f"the backup of {date_of(found.time)} (commit {found.commit[:10]})"
+    if not found.items:
+        _print(f"nothing to adopt: the project already holds what {source} read")
+        return EXIT_OK
+    _print(f"adopted {len(found.items)} item(s) from {source}:")
+    for item in found.items:
+        _print(f"  {item}")
+    _print(f"review with 'git diff {args.dir}' and commit: {', '.join(found.files)}")
+    return EXIT_OK
+
+
 def _add_rollback(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "rollback",
@@ -1388,6 +1438,7 @@ _COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParse
     "plan": _add_plan,
     "push": _add_push,
     "rollback": _add_rollback,
+    "adopt": _add_adopt,
     "backup": _add_backup,
     "status": _add_status,
     "log": _add_log,
@@ -1398,7 +1449,7 @@ _COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParse
 
 
 #: Commands that open no line to a robot: -v has no traffic to show for them.
-_NO_LINE = frozenset({"validate", "status", "log", "snapshots"})
+_NO_LINE = frozenset({"validate", "status", "log", "snapshots", "adopt"})
 
 
 def _one_line(exc: BaseException, verbose: int = 0) -> str:

@@ -60,6 +60,7 @@ from .live import Station, connect, station_number, unfinished_pushes
 from .plan import Plan, PlannedWrite, make_plan
 from .policy import check_committed
 from .snapshots import save_snapshot, snapshots
+from .states import mark_reverts
 from .writes import check_window, interlock, write_all
 
 __all__ = ["PushFailed", "PushOptions", "PushResult", "push", "rollback", "run"]
@@ -87,6 +88,9 @@ class PushOptions:
     progress: Progress | None = None
     #: the connection's family options (see :func:`connect`): ``reset_function``
     connect_options: Mapping[str, bool] = field(default_factory=dict)
+    #: Told, before the first write of a push not shown to ``confirm`` (``yes``),
+    #: each item it reverts of a change made on the robot (:attr:`Plan.reverts`).
+    told: Callable[[str], None] | None = None
 
 
 @dataclass
@@ -180,13 +184,20 @@ def run(
         result.plan = the_plan = make_plan(
             family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
         )
+        mark_reverts(project.path, live, the_plan)
         record["plan"] = the_plan.commands
+        if the_plan.reverts:
+            record["reverts"] = [f"{name}: {said}" for name, said in the_plan.reverts.items()]
         _check_plan(the_plan, opts)
         if the_plan.empty:
             record["result"] = "nothing to write"
             return result
         if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
             raise PolicyError("push not confirmed: nothing was written")
+        for name, said in the_plan.reverts.items():  # said before the first write
+            log.warning("%s: %s: %s", robot.name, name, said)
+            if opts.yes and opts.told is not None:
+                opts.told(f"{name}: {said}")
         result.snapshot = save_snapshot(project.path, robot, live, action)
         record["snapshot"] = str(result.snapshot)
         _journal(dict(record, event="start"))

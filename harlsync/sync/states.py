@@ -49,6 +49,7 @@ from ..project import statefile
 from ..project.store import disk_error, replace_file
 from . import backupref, git, history
 from .items import Change, diff_items
+from .plan import Plan
 
 __all__ = [
     "LOOK_BACK",
@@ -394,3 +395,15 @@ def audit_user() -> str:
 
     record = audit.base_record("push")
     return f"{record.get('user', '?')}@{record.get('host', '?')}"
+
+
+def mark_reverts(path: Path, live: Any, plan: Plan[Any]) -> Plan[Any]:
+    """``plan`` (made from the robot ``live``) with :attr:`Plan.reverts` filled in
+    from :func:`reverts`; the same plan."""
+    found = reverts(path, plan_catalogue(plan), live, plan.items) if plan.items else {}
+    plan.reverts = {change.name: found[change.key] for change in plan.items if change.key in found}
+    return plan
+
+
+def plan_catalogue(plan: Plan[Any]) -> Catalogue[Any, Any]:
+    return plan.items[0].catalogue

@@ -48,6 +48,15 @@ class ToyCatalogue(Catalogue[SlotKey, ToyData]):
     def items(self, data: ToyData, *, registers: bool = False) -> dict[SlotKey, object]:
         return {SlotKey("slot", n): v for n, v in data.slots.items()}
 
+    def with_items(self, data: ToyData, values: Mapping[SlotKey, object]) -> ToyData:
+        slots = dict(data.slots)
+        for key, value in values.items():
+            if value is None:
+                slots.pop(key.number, None)
+            else:
+                slots[key.number] = int(value)  # type: ignore[call-overload]
+        return ToyData(data.version, slots)
+
     def order(self, key: SlotKey) -> tuple[int | str, ...]:
         return (key.number,)
 
