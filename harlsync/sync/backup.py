@@ -626,19 +626,18 @@ def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
         report.commit_error = str(exc)
         return
     report.said += said
-    if new is None:
-        return
-    report.commit = report.commit or new
-    _record_commit([Path(o.path) for o in kept if o.changed], new)
+    if new is not None:
+        report.commit = report.commit or new
+        _record_commit([Path(o.path) for o in kept if o.changed], new)
     for o in kept:
-        standing = o.compared
-        if standing is not None:
-            standing.observed = new
-            if standing.deployed is None and (o.kept or {}).get("setup") is not None:
-                root = Path((o.kept or {})["root"])
-                ref = backupref.deployed_ref((o.kept or {})["where"])
-                standing.deployed = backupref.commit_of(root, ref)
-            o.standing = standing.to_json()
+        standing, where = o.compared, (o.kept or {})
+        if standing is None:
+            continue
+        root = Path(where["root"])
+        standing.observed = backupref.commit_of(root, backupref.BACKUP_REF)
+        if standing.deployed is None:
+            standing.deployed = backupref.commit_of(root, backupref.deployed_ref(where["where"]))
+        o.standing = standing.to_json()
 
 
 def _record_states(kept: list[RobotOutcome]) -> None:

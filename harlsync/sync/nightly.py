@@ -232,19 +232,20 @@ def _standing(
         ):
             setup, deployed = head, approved
             standing.notes.append(
-                f"set up: no deployed state was known; the robot matches the approved commit "
-                f"{head[:10]}, taken as deployed"
+                f"set up {backupref.deployed_ref(where)}: no deployed state was known; the "
+                f"robot matches the approved commit {head[:10]}, taken as deployed"
             )
         else:
             setup, deployed = "", live
             standing.notes.append(
-                "set up: no deployed state was known; what the robot holds now is taken as "
-                "deployed, so each difference from approved is reported as pending"
+                f"set up {backupref.deployed_ref(where)}: no deployed state was known; what "
+                "the robot holds now is taken as deployed, so each difference from approved "
+                "is reported as pending"
             )
     elif how != backupref.deployed_ref(where):
         setup = deployed_commit
         standing.notes.append(
-            f"set up: no deployed ref yet; the last backup commit {deployed_commit[:10]} "
+            f"set up {backupref.deployed_ref(where)}: the last backup commit {deployed_commit[:10]} "
             f"({states.date_of(backupref.commit_time(root, deployed_commit))}, made before "
             "backups were kept apart from the approved branch) is taken as deployed"
         )
@@ -316,29 +317,30 @@ def commit_observed(
     new: str | None = None
     if base is None or tree != backupref.project_tree(root, base, ""):
         new = backupref.make_commit(root, tree, [base] if base else [], message)
-    elif tip is None and head is not None:
-        new = head  # every robot as approved: the branch starts there
-    if new is not None:
-        backupref.update_refs(root, [RefUpdate(backupref.BACKUP_REF, new, tip)], "harlsync backup")
+    moved = new or (head if tip is None else None)  # every robot as approved: from HEAD
+    if moved is not None:
+        backupref.update_refs(
+            root, [RefUpdate(backupref.BACKUP_REF, moved, tip)], "harlsync backup"
+        )
         if tip is None:
             said.append(
                 f"set up: the branch {backupref.BACKUP_BRANCH} keeps what each backup reads, "
-                f"from {new[:10]} on; the approved branch and the working tree are left alone"
+                f"from {moved[:10]} on; the approved branch and the working tree are left alone"
             )
-    held = new or tip
+    held = moved or tip
     for path, kept, _ in observed:
         if kept.get("setup") is None:
             continue
         try:
-            said.append(_set_up_deployed(root, path, kept, held))
+            _set_up_deployed(root, path, kept, held)
         except HarlsyncError as exc:
-            said.append(f"{path.name}: the deployed ref was not set up: {exc}")
+            said.append(f"{path.name}: its deployed ref was not set up: {exc}")
     return new, said
 
 
-def _set_up_deployed(root: Path, path: Path, kept: dict[str, Any], observed: str | None) -> str:
+def _set_up_deployed(root: Path, path: Path, kept: dict[str, Any], observed: str | None) -> None:
     """Make the deployed ref of a robot that has none, holding what its backup took
-    as deployed; what was done, a line."""
+    as deployed (its standing's note says what)."""
     where = kept["where"]
     source = kept["setup"] or observed
     if source is None:
@@ -357,7 +359,6 @@ def _set_up_deployed(root: Path, path: Path, kept: dict[str, Any], observed: str
         f"What the robot was taken to hold from its last push: commit {source[:10]}.\n",
     )
     backupref.update_refs(root, [RefUpdate(ref, commit, None)], "harlsync backup: set up")
-    return f"{name}: set up {ref} at {commit[:10]} (from {source[:10]})"
 
 
 def load_robot_name(path: Path) -> str:
