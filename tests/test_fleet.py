@@ -328,7 +328,9 @@ def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) 
         message = git(root, "log", "-1", "--format=%B", "harlsync/backup")
         names = git(root, "show", "--name-only", "--format=", "harlsync/backup").split()
         kept = {
-            k: v for k, v in files_of(root).items() if not k.endswith(("backup.json", "states.json"))
+            k: v
+            for k, v in files_of(root).items()
+            if not k.endswith(("backup.json", "states.json"))
         }
         return watch.of, robots, message, names, kept
 
