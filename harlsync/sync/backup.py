@@ -675,6 +675,12 @@ def run_hook(command: str, report: BackupReport, event: str) -> int:
     return done.returncode
 
 
+def _standing(r: RobotOutcome) -> states.Standing:
+    """What the robot's backup found of its states: tonight's, else (a failed robot)
+    what the last one recorded, else nothing pending or drifted."""
+    return r.compared or states.read(Path(r.path)) or states.Standing("")
+
+
 def write_metrics(path: str | Path, report: BackupReport) -> None:
     """Write a Prometheus textfile (node_exporter's textfile collector), atomically.
 
@@ -697,6 +703,16 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
             lambda r: str(sum(v for k, v in r.counts.items() if k != "programs")),
         ),
         ("failed_attempts", "Failed attempts in this run.", lambda r: str(len(r.attempts))),
+        (
+            "pending_items",
+            "Items approved and not yet on the robot (a push deploys them).",
+            lambda r: str(len(_standing(r).pending)),
+        ),
+        (
+            "drift_items",
+            "Items changed on the robot since the last push or rollback, not by one.",
+            lambda r: str(len(_standing(r).drift)),
+        ),
     ]
     lines: list[str] = []
     # Each metric's samples in one group, each robot once: by its project (two robots
