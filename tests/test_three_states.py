@@ -69,7 +69,7 @@ def test_issue_30_status_the_report_page_and_the_metrics_show_pending_and_drift(
     )
     by = f"by Alice Engineer, {cell.commit[:10]} "
     assert re.search(
-        r"^cell +ok .* 1 program \(1 step\); pending 1 item, drift 1 item$", out, re.M
+        r"^cell +ok .* 1 program \(1 step\); pending 1 item, drift 1 item$", out, re.MULTILINE
     ), out
     assert f"cell: pending: timer 1 (first seen {today}, {by}" in out
     assert f"cell: drift: MAIN program 0 step 2 (first seen {today})" in out
