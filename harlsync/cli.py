@@ -463,8 +463,11 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         help="back up every robot of a plant (for cron and systemd)",
         description="Pull every robot project found in PATH (a project directory, or a directory "
         "of projects): in parallel across separate lines, spread over a worker process "
-        "per core, one at a time for stations that share a line. A robot that fails keeps its previous backup and the others "
-        "go on. On a terminal it shows a live line per robot (exchanges with the "
+        "per core, one at a time for stations that share a line. A robot whose project git "
+        "holds is kept on the branch harlsync/backup, never over the approved branch or the "
+        "working tree, and reported as same as approved, pending (approved, not yet on the "
+        "robot) or drift (changed on the robot, not by a push); see docs/states.md. A robot "
+        "that fails keeps its previous backup and the others go on. On a terminal it shows a live line per robot (exchanges with the "
         "controller, rate, time left) and a result line as each ends. Exit 0 when "
         "every robot was backed up, 1 when any failed or the git commit or push "
         "failed, 2 on an error before any robot ran, 130 interrupted.",
@@ -488,9 +491,15 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument(
         "--commit",
         action="store_true",
-        help="one git commit for the run, listing which robots changed and how much",
+        help="one git commit for the run on the branch harlsync/backup, listing which "
+        "robots changed and how much, and what is pending or drifted",
     )
-    p.add_argument("--push", action="store_true", help="git push after committing (needs --commit)")
+    p.add_argument(
+        "--push",
+        action="store_true",
+        help="git push the backup branch and the robots' deployed refs after committing "
+        "(needs --commit)",
+    )
     _format_arg(p)
     p.add_argument(
         "--quiet",
@@ -599,7 +608,8 @@ def _add_status(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
         "and git only: no robot is contacted. A robot's state is the most urgent "
         "of: unfinished push, partial push (stopped part way), never backed up, failed, "
-        "stale, changed, ok. Exit 0 "
+        "stale, changed, ok. The pending and drift columns are what the last backup found "
+        "against the approved version, each item listed below. Exit 0 "
         "when every robot is ok or changed, 1 when any is failed, stale, never "
         "backed up or has an unfinished or partial push, 2 on an error (no project found).",
     )

@@ -4,7 +4,9 @@ For each robot project it reads ``robot.yaml`` (family, port, station, as the
 family writes them), ``DIR/.harlsync/backup.json`` (:mod:`.history`: the last
 attempt, the last good backup, what it changed and its commit), the audit log
 (:mod:`.audit`: pushes, rollbacks, and those that never ended), git (the commit
-that holds a backup harlsync did not commit itself) and the snapshots.
+that holds a backup harlsync did not commit itself), the snapshots, and
+``DIR/.harlsync/states.json`` (:mod:`.states`: what the last backup found pending
+and drifted, shown beside the state, never changing it).
 
 A robot's state is the first of these that applies::
 
