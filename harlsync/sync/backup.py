@@ -103,8 +103,10 @@ class RobotOutcome:
             tries = f" after {len(self.attempts)} attempts" if len(self.attempts) > 1 else ""
             return f"{self.label or self.name}: FAILED{tries}: {audit.shorten(self.error)}{took}"
         said = f"changed: {self.summary}" if self.changed else self.summary or "no change"
-        standing = self.compared
-        verdict = f"; {standing.verdict}" if standing is not None else ""
+        standing = self.compared  # said when there is something to say
+        verdict = (
+            f"; {standing.verdict}" if standing and (standing.pending or standing.drift) else ""
+        )
         return f"{self.label or self.name}: ok, {said}{verdict}{took}"
 
 
