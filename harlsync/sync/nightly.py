@@ -76,6 +76,13 @@ def read_robot(path: Path, **options: Any) -> PullResult:
     where = backupref.where_of(root, path)
     if not backupref.has_project(root, head, where):
         return pull(path, **options)
+    branch = git.run(root, "symbolic-ref", "--quiet", "HEAD", ok=(0, 1)).strip()
+    if branch == backupref.BACKUP_REF:
+        raise SyncError(
+            f"{root}: the branch {backupref.BACKUP_BRANCH} is checked out, so nothing tells "
+            "what is approved; check the project's branch out again (git checkout main, or "
+            "the one engineers commit on) and run the backup again"
+        )
     return _observe(path, root, where, head, **options)
 
 
