@@ -111,3 +111,29 @@ def test_issue_30_a_pull_refuses_to_overwrite_a_pending_change_unless_told_to(
     assert main(["pull", str(cell.project), "--discard-pending"]) == 0
     assert (cell.project / "timers.yaml").read_bytes() != before  # the robot's timer now
     assert git(cell.project, "rev-parse", "HEAD").strip() == cell.commit  # nothing committed
+
+
+def test_issue_30_adopt_takes_the_drift_and_leaves_the_pending_change_as_approved(
+    cell: Cell, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["backup", str(cell.project.parent), "--commit", "--workers", "1"]) == 0
+    timers = (cell.project / "timers.yaml").read_text()
+    capsys.readouterr()
+    assert main(["adopt", str(cell.project), "timer 9", "step 2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.endswith(
+        "timer 9, step 2: not an item where the last backup differs from the project (those "
+        "that do: timer 1, MAIN program 0 step 2)"
+    )
+
+    assert main(["adopt", str(cell.project), "main program 0 step 2"]) == 0
+    out = capsys.readouterr().out
+    assert "adopted 1 item(s) from the backup of " in out and "  MAIN program 0 step 2\n" in out
+    assert "MOVE P999 S10" in (cell.project / "programs" / "main-00.yaml").read_text()
+    assert (cell.project / "timers.yaml").read_text() == timers  # the pending one stays
+    assert git(cell.project, "status", "--porcelain").split() == ["M", "cell/programs/main-00.yaml"]
+
+    git(cell.project, "checkout", "-q", "--", ".")
+    assert main(["adopt", str(cell.project)]) == 0  # by default: the drift, only it
+    assert "  MAIN program 0 step 2\n" in capsys.readouterr().out
+    assert (cell.project / "timers.yaml").read_text() == timers
