@@ -605,9 +605,9 @@ def _run(
         if push:
             # Push even when nothing changed tonight: it catches up a failed push.
             try:
-                if kept:
-                    nightly.push_refs(Path(kept[0].path))
-                if legacy or not kept:
+                # The robots' own states; the branch only for what was committed on it
+                # (robots pulled into their directories), or in a plant without them.
+                if not nightly.push_refs(projects[0]) or legacy:
                     git.push(projects[0])
                 report.pushed = True
             except HarlsyncError as exc:

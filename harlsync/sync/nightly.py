@@ -387,22 +387,25 @@ def remote_of(root: Path) -> str | None:
     return "origin" if "origin" in remotes else (remotes[0] if len(remotes) == 1 else None)
 
 
-def push_refs(path: Path) -> None:
-    """Push the backup branch and every deployed ref to the remote.  Raises SyncError
-    with git's reason (the local commit is kept: the next run pushes it)."""
+def push_refs(path: Path) -> bool:
+    """Push the backup branch and every deployed ref to the remote; whether there was
+    any.  Raises SyncError with git's reason (the local commit is kept: the next run
+    pushes it)."""
     root = git.repo_root(path)
     if root is None:
         raise SyncError(f"{path}: not inside a git repository")
+    specs = []
+    if backupref.commit_of(root, backupref.BACKUP_REF) is not None:
+        specs.append(f"{backupref.BACKUP_REF}:{backupref.BACKUP_REF}")
+    if git.run(root, "for-each-ref", "--count=1", backupref.DEPLOYED).strip():
+        specs.append(f"{backupref.DEPLOYED}*:{backupref.DEPLOYED}*")
+    if not specs:
+        return False
     remote = remote_of(root)
     if remote is None:
         raise SyncError(f"{root}: no git remote to push to; add one (git remote add origin URL)")
-    specs = [f"{backupref.BACKUP_REF}:{backupref.BACKUP_REF}"]
-    if backupref.commit_of(root, backupref.BACKUP_REF) is None:
-        specs = []
-    if git.run(root, "for-each-ref", "--count=1", backupref.DEPLOYED).strip():
-        specs.append(f"{backupref.DEPLOYED}*:{backupref.DEPLOYED}*")
-    if specs:
-        git.run(root, "push", "--quiet", remote, *specs)
+    git.run(root, "push", "--quiet", remote, *specs)
+    return True
 
 
 def fetch_deployed(path: Path) -> str | None:
