@@ -266,6 +266,38 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
     assert 'harlsync_backup_failed_attempts{project="silent",robot="silent"} 1' in text
 
 
+def test_issue_34_item_14_every_output_is_checked_before_a_robot_is_read_all_problems_at_once(
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    plant.sims["loader"].stations[1].data.timers[2] = "1.23"  # a backup would change it
+    metrics = tmp_path / "textfile" / "harlsync.prom"  # its directory was never made
+    a_file = tmp_path / "www"
+    a_file.write_text("not a directory\n")
+    page = a_file / "plant.html"
+    on_failure = "mial -s 'robots not backed up' maintenance@plant.example"  # mistyped
+    on_change = "echo 'unclosed"
+    records = {n: (plant.root / n / ".harlsync" / "backup.json").read_bytes() for n in plant.sims}
+    received = {n: len(sim.received) for n, sim in plant.sims.items()}
+    capsys.readouterr()
+    code = main(
+        ["backup", str(plant.root), "--metrics", str(metrics), "--html", str(page)]
+        + ["--on-failure", on_failure, "--on-change", on_change]
+    )
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert f"cannot write the metrics file {metrics} (no directory {metrics.parent})" in err
+    assert f"cannot write the report page {page} (not a directory: {a_file})" in err
+    assert f"--on-failure '{on_failure}': the shell finds no command mial" in err
+    assert f"--on-change '{on_change}': the shell cannot read it (" in err
+    assert err.rstrip().endswith("no robot was read")
+    assert {n: len(sim.received) for n, sim in plant.sims.items()} == received
+    assert records == {
+        n: (plant.root / n / ".harlsync" / "backup.json").read_bytes() for n in plant.sims
+    }
+    assert not metrics.parent.exists()
+
+
 def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
     robot = plant.root / "loader" / "robot.yaml"
     text = robot.read_text()

@@ -36,10 +36,10 @@ from simline import (
 )
 
 from harlsync.errors import (
+    ChecksumError,
     FrameError,
     LinkError,
     LinkTimeout,
-    LRCError,
     PortBusyError,
     PortError,
     ProjectError,
@@ -318,7 +318,7 @@ def test_a_read_gives_up_after_its_retries_with_link_timeout(link: Link, sim: Sc
         "the cable, and the serial settings (baud, parity) in robot.yaml"
     )
     assert "b'" not in message and "\n" not in message
-    assert isinstance(info.value.__cause__, LRCError)
+    assert isinstance(info.value.__cause__, ChecksumError)
     assert len(sim.sent("LNT 1")) == 4 and link.stats.retries == 3
 
 

@@ -13,7 +13,7 @@ pyserial finds this module because :mod:`harlsync.link` adds ``harlsync.sim`` to
 Query options: ``family``, ``seed``, ``stations`` (as the family writes them),
 ``baud``, ``turnaround``, the family's schedule ``auto_after_writes`` (HARL-U2)
 or ``run_after_writes`` (IAI), and the faults ``noise``, ``drop``,
-``bad_checksum`` (or ``bad_lrc``), ``fragment``, ``slow``, ``slow_delay``,
+``bad_checksum``, ``fragment``, ``slow``, ``slow_delay``,
 ``fault_seed`` (rates 0-1), and the family's variants by name
 (``?missing_table=E2``, :mod:`harlsync.sim.variants`).
 """
@@ -126,9 +126,7 @@ def build_simulator(
 
 
 #: sim:// options that set faults: every fault setting and spelling, the seed spelt fault_seed.
-_FAULT_KEYS = {
-    ("fault_seed" if n == "seed" else n): n for n in (*Faults.names(), *Faults.SPELLINGS)
-}
+_FAULT_KEYS = {("fault_seed" if n == "seed" else n): n for n in Faults.names()}
 
 
 def simulator_from_url(url: str) -> Simulator[Any, Any]:

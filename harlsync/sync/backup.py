@@ -16,10 +16,12 @@ from __future__ import annotations
 import json
 import logging
 import os
+import re
+import shlex
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta, timezone
@@ -33,7 +35,7 @@ from ..link import lock_key
 from ..link.lock import LockTimeout
 from ..project import family_of, load_robot, statefile
 from ..project.lock import holder, lock_path, project_lock
-from ..project.store import replace_file
+from ..project.store import check_replaceable, replace_file
 from ..robotlog import about
 from . import audit, backupref, git, history, nightly, states
 from .items import summarize
@@ -47,6 +49,8 @@ __all__ = [
     "in_process",
     "line_of",
     "lines_of",
+    "output_problems",
+    "record_not_backed_up",
     "run_hook",
     "write_metrics",
 ]
@@ -468,6 +472,17 @@ def not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
     return outcome
 
 
+def record_not_backed_up(path: Path, exc: HarlsyncError, now: datetime) -> RobotOutcome:
+    """The outcome of a robot whose backup was started and never told its end (its
+    worker process was killed), recorded failed in its history as of ``now``: the
+    report fails it, so ``harlsync status`` must not show last night's "ok".
+
+    Its project lock died with the worker; a harlsync that took the project since
+    records its own result after this one (a record is replaced whole, never mixed).
+    """
+    return _record(not_backed_up(path, exc), now)
+
+
 def _record(outcome: RobotOutcome, now: datetime, exchanges: int = 0) -> RobotOutcome:
     """Record the attempt in the robot's history (``DIR/.harlsync/backup.json``),
     a good one with the ``exchanges`` its read took (what the next run weighs the
@@ -653,6 +668,75 @@ def _record_states(kept: list[RobotOutcome]) -> None:
             states.write(Path(o.path), standing)
         except HarlsyncError as exc:
             log.warning("%s", exc)
+
+
+def output_problems(files: Mapping[str, str | None], hooks: Mapping[str, str | None]) -> list[str]:
+    """Why each output of a backup could not be made, found before any robot is read,
+    one line each: ``files`` (the metrics file, the report page) by the option that
+    names them (``--metrics``), each written as :func:`replace_file` writes it, and
+    ``hooks`` (``--on-failure``) the commands the shell is to run.  A mistyped
+    output would otherwise show only after the night's reads, and one a night."""
+    problems = []
+    for option, given in files.items():
+        if given:
+            why = _unwritable(Path(given))
+            if why is not None:
+                problems.append(
+                    f"cannot write the {_OUTPUTS.get(option, 'file')} {given} ({why}): "
+                    f"fix that, or give another {option} FILE"
+                )
+    for option, command in hooks.items():
+        if command:
+            why = _hook_problem(command)
+            if why is not None:
+                problems.append(f"{option} '{command}': {why}")
+    return problems
+
+
+#: What each output option of a backup writes, as its messages name it.
+_OUTPUTS = {"--metrics": "metrics file", "--html": "report page"}
+
+
+def _unwritable(target: Path) -> str | None:
+    """Why ``target`` cannot be replaced now, or None."""
+    folder = target.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        return f"not a directory: {folder}"
+    if folder != target.parent:
+        return f"no directory {target.parent}"
+    try:
+        check_replaceable(target)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return None
+
+
+def _hook_problem(command: str) -> str | None:
+    """Why the shell could not run ``command``: it cannot parse it, or finds no
+    command by its first word (a word it would look up; None for anything else).
+    Nothing is run: the shell only reads it (``sh -n``) and looks the word up."""
+    if os.name != "posix":  # cmd.exe runs the hooks there: it has no such check
+        return None
+    read = subprocess.run(
+        ["/bin/sh", "-n", "-c", command], capture_output=True, text=True, check=False
+    )
+    if read.returncode:
+        said = (read.stderr.strip().splitlines() or ["syntax error"])[-1]
+        said = re.sub(r"^\S*sh: (line )?\d+: ", "", said)
+        return f"the shell cannot read it ({said}): correct it"
+    try:
+        words = shlex.split(command, comments=True)
+    except ValueError:
+        return None
+    word = words[0] if words else ""
+    if not re.fullmatch(r"[\w./+][\w./+-]*", word):
+        return None  # an assignment, a redirection, a group: the shell's to judge
+    found = subprocess.run(["/bin/sh", "-c", 'command -v "$1" >/dev/null', "sh", word], check=False)
+    if found.returncode:
+        return f"the shell finds no command {word}: correct it, or give its full path"
+    return None
 
 
 def run_hook(command: str, report: BackupReport, event: str) -> int:

@@ -98,7 +98,7 @@ def _observe(
     connect_options: Mapping[str, bool] | None = None,
     noted: Callable[[str], None] | None = None,
 ) -> Observed:
-    from .pulling import _not_this_robot, _record_notes, _same_robot
+    from .pulling import _migrated, _not_this_robot, _record_notes, _same_robot
 
     robot = load_robot(path, family)
     things = family.catalogue
@@ -169,6 +169,19 @@ def _observe(
         where=where,
         files={name: [e.mode, e.oid] for name, e in stored.items()},
     )
+    if previous is not None:  # files rewritten with no item changed: a migration, said
+        before = backupref.entries(root, previous_commit, where)
+        result.written = sorted(
+            name
+            for name, entry in stored.items()
+            if name != "robot.yaml" and before.get(name) != entry  # robot.yaml: a person's
+        )
+        was = git.read_blobs(root, [before[n].oid for n in result.written if n in before])
+        _migrated(
+            result,
+            {n: was[before[n].oid] for n in result.written if n in before},
+            family.format,
+        )
     now = datetime.now(timezone.utc).isoformat(timespec="seconds")
     result.standing, result.setup = _standing(
         path, root, where, head, tip, things, live, data_at, now

@@ -18,6 +18,7 @@ from ..families.base import AnyFamily, Catalogue, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
 from . import git
+from .items import change_summary
 from .live import Station, read_live, station_number
 
 if TYPE_CHECKING:
@@ -25,7 +26,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FEW_ITEMS", "MOST", "PullResult", "change_summary", "pull"]
+__all__ = ["FEW_ITEMS", "MOST", "PullResult", "pull"]
 
 
 @dataclass
@@ -39,18 +40,35 @@ class PullResult:
     earlier: list[str] = field(default_factory=list)
     #: What was read, in the family's words (Catalogue.contents).
     contents: str = ""
+    #: Every file the save wrote or removed (relative to the project).
+    written: list[str] = field(default_factory=list)
+    #: Those of them an older format had written: the save wrote them in the
+    #: current one, ``formats`` (the oldest found, the current).
+    migrated: list[str] = field(default_factory=list)
+    formats: tuple[int, int] = (0, 0)
 
     @property
     def changed(self) -> bool:
-        """Whether the backup in git changes: a first backup, a change, or an earlier
-        pull's files still to commit."""
-        return self.changes is None or bool(self.changes) or bool(self.earlier)
+        """Whether the backup in git changes: a first backup, a change, files the save
+        rewrote (a migration to the current format), or an earlier pull's files still
+        to commit."""
+        return (
+            self.changes is None or bool(self.changes) or bool(self.written) or bool(self.earlier)
+        )
 
     @property
     def summary(self) -> str:
         from .policy import listed
 
         said = "first backup" if self.changes is None else change_summary(self.changes)
+        if self.migrated:
+            count = len(self.migrated)
+            said += (
+                f"; {count} file{'s' * (count != 1)} migrated from format {self.formats[0]} "
+                f"to format {self.formats[1]}"
+            )
+        elif self.changes == [] and self.written:
+            said += f"; rewritten as this harlsync writes them: {listed(self.written)}"
         if self.earlier:
             said += f"; with an earlier pull's backup, never committed ({listed(self.earlier)})"
         return said
@@ -223,6 +241,7 @@ def _pull(
     earlier: list[str] = []
     settled: list[bool] = []
     loaded: list[Any] = []
+    read_from: dict[str, bytes] = {}  # the backup's files, as loaded
 
     def settle() -> None:
         """What waits for the line to be open, done once, before anything else is
@@ -250,10 +269,12 @@ def _pull(
         """The backup in ``path`` (None: none), loaded once the line is open: the
         first request need not wait for it (issue 15)."""
         if not loaded:
-            from ..project.store import load_project
+            from ..project.store import read_project
 
             try:
-                loaded.append(load_project(path, family).data)
+                project, files = read_project(path, family)
+                loaded.append(project.data)
+                read_from.update(files)
             except ProjectError:
                 loaded.append(None)
         return loaded[0]
@@ -304,7 +325,7 @@ def _pull(
                 f"({listed(pending)}); push them, or overwrite them with "
                 f"'harlsync pull {path} --discard-pending'"
             )
-    save_project(path, Project(path, robot, live, family))
+    written = save_project(path, Project(path, robot, live, family))
     if previous is None:
         changes = None
     elif compared is not None and not robot.keep_registers:
@@ -317,7 +338,9 @@ def _pull(
         changes,
         earlier=earlier,
         contents=things.contents(live, registers=robot.keep_registers),
+        written=written,
     )
+    _migrated(result, read_from, family.format)
     since = history.read(path).get("last_success")
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
@@ -331,6 +354,21 @@ def _pull(
         if result.commit:
             history.committed(path, result.commit)
     return result
+
+
+def _migrated(result: PullResult, was: Mapping[str, bytes], current: int) -> None:
+    """Note in ``result`` the files it wrote that ``was`` (the backup as loaded) had in
+    a format older than ``current``: a migration, which the pull says and commits."""
+    from ..project.files import older_format
+
+    found = {
+        name: number
+        for name in result.written
+        if name in was and (number := older_format(was[name], current)) is not None
+    }
+    if found:
+        result.migrated = sorted(found)
+        result.formats = (min(found.values()), current)
 
 
 def _record_notes(
@@ -435,10 +473,3 @@ def _not_this_robot(path: Path, where: str, differ: list[str]) -> PolicyError:
         f"robot (replaced, reconfigured, updated), accept it with "
         f"'harlsync pull {path} --new-robot'"
     )
-
-
-def change_summary(changes: list[Change[Any]]) -> str:
-    """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
-    if not changes:
-        return "no change"
-    return changes[0].catalogue.summary([(c.key, c.old, c.new) for c in changes])

@@ -130,8 +130,7 @@ def test_issue_30_a_pendant_edit_is_kept_on_the_backup_branch_as_drift_not_over_
         text = report.render()
         assert f"drift {len(standing.drift)} item" in text
         assert f"drift: {standing.drift[0].item} (first seen " in text
-        assert "set up: no deployed ref yet; the last backup commit" in text
-        assert f"set up {backupref.deployed_ref('cell')}" in text
+        assert f"set up {backupref.deployed_ref('cell')}: the last backup commit" in text
         # The backup branch holds what the robot holds, its commit naming the items.
         kept = git(project, "show", f"{backupref.BACKUP_BRANCH}:cell/robot.yaml")
         assert kept == (project / "robot.yaml").read_text()

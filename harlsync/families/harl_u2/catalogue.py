@@ -19,7 +19,8 @@ import copy
 from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
-from ..base import Catalogue, PlanShape, align, spans
+from ...alignment import align, spans
+from ..base import Catalogue, PlanShape
 from .model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
 
 __all__ = [

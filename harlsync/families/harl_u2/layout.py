@@ -17,12 +17,14 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ...alignment import spans
 from ...project import yamlio as y
 from ...project.files import (
     HUGE,
     SCHEMAS_DIR,
     FileSet,
     Flaws,
+    MigrationError,
     not_canonical,
     numbered,
     numbers,
@@ -33,7 +35,7 @@ from ...project.files import (
 )
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
-from ..base import Analysis, spans
+from ..base import Analysis
 from .declared import FIRST_STATION, LAST_STATION, PROGRAMS_DIR, STATION_ALLOWED
 from .model import (
     CODE_RE,
@@ -104,14 +106,23 @@ def migrate_1_to_2(kind: str, data: dict[str, Any]) -> dict[str, Any]:
     """Format 1 to 2: a program's ``steps`` mapping (step number -> step, empty steps
     left out) becomes the list of its steps in step order, an empty step ``null``.
 
-    A mapping that is not a format-1 step mapping (a key that is no step number) is
-    left as it is, for the schema to report; every other file is unchanged.
+    Raises MigrationError naming each key that is no step number (``-1``, ``'07'``,
+    ``1.5``), at its line; ``steps`` that is not a mapping is left as it is, for the
+    schema to report.  Every other file is unchanged.
     """
     steps = data.get("steps") if kind == "program" else None
-    if not isinstance(steps, dict) or not all(
-        isinstance(k, str) and _STEP_NUMBER.fullmatch(k) and int(k) <= MAX_STEPS for k in steps
-    ):
+    if not isinstance(steps, dict):
         return data
+    bad = [
+        k
+        for k in steps
+        if not (isinstance(k, str) and _STEP_NUMBER.fullmatch(k) and int(k) <= MAX_STEPS)
+    ]
+    if bad:
+        allowed = f"(allowed: 0-{MAX_STEPS}, written without sign, point or leading zero)"
+        raise MigrationError(
+            [(("steps", k), f"{show(k)} is not a step number {allowed}") for k in bad]
+        )
     listed: list[Any] = [None] * (max((int(k) for k in steps), default=-1) + 1)
     for k, step in steps.items():
         listed[int(k)] = step
