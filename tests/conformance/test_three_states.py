@@ -103,6 +103,8 @@ def test_issue_30_a_committed_change_survives_the_nightly_backup_and_the_push_de
 
         assert result.ok and result.written
         assert writes_since(device, first)  # the simulator received the engineer's change
+        written = {change.name for write in result.written for change in write.items}
+        assert written == {seen.item for seen in standing.pending}  # the pending, only them
         assert comparison.compare(project).changes == []
         deployed = git(project, "rev-parse", f"{backupref.deployed_ref('cell')}:cell")
         assert deployed == git(project, "rev-parse", "HEAD:cell")
