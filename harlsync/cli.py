@@ -397,8 +397,11 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         help="back up every robot of a plant (for cron and systemd)",
         description="Pull every robot project found in PATH (a project directory, or a directory "
         "of projects): in parallel across separate lines, spread over a worker process "
-        "per core, one at a time for stations that share a line. A robot that fails keeps its previous backup and the others "
-        "go on. On a terminal it shows a live line per robot (exchanges with the "
+        "per core, one at a time for stations that share a line. A robot whose project git "
+        "holds is kept on the branch harlsync/backup, never over the approved branch or the "
+        "working tree, and reported as same as approved, pending (approved, not yet on the "
+        "robot) or drift (changed on the robot, not by a push); see docs/states.md. A robot "
+        "that fails keeps its previous backup and the others go on. On a terminal it shows a live line per robot (exchanges with the "
         "controller, rate, time left) and a result line as each ends. Exit 0 when "
         "every robot was backed up, 1 when any failed or the git commit or push "
         "failed, 2 on an error before any robot ran, 130 interrupted.",
@@ -422,9 +425,15 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument(
         "--commit",
         action="store_true",
-        help="one git commit for the run, listing which robots changed and how much",
+        help="one git commit for the run on the branch harlsync/backup, listing which "
+        "robots changed and how much, and what is pending or drifted",
     )
-    p.add_argument("--push", action="store_true", help="git push after committing (needs --commit)")
+    p.add_argument(
+        "--push",
+        action="store_true",
+        help="git push the backup branch and the robots' deployed refs after committing "
+        "(needs --commit)",
+    )
     _format_arg(p)
     p.add_argument(
         "--quiet",
@@ -542,7 +551,8 @@ def _add_status(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
         "and git only: no robot is contacted. A robot's state is the most urgent "
         "of: unfinished push, partial push (stopped part way), never backed up, failed, "
-        "stale, changed, ok. Exit 0 "
+        "stale, changed, ok. The pending and drift columns are what the last backup found "
+        "against the approved version, each item listed below. Exit 0 "
         "when every robot is ok or changed, 1 when any is failed, stale, never "
         "backed up or has an unfinished or partial push, 2 on an error (no project found).",
     )
@@ -821,7 +831,9 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "previous files as they were. DIR is created if missing; a first pull needs "
         "--port. A controller that does not look like the robot backed up in DIR "
         "(another version or program configuration, or most of the backup would "
-        "change) is refused (exit 3) until --new-robot.",
+        "change) is refused (exit 3) until --new-robot; so is a pull that would overwrite "
+        "changes the project's branch approved and no push deployed yet (pending) until "
+        "--discard-pending.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
@@ -841,6 +853,12 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "--allow-dirty",
         action="store_true",
         help="pull even over uncommitted edits in DIR (they are overwritten)",
+    )
+    p.add_argument(
+        "--discard-pending",
+        action="store_true",
+        help="pull even over changes the project's branch approved and no push has "
+        "deployed yet (pending: they are overwritten in the working tree)",
     )
     p.add_argument(
         "--new-robot",
@@ -870,6 +888,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
             family=families.get(args.family) if args.family else None,
             new_robot=args.new_robot,
             connect_options=_connect_options(args),
+            discard_pending=args.discard_pending,
         )
     finally:
         progress.close()
@@ -1013,6 +1032,8 @@ def _show_plan(the_plan: Plan[Any], verbose: int = 0) -> None:
     if the_plan.items:
         for line in render_text(the_plan.items, "", "").splitlines()[2:]:
             _print(line)
+    for name, said in the_plan.reverts.items():
+        _print(f"# {name}: {said}")
     if verbose:
         for write in the_plan.writes:
             flag = "  # unsafe in automatic operation" if write.unsafe else ""
@@ -1146,6 +1167,7 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
         lock_timeout=args.lock_timeout,
         progress=progress,
         connect_options=_connect_options(args),
+        told=lambda line: print(f"harlsync: {line}", file=sys.stderr),
     )
 
 
@@ -1220,6 +1242,44 @@ def _cmd_push(args: argparse.Namespace) -> int:
     )
 
 
+def _add_adopt(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "adopt",
+        help="write changes made on the robot, as the last backup kept them, into the project",
+        description="Write into the project the items the last backup read (kept on the "
+        "branch harlsync/backup) where the robot differs from the project: the ITEMs "
+        "named (as status and backup name them, e.g. 'MAIN program 0 step 2'), or every "
+        "item the robot changed since the last push or rollback (drift). Nothing is "
+        "committed and no robot is contacted: review the change (git diff) and commit "
+        "it; then the robot's change is approved. Refuses uncommitted edits (exit 3) "
+        "unless --allow-dirty.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    p.add_argument("items", nargs="*", metavar="ITEM", help="an item to adopt (default: the drift)")
+    p.add_argument(
+        "--allow-dirty",
+        action="store_true",
+        help="adopt even over uncommitted edits in DIR (they are overwritten)",
+    )
+    p.set_defaults(func=_cmd_adopt)
+
+
+def _cmd_adopt(args: argparse.Namespace) -> int:
+    from .sync.adopt import adopt
+    from .sync.states import date_of
+
+    found = adopt(_project_dir(args.dir), args.items, allow_dirty=args.allow_dirty)
+    source = f"the backup of {date_of(found.time)} (commit {found.commit[:10]})"
+    if not found.items:
+        _print(f"nothing to adopt: the project already holds what {source} read")
+        return EXIT_OK
+    _print(f"adopted {len(found.items)} item(s) from {source}:")
+    for item in found.items:
+        _print(f"  {item}")
+    _print(f"review with 'git diff {args.dir}' and commit: {', '.join(found.files)}")
+    return EXIT_OK
+
+
 def _add_rollback(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "rollback",
@@ -1265,6 +1325,7 @@ _COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParse
     "plan": _add_plan,
     "push": _add_push,
     "rollback": _add_rollback,
+    "adopt": _add_adopt,
     "backup": _add_backup,
     "status": _add_status,
     "log": _add_log,
@@ -1275,7 +1336,7 @@ _COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParse
 
 
 #: Commands that open no line to a robot: -v has no traffic to show for them.
-_NO_LINE = frozenset({"validate", "status", "log", "snapshots"})
+_NO_LINE = frozenset({"validate", "status", "log", "snapshots", "adopt"})
 
 
 def _one_line(exc: BaseException, verbose: int = 0) -> str:

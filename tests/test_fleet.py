@@ -321,11 +321,17 @@ def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) 
         report = backup([root], workers=workers, commit=True, attempts=1, watch=watch)
         robots = [
             {k: v for k, v in r.items() if k not in ("duration", "last_success", "path")}
+            | {"standing": r["standing"] and r["standing"]["drift"]}  # its commits differ
             for r in report.to_json()["robots"]
         ]
-        message = git(root, "log", "-1", "--format=%B")
-        names = git(root, "show", "--name-only", "--format=", "HEAD").split()
-        kept = {k: v for k, v in files_of(root).items() if not k.endswith("backup.json")}
+        # Issue 30: committed on the backup branch, not over the approved one.
+        message = git(root, "log", "-1", "--format=%B", "harlsync/backup")
+        names = git(root, "show", "--name-only", "--format=", "harlsync/backup").split()
+        kept = {
+            k: v
+            for k, v in files_of(root).items()
+            if not k.endswith(("backup.json", "states.json"))
+        }
         return watch.of, robots, message, names, kept
 
     alone, *one = result(plant.root, 1)
@@ -359,8 +365,10 @@ def test_a_robot_failed_in_a_worker_is_one_row_of_the_one_report_commit_and_metr
     assert len(report["robots"]) == 7
     assert [n for n, r in rows.items() if not r["ok"]] == [failing]
     assert "station 1" in rows[failing]["error"]
-    assert git(plant.root, "rev-list", f"{head}..HEAD").split() == [report["commit"]]
-    message = git(plant.root, "log", "-1", "--format=%B")
+    # Issue 30: on the backup branch; HEAD stays.
+    assert git(plant.root, "rev-list", f"{head}..harlsync/backup").split() == [report["commit"]]
+    assert git(plant.root, "rev-parse", "HEAD").strip() == head
+    message = git(plant.root, "log", "-1", "--format=%B", "harlsync/backup")
     assert message.startswith(
         f"backup: 2 of 7 robot(s) changed: {', '.join(sorted([changed, 'local']))}"
     )
@@ -494,7 +502,7 @@ def test_a_worker_killed_mid_run_fails_its_robots_and_the_run_goes_on(plant: Pla
     assert rows["local"].ok and rows["local"].changed  # this process's share went on
     assert all(rows[n].ok for share in worker_shares(plant, 2) for n in share if n not in failed)
     assert report.commit and git(
-        plant.root, "show", "--name-only", "--format=", "HEAD"
+        plant.root, "show", "--name-only", "--format=", "harlsync/backup"
     ).split() == ["local/timers.yaml"]
 
 

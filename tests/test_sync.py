@@ -845,8 +845,11 @@ def test_issue_34_item_4_a_format_1_project_migrated_by_a_commit_is_committed_an
     capsys.readouterr()
     assert main([command, str(project), "--commit"]) == 0
     out = capsys.readouterr().out
-    # The robot holds what the backup holds: only the format changed, and it is committed.
-    [commit] = git(repo, "rev-list", f"{head}..HEAD").split()
+    # The robot holds what the backup holds: only the format changed, and it is committed:
+    # by a pull on the branch, by a backup on its own (issue 30: never over the approved
+    # branch and the working tree, which keep format 1 until an engineer pulls).
+    branch = "HEAD" if command == "pull" else "harlsync/backup"
+    [commit] = git(repo, "rev-list", f"{head}..{branch}").split()
     assert git(repo, "status", "--porcelain") == ""
     migrated = sorted(
         p.relative_to(FORMAT_1).as_posix()
@@ -854,11 +857,14 @@ def test_issue_34_item_4_a_format_1_project_migrated_by_a_commit_is_committed_an
         if p.name != "robot.yaml"
     )
     assert len(migrated) == 17
-    committed = git(repo, "show", "--name-only", "--format=", "HEAD").split()
+    committed = git(repo, "show", "--name-only", "--format=", branch).split()
     assert {f"cell/{name}" for name in migrated} <= set(committed)
     assert "cell/robot.yaml" not in committed  # a person's file, never rewritten
     for name in migrated:
-        assert (project / name).read_bytes() == (EXAMPLE / name).read_bytes(), name
+        kept = git(repo, "show", f"{branch}:cell/{name}").encode()
+        assert kept == (EXAMPLE / name).read_bytes(), name
+        if command == "backup":
+            assert (project / name).read_bytes() == (FORMAT_1 / name).read_bytes(), name
     said = "17 files migrated from format 1 to format 2"
-    assert said in git(repo, "log", "-1", "--format=%B")
+    assert said in git(repo, "log", "-1", "--format=%B", branch)
     assert said in out and commit[:10] in out

@@ -196,6 +196,13 @@ class Catalogue(ABC, Generic[K, D]):
     def items(self, data: D, *, registers: bool) -> Mapping[K, object]:
         """Every item of ``data`` by key (empty items left out)."""
 
+    def with_items(self, data: D, values: Mapping[K, object]) -> D:
+        """A copy of ``data`` with each item of ``values`` set to its value, as
+        :meth:`items` gives one (None: the item emptied): what ``harlsync adopt``
+        writes into a project.  ``data`` itself is left as it is.  Default: raises
+        NotImplementedError, which adopt says in words (the family cannot)."""
+        raise NotImplementedError
+
     @abstractmethod
     def order(self, key: K) -> tuple[int | str, ...]:
         """Sort key: the safe order of a push."""

@@ -41,14 +41,21 @@ class Comparison:
         return self.driver.label
 
     def plan(self) -> Plan[Any]:
-        """The plan a push would carry out, from this comparison."""
-        return make_plan(
-            self.project.family.catalogue,
+        """The plan a push would carry out, from this comparison, each write that
+        reverts a change made on the robot named (:attr:`Plan.reverts`)."""
+        from .states import mark_reverts
+
+        return mark_reverts(
+            self.project.path,
             self.live,
-            self.project.data,
-            self.driver,
-            robot=self.project.robot.name,
-            registers=self.registers,
+            make_plan(
+                self.project.family.catalogue,
+                self.live,
+                self.project.data,
+                self.driver,
+                robot=self.project.robot.name,
+                registers=self.registers,
+            ),
         )
 
 

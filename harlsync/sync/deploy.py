@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import logging
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +59,7 @@ from .plan import Plan, PlannedWrite, make_plan
 from .policy import check_committed
 from .pushtypes import PushFailed, PushOptions, PushResult
 from .snapshots import load_snapshot, save_snapshot, snapshots
+from .states import mark_reverts
 from .writes import check_window, interlock, write_all
 
 __all__ = ["PushFailed", "PushOptions", "PushResult", "push", "rollback", "run"]
@@ -120,13 +122,20 @@ def run(
         result.plan = the_plan = make_plan(
             family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
         )
+        mark_reverts(project.path, live, the_plan)
         record["plan"] = the_plan.commands
+        if the_plan.reverts:
+            record["reverts"] = [f"{name}: {said}" for name, said in the_plan.reverts.items()]
         _check_plan(the_plan, opts)
         if the_plan.empty:
             record["result"] = "nothing to write"
             return result
         if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
             raise PolicyError("push not confirmed: nothing was written")
+        for name, said in the_plan.reverts.items():  # said before the first write
+            log.warning("%s: %s: %s", robot.name, name, said)
+            if opts.yes and opts.told is not None:
+                opts.told(f"{name}: {said}")
         result.snapshot = save_snapshot(project.path, robot, live, action)
         record["snapshot"] = str(result.snapshot)
         _journal(dict(record, event="start"))
@@ -299,7 +308,37 @@ def push(
     except HarlsyncError as exc:
         _audit_refusal("push", path, opts, exc)
         raise
-    return run("push", project, project.data, opts, port, station)
+    result = run("push", project, project.data, opts, port, station)
+    _deployed(Path(path), files, "push", project, opts, result)
+    return result
+
+
+def _deployed(
+    path: Path,
+    files: Mapping[str, bytes],
+    action: str,
+    project: Project,
+    opts: PushOptions,
+    result: PushResult,
+) -> None:
+    """Move the robot's deployed ref to what the finished push or rollback made it
+    hold (``files``); when it cannot move, a warning says so: the robot was written."""
+    from .states import record_deployed
+
+    try:
+        result.deployed = record_deployed(
+            path,
+            files,
+            action,
+            project.robot.name,
+            [w.name for w in result.written],
+            opts.reason,
+        )
+    except HarlsyncError as exc:
+        result.warnings.append(
+            f"the robot's deployed state was not recorded in git ({exc}): the next backup "
+            f"may report what this {action} wrote as pending"
+        )
 
 
 def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:
@@ -338,4 +377,7 @@ def rollback(
     if chosen is None:
         raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
     saved = load_snapshot(path, chosen, project.family)
-    return run("rollback", project, saved.data, opts, port, station)
+    _, files = read_project(chosen, project.family)  # what the deployed ref will hold
+    result = run("rollback", project, saved.data, opts, port, station)
+    _deployed(Path(path), files, "rollback", project, opts, result)
+    return result

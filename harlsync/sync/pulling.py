@@ -165,6 +165,7 @@ def pull(
     new_robot: bool = False,
     connect_options: Mapping[str, bool] | None = None,
     noted: Callable[[str], None] | None = None,
+    discard_pending: bool = False,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
@@ -175,7 +176,9 @@ def pull(
 
     A pull that fails leaves the previous files untouched.  A project with
     uncommitted edits (other than robot.yaml, which a pull never rewrites) is
-    refused unless ``allow_dirty``: the pull would overwrite them.  Files an
+    refused unless ``allow_dirty``: the pull would overwrite them.  So is a project
+    whose branch approved changes no push deployed yet and the robot does not hold
+    (pending, :mod:`.states`), unless ``discard_pending``.  Files an
     earlier pull saved, untouched since, are not edits: this pull takes them over
     (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
     is the controller family of a first pull (default: the registry's default);
@@ -208,6 +211,7 @@ def pull(
             new_robot=new_robot,
             connect_options=connect_options,
             noted=noted,
+            discard_pending=discard_pending,
         )
     finally:
         if asked is not None:
@@ -230,6 +234,7 @@ def _pull(
     new_robot: bool,
     connect_options: Mapping[str, bool] | None,
     noted: Callable[[str], None] | None,
+    discard_pending: bool = False,
 ) -> PullResult:
     """:func:`pull` once robot.yaml is read (``quick``: by the quick reader, as
     found) and git asked (``asked``; None: ``allow_dirty``)."""
@@ -309,6 +314,17 @@ def _pull(
     compared = None  # the changes without runtime data, when _same_robot found them
     if previous is not None and not new_robot:
         compared = _same_robot(path, things, previous, live, read.driver.label)
+    if not discard_pending:
+        from .policy import listed
+        from .states import check_pending
+
+        pending = check_pending(path, things, live)
+        if pending:
+            raise PolicyError(
+                f"{path}: approved changes not yet on the robot that a pull would overwrite "
+                f"({listed(pending)}); push them, or overwrite them with "
+                f"'harlsync pull {path} --discard-pending'"
+            )
     written = save_project(path, Project(path, robot, live, family))
     if previous is None:
         changes = None

@@ -37,6 +37,9 @@ class PushOptions:
     progress: Progress | None = None
     #: the connection's family options (see :func:`connect`): ``reset_function``
     connect_options: Mapping[str, bool] = field(default_factory=dict)
+    #: Told, before the first write of a push not shown to ``confirm`` (``yes``),
+    #: each item it reverts of a change made on the robot (:attr:`Plan.reverts`).
+    told: Callable[[str], None] | None = None
 
 
 @dataclass
@@ -57,6 +60,9 @@ class PushResult:
     warnings: list[str] = field(default_factory=list)
     #: What the family says after anything was written (``Family.deploy_notes``).
     notes: list[str] = field(default_factory=list)
+    #: The commit the robot's deployed ref holds after it (:mod:`.states`); None
+    #: outside git, or when it could not be moved (a warning says why).
+    deployed: str | None = None
 
     @property
     def ok(self) -> bool:

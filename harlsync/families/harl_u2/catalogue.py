@@ -15,7 +15,8 @@ of the project after it.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import copy
+from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
 from ...alignment import align, spans
@@ -88,6 +89,33 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
                 if step.command is not None:  # not step.empty
                     out[StepKey("step", name, number, n)] = step
         return out
+
+    def with_items(self, data: RobotData, values: Mapping[Key, Any]) -> RobotData:
+        new = copy.deepcopy(data)
+        for key, value in values.items():
+            table: dict[int, Any] | None
+            if isinstance(key, StepKey):
+                table = new.programs.setdefault((ProgramType(key.program_type), key.program), {})
+                number = key.step
+            elif isinstance(key, NumberKey):
+                if key.kind == "register" and new.registers is None:
+                    new.registers = {}
+                tables: dict[str, dict[int, Any] | None] = {
+                    "offset": new.offsets,
+                    "timer": new.timers,
+                    "register": new.registers,
+                }
+                table = tables[key.kind]
+                number = key.number
+            else:
+                setattr(new, key.kind, value)
+                continue
+            assert table is not None
+            if value is None:
+                table.pop(number, None)
+            else:
+                table[number] = value
+        return new
 
     def order(self, key: Key) -> tuple[Any, ...]:
         if isinstance(key, StepKey):
