@@ -15,7 +15,7 @@ of the project after it.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
 from ..base import Catalogue, PlanShape, align, spans
@@ -198,6 +198,24 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
     def robot_identity(self, data: RobotData) -> dict[str, str]:
         """The version (LNV) and the program configuration (LNX)."""
         return identity_of(data.version, data.config)
+
+    def other_identity(self, now: Mapping[str, str], project: RobotData) -> str | None:
+        """Why the controller that reports ``now`` (:meth:`robot_identity`, from LNX
+        and LNV) is not the project's robot, for diff, plan, push and rollback:
+        another version, which no command writes.  Another program configuration
+        is not: a push writes it (SNX, with ``--allow-reconfigure``), as a restore
+        to a controller that lost its memory must."""
+        version = now.get("version")
+        if version == project.version:
+            return None
+        said = "none" if version is None else f"'{version}'"
+        return (
+            f"the controller answers version {said} (LNV), the project is of version "
+            f"'{project.version}': another robot's controller, or one replaced or updated. "
+            "Check the port and station (a replacement must run the project's version, "
+            "docs/restore.md); if this is the robot, updated, take it into the project "
+            "with 'harlsync pull DIR --new-robot' first"
+        )
 
     def contents(self, data: RobotData, *, registers: bool) -> str:
         """What a live read holds: programs, timers and registers to the sizes LNX
