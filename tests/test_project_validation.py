@@ -307,7 +307,7 @@ def test_unknown_keys_are_reported_with_the_allowed_ones(root: Path) -> None:
         ),
         (
             "robot.yaml:20: colour: unknown key (allowed: format, family, name, description, connection, "
-            "maintenance_windows, keep_registers, offset_tables)"
+            "maintenance_windows, keep_registers, offset_tables, no_such_table)"
         ),
         "programs/hand-01.yaml:4: comment: unknown key (allowed: format, type, number, steps)",
     ]
@@ -443,8 +443,14 @@ def test_timers_must_match_the_configured_count(root: Path) -> None:
 def test_every_offset_table_must_be_present_and_numbered_0_to_99(root: Path) -> None:
     edit(root, "offsets.yaml", "  9: {", "  100: {")
     assert validate_project(root) == [
-        "offsets.yaml:3: tables: table 9 missing (allowed: every table 0-99)",
-        "offsets.yaml:13: tables.100: table 100 is outside the configuration (allowed: 0-99)",
+        (
+            "offsets.yaml:3: tables: table 9 missing "
+            "(allowed: every table 0-99, robot.yaml offset_tables)"
+        ),
+        (
+            "offsets.yaml:13: tables.100: table 100 is outside the configuration "
+            "(allowed: 0-99, robot.yaml offset_tables)"
+        ),
     ]
 
 

@@ -132,6 +132,13 @@ class Driver(ABC, Generic[K, D]):
         (the default): the engine then checks the data a read returns."""
         return None
 
+    def hold_to(self, recorded: D) -> None:
+        """What the robot's project recorded of it (``recorded``, the backup or the
+        state a push or rollback deploys), before :meth:`read_all`: what a read
+        found out from the controller and keeps in the project (HARL-U2: the reply
+        past its last offset table).  The next read holds the controller to it and
+        fails, naming both, when it answers otherwise.  Default: nothing to hold to."""
+
     def advice(self, status: Status) -> str:
         """What a person does about a ``status`` that is not idle, one sentence in the
         family's words (``Release the emergency stop ...``), for the interlock's

@@ -92,6 +92,7 @@ def compare(
         idle_check=idle_check,
         options=connect_options,
         identified=not_another_robot,
+        recorded=lambda: project.data,
     )
     why = things.other_robot(read.live, project.data)
     if why is not None:

@@ -118,6 +118,7 @@ def run(
         other = None if now is None else family.catalogue.other_identity(now, target)
         if other is not None:
             raise PolicyError(f"cannot deploy: {other}")
+        driver.hold_to(target)  # what the deployed state recorded of the robot
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
         result.plan = the_plan = make_plan(
             family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
