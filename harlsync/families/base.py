@@ -47,7 +47,9 @@ __all__ = [
     "Change3",
     "D",
     "Driver",
+    "Extent",
     "Family",
+    "Guess",
     "Help",
     "ItemKey",
     "K",
@@ -56,6 +58,7 @@ __all__ = [
     "Progress",
     "Scheme",
     "Status",
+    "Survey",
     "Words",
 ]
 
@@ -90,6 +93,63 @@ class Status(Protocol):
     def describe(self) -> str:
         """``"idle"``, or what forbids a write (``task 0 in execution``, ``MANUAL mode``)."""
         ...
+
+
+@dataclass(frozen=True)
+class Extent:
+    """Where one of the controller's tables really ends, as a probe found it:
+    ``Extent("offset tables", 100, "E21", ("offset_tables", "no_such_table"))``."""
+
+    #: the table, in the family's words
+    table: str
+    #: how many items it holds (or the last number, as :attr:`counted` says)
+    count: int
+    #: what the controller answered past its end (its "not there" reply), as read
+    reply: str
+    #: the robot.yaml settings that cover this table's extent and reply
+    settings: tuple[str, ...] = ()
+    #: what :attr:`count` counts: ``tables`` (0 to count - 1), ``last position``
+    counted: str = "items"
+
+
+@dataclass(frozen=True)
+class Guess:
+    """One choice the family's profile made where its manual is silent, and what
+    this controller showed of it (docs/profile.md lists every one)."""
+
+    #: the guess, in a few words: ``the reply to a missing offset table``
+    what: str
+    #: what the profile guessed, as robot.yaml would write it
+    guessed: str
+    #: what this controller did
+    found: str
+    #: the robot.yaml setting that covers it
+    setting: str
+
+    @property
+    def confirmed(self) -> bool:
+        return self.guessed == self.found
+
+
+@dataclass
+class Survey:
+    """What a probe learns of a controller with reads only (:meth:`Driver.survey`)."""
+
+    #: what the robot says it is, by :meth:`Catalogue.robot_identity`'s names
+    identity: Mapping[str, str]
+    #: the interlock now: ``idle``, or what forbids a write
+    status: str
+    idle: bool
+    extents: list[Extent] = field(default_factory=list)
+    guesses: list[Guess] = field(default_factory=list)
+    #: robot.yaml's family settings (:attr:`Robot.options <harlsync.project.robot.Robot>`)
+    #: that make a pull read this controller as it is, each with its comment
+    options: dict[str, object] = field(default_factory=dict)
+    #: the reply turnaround measured: seconds from a request's first byte sent to its
+    #: reply's last received, on average over the probe's exchanges (None: not measured)
+    turnaround: float | None = None
+    #: how many exchanges a full pull of this controller takes (None: not known)
+    pull_exchanges: int | None = None
 
 
 class Driver(ABC, Generic[K, D]):
@@ -138,6 +198,17 @@ class Driver(ABC, Generic[K, D]):
         found out from the controller and keeps in the project (HARL-U2: the reply
         past its last offset table).  The next read holds the controller to it and
         fails, naming both, when it answers otherwise.  Default: nothing to hold to."""
+
+    def survey(self) -> Survey:
+        """What ``harlsync probe`` reports of the controller, read with read requests
+        only (the probe refuses any write on the line: :mod:`harlsync.link.readonly`):
+        its identity, each table's real extent and "not there" reply, the interlock
+        now, the profile's guesses it confirmed or contradicted, and what a full pull
+        costs.  Default: :meth:`identity` (else nothing) and :meth:`status`."""
+        status = self.status()
+        return Survey(
+            identity=dict(self.identity() or {}), status=status.describe(), idle=status.idle
+        )
 
     def advice(self, status: Status) -> str:
         """What a person does about a ``status`` that is not idle, one sentence in the
@@ -415,6 +486,12 @@ class Family(ABC, Generic[K, D]):
     #: connects; a family whose connection only reads says False, and a pull asks git
     #: while its first requests are on the line (issue 24).
     connect_writes: bool = True
+    #: the stations ``harlsync probe`` tries, in order, when none is given (default:
+    #: :attr:`default_station` alone)
+    probe_stations: tuple[int, ...] = ()
+    #: the baud rates its manual lists, which ``harlsync probe --baud auto`` tries on
+    #: a local serial port, the profile's first (default: none; the profile's rate)
+    probe_bauds: tuple[int, ...] = ()
 
     @property
     @abstractmethod
@@ -459,6 +536,21 @@ class Family(ABC, Generic[K, D]):
     ) -> Driver[K, D]:
         """Open the robot's line (``port``/``station`` override robot.yaml); ``options``
         are some of :attr:`connect_options`, each given when set."""
+
+    def survey(self, robot: Robot, *, lock_timeout: float) -> Survey:
+        """Probe ``robot``'s controller with reads only and close the line.  Default:
+        :meth:`connect`, :meth:`Driver.survey`.  A family whose connection writes (a
+        handshake) overrides it, or the probe's read-only line refuses the write."""
+        driver = self.connect(robot, None, None, lock_timeout=lock_timeout)
+        try:
+            return driver.survey()
+        finally:
+            driver.close()
+
+    def robot_text(self, robot: Robot) -> str | None:
+        """robot.yaml for ``robot`` alone, before any data is read (what ``harlsync
+        probe --write`` creates); None (the default) when the family cannot."""
+        return None
 
     def data_problems(self, data: D) -> list[str]:
         """What is wrong with ``data`` that its files cannot show (checked before a save)."""

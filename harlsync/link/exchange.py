@@ -113,6 +113,7 @@ from ..settings import SerialSettings, seconds
 from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
 from .port import SerialPort, describe, direct_fd, fileno, gone_hint, open_port
+from .readonly import refuse_write
 
 __all__ = ["Link", "LinkStats"]
 
@@ -303,6 +304,8 @@ class Link(Generic[F]):
         here), :class:`PortError` when the port fails.
         """
         st = self.station if station is None else station
+        if request.is_write:  # before a byte of it is made (harlsync probe: reads only)
+            refuse_write(request.payload, port=self.url, station=st)
         frame = request.encode(st)
         command = request.payload
         timeout = self.codec.reply_timeout(request, self.settings)

@@ -30,6 +30,7 @@ from serial.urlhandler import protocol_socket
 
 from ..errors import LinkError, PortBusyError, PortError
 from ..settings import SerialSettings
+from .capture import spied
 from .lock import is_com_port, lock_key, port_number
 
 if TYPE_CHECKING:  # for the checker only: not imported before a first request
@@ -123,7 +124,7 @@ def open_port(url: str, settings: SerialSettings, write_timeout: float) -> Seria
             f"port went away right after opening: {describe(exc)}; {gone_hint(url)}",
             port=url,
         ) from exc
-    opened: SerialPort = port
+    opened: SerialPort = spied(port)  # harlsync probe --capture: recorded
     return opened
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .. import lookup
-from ..errors import PolicyError, ProjectError
+from ..errors import LinkTimeout, PolicyError, ProjectError
 from ..families.base import AnyFamily, Catalogue, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
@@ -195,6 +195,7 @@ def pull(
     # False), once the line is open: its processes run meanwhile (issue 24).  Either
     # way a dirty project is refused before anything is written or saved.
     asked = None if allow_dirty else git.Asked(path)
+    first = not (path / "robot.yaml").exists()
     try:
         return _pull(
             path,
@@ -213,6 +214,20 @@ def pull(
             noted=noted,
             discard_pending=discard_pending,
         )
+    except LinkTimeout as exc:
+        if not first:
+            raise
+        # A first pull guessed the family (or was told it) and its station: a line
+        # that does not answer so may hold another family's controller (issue 31).
+        raise LinkTimeout(
+            f"{exc.message}; or this is not a {family.title} at station "
+            f"{family.format_station(robot.station if station is None else station)}: harlsync probe --port {port} tells "
+            "which controller answers there, and writes its robot.yaml (--write)",
+            port=exc.port,
+            station=exc.station,
+            command=exc.command,
+            station_text=exc.station_text,
+        ) from exc
     finally:
         if asked is not None:
             asked.close()

@@ -105,6 +105,11 @@ class EpsonFamily(Family["Key", "EpsonData"]):
     ) -> list[str]:
         return []
 
+    def robot_text(self, robot: Robot) -> str:
+        from . import layout
+
+        return layout.render_robot(robot)
+
     def schemas(self) -> dict[str, str]:
         from . import layout
 

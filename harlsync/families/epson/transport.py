@@ -30,6 +30,7 @@ from typing_extensions import Self
 
 from ...errors import LinkError, LinkTimeout, PortError
 from ...link.lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
+from ...link.readonly import refuse_write
 from ...settings import seconds
 from . import profile
 
@@ -167,6 +168,7 @@ class ModbusLink:
         if not words or any(not 0 <= w <= 0xFFFF for w in words):
             raise ValueError(f"{self.label}: {words} are not 1 or more 16-bit words")
         what = f"write holding registers {address}-{address + len(words) - 1}"
+        refuse_write(what, port=self.url, station=self.unit)  # harlsync probe: reads only
         log.debug("%s: %s: %s", self.label, what, _hex(words))
         if len(words) == 1:
             self._call(

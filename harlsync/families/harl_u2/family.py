@@ -32,6 +32,8 @@ class HarlU2Family(Family["Key", "RobotData"]):
     #: the connection reads LNX and LNV; its codec cannot send anything but a read
     #: before an interlock check (protocol/commands.py)
     connect_writes = False
+    #: the stations the manual gives as defaults, set on the pendant (2.2, p. 2-2)
+    probe_stations = (1, 2, 3, 4)
     help = Help(
         stations=f"{STATION_ALLOWED}, as set on the pendant",
         pull="the configuration, every program step, the parameters, the offset tables "
@@ -112,6 +114,11 @@ class HarlU2Family(Family["Key", "RobotData"]):
         from . import layout
 
         return layout.SCHEMAS.files()
+
+    def robot_text(self, robot: Robot) -> str:
+        from . import layout
+
+        return layout.render_robot(robot)
 
     def quick_robot(self, data: Mapping[str, Any]) -> Robot | None:
         from .robotfile import quick_robot

@@ -101,6 +101,11 @@ class IaiFamily(Family["Key", "IaiData"]):
             stale.append(layout.RECORDS_FILE)
         return [name for name in stale if (root / name).is_file()]
 
+    def robot_text(self, robot: Robot) -> str:
+        from . import layout
+
+        return layout.render_robot(robot)
+
     def schemas(self) -> dict[str, str]:
         from . import layout
 
