@@ -295,6 +295,58 @@ def test_a_push_to_a_robot_that_is_not_idle_is_refused_naming_the_signal(
     apply_command(sim, "stop")
 
 
+def writes_sent_again_unlooked(sim: Simulator) -> list[object]:
+    """From the simulator's own record of register accesses: each write that
+    arrived again, the same words at the same address, with no read of the
+    controller's outputs (the status) since the first."""
+    since_status: set[tuple[int, tuple[int, ...]]] = set()
+    again = []
+    for access in sim.remote().log:
+        if access.kind == "read_input":
+            since_status.clear()
+        elif access.kind == "write":
+            key = (access.address, access.values)
+            if key in since_status:
+                again.append(access)
+            since_status.add(key)
+    return again
+
+
+def test_issue_34_a_lost_write_is_not_sent_again_to_a_robot_that_started(
+    robot, repo, capsys
+) -> None:
+    """Issue 34 item 0: the reply to a push's command words (Tool, 500) was lost,
+    the robot started, and the Modbus client sent the same words again on its own,
+    with no status read between.  Now the link never sends a write twice: harlsync
+    reads the tool back, then the status, finds Running and stops."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "deadline: 2.0", "deadline: 0.3")
+    edit(project, repo, "settings.yaml", "tool: 0", "tool: 3")
+    remote = sim.remote()
+    real = remote.write_holding
+    lost: list[tuple[int, ...]] = []
+
+    def write_holding(address: int, values: list[int]) -> None:
+        real(address, values)
+        if not lost and values[:1] == [500]:  # the Tool command's words: reply lost
+            lost.append(tuple(values))
+            sim.drop_replies(1)
+            sim.stations[1].running = True  # and the robot starts meanwhile
+
+    remote.write_holding = write_holding  # type: ignore[method-assign]
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert "Running 1 (a task is executing)" in err and "Traceback" not in err
+    assert lost, "the Tool command was never sent"
+    assert writes_sent_again_unlooked(sim) == []
+    sent = [a for a in remote.log if a.kind == "write" and a.values == lost[0]]
+    assert len(sent) == 1  # the command words went out once
+    assert written(sim) == [] and sim.stations[1].tool == 0  # ExtCmdSet never rose
+    sim.stations[1].running = False
+
+
 def test_a_program_started_mid_push_gets_no_write_after_it(robot, repo, capsys) -> None:
     sim, url = robot
     project = pulled(repo, url)

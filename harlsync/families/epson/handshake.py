@@ -337,6 +337,13 @@ class _Pending:
     request: Request[object]
     step: Step
     acquired: bool = False
+    #: when its own deadline passes (a reply lost on the line ends the wait for it
+    #: early: what is left of its deadline is still its)
+    due: float = 0.0
+
+    def settle_by(self, now: float, deadline: float) -> float:
+        """When to stop waiting for it: one more ``deadline`` after its own."""
+        return max(now, self.due) + deadline
 
 
 class Handshake:
@@ -589,7 +596,8 @@ class Handshake:
         # must not eat this command's, or this one times out early and may still run
         # when the line is let go (the next client's first request then halts the
         # function, §6.5.1)
-        self._settle(self.clock.monotonic() + self.deadline)
+        if self._pending is not None:
+            self._settle(self._pending.settle_by(self.clock.monotonic(), self.deadline))
         deadline = self.clock.monotonic() + self.deadline
         status = self._snapshot()
         if status["ExtError"]:
@@ -607,7 +615,7 @@ class Handshake:
             )
         words = request.encode(self.map.command_words)
         log.debug("%s: command %s", self.label, " ".join(f"{w:04X}" for w in words))
-        self._pending = _Pending(request, Step.COMMAND_WORDS)
+        self._pending = _Pending(request, Step.COMMAND_WORDS, due=deadline)
         if self._block is None:
             self.registers.write_holding(self.map.command_base, words)
             self._pending.step = Step.COMMAND_SET
@@ -764,7 +772,7 @@ class Handshake:
             self.label,
             self._pending.request,
         )
-        end = self.clock.monotonic() + self.deadline
+        end = self._pending.settle_by(self.clock.monotonic(), self.deadline)
         attempts = 0
         while self._pending is not None:
             attempts += 1
@@ -800,6 +808,16 @@ class Handshake:
         pending = self._pending
         if pending is None:
             return
+        # ExtCmdSet may have risen without harlsync knowing (the reply to its write
+        # was lost: the link never sends a write again, issue 34): look before
+        # dropping it, since ExtCmdGet, which says the controller took the command,
+        # falls with it
+        if (
+            not pending.acquired
+            and self._input(self.map.ext_cmd_set)
+            and self._snapshot()["ExtCmdGet"]
+        ):
+            pending.acquired = True
         self._drive(self.map.ext_cmd_set, False)
         self._drive(self.map.ext_resp_get, False)
         since, polls = self.clock.monotonic(), 0

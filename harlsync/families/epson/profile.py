@@ -75,11 +75,11 @@ __all__ = [
 
 # --- the line ------------------------------------------------------------------------
 
-#: Seconds one Modbus transaction may take before it is sent again.
+#: Seconds one Modbus transaction may take before it counts as unanswered.
 MODBUS_TIMEOUT = 0.5
-#: How often a transaction is sent again after no answer.  Safe: every request
-#: harlsync makes is a read or a write of absolute register values, so a
-#: repeat changes nothing the first one did not.
+#: How often a Modbus *read* is sent again after no answer (a read changes
+#: nothing).  A write is never sent again by the link (issue 34): a write sent
+#: once more is a write, and only harlsync sends it, after the interlock.
 MODBUS_RETRIES = 2
 #: The most registers one Modbus read returns (the Modbus specification): the
 #: handshake reads every output signal and response word in one read.
