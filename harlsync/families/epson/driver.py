@@ -42,10 +42,13 @@ class EpsonDriver(Driver[Key, EpsonData]):
         self._identity: tuple[int, int, str] | None = None
 
     def identity(self) -> dict[str, str]:
-        """2153 and 2154 (the manipulator), the first commands of a read: kept for
-        :meth:`read_all`."""
+        """2153 and 2154 (the manipulator), the first commands of a read, kept for
+        :meth:`read_all`; and what the point past the point table answers (asked
+        twice): a controller that answers otherwise than the backup records is
+        refused at its first exchanges (issue 29)."""
         self._identity = code, axes, model = self.controller.identify()
-        return CATALOGUE.robot_identity(EpsonData(code, axes, model))
+        table = self.controller.point_table()
+        return CATALOGUE.robot_identity(EpsonData(code, axes, model, table=table))
 
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False

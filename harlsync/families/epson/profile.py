@@ -102,7 +102,8 @@ FUNCTION_RESET_LOW = 0.030
 #: hands a write over a register at a time, ExtCmdSet (first in the block) would
 #: rise over the last command's words, and the controller would run that command
 #: (the simulator's ``whole_writes=False`` shows command 0, an Accel write, run so).
-#: A site whose slave is known to apply a write whole sets True.  It decides
+#: A site whose slave is known to apply a write whole sets robot.yaml
+#: ``connection.writes_whole: true``.  It decides
 #: steps 2 and 3 of §6.3 when ExtCmdSet's register lies just before the command
 #: words (the default map): True, one write of that register and the words; False,
 #: the words, then ExtCmdSet (one round trip more).  A map with ExtCmdSet's
