@@ -62,9 +62,11 @@ def compare(
     lock_timeout: float = 10.0,
     idle_check: bool = False,
     connect_options: Mapping[str, bool] | None = None,
+    command: str = "diff",
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item; with
-    ``idle_check`` also say whether a push would be refused now (robot not idle)."""
+    ``idle_check`` also say whether a push would be refused now (robot not idle).
+    ``command`` is the harlsync command it serves (``diff``, ``plan``), for advice."""
     project = load_project(path)
     station = station_number(project.family, station)
     things = project.family.catalogue
@@ -85,6 +87,7 @@ def compare(
         idle_check=idle_check,
         options=connect_options,
         identified=not_another_robot,
+        command=command,
     )
     why = things.other_robot(read.live, project.data)
     if why is not None:
@@ -121,4 +124,5 @@ def plan(
         registers=registers,
         lock_timeout=lock_timeout,
         connect_options=connect_options,
+        command="plan",
     ).plan()

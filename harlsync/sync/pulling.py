@@ -276,6 +276,7 @@ def _pull(
         whole=True,  # a backup finds out how far each table goes
         noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
         identified=same_identity,
+        command="pull",
     )
     settle()  # a family that cannot tell its identity first: after the read
     from ..project.store import Project, save_project

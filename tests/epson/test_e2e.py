@@ -780,6 +780,31 @@ def _left_in_use(sim: Simulator) -> None:
     station.read_input(0, 9)  # the controller takes it
 
 
+def test_issue_34_a_function_left_in_use_is_reset_by_the_command_refused_never_by_a_pull(
+    robot, repo, capsys
+) -> None:
+    """Issue 34 item 5: a push killed in the middle of a point left the function in
+    use, and the next push advised 'harlsync pull DIR --reset-function', which saves
+    the robot's half-written point over the committed edit.  Each command refused
+    names itself: push, diff and plan; following the advice completes the point."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit_p12(project, repo)
+    _left_in_use(sim)
+    for command, code in (("push", 3), ("diff", 2), ("plan", 2)):
+        capsys.readouterr()
+        args = [command, str(project), *(["--yes"] if command == "push" else [])]
+        assert cli.main(args) == code
+        err = capsys.readouterr().err
+        assert f"'harlsync {command} DIR --reset-function'" in err, err
+        assert "harlsync pull" not in err, err
+        assert len(err.strip().splitlines()) == 1, err
+    assert written(sim) == []  # nothing was written while the function was in use
+    assert cli.main(["push", str(project), "--yes", "--reset-function"]) == 0
+    assert cli.main(["diff", str(project)]) == 0  # the committed edit, not the robot's
+    assert numbers(written(sim)) == [1204, 1206]
+
+
 def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
     robot, repo, capsys
 ) -> None:

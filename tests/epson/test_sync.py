@@ -50,7 +50,7 @@ def test_a_function_left_halted_is_reset_only_when_asked_and_only_on_an_idle_rob
     assert cli.main(["diff", str(project)]) == 2
     err = capsys.readouterr().err
     assert "function error (ExtError 1): 9999 function error, detail 0001" in err
-    assert "--reset-function, on an idle robot" in err
+    assert "reset the function ('harlsync diff DIR --reset-function', on an idle robot)" in err
     fake.bank.function_errors.clear()  # that one was on purpose
     assert cli.main(["diff", str(project)]) == 2  # still halted: nothing resets it unasked
     fake.signal("Running")

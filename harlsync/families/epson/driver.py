@@ -40,6 +40,28 @@ class EpsonDriver(Driver[Key, EpsonData]):
         self.controller = controller
         self.label = controller.label
         self._identity: tuple[int, int, str] | None = None
+        self._command = ""
+
+    @property
+    def serves(self) -> str:
+        """The harlsync command this connection serves; setting it makes every message
+        that asks for a function reset name that command (issue 34 item 5: a push
+        refused for a function left in use advised a pull, which saves the robot's
+        half-written point over the committed edit)."""
+        return self._command
+
+    @serves.setter
+    def serves(self, command: str) -> None:
+        self._command = command
+        self.controller.handshake.reset_advice = self.reset_advice
+
+    @property
+    def reset_advice(self) -> str:
+        """``'harlsync push DIR --reset-function'``: the command being run, again,
+        with the option; without a command known, the option alone."""
+        if not self._command:
+            return "--reset-function"
+        return f"'harlsync {self._command} DIR --reset-function'"
 
     def identity(self) -> dict[str, str]:
         """2153 and 2154 (the manipulator), the first commands of a read, kept for
@@ -83,10 +105,15 @@ class EpsonDriver(Driver[Key, EpsonData]):
                 "0, check robot.yaml connection.map against RC+"
             )
         if not status.function_idle:
+            how = (
+                self.reset_advice
+                if self._command
+                else "running the same command again with --reset-function"
+            )
             return (
                 "Wait for the command of the other Remote Control client to end; a "
-                "function an earlier harlsync left in use is reset by 'harlsync pull DIR "
-                "--reset-function' (on an idle robot)"
+                f"function an earlier harlsync left in use is reset by {how} (on an idle "
+                "robot)"
             )
         return super().advice(status)
 

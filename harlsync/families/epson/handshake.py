@@ -182,6 +182,11 @@ _FUNCTION_SIGNALS = (
 )
 
 
+#: How a message tells a person to reset the function when it does not know the
+#: command being run (:attr:`Handshake.reset_advice`).
+RESET_ADVICE = "--reset-function"
+
+
 class HandshakeTimeout(LinkTimeout):
     """A command's deadline passed: ``step`` is where it stopped, ``acquired`` whether
     the controller had taken it (a write may then have taken effect)."""
@@ -199,11 +204,19 @@ class FunctionError(ControllerError):
     reset (detail 0001) or a controller reset (9901, 9902).  ``code`` and
     ``detail`` are Response 1 and 2 as read."""
 
-    def __init__(self, code: int, detail: int, *, port: str, command: str | None) -> None:
+    def __init__(
+        self,
+        code: int,
+        detail: int,
+        *,
+        port: str,
+        command: str | None,
+        reset: str = RESET_ADVICE,
+    ) -> None:
         self.code = code
         self.detail = detail
         remedy = (
-            "reset the function (--reset-function, on an idle robot)"
+            f"reset the function ({reset}, on an idle robot)"
             if detail == 0x0001
             else "reset the controller"
         )
@@ -371,6 +384,9 @@ class Handshake:
         self.poll_interval = poll_interval
         self.deadline = deadline
         self.clock: Clock = clock if clock is not None else SystemClock()
+        #: how a message tells a person to reset the function: the command to run
+        #: again, ``'harlsync push DIR --reset-function'``, once the driver knows it
+        self.reset_advice = RESET_ADVICE
         #: the control holding registers as harlsync last wrote (or first read) them
         self._control: dict[int, int] | None = None
         self._started = False
@@ -609,7 +625,7 @@ class Handshake:
                 f"the Remote Control function is in use ({status.function_signals()}): a "
                 "command of another client, or one left by an earlier harlsync, is "
                 "unanswered; nothing sent. If no one else drives this controller, "
-                "--reset-function clears it on an idle robot",
+                f"{self.reset_advice} clears it on an idle robot",
                 port=self.label,
                 command=str(request),
             )
@@ -754,7 +770,11 @@ class Handshake:
         code = words[1] if len(words) > 1 else FUNCTION_ERROR
         detail = words[2] if len(words) > 2 else 0
         raise FunctionError(
-            code, detail, port=self.label, command=None if request is None else str(request)
+            code,
+            detail,
+            port=self.label,
+            command=None if request is None else str(request),
+            reset=self.reset_advice,
         )
 
     def finish(self) -> None:
