@@ -639,7 +639,7 @@ def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     capsys.readouterr()
     assert cli.main(["diff", str(project)]) == 2
     assert capsys.readouterr().err.strip() == (
-        "harlsync: error: robot.yaml:16: connection.map.response_words: 5 words "
+        "harlsync: error: robot.yaml:17: connection.map.response_words: 5 words "
         "are fewer than harlsync's reads need: 210 (SpeedS speed and depart table 0) answers "
         "in 6 (allowed: 6-8, as many assigned in RC+)"
     )
