@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any, TypeVar
 
@@ -40,6 +40,7 @@ from ...errors import (
     LinkTimeout,
     PartlyWritten,
     ProjectError,
+    ProtocolError,
     WriteUnconfirmed,
     partly_words,
 )
@@ -357,8 +358,29 @@ class Controller:
     # --- the robot ---------------------------------------------------------------------
 
     def status(self) -> RemoteStatus:
-        """The interlock: one read of the controller's outputs."""
-        return self.handshake.status()
+        """The interlock: one read of the controller's outputs; when they allow a
+        write, the control device (2156: Remote I/O, not a pendant or PC) and the
+        controller's error code (2155: 0) too.  Either that cannot be read (an
+        error response) makes the status refuse a write: fail closed (issue 34 item
+        16).  A line that does not answer raises, as the read of the outputs does."""
+        status = self.handshake.status()
+        if not status.idle:
+            return status
+        found: list[int] = []
+        for request in (p.read_control_device(), p.read_controller_error()):
+            try:
+                found.append(self.ask(request))
+            except (ControllerError, ProtocolError) as exc:
+                return replace(
+                    status,
+                    unreadable=(
+                        f"the {request.what} ({request.number}) cannot be read "
+                        f"({getattr(exc, 'message', exc)}): harlsync writes only when it has "
+                        "read it, so nothing is written"
+                    ),
+                )
+        device, error = found
+        return replace(status, control_device=device, controller_error=error)
 
     def read_model_name(self) -> str:
         """2154, one character a call, until the status says it was the last."""

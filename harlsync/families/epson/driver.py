@@ -12,6 +12,7 @@ from .catalogue import CATALOGUE, Key, PointWrite
 from .controller import Controller, WriteStep
 from .handshake import RemoteStatus
 from .model import EpsonData, PointKey
+from .protocol import REMOTE_IO
 
 __all__ = ["EpsonDriver"]
 
@@ -20,6 +21,10 @@ _ADVICE = {
     "EStopOn": (
         "Find why the emergency stop is on; when it is safe, release it and reset the "
         "controller (Reset in RC+ or the Reset input), then run again"
+    ),
+    "SafeguardOn": (
+        "Make sure no one is in the cell, close the safeguard (safety door) and reset the "
+        "controller if it asks, then run again"
     ),
     "Error": (
         "Read the error in RC+ (its number says what it is), remove its cause and reset "
@@ -89,8 +94,9 @@ class EpsonDriver(Driver[Key, EpsonData]):
         return self.controller.status()
 
     def advice(self, status: Status) -> str:
-        """By the signal that refuses, the gravest first: EStopOn, Error, Paused,
-        Running; then Ready 0 and a function in use.  A map that can never allow a
+        """By the signal that refuses, the gravest first: EStopOn, SafeguardOn, Error,
+        Paused, Running; then Ready 0, 2156 and 2155 (unreadable, another control
+        device, an error code) and a function in use.  A map that can never allow a
         write says what to do itself."""
         if not isinstance(status, RemoteStatus):
             return super().advice(status)
@@ -103,6 +109,18 @@ class EpsonDriver(Driver[Key, EpsonData]):
             return (
                 "Wait for the controller to finish starting up (Ready 1); if Ready stays "
                 "0, check robot.yaml connection.map against RC+"
+            )
+        if status.unreadable is not None:
+            return "Check the controller and the line, then run again"
+        if status.control_device is not None and status.control_device != REMOTE_IO:
+            return (
+                "Whoever controls the robot from there ends and gives control back to "
+                "Remote I/O (RC+ [Setup]-[System Configuration]-[Controller]-"
+                "[Configuration]), then run again"
+            )
+        if status.controller_error:
+            return (
+                _ADVICE["Error"] + "; if Error stays 0 meanwhile, check robot.yaml connection.map"
             )
         if not status.function_idle:
             how = (

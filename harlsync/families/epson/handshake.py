@@ -41,9 +41,13 @@ Bits of the control registers that are not handshake signals keep the value
 they were read with.
 
 The step 1 read is the interlock too: a write goes out only while Running,
-Paused, EStopOn and Error are 0 and Ready (where mapped) is 1, never with Ready
+Paused, EStopOn, Error and SafeguardOn are 0 and Ready is 1, never with Ready
 and Running at 1 together (a map that is wrong), and never to a robot whose map
-lacks Running, Paused, EStopOn or Error.  Each command of a split write or Rn
+lacks Running, Paused, EStopOn or Error, or Ready or SafeguardOn unless robot.yaml
+accepts that (``connection.write_without``).  Before each item a push writes, the
+controller's :meth:`~.controller.Controller.status` also asks 2156 (the control
+device: Remote I/O) and 2155 (no controller error), which cannot go between the
+commands of a split or Rn sequence.  Each command of a split write or Rn
 sequence is looked at so: a robot that leaves idle part way stops the sequence,
 which the controller then cancels.  Reads go out regardless.  ExtCmdReset is
 raised only once the controller shows it is operable (Ready 1, §6.2).
@@ -75,7 +79,15 @@ from ...errors import ControllerError, InterlockError, LinkError, LinkTimeout, P
 from ...settings import seconds
 from . import profile
 from .profile import HANDSHAKE_INPUTS, INTERLOCK_SIGNALS, READY, Bit, RegisterMap
-from .protocol import FUNCTION_ERROR, ErrorReply, Request, WriteSequence, describe_code
+from .protocol import (
+    CONTROL_DEVICES,
+    FUNCTION_ERROR,
+    REMOTE_IO,
+    ErrorReply,
+    Request,
+    WriteSequence,
+    describe_code,
+)
 
 __all__ = [
     "Clock",
@@ -170,6 +182,7 @@ _BUSY_TEXT: Mapping[str, str] = MappingProxyType(
         "Paused": "a task is paused",
         "EStopOn": "emergency stop",
         "Error": "the controller is in error",
+        "SafeguardOn": "the safeguard is open: a person may be in the cell",
     }
 )
 _FUNCTION_SIGNALS = (
@@ -246,6 +259,12 @@ class RemoteStatus:
     response: tuple[int, ...]
     #: why the map never allows a write (:attr:`RegisterMap.unwritable`)
     unwritable: str | None = None
+    #: what 2156 (the control device) and 2155 (the controller's error code)
+    #: answered, read before a write when the signals allow one; None: not read
+    control_device: int | None = None
+    controller_error: int | None = None
+    #: why they could not be read (then no write goes: fail closed)
+    unreadable: str | None = None
 
     def __getitem__(self, name: str) -> bool | None:
         return self.signals[name]
@@ -285,6 +304,20 @@ class RemoteStatus:
             return (
                 "Ready 0 (the controller is not ready: still starting up, or Ready is "
                 "mapped to a bit it does not drive)"
+            )
+        if self.unreadable is not None:
+            return self.unreadable
+        if self.control_device is not None and self.control_device != REMOTE_IO:
+            device = CONTROL_DEVICES.get(self.control_device, "unknown")
+            return (
+                f"the control device is {self.control_device} ({device}), not 22 (Remote "
+                "I/O): someone controls the robot from there (2156)"
+            )
+        if self.controller_error:
+            return (
+                f"the controller reports error {self.controller_error} (2155), though its "
+                "Error signal reads 0: the controller is in error, or Error is mapped to a "
+                "bit it does not drive"
             )
         return None
 

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -173,7 +173,10 @@ def connection(robot: Robot) -> Connection:
     valid robot.yaml cannot give)."""
     o = robot.options
     return Connection(
-        RegisterMap.from_dict(o.get("map")),
+        replace(
+            RegisterMap.from_dict(o.get("map")),
+            write_without=frozenset(o.get("write_without", ())),
+        ),
         float(o.get("timeout", profile.MODBUS_TIMEOUT)),
         int(o.get("retries", profile.MODBUS_RETRIES)),
         float(o.get("poll_interval", profile.POLL_INTERVAL)),
@@ -244,6 +247,11 @@ def render_robot(robot: Robot, data: EpsonData | None = None) -> str:
         ("poll_interval", _seconds(link.poll_interval)),
         ("deadline", _seconds(link.deadline)),
         ("writes_whole", y.boolean(link.writes_whole)),
+        *(
+            [("write_without", y.sequence([y.text(n) for n in o["write_without"]], flow=True))]
+            if o.get("write_without")
+            else []
+        ),
         ("map", _map_node(link.register_map)),
     ]
     controller: list[tuple[str, Any]] = []
@@ -527,14 +535,19 @@ def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot 
     if "writes_whole" in conn:
         options["writes_whole"] = bool(conn["writes_whole"])
     found: list[Issue] = []
+    if "write_without" in conn:
+        options["write_without"] = sorted(set(conn["write_without"]))
     try:
         register_map = RegisterMap.from_dict(options["map"])
     except RegisterMapInvalid as exc:
         found += [_map_issue(doc, message) for message in exc.issues]
     else:
-        ready = register_map.ready_note
-        if ready is not None:
-            notes.append(f"robot.yaml: connection.map: {ready}")
+        register_map = replace(
+            register_map, write_without=frozenset(options.get("write_without", ()))
+        )
+        note = register_map.unwritable or register_map.ready_note
+        if note is not None:
+            notes.append(f"robot.yaml: connection.map: {note}")
         found += _too_few_words(doc, register_map)
     controller = data.get("controller", {})
     first, last = profile.DEFAULT_POINT_RANGE

@@ -206,6 +206,8 @@ class Session:
         self._name_at: int | None = None
         #: how points not there are answered (set by the simulator before each command)
         self.points = PointAnswers()
+        #: commands of the set this controller lacks (an older firmware): answered 1000
+        self.lacks: frozenset[int] = frozenset()
         self._before: _Sequence | None = None
         self._took_effect = False
         self._continuation = False
@@ -237,6 +239,8 @@ class Session:
                 "sim: command %d is off the command set: refused with %04X", number, UNSUPPORTED
             )
             return Outcome(number, (number, UNSUPPORTED, 0), True, True, False)
+        if number in self.lacks:
+            return Outcome(number, (number, UNSUPPORTED, 0), True, is_write, True)
         try:
             need = spec.words(state.axes)
             if need > command_words:
@@ -632,6 +636,14 @@ class Session:
         st.limz = p.int32(1)
         return self._done()
 
+    def _controller_error(self, st: SimState, p: _Params) -> tuple[int, ...]:
+        """2155: the error code, 0000H in the normal state."""
+        return (st.error_code,)
+
+    def _control_device(self, st: SimState, p: _Params) -> tuple[int, ...]:
+        """2156: the control device, 22 (Remote I/O) in the normal state."""
+        return (st.control_device,)
+
     def _robot_type(self, st: SimState, p: _Params) -> tuple[int, ...]:
         return (st.robot_type,)
 
@@ -762,6 +774,8 @@ def _commands() -> dict[int, _Spec]:
         1251: (1, S._limz),
         2153: (1, S._robot_type),
         2154: (2, S._model_name),
+        2155: (1, S._controller_error),
+        2156: (1, S._control_device),
     }
     writes: dict[int, tuple[WordCount, Handler]] = {
         1: (4, S._register_accel),
@@ -870,6 +884,8 @@ READS = frozenset(
         1251,
         2153,
         2154,
+        2155,
+        2156,
     }
 )
 WRITES = COMMAND_SET - READS

@@ -94,6 +94,11 @@ _UNDEFINED_POINT = {
 }
 _PAST_POINTS = {"2004": (PARAMETER, 0), "2005": (0x2005, 0)}
 _WRITE_TIMES = {"2ms": None, "300ms": 0.3}
+#: What 2155 answers after the ``error`` verb **(simulator)**: a controller error
+#: code (the manual sends the reader to the controller's own error list).
+ERROR_CODE = 4001
+#: The control device the ``teach`` verb makes (2156: 21, PC / TP4).
+TEACHING = 21
 #: The file a station's battery-backed memory is kept in, in its state directory.
 MEMORY_FILE = "memory.json"
 _FUNCTION_ERRORS = (REQUEST_WHILE_EXECUTING, MESSAGE_FAILURE, PRINT_ERROR)
@@ -110,6 +115,9 @@ class EpsonSimFamily:
         Verb("estop", "[STATION]", "emergency stop (EStopOn 1), tasks stopped"),
         Verb("error", "[STATION]", "the controller in error (Error 1), tasks stopped"),
         Verb("safeguard", "[STATION]", "the safeguard open (SafeguardOn 1), a task paused"),
+        Verb(
+            "teach", "[STATION]", "the control device a PC or TP4 (2156 answers 21), not Remote I/O"
+        ),
         Verb("stop", "[STATION]", "idle: no task, no stop, no error"),
         Verb("power-cycle", "[STATION]", "off and on: tables and LimZ cleared, function off"),
         Verb(
@@ -260,6 +268,7 @@ class _Station:
     def carry_out(self, words: Words) -> tuple[bool, Words]:
         m = self.sim.register_map
         self.session.points = self.sim.point_answers()
+        self.session.lacks = self.sim.lacks
         outcome = self.session.execute(
             self.state, words, command_words=m.command_words, response_words=m.response_words
         )
@@ -325,6 +334,8 @@ class Simulator(device.Device[SimState]):
         self.reset_low = reset_low
         self._whole_writes = whole_writes
         self.point_end = _state.MAX_POINT if point_end is None else point_end
+        #: commands of the set it lacks, as an older firmware might: answered 1000
+        self.lacks: frozenset[int] = frozenset()
         self.server: ModbusServer | None = None
         self._drop_next = 0
         self._controllers = {n: _Station(self, n) for n in self.stations}
@@ -517,7 +528,9 @@ class Simulator(device.Device[SimState]):
             if verb == "estop":
                 state.estop = True
             else:
-                state.error = True
+                state.error, state.error_code = True, ERROR_CODE
+        elif verb == "teach":
+            state.control_device = TEACHING
         elif verb == "safeguard":
             state.safeguard = True
             if state.running:
@@ -532,8 +545,7 @@ class Simulator(device.Device[SimState]):
     def describe(self, state: SimState) -> str:
         remote = self._controller(state).remote
         remote.advance()
-        shown = [*state.not_idle(), *(["SafeguardOn"] if state.safeguard else [])]
-        return f"{', '.join(shown) or 'idle'}, {remote.describe()}"
+        return f"{', '.join(state.not_idle()) or 'idle'}, {remote.describe()}"
 
     def save_station(self, station: int, directory: Path) -> None:
         """Write what the station keeps over a power cycle to ``directory/memory.json``
