@@ -1062,6 +1062,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             lock_timeout=args.lock_timeout,
             idle_check=True,
             connect_options=_connect_options(args),
+            command="plan",
         )
     finally:
         progress.close()
