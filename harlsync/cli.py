@@ -1202,6 +1202,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             lock_timeout=args.lock_timeout,
             idle_check=True,
             connect_options=_connect_options(args),
+            command="plan",
         )
     finally:
         progress.close()

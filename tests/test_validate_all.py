@@ -266,7 +266,7 @@ def test_epson_response_words_fewer_than_the_reads_need_are_refused_by_validate(
     if refused:
         assert out == [
             (
-                f"robot.yaml:16: connection.map.response_words: {words} words are fewer than "
+                f"robot.yaml:17: connection.map.response_words: {words} words are fewer than "
                 "harlsync's reads need: 210 (SpeedS speed and depart table 0) answers in 6 "
                 "(allowed: 6-8, as many assigned in RC+)"
             )

@@ -162,6 +162,10 @@ class Driver(ABC, Generic[K, D]):
 
     #: Where the robot is, for messages: ``"port /dev/ttyUSB0 station 1"``.
     label: str = "the robot"
+    #: The harlsync command the connection serves (``"push"``), set by the engine once
+    #: connected, for advice that names the command to run again (Epson: ``harlsync
+    #: push DIR --reset-function``, never a pull that would overwrite the project).
+    serves: str = ""
 
     @property
     def notes(self) -> Sequence[str]:

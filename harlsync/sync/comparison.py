@@ -69,9 +69,11 @@ def compare(
     lock_timeout: float = 10.0,
     idle_check: bool = False,
     connect_options: Mapping[str, bool] | None = None,
+    command: str = "diff",
 ) -> Comparison:
     """Read the live robot and compare it with the project, item by item; with
-    ``idle_check`` also say whether a push would be refused now (robot not idle)."""
+    ``idle_check`` also say whether a push would be refused now (robot not idle).
+    ``command`` is the harlsync command it serves (``diff``, ``plan``), for advice."""
     project = load_project(path)
     station = station_number(project.family, station)
     things = project.family.catalogue
@@ -93,6 +95,7 @@ def compare(
         options=connect_options,
         identified=not_another_robot,
         recorded=lambda: project.data,
+        command=command,
     )
     why = things.other_robot(read.live, project.data)
     if why is not None:
@@ -129,4 +132,5 @@ def plan(
         registers=registers,
         lock_timeout=lock_timeout,
         connect_options=connect_options,
+        command="plan",
     ).plan()

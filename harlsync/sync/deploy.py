@@ -108,6 +108,7 @@ def run(
             station,
             lock_timeout=opts.lock_timeout,
             options=opts.connect_options,
+            command=action,
         )
         result.warnings = unfinished_pushes(robot, port, station)
         if not opts.allow_live_tuning:

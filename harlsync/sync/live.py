@@ -31,19 +31,24 @@ def connect(
     *,
     lock_timeout: float = 10.0,
     options: Mapping[str, bool] | None = None,
+    command: str = "",
 ) -> Driver[K, D]:
     """Open the robot's line (``port``/``station`` override the robot file).
 
     ``options`` are the family's options of the connection (:attr:`Family.options`),
-    each given when set.  Raises ProjectError, before anything is opened, for one
-    the family does not take.
+    each given when set.  ``command`` is the harlsync command it serves
+    (:attr:`Driver.serves`).  Raises ProjectError, before anything is opened, for
+    one the family does not take.
     """
     given = {name: value for name, value in (options or {}).items() if value}
     for name in sorted(set(given) - family.connect_options):
         raise ProjectError(
             f"--{name.replace('_', '-')}: the {family.name} family has no such option; leave it out"
         )
-    return family.connect(robot, port, station, lock_timeout=lock_timeout, **given)
+    driver = family.connect(robot, port, station, lock_timeout=lock_timeout, **given)
+    if command:
+        driver.serves = command
+    return driver
 
 
 #: A station as the command line gives it (text, read by the robot's family, in
@@ -95,6 +100,7 @@ def read_live(
     noted: Callable[[Sequence[str]], None] | None = None,
     identified: Callable[[Mapping[str, str], str], None] | None = None,
     recorded: Callable[[], D | None] | None = None,
+    command: str = "",
 ) -> LiveRead[K, D]:
     """Everything the robot holds, read over a line opened and closed for it; with
     ``idle_check`` its state after the read too (what the interlock reads).
@@ -106,9 +112,18 @@ def read_live(
     where it is, before anything else is read, when the family can tell it first:
     it raises to refuse a swapped controller before the long read.  ``recorded``
     gives what the project recorded of the robot (None: nothing), for the read to
-    hold the controller to (:meth:`Driver.hold_to`)."""
+    hold the controller to (:meth:`Driver.hold_to`).  ``command`` is the harlsync
+    command it serves (:attr:`Driver.serves`)."""
     try:
-        driver = connect(family, robot, port, station, lock_timeout=lock_timeout, options=options)
+        driver = connect(
+            family,
+            robot,
+            port,
+            station,
+            lock_timeout=lock_timeout,
+            options=options,
+            command=command,
+        )
     except HarlsyncError as exc:  # what was done to the robot before the line failed
         if noted is not None and exc.notes:
             noted(exc.notes)

@@ -324,6 +324,7 @@ def _pull(
         noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
         identified=same_identity,
         recorded=recorded,
+        command="pull",
     )
     settle()  # a family that cannot tell its identity first: after the read
     from ..project.store import Project, save_project

@@ -87,13 +87,17 @@ def _epson_edit(state: Any, rng: random.Random) -> str:
 
 
 def _epson_quick(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A robot of ten points, P0-P9, and a first pull of just those; the pull still
-    probes past them (to P19), as every pull does, and finds nothing there."""
+    """A robot of ten points, P0-P9, on a controller whose point table ends at P19
+    (harlsync takes it so too), and a first pull of P0-P9; the pull still probes
+    past them to the table's end, as every pull does, finds nothing there, and asks
+    P20, past the table, twice (what it answers is a variant)."""
     from harlsync.families.epson import profile
+    from harlsync.families.epson.sim import state
     from harlsync.families.epson.sim.state import SimState
 
     monkeypatch.setattr(profile, "DEFAULT_POINT_RANGE", (0, 9))
     monkeypatch.setattr(profile, "POINT_PROBE_END", 19)
+    monkeypatch.setattr(state, "MAX_POINT", 19)
     generate = SimState.generate.__func__  # type: ignore[attr-defined]
 
     def ten_points(cls: type[SimState], seed: int, **options: Any) -> SimState:

@@ -258,6 +258,8 @@ class FakeRobot:
             501: lambda: (s.tool,),
             1251: lambda: _reals([s.limz]),
             2153: lambda: (s.robot_type,),
+            2155: lambda: (0,),  # no controller error
+            2156: lambda: (22,),  # Remote I/O, the control device
         }
         if n in singles:
             return singles[n]()

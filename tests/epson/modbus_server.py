@@ -24,14 +24,20 @@ class Datastore:
     def __init__(self, size: int, inputs: Sequence[int]) -> None:
         self.holding = [0] * size
         self.inputs = [*inputs, *[0] * (size - len(inputs))]
+        #: every request the server handed over, in order: (kind, address, words
+        #: written or the count read), the server's own record
+        self.log: list[tuple[str, int, tuple[int, ...] | int]] = []
 
     def read_holding(self, address: int, count: int) -> list[int]:
+        self.log.append(("read_holding", address, count))
         return self.holding[address : address + count]
 
     def read_input(self, address: int, count: int) -> list[int]:
+        self.log.append(("read_input", address, count))
         return self.inputs[address : address + count]
 
     def write_holding(self, address: int, values: list[int]) -> None:
+        self.log.append(("write", address, tuple(values)))
         self.holding[address : address + len(values)] = values
 
 
@@ -51,10 +57,21 @@ class ModbusServer(server.ModbusServer):
         inputs: list[int] | None = None,
         bank: FakeController | None = None,
     ) -> None:
-        super().__init__(
-            {unit: bank if bank is not None else Datastore(size, inputs or [])}, size=size
-        )
+        self.store = Datastore(size, inputs or [])
+        super().__init__({unit: bank if bank is not None else self.store}, size=size)
         self.bank = bank
+
+    def lose_replies(self, count: int) -> None:
+        """Send no reply to the next ``count`` requests (each is still carried out)."""
+        left = [count]
+
+        def drop() -> bool:
+            if left[0]:
+                left[0] -= 1
+                return True
+            return False
+
+        self.drop = drop
 
 
 class SilentServer:

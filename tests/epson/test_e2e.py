@@ -295,6 +295,58 @@ def test_a_push_to_a_robot_that_is_not_idle_is_refused_naming_the_signal(
     apply_command(sim, "stop")
 
 
+def writes_sent_again_unlooked(sim: Simulator) -> list[object]:
+    """From the simulator's own record of register accesses: each write that
+    arrived again, the same words at the same address, with no read of the
+    controller's outputs (the status) since the first."""
+    since_status: set[tuple[int, tuple[int, ...]]] = set()
+    again = []
+    for access in sim.remote().log:
+        if access.kind == "read_input":
+            since_status.clear()
+        elif access.kind == "write":
+            key = (access.address, access.values)
+            if key in since_status:
+                again.append(access)
+            since_status.add(key)
+    return again
+
+
+def test_issue_34_a_lost_write_is_not_sent_again_to_a_robot_that_started(
+    robot, repo, capsys
+) -> None:
+    """Issue 34 item 0: the reply to a push's command words (Tool, 500) was lost,
+    the robot started, and the Modbus client sent the same words again on its own,
+    with no status read between.  Now the link never sends a write twice: harlsync
+    reads the tool back, then the status, finds Running and stops."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit(project, repo, "robot.yaml", "deadline: 2.0", "deadline: 0.3")
+    edit(project, repo, "settings.yaml", "tool: 0", "tool: 3")
+    remote = sim.remote()
+    real = remote.write_holding
+    lost: list[tuple[int, ...]] = []
+
+    def write_holding(address: int, values: list[int]) -> None:
+        real(address, values)
+        if not lost and values[:1] == [500]:  # the Tool command's words: reply lost
+            lost.append(tuple(values))
+            sim.drop_replies(1)
+            sim.stations[1].running = True  # and the robot starts meanwhile
+
+    remote.write_holding = write_holding  # type: ignore[method-assign]
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    err = capsys.readouterr().err
+    assert "Running 1 (a task is executing)" in err and "Traceback" not in err
+    assert lost, "the Tool command was never sent"
+    assert writes_sent_again_unlooked(sim) == []
+    sent = [a for a in remote.log if a.kind == "write" and a.values == lost[0]]
+    assert len(sent) == 1  # the command words went out once
+    assert written(sim) == [] and sim.stations[1].tool == 0  # ExtCmdSet never rose
+    sim.stations[1].running = False
+
+
 def test_a_program_started_mid_push_gets_no_write_after_it(robot, repo, capsys) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -589,7 +641,7 @@ def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
     capsys.readouterr()
     assert cli.main(["diff", str(project)]) == 2
     assert capsys.readouterr().err.strip() == (
-        "harlsync: error: robot.yaml:16: connection.map.response_words: 5 words "
+        "harlsync: error: robot.yaml:17: connection.map.response_words: 5 words "
         "are fewer than harlsync's reads need: 210 (SpeedS speed and depart table 0) answers "
         "in 6 (allowed: 6-8, as many assigned in RC+)"
     )
@@ -728,6 +780,31 @@ def _left_in_use(sim: Simulator) -> None:
     station.write_holding(1, [2153, 0, 0, 0, 0, 0, 0, 0])  # read the robot type
     station.write_holding(0, [0b101])  # ExtCmdSet 1, and the process is gone
     station.read_input(0, 9)  # the controller takes it
+
+
+def test_issue_34_a_function_left_in_use_is_reset_by_the_command_refused_never_by_a_pull(
+    robot, repo, capsys
+) -> None:
+    """Issue 34 item 5: a push killed in the middle of a point left the function in
+    use, and the next push advised 'harlsync pull DIR --reset-function', which saves
+    the robot's half-written point over the committed edit.  Each command refused
+    names itself: push, diff and plan; following the advice completes the point."""
+    sim, url = robot
+    project = pulled(repo, url)
+    edit_p12(project, repo)
+    _left_in_use(sim)
+    for command, code in (("push", 3), ("diff", 2), ("plan", 2)):
+        capsys.readouterr()
+        args = [command, str(project), *(["--yes"] if command == "push" else [])]
+        assert cli.main(args) == code
+        err = capsys.readouterr().err
+        assert f"'harlsync {command} DIR --reset-function'" in err, err
+        assert "harlsync pull" not in err, err
+        assert len(err.strip().splitlines()) == 1, err
+    assert written(sim) == []  # nothing was written while the function was in use
+    assert cli.main(["push", str(project), "--yes", "--reset-function"]) == 0
+    assert cli.main(["diff", str(project)]) == 0  # the committed edit, not the robot's
+    assert numbers(written(sim)) == [1204, 1206]
 
 
 def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(

@@ -38,7 +38,8 @@ from another generated robot of the same type, new table entries and points,
 rarely one left out); and, at random moments (after the k-th Modbus request,
 most of them while the push writes), an operator who runs, pauses, presses the
 emergency stop, puts the controller in error or stops it (idle again); Modbus
-replies dropped (the write or read still takes effect; the link sends it again);
+replies dropped (the write or read still takes effect; the link sends a read
+again, never a write: harlsync reads the item back and the status first);
 and slow execution (a command that runs past the handshake's deadline).
 
 The others aim at what issue 19 found: a point of several fields with the
@@ -269,15 +270,15 @@ class Operator(Simulator):
 
 class MemoryLink:
     """The Epson transport's place (a RegisterAccess) over an :class:`Operator`'s
-    register bank: a lost reply costs the link's timeout on the fake clock and is
-    sent again, ``retries`` times, as ModbusLink does."""
+    register bank: a lost reply costs the link's timeout on the fake clock; a read
+    is sent again, ``retries`` times, a write never (issue 34), as ModbusLink does."""
 
     def __init__(self, sim: Operator, *, timeout: float, retries: int) -> None:
         self.sim, self.timeout, self.retries = sim, timeout, retries
         self.label = "memory unit 1"
 
     def _call(self, kind: str, address: int, values: Sequence[int] | int) -> list[int]:
-        for _ in range(self.retries + 1):
+        for _ in range(1 if kind == "write" else self.retries + 1):
             result = self.sim.request(kind, address, values)
             if not (self.sim.drop and self.sim._rng.random() < self.sim.drop):
                 return result

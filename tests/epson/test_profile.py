@@ -3,6 +3,8 @@ every way a map can be wrong, each said in one message."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from harlsync.families.epson import profile
@@ -75,11 +77,17 @@ def test_a_map_without_running_paused_or_estop_is_recognisably_unwritable(missin
     assert "never writes" in m.unwritable
 
 
-def test_a_map_without_ready_or_safeguard_may_still_be_written_and_says_so() -> None:
+def test_issue_34_a_map_without_ready_or_safeguard_is_written_only_when_robot_yaml_accepts_it() -> (
+    None
+):
     m = RegisterMap.from_dict({"signals": {"Ready": None, "SafeguardOn": None}})
-    assert m.unwritable is None
-    assert m.ready_note is not None and "no Ready signal" in m.ready_note
-    assert RegisterMap().ready_note is None
+    assert m.unwritable is not None and "no Ready or SafeguardOn signal" in m.unwritable
+    assert "connection.write_without: [Ready, SafeguardOn]" in m.unwritable
+    assert replace(m, write_without=frozenset({"Ready"})).unwritable is not None
+    accepted = replace(m, write_without=frozenset({"Ready", "SafeguardOn"}))
+    assert accepted.unwritable is None
+    assert accepted.ready_note is not None and "accepts writing without it" in accepted.ready_note
+    assert RegisterMap().ready_note is None and RegisterMap().unwritable is None
 
 
 @pytest.mark.parametrize(

@@ -331,7 +331,7 @@ ROBOT = [
         "command_words: 8",
         "command_words: 9",
         (
-            "robot.yaml:14: connection.map.command_words: 9 is out of range (allowed: 3-8, as "
+            "robot.yaml:15: connection.map.command_words: 9 is out of range (allowed: 3-8, as "
             "assigned in RC+)"
         ),
     ),
@@ -339,7 +339,7 @@ ROBOT = [
         "Paused: {register: 0, bit: 10}",
         "Paused: {register: 0, bit: 9}",
         (
-            "robot.yaml:27: connection.map.signals.Paused: Running and Paused are both at register 0 "
+            "robot.yaml:28: connection.map.signals.Paused: Running and Paused are both at register 0 "
             "bit 9"
         ),
     ),
@@ -347,20 +347,20 @@ ROBOT = [
         "ExtCmdSet: {register: 0, bit: 0}",
         "ExtCmdSet: null",
         (
-            "robot.yaml:18: connection.map.signals.ExtCmdSet: ExtCmdSet must be mapped: the Remote "
+            "robot.yaml:19: connection.map.signals.ExtCmdSet: ExtCmdSet must be mapped: the Remote "
             "Control function needs all seven handshake signals"
         ),
     ),
     (
         "Ready: {register: 0, bit: 8}",
         "Ready: {register: 0, bit: 16}",
-        "robot.yaml:25: connection.map.signals.Ready.bit: 16 is out of range (allowed: a bit, 0-15",
+        "robot.yaml:26: connection.map.signals.Ready.bit: 16 is out of range (allowed: a bit, 0-15",
     ),
     (
         "Ready: {register: 0, bit: 8}",
         "Ready: on",
         (
-            "robot.yaml:25: connection.map.signals.Ready: 'on' is not an integer or a mapping or "
+            "robot.yaml:26: connection.map.signals.Ready: 'on' is not an integer or a mapping or "
             "nothing (allowed: a bit 0-15 of the base register, {register: N, bit: B}, or null"
         ),
     ),
@@ -368,20 +368,20 @@ ROBOT = [
         "  first_point: 0",
         "  first_point: 100",
         (
-            "robot.yaml:34: controller.last_point: 99 is before first_point 100 (allowed: a number at "
+            "robot.yaml:35: controller.last_point: 99 is before first_point 100 (allowed: a number at "
             "or after first_point)"
         ),
     ),
     (
         "  type: SCARA",
         "  type: SCARA\n  axes: 6",
-        "robot.yaml:33: controller.axes: 6 axes for a SCARA robot (allowed: 4, or leave axes out)",
+        "robot.yaml:34: controller.axes: 6 axes for a SCARA robot (allowed: 4, or leave axes out)",
     ),
     (
         "  type: SCARA",
         "  type: Delta",
         (
-            "robot.yaml:32: controller.type: 'Delta' is not allowed "
+            "robot.yaml:33: controller.type: 'Delta' is not allowed "
             "(allowed: Joint, Cartesian, SCARA, 6-AXIS, RS)"
         ),
     ),

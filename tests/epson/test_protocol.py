@@ -226,6 +226,9 @@ READS: list[tuple[str, Request[Any], tuple[H, ...], tuple[H, ...], object]] = [
     ("1251 fixed", p.read_limz(), (0x04E3,), (0x04E3, 0xFFFE, 0x7960), "-100.000"),
     # §8.5 command 2153: a 6-AXIS
     ("2153", p.read_robot_type(), (0x0869,), (0x0869, 0x0005), 5),
+    # §8.5 commands 2155 and 2156 (no example: by hand): no error; Remote I/O (22)
+    ("2155", p.read_controller_error(), (0x086B,), (0x086B, 0x0000), 0),
+    ("2156", p.read_control_device(), (0x086C,), (0x086C, 0x0016), 22),
     # §10.25: 1222 (its command omits the axis word: the command is fixed, the
     # response is the manual's: P1 Y = 495.336) and 1215-1220 of P0
     (
@@ -641,6 +644,8 @@ BUILDERS: dict[str, list[Callable[[], Request[Any] | WriteSequence]]] = {
     "read_base": [lambda: p.read_base(0)],
     "read_limz": [p.read_limz],
     "read_robot_type": [p.read_robot_type],
+    "read_controller_error": [p.read_controller_error],
+    "read_control_device": [p.read_control_device],
     "read_model_name_char": [lambda: p.read_model_name_char(True)],
     "read_point_coord": [lambda: p.read_point_coord(0, 0)],
     "read_point_attribute": [
@@ -693,9 +698,9 @@ def test_every_public_builder_is_covered_and_makes_only_allowed_commands() -> No
     assert made.isdisjoint(p.NEVER_SEND)
 
 
-def test_the_allow_list_is_inside_the_digests_two_lists() -> None:
-    # the digest's safe-read whitelist (§4) and each item's write (§2)
-    safe_reads = {
+#: The digest's safe-read whitelist (§4).
+SAFE_READS = frozenset(
+    {
         2,
         3,
         *range(56, 62),
@@ -757,6 +762,12 @@ def test_the_allow_list_is_inside_the_digests_two_lists() -> None:
         2114,
         *range(2150, 2158),
     }
+)
+
+
+def test_the_allow_list_is_inside_the_digests_two_lists() -> None:
+    # the digest's safe-read whitelist (§4) and each item's write (§2)
+    safe_reads = SAFE_READS
     assert p.BACKUP_READS <= safe_reads
     assert p.DEPLOY_WRITES.isdisjoint(safe_reads)
     assert all(not p.COMMANDS[n].is_write for n in p.BACKUP_READS)
@@ -1056,9 +1067,14 @@ SECTION_8 = {
     1251: (1, 3),
     2153: (1, 3),
     2154: (2, 3),
+    2155: (1, 2),
+    2156: (1, 2),
 }
 #: The digest's known defects of the list: the bodies of 350 and 400 have 5 and 6 words.
 SECTION_8_DEFECTS = {350: 5, 400: 6}
+#: Reads whose answer the list gives as 2 words: harlsync asks for 3, since an error
+#: response, which it must read too, is 3 words (§7).
+SECTION_8_ERROR_WORDS = {2155: 3, 2156: 3}
 
 
 def test_word_counts_match_the_section_8_list_but_for_its_known_defects() -> None:
@@ -1069,5 +1085,6 @@ def test_word_counts_match_the_section_8_list_but_for_its_known_defects() -> Non
             for request_ in [made] if isinstance(made, Request) else list(made):
                 command, response = SECTION_8[request_.number]
                 command = SECTION_8_DEFECTS.get(request_.number, command)
+                response = SECTION_8_ERROR_WORDS.get(request_.number, response)
                 assert request_.command_words == command, request_  # 450, 452: 6-axis here
                 assert request_.response_words == response, request_

@@ -69,6 +69,13 @@ class ManualClock:
     def advance(self, seconds: float) -> None:
         self.now += seconds
 
+    # the handshake's Clock too: its polls move the time, nothing waits
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
+
 
 def robot(robot_type: int = SCARA) -> SimState:
     """A generated robot with known table entries and LimZ to test against."""
@@ -908,6 +915,43 @@ def test_a_dropped_modbus_reply_is_sent_again_by_the_link(sim: Simulator) -> Non
         sim.drop_replies(1)
         assert hs.execute(p.read_accel(4)) == AccelPercent(90, 70)
         assert sim.server.dropped == 1
+    no_function_error(sim)
+
+
+def test_issue_34_a_command_whose_extcmdset_reply_was_lost_is_waited_for_before_letting_go() -> (
+    None
+):
+    """Issue 34 item 0: the link no longer sends a write again, so a lost reply to
+    the write that raised ExtCmdSet reaches the handshake, which does not know
+    whether the controller took the command.  It looks (ExtCmdGet) before dropping
+    ExtCmdSet, and waits out the command's own deadline and one more before the
+    line is let go: the next client's first request then finds the function idle,
+    not a command still running (which a request would halt, §6.5.1)."""
+    clock = ManualClock()
+    sim = Simulator(robot(), execution_time=0.45, clock=clock)
+    remote = sim.remote()
+    real = remote.write_holding
+    lost: list[int] = []
+
+    def write_holding(address: int, values: list[int]) -> None:
+        real(address, values)
+        if not lost and address == 0 and values[0] & 1:  # ExtCmdSet raised: reply lost
+            lost.append(values[0])
+            sim.drop_replies(1)
+
+    remote.write_holding = write_holding  # type: ignore[method-assign]
+    with sim.serve() as server:
+        with ModbusLink(server.url, timeout=0.2, retries=2) as link:
+            hs = Handshake(link, sim.register_map, deadline=0.3, clock=clock)
+            with pytest.raises(LinkTimeout):
+                hs.execute(p.read_tool())
+            hs.finish()  # what closing the line does
+        assert lost
+        with ModbusLink(server.url, timeout=0.2) as link:  # the next harlsync
+            assert (
+                Handshake(link, sim.register_map, clock=clock).execute(p.read_robot_type()) == SCARA
+            )
+    assert [(r.number, r.answered) for r in sim.commands()] == [(501, True), (2153, True)]
     no_function_error(sim)
 
 

@@ -50,7 +50,7 @@ def test_a_function_left_halted_is_reset_only_when_asked_and_only_on_an_idle_rob
     assert cli.main(["diff", str(project)]) == 2
     err = capsys.readouterr().err
     assert "function error (ExtError 1): 9999 function error, detail 0001" in err
-    assert "--reset-function, on an idle robot" in err
+    assert "reset the function ('harlsync diff DIR --reset-function', on an idle robot)" in err
     fake.bank.function_errors.clear()  # that one was on purpose
     assert cli.main(["diff", str(project)]) == 2  # still halted: nothing resets it unasked
     fake.signal("Running")
@@ -163,13 +163,15 @@ def test_a_write_the_controller_never_took_is_sent_once_more_only_on_an_idle_rob
     fake.bank.write_holding = withdraw  # type: ignore[method-assign]
     fake.bank.never_acquire = True
     c.write(c.write_steps(key, "-5.000"), "-5.000", "-10.000")
-    assert [w[0] for w in fake.commands] == [1251, 1250]  # read back, then sent once more
+    # read back, the status (issue 34: the control device and the controller's error
+    # too, when the signals are idle), then sent once more
+    assert [w[0] for w in fake.commands] == [1251, 2156, 2155, 1250]
     assert fake.state.limz == -5000
 
     fake.bank.never_acquire, pause = True, True
     with pytest.raises(InterlockError, match=r"Paused 1 .*not sending it again"):
         c.write(c.write_steps(key, "-6.000"), "-6.000", "-5.000")
-    assert [w[0] for w in fake.commands] == [1251, 1250, 1251]
+    assert [w[0] for w in fake.commands] == [1251, 2156, 2155, 1250, 1251]
     assert fake.state.limz == -5000 and fake.busy_writes == []
 
 
@@ -184,7 +186,8 @@ def test_the_read_of_a_point_stops_at_its_first_coordinate_when_it_is_not_define
 
 
 def test_a_map_without_ready_is_named_by_validate_and_plan(robot, repo, capsys) -> None:
-    """Issue 19 item 5: where a site's map has no Ready, plan and validate say so."""
+    """Issue 19 item 5: where a site's map has no Ready, plan and validate say so;
+    issue 34 item 16: and the plan cannot write (robot.yaml may accept the risk)."""
     _, url = robot
     project = pulled(repo, url)
     edit(project, repo, "robot.yaml", "Ready: {register: 0, bit: 8}", "Ready: null")
@@ -193,4 +196,4 @@ def test_a_map_without_ready_is_named_by_validate_and_plan(robot, repo, capsys) 
     out = capsys.readouterr().out
     assert "note: robot.yaml: connection.map: the register map has no Ready signal" in out
     assert cli.main(["plan", str(project)]) == 0
-    assert "# note: the register map has no Ready signal" in capsys.readouterr().out
+    assert "# cannot write: the register map has no Ready signal" in capsys.readouterr().out

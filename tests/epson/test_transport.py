@@ -76,6 +76,32 @@ def test_a_silent_server_is_one_line_link_timeout_naming_the_controller() -> Non
     assert isinstance(caught.value, TimeoutError)
 
 
+def test_issue_34_a_write_without_an_answer_is_never_sent_again_by_the_link() -> None:
+    """Issue 34 item 0: pymodbus's own retries sent a write that got no answer again,
+    with no status read between, to a robot that may have started meanwhile.  From
+    the server's own record: the write arrived once; a read without an answer is
+    sent again (it changes nothing)."""
+    with ModbusServer() as server, ModbusLink(server.url, timeout=0.2, retries=2) as link:
+        server.lose_replies(1)
+        with pytest.raises(LinkTimeout) as caught:
+            link.write_holding(1, [0x01F4, 0x0003, 0, 0, 0, 0, 0, 0])
+        assert one_line(caught.value).endswith(
+            "write holding registers 1-8: no answer within 0.2 s (1 try: a write is never "
+            "sent again by the link)"
+        )
+        server.lose_replies(1)
+        with pytest.raises(LinkTimeout):
+            link.write_holding(0, [0b100])  # function 6 likewise
+        server.lose_replies(1)
+        assert link.read_holding(1, 2) == [0x01F4, 0x0003]
+    assert server.store.log == [
+        ("write", 1, (0x01F4, 0x0003, 0, 0, 0, 0, 0, 0)),
+        ("write", 0, (0b100,)),
+        ("read_holding", 1, 2),
+        ("read_holding", 1, 2),
+    ]
+
+
 def test_a_register_the_controller_lacks_is_a_modbus_exception_with_a_hint() -> None:
     with (
         ModbusServer(size=16) as server,

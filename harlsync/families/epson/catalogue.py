@@ -33,6 +33,7 @@ from ..base import Catalogue, PlanShape
 from .model import (
     ATTRIBUTES,
     KINDS,
+    PAST_TABLE,
     PERSISTENT,
     POINT,
     UNSTATED,
@@ -45,6 +46,7 @@ from .model import (
     coordinate_names,
     covered_text,
     field_texts,
+    table_notes,
     value_text,
 )
 
@@ -203,8 +205,13 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
         return f"{data.type_name} {data.model} ({data.axes} axes)"
 
     def robot_identity(self, data: EpsonData) -> dict[str, str]:
-        """The manipulator the controller reports (2153's type and axes, 2154's model)."""
-        return {"robot type": data.type_name, "axes": str(data.axes), "model": data.model}
+        """The manipulator the controller reports (2153's type and axes, 2154's model),
+        and what a point past its point table answers (controller.yaml, when recorded):
+        a pull whose controller answers it otherwise is refused naming both."""
+        found = {"robot type": data.type_name, "axes": str(data.axes), "model": data.model}
+        if data.table is not None:
+            found[PAST_TABLE] = data.table.past_end.describe()
+        return found
 
     def contents(self, data: EpsonData, *, registers: bool) -> str:
         """``"12 table entries, 20 settings, 150 points (P0-P199 read, none defined
@@ -212,7 +219,9 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
         text = _counted(
             self.counts((key, None, value) for key, value in data.items.items()), zeros=True
         )
-        return text + (f" ({covered_text(data)})" if data.covered is not None else "")
+        if data.covered is not None:
+            text += f" ({covered_text(data)})"
+        return "; ".join([text, *table_notes(data)])
 
     def other_identity(self, now: Mapping[str, str], project: EpsonData) -> str | None:
         """Why the controller that reports ``now`` (:meth:`robot_identity`) is not the
@@ -223,6 +232,15 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
                 f"the project is of a {project.type_name} robot with {project.axes} axes, the "
                 f"controller reports a {now['robot type']} with {now['axes']}: check the port "
                 "(or pull into a new project)"
+            )
+        recorded = project.table.past_end.describe() if project.table is not None else None
+        answer = now.get(PAST_TABLE)
+        if recorded is not None and answer is not None and answer != recorded:
+            return (
+                f"the controller answers a point past its point table with {answer}, where "
+                f"controller.yaml records {recorded} (the last pull's): another controller, "
+                "or one updated; check the port, or accept it with 'harlsync pull DIR "
+                "--new-robot'"
             )
         if now["model"] != project.model:
             return (

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any, TypeVar
 
@@ -40,6 +40,7 @@ from ...errors import (
     LinkTimeout,
     PartlyWritten,
     ProjectError,
+    ProtocolError,
     WriteUnconfirmed,
     partly_words,
 )
@@ -55,8 +56,10 @@ from .model import (
     KINDS,
     EpsonData,
     Key,
+    NotThere,
     Point,
     PointKey,
+    PointTable,
     SettingKey,
     TableKey,
     axes_of_type,
@@ -75,12 +78,23 @@ A = TypeVar("A")
 B = TypeVar("B")
 
 #: Error responses that mean "not there": a table entry never registered, a Box
-#: area the controller calls undefined, a point not defined.
+#: area the controller calls undefined.  A point has no code for it in the manual:
+#: what a point not there answers is learned from the controller (:class:`PointTable`).
 _ABSENT = {
     "table": frozenset({profile.TABLE_NOT_REGISTERED}),
     "box": frozenset({0x2009}),
-    "point": frozenset({profile.UNDEFINED_POINT}),
 }
+#: Response 1 codes that never say "no point here": the command was not understood,
+#: the words are wrong, or the controller could not run it for a reason of its own
+#: (§7.1).  Any other error response to a point's read may be one (asked twice).
+_NEVER_ABSENT = frozenset({0x1000, 0x1002, 0x2001, 0x2002, 0x2003, 0x200B, 0x3000, 0x9999})
+
+
+class _End:
+    """A point number past the controller's point table (:meth:`Controller._first_coord`)."""
+
+
+END = _End()
 #: The longest model name read, in characters (2154 sends one a call).
 MODEL_NAME_MAX = 64
 
@@ -148,7 +162,10 @@ class Controller:
 
     ``robot_type`` (a 2153 type name) is what robot.yaml says the robot is, checked
     before anything is read; ``axes`` its axes when robot.yaml gives them.
-    ``first``/``last`` bound the points read.
+    ``first``/``last`` bound the points read; ``table_end`` is the last point of the
+    controller's point table (robot.yaml ``controller.point_table_end``, the
+    profile's P999 when None); ``first_pull``: the range is the default, not
+    robot.yaml's, and points found past it are taken in (a first pull).
     """
 
     def __init__(
@@ -159,6 +176,8 @@ class Controller:
         axes: int | None = None,
         first: int = profile.DEFAULT_POINT_RANGE[0],
         last: int = profile.DEFAULT_POINT_RANGE[1],
+        table_end: int | None = None,
+        first_pull: bool = False,
     ) -> None:
         self.handshake = handshake
         self.map = handshake.map
@@ -167,6 +186,14 @@ class Controller:
         self._axes: int | None = None
         self._type: int | None = None
         self.first, self.last = first, last
+        self.table_end = profile.POINT_PROBE_END if table_end is None else table_end
+        self.first_pull = first_pull
+        #: what the point table showed this session (:meth:`point_table`)
+        self._table: PointTable | None = None
+        #: what the table's last point answered at its probe, and where the
+        #: "not defined" answer was first met (for messages)
+        self._last_answer: str | NotThere | None = None
+        self._not_defined_at: int | None = None
         self._link: ModbusLink | None = None
         #: what :meth:`open` recovered on its own, for the backup's report and audit log
         self.notes: list[str] = []
@@ -201,7 +228,11 @@ class Controller:
         )
         try:
             handshake = Handshake(
-                link, line.register_map, poll_interval=line.poll_interval, deadline=line.deadline
+                link,
+                line.register_map,
+                poll_interval=line.poll_interval,
+                deadline=line.deadline,
+                block_write_whole=line.writes_whole,
             )
             handshake.start()
             notes = []
@@ -327,8 +358,29 @@ class Controller:
     # --- the robot ---------------------------------------------------------------------
 
     def status(self) -> RemoteStatus:
-        """The interlock: one read of the controller's outputs."""
-        return self.handshake.status()
+        """The interlock: one read of the controller's outputs; when they allow a
+        write, the control device (2156: Remote I/O, not a pendant or PC) and the
+        controller's error code (2155: 0) too.  Either that cannot be read (an
+        error response) makes the status refuse a write: fail closed (issue 34 item
+        16).  A line that does not answer raises, as the read of the outputs does."""
+        status = self.handshake.status()
+        if not status.idle:
+            return status
+        found: list[int] = []
+        for request in (p.read_control_device(), p.read_controller_error()):
+            try:
+                found.append(self.ask(request))
+            except (ControllerError, ProtocolError) as exc:
+                return replace(
+                    status,
+                    unreadable=(
+                        f"the {request.what} ({request.number}) cannot be read "
+                        f"({getattr(exc, 'message', exc)}): harlsync writes only when it has "
+                        "read it, so nothing is written"
+                    ),
+                )
+        device, error = found
+        return replace(status, control_device=device, controller_error=error)
 
     def read_model_name(self) -> str:
         """2154, one character a call, until the status says it was the last."""
@@ -467,11 +519,114 @@ class Controller:
             return self.ask(p.read_limz())
         raise KeyError(f"no setting {kind!r}")
 
-    def read_point(self, number: int) -> Point | None:
-        """One point: 1222 per axis, then 1215-1220; None when it is not defined."""
-        first = self.ask_if_there(p.read_point_coord(number, 0), _ABSENT["point"])
-        if first is None:
+    # --- points: where the table ends, what "no point" answers (issue 29) -----------
+
+    def _point_answer(self, number: int, axis: int = 0) -> str | NotThere:
+        """1222 of one coordinate: the coordinate, or the error response as a
+        :class:`NotThere` when it may say "no point here".  Raises ControllerError
+        for one that never does (:data:`_NEVER_ABSENT`)."""
+        request = p.read_point_coord(number, axis)
+        reply = self._execute(request)
+        if isinstance(reply, ErrorReply):
+            if reply.code in _NEVER_ABSENT:
+                raise self._error(request, reply)
+            return NotThere(reply.code, reply.detail)
+        return reply
+
+    def _unsteady(self, number: int, first: str | NotThere, again: str | NotThere) -> ProjectError:
+        def said(answer: str | NotThere) -> str:
+            return answer.describe() if isinstance(answer, NotThere) else f"a coordinate ({answer})"
+
+        return ProjectError(
+            f"{self.label}: P{number} answered {said(first)}, then {said(again)} when asked "
+            "again: harlsync takes a point as not there only from an answer that repeats; "
+            "look at the controller (RC+) and run again"
+        )
+
+    def point_table(self) -> PointTable:
+        """Where the controller's point table ends, from its own behaviour, asked once
+        a session: the point past :attr:`table_end` must answer the same error
+        response twice (that answer is recorded in controller.yaml and is part of
+        the robot's identity), and the last point's answer is kept.  A few
+        exchanges: P(end+1) twice, P(end) once (twice when it answers otherwise
+        than P(end+1): what a point not defined answers, learned at once).
+
+        Raises ProjectError when the point past the table is defined (the table is
+        larger than robot.yaml says), or answers two different things."""
+        if self._table is not None:
+            return self._table
+        end = self.table_end
+        past = self._point_answer(end + 1)
+        if not isinstance(past, NotThere):
+            raise ProjectError(
+                f"{self.label}: P{end + 1} is defined: the controller's points go past "
+                f"P{end}, where harlsync takes its point table to end; set "
+                "controller.point_table_end in robot.yaml to the controller's last point "
+                "number and pull again"
+            )
+        again = self._point_answer(end + 1)
+        if again != past:
+            raise self._unsteady(end + 1, past, again)
+        table = PointTable(end, past)
+        last = self._point_answer(end)
+        if isinstance(last, NotThere) and last != past:
+            again = self._point_answer(end)
+            if again != last:
+                raise self._unsteady(end, last, again)
+            table.not_defined, self._not_defined_at = last, end
+        self._last_answer = last
+        self._table = table
+        return table
+
+    def _first_coord(self, number: int, axis: int = 0) -> str | None | _End:
+        """A point's coordinate ``axis`` (a point's first read: X), None when the
+        point is not defined, :data:`END` when ``number`` lies past the point table.
+
+        An error response is taken as "not defined" when it is the one points not
+        defined answered before, or, the first time one is met, when it answers
+        the same when asked again.  The answer of the point past the table, asked
+        twice, is the table's end only when the table's last point answered it too
+        and points not defined answer otherwise (a table smaller than
+        robot.yaml's).  Raises ProjectError for an answer that does not repeat, or
+        that is neither."""
+        table = self.point_table()
+        answer = self._point_answer(number, axis)
+        if not isinstance(answer, NotThere):
+            return answer
+        if answer == table.not_defined:
             return None
+        again = self._point_answer(number, axis)
+        if again != answer:
+            raise self._unsteady(number, answer, again)
+        if (
+            axis == 0
+            and answer == table.past_end
+            and table.not_defined is not None
+            and self._last_answer == table.past_end
+        ):
+            return END
+        if table.not_defined is None:
+            table.not_defined, self._not_defined_at = answer, number
+            log.info("%s: P%d not defined: it answers %s", self.label, number, answer.describe())
+            return None
+        where = f"P{self._not_defined_at}" if self._not_defined_at is not None else "a point"
+        raise ProjectError(
+            f"{self.label}: P{number} answers {answer.describe()} twice, where {where}, not "
+            f"defined, answered {table.not_defined.describe()}: one of them is not the "
+            "controller's answer for a point not defined (an error of the controller?); "
+            "look at the controller (RC+) and run again"
+        )
+
+    def read_point(self, number: int) -> Point | None:
+        """One point: 1222 per axis, then 1215-1220; None when it is not defined (or
+        past the point table)."""
+        first = self._first_coord(number)
+        if first is None or isinstance(first, _End):
+            return None
+        return self._rest_of_point(number, first)
+
+    def _rest_of_point(self, number: int, first: str) -> Point:
+        """A defined point, its X read: the other coordinates and its attributes."""
         coords = (
             first,
             *(self.ask(p.read_point_coord(number, axis)) for axis in range(1, self.axes)),
@@ -514,22 +669,28 @@ class Controller:
     ) -> EpsonData:
         """The manipulator, every setting and every defined point of the range.
 
-        With ``probe`` (a pull), every point outside the range, from P0 up to
-        :data:`~.profile.POINT_PROBE_END`, is looked for too (the manual has no
-        command that says how many there are): raises ProjectError naming those
-        defined and the robot.yaml setting that takes them in; the data records
-        the range covered.  ``progress(done, total)`` after each item.  ``identity``
-        is what :meth:`identify` just returned: not asked for again.
+        The point table's end is the controller's own (:meth:`point_table`); the
+        points are read in order, and a number found past the table ends the read
+        there (a table smaller than the range: recorded, not failed).  With
+        ``probe`` (a pull), every point outside the range, from P0 to the table's
+        end, is looked for too with one read each (the manual has no command that
+        says how many there are): raises ProjectError naming those defined and the
+        robot.yaml setting that takes them in, except on a first pull, which takes
+        them in (:attr:`EpsonData.taken_in`).  The data records the range covered
+        and the point table.  ``progress(done, total)`` after each item.
+        ``identity`` is what :meth:`identify` just returned: not asked for again.
         """
         code, axes, model = self.identify() if identity is None else identity
+        table = self.point_table()
         data = EpsonData(
             code, axes, model, unwritable=self.map.unwritable, map_note=self.map.ready_note
         )
         keys: list[Key] = [*item_keys(axes)]
-        keys += [PointKey("point", n) for n in range(self.first, self.last + 1)]
-        below = range(self.first) if probe else range(0)
-        past = range(self.last + 1, profile.POINT_PROBE_END + 1) if probe else range(0)
-        total = len(keys) + 1 + len(below) + len(past)
+        first, last = self.first, self.last
+        below = range(min(first, table.end + 1)) if probe else range(0)
+        past = range(last + 1, table.end + 1) if probe else range(0)
+        numbers = [*below, *range(first, last + 1), *past]
+        total = len(keys) + 1 + len(numbers)
         if progress is not None:
             progress(1, total)
         for done, key in enumerate(keys, 2):
@@ -538,29 +699,56 @@ class Controller:
                 data.items[key] = value
             if progress is not None:
                 progress(done, total)
-        outside = []
-        for done, n in enumerate([*below, *past], len(keys) + 2):
-            if self._point_coord(n, 0) is not None:
-                outside.append(n)
+        outside: list[int] = []
+        taken: list[int] = []
+        ended: int | None = None
+        for done, n in enumerate(numbers, len(keys) + 2):
+            found = self._first_coord(n)
+            if isinstance(found, _End):
+                ended = n
+                break
+            if found is not None:
+                inside = first <= n <= last
+                if inside or self.first_pull:
+                    data.items[PointKey("point", n)] = self._rest_of_point(n, found)
+                if not inside:
+                    (taken if self.first_pull else outside).append(n)
             if progress is not None:
                 progress(done, total)
-        before = [n for n in outside if n < self.first]
-        beyond = [n for n in outside if n > self.last]
+        if progress is not None and ended is not None:
+            progress(total, total)
+        before = [n for n in outside if n < first]
+        beyond = [n for n in outside if n > last]
         if before:
             raise ProjectError(
                 f"{self.label}: {len(before)} point(s) defined before "
-                f"controller.first_point {self.first}, which this backup would leave out: "
+                f"controller.first_point {first}, which this backup would leave out: "
                 f"{_numbers(before)}; set controller.first_point: {before[0]} (or less) in "
                 "robot.yaml and pull again"
             )
         if beyond:
             raise ProjectError(
                 f"{self.label}: {len(beyond)} point(s) defined past controller.last_point "
-                f"{self.last}, which this backup would leave out: {_numbers(beyond)}; set "
+                f"{last}, which this backup would leave out: {_numbers(beyond)}; set "
                 f"controller.last_point: {beyond[-1]} (or more) in robot.yaml and pull again"
             )
-        data.covered = (self.first, self.last)
-        data.probed_to = profile.POINT_PROBE_END if below or past else None
+        recorded = PointTable(table.end, table.past_end, table.not_defined)
+        if ended is not None:
+            recorded.end = ended - 1
+            data.cut_at = ended
+            log.info(
+                "%s: the point table ends at P%d: P%d answers %s twice",
+                self.label,
+                ended - 1,
+                ended,
+                table.past_end.describe(),
+            )
+        data.table = recorded
+        data.covered = (first, last)
+        if taken:
+            data.taken_in = (taken[0], taken[-1])
+            data.covered = (min(first, taken[0]), max(last, taken[-1]))
+        data.probed_to = recorded.end if probe else None
         return data
 
     # --- writes ------------------------------------------------------------------------
@@ -651,7 +839,8 @@ class Controller:
         return steps
 
     def _point_coord(self, number: int, axis: int) -> str | None:
-        return self.ask_if_there(p.read_point_coord(number, axis), _ABSENT["point"])
+        found = self._first_coord(number, axis)
+        return None if isinstance(found, _End) else found
 
     @staticmethod
     def command_text(steps: list[WriteStep]) -> str:

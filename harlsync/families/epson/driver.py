@@ -12,6 +12,7 @@ from .catalogue import CATALOGUE, Key, PointWrite
 from .controller import Controller, WriteStep
 from .handshake import RemoteStatus
 from .model import EpsonData, PointKey
+from .protocol import REMOTE_IO
 
 __all__ = ["EpsonDriver"]
 
@@ -20,6 +21,10 @@ _ADVICE = {
     "EStopOn": (
         "Find why the emergency stop is on; when it is safe, release it and reset the "
         "controller (Reset in RC+ or the Reset input), then run again"
+    ),
+    "SafeguardOn": (
+        "Make sure no one is in the cell, close the safeguard (safety door) and reset the "
+        "controller if it asks, then run again"
     ),
     "Error": (
         "Read the error in RC+ (its number says what it is), remove its cause and reset "
@@ -40,12 +45,37 @@ class EpsonDriver(Driver[Key, EpsonData]):
         self.controller = controller
         self.label = controller.label
         self._identity: tuple[int, int, str] | None = None
+        self._command = ""
+
+    @property
+    def serves(self) -> str:
+        """The harlsync command this connection serves; setting it makes every message
+        that asks for a function reset name that command (issue 34 item 5: a push
+        refused for a function left in use advised a pull, which saves the robot's
+        half-written point over the committed edit)."""
+        return self._command
+
+    @serves.setter
+    def serves(self, command: str) -> None:
+        self._command = command
+        self.controller.handshake.reset_advice = self.reset_advice
+
+    @property
+    def reset_advice(self) -> str:
+        """``'harlsync push DIR --reset-function'``: the command being run, again,
+        with the option; without a command known, the option alone."""
+        if not self._command:
+            return "--reset-function"
+        return f"'harlsync {self._command} DIR --reset-function'"
 
     def identity(self) -> dict[str, str]:
-        """2153 and 2154 (the manipulator), the first commands of a read: kept for
-        :meth:`read_all`."""
+        """2153 and 2154 (the manipulator), the first commands of a read, kept for
+        :meth:`read_all`; and what the point past the point table answers (asked
+        twice): a controller that answers otherwise than the backup records is
+        refused at its first exchanges (issue 29)."""
         self._identity = code, axes, model = self.controller.identify()
-        return CATALOGUE.robot_identity(EpsonData(code, axes, model))
+        table = self.controller.point_table()
+        return CATALOGUE.robot_identity(EpsonData(code, axes, model, table=table))
 
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False
@@ -64,8 +94,9 @@ class EpsonDriver(Driver[Key, EpsonData]):
         return self.controller.status()
 
     def advice(self, status: Status) -> str:
-        """By the signal that refuses, the gravest first: EStopOn, Error, Paused,
-        Running; then Ready 0 and a function in use.  A map that can never allow a
+        """By the signal that refuses, the gravest first: EStopOn, SafeguardOn, Error,
+        Paused, Running; then Ready 0, 2156 and 2155 (unreadable, another control
+        device, an error code) and a function in use.  A map that can never allow a
         write says what to do itself."""
         if not isinstance(status, RemoteStatus):
             return super().advice(status)
@@ -79,11 +110,28 @@ class EpsonDriver(Driver[Key, EpsonData]):
                 "Wait for the controller to finish starting up (Ready 1); if Ready stays "
                 "0, check robot.yaml connection.map against RC+"
             )
+        if status.unreadable is not None:
+            return "Check the controller and the line, then run again"
+        if status.control_device is not None and status.control_device != REMOTE_IO:
+            return (
+                "Whoever controls the robot from there ends and gives control back to "
+                "Remote I/O (RC+ [Setup]-[System Configuration]-[Controller]-"
+                "[Configuration]), then run again"
+            )
+        if status.controller_error:
+            return (
+                _ADVICE["Error"] + "; if Error stays 0 meanwhile, check robot.yaml connection.map"
+            )
         if not status.function_idle:
+            how = (
+                self.reset_advice
+                if self._command
+                else "running the same command again with --reset-function"
+            )
             return (
                 "Wait for the command of the other Remote Control client to end; a "
-                "function an earlier harlsync left in use is reset by 'harlsync pull DIR "
-                "--reset-function' (on an idle robot)"
+                f"function an earlier harlsync left in use is reset by {how} (on an idle "
+                "robot)"
             )
         return super().advice(status)
 

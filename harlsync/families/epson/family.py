@@ -98,7 +98,8 @@ class EpsonFamily(Family["Key", "EpsonData"]):
     def project_files(self, root: Path) -> list[str]:
         from . import layout
 
-        return [name for name in layout.ROOT_FILES if (root / name).is_file()]
+        names = [*layout.ROOT_FILES, layout.CONTROLLER_FILE]
+        return [name for name in names if (root / name).is_file()]
 
     def stale_files(
         self, root: Path, texts: Mapping[str, str], robot: Robot, data: EpsonData
@@ -170,6 +171,8 @@ class EpsonFamily(Family["Key", "EpsonData"]):
             axes=robot.options.get("axes"),
             first=first,
             last=last,
+            table_end=layout.point_table_end(robot),
+            first_pull=bool(robot.options.get(layout.FIRST_PULL)),
         )
         return EpsonDriver(controller)
 

@@ -41,9 +41,13 @@ Bits of the control registers that are not handshake signals keep the value
 they were read with.
 
 The step 1 read is the interlock too: a write goes out only while Running,
-Paused, EStopOn and Error are 0 and Ready (where mapped) is 1, never with Ready
+Paused, EStopOn, Error and SafeguardOn are 0 and Ready is 1, never with Ready
 and Running at 1 together (a map that is wrong), and never to a robot whose map
-lacks Running, Paused, EStopOn or Error.  Each command of a split write or Rn
+lacks Running, Paused, EStopOn or Error, or Ready or SafeguardOn unless robot.yaml
+accepts that (``connection.write_without``).  Before each item a push writes, the
+controller's :meth:`~.controller.Controller.status` also asks 2156 (the control
+device: Remote I/O) and 2155 (no controller error), which cannot go between the
+commands of a split or Rn sequence.  Each command of a split write or Rn
 sequence is looked at so: a robot that leaves idle part way stops the sequence,
 which the controller then cancels.  Reads go out regardless.  ExtCmdReset is
 raised only once the controller shows it is operable (Ready 1, §6.2).
@@ -75,7 +79,15 @@ from ...errors import ControllerError, InterlockError, LinkError, LinkTimeout, P
 from ...settings import seconds
 from . import profile
 from .profile import HANDSHAKE_INPUTS, INTERLOCK_SIGNALS, READY, Bit, RegisterMap
-from .protocol import FUNCTION_ERROR, ErrorReply, Request, WriteSequence, describe_code
+from .protocol import (
+    CONTROL_DEVICES,
+    FUNCTION_ERROR,
+    REMOTE_IO,
+    ErrorReply,
+    Request,
+    WriteSequence,
+    describe_code,
+)
 
 __all__ = [
     "Clock",
@@ -170,6 +182,7 @@ _BUSY_TEXT: Mapping[str, str] = MappingProxyType(
         "Paused": "a task is paused",
         "EStopOn": "emergency stop",
         "Error": "the controller is in error",
+        "SafeguardOn": "the safeguard is open: a person may be in the cell",
     }
 )
 _FUNCTION_SIGNALS = (
@@ -180,6 +193,11 @@ _FUNCTION_SIGNALS = (
     "ExtRespSet",
     "ExtError",
 )
+
+
+#: How a message tells a person to reset the function when it does not know the
+#: command being run (:attr:`Handshake.reset_advice`).
+RESET_ADVICE = "--reset-function"
 
 
 class HandshakeTimeout(LinkTimeout):
@@ -199,11 +217,19 @@ class FunctionError(ControllerError):
     reset (detail 0001) or a controller reset (9901, 9902).  ``code`` and
     ``detail`` are Response 1 and 2 as read."""
 
-    def __init__(self, code: int, detail: int, *, port: str, command: str | None) -> None:
+    def __init__(
+        self,
+        code: int,
+        detail: int,
+        *,
+        port: str,
+        command: str | None,
+        reset: str = RESET_ADVICE,
+    ) -> None:
         self.code = code
         self.detail = detail
         remedy = (
-            "reset the function (--reset-function, on an idle robot)"
+            f"reset the function ({reset}, on an idle robot)"
             if detail == 0x0001
             else "reset the controller"
         )
@@ -233,6 +259,12 @@ class RemoteStatus:
     response: tuple[int, ...]
     #: why the map never allows a write (:attr:`RegisterMap.unwritable`)
     unwritable: str | None = None
+    #: what 2156 (the control device) and 2155 (the controller's error code)
+    #: answered, read before a write when the signals allow one; None: not read
+    control_device: int | None = None
+    controller_error: int | None = None
+    #: why they could not be read (then no write goes: fail closed)
+    unreadable: str | None = None
 
     def __getitem__(self, name: str) -> bool | None:
         return self.signals[name]
@@ -272,6 +304,20 @@ class RemoteStatus:
             return (
                 "Ready 0 (the controller is not ready: still starting up, or Ready is "
                 "mapped to a bit it does not drive)"
+            )
+        if self.unreadable is not None:
+            return self.unreadable
+        if self.control_device is not None and self.control_device != REMOTE_IO:
+            device = CONTROL_DEVICES.get(self.control_device, "unknown")
+            return (
+                f"the control device is {self.control_device} ({device}), not 22 (Remote "
+                "I/O): someone controls the robot from there (2156)"
+            )
+        if self.controller_error:
+            return (
+                f"the controller reports error {self.controller_error} (2155), though its "
+                "Error signal reads 0: the controller is in error, or Error is mapped to a "
+                "bit it does not drive"
             )
         return None
 
@@ -337,6 +383,13 @@ class _Pending:
     request: Request[object]
     step: Step
     acquired: bool = False
+    #: when its own deadline passes (a reply lost on the line ends the wait for it
+    #: early: what is left of its deadline is still its)
+    due: float = 0.0
+
+    def settle_by(self, now: float, deadline: float) -> float:
+        """When to stop waiting for it: one more ``deadline`` after its own."""
+        return max(now, self.due) + deadline
 
 
 class Handshake:
@@ -364,6 +417,9 @@ class Handshake:
         self.poll_interval = poll_interval
         self.deadline = deadline
         self.clock: Clock = clock if clock is not None else SystemClock()
+        #: how a message tells a person to reset the function: the command to run
+        #: again, ``'harlsync push DIR --reset-function'``, once the driver knows it
+        self.reset_advice = RESET_ADVICE
         #: the control holding registers as harlsync last wrote (or first read) them
         self._control: dict[int, int] | None = None
         self._started = False
@@ -589,7 +645,8 @@ class Handshake:
         # must not eat this command's, or this one times out early and may still run
         # when the line is let go (the next client's first request then halts the
         # function, §6.5.1)
-        self._settle(self.clock.monotonic() + self.deadline)
+        if self._pending is not None:
+            self._settle(self._pending.settle_by(self.clock.monotonic(), self.deadline))
         deadline = self.clock.monotonic() + self.deadline
         status = self._snapshot()
         if status["ExtError"]:
@@ -601,13 +658,13 @@ class Handshake:
                 f"the Remote Control function is in use ({status.function_signals()}): a "
                 "command of another client, or one left by an earlier harlsync, is "
                 "unanswered; nothing sent. If no one else drives this controller, "
-                "--reset-function clears it on an idle robot",
+                f"{self.reset_advice} clears it on an idle robot",
                 port=self.label,
                 command=str(request),
             )
         words = request.encode(self.map.command_words)
         log.debug("%s: command %s", self.label, " ".join(f"{w:04X}" for w in words))
-        self._pending = _Pending(request, Step.COMMAND_WORDS)
+        self._pending = _Pending(request, Step.COMMAND_WORDS, due=deadline)
         if self._block is None:
             self.registers.write_holding(self.map.command_base, words)
             self._pending.step = Step.COMMAND_SET
@@ -746,7 +803,11 @@ class Handshake:
         code = words[1] if len(words) > 1 else FUNCTION_ERROR
         detail = words[2] if len(words) > 2 else 0
         raise FunctionError(
-            code, detail, port=self.label, command=None if request is None else str(request)
+            code,
+            detail,
+            port=self.label,
+            command=None if request is None else str(request),
+            reset=self.reset_advice,
         )
 
     def finish(self) -> None:
@@ -764,7 +825,7 @@ class Handshake:
             self.label,
             self._pending.request,
         )
-        end = self.clock.monotonic() + self.deadline
+        end = self._pending.settle_by(self.clock.monotonic(), self.deadline)
         attempts = 0
         while self._pending is not None:
             attempts += 1
@@ -800,6 +861,16 @@ class Handshake:
         pending = self._pending
         if pending is None:
             return
+        # ExtCmdSet may have risen without harlsync knowing (the reply to its write
+        # was lost: the link never sends a write again, issue 34): look before
+        # dropping it, since ExtCmdGet, which says the controller took the command,
+        # falls with it
+        if (
+            not pending.acquired
+            and self._input(self.map.ext_cmd_set)
+            and self._snapshot()["ExtCmdGet"]
+        ):
+            pending.acquired = True
         self._drive(self.map.ext_cmd_set, False)
         self._drive(self.map.ext_resp_get, False)
         since, polls = self.clock.monotonic(), 0

@@ -19,6 +19,13 @@
           1: {x: [0.000, 0.000], y: [0.000, 0.000], z: [0.000, 0.000]}
         limz: 0.000  # volatile: 0 again at power-on, Motor On, SFree, SLock and reset
 
+    controller.yaml  what the controller answered where the manual is silent, at the
+                     last pull (issue 29): where its point table ends, what the
+                     point after it answers (asked twice), what a point not
+                     defined answers:
+
+        points: {end: 999, past_end: 2004/0000, not_defined: 2004/0000}
+
     points.yaml      the defined points of the range, one per line:
 
         points:  # not stated: ...
@@ -34,7 +41,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -64,8 +71,10 @@ from .model import (
     UNSTATED,
     EpsonData,
     Kind,
+    NotThere,
     Point,
     PointKey,
+    PointTable,
     SettingKey,
     TableKey,
     axes_of_type,
@@ -79,7 +88,9 @@ from .protocol import ROBOT_TYPES, Limits, canonical_real
 from .protocol.reads import fewest_response_words
 
 __all__ = [
+    "CONTROLLER_FILE",
     "FILES",
+    "FIRST_PULL",
     "FORMAT",
     "ROOT_FILES",
     "Connection",
@@ -87,6 +98,7 @@ __all__ = [
     "connection",
     "new_options",
     "point_range",
+    "point_table_end",
     "render_files",
 ]
 
@@ -97,12 +109,18 @@ ROOT_FILES = {
     "settings.yaml": "settings",
     "points.yaml": "points",
 }
+#: What the controller answered where the manual is silent (issue 29): written by
+#: every pull; a project pulled before it existed has none (nothing recorded yet).
+CONTROLLER_FILE = "controller.yaml"
 SCHEMAS = SchemaSet(
     f"{__package__}.schemas",
-    list(ROOT_FILES.values()),
+    [*ROOT_FILES.values(), "controller"],
     {"epson-real": re.compile(r"[-+]?[0-9]+(\.[0-9]+)?")},
 )
 FILES = FileSet(SCHEMAS, FORMAT)
+#: The robot option of a first pull's robot (no robot.yaml yet): its point range is
+#: the default, and the points the pull finds past it are taken in.  Never written.
+FIRST_PULL = "first_pull"
 
 #: robot.yaml connection keys beyond port, unit and map -> their profile default.
 _LINE_DEFAULTS: Mapping[str, float] = {
@@ -134,12 +152,20 @@ class Connection:
     retries: int
     poll_interval: float
     deadline: float
+    #: whether the Modbus slave applies a write of several registers whole
+    writes_whole: bool = profile.BLOCK_WRITE_WHOLE
 
 
 def new_options() -> dict[str, Any]:
     """A first pull's robot options: the profile's map, line settings and points."""
     first, last = profile.DEFAULT_POINT_RANGE
-    return {"map": RegisterMap().to_dict(), **_LINE_DEFAULTS, "first": first, "last": last}
+    return {
+        "map": RegisterMap().to_dict(),
+        **_LINE_DEFAULTS,
+        "first": first,
+        "last": last,
+        FIRST_PULL: True,
+    }
 
 
 def connection(robot: Robot) -> Connection:
@@ -147,11 +173,15 @@ def connection(robot: Robot) -> Connection:
     valid robot.yaml cannot give)."""
     o = robot.options
     return Connection(
-        RegisterMap.from_dict(o.get("map")),
+        replace(
+            RegisterMap.from_dict(o.get("map")),
+            write_without=frozenset(o.get("write_without", ())),
+        ),
         float(o.get("timeout", profile.MODBUS_TIMEOUT)),
         int(o.get("retries", profile.MODBUS_RETRIES)),
         float(o.get("poll_interval", profile.POLL_INTERVAL)),
         float(o.get("deadline", profile.COMMAND_DEADLINE)),
+        bool(o.get("writes_whole", profile.BLOCK_WRITE_WHOLE)),
     )
 
 
@@ -159,6 +189,12 @@ def point_range(robot: Robot) -> tuple[int, int]:
     """The first and last point a pull reads."""
     first, last = profile.DEFAULT_POINT_RANGE
     return int(robot.options.get("first", first)), int(robot.options.get("last", last))
+
+
+def point_table_end(robot: Robot) -> int:
+    """The last point of the controller's point table: robot.yaml's
+    ``controller.point_table_end``, else the profile's (P999)."""
+    return int(robot.options.get("point_table_end", profile.POINT_PROBE_END))
 
 
 # -- rendering --------------------------------------------------------------------------
@@ -210,6 +246,12 @@ def render_robot(robot: Robot, data: EpsonData | None = None) -> str:
         ("retries", y.num(str(link.retries))),
         ("poll_interval", _seconds(link.poll_interval)),
         ("deadline", _seconds(link.deadline)),
+        ("writes_whole", y.boolean(link.writes_whole)),
+        *(
+            [("write_without", y.sequence([y.text(n) for n in o["write_without"]], flow=True))]
+            if o.get("write_without")
+            else []
+        ),
         ("map", _map_node(link.register_map)),
     ]
     controller: list[tuple[str, Any]] = []
@@ -219,8 +261,33 @@ def render_robot(robot: Robot, data: EpsonData | None = None) -> str:
     if o.get("axes"):
         controller.append(("axes", y.num(str(o["axes"]))))
     first, last = point_range(robot)
-    controller += [("first_point", y.num(str(first))), ("last_point", y.num(str(last)))]
+    if o.get(FIRST_PULL) and data is not None and data.taken_in is not None:
+        first, last = min(first, data.taken_in[0]), max(last, data.taken_in[1])
+    controller += [
+        ("first_point", y.num(str(first))),
+        ("last_point", y.num(str(last))),
+        ("point_table_end", y.num(str(point_table_end(robot)))),
+    ]
     return FILES.document("robot", "robot.yaml", robot_items(robot, conn, controller))
+
+
+def render_controller(table: PointTable) -> str:
+    """controller.yaml: what the point table showed."""
+    items: list[tuple[str, Any]] = [
+        ("end", y.num(str(table.end))),
+        ("past_end", y.text(str(table.past_end))),
+    ]
+    if table.not_defined is not None:
+        items.append(("not_defined", y.text(str(table.not_defined))))
+    return FILES.document(
+        "controller",
+        CONTROLLER_FILE,
+        [("points", y.mapping(items, flow=True))],
+        {
+            "points": "what the controller answered (1222) past its point table and for a "
+            "point not defined, each asked twice"
+        },
+    )
 
 
 def _number(text: str | int) -> Any:
@@ -306,11 +373,14 @@ def render_points(data: EpsonData) -> str:
 
 def render_files(robot: Robot, data: EpsonData) -> dict[str, str]:
     """Every file of the project, by relative path, in a fixed order."""
-    return {
+    files = {
         "robot.yaml": render_robot(robot, data),
         "settings.yaml": render_settings(data),
         "points.yaml": render_points(data),
     }
+    if data.table is not None:
+        files[CONTROLLER_FILE] = render_controller(data.table)
+    return files
 
 
 # -- reading and checking ---------------------------------------------------------------
@@ -360,12 +430,35 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
         _check_points(
             docs["points.yaml"], flaws["points.yaml"], result.robot, axes, issues, robot_type
         )
+    table = None
+    if CONTROLLER_FILE in files:
+        doc, ok = FILES.read(CONTROLLER_FILE, "controller", files[CONTROLLER_FILE], issues)
+        if doc is not None and ok:
+            table = _build_table(doc, issues)
     if not issues and result.robot is not None:
         data = _build_data(docs["settings.yaml"].data, docs["points.yaml"].data)
         data.covered, data.probed_to = _covered(files["points.yaml"])
+        data.table = table
         result.data = data
-    result.issues = unique(issues, list(ROOT_FILES))
+    result.issues = unique(issues, [*ROOT_FILES, CONTROLLER_FILE])
     return result
+
+
+def _build_table(doc: y.Parsed, issues: list[Issue]) -> PointTable | None:
+    """controller.yaml's point table (the schema has checked its form)."""
+    points = doc.data["points"]
+    answers: dict[str, NotThere] = {}
+    for key in ("past_end", "not_defined"):
+        if key in points:
+            try:
+                answers[key] = NotThere.parse(str(points[key]))
+            except ValueError as exc:
+                issues.append(
+                    Issue(CONTROLLER_FILE, doc.line(("points", key)), f"points.{key}", str(exc))
+                )
+    if "past_end" not in answers:
+        return None
+    return PointTable(int(points["end"]), answers["past_end"], answers.get("not_defined"))
 
 
 #: The comment :func:`render_points` writes of the range a pull covered.
@@ -439,20 +532,39 @@ def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot 
         key: _plain(conn.get(key, default)) for key, default in _LINE_DEFAULTS.items()
     }
     options["map"] = _plain(conn.get("map", {}))
+    if "writes_whole" in conn:
+        options["writes_whole"] = bool(conn["writes_whole"])
     found: list[Issue] = []
+    if "write_without" in conn:
+        options["write_without"] = sorted(set(conn["write_without"]))
     try:
         register_map = RegisterMap.from_dict(options["map"])
     except RegisterMapInvalid as exc:
         found += [_map_issue(doc, message) for message in exc.issues]
     else:
-        ready = register_map.ready_note
-        if ready is not None:
-            notes.append(f"robot.yaml: connection.map: {ready}")
+        register_map = replace(
+            register_map, write_without=frozenset(options.get("write_without", ()))
+        )
+        note = register_map.unwritable or register_map.ready_note
+        if note is not None:
+            notes.append(f"robot.yaml: connection.map: {note}")
         found += _too_few_words(doc, register_map)
     controller = data.get("controller", {})
     first, last = profile.DEFAULT_POINT_RANGE
     options["first"] = int(controller.get("first_point", first))
     options["last"] = int(controller.get("last_point", last))
+    if "point_table_end" in controller:
+        options["point_table_end"] = int(controller["point_table_end"])
+        if options["last"] > options["point_table_end"]:
+            found.append(
+                Issue(
+                    "robot.yaml",
+                    doc.line(("controller", "last_point")),
+                    "controller.last_point",
+                    f"{options['last']} is past point_table_end {options['point_table_end']}, "
+                    "the controller's last point (allowed: at most point_table_end)",
+                )
+            )
     if options["first"] > options["last"]:
         found.append(
             Issue(

@@ -34,6 +34,7 @@ from typing import Any, NamedTuple
 from .profile import ROBOT_AXES
 from .protocol import (
     COORDINATES,
+    RESPONSE_CODES,
     ROBOT_TYPES,
     AccelPercent,
     AccelReal,
@@ -52,6 +53,7 @@ __all__ = [
     "ATTRIBUTE_OF",
     "EXTRA_ATTRIBUTES",
     "KINDS",
+    "PAST_TABLE",
     "PERSISTENT",
     "POINT",
     "TYPE_ATTRIBUTES",
@@ -60,14 +62,17 @@ __all__ = [
     "EpsonData",
     "Key",
     "Kind",
+    "NotThere",
     "Point",
     "PointKey",
+    "PointTable",
     "SettingKey",
     "TableKey",
     "axes_of_type",
     "coordinate_names",
     "covered_text",
     "field_texts",
+    "table_notes",
     "type_attributes",
     "type_code",
     "value_text",
@@ -330,6 +335,45 @@ def type_code(name: str) -> int:
     return {text: code for code, text in ROBOT_TYPES.items()}[name]
 
 
+class NotThere(NamedTuple):
+    """An error response that says "no point here" (the manual gives no code for
+    it): Response 1 and 2 as the controller answered them."""
+
+    code: int
+    detail: int = 0
+
+    def __str__(self) -> str:
+        """``2004/0000``: as controller.yaml records it."""
+        return f"{self.code:04X}/{self.detail:04X}"
+
+    def describe(self) -> str:
+        """``2004/0000 (parameter error)``: as a message names it."""
+        known = RESPONSE_CODES.get(self.code)
+        outline = known.outline.split(":")[0].split(" (")[0] if known else "unknown code"
+        return f"{self} ({outline})"
+
+    @classmethod
+    def parse(cls, text: str) -> NotThere:
+        """``"2004/0000"`` as a NotThere.  Raises ValueError."""
+        code, sep, detail = text.partition("/")
+        if not sep or len(code) != 4 or len(detail) != 4:
+            raise ValueError(f"{text!r} is not CODE/DETAIL in hex")
+        return cls(int(code, 16), int(detail, 16))
+
+
+@dataclass
+class PointTable:
+    """What a controller's point table showed where the manual is silent (issue
+    29): its last point number, what a point past it answered (asked twice), and
+    what a point not defined answered (asked twice; None when the read met none).
+    controller.yaml records it; a later pull whose controller answers past the table
+    otherwise is refused, naming both answers."""
+
+    end: int
+    past_end: NotThere
+    not_defined: NotThere | None = None
+
+
 @dataclass
 class EpsonData:
     """What a backup of an Epson controller holds: the manipulator (2153's type, its
@@ -350,6 +394,13 @@ class EpsonData:
     #: none defined outside them (P0 up to it); None for data from the files
     covered: tuple[int, int] | None = None
     probed_to: int | None = None
+    #: what the point table showed (controller.yaml ``points``); None: not recorded
+    table: PointTable | None = None
+    #: the points a first pull found past its default range and took in (first, last)
+    taken_in: tuple[int, int] | None = None
+    #: the point where the read found the table's end before robot.yaml's
+    #: ``point_table_end`` (the table is smaller); None: it did not
+    cut_at: int | None = None
 
     @property
     def type_name(self) -> str:
@@ -357,6 +408,29 @@ class EpsonData:
 
     def points(self) -> dict[int, Point]:
         return {k.number: v for k, v in self.items.items() if isinstance(k, PointKey)}
+
+
+#: The robot identity's name for what a point past the point table answers.
+PAST_TABLE = "answer past the point table"
+
+
+def table_notes(data: EpsonData) -> list[str]:
+    """What a pull says of the points beyond its range: those a first pull took in,
+    a point table that ended before robot.yaml's end."""
+    notes = []
+    if data.taken_in is not None and data.covered is not None:
+        low, high = data.taken_in
+        notes.append(
+            f"P{low}-P{high} found past the default range and taken in: robot.yaml "
+            f"controller.first_point {data.covered[0]}, last_point {data.covered[1]}"
+        )
+    table = data.table
+    if table is not None and data.cut_at is not None:
+        notes.append(
+            f"the controller's points end at P{table.end}: P{data.cut_at} answered "
+            f"{table.past_end.describe()} twice, as a point past its table does"
+        )
+    return notes
 
 
 def covered_text(data: EpsonData) -> str:
@@ -367,7 +441,9 @@ def covered_text(data: EpsonData) -> str:
     text = f"P{first}-P{last} read"
     if data.probed_to is not None:
         probed = [(0, first - 1), (last + 1, data.probed_to)]
-        text += ", none defined " + " and ".join(f"P{a}-P{b}" for a, b in probed if a <= b)
+        shown = [f"P{a}-P{b}" for a, b in probed if a <= b]
+        if shown:
+            text += ", none defined " + " and ".join(shown)
     return text
 
 

@@ -68,6 +68,8 @@ __all__ = [
     "TABLE_NOT_REGISTERED",
     "TABLE_OUT_OF_RANGE",
     "UNDEFINED_POINT",
+    "UNMAPPED_RISK",
+    "WRITE_WITHOUT",
     "Bit",
     "RegisterMap",
     "RegisterMapInvalid",
@@ -75,11 +77,11 @@ __all__ = [
 
 # --- the line ------------------------------------------------------------------------
 
-#: Seconds one Modbus transaction may take before it is sent again.
+#: Seconds one Modbus transaction may take before it counts as unanswered.
 MODBUS_TIMEOUT = 0.5
-#: How often a transaction is sent again after no answer.  Safe: every request
-#: harlsync makes is a read or a write of absolute register values, so a
-#: repeat changes nothing the first one did not.
+#: How often a Modbus *read* is sent again after no answer (a read changes
+#: nothing).  A write is never sent again by the link (issue 34): a write sent
+#: once more is a write, and only harlsync sends it, after the interlock.
 MODBUS_RETRIES = 2
 #: The most registers one Modbus read returns (the Modbus specification): the
 #: handshake reads every output signal and response word in one read.
@@ -102,7 +104,8 @@ FUNCTION_RESET_LOW = 0.030
 #: hands a write over a register at a time, ExtCmdSet (first in the block) would
 #: rise over the last command's words, and the controller would run that command
 #: (the simulator's ``whole_writes=False`` shows command 0, an Accel write, run so).
-#: A site whose slave is known to apply a write whole sets True.  It decides
+#: A site whose slave is known to apply a write whole sets robot.yaml
+#: ``connection.writes_whole: true``.  It decides
 #: steps 2 and 3 of §6.3 when ExtCmdSet's register lies just before the command
 #: words (the default map): True, one write of that register and the words; False,
 #: the words, then ExtCmdSet (one round trip more).  A map with ExtCmdSet's
@@ -151,9 +154,23 @@ STATUS_SIGNALS: Mapping[str, int] = MappingProxyType(
     {"Ready": 8, "Running": 9, "Paused": 10, "Error": 11, "EStopOn": 12, "SafeguardOn": 13}
 )
 #: A write goes out only while all of these are 0 (those that are mapped).
-INTERLOCK_SIGNALS = ("Running", "Paused", "EStopOn", "Error")
+#: SafeguardOn is the safety door open (issue 34 item 16): a person may be in the cell.
+INTERLOCK_SIGNALS = ("Running", "Paused", "EStopOn", "Error", "SafeguardOn")
 #: A robot whose map lacks one of these is never written.
 REQUIRED_FOR_WRITES = ("Running", "Paused", "EStopOn", "Error")
+#: A robot whose map lacks one of these is not written either, unless robot.yaml
+#: ``connection.write_without`` names it: the site then accepts what harlsync
+#: cannot see (:data:`UNMAPPED_RISK`).
+WRITE_WITHOUT = ("Ready", "SafeguardOn")
+#: What harlsync cannot see without each of :data:`WRITE_WITHOUT`.
+UNMAPPED_RISK: Mapping[str, str] = MappingProxyType(
+    {
+        "Ready": "a controller at rest cannot be told from status signals mapped to "
+        "addresses it does not drive (they read 0, which looks idle)",
+        "SafeguardOn": "an open safeguard (safety door) cannot be seen: a person may be "
+        "in the cell",
+    }
+)
 #: Ready (started up, no task running) must read 1 before a write, where it is
 #: mapped: a status bit mapped to an address the controller does not drive reads 0,
 #: so Ready 0 on an otherwise idle robot says the map is wrong (or it is starting).
@@ -256,6 +273,9 @@ class RegisterMap:
     safeguard_on: Bit | None = _DEFAULT_MAP["SafeguardOn"]
     response_base: int = OUT_BASE + 1
     response_words: int = RESPONSE_WORDS
+    #: the signals of :data:`WRITE_WITHOUT` robot.yaml accepts to write without
+    #: (``connection.write_without``): not part of the map's dict form
+    write_without: frozenset[str] = frozenset()
 
     def __post_init__(self) -> None:
         issues = self._problems()
@@ -355,25 +375,47 @@ class RegisterMap:
 
     @property
     def unwritable(self) -> str | None:
-        """Why harlsync never writes to this robot, or None when it may."""
+        """Why harlsync never writes to this robot, or None when it may: a map without
+        Running, Paused, EStopOn or Error; or without Ready or SafeguardOn, unless
+        robot.yaml accepts that (issue 34 item 16: it only warned of Ready)."""
         missing = [name for name in REQUIRED_FOR_WRITES if self.signal(name) is None]
-        if not missing:
+        if missing:
+            return (
+                f"the register map has no {', '.join(missing)} signal: harlsync cannot see "
+                "whether the robot is busy, so it never writes to it (map the signal in RC+ "
+                "and in robot.yaml)"
+            )
+        risky = [
+            name
+            for name in WRITE_WITHOUT
+            if self.signal(name) is None and name not in self.write_without
+        ]
+        if not risky:
             return None
         return (
-            f"the register map has no {', '.join(missing)} signal: harlsync cannot see "
-            "whether the robot is busy, so it never writes to it (map the signal in RC+ "
-            "and in robot.yaml)"
+            f"the register map has no {' or '.join(risky)} signal: "
+            + "; ".join(UNMAPPED_RISK[name] for name in risky)
+            + "; so harlsync does not write to it. Map "
+            + " and ".join(risky)
+            + " in RC+ and robot.yaml connection.map, or accept that risk with "
+            + f"connection.write_without: [{', '.join(risky)}] in robot.yaml"
         )
 
     @property
     def ready_note(self) -> str | None:
-        """What a plan and ``validate`` say of a map without Ready, or None."""
-        if self.ready is not None:
+        """What a plan and ``validate`` say of a map without Ready or SafeguardOn that
+        robot.yaml accepts to write without, or None."""
+        accepted = [
+            name
+            for name in WRITE_WITHOUT
+            if self.signal(name) is None and name in self.write_without
+        ]
+        if not accepted:
             return None
         return (
-            "the register map has no Ready signal: harlsync cannot tell a controller that "
-            "is ready from a status bit mapped to an address it does not drive (that bit "
-            "reads 0, which looks idle); map Ready in RC+ and in robot.yaml connection.map"
+            f"the register map has no {' or '.join(accepted)} signal and robot.yaml "
+            f"connection.write_without accepts writing without it: "
+            + "; ".join(UNMAPPED_RISK[name] for name in accepted)
         )
 
     @property

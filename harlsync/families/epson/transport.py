@@ -5,6 +5,12 @@ opens a pymodbus :class:`~pymodbus.client.ModbusTcpClient` to the controller,
 whose unit id comes from the robot.  Holding registers are read with function
 3 and written with 6 (one) or 16 (several); input registers are read with 4.
 
+pymodbus never sends a request twice: its client is made with ``retries=0``.  A
+read that gets no answer is sent again here, ``retries`` times (a read changes
+nothing); a write that gets no answer is never sent again by the link (issue 34):
+whether it took is for harlsync to find out, and a write it sends once more passes
+the interlock again first (:mod:`harlsync.link.confirm`, docs/SAFETY.md).
+
 Every pymodbus exception is translated here and never leaves this module:
 no connection is :class:`~harlsync.errors.PortError`, no answer in time
 :class:`~harlsync.errors.LinkTimeout`, a Modbus exception response
@@ -100,8 +106,10 @@ class ModbusLink:
 
     Opening connects and takes the line lock; :meth:`close` (or the ``with``
     block) gives both back.  ``timeout`` is the seconds one transaction may
-    take, ``retries`` how often it is sent again (every request is a read or
-    an absolute write, so a repeat is harmless).
+    take, ``retries`` how often a read is sent again after no answer.  A write is
+    sent once: with no answer it raises :class:`~harlsync.errors.LinkTimeout` and
+    the caller, which knows what the write was for, decides (a write sent again
+    is a write, and passes the interlock again).
     """
 
     def __init__(
@@ -126,8 +134,10 @@ class ModbusLink:
         # One lock per controller endpoint (lock_key: the socket:// line of host:port).
         self._lock = LineLock(self.url, lock_path(self.url, lock_dir))
         self._lock.acquire(lock_timeout)
+        # retries=0: pymodbus itself never sends a request again, a write least of
+        # all; reads are sent again by _read (issue 34)
         self._client = ModbusTcpClient(
-            self.host, port=self.port, timeout=timeout, retries=retries, reconnect_delay=0
+            self.host, port=self.port, timeout=timeout, retries=0, reconnect_delay=0
         )
         try:
             self._connect(timeout)
@@ -172,32 +182,55 @@ class ModbusLink:
         log.debug("%s: %s: %s", self.label, what, _hex(words))
         if len(words) == 1:
             self._call(
-                what, lambda: self._client.write_register(address, words[0], device_id=self.unit)
+                what,
+                lambda: self._client.write_register(address, words[0], device_id=self.unit),
+                write=True,
             )
         else:
             self._call(
-                what, lambda: self._client.write_registers(address, words, device_id=self.unit)
+                what,
+                lambda: self._client.write_registers(address, words, device_id=self.unit),
+                write=True,
             )
 
     def _read(
         self, kind: str, address: int, count: int, read: Callable[..., ModbusPDU]
     ) -> list[int]:
         what = f"read {kind} registers {address}-{address + count - 1}"
-        reply = self._call(what, lambda: read(address, count=count, device_id=self.unit))
+        tries = 1 + max(0, self.retries)
+        for attempt in range(1, tries + 1):
+            try:
+                reply = self._call(
+                    what, lambda: read(address, count=count, device_id=self.unit), tries=tries
+                )
+                break
+            except LinkTimeout:
+                if attempt == tries:
+                    raise
+                log.debug(
+                    "%s: %s: no answer, sent again (%d of %d)", self.label, what, attempt, tries
+                )
         values = list(reply.registers)
         if len(values) < count:
             raise LinkError(f"{what}: {len(values)} registers in the answer", port=self.label)
         log.debug("%s: %s: %s", self.label, what, _hex(values[:count]))
         return values[:count]
 
-    def _call(self, what: str, call: Callable[[], ModbusPDU]) -> ModbusPDU:
-        """One transaction; every pymodbus failure becomes a harlsync LinkError."""
+    def _call(
+        self, what: str, call: Callable[[], ModbusPDU], *, tries: int = 1, write: bool = False
+    ) -> ModbusPDU:
+        """One transaction, sent once; every pymodbus failure becomes a harlsync
+        LinkError (``tries``: how many a read gets, for the message)."""
         try:
             reply = call()
         except ModbusIOException as exc:
-            tries = f"{self.retries + 1} tries" if self.retries else "1 try"
+            said = (
+                "1 try: a write is never sent again by the link"
+                if write
+                else (f"{tries} tries" if tries > 1 else "1 try")
+            )
             raise LinkTimeout(
-                f"{what}: no answer within {seconds(self.timeout)} s ({tries})", port=self.label
+                f"{what}: no answer within {seconds(self.timeout)} s ({said})", port=self.label
             ) from exc
         except ConnectionException as exc:
             raise PortError(

@@ -46,6 +46,7 @@ Requests, one builder per command (backup reads, then deploy writes)::
     read_plane 651      read_local 701   read_xylim 753 (754, 755)
     read_jrange 803 (804, 805)  read_base 851  read_limz 1251
     read_robot_type 2153  read_model_name_char 2154
+    read_controller_error 2155  read_control_device 2156 (the interlock's)
     read_point_coord 1222  read_point_attribute 1215-1220, 1224, 1226
     read_point_j1angle 1228
 
@@ -122,7 +123,16 @@ from .points import (
     set_point_j1angle,
 )
 from .request import Command, Request, WriteSequence, encode
-from .robot import ROBOT_TYPES, NameChar, read_model_name_char, read_robot_type
+from .robot import (
+    CONTROL_DEVICES,
+    REMOTE_IO,
+    ROBOT_TYPES,
+    NameChar,
+    read_control_device,
+    read_controller_error,
+    read_model_name_char,
+    read_robot_type,
+)
 from .tables import (
     AccelPercent,
     AccelReal,
@@ -170,6 +180,7 @@ from .tables import (
 __all__ = [
     "BACKUP_READS",
     "COMMANDS",
+    "CONTROL_DEVICES",
     "COORDINATES",
     "DEPLOY_WRITES",
     "FUNCTION_ERROR",
@@ -179,6 +190,7 @@ __all__ = [
     "POINT_ATTRIBUTES",
     "REAL_MAX",
     "REAL_MIN",
+    "REMOTE_IO",
     "RESPONSE_CODES",
     "ROBOT_TYPES",
     "AccelPercent",
@@ -217,6 +229,8 @@ __all__ = [
     "read_box",
     "read_box_lower",
     "read_box_upper",
+    "read_control_device",
+    "read_controller_error",
     "read_fine",
     "read_fine_123",
     "read_fine_456",

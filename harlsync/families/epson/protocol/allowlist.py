@@ -82,6 +82,8 @@ _READS = _specs(
         1251: ("LimZ", (0,)),
         2153: ("manipulator type", (0,)),
         2154: ("manipulator model name", (1,)),
+        2155: ("controller error", (0,)),
+        2156: ("control device", (0,)),
     },
 )
 #: The writes a deploy makes: each item's Set/Register command of the digest (§2).

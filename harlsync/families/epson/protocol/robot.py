@@ -17,6 +17,24 @@ ROBOT_TYPES: Mapping[int, str] = MappingProxyType(
 )
 
 
+#: Control device numbers of 2156 (§8.5); the Remote Control function works while
+#: it is Remote I/O, the device the manual says 2156 answers "during normal state".
+CONTROL_DEVICES: Mapping[int, str] = MappingProxyType(
+    {20: "TP3", 21: "PC / TP4", 22: "Remote I/O", 26: "Remote Ethernet", 29: "Remote RS232C"}
+)
+REMOTE_IO = 22
+
+
+def read_controller_error() -> Request[int]:
+    """2155: the controller's error code, 0 in the normal state (the interlock's)."""
+    return _read(2155, (), "controller error", 1, lambda words: words.word("error code"))
+
+
+def read_control_device() -> Request[int]:
+    """2156: the control device (:data:`CONTROL_DEVICES`; the interlock's)."""
+    return _read(2156, (), "control device", 1, lambda words: words.word("control device"))
+
+
 def read_robot_type() -> Request[int]:
     """2153: the manipulator type (:data:`ROBOT_TYPES`)."""
 

@@ -58,6 +58,7 @@ __all__ = [
     "UNSUPPORTED",
     "WRITES",
     "Outcome",
+    "PointAnswers",
     "Session",
 ]
 
@@ -86,11 +87,23 @@ _WORD = 0xFFFF
 
 
 class _Refused(Exception):
-    """The command is answered with an error response carrying ``code``."""
+    """The command is answered with an error response carrying ``code`` (Response 1)
+    and ``detail`` (Response 2)."""
 
-    def __init__(self, code: int) -> None:
-        super().__init__(f"{code:04X}")
+    def __init__(self, code: int, detail: int = 0) -> None:
+        super().__init__(f"{code:04X}/{detail:04X}")
         self.code = code
+        self.detail = detail
+
+
+class PointAnswers(NamedTuple):
+    """How a controller answers for points where the manual is silent (the
+    simulator's variants, :data:`~.device.SIM_FAMILY`): Response 1 and 2 of a point
+    not defined, of a point number past its point table, and the table's last point."""
+
+    undefined: tuple[int, int] = (profile.UNDEFINED_POINT, 0)
+    past_table: tuple[int, int] = (PARAMETER, 0)
+    last: int = MAX_POINT
 
 
 @dataclass(frozen=True)
@@ -191,6 +204,10 @@ class Session:
     def __init__(self) -> None:
         self.pending: _Sequence | None = None
         self._name_at: int | None = None
+        #: how points not there are answered (set by the simulator before each command)
+        self.points = PointAnswers()
+        #: commands of the set this controller lacks (an older firmware): answered 1000
+        self.lacks: frozenset[int] = frozenset()
         self._before: _Sequence | None = None
         self._took_effect = False
         self._continuation = False
@@ -222,6 +239,8 @@ class Session:
                 "sim: command %d is off the command set: refused with %04X", number, UNSUPPORTED
             )
             return Outcome(number, (number, UNSUPPORTED, 0), True, True, False)
+        if number in self.lacks:
+            return Outcome(number, (number, UNSUPPORTED, 0), True, is_write, True)
         try:
             need = spec.words(state.axes)
             if need > command_words:
@@ -235,7 +254,7 @@ class Session:
                 raise _Refused(RESPONSE_WORDS)
         except _Refused as refusal:
             self.pending = None
-            return Outcome(number, (number, refusal.code, 0), True, is_write, True)
+            return Outcome(number, (number, refusal.code, refusal.detail), True, is_write, True)
         return Outcome(
             number, response, False, is_write, True, self._took_effect, self._continuation
         )
@@ -550,11 +569,20 @@ class Session:
 
     # --- points (§10.25), LimZ (§10.26), the robot (§8.5) -----------------------------------
 
-    def _point(self, st: SimState, p: _Params) -> Point:
-        """The point parameter 1 names; an undefined one answers 2004 (the profile)."""
-        point = st.points.get(p.number(1, 0, MAX_POINT))
+    def _point_number(self, p: _Params, i: int = 1) -> int:
+        """The point number parameter ``i`` gives; one past the point table answers as
+        :attr:`PointAnswers.past_table` (a variant: the manual does not say)."""
+        number = p.word(i)
+        if number > self.points.last:
+            raise _Refused(*self.points.past_table)
+        return number
+
+    def _point(self, st: SimState, p: _Params, i: int = 1) -> Point:
+        """The point parameter ``i`` names; an undefined one answers as
+        :attr:`PointAnswers.undefined` (2004 by default, the profile's guess)."""
+        point = st.points.get(self._point_number(p, i))
         if point is None:
-            raise _Refused(profile.UNDEFINED_POINT)
+            raise _Refused(*self.points.undefined)
         return point
 
     def _point_coord(self, st: SimState, p: _Params) -> tuple[int, ...]:
@@ -562,7 +590,7 @@ class Session:
         return _w(point.coords[axis])  # neither the point nor the axis is echoed
 
     def _set_point_coord(self, st: SimState, p: _Params) -> tuple[int, ...]:
-        number, selector = p.number(1, 0, MAX_POINT), p.word(2)
+        number, selector = self._point_number(p), p.word(2)
         if selector & ~0x7 or selector >= st.axes:  # bits 15-3 reserved: 0
             raise _Refused(PARAMETER)
         value = p.int32(3)
@@ -596,9 +624,7 @@ class Session:
         if st.robot_type != RS:
             raise _Refused(EXECUTION)
         option = p.number(1, 0, 1)
-        point = st.points.get(p.number(2, 0, MAX_POINT))
-        if point is None:
-            raise _Refused(profile.UNDEFINED_POINT)
+        point = self._point(st, p, 2)
         if option:
             point.j1angle = p.int32(3)
         return self._done()
@@ -609,6 +635,14 @@ class Session:
     def _set_limz(self, st: SimState, p: _Params) -> tuple[int, ...]:
         st.limz = p.int32(1)
         return self._done()
+
+    def _controller_error(self, st: SimState, p: _Params) -> tuple[int, ...]:
+        """2155: the error code, 0000H in the normal state."""
+        return (st.error_code,)
+
+    def _control_device(self, st: SimState, p: _Params) -> tuple[int, ...]:
+        """2156: the control device, 22 (Remote I/O) in the normal state."""
+        return (st.control_device,)
 
     def _robot_type(self, st: SimState, p: _Params) -> tuple[int, ...]:
         return (st.robot_type,)
@@ -740,6 +774,8 @@ def _commands() -> dict[int, _Spec]:
         1251: (1, S._limz),
         2153: (1, S._robot_type),
         2154: (2, S._model_name),
+        2155: (1, S._controller_error),
+        2156: (1, S._control_device),
     }
     writes: dict[int, tuple[WordCount, Handler]] = {
         1: (4, S._register_accel),
@@ -848,6 +884,8 @@ READS = frozenset(
         1251,
         2153,
         2154,
+        2155,
+        2156,
     }
 )
 WRITES = COMMAND_SET - READS

@@ -46,13 +46,17 @@ from ....sim.family import Verb
 from ....sim.variants import Variant
 from .. import profile
 from ..profile import RegisterMap
+from . import state as _state
 from .commands import (
     COMMAND_SET,
+    EXECUTION,
     MESSAGE_FAILURE,
+    PARAMETER,
     PRINT_ERROR,
     READS,
     REQUEST_WHILE_EXECUTING,
     Outcome,
+    PointAnswers,
     Session,
 )
 from .remote import FunctionFault, RemoteIO, Words
@@ -72,6 +76,29 @@ log = logging.getLogger(__name__)
 #: Seconds a command runs, from ExtCmdGet to ExtRespSet **(simulator)**: the
 #: manual gives no time; a controller carries a setting command out in a few ms.
 DEFAULT_EXECUTION_TIME = 0.002
+#: The commands that write the controller's memory card (digest §2: Weight,
+#: Inertia, Tool, Box, Plane, XYLim, JRange, Base): the ``write_time`` variant
+#: makes them slow.
+CARD_WRITES = frozenset(
+    {300, 301, 350, 351, 352, 500, 502, 600, 601, 602, 650, 750, 751, 752, 800, 801, 802, 850}
+)
+#: Command execution error 200A's Response 2 for a point not defined, in the
+#: ``undefined_point=200A`` variant: a controller error code (the manual sends the
+#: reader to its separate error list); this one is made up, as a real one would be.
+UNDEFINED_POINT_DETAIL = 7103
+#: The variants' answers: value -> (Response 1, Response 2).
+_UNDEFINED_POINT = {
+    "2004": (PARAMETER, 0),
+    "200A": (0x200A, UNDEFINED_POINT_DETAIL),
+    "2000": (EXECUTION, 0),
+}
+_PAST_POINTS = {"2004": (PARAMETER, 0), "2005": (0x2005, 0)}
+_WRITE_TIMES = {"2ms": None, "300ms": 0.3}
+#: What 2155 answers after the ``error`` verb **(simulator)**: a controller error
+#: code (the manual sends the reader to the controller's own error list).
+ERROR_CODE = 4001
+#: The control device the ``teach`` verb makes (2156: 21, PC / TP4).
+TEACHING = 21
 #: The file a station's battery-backed memory is kept in, in its state directory.
 MEMORY_FILE = "memory.json"
 _FUNCTION_ERRORS = (REQUEST_WHILE_EXECUTING, MESSAGE_FAILURE, PRINT_ERROR)
@@ -88,6 +115,9 @@ class EpsonSimFamily:
         Verb("estop", "[STATION]", "emergency stop (EStopOn 1), tasks stopped"),
         Verb("error", "[STATION]", "the controller in error (Error 1), tasks stopped"),
         Verb("safeguard", "[STATION]", "the safeguard open (SafeguardOn 1), a task paused"),
+        Verb(
+            "teach", "[STATION]", "the control device a PC or TP4 (2156 answers 21), not Remote I/O"
+        ),
         Verb("stop", "[STATION]", "idle: no task, no stop, no error"),
         Verb("power-cycle", "[STATION]", "off and on: tables and LimZ cleared, function off"),
         Verb(
@@ -99,7 +129,33 @@ class EpsonSimFamily:
     busy_verb = "run"
     default_station = profile.DEFAULT_UNIT
     #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
-    variants: tuple[Variant, ...] = ()
+    variants: tuple[Variant, ...] = (
+        Variant(
+            "undefined_point",
+            tuple(_UNDEFINED_POINT),
+            "what a point not defined answers (1222, 1215-1220): 2004 parameter error, "
+            f"200A command execution error with a controller error code ({UNDEFINED_POINT_DETAIL}), "
+            "or 2000 execution error",
+        ),
+        Variant(
+            "past_points",
+            tuple(_PAST_POINTS),
+            "what a point number past the controller's point table (P1000) answers: 2004 "
+            "parameter error or 2005 out of range",
+        ),
+        Variant(
+            "write_time",
+            tuple(_WRITE_TIMES),
+            "how long a command that writes the memory card runs (Weight, Tool, Box ...): "
+            "2 ms as every other, or 300 ms",
+        ),
+        Variant(
+            "modbus_writes",
+            ("whole", "per-register"),
+            "whether the Modbus slave hands a write of several registers to the Remote "
+            "inputs whole, or a register at a time in address order",
+        ),
+    )
 
     def generate(self, seed: int, stations: Sequence[int]) -> Simulator:
         return Simulator({n: SimState.generate(seed + i) for i, n in enumerate(stations)})
@@ -204,10 +260,15 @@ class _Station:
         if faults.chance(faults.slow):
             log.info("sim: slow execution fault: command %d runs %g s", words[0], faults.slow_delay)
             return faults.slow_delay
+        card = _WRITE_TIMES[self.sim.variant["write_time"]]
+        if card is not None and words[:1] and words[0] in CARD_WRITES:
+            return card
         return self.sim.execution_time
 
     def carry_out(self, words: Words) -> tuple[bool, Words]:
         m = self.sim.register_map
+        self.session.points = self.sim.point_answers()
+        self.session.lacks = self.sim.lacks
         outcome = self.session.execute(
             self.state, words, command_words=m.command_words, response_words=m.response_words
         )
@@ -244,7 +305,10 @@ class Simulator(device.Device[SimState]):
     function reset.  ``busy_after_writes`` starts a task once that many writes
     have taken effect (a split or Rn write counts once, at its last step).
     ``whole_writes`` False: its Modbus slave hands a write to the controller a
-    register at a time (:class:`~.remote.RemoteIO`), not whole as the profile has it.
+    register at a time (:class:`~.remote.RemoteIO`), not whole (the ``modbus_writes``
+    variant says the same).  ``point_end`` is the last point of its point table
+    (P999, the last of an RC+ point file): a number past it answers as the
+    ``past_points`` variant says.
     """
 
     family = SIM_FAMILY
@@ -261,16 +325,40 @@ class Simulator(device.Device[SimState]):
         busy_after_writes: int = 0,
         clock: Callable[[], float] = time.monotonic,
         whole_writes: bool = True,
+        point_end: int | None = None,
     ) -> None:
         super().__init__(stations, faults=faults, busy_after_writes=busy_after_writes, clock=clock)
         self.register_map = register_map if register_map is not None else RegisterMap()
         self.execution_time = execution_time
         self.acquire_time = acquire_time
         self.reset_low = reset_low
-        self.whole_writes = whole_writes
+        self._whole_writes = whole_writes
+        self.point_end = _state.MAX_POINT if point_end is None else point_end
+        #: commands of the set it lacks, as an older firmware might: answered 1000
+        self.lacks: frozenset[int] = frozenset()
         self.server: ModbusServer | None = None
         self._drop_next = 0
         self._controllers = {n: _Station(self, n) for n in self.stations}
+
+    # --- its variants ------------------------------------------------------------------------
+
+    @property
+    def whole_writes(self) -> bool:
+        """Whether its Modbus slave hands a write of several registers over whole."""
+        return self._whole_writes and self.variant["modbus_writes"] == "whole"
+
+    def vary(self, chosen: Mapping[str, str]) -> None:
+        super().vary(chosen)
+        for controller in getattr(self, "_controllers", {}).values():
+            controller.remote.whole_writes = self.whole_writes
+
+    def point_answers(self) -> PointAnswers:
+        """How its points not there are answered, as its variants say."""
+        return PointAnswers(
+            _UNDEFINED_POINT[self.variant["undefined_point"]],
+            _PAST_POINTS[self.variant["past_points"]],
+            self.point_end,
+        )
 
     # --- serving ---------------------------------------------------------------------------
 
@@ -440,7 +528,9 @@ class Simulator(device.Device[SimState]):
             if verb == "estop":
                 state.estop = True
             else:
-                state.error = True
+                state.error, state.error_code = True, ERROR_CODE
+        elif verb == "teach":
+            state.control_device = TEACHING
         elif verb == "safeguard":
             state.safeguard = True
             if state.running:
@@ -455,8 +545,7 @@ class Simulator(device.Device[SimState]):
     def describe(self, state: SimState) -> str:
         remote = self._controller(state).remote
         remote.advance()
-        shown = [*state.not_idle(), *(["SafeguardOn"] if state.safeguard else [])]
-        return f"{', '.join(shown) or 'idle'}, {remote.describe()}"
+        return f"{', '.join(state.not_idle()) or 'idle'}, {remote.describe()}"
 
     def save_station(self, station: int, directory: Path) -> None:
         """Write what the station keeps over a power cycle to ``directory/memory.json``

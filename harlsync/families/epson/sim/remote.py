@@ -39,6 +39,7 @@ from __future__ import annotations
 import enum
 import logging
 import time
+from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Literal, Protocol
@@ -47,7 +48,7 @@ from .. import profile
 from ..profile import HANDSHAKE_OUTPUTS, STATUS_SIGNALS, Bit, RegisterMap
 from .commands import FUNCTION_ERROR, REQUEST_WHILE_EXECUTING
 
-__all__ = ["Event", "FunctionFault", "Phase", "RemoteIO", "Robot"]
+__all__ = ["Access", "Event", "FunctionFault", "Phase", "RemoteIO", "Robot"]
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +103,22 @@ class Event:
     at: float
     kind: EventKind
     detail: str
+
+
+@dataclass(frozen=True)
+class Access:
+    """One register access the controller answered, as it came: ``kind`` is
+    read_holding, read_input or write; ``values`` the words a write carried."""
+
+    at: float
+    kind: str
+    address: int
+    count: int
+    values: tuple[int, ...] = ()
+
+
+#: The most register accesses :attr:`RemoteIO.log` keeps (the latest).
+ACCESS_LOG = 65536
 
 
 class Robot(Protocol):
@@ -161,6 +178,9 @@ class RemoteIO:
         #: register accesses answered, by kind (read_holding, read_input, write):
         #: the client's round trips, as the controller counts them
         self.accesses: dict[str, int] = {"read_holding": 0, "read_input": 0, "write": 0}
+        #: every register access, in order (the latest :data:`ACCESS_LOG`): what the
+        #: controller's Modbus slave received, whatever the client believes it sent
+        self.log: deque[Access] = deque(maxlen=ACCESS_LOG)
         #: what the controller passed over, in order
         self.events: list[Event] = []
         #: every function error raised, in order
@@ -193,16 +213,19 @@ class RemoteIO:
 
     def read_holding(self, address: int, count: int) -> list[int]:
         self.accesses["read_holding"] += 1
+        self.log.append(Access(self.clock(), "read_holding", address, count))
         return [self.holding.get(address + i, 0) for i in range(count)]
 
     def read_input(self, address: int, count: int) -> list[int]:
         self.accesses["read_input"] += 1
+        self.log.append(Access(self.clock(), "read_input", address, count))
         self.advance()
         levels = self.levels()
         return [self._input_register(address + i, levels) for i in range(count)]
 
     def write_holding(self, address: int, values: list[int]) -> None:
         self.accesses["write"] += 1
+        self.log.append(Access(self.clock(), "write", address, len(values), tuple(values)))
         self.advance()
         before = self._inputs()
         for i, value in enumerate(values):

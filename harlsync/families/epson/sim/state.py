@@ -152,6 +152,10 @@ class SimState:
     estop: bool = False
     error: bool = False
     safeguard: bool = False
+    #: what 2155 answers: the controller's error code, 0 in the normal state
+    error_code: int = 0
+    #: what 2156 answers: the control device (22 Remote I/O, the manual's normal state)
+    control_device: int = 22
 
     def __post_init__(self) -> None:
         if self.robot_type not in profile.ROBOT_AXES:
@@ -240,9 +244,10 @@ class SimState:
                 ("Paused", self.paused),
                 ("EStopOn", self.estop),
                 ("Error", self.error),
+                ("SafeguardOn", self.safeguard),
             )
             if on
-        ]
+        ] + ([f"control device {self.control_device}"] if self.control_device != 22 else [])
 
     @property
     def idle(self) -> bool:
@@ -261,8 +266,10 @@ class SimState:
         }
 
     def stop(self) -> None:
-        """Idle: no task running or paused, no emergency stop, error or open safeguard."""
+        """Idle: no task running or paused, no emergency stop, error or open safeguard,
+        Remote I/O the control device."""
         self.running = self.paused = self.estop = self.error = self.safeguard = False
+        self.error_code, self.control_device = 0, 22
 
     def power_cycle(self) -> None:
         """The controller turned off and on: the six tables and LimZ cleared
