@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..base import Analysis, Catalogue, Driver, Family, Help, Option, Scheme, Words
+from ..base import Analysis, Catalogue, Driver, Family, Help, Option, Scheme, Survey, Words
 from . import declared
 
 if TYPE_CHECKING:
@@ -105,6 +105,40 @@ class EpsonFamily(Family["Key", "EpsonData"]):
         self, root: Path, texts: Mapping[str, str], robot: Robot, data: EpsonData
     ) -> list[str]:
         return []
+
+    def survey(self, robot: Robot, *, lock_timeout: float) -> Survey:
+        """The Remote I/O map and the controller's outputs, read with Modbus reads
+        alone: the Remote Control function is not taken (its handshake drives input
+        signals), so the manipulator and the point table, which only its commands
+        read, are left to the first pull."""
+        import time
+
+        from . import layout
+        from .handshake import Handshake
+        from .transport import ModbusLink
+
+        line = layout.connection(robot)
+        link = ModbusLink(
+            robot.port, robot.station, timeout=line.timeout, retries=0, lock_timeout=lock_timeout
+        )
+        try:
+            handshake = Handshake(link, line.register_map, block_write_whole=line.writes_whole)
+            started = time.perf_counter()
+            status = handshake.status()  # one read of the outputs, no command
+            turnaround = time.perf_counter() - started
+        finally:
+            link.close()
+        signals = ", ".join(
+            f"{name} {int(bool(value))}"
+            for name, value in status.signals.items()
+            if value is not None
+        )
+        return Survey(
+            identity={"Remote I/O outputs": signals or "none mapped"},
+            status=status.describe(),
+            idle=status.idle,
+            turnaround=turnaround,
+        )
 
     def robot_text(self, robot: Robot) -> str:
         from . import layout
