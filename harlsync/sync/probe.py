@@ -32,7 +32,7 @@ from ..families.base import AnyFamily, Survey
 from ..link.capture import recording
 from ..link.readonly import WriteForbidden, reads_only
 from ..project.robot import Robot
-from ..settings import SerialSettings, seconds
+from ..settings import SerialSettings
 
 __all__ = ["Probed", "probe", "report", "to_json", "write_project"]
 
@@ -167,8 +167,10 @@ def probe(
 
 
 def _duration(value: float) -> str:
+    if value < 1:
+        return f"{value * 1000:.0f} ms"
     if value < 60:
-        return f"{seconds(value)} s"
+        return f"{value:.1f} s"
     return f"{int(value // 60)} min {round(value % 60)} s"
 
 
@@ -200,7 +202,7 @@ def report(found: Probed) -> list[str]:
     if pull is not None:
         lines.append(
             f"  a full pull: {s.pull_exchanges} exchanges, about {_duration(pull)} at "
-            "this line's speed"
+            "the speed of this line"
         )
     lines.append(f"  the probe held the line {_duration(found.held)}, reads only")
     return lines
