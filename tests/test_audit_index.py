@@ -10,6 +10,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import examples
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from harlsync.sync import audit, auditindex
 
@@ -241,7 +244,7 @@ def test_a_log_in_a_directory_the_reader_may_not_write_is_still_read(
         real(src, dst)
 
     monkeypatch.setattr(os, "replace", refuse)
-    assert [u["id"] for u in audit.unfinished("sim://a", 1, log)] == ["a" * 16]
+    assert [u["id"] for u in audit.unfinished("sim://a", 1, log, [])] == ["a" * 16]
     assert not auditindex.index_path(log).exists()
     assert [p.name for p in tmp_path.iterdir()] == ["audit.jsonl"]  # no temporary left
 
@@ -265,3 +268,94 @@ def test_an_end_that_names_another_robot_than_its_start_counts_for_that_robot(
     index = assert_as_whole(log)
     assert index.robot("sim://a", 1).recent == []
     assert [r["result"] for r in index.robot("sim://b", 1).recent] == ["failed"]
+
+
+# --- an index entry of the wrong shape (issue 34 item 9) -------------------------------
+
+#: JSON values of every type.
+JSON = st.recursive(
+    st.none() | st.booleans() | st.integers(-3, 10**6) | st.floats(-1e3, 1e3) | st.text(max_size=3),
+    lambda inner: (
+        st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=3), inner, max_size=2)
+    ),
+    max_leaves=4,
+)
+
+
+def json_type(value: Any) -> str:
+    return "bool" if isinstance(value, bool) else type(value).__name__
+
+
+def nodes(value: Any, path: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+    """The path of every value in ``value``, itself first."""
+    found = [path]
+    if isinstance(value, dict):
+        for key, inner in value.items():
+            found += nodes(inner, (*path, key))
+    elif isinstance(value, list):
+        for n, inner in enumerate(value):
+            found += nodes(inner, (*path, n))
+    return found
+
+
+def fixed_size(path: tuple[Any, ...]) -> bool:
+    """Whether the index always writes the array at ``path`` with the same number of
+    values: a key's entry, a ``[seq, offset]`` pair, a problem's ``[line, text]``."""
+    return (
+        (len(path) == 2 and path[0] == "keys")
+        or (len(path) == 4 and path[0] == "keys" and path[2] in (0, 3))
+        or (len(path) == 2 and path[0] == "problems")
+    )
+
+
+def replaced(state: Any, path: tuple[Any, ...], value: Any) -> Any:
+    if not path:
+        return value
+    inner = state
+    for part in path[:-1]:
+        inner = inner[part]
+    inner[path[-1]] = value
+    return state
+
+
+@settings(max_examples=examples(300))
+@given(data=st.data())
+def test_issue_34_an_index_entry_of_any_other_shape_is_built_again_from_the_log(
+    tmp_path_factory: pytest.TempPathFactory, data: st.DataObject
+) -> None:
+    root = tmp_path_factory.mktemp("index")
+    log, project = root / "audit.jsonl", root / "cell"
+    project.mkdir()
+    write_log(
+        log,
+        push("a" * 16, 1, "sim://a", None)
+        + push("b" * 16, 2, "sim://b", "ok")
+        + [record("end", "c" * 16, 3, "sim://a", result="refused", project=str(project.resolve()))]
+        + ["not json"],
+    )
+    auditindex.load(log)
+    saved = json.loads(auditindex.index_path(log).read_text())
+    path = data.draw(st.sampled_from(nodes(saved)), label="path")
+    old = eval_path(saved, path)
+    if isinstance(old, list) and old and fixed_size(path) and data.draw(st.booleans(), "shorter"):
+        new: Any = old[:-1]
+    else:  # a value of another type: an offset as text, a pair as a bare number ...
+        new = data.draw(JSON.filter(lambda v: json_type(v) != json_type(old)), label="value")
+    auditindex.index_path(log).write_text(json.dumps(replaced(saved, path, new)))
+
+    expected: list[str] = []
+    audit.results(log, expected)
+    problems: list[str] = []
+    index = audit.index(log, problems)  # what a pull, diff and status ask
+    assert problems == expected
+    assert [u["id"] for u in audit.unfinished("sim://a", 1, log, [])] == ["a" * 16]
+    assert_as_whole(log, project)
+    assert_as_whole(log)
+    assert len(audit.pushes_since("sim://a", 1, project, None, log)) == 2
+    assert index.lines_parsed in (0, len(log.read_text().splitlines()))
+
+
+def eval_path(state: Any, path: tuple[Any, ...]) -> Any:
+    for part in path:
+        state = state[part]
+    return state

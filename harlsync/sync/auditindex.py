@@ -32,8 +32,10 @@ read as it always was.  A reader checks that the log still starts and continues
 as the index read it (``ino``, ``head``, ``tail``, a size no smaller), reads only
 what was appended since (a few records) and, when there was some, writes the
 index again (a temporary and a rename: readers see the old index or the new
-one).  An index that does not match, is missing or cannot be parsed is built
-again from the whole log, once.  A last line without its newline (a writer
+one).  An index that does not match, is missing, cannot be parsed or holds an
+entry of another shape than it writes (an offset as text, a pair as a bare
+number: :meth:`AuditIndex.restore` checks each) is built again from the whole
+log, once.  A last line without its newline (a writer
 still at it, or killed mid-append) is read but left out of the index: the next
 append ends it, and the index reads it then.  A directory the reader may not
 write in only costs it the whole log on every read.
@@ -305,25 +307,112 @@ class AuditIndex:
         }
 
     def restore(self, state: dict[str, Any]) -> None:
-        """Take up ``state`` (:meth:`state`'s).  Raises _Stale for anything else."""
+        """Take up ``state`` (:meth:`state`'s), each of its entries of the shape
+        :meth:`state` writes.  Raises _Stale for anything else: a cache that cannot be
+        trusted is built again from the log, whatever is wrong with it."""
+        if state.get("version") != VERSION:
+            raise _Stale("another version")
         try:
-            if state["version"] != VERSION:
-                raise _Stale("another version")
-            self.size, self.lines = int(state["size"]), int(state["lines"])
-            self.seq = int(state["seq"])
-            self.open = {int(seq): dict(entry) for seq, entry in state["open"].items()}
-            for entry in self.open.values():
-                if not isinstance(entry["start"], int) or not isinstance(entry["writes"], list):
-                    raise _Stale("an open push without its offsets")
-            self.ids = {str(rid): int(seq) for rid, seq in state["ids"].items()}
-            self.keys = {
-                name: _Key(list(recent), int(count), int(settled), list(unsettled))
-                for name, (recent, count, settled, unsettled) in state["keys"].items()
+            self.size, self.lines = _count(state["size"]), _count(state["lines"])
+            self.seq = _count(state["seq"])
+            self.open = {
+                _seq(seq): _open(entry, self.size) for seq, entry in _object(state["open"])
             }
-            self.problems = [[int(n), str(t)] for n, t in state["problems"]]
-            self.problem_count = int(state["problem_count"])
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise _Stale(f"not an index ({exc})") from exc
+            self.ids = {rid: _count(seq) for rid, seq in _object(state["ids"])}
+            self.keys = {name: _key(entry, self.size) for name, entry in _object(state["keys"])}
+            self.problems = [_problem(entry) for entry in _array(state["problems"])]
+            self.problem_count = _count(state["problem_count"])
+        except KeyError as exc:
+            raise _Stale(f"not an index (no {exc})") from None
+        if not all(seq in self.open for seq in self.ids.values()):
+            raise _Stale("not an index (an id of no open push)")
+
+
+# --- the index file's entries, checked as they are taken up --------------------------------
+
+
+def _count(value: Any) -> int:
+    """A count, a sequence number or a byte offset: an integer, not negative."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise _Stale(f"not an index ({_kind(value)} where a count belongs)")
+    return value
+
+
+def _offset(value: Any, size: int) -> int:
+    """A line's offset in the part of the log the index has read."""
+    offset = _count(value)
+    if offset >= size:
+        raise _Stale(f"not an index (offset {offset} past the {size} bytes read)")
+    return offset
+
+
+def _seq(text: str) -> int:
+    if not (text.isascii() and text.isdigit()):
+        raise _Stale("not an index (an open push's number is not a number)")
+    return int(text)
+
+
+def _array(value: Any, size: int | None = None) -> list[Any]:
+    """A JSON array (of ``size`` values, when given)."""
+    if not isinstance(value, list) or (size is not None and len(value) != size):
+        wanted = "an array" if size is None else f"an array of {size}"
+        raise _Stale(f"not an index ({_kind(value)} where {wanted} belongs)")
+    return value
+
+
+def _object(value: Any) -> list[tuple[str, Any]]:
+    """A JSON object's members."""
+    if not isinstance(value, dict):
+        raise _Stale(f"not an index ({_kind(value)} where an object belongs)")
+    return list(value.items())
+
+
+def _pairs(value: Any, size: int) -> list[list[int]]:
+    """``[[seq, offset], ...]``, sorted as the index keeps them."""
+    return sorted([_count(seq), _offset(offset, size)] for seq, offset in map(_pair, _array(value)))
+
+
+def _pair(value: Any) -> list[Any]:
+    return _array(value, 2)
+
+
+def _open(value: Any, size: int) -> dict[str, Any]:
+    entry = dict(_object(value))
+    names = _array(entry.get("keys"))
+    if not all(isinstance(name, str) for name in names):
+        raise _Stale("not an index (an open push's key is not text)")
+    return {
+        "start": _offset(entry.get("start"), size),
+        "writes": [_offset(write, size) for write in _array(entry.get("writes"))],
+        "keys": names,
+    }
+
+
+def _key(value: Any, size: int) -> _Key:
+    recent, count, settled, unsettled = _array(value, 4)
+    if isinstance(settled, bool) or not isinstance(settled, int) or settled < -1:
+        raise _Stale(f"not an index ({_kind(settled)} where the last settled push belongs)")
+    return _Key(_pairs(recent, size), _count(count), settled, _pairs(unsettled, size))
+
+
+def _problem(value: Any) -> list[Any]:
+    line, text = _array(value, 2)
+    if not isinstance(text, str):
+        raise _Stale(f"not an index ({_kind(text)} where a problem's words belong)")
+    return [_count(line), text]
+
+
+def _kind(value: Any) -> str:
+    """What a JSON value is, in JSON's words."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true or false"
+    if isinstance(value, dict):
+        return "an object"
+    if isinstance(value, list):
+        return "an array"
+    return "text" if isinstance(value, str) else "a number"
 
 
 def _digest(f: BinaryIO, start: int, end: int) -> str:
