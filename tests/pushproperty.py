@@ -436,8 +436,8 @@ def check_failure(why: Why, got: Outcome) -> None:
         if result.failed is not None:
             assert result.failed in result.not_written, why("unknown write not listed")
     record = audit_log.read()[-1]
-    assert record["error"] == result.error, why("audit record is not this push's")
-    assert [w["command"] for w in record["written"]] == [w.command for w in result.written]
+    assert record.error == result.error, why("audit record is not this push's")
+    assert [w.command for w in record.done] == [w.command for w in result.written]
     assert record.get("failed_item") == (result.failed.name if result.failed else None)
 
 

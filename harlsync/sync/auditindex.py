@@ -51,13 +51,25 @@ import os
 import re
 import secrets
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Any, BinaryIO
 
 from ..link import lock_key
+from ..project import statefile
 from . import audit
+from .audit import AuditRecord, OpenPush
 
-__all__ = ["RECENT", "AuditIndex", "RobotRecords", "index_path", "load"]
+__all__ = [
+    "RECENT",
+    "AuditIndex",
+    "RobotRecords",
+    "index",
+    "index_path",
+    "load",
+    "pushes_since",
+    "unfinished",
+]
 
 log = logging.getLogger(__name__)
 
@@ -91,9 +103,9 @@ class RobotRecords:
     """What the log says about one robot (and its project)."""
 
     #: its latest pushes and rollbacks (at most :data:`RECENT`), as :func:`audit.results`
-    recent: list[dict[str, Any]]
+    recent: list[AuditRecord]
     #: the unfinished ones no later one settled (:func:`audit.unsettled`)
-    unsettled: list[dict[str, Any]]
+    unsettled: list[AuditRecord]
     #: whether ``recent`` is all of them
     complete: bool
 
@@ -115,19 +127,29 @@ class _Key:
         self.unsettled = [e for e in self.unsettled if e[0] != seq]
         self.count -= 1
 
-    def ended(self, seq: int, offset: int, result: Any) -> None:
+    def ended(self, seq: int, offset: int, result: str | None) -> None:
         for entry in self.recent:
             if entry[0] == seq:
                 entry[1] = offset
         self.unsettled = [e for e in self.unsettled if e[0] != seq]
         self.result(seq, offset, result)
 
-    def result(self, seq: int, offset: int, result: Any) -> None:
+    def result(self, seq: int, offset: int, result: str | None) -> None:
         if result == "unfinished":
             bisect.insort(self.unsettled, [seq, offset])
         elif result in audit.SETTLED:
             self.settled = max(self.settled, seq)
             self.unsettled = [e for e in self.unsettled if e[0] > self.settled]
+
+
+@dataclass
+class _Open:
+    """A push started and not ended: the offsets of its start and write records, and
+    the keys its start record is found under."""
+
+    start: int
+    writes: list[int] = field(default_factory=list)
+    keys: list[str] = field(default_factory=list)
 
 
 class _Stale(Exception):
@@ -144,10 +166,10 @@ class AuditIndex:
         self.size = 0
         self.lines = 0
         self.seq = 0
-        self.open: dict[int, dict[str, Any]] = {}
+        self.open: dict[int, _Open] = {}
         self.ids: dict[str, int] = {}
         self.keys: dict[str, _Key] = {}
-        self.problems: list[list[Any]] = []
+        self.problems: list[tuple[int, str]] = []
         self.problem_count = 0
         self.bytes_read = 0
         self.lines_parsed = 0
@@ -155,17 +177,16 @@ class AuditIndex:
 
     # --- reading the log --------------------------------------------------------------
 
-    def _keys_of(self, record: dict[str, Any]) -> set[str]:
+    def _keys_of(self, record: AuditRecord) -> set[str]:
         keys = set()
-        robot = record.get("robot")
-        if isinstance(robot, dict):
-            port, station = robot.get("port"), robot.get("station")
-            if isinstance(port, str) and isinstance(station, int):
-                if (port, station) not in self._ports:
-                    self._ports[(port, station)] = robot_keys(port, station)
-                keys |= self._ports[(port, station)]
-        if isinstance(record.get("project"), str):
-            keys.add(_project_key(record["project"]))
+        robot = record.robot
+        if robot is not None and robot.port is not None and robot.station is not None:
+            port, station = robot.port, robot.station
+            if (port, station) not in self._ports:
+                self._ports[(port, station)] = robot_keys(port, station)
+            keys |= self._ports[(port, station)]
+        if record.project is not None:
+            keys.add(_project_key(record.project))
         return keys
 
     def _key(self, name: str) -> _Key:
@@ -192,36 +213,36 @@ class AuditIndex:
         record, problem = audit.parse_line(raw)
         if problem is not None:
             if len(self.problems) < audit.SHOWN_PROBLEMS:
-                self.problems.append([self.lines, problem])
+                self.problems.append((self.lines, problem))
             self.problem_count += 1
         if record is None:
             return
-        event, rid = record.get("event", "end"), record.get("id")
+        event, rid = record.event, record.id
         if event == "start" and rid:
             seq = self._next()
             keys = self._keys_of(record)
-            self.open[seq] = {"start": offset, "writes": [], "keys": sorted(keys)}
+            self.open[seq] = _Open(offset, [], sorted(keys))
             self.ids[rid] = seq
             for name in keys:
                 self._key(name).add(seq, offset)
                 self._key(name).result(seq, offset, "unfinished")
-        elif event == "write" and rid in self.ids:
-            self.open[self.ids[rid]]["writes"].append(offset)
-        elif event == "end" and rid in self.ids:
+        elif event == "write" and rid is not None and rid in self.ids:
+            self.open[self.ids[rid]].writes.append(offset)
+        elif event == "end" and rid is not None and rid in self.ids:
             seq = self.ids.pop(rid)
-            before = set(self.open.pop(seq)["keys"])
+            before = set(self.open.pop(seq).keys)
             after = self._keys_of(record)
             for name in before - after:
                 self._key(name).drop(seq)
             for name in after - before:
                 self._key(name).add(seq, offset)
             for name in after:
-                self._key(name).ended(seq, offset, record.get("result"))
+                self._key(name).ended(seq, offset, record.result)
         elif event == "end":
             seq = self._next()
             for name in self._keys_of(record):
                 self._key(name).add(seq, offset)
-                self._key(name).result(seq, offset, record.get("result"))
+                self._key(name).result(seq, offset, record.result)
 
     def _next(self) -> int:
         self.seq += 1
@@ -262,15 +283,15 @@ class AuditIndex:
                 complete,
             )
 
-    def _record(self, f: BinaryIO, seq: int, offset: int) -> dict[str, Any]:
+    def _record(self, f: BinaryIO, seq: int, offset: int) -> AuditRecord:
         if seq not in self.open:
             return self._at(f, offset)
-        push = audit.pending(self._at(f, self.open[seq]["start"]))
-        for write in self.open[seq]["writes"]:
-            audit.add_write(push, self._at(f, write))
-        return audit.unended(push)
+        opened = self.open[seq]
+        return OpenPush(
+            self._at(f, opened.start), [self._at(f, write) for write in opened.writes]
+        ).record()
 
-    def _at(self, f: BinaryIO, offset: int) -> dict[str, Any]:
+    def _at(self, f: BinaryIO, offset: int) -> AuditRecord:
         f.seek(offset)
         raw = f.readline()
         self.bytes_read += len(raw)
@@ -281,7 +302,7 @@ class AuditIndex:
 
     def report(self, problems: list[str] | None) -> None:
         """Say what was wrong with the log's lines, as :func:`audit.read` does."""
-        audit.report(self.path, [(n, t) for n, t in self.problems], problems, self.problem_count)
+        audit.report(self.path, list(self.problems), problems, self.problem_count)
 
     # --- the index file ---------------------------------------------------------------
 
@@ -296,7 +317,11 @@ class AuditIndex:
             "head": head,
             "tail": tail,
             "seq": self.seq,
-            "open": {str(seq): entry for seq, entry in self.open.items() if seq in kept},
+            "open": {
+                str(seq): {"start": entry.start, "writes": entry.writes, "keys": entry.keys}
+                for seq, entry in self.open.items()
+                if seq in kept
+            },
             "ids": self.ids,
             "keys": {
                 name: [key.recent, key.count, key.settled, key.unsettled]
@@ -376,16 +401,16 @@ def _pair(value: Any) -> list[Any]:
     return _array(value, 2)
 
 
-def _open(value: Any, size: int) -> dict[str, Any]:
+def _open(value: Any, size: int) -> _Open:
     entry = dict(_object(value))
     names = _array(entry.get("keys"))
     if not all(isinstance(name, str) for name in names):
         raise _Stale("not an index (an open push's key is not text)")
-    return {
-        "start": _offset(entry.get("start"), size),
-        "writes": [_offset(write, size) for write in _array(entry.get("writes"))],
-        "keys": names,
-    }
+    return _Open(
+        _offset(entry.get("start"), size),
+        [_offset(write, size) for write in _array(entry.get("writes"))],
+        names,
+    )
 
 
 def _key(value: Any, size: int) -> _Key:
@@ -395,11 +420,11 @@ def _key(value: Any, size: int) -> _Key:
     return _Key(_pairs(recent, size), _count(count), settled, _pairs(unsettled, size))
 
 
-def _problem(value: Any) -> list[Any]:
+def _problem(value: Any) -> tuple[int, str]:
     line, text = _array(value, 2)
     if not isinstance(text, str):
         raise _Stale(f"not an index ({_kind(text)} where a problem's words belong)")
-    return [_count(line), text]
+    return _count(line), text
 
 
 def _kind(value: Any) -> str:
@@ -489,3 +514,66 @@ def _rebuilt(path: Path) -> AuditIndex:
     except OSError:
         pass
     return load(path)
+
+
+# --- what the commands ask ----------------------------------------------------------------
+
+
+def index(path: Path | None = None, problems: list[str] | None = None) -> AuditIndex:
+    """The log's index, brought up to its end: what a command asks of one robot, read
+    without reading the whole log.  What is wrong with the log's lines is said as
+    :func:`audit.read` says it.  Raises OSError."""
+    found = load(path)
+    found.report(problems)
+    return found
+
+
+def unfinished(
+    port: str, station: int, path: Path | None = None, problems: list[str] | None = None
+) -> list[AuditRecord]:
+    """The unfinished pushes and rollbacks of the robot at ``port``/``station``
+    that no later push or rollback of it has settled (see :func:`audit.results`)."""
+    return index(path, problems).robot(port, station).unsettled
+
+
+def pushes_since(
+    port: str, station: int, project: Path, since: str | None, path: Path | None = None
+) -> list[str]:
+    """The pushes and rollbacks of the robot at ``port``/``station`` (or of
+    ``project``) recorded after ``since`` (a time as harlsync records them; None: all),
+    each as ``push ok 2026-11-24T20:23:50+00:00 by alice@pc: "faster pick"``; one in
+    the same second as ``since`` is named too (times are to the second).  The audit
+    log unreadable, none."""
+    try:
+        latest = index(path, []).robot(port, station, project)
+        records = latest.recent
+        if not latest.complete and not _reaches(records, since):  # more than it keeps
+            records = audit.of_robot(audit.results(path, []), port, station, project)
+    except OSError:
+        return []
+    found = []
+    for r in records:
+        when = r.time
+        if since is not None and (
+            when is None or not statefile.timestamp(when) or _when(when) < _when(since)
+        ):
+            continue
+        reason = f': "{r.reason}"' if r.reason else ""
+        result, user, host = (("?" if v is None else v) for v in (r.result, r.user, r.host))
+        found.append(f"{r.shown_action} {result} {when} by {user}@{host}{reason}")
+    return found
+
+
+def _reaches(records: list[AuditRecord], since: str | None) -> bool:
+    """Whether ``records`` (a robot's latest) go back to before ``since``."""
+    first = records[0].time if records else None
+    return (
+        since is not None
+        and first is not None
+        and statefile.timestamp(first)
+        and _when(first) < _when(since)
+    )
+
+
+def _when(stamp: str) -> datetime:
+    return datetime.fromisoformat(stamp)

@@ -35,7 +35,7 @@ from ..project import family_of, load_robot
 from ..project.lock import holder, lock_path, project_lock
 from ..project.store import replace_file
 from ..robotlog import about
-from . import audit, git, history
+from . import audit, auditindex, git, history
 from .items import summarize
 from .pulling import pull
 
@@ -396,7 +396,7 @@ def backup_one(
             since = history.read(path).get("last_success")
             outcome = _pull_one(path, attempts, lock_timeout, progress)
             if outcome.ok and outcome.changed:
-                outcome.pushed = audit.pushes_since(outcome.port, outcome.station, path, since)
+                outcome.pushed = auditindex.pushes_since(outcome.port, outcome.station, path, since)
             outcome = _record(outcome, clock(), read[0])
     watch.finished(outcome)
     return outcome

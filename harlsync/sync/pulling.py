@@ -279,7 +279,7 @@ def _pull(
     )
     settle()  # a family that cannot tell its identity first: after the read
     from ..project.store import Project, save_project
-    from . import audit, history
+    from . import audit, auditindex, history
     from .items import diff
 
     things = family.catalogue
@@ -309,7 +309,7 @@ def _pull(
             f"pull {robot.name}",
             result.summary,
             audit.changed_names(result.changes or []),
-            audit.pushes_since(robot.port, robot.station, path, since),
+            auditindex.pushes_since(robot.port, robot.station, path, since),
         )
         result.commit = git.commit([path], message)
         if result.commit:
@@ -334,16 +334,12 @@ def _record_notes(
         if noted is not None:
             noted(note)
         record = audit.base_record("recover")
-        record.update(
-            event="recover",
-            robot={
-                "name": robot.name,
-                "port": port or robot.port,
-                "station": station if station is not None else robot.station,
-            },
-            project=str(path.resolve()),
-            note=note,
+        record.event = "recover"
+        record.robot = audit.RecordedRobot(
+            robot.name, port or robot.port, station if station is not None else robot.station
         )
+        record.project = str(path.resolve())
+        record.note = note
         try:
             audit.append(record)
         except OSError as exc:

@@ -735,8 +735,9 @@ def check_stopped_item(case: Case, got: Outcome, tally: EpsonTally) -> None:
                 f"{w.name} {f}: said not sent, yet the robot holds {held_fields.get(f)}"
             )
     assert "nothing written" not in (result.error or ""), case.why(result.error or "")
-    assert record.get("partly_written", {}).get("sent") == partly.sent, case.why(
-        f"audit record: {record.get('partly_written')}"
+    recorded = record.partly_written
+    assert recorded is not None and list(recorded.sent) == partly.sent, case.why(
+        f"audit record: {recorded}"
     )
 
 
