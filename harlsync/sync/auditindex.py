@@ -393,12 +393,20 @@ def _object(value: Any) -> list[tuple[str, Any]]:
 
 
 def _pairs(value: Any, size: int) -> list[list[int]]:
-    """``[[seq, offset], ...]``, sorted as the index keeps them."""
-    return sorted([_count(seq), _offset(offset, size)] for seq, offset in map(_pair, _array(value)))
-
-
-def _pair(value: Any) -> list[Any]:
-    return _array(value, 2)
+    """``[[seq, offset], ...]``: a key's latest or unsettled pushes.  (One test a pair,
+    not a call a value: a plant's index holds thousands of them.)"""
+    pairs = _array(value)
+    if not all(
+        type(pair) is list  # JSON's types exactly: true is no count
+        and len(pair) == 2
+        and type(pair[0]) is int
+        and type(pair[1]) is int
+        and pair[0] >= 0
+        and 0 <= pair[1] < size
+        for pair in pairs
+    ):
+        raise _Stale("not an index (a [seq, offset] pair of another shape)")
+    return pairs
 
 
 def _open(value: Any, size: int) -> _Open:
