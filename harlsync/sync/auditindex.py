@@ -359,7 +359,7 @@ class AuditIndex:
 def _count(value: Any) -> int:
     """A count, a sequence number or a byte offset: an integer, not negative."""
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise _Stale(f"not an index ({_kind(value)} where a count belongs)")
+        raise _Stale(f"not an index ({statefile.kind_of(value)} where a count belongs)")
     return value
 
 
@@ -381,14 +381,14 @@ def _array(value: Any, size: int | None = None) -> list[Any]:
     """A JSON array (of ``size`` values, when given)."""
     if not isinstance(value, list) or (size is not None and len(value) != size):
         wanted = "an array" if size is None else f"an array of {size}"
-        raise _Stale(f"not an index ({_kind(value)} where {wanted} belongs)")
+        raise _Stale(f"not an index ({statefile.kind_of(value)} where {wanted} belongs)")
     return value
 
 
 def _object(value: Any) -> list[tuple[str, Any]]:
     """A JSON object's members."""
     if not isinstance(value, dict):
-        raise _Stale(f"not an index ({_kind(value)} where an object belongs)")
+        raise _Stale(f"not an index ({statefile.kind_of(value)} where an object belongs)")
     return list(value.items())
 
 
@@ -424,28 +424,17 @@ def _open(value: Any, size: int) -> _Open:
 def _key(value: Any, size: int) -> _Key:
     recent, count, settled, unsettled = _array(value, 4)
     if isinstance(settled, bool) or not isinstance(settled, int) or settled < -1:
-        raise _Stale(f"not an index ({_kind(settled)} where the last settled push belongs)")
+        raise _Stale(
+            f"not an index ({statefile.kind_of(settled)} where the last settled push belongs)"
+        )
     return _Key(_pairs(recent, size), _count(count), settled, _pairs(unsettled, size))
 
 
 def _problem(value: Any) -> tuple[int, str]:
     line, text = _array(value, 2)
     if not isinstance(text, str):
-        raise _Stale(f"not an index ({_kind(text)} where a problem's words belong)")
+        raise _Stale(f"not an index ({statefile.kind_of(text)} where a problem's words belong)")
     return _count(line), text
-
-
-def _kind(value: Any) -> str:
-    """What a JSON value is, in JSON's words."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true or false"
-    if isinstance(value, dict):
-        return "an object"
-    if isinstance(value, list):
-        return "an array"
-    return "text" if isinstance(value, str) else "a number"
 
 
 def _digest(f: BinaryIO, start: int, end: int) -> str:
