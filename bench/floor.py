@@ -2,19 +2,36 @@
 nothing else, alternating in one run with the whole `harlsync pull` process.
 
     python bench/floor.py                     default and max-full, 19200 and 115200
-                                              baud, 3 alternations each: ~20 min
-    python bench/floor.py --quick             default at 115200, 2 alternations: ~30 s
-    python bench/floor.py --robot default --baud 19200 --repeat 5
+                                              baud, on a pty and behind socket://,
+                                              3 alternations each: ~40 min
+    python bench/floor.py --quick             default at 115200, pty and socket://,
+                                              2 alternations: ~1 min
+    python bench/floor.py --robot default --baud 19200 --transport pty --repeat 5
+    python bench/floor.py --quick --against /tmp/before    and another harlsync's tree
 
-For each robot and baud rate a simulator process (bench/simserver.py, wire-time
-emulation on a pty) serves the robot, and one `harlsync pull DIR` (a first pull,
-robot.yaml naming the pty and the baud rate, as bench/process.py runs it) is
-recorded: the simulator keeps every byte each way.  The family's codec cuts what
-it read into the request frames, and what it sent into the reply frames.  The floor
-is then a process of its own (this script with ``--replay``: the interpreter, the
-os module, nothing of harlsync) that opens the pty raw and, for each request in
-order, writes its bytes in one ``os.write`` and reads until the reply's bytes are
-all there; at the end it checks that it got the replies byte for byte.
+For each robot, baud rate and transport a simulator process (bench/simserver.py,
+wire-time emulation) serves the robot, and one `harlsync pull DIR` (a first pull)
+is recorded: the simulator keeps every byte each way.
+
+- **pty**: the line is a pty, as a USB-serial adapter appears; robot.yaml names the
+  pty and the line's baud rate, as bench/process.py writes it.
+- **socket**: the device-server case.  The simulator serves the line over TCP (as
+  `harlsync sim --listen` does), paced at the baud rate the device server would
+  set, and robot.yaml names it ``socket://HOST:PORT`` and keeps the family's
+  default baud rate (9600): through a device server the client cannot know the
+  line's rate, and a link that times replies by robot.yaml's baud rate waits for
+  the wrong times.
+
+The family's codec cuts what the recorded pull sent into the request frames, and
+what it got into the reply frames.  The floor is then a process of its own (this
+script with ``--replay``: the interpreter, the os module, nothing of harlsync) that
+opens the pty raw (or connects to the TCP port) and, for each request in order,
+writes its bytes in one ``os.write`` and reads until the reply's bytes are all
+there; at the end it checks that it got the replies byte for byte.
+
+With ``--against TREE`` a `harlsync pull` of that tree's harlsync (its ``harlsync``
+package on PYTHONPATH; e.g. ``git archive REV harlsync | tar -x -C TREE``) takes its
+turn too, after this tree's: a before and after in one run, each against the floor.
 
 Then ``--repeat`` times: a whole `harlsync pull` into a fresh directory, the floor,
 each timed as bench/process.py times a pull (machine.timed_process, the clock every
@@ -27,12 +44,17 @@ for byte, or the bench stops.  Printed per run, and the best of each:
   byte read, in all (the client's turnaround, plus the simulator's wake-up to read
   the request, which both clients pay alike); **gap/exch**, the same per exchange;
 - **save**: from the last reply byte due to the process's exit;
+- **CPU us/ex**: the process's user + system CPU (getrusage of the finished child:
+  start-up and save included) over the exchanges; **sim us/ex**: the simulator
+  process's CPU over the same run, shown apart (on a plant server the robots are
+  real and that CPU is not spent);
 - **whole**, and **ratio**: harlsync's whole time against the floor's, the best of
-  each.
+  each; **cpu x**: harlsync's CPU per exchange against the floor's, the medians.
 
-Targets (issue 24): the whole pull at most 1.02 x the floor at 19200 baud and
-1.10 x at 115200; the first request 0.08 s after the process starts; 0.1 ms from a
-reply's last byte to the next request.
+Targets (issue 24, issue 33): the whole pull at most 1.02 x the floor at 19200 baud
+and 1.10 x at 115200, on a pty and behind a device server alike (issue 29); the first
+request 0.08 s after the process starts; 0.1 ms from a reply's last byte to the next
+request; CPU per exchange at most 2 x the floor's.
 """
 
 from __future__ import annotations
@@ -43,7 +65,8 @@ import sys
 
 def replay(folder: str) -> None:
     """The floor itself: the requests of ``folder`` to the port it names, and nothing
-    else (only ``os`` and ``tty`` are imported before the first request)."""
+    else (only ``os`` and ``tty`` are imported before the first request, and
+    ``socket`` for a device server)."""
     import tty
 
     with open(os.path.join(folder, "port"), encoding="ascii") as f:
@@ -52,8 +75,17 @@ def replay(folder: str) -> None:
         requests = f.read()
     with open(os.path.join(folder, "sizes"), encoding="ascii") as f:
         sizes = [int(n) for n in f.read().split()]
-    fd = os.open(port, os.O_RDWR | os.O_NOCTTY)
-    tty.setraw(fd)
+    if port.startswith("socket://"):  # a device server: the TCP port, no terminal
+        import socket
+
+        host, number = port[len("socket://") :].rsplit(":", 1)
+        sock = socket.create_connection((host, int(number)))
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        fd = os.dup(sock.fileno())
+        sock.close()
+    else:
+        fd = os.open(port, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(fd)
     got = bytearray()
     at = 0
     write, read = os.write, os.read
@@ -122,29 +154,34 @@ def codec_of(robot: str) -> object:
     return CODEC
 
 
-def show(robot: str, baud: int, who: str, r: dict[str, Any]) -> None:
+def show(case: str, who: str, r: dict[str, Any]) -> None:
+    n = r["exchanges"]
     print(
-        f"{robot:9} {baud:>6} {who:8} {r['exchanges']:>6,} {r['limit']:>8.2f} "
-        f"{r['startup']:>8.3f} {r['gaps']:>7.3f} {r['gaps'] / r['exchanges'] * 1e3:>8.3f} "
-        f"{r['save']:>6.3f} {r['whole']:>7.2f} {r['cpu']:>6.2f}",
+        f"{case:23} {who:8} {n:>6,} {r['limit']:>8.2f} {r['startup']:>8.3f} {r['gaps']:>7.3f} "
+        f"{r['gaps'] / n * 1e3:>8.3f} {r['save']:>6.3f} {r['whole']:>7.2f} "
+        f"{r['cpu'] / n * 1e6:>9.0f} {r['sim_cpu'] / n * 1e6:>9.0f}",
         flush=True,
     )
 
 
 HEAD = (
-    f"{'robot':9} {'baud':>6} {'client':8} {'exch':>6} {'limit s':>8} {'start-up':>8} "
-    f"{'gaps s':>7} {'gap ms':>8} {'save':>6} {'whole':>7} {'CPU s':>6}"
+    f"{'robot    baud line':23} {'client':8} {'exch':>6} {'limit s':>8} {'start-up':>8} "
+    f"{'gaps s':>7} {'gap ms':>8} {'save':>6} {'whole':>7} {'CPU us/ex':>9} {'sim us/ex':>9}"
 )
 
 
-def pull(sim: Any, baud: int, text: str, project: Path, locks: Path) -> dict[str, Any]:
-    """One whole `harlsync pull` into a new directory ``project``, timed."""
+def pull(
+    sim: Any, baud: int, text: str, project: Path, locks: Path, tree: str | None = None
+) -> dict[str, Any]:
+    """One whole `harlsync pull` into a new directory ``project``, timed; ``tree``: the
+    harlsync of that source tree."""
     from machine import harlsync_command, process_env, timed_process
 
     project.mkdir()
     (project / "robot.yaml").write_text(text)
     command = [*harlsync_command(), "pull", str(project)]
-    result: dict[str, Any] = timed_process(sim, baud, command, process_env(locks))
+    env = process_env(locks, **({"PYTHONPATH": tree} if tree else {}))
+    result: dict[str, Any] = timed_process(sim, baud, command, env)
     shutil.rmtree(project)
     return result
 
@@ -165,33 +202,92 @@ def record(sim: Any, robot: str, folder: Path) -> bytes:
     return sent
 
 
-def run_case(robot: str, baud: int, repeat: int, tmp: Path) -> tuple[Any, ...]:
-    """``repeat`` pulls and floors, alternating: the best of each, the ratios."""
+def differ(robot: str, sent: bytes, again: bytes) -> str:
+    """Where the requests ``again`` part from the recorded ones ``sent``, in words."""
+    codec = codec_of(robot)
+    ours, theirs = frames(codec, sent), frames(codec, again)
+    n = next(
+        (n for n, (a, b) in enumerate(zip(ours, theirs)) if a != b), min(len(ours), len(theirs))
+    )
+    near = slice(max(0, n - 2), n + 3)
+    return (
+        f"{len(theirs)} requests against {len(ours)} recorded, the first other one number {n}: "
+        f"{theirs[near]} where the recording has {ours[near]} (a retry: the machine too busy "
+        "for the reply deadline?)"
+    )
+
+
+def yaml_baud(robot: str, baud: int, transport: str) -> int:
+    """The baud rate robot.yaml gives: the line's on a pty, the family's default
+    behind a device server (which sets the line's rate itself)."""
+    if transport == "pty":
+        return baud
+    default: int = codec_of(robot).settings.baudrate  # type: ignore[attr-defined]
+    return default
+
+
+def run_case(
+    robot: str, baud: int, transport: str, repeat: int, tmp: Path, tree: str | None
+) -> dict[str, Any]:
+    """``repeat`` pulls (of this tree, then of ``tree``) and floors, alternating: the
+    runs of each client, by name."""
     from machine import SimProcess, process_env, timed_process
     from process import robot_yaml
 
     locks = tmp / "locks"
-    with SimProcess(robot, baud=baud) as sim:
-        text = robot_yaml(robot, sim.ports[0], baud)
+    case = f"{robot:9} {baud:>6} {transport}"
+    name = f"{robot}-{baud}-{transport}"
+    clients: list[tuple[str, str | None]] = [("harlsync", None)]
+    if tree:
+        clients.append(("against", tree))
+    with SimProcess(robot, baud=baud, tcp=transport == "socket") as sim:
+        text = robot_yaml(robot, sim.ports[0], yaml_baud(robot, baud, transport))
         sim.record()
-        pull(sim, baud, text, tmp / f"{robot}-{baud}-recorded", locks)
-        folder = tmp / f"floor-{robot}-{baud}"
+        pull(sim, baud, text, tmp / f"{name}-recorded", locks)
+        folder = tmp / f"floor-{name}"
         sent = record(sim, robot, folder)
         floor_command = [sys.executable, __file__, "--replay", str(folder)]
-        ours, floors = [], []
+        runs: dict[str, list[dict[str, Any]]] = {who: [] for who, _ in clients}
+        runs["floor"] = []
         for n in range(repeat):
-            ours.append(pull(sim, baud, text, tmp / f"{robot}-{baud}-{n}", locks))
-            if sim.wire()[0][0] != sent:
-                sys.exit("floor: a harlsync pull sent other requests than the recorded one")
-            show(robot, baud, "harlsync", ours[-1])
-            floors.append(timed_process(sim, baud, floor_command, process_env(locks)))
-            show(robot, baud, "floor", floors[-1])
-    best = min(ours, key=lambda r: r["whole"])
+            for who, source in clients:
+                runs[who].append(pull(sim, baud, text, tmp / f"{name}-{who}-{n}", locks, source))
+                again = sim.wire()[0][0]
+                if again != sent:
+                    sys.exit(
+                        f"floor: a {who} pull sent other requests: {differ(robot, sent, again)}"
+                        f"\nit said:\n{runs[who][-1]['output']}"
+                    )
+                show(case, who, runs[who][-1])
+            runs["floor"].append(timed_process(sim, baud, floor_command, process_env(locks)))
+            show(case, "floor", runs["floor"][-1])
+    return {"case": case, "baud": baud, "runs": runs}
+
+
+def summary(result: dict[str, Any]) -> None:
+    """The best run of each client, and each harlsync's ratios to the floor."""
+    runs = result["runs"]
+    floors = runs["floor"]
     floor = min(floors, key=lambda r: r["whole"])
-    median = statistics.median(r["whole"] for r in ours) / statistics.median(
-        r["whole"] for r in floors
-    )
-    return robot, baud, best, floor, best["whole"] / floor["whole"], median
+    target = TARGETS.get(result["baud"])
+
+    def cpu(rs: list[dict[str, Any]]) -> float:
+        return statistics.median(r["cpu"] / r["exchanges"] for r in rs)
+
+    for who, rs in runs.items():
+        best = min(rs, key=lambda r: r["whole"])
+        show(result["case"], who, best)
+        if who == "floor":
+            continue
+        ratio = best["whole"] / floor["whole"]
+        median = statistics.median(r["whole"] for r in rs) / statistics.median(
+            r["whole"] for r in floors
+        )
+        verdict = "" if target is None else f"{target:.2f} {'PASS' if ratio <= target else 'MISS'}"
+        print(
+            f"{'':>23} {who:8} ratio {ratio:.3f}, median {median:.3f}, target {verdict}; "
+            f"CPU an exchange {cpu(rs) / cpu(floors):.2f} x the floor's"
+        )
 
 
 SYSCALLS = (
@@ -278,12 +374,27 @@ def main() -> None:
     case_options(parser, ["default", "max-full"], "default")
     parser.add_argument("--repeat", type=int, help="alternations per case (default 3, --quick 2)")
     parser.add_argument(
+        "--transport",
+        default="pty,socket",
+        help="comma-separated: pty (robot.yaml at the line's baud rate) and socket "
+        "(a device server, robot.yaml at the family's default); default both",
+    )
+    parser.add_argument(
+        "--against", metavar="TREE", help="another harlsync's source tree, alternating too"
+    )
+    parser.add_argument(
         "--syscalls",
         action="store_true",
-        help="instead: one pull and one floor under strace, system calls per exchange",
+        help="instead: one pull and one floor under strace, system calls per exchange (pty)",
     )
     args = parser.parse_args()
     robots, bauds = cases(args, ["default", "max-full"], "default")
+    transports = args.transport.split(",")
+    if set(transports) - {"pty", "socket"}:
+        sys.exit("floor: --transport takes pty and socket")
+    tree = str(Path(args.against).resolve()) if args.against else None
+    if tree and not (Path(tree) / "harlsync" / "__init__.py").exists():
+        sys.exit(f"floor: {tree} holds no harlsync package")
     repeat = args.repeat or (2 if args.quick else 3)
     if args.syscalls:
         print(f"harlsync floor bench, system calls: {describe()}")
@@ -296,30 +407,41 @@ def main() -> None:
     print(f"harlsync floor bench: {describe()}")
     print(
         "`harlsync pull DIR` and a bare client sending the same requests (the floor), "
-        f"alternating, {repeat} of each a case; best of each below the runs\n"
+        f"alternating, {repeat} of each a case"
+        + (f"; `against`: the harlsync of {tree}" if tree else "")
+        + "; best of each below the runs\n"
     )
     print(HEAD)
     began = time.monotonic()
     with tempfile.TemporaryDirectory() as tmp:
-        summary = [run_case(r, b, repeat, Path(tmp)) for r in robots for b in bauds]
+        results = [
+            run_case(r, b, t, repeat, Path(tmp), tree)
+            for r in robots
+            for b in bauds
+            for t in transports
+        ]
     print(f"\nbest of {repeat} each")
-    print(HEAD + f" {'ratio':>6} {'median':>6} target")
-    for robot, baud, best, floor, ratio, median in summary:
-        target = TARGETS.get(baud)
-        verdict = "" if target is None else f"{target:.2f} {'PASS' if ratio <= target else 'MISS'}"
-        for who, r in (("harlsync", best), ("floor", floor)):
-            show(robot, baud, who, r)
-        print(f"{'':>84} {ratio:>6.3f} {median:>6.3f} {verdict}")
-    late = [r["late_mean"] for _, _, b, f, _, _ in summary for r in (b, f) if r["late_mean"]]
+    print(HEAD)
+    for result in results:
+        summary(result)
+    late = [
+        r["late_mean"]
+        for result in results
+        for rs in result["runs"].values()
+        for r in rs
+        if r["late_mean"]
+    ]
     print(
         "\nstart-up: to the first request byte read; gaps: from each reply's last byte due to "
         "the next request's\nfirst byte read, in all (gap ms: per exchange); save: from the "
-        "last reply byte due to the exit.\nratio: harlsync's best whole time over the floor's; "
-        "median: the same of the medians.  Targets: whole\n1.02 x the floor at 19200, 1.10 x "
-        "at 115200; start-up 0.08 s; 0.1 ms a gap."
+        "last reply byte due to the exit.\nCPU us/ex: the client process's user + system CPU "
+        "over the exchanges; sim us/ex: the simulator's.\nratio: harlsync's best whole time "
+        "over the floor's; median: the same of the medians.  Targets: whole\n1.02 x the floor "
+        "at 19200, 1.10 x at 115200; start-up 0.08 s; 0.1 ms a gap; CPU 2 x the floor's.\n"
+        "socket: a device server; robot.yaml at the family's default baud rate, not the line's."
     )
     if late:
-        print(f"Simulator replies late by {sum(late) / len(late) * 1e6:.0f} us on average.")
+        print(f"Simulator replies late by {sum(late) / len(late) * 1e6:.0f} us on average (pty).")
     print(f"ran in {minutes(time.monotonic() - began)}; machine at the end: {describe()}")
 
 

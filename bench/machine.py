@@ -350,8 +350,10 @@ def timed_process(
     clock every process shares: ``startup`` (to the first request byte the simulator
     read), ``read`` (to the last reply byte due on the line), ``save`` (to the exit),
     ``whole``; ``limit`` (bytes both ways x 10 / baud), ``cpu`` (the process's user +
-    system time), and what the simulator counted.  Exits the bench if the pull fails."""
+    system time), ``sim_cpu`` (the simulator process's, over the same time), and what
+    the simulator counted.  Exits the bench if the pull fails."""
     sim.reset()
+    sim_before = sim.stats()[0]["cpu"]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.monotonic()
     done = subprocess.run(command, capture_output=True, text=True, env=env, check=False)
@@ -371,9 +373,11 @@ def timed_process(
         "save": end - counted["last_due"],
         "whole": end - start,
         "cpu": after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime,
+        "sim_cpu": counted["cpu"] - sim_before,
         "gaps": counted["gaps"],
         "late_mean": counted.get("late_mean", 0.0),
         "late_worst": counted.get("late_worst", 0.0),
+        "output": done.stdout + done.stderr,
     }
 
 

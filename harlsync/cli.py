@@ -15,7 +15,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
@@ -26,6 +26,7 @@ from .errors import (
     PartlyWritten,
     PolicyError,
     StalePlanError,
+    SyncError,
     partly_words,
 )
 from .families import DEFAULT
@@ -34,6 +35,7 @@ from .robotlog import RobotFilter
 from .terminal import BackupDisplay, Feedback
 
 if TYPE_CHECKING:
+    from .sim.run import Running
     from .sync.deploy import PushOptions, PushResult
     from .sync.plan import Plan, PlannedWrite
 
@@ -91,6 +93,18 @@ def _sim_busy() -> str:
     return "; ".join(parts)
 
 
+def _sim_variants() -> str:
+    """Each family's simulator variants (the guesses it can make otherwise), for its help."""
+    from .families import names
+    from .sim import sim_family
+
+    parts = []
+    for name in names():
+        declared = sim_family(name).variants
+        parts.append(f"{name}: {', '.join(str(v) for v in declared) or 'none'}")
+    return "; ".join(parts)
+
+
 def _columns() -> int:
     """The terminal's width as :func:`shutil.get_terminal_size` measures it: $COLUMNS,
     else standard output's terminal, else 80."""
@@ -132,6 +146,7 @@ class _SimHelp(_Help):
 
     VERBS = "<verbs>"
     BUSY = "<busy>"
+    VARIANTS = "<variants>"
 
     def add_text(self, text: str | None) -> None:
         if text and self.VERBS in text:
@@ -140,11 +155,14 @@ class _SimHelp(_Help):
 
     def _expand_help(self, action: argparse.Action) -> str:
         text = super()._expand_help(action)
-        return text.replace(self.BUSY, _sim_busy()) if self.BUSY in text else text
+        if self.BUSY in text:
+            text = text.replace(self.BUSY, _sim_busy())
+        if self.VARIANTS in text:
+            text = text.replace(self.VARIANTS, _sim_variants())
+        return text
 
 
 def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from .families import names
 
     p = sub.add_parser(
         "sim",
@@ -164,7 +182,7 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--family",
         default=None,
-        choices=names(),
+        choices=_family_names(),
         help=f"the controller family (default: {DEFAULT}, or with --project the one "
         "its robot.yaml names)",
     )
@@ -210,8 +228,16 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "--faults",
         default="",
         metavar="NAME=RATE,...",
-        help="fault injection: noise, drop, bad_checksum (bad_lrc), fragment, slow (rates 0-1), "
+        help="fault injection: noise, drop, bad_checksum, fragment, slow (rates 0-1), "
         "slow_delay (seconds), seed",
+    )
+    p.add_argument(
+        "--variant",
+        default="",
+        metavar="NAME=VALUE,...",
+        help="answer as a controller that fills a silence of its manual another way than "
+        "the profile's choice, the first value of each (docs/profile.md): "
+        f"{_SimHelp.VARIANTS}",
     )
     p.add_argument(
         "--auto",
@@ -246,103 +272,36 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .families import get
-    from .sim import Faults, Received, ServedFamily, Simulator, project_family
     from .sim.control import apply_command
-    from .sim.family import SimServer
-    from .sim.protocol_sim import build_simulator
-    from .sim.serve import PtyServer, TcpServer
+    from .sim.run import SimOptions, start
 
-    if args.no_pty and not args.listen:
-        return _usage("sim: --no-pty needs --listen HOST:PORT")
-    try:
-        listen = _listen_address(args.listen) if args.listen else None
-    except ValueError as exc:
-        return _usage(f"sim: --listen: {exc}")
-    try:
-        faults = Faults.parse(args.faults)
-    except ValueError as exc:
-        return _usage(f"sim: --faults: {exc}")
-    stations = None
-    if args.stations:
-        family = get(args.family or (project_family(args.project) if args.project else None))
-        try:
-            stations = [family.parse_station(s) for s in args.stations.split(",")]
-        except ValueError as exc:
-            return _usage(f"sim: --stations: {exc}")
-    sim = build_simulator(
+    opts = SimOptions(
         family=args.family,
         project=args.project,
         seed=args.seed,
-        stations=stations,
-        baudrate=args.baud or None,
+        stations=args.stations,
+        listen=args.listen,
+        pty=not args.no_pty,
+        baud=args.baud,
         turnaround=args.turnaround,
-        faults=faults,
+        faults=args.faults,
+        variant=args.variant,
+        busy=args.busy,
         busy_after_writes=args.busy_after_writes,
+        record=args.record,
+        state=args.state,
     )
-    if args.state:
-        from .sim.memory import keep_state
-
-        keep_state(sim, args.state)
-    if args.busy:
-        for state in sim.stations.values():
-            sim.control(sim.family.busy_verb, state, ())
-    if args.record:
-        record = open(args.record, "a", encoding="utf-8")  # noqa: SIM115 - open for the run
-
-        def log_request(r: Received) -> None:
-            record.write(
-                json.dumps(
-                    {"station": r.station, "payload": r.payload, "busy": r.busy, "client": r.client}
-                )
-                + "\n"
-            )
-            record.flush()
-
-        sim.listeners.append(log_request)
     stopped = threading.Event()  # from here on SIGTERM stops it cleanly, exit 0
     signal.signal(signal.SIGTERM, lambda *_: stopped.set())
-    servers: list[PtyServer | TcpServer | SimServer] = []
-    tcp: TcpServer | SimServer | None = None
-    try:  # before the pty: an address in use is one line, with nothing left serving
-        if isinstance(sim.family, ServedFamily):  # its own protocol and server
-            if listen is None:
-                return _usage(
-                    f"sim: the {sim.family.name} simulator is served over TCP only: "
-                    "give --listen HOST:PORT"
-                )
-            tcp = sim.family.serve(sim, *listen)
-        elif listen is not None:
-            assert isinstance(sim, Simulator)  # a line family's simulator is a serial line
-            tcp = TcpServer(sim, *listen)
-    except ValueError as exc:  # a fault its protocol cannot have
+    try:
+        running = start(opts)
+    except ValueError as exc:
         return _usage(f"sim: {exc}")
-    except OSError as exc:
-        # socket.create_server appends the address we already name to strerror
-        why = (exc.strerror or str(exc)).split(" (while attempting")[0]
-        return _usage(f"sim: --listen {args.listen}: cannot listen there: {why}")
-    if isinstance(sim, Simulator) and not args.no_pty:
-        pty = PtyServer(sim)
-        _print(f"pty: {pty.start()}")
-        servers.append(pty)
-    if tcp is not None:
-        _print(f"tcp: {tcp.start() if isinstance(tcp, TcpServer) else tcp.url}")
-        servers.append(tcp)
-    _print(f"stations: {', '.join(sim.show_station(n) for n in sorted(sim.stations))}")
-    _serve(
-        servers, stopped, (lambda line: apply_command(sim, line)) if _reads_input(args) else None
-    )
+    for line in running.said:
+        _print(line)
+    control = (lambda line: apply_command(running.sim, line)) if _reads_input(args) else None
+    _serve(running, stopped, control)
     return EXIT_OK
-
-
-def _listen_address(text: str) -> tuple[str, int]:
-    """``HOST:PORT`` (``:PORT`` is 127.0.0.1) as a socket address.  Raises ValueError."""
-    host, sep, port = text.rpartition(":")
-    if not sep or not (port.isascii() and port.isdigit()) or int(port) > 65535:
-        raise ValueError(
-            f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:5020; port 0 picks a free one)"
-        )
-    return host or "127.0.0.1", int(port)
 
 
 def _reads_input(args: argparse.Namespace) -> bool:
@@ -365,9 +324,7 @@ def _reads_input(args: argparse.Namespace) -> bool:
     return not background
 
 
-def _serve(
-    servers: Sequence[Any], done: threading.Event, control: Callable[[str], str] | None
-) -> None:
+def _serve(running: Running, done: threading.Event, control: Callable[[str], str] | None) -> None:
     """Serve until ``done`` is set (SIGTERM), Ctrl-C, or the end of the input
     ``control`` takes its commands from (every line, its answer printed); without
     ``control``, until one of the first two."""
@@ -393,8 +350,7 @@ def _serve(
         done.wait()
     except KeyboardInterrupt:
         pass
-    for server in servers:
-        server.stop()
+    running.stop()
 
 
 # --- backup -----------------------------------------------------------------------------
@@ -419,8 +375,20 @@ def _plant_args(p: argparse.ArgumentParser) -> None:
         type=float,
         default=36.0,
         metavar="HOURS",
-        help="flag robots with no good backup for this long (default 36)",
+        help=f"flag robots with no good backup for this long (0 to {MAX_STALE_HOURS}, default 36)",
     )
+
+
+#: The longest --stale-after, in hours: ten years.  Beyond it no clock or backup
+#: record means anything, and Python's dates end (inf, 1e12 raised OverflowError).
+MAX_STALE_HOURS = 87600
+
+
+def _stale_after_problem(hours: float) -> str | None:
+    """Why ``--stale-after HOURS`` cannot be taken (nan, inf, negative, too long), or None."""
+    if 0 <= hours <= MAX_STALE_HOURS:  # nan is neither
+        return None
+    return f"--stale-after {hours:g}: give 0 to {MAX_STALE_HOURS} hours (ten years)"
 
 
 def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -429,8 +397,11 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         help="back up every robot of a plant (for cron and systemd)",
         description="Pull every robot project found in PATH (a project directory, or a directory "
         "of projects): in parallel across separate lines, spread over a worker process "
-        "per core, one at a time for stations that share a line. A robot that fails keeps its previous backup and the others "
-        "go on. On a terminal it shows a live line per robot (exchanges with the "
+        "per core, one at a time for stations that share a line. A robot whose project git "
+        "holds is kept on the branch harlsync/backup, never over the approved branch or the "
+        "working tree, and reported as same as approved, pending (approved, not yet on the "
+        "robot) or drift (changed on the robot, not by a push); see docs/states.md. A robot "
+        "that fails keeps its previous backup and the others go on. On a terminal it shows a live line per robot (exchanges with the "
         "controller, rate, time left) and a result line as each ends. Exit 0 when "
         "every robot was backed up, 1 when any failed or the git commit or push "
         "failed, 2 on an error before any robot ran, 130 interrupted.",
@@ -454,9 +425,15 @@ def _add_backup(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument(
         "--commit",
         action="store_true",
-        help="one git commit for the run, listing which robots changed and how much",
+        help="one git commit for the run on the branch harlsync/backup, listing which "
+        "robots changed and how much, and what is pending or drifted",
     )
-    p.add_argument("--push", action="store_true", help="git push after committing (needs --commit)")
+    p.add_argument(
+        "--push",
+        action="store_true",
+        help="git push the backup branch and the robots' deployed refs after committing "
+        "(needs --commit)",
+    )
     _format_arg(p)
     p.add_argument(
         "--quiet",
@@ -508,6 +485,15 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         return _usage("backup: --push needs --commit")
     if args.workers is not None and args.workers < 1:
         return _usage(f"backup: --workers {args.workers}: give 1 or more processes")
+    if args.attempts < 1:
+        return _usage(f"backup: --attempts {args.attempts}: give 1 or more tries")
+    if (stale := _stale_after_problem(args.stale_after)) is not None:
+        return _usage(f"backup: {stale}")
+    outputs = {"--metrics": args.metrics, "--html": args.html}
+    hooks = {"--on-change": args.on_change, "--on-failure": args.on_failure}
+    problems = backup.output_problems(outputs, hooks)
+    if problems:  # every one of them, before a robot is read
+        raise SyncError("; ".join(problems) + "; no robot was read")
     display = BackupDisplay()
     try:
         report = backup.backup(
@@ -527,12 +513,12 @@ def _cmd_backup(args: argparse.Namespace) -> int:
         _print(json.dumps(report.to_json(), indent=2))
     elif not args.quiet or not report.ok:
         sys.stdout.write(report.render())
-    unwritten: HarlsyncError | None = None
+    unwritten: list[str] = []  # checked before, yet the disk may fill meanwhile
     if args.metrics:
         try:
             backup.write_metrics(args.metrics, report)
         except HarlsyncError as exc:  # the hooks still run: they may be the only alarm
-            unwritten = exc
+            unwritten.append(str(exc))
     if args.html:
         from .sync import report as page
         from .sync import status
@@ -542,13 +528,13 @@ def _cmd_backup(args: argparse.Namespace) -> int:
                 args.html, status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
             )
         except HarlsyncError as exc:
-            unwritten = unwritten or exc
+            unwritten.append(str(exc))
     if args.on_change and report.changed:
         backup.run_hook(args.on_change, report, "change")
     if args.on_failure and not report.ok:
         backup.run_hook(args.on_failure, report, "failure")
-    if unwritten is not None:
-        raise unwritten
+    if unwritten:
+        raise SyncError("; ".join(unwritten))
     return EXIT_OK if report.ok else EXIT_NO
 
 
@@ -565,7 +551,8 @@ def _add_status(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         "push that never finished. Reads robot.yaml, DIR/.harlsync, the audit log "
         "and git only: no robot is contacted. A robot's state is the most urgent "
         "of: unfinished push, partial push (stopped part way), never backed up, failed, "
-        "stale, changed, ok. Exit 0 "
+        "stale, changed, ok. The pending and drift columns are what the last backup found "
+        "against the approved version, each item listed below. Exit 0 "
         "when every robot is ok or changed, 1 when any is failed, stale, never "
         "backed up or has an unfinished or partial push, 2 on an error (no project found).",
     )
@@ -589,6 +576,8 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
     from .sync import status
 
+    if (stale := _stale_after_problem(args.stale_after)) is not None:
+        return _usage(f"status: {stale}")
     plant = status.collect(args.paths, stale_after=timedelta(hours=args.stale_after))
     if args.html:
         from .sync import report
@@ -746,23 +735,28 @@ def _add_validate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         "validate",
         help="check a robot project against its schemas and its own configuration",
         description="Report every problem in a robot project, one per line as "
-        "file:line: field: what is wrong (allowed: ...). Exit 0 when valid, 1 when not.",
+        "file:line: field: what is wrong (allowed: ...); a valid one in one line saying "
+        "what was checked. Exit 0 when valid, 1 when not.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     p.set_defaults(func=_cmd_validate)
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .project import project_notes, validate_project
+    from .project.store import check_project
 
-    issues = validate_project(args.dir)
-    for issue in issues:
+    checked = check_project(args.dir)
+    for issue in checked.issues:
         _print(issue)
-    for note in project_notes(args.dir):
+    for note in checked.notes:
         _print(f"note: {note}")
-    if issues:
-        print(f"harlsync: {args.dir}: {len(issues)} problem(s)", file=sys.stderr)
+    if checked.issues:
+        print(f"harlsync: {args.dir}: {len(checked.issues)} problem(s)", file=sys.stderr)
         return EXIT_NO
+    _print(  # asked for: said even under cron
+        f"{args.dir}: valid {checked.family} project: {len(checked.files)} files checked "
+        "against their schemas and its own configuration"
+    )
     return EXIT_OK
 
 
@@ -821,10 +815,10 @@ def _connect_options(args: argparse.Namespace) -> dict[str, bool]:
     return {option.name: bool(getattr(args, option.name)) for option in _options()}
 
 
-def _family_names() -> tuple[str, ...]:
-    from .families import names
+def _family_names() -> Collection[str]:
+    from .families import KNOWN
 
-    return names()
+    return KNOWN
 
 
 def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -837,7 +831,9 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "previous files as they were. DIR is created if missing; a first pull needs "
         "--port. A controller that does not look like the robot backed up in DIR "
         "(another version or program configuration, or most of the backup would "
-        "change) is refused (exit 3) until --new-robot.",
+        "change) is refused (exit 3) until --new-robot; so is a pull that would overwrite "
+        "changes the project's branch approved and no push deployed yet (pending) until "
+        "--discard-pending.",
     )
     p.add_argument("dir", metavar="DIR", help="robot project directory")
     _connection_args(p)
@@ -859,6 +855,12 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="pull even over uncommitted edits in DIR (they are overwritten)",
     )
     p.add_argument(
+        "--discard-pending",
+        action="store_true",
+        help="pull even over changes the project's branch approved and no push has "
+        "deployed yet (pending: they are overwritten in the working tree)",
+    )
+    p.add_argument(
         "--new-robot",
         action="store_true",
         help="accept a controller that does not look like the robot backed up in "
@@ -868,44 +870,11 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=_cmd_pull)
 
 
-def _family_of_port(port: str | None) -> str | None:
-    """The family whose own URL scheme ``port`` has, or None."""
-    from . import families
-
-    scheme = port.partition("://")[0].lower() if port and "://" in port else None
-    for family in families.every():
-        if scheme and scheme in {s.name for s in family.schemes}:
-            return family.name
-    return None
-
-
-def _port_hint(port: str) -> str | None:
-    """What to give instead of a ``HOST:PORT`` without a scheme, which pyserial would
-    take for a device file."""
-    import re
-
-    if "://" in port or not re.fullmatch(
-        r"[A-Za-z0-9.-]+:\d{1,5}|\[[0-9A-Fa-f:.]+\]:\d{1,5}", port
-    ):
-        return None
-    from . import families
-
-    own = [
-        f"{scheme.name}://{port} ({scheme.help.partition(':')[0]})"
-        for family in families.every()
-        for scheme in family.schemes
-    ]
-    return (
-        f"--port {port}: a network port is given as a URL: socket://{port} (a serial "
-        f"device server){''.join(', or ' + text for text in own)}"
-    )
-
-
 def _cmd_pull(args: argparse.Namespace) -> int:
     from .sync import pulling
 
     if args.family is None and not (Path(args.dir) / "robot.yaml").exists():
-        args.family = _family_of_port(args.port)
+        args.family = families.of_port(args.port)
     progress = Feedback("pull")
     try:
         result = pulling.pull(
@@ -919,6 +888,7 @@ def _cmd_pull(args: argparse.Namespace) -> int:
             family=families.get(args.family) if args.family else None,
             new_robot=args.new_robot,
             connect_options=_connect_options(args),
+            discard_pending=args.discard_pending,
         )
     finally:
         progress.close()
@@ -961,8 +931,8 @@ def _add_diff(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _cmd_diff(args: argparse.Namespace) -> int:
-    from .sync import comparison, pulling
-    from .sync.items import render_text, to_json
+    from .sync import comparison
+    from .sync.items import changes_json, differ_words, render_text
 
     if args.rev:
         return _diff_versions(args)
@@ -980,18 +950,16 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     _warn(result.warnings)
-    progress.summary(result.project.robot.name, result.contents, _differ(result.changes))
+    progress.summary(result.project.robot.name, result.contents, differ_words(result.changes))
     if args.format == "json":
         _print(
             json.dumps(
-                {
-                    "robot": result.project.robot.name,
-                    "target": result.target,
-                    "project": str(result.project.path),
-                    "identical": not result.changes,
-                    "summary": pulling.change_summary(result.changes),
-                    "changes": [to_json(c) for c in result.changes],
-                },
+                changes_json(
+                    result.changes,
+                    robot=result.project.robot.name,
+                    target=result.target,
+                    project=str(result.project.path),
+                ),
                 indent=2,
             )
         )
@@ -1004,8 +972,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 
 def _diff_versions(args: argparse.Namespace) -> int:
     """``diff DIR --rev A [--rev B]``: two versions of the project, no robot."""
-    from .sync import pulling
-    from .sync.items import render_text, to_json
+    from .sync.items import changes_json, render_text
     from .sync.revisions import compare_versions
 
     if len(args.rev) > 2:
@@ -1017,32 +984,13 @@ def _diff_versions(args: argparse.Namespace) -> int:
     if args.format == "json":
         _print(
             json.dumps(
-                {
-                    "robot": b.project.robot.name,
-                    "old": a.label,
-                    "new": b.label,
-                    "identical": not changes,
-                    "summary": pulling.change_summary(changes),
-                    "changes": [to_json(c) for c in changes],
-                },
+                changes_json(changes, robot=b.project.robot.name, old=a.label, new=b.label),
                 indent=2,
             )
         )
     elif changes:
         sys.stdout.write(render_text(changes, a.label, b.label))
     return EXIT_NO if changes else EXIT_OK
-
-
-def _differ(changes: Sequence[Any]) -> str:
-    """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
-    from .sync.pulling import change_summary
-
-    if not changes:
-        return "; no differences"
-    return (
-        f"; {len(changes)} item{'s' * (len(changes) != 1)} "
-        f"differ{'s' * (len(changes) == 1)} ({change_summary(list(changes))})"
-    )
 
 
 def _add_plan(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -1084,6 +1032,8 @@ def _show_plan(the_plan: Plan[Any], verbose: int = 0) -> None:
     if the_plan.items:
         for line in render_text(the_plan.items, "", "").splitlines()[2:]:
             _print(line)
+    for name, said in the_plan.reverts.items():
+        _print(f"# {name}: {said}")
     if verbose:
         for write in the_plan.writes:
             flag = "  # unsafe in automatic operation" if write.unsafe else ""
@@ -1099,6 +1049,7 @@ def _counted(the_plan: Plan[Any]) -> str:
 
 def _cmd_plan(args: argparse.Namespace) -> int:
     from .sync import comparison
+    from .sync.items import differ_words
 
     progress = Feedback("plan")
     try:
@@ -1120,7 +1071,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if args.out:
         the_plan.save(args.out)
         _print(f"# plan saved to {args.out}")
-    progress.summary(found.project.robot.name, found.contents, _differ(found.changes))
+    progress.summary(found.project.robot.name, found.contents, differ_words(found.changes))
     from .sync.plan import policy_refusals
 
     # Every reason a push would be refused now, not only the first it would meet.
@@ -1216,6 +1167,7 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
         lock_timeout=args.lock_timeout,
         progress=progress,
         connect_options=_connect_options(args),
+        told=lambda line: print(f"harlsync: {line}", file=sys.stderr),
     )
 
 
@@ -1283,8 +1235,6 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
 def _cmd_push(args: argparse.Namespace) -> int:
     from .sync import deploy
 
-    if args.plan:  # a mistyped or foreign plan: one line, and no push to record
-        _check_plan_file(args.plan, args.dir)
     progress = Feedback("read")
     opts = _push_options(args, progress)
     return _report(
@@ -1292,21 +1242,42 @@ def _cmd_push(args: argparse.Namespace) -> int:
     )
 
 
-def _check_plan_file(path: str, project: str) -> None:
-    """Refuse, before the robot is read, a plan file that cannot be read (ProjectFormatError)
-    or that was made for another robot (StalePlanError)."""
-    from .errors import StalePlanError
-    from .project import load_robot
-    from .sync.plan import Plan
+def _add_adopt(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "adopt",
+        help="write changes made on the robot, as the last backup kept them, into the project",
+        description="Write into the project the items the last backup read (kept on the "
+        "branch harlsync/backup) where the robot differs from the project: the ITEMs "
+        "named (as status and backup name them, e.g. 'MAIN program 0 step 2'), or every "
+        "item the robot changed since the last push or rollback (drift). Nothing is "
+        "committed and no robot is contacted: review the change (git diff) and commit "
+        "it; then the robot's change is approved. Refuses uncommitted edits (exit 3) "
+        "unless --allow-dirty.",
+    )
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+    p.add_argument("items", nargs="*", metavar="ITEM", help="an item to adopt (default: the drift)")
+    p.add_argument(
+        "--allow-dirty",
+        action="store_true",
+        help="adopt even over uncommitted edits in DIR (they are overwritten)",
+    )
+    p.set_defaults(func=_cmd_adopt)
 
-    saved = Plan.load_saved(path)
-    robot = load_robot(_project_dir(project))
-    if saved.get("robot") != robot.name:
-        raise StalePlanError(
-            f"the plan {path} was made for robot {saved.get('robot')} "
-            f"({saved.get('target')}), not {robot.name}; make one for this robot with "
-            f"'harlsync plan {project} --out FILE' and review it"
-        )
+
+def _cmd_adopt(args: argparse.Namespace) -> int:
+    from .sync.adopt import adopt
+    from .sync.states import date_of
+
+    found = adopt(_project_dir(args.dir), args.items, allow_dirty=args.allow_dirty)
+    source = f"the backup of {date_of(found.time)} (commit {found.commit[:10]})"
+    if not found.items:
+        _print(f"nothing to adopt: the project already holds what {source} read")
+        return EXIT_OK
+    _print(f"adopted {len(found.items)} item(s) from {source}:")
+    for item in found.items:
+        _print(f"  {item}")
+    _print(f"review with 'git diff {args.dir}' and commit: {', '.join(found.files)}")
+    return EXIT_OK
 
 
 def _add_rollback(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -1354,6 +1325,7 @@ _COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParse
     "plan": _add_plan,
     "push": _add_push,
     "rollback": _add_rollback,
+    "adopt": _add_adopt,
     "backup": _add_backup,
     "status": _add_status,
     "log": _add_log,
@@ -1364,7 +1336,7 @@ _COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParse
 
 
 #: Commands that open no line to a robot: -v has no traffic to show for them.
-_NO_LINE = frozenset({"validate", "status", "log", "snapshots"})
+_NO_LINE = frozenset({"validate", "status", "log", "snapshots", "adopt"})
 
 
 def _one_line(exc: BaseException, verbose: int = 0) -> str:
@@ -1461,7 +1433,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     _setup_logging(args.verbose)
-    hint = _port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
+    hint = families.port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
     if hint is not None:
         print(f"harlsync: error: {hint}", file=sys.stderr)
         return EXIT_ERROR

@@ -3,22 +3,22 @@
 ::
 
     HarlsyncError
-    ├── ProtocolError            bytes that are not a valid HARL-U2 frame or reply
+    ├── ProtocolError            bytes that are not a valid frame or reply of the family
     │   ├── FrameError           malformed frame: bad station, control byte, too long
-    │   ├── LRCError             LRC byte does not match
+    │   │   └── ChecksumError    the frame's checksum does not match its bytes
     │   └── ReplyError           a well-formed frame that does not answer the request
     ├── LinkError                the serial line (names the port and station)
     │   ├── PortError            cannot open the port, or it went away
     │   ├── PortBusyError        another harlsync holds the port or the line
     │   ├── LinkTimeout          no valid reply in time (also a TimeoutError)
     │   └── WriteUnconfirmed     a write's reply was lost: it may or may not have taken
-    ├── ControllerError          the controller answered "E"+status where the operation cannot go on
+    ├── ControllerError          an error reply where the operation cannot go on
     │   └── WriteRefused         it refused a write (also a NotWritten): nothing of it was applied
     ├── ProjectError             the robot project on disk
     │   ├── ProjectFormatError   unreadable YAML, a newer format version, a missing file
     │   └── ProjectInvalid       schema or range errors (carries every issue found)
     └── SyncError                pull / diff / plan / push
-        ├── InterlockError       a task is running or suspended: nothing may be written
+        ├── InterlockError       the robot is not idle: nothing may be written
         ├── PolicyError          dirty tree, outside the maintenance window, reconfigure not allowed
         ├── StalePlanError       the controller changed since the plan was made
         ├── VerifyError          a written item does not read back as written
@@ -33,11 +33,11 @@ an exit code.  pyserial's own exceptions never leave the link layer.
 from __future__ import annotations
 
 __all__ = [
+    "ChecksumError",
     "ControllerError",
     "FrameError",
     "HarlsyncError",
     "InterlockError",
-    "LRCError",
     "LinkError",
     "LinkTimeout",
     "NotWritten",
@@ -78,8 +78,8 @@ class FrameError(ProtocolError):
     """A frame that is malformed: bad station, control byte in the body, too long."""
 
 
-class LRCError(ProtocolError):
-    """A frame whose LRC byte does not match its contents."""
+class ChecksumError(FrameError):
+    """A frame whose checksum (the family's own: an LRC, a sum) does not match its bytes."""
 
 
 class ReplyError(ProtocolError):
@@ -138,7 +138,7 @@ class LinkTimeout(LinkError, TimeoutError):
 
 
 class WriteUnconfirmed(LinkError):
-    """No valid reply came to an SN write: the controller may or may not have applied it.
+    """No valid reply came to a write: the controller may or may not have applied it.
 
     The link never re-sends a write on its own; the controller layer reads the
     item back and decides on that evidence.
@@ -146,10 +146,10 @@ class WriteUnconfirmed(LinkError):
 
 
 class ControllerError(_Located):
-    """The controller answered ``E`` + status where the operation cannot go on.
+    """The controller answered with its error reply where the operation cannot go on.
 
-    ``status`` is the raw status text, as the HRCS-R3 manual lists it (for IAI,
-    the 3-hex code of an ``&`` reply); ``message`` words it for the family.
+    ``status`` is the raw status or code, as the family's error reply carries it
+    and its manual lists it; ``message`` words it for the family.
     """
 
     def __init__(

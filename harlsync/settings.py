@@ -2,8 +2,8 @@
 
 The project store reads and writes these, the link opens a port with them, and
 each family supplies its own defaults (its codec's ``settings``).  The defaults
-here are the ones every existing robot.yaml was written against (the HARL-U2
-profile's: 9600 8N1, no flow control, a 1 s reply deadline, 3 read retries), so a
+here are the ones every existing robot.yaml was written against (the first
+family's profile: 9600 8N1, no flow control, a 1 s reply deadline, 3 read retries), so a
 file that leaves a setting out means what it always meant.
 """
 

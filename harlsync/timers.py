@@ -1,13 +1,13 @@
 """The kernel's timer slack, lowered for threads that keep deadlines.
 
 Linux lets a sleeping thread wake up to 50 us late by default (its *timer slack*),
-so that nearby wake-ups can be served together.  A thread that waits for a reply's
-last byte, or an emulated line that writes one when it is due, wants its deadline:
-50 us is half of what an exchange at 115200 baud may spend between a reply and the
-next request.  :func:`precise_timers` lowers the calling thread's slack to
-:data:`SLACK_NS`; elsewhere than Linux it does nothing.  ``ctypes`` is imported on
-the first call, not before: the link calls it after its first reply, so the first
-request does not wait for it.
+so that nearby wake-ups can be served together.  An emulated line that writes a
+reply's last byte when it is due wants its deadline: 50 us is half of what an
+exchange at 115200 baud may spend between a reply and the next request.
+:func:`precise_timers` lowers the calling thread's slack to :data:`SLACK_NS`;
+elsewhere than Linux it does nothing.  The simulators' reply threads call it (the
+link itself waits for bytes, not for timers).  ``ctypes`` is imported on the first
+call, not before.
 """
 
 from __future__ import annotations

@@ -127,6 +127,9 @@ def build(root: Path) -> SimPlant:
     timers.write_text(re.sub(r"(?m)^  1: .*$", "  1: 0.80", timers.read_text()))
     git(root, "commit", "-qam", "loader: faster pick")
     engine.push(projects["loader"], PushOptions(yes=True, reason=f"faster pick {MARKUP}"))
+    # The night after: its backup finds what the push wrote (issue 30: the backup
+    # branch keeps the robot's state, which the push changed).
+    backup([projects["loader"]], commit=True)
 
     # gripper: a push killed after its write, before its end record.
     positions = projects["gripper"] / "positions.yaml"

@@ -10,8 +10,12 @@ pty or TCP socket by :mod:`harlsync.sim.serve`.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
+
+import pytest
 
 from harlsync.families.harl_u2.model import Config, ProgramArea
 from harlsync.families.harl_u2.sim import SimState, Simulator
@@ -112,6 +116,52 @@ class ScriptedSim(Simulator):
                 for r in self.received
                 if r.payload == payload or r.payload.startswith(payload + " ")
             ]
+
+
+class LinkClock:
+    """The link module's clock (its ``time``), frozen, and the waits the link asks for.
+
+    :func:`watch_waits` puts it in the link's place: ``time.monotonic`` stands still
+    and moves on only by what the link waits for with nothing arriving (a ``sleep``,
+    a ``poll`` that times out), so every wait the link asks for is known exactly,
+    whatever the machine's load.  ``sleeps`` are the link's ``time.sleep`` calls,
+    ``polls`` the timeouts it gave ``poll`` (seconds); the bytes themselves come in
+    real time.
+    """
+
+    def __init__(self) -> None:
+        self.start = self.now = time.monotonic()  # on from the link's real clock
+        self.sleeps: list[float] = []
+        self.polls: list[float] = []
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.sleeps.append(seconds)
+        self.now += seconds
+
+
+class _WatchedPoll:
+    def __init__(self, poll: Any, clock: LinkClock) -> None:
+        self._poll, self._clock = poll, clock
+
+    def poll(self, timeout: float) -> list[tuple[int, int]]:
+        self._clock.polls.append(timeout / 1000)
+        ready: list[tuple[int, int]] = self._poll.poll(timeout)
+        if not ready:
+            self._clock.now += timeout / 1000
+        return ready
+
+
+def watch_waits(link: Any, monkeypatch: pytest.MonkeyPatch) -> LinkClock:
+    """A :class:`LinkClock` in place of the open ``link``'s clock and its poll."""
+    from harlsync.link import exchange
+
+    clock = LinkClock()
+    monkeypatch.setattr(exchange, "time", clock)
+    link._poll = _WatchedPoll(link._poll, clock)
+    return clock
 
 
 class EchoingLine(Simulator):

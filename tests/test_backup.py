@@ -116,12 +116,15 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
     assert "3 of 5 robot(s) backed up, 2 changed" in out
     for name, before in untouched.items():
         assert files_of(plant.root / name) == before
-    log = git(plant.root, "log", "--format=%B", f"{head.strip()}..HEAD")
+    # Issue 30: committed on the backup branch; the approved one and its files stay.
+    assert git(plant.root, "rev-parse", "HEAD") == head
+    assert git(plant.root, "status", "--porcelain") == ""
+    log = git(plant.root, "log", "--format=%B", f"{head.strip()}..harlsync/backup")
     assert log.startswith("backup: 2 of 5 robot(s) changed: loader, press-2\n")
     assert "- loader: 1 timer:\n    timer " in log  # each item named (issue 22)
     assert "- press-2: 2 programs (2 steps):\n    " in log
     assert "- silent:" in log and "- garbage:" in log  # the failures are in the message too
-    changed = git(plant.root, "show", "--name-only", "--format=", "HEAD").split()
+    changed = git(plant.root, "show", "--name-only", "--format=", "harlsync/backup").split()
     assert sorted(changed) == [
         "loader/timers.yaml",
         "press-2/programs/main-01.yaml",
@@ -133,14 +136,15 @@ def test_issue_20_a_robot_busy_at_the_offset_table_probe_fails_its_backup_not_pa
     plant: Plant, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # Review finding 7: any E reply to the probe past the last offset table was
-    # taken for "no such table"; only the profile's NO_SUCH_TABLE is.
+    # taken for "no such table".  Since issue 29 only the one the first pull got
+    # twice and recorded is (controller.yaml offset_tables.no_such_table).
     plant.sims["loader"].stations[1].data.timers[1] = "6.66"
     plant.sims["loader"].stations[1].errors["LNL 100"] = STATUS_BUSY
     before = files_of(plant.root / "loader")
     assert main(["backup", str(plant.root), "--commit", "--attempts", "1"]) == 1
     rows = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()[1:6]}
     assert rows["loader"].split()[1] == "FAILED"
-    assert f"offset table 100 answered error status E{STATUS_BUSY}" in rows["loader"]
+    assert f"offset table 100 answered E{STATUS_BUSY} twice, not E21" in rows["loader"]
     assert files_of(plant.root / "loader") == before  # the changed timer is not saved either
 
 
@@ -263,6 +267,38 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
     assert 'harlsync_backup_failed_attempts{project="silent",robot="silent"} 1' in text
 
 
+def test_issue_34_item_14_every_output_is_checked_before_a_robot_is_read_all_problems_at_once(
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    plant.sims["loader"].stations[1].data.timers[2] = "1.23"  # a backup would change it
+    metrics = tmp_path / "textfile" / "harlsync.prom"  # its directory was never made
+    a_file = tmp_path / "www"
+    a_file.write_text("not a directory\n")
+    page = a_file / "plant.html"
+    on_failure = "mial -s 'robots not backed up' maintenance@plant.example"  # mistyped
+    on_change = "echo 'unclosed"
+    records = {n: (plant.root / n / ".harlsync" / "backup.json").read_bytes() for n in plant.sims}
+    received = {n: len(sim.received) for n, sim in plant.sims.items()}
+    capsys.readouterr()
+    code = main(
+        ["backup", str(plant.root), "--metrics", str(metrics), "--html", str(page)]
+        + ["--on-failure", on_failure, "--on-change", on_change]
+    )
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert f"cannot write the metrics file {metrics} (no directory {metrics.parent})" in err
+    assert f"cannot write the report page {page} (not a directory: {a_file})" in err
+    assert f"--on-failure '{on_failure}': the shell finds no command mial" in err
+    assert f"--on-change '{on_change}': the shell cannot read it (" in err
+    assert err.rstrip().endswith("no robot was read")
+    assert {n: len(sim.received) for n, sim in plant.sims.items()} == received
+    assert records == {
+        n: (plant.root / n / ".harlsync" / "backup.json").read_bytes() for n in plant.sims
+    }
+    assert not metrics.parent.exists()
+
+
 def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
     robot = plant.root / "loader" / "robot.yaml"
     text = robot.read_text()
@@ -279,7 +315,7 @@ def test_push_failure_is_reported_and_the_local_commit_kept(plant: Plant) -> Non
     plant.sims["loader"].stations[1].data.timers[3] = "3.21"
     report = backup([plant.root / "loader"], commit=True, push=True)
     assert report.commit is not None and report.pushed is False and report.push_error
-    assert git(plant.root, "rev-parse", "HEAD").strip() == report.commit
+    assert git(plant.root, "rev-parse", "harlsync/backup").strip() == report.commit
     assert "git push FAILED" in report.render()
     assert not report.ok  # a backup that never left the server is not a success
 
@@ -294,14 +330,14 @@ def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(plant: Plant, caps
 def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeypatch) -> None:
     from harlsync.sync import backup as backup_module
 
-    real = backup_module.pull
+    real = backup_module.nightly.read_robot
 
     def broken_for_the_loader(path: Path, **kwargs: object):  # type: ignore[no-untyped-def]
         if Path(path).name == "loader":
             raise RuntimeError("termios.error(5, 'Input/output error')")
         return real(path, **kwargs)
 
-    monkeypatch.setattr(backup_module, "pull", broken_for_the_loader)
+    monkeypatch.setattr(backup_module.nightly, "read_robot", broken_for_the_loader)
     # The bug is patched into this process: a worker process would not have it.
     report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1, workers=1)
     outcome = {r.name: r for r in report.robots}
@@ -336,8 +372,12 @@ def test_the_documented_cron_line_runs_against_simulated_robots(
     assert "silent" in done.stdout and "FAILED" in done.stdout  # --quiet prints on failure
     assert "silent" in (tmp_path / "mail.txt").read_text()
     assert "harlsync_backup_success" in (tmp_path / "m.prom").read_text()
-    pushed = git(bare, "log", "-1", "--format=%s", branch)
+    assert git(bare, "log", "-1", "--format=%s", branch) == "first backup\n"  # as approved
+    pushed = git(bare, "log", "-1", "--format=%s", "harlsync/backup")  # issue 30
     assert re.fullmatch(r"backup: loader: timer \d+", pushed.strip())  # names what changed
+    assert git(bare, "for-each-ref", "--format=%(refname)", "refs/harlsync/deployed/").split() == [
+        f"refs/harlsync/deployed/{n}" for n in ("loader", "press-1", "press-2")
+    ]  # set up by the first backup of each robot that answered
 
 
 def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:
@@ -380,10 +420,11 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
     assert code == 1 and "Traceback" not in err
     rows = {line.split()[0]: line for line in out.splitlines()[1:6]}
     assert rows["loader"].split()[1] == "FAILED"
-    assert f"{loader}: cannot save the project (Read-only file system)" in rows["loader"]
+    # Issue 30: a backup writes no project file, only its record in .harlsync.
+    assert "/.harlsync/backup.json: cannot record the backup (Read-only file system)" in out
     assert rows["press-1"].split()[1] == "ok" and "1 timer" in rows["press-1"]
     assert "4 of 5 robot(s) backed up, 1 changed, commit " in out
-    assert git(plant.root, "show", "--name-only", "--format=", "HEAD").split() == [
+    assert git(plant.root, "show", "--name-only", "--format=", "harlsync/backup").split() == [
         "press-1/timers.yaml"
     ]
     assert failed_out.read_text() == "loader"
@@ -396,26 +437,32 @@ def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
 ) -> None:
     for name in ("silent", "garbage"):
         plant.sims[name].faults = Faults()
+    assert backup([plant.root], commit=True).ok  # issue 30: the backup branch set up
     plant.sims["loader"].stations[1].data.timers[1] = "6.66"
     head = git(plant.root, "rev-parse", "HEAD")
-    stale_lock = plant.root / ".git" / "index.lock"  # left by a git killed mid-commit
+    kept = git(plant.root, "rev-parse", "harlsync/backup")
+    # Left by a git killed mid-commit. The backup branch's commit needs no index
+    # (issue 30), so a stale index.lock is no longer a failure; the branch's is.
+    (plant.root / ".git" / "index.lock").write_text("")
+    stale_lock = plant.root / ".git" / "refs" / "heads" / "harlsync" / "backup.lock"
     stale_lock.write_text("")
     assert main(["backup", str(plant.root), "--commit"]) == 1
     out, err = capsys.readouterr()
     assert "Traceback" not in err
     assert "5 of 5 robot(s) backed up, 1 changed; git commit FAILED: " in out
-    assert "index.lock': File exists. (if no git is running there, remove that file)" in out
+    assert "backup.lock': File exists" in out
     assert git(plant.root, "rev-parse", "HEAD") == head
+    assert git(plant.root, "rev-parse", "harlsync/backup") == kept
 
     stale_lock.unlink()  # someone clears it; the robots have not changed since
     report = backup([plant.root], commit=True)
     [loader] = [r for r in report.robots if r.name == "loader"]
     assert report.ok and loader.ok, loader.error
-    assert loader.changed and "an earlier pull's backup, never committed" in loader.summary
-    assert git(plant.root, "show", "--name-only", "--format=", "HEAD").split() == [
+    assert loader.changed and loader.summary == "1 timer"
+    assert git(plant.root, "show", "--name-only", "--format=", "harlsync/backup").split() == [
         "loader/timers.yaml"
     ]
-    assert git(plant.root, "status", "--porcelain") == ""
+    assert git(plant.root, "rev-parse", "HEAD") == head
 
 
 def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten(
@@ -428,13 +475,8 @@ def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwr
     edited = files_of(plant.root / "loader")
     report = backup([plant.root / "loader"], commit=True)
     [loader] = report.robots
-    assert not loader.ok
-    assert "uncommitted changes a pull would overwrite (loader/programs/main-00.yaml)" in (
-        loader.error or ""
-    )
-    # Issue 14: what to do, in words backup can take: it has no --allow-dirty itself.
-    assert loader.error.endswith(
-        f"commit or stash them, or overwrite them with 'harlsync pull {plant.root / 'loader'} "
-        "--allow-dirty'"
-    )
+    # Issue 30: a backup never writes the working tree, so it backs the robot up
+    # onto its own branch and leaves the edit (and the uncommitted pull) alone.
+    assert loader.ok, loader.error
+    assert git(plant.root, "show", "harlsync/backup:loader/timers.yaml").count("6.66") == 1
     assert files_of(plant.root / "loader") == edited

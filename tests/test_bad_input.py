@@ -742,3 +742,31 @@ def test_an_error_naming_a_path_with_a_newline_is_still_one_line(
     assert code == 2
     assert one_line(err).startswith("harlsync: error: ")
     assert "not a project directory" in err
+
+
+# --- options out of range: one line, before any robot is read (issue 34) -----------------------
+
+
+@pytest.mark.parametrize("attempts", ["0", "-1"])
+def test_issue_34_item_3_backup_attempts_below_one_is_one_line_and_no_robot_is_tried(
+    project: Path, capsys: pytest.CaptureFixture[str], attempts: str
+) -> None:
+    before = tree(project)
+    code, out, err = cli(capsys, "backup", str(project), "--attempts", attempts)
+    assert code == 2 and out == ""
+    assert one_line(err) == f"harlsync backup: --attempts {attempts}: give 1 or more tries"
+    assert tree(project) == before  # no robot tried, none recorded as a failed attempt
+
+
+@pytest.mark.parametrize("command", ["status", "backup"])
+@pytest.mark.parametrize("hours", ["inf", "nan", "1e12", "-1"])
+def test_issue_34_item_10_stale_after_out_of_range_is_one_line_naming_the_option_and_range(
+    project: Path, capsys: pytest.CaptureFixture[str], command: str, hours: str
+) -> None:
+    before = tree(project)
+    code, out, err = cli(capsys, command, str(project), "--stale-after", hours)
+    assert code == 2 and out == ""
+    line = one_line(err)
+    assert line.startswith(f"harlsync {command}: --stale-after ")
+    assert line.endswith(": give 0 to 87600 hours (ten years)")
+    assert tree(project) == before

@@ -22,6 +22,7 @@ from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import (
     OFFSET_TABLE_COUNT,
     Config,
+    OffsetEnd,
     OffsetTable,
     ProgramArea,
     ProgramType,
@@ -29,6 +30,7 @@ from harlsync.families.harl_u2.model import (
     Step,
     TaskState,
 )
+from harlsync.families.harl_u2.protocol import profile
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.families.harl_u2.sim.device import STATUS_RANGE
 from harlsync.link import SerialSettings
@@ -105,8 +107,14 @@ def test_read_program_returns_only_the_steps_that_hold_something(
 
 
 def expected(state: SimState, registers: bool) -> RobotData:
+    """What a read of everything returns: the robot's data, and where its offset
+    tables end (the simulator's 100, ended by the profile's E21: issue 29)."""
     data = state.data
-    return replace(data, registers=dict(data.registers or {}) if registers else None)
+    return replace(
+        data,
+        registers=dict(data.registers or {}) if registers else None,
+        offset_end=OffsetEnd(OFFSET_TABLE_COUNT, "E" + profile.NO_SUCH_TABLE),
+    )
 
 
 @pytest.mark.parametrize("registers", [False, True])
@@ -116,7 +124,9 @@ def test_read_all_reads_everything_the_configuration_says_exists(
     seen: list[tuple[int, int]] = []
     got = robot.read_all(include_registers=registers, progress=lambda d, t: seen.append((d, t)))
     assert got == expected(state, registers)
-    total = 4 + SMALL.step_count + OFFSET_TABLE_COUNT + SMALL.timers + (4 if registers else 0)
+    # the end of the offset tables: table 100, table 99 again, table 100 again (issue 29)
+    end = 3
+    total = 3 + SMALL.step_count + OFFSET_TABLE_COUNT + end + SMALL.timers + 4 * registers
     assert seen == [(n, total) for n in range(1, total + 1)]
     assert sim.received[0].payload == "LNX" and len(sim.received) == total
     assert not sim.writes_received()

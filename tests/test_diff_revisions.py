@@ -52,3 +52,40 @@ def test_diff_between_two_backups_and_a_snapshot_needs_no_robot(repo: Path, caps
         assert err.count("\n") == 1 and "neither a git revision" in err, err
     assert main(["diff", str(project), "--rev", "HEAD", "--port", url]) == 2
     assert "no --port" in capsys.readouterr().err
+
+
+def test_issue_34_item_8_a_damaged_snapshot_is_named_not_the_projects_own_file(
+    repo: Path, capsys
+) -> None:
+    sim = Simulator({1: SimState.generate(8, SMALL)})
+    url = register(sim)
+    try:
+        project = repo / "press"
+        engine.pull(project, port=url, commit=True)
+        timers = project / "timers.yaml"
+        timers.write_text(re.sub(r"(?m)^  2: .*$", "  2: 0.80", timers.read_text()))
+        git(repo, "commit", "-qam", "faster")
+        result = engine.push(project, PushOptions(yes=True))  # snapshot 1
+        assert result.snapshot is not None
+        snapshot = result.snapshot
+        (snapshot / "timers.yaml").write_text("timers: [\n")  # damaged on disk
+        received = len(sim.received)
+        capsys.readouterr()
+
+        for chosen in ([], ["--snapshot", "1"], ["--snapshot", str(snapshot)]):
+            code = main(["rollback", str(project), "--yes", *chosen])
+            err = capsys.readouterr().err
+            assert code == 2 and err.count("\n") == 1, err
+            assert f"snapshot 1 ({snapshot}) cannot be read: timers.yaml:2: " in err, err
+
+        assert main(["diff", str(project), "--rev", "1"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1, err
+        assert err.startswith(
+            f"harlsync: error: {project}: snapshot 1 ({snapshot}) cannot be read: "
+            "timers.yaml:2: YAML syntax error"
+        ), err
+        assert f"'harlsync snapshots {project}' lists the others" in err
+        assert len(sim.received) == received  # no robot was read or written
+    finally:
+        unregister(url)

@@ -12,6 +12,7 @@ import io
 import re
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,7 @@ from conftest import git
 from ptyscreen import run
 
 from harlsync.families.harl_u2.catalogue import CATALOGUE as HARL_U2
+from harlsync.families.harl_u2.model import OffsetEnd
 from harlsync.families.harl_u2.sim import SimState as HarlState
 from harlsync.families.iai.catalogue import CATALOGUE as IAI
 from harlsync.families.iai.layout import IaiData
@@ -26,12 +28,14 @@ from harlsync.families.iai.sim import SimState as IaiState
 from harlsync.sync import engine
 from harlsync.terminal import Feedback
 
-#: The robot ``sim://?seed=N`` generates: 1080 exchanges read it whole (with the probe past the offset tables).
+#: The robot ``sim://?seed=N`` generates: 1082 exchanges read it whole (with the three
+#: that find where the offset tables end, issue 29).
+TABLES = "100 offset tables (0-99, no table 100: E21 twice)"
 CONTENTS = {
-    1: "13 programs (162 steps used), 100 offset tables (0-99, the controller has no table 100), 16 timers",
-    2: "13 programs (199 steps used), 100 offset tables (0-99, the controller has no table 100), 16 timers",
+    1: f"13 programs (162 steps used), {TABLES}, 16 timers",
+    2: f"13 programs (199 steps used), {TABLES}, 16 timers",
 }
-READ = r"read {contents} in [0-9.]+ s \(1080 exchanges with the controller\)"
+READ = r"read {contents} in [0-9.]+ s \(1082 exchanges with the controller\)"
 BAR_MARKS = ("exchanges with the controller [", "%|")
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="a pty is POSIX")
@@ -117,7 +121,7 @@ def test_issue_14_backup_shows_a_live_line_per_robot_and_a_result_line_as_each_e
     drawn = seen.raw.decode()
     for name in ("loader", "press"):  # each had its own live line, with rate and time left
         assert re.search(
-            rf"{name}: +[0-9]+%\|[^|]*\| [0-9]+/1080 exchanges with the controller "
+            rf"{name}: +[0-9]+%\|[^|]*\| [0-9]+/1082 exchanges with the controller "
             r"\[[0-9:]+<[0-9:?]+, [0-9.?]+/s\]",
             drawn,
         ), name
@@ -161,7 +165,8 @@ def test_issue_14_ctrl_c_leaves_no_bar_on_the_screen_and_exits_130(
 
 
 def test_each_family_says_what_a_read_found_in_its_own_words() -> None:
-    harl = HarlState.generate(1).data
+    # as a read finds it: where the offset tables end (issue 29)
+    harl = replace(HarlState.generate(1).data, offset_end=OffsetEnd(100, "E21"))
     assert HARL_U2.contents(harl, registers=False) == CONTENTS[1]
     assert HARL_U2.contents(harl, registers=True) == CONTENTS[1] + ", 16 registers"
     state = IaiState.generate(3, position_range=(1, 40))

@@ -321,11 +321,17 @@ def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) 
         report = backup([root], workers=workers, commit=True, attempts=1, watch=watch)
         robots = [
             {k: v for k, v in r.items() if k not in ("duration", "last_success", "path")}
+            | {"standing": r["standing"] and r["standing"]["drift"]}  # its commits differ
             for r in report.to_json()["robots"]
         ]
-        message = git(root, "log", "-1", "--format=%B")
-        names = git(root, "show", "--name-only", "--format=", "HEAD").split()
-        kept = {k: v for k, v in files_of(root).items() if not k.endswith("backup.json")}
+        # Issue 30: committed on the backup branch, not over the approved one.
+        message = git(root, "log", "-1", "--format=%B", "harlsync/backup")
+        names = git(root, "show", "--name-only", "--format=", "harlsync/backup").split()
+        kept = {
+            k: v
+            for k, v in files_of(root).items()
+            if not k.endswith(("backup.json", "states.json"))
+        }
         return watch.of, robots, message, names, kept
 
     alone, *one = result(plant.root, 1)
@@ -359,8 +365,10 @@ def test_a_robot_failed_in_a_worker_is_one_row_of_the_one_report_commit_and_metr
     assert len(report["robots"]) == 7
     assert [n for n, r in rows.items() if not r["ok"]] == [failing]
     assert "station 1" in rows[failing]["error"]
-    assert git(plant.root, "rev-list", f"{head}..HEAD").split() == [report["commit"]]
-    message = git(plant.root, "log", "-1", "--format=%B")
+    # Issue 30: on the backup branch; HEAD stays.
+    assert git(plant.root, "rev-list", f"{head}..harlsync/backup").split() == [report["commit"]]
+    assert git(plant.root, "rev-parse", "HEAD").strip() == head
+    message = git(plant.root, "log", "-1", "--format=%B", "harlsync/backup")
     assert message.startswith(
         f"backup: 2 of 7 robot(s) changed: {', '.join(sorted([changed, 'local']))}"
     )
@@ -481,14 +489,44 @@ def test_a_worker_killed_mid_run_fails_its_robots_and_the_run_goes_on(plant: Pla
             "the backup's worker process ended before this robot was backed up (killed by "
             "SIGKILL); its previous backup is kept"
         )
+        # Its backup kept; its record says the attempt failed (issue 34 item 2), and
+        # keeps when the last good one was.
+        record = f"{name}/.harlsync/backup.json"
         assert {k: v for k, v in files_of(plant.root / name).items()} == {
-            k.removeprefix(f"{name}/"): v for k, v in before.items() if k.startswith(f"{name}/")
-        }
+            k.removeprefix(f"{name}/"): v
+            for k, v in before.items()
+            if k.startswith(f"{name}/") and k != record
+        } | {".harlsync/backup.json": (plant.root / record).read_bytes()}
+        was, now = json.loads(before[record]), history.read(plant.root / name)
+        assert now["last_result"] == "failed" and now["last_success"] == was["last_success"]
     assert rows["local"].ok and rows["local"].changed  # this process's share went on
     assert all(rows[n].ok for share in worker_shares(plant, 2) for n in share if n not in failed)
     assert report.commit and git(
-        plant.root, "show", "--name-only", "--format=", "HEAD"
+        plant.root, "show", "--name-only", "--format=", "harlsync/backup"
     ).split() == ["local/timers.yaml"]
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="finds the worker in /proc")
+def test_issue_34_item_2_robots_of_a_killed_worker_are_recorded_failed_and_status_says_so(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Last night's backup (the plant's first pull) recorded every robot ok.
+    assert {history.read(plant.root / name).get("last_result") for name in plant.sims} == {"ok"}
+    watch = KillsTheWorker()
+    report = backup([plant.root], workers=2, watch=watch)
+    assert watch.killed
+    failed = sorted(r.name for r in report.robots if not r.ok)
+    assert failed in [sorted(share) for share in worker_shares(plant, 2)]
+    for name in plant.sims:
+        record = history.read(plant.root / name)
+        assert record["last_result"] == ("failed" if name in failed else "ok"), name
+        if name in failed:
+            said = "the backup's worker process ended before this robot was backed up"
+            assert said in record["last_error"]
+    capsys.readouterr()
+    assert main(["status", str(plant.root), "--format", "json"]) == 1
+    states = {r["name"]: r["state"] for r in json.loads(capsys.readouterr().out)["robots"]}
+    assert sorted(name for name, state in states.items() if state == "failed") == failed
 
 
 def test_workers_below_one_is_one_line_and_exit_2(tmp_path: Path, capsys) -> None:

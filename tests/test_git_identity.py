@@ -63,7 +63,12 @@ def test_pull_and_backup_commit_with_no_git_identity(served, repo, tmp_path) -> 
     sim.stations[1].data.timers[1] = "6.66"
     done = run(env, "backup", str(repo), "--commit")
     assert done.returncode == 0, done.stdout + done.stderr
-    assert git(repo, "log", "-1", "--format=%s").strip() == "backup: press: timer 1"
+    # Issue 30: on the backup branch, by the same identity.
+    assert git(repo, "log", "-1", "--format=%s", "harlsync/backup").strip() == (
+        "backup: press: timer 1"
+    )
+    author = git(repo, "log", "-1", "--format=%an <%ae>|%cn <%ce>", "harlsync/backup").strip()
+    assert re.fullmatch(r"harlsync \((\S+)@(\S+)\) <\1@\2>\|harlsync \(\1@\2\) <\1@\2>", author)
 
 
 def test_a_configured_identity_wins(served, repo, tmp_path) -> None:

@@ -33,13 +33,14 @@ from simline import (
     noise,
     preceded_by,
     slow,
+    watch_waits,
 )
 
 from harlsync.errors import (
+    ChecksumError,
     FrameError,
     LinkError,
     LinkTimeout,
-    LRCError,
     PortBusyError,
     PortError,
     ProjectError,
@@ -318,7 +319,7 @@ def test_a_read_gives_up_after_its_retries_with_link_timeout(link: Link, sim: Sc
         "the cable, and the serial settings (baud, parity) in robot.yaml"
     )
     assert "b'" not in message and "\n" not in message
-    assert isinstance(info.value.__cause__, LRCError)
+    assert isinstance(info.value.__cause__, ChecksumError)
     assert len(sim.sent("LNT 1")) == 4 and link.stats.retries == 3
 
 
@@ -852,43 +853,18 @@ def test_a_device_server_address_without_a_port_number_says_what_to_give(url: st
         Link(url).open()
 
 
-@pytest.mark.skipif(sys.platform != "linux", reason="timer slack is Linux's")
-def test_issue_24_the_thread_that_waits_for_replies_keeps_its_deadlines(link: Link) -> None:
-    """The kernel's default timer slack (50 us) lets each sleep for a reply end late;
-    the thread that exchanges has it lowered, from its first exchange on."""
-    import ctypes
-
-    from harlsync.timers import SLACK_NS
-
-    def slack() -> int:
-        value: int = ctypes.CDLL(None).prctl(30, 0, 0, 0, 0)  # PR_GET_TIMERSLACK
-        return value
-
-    seen: list[int] = []
-
-    def exchanging() -> None:
-        ctypes.CDLL(None).prctl(29, 50_000, 0, 0, 0)  # the default (a new thread inherits)
-        seen.append(slack())
-        link.exchange(cmd.read_version())
-        seen.append(slack())
-
-    thread = threading.Thread(target=exchanging)
-    thread.start()
-    thread.join()
-    assert seen == [50_000, SLACK_NS]
-
-
-def test_issue_24_a_kind_timed_by_late_replies_is_timed_afresh_once_they_come_quicker(
-    link: Link, sim: ScriptedSim
+def test_issue_24_replies_that_came_late_once_set_no_pace_for_the_later_ones(
+    link: Link, sim: ScriptedSim, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The first replies of a kind came late (a busy start); the link times the next
-    by them and finds each whole when its timer wakes, which says only that it came no
-    later.  One exchange in RETIME is read as it comes, so the kind's timing follows
-    the quicker replies instead of waiting as long for the rest of the pull."""
-    from harlsync.link import exchange
-
+    """A busy start: the first replies of a kind came late.  The link learns no pace
+    from them (it once timed the kind by them and waited as long for the rest of the
+    pull): each later exchange waits for its reply's bytes, up to its deadline, and
+    for nothing else."""
     sim.plan("LNT 2", *[Act(wire=slow(0.04))] * 3)
-    for _ in range(3 + exchange.RETIME):
+    for _ in range(3):
         assert link.exchange(cmd.read_timer(2)) == "3.20"
-    (took,) = link._took.values()  # the link's own timing of the kind
-    assert min(took.turnaround) < 0.02  # was 0.04 and more, for ever
+    clock = watch_waits(link, monkeypatch)
+    for _ in range(20):
+        assert link.exchange(cmd.read_timer(2)) == "3.20"
+    assert clock.sleeps == []
+    assert clock.polls and all(wait == pytest.approx(FAST.timeout) for wait in clock.polls)

@@ -1,25 +1,25 @@
-"""The link's paced wait (harlsync/link/exchange.py, "Waiting"): asleep while a reply
-is on the wire, it still takes every reply whole and answers every request with its
-own reply, whatever the reply's length against the recent ones of its kind.
+"""The link's wait for a reply (harlsync/link/exchange.py, "Waiting"): it reads each
+reply as it comes, woken by its bytes, and waits for no time of its own making: not
+one worked out from robot.yaml's baud rate, which behind a device server is not the
+line's (issue 29), nor one learnt from earlier replies.  Every reply is taken whole
+and answers its own request, whatever its length against the others of its kind.
 
-Over a real pty and a real TCP socket to a simulator that emulates a 9600-baud line
-(each reply's bytes paced at the character rate), so that the link does sleep.
+Over a real pty and a real TCP socket to a simulator that emulates a serial line
+(each reply's bytes paced at the character rate).
 """
 
 from __future__ import annotations
 
-import select
 from collections.abc import Iterator
 
 import pytest
-from simline import SMALL, Act, ScriptedSim, slow
+from simline import SMALL, Act, ScriptedSim, slow, watch_waits
 
 from harlsync.families.harl_u2.link import Link
 from harlsync.families.harl_u2.model import ProgramType, Step
 from harlsync.families.harl_u2.protocol import commands as cmd
 from harlsync.families.harl_u2.sim import SimState
 from harlsync.link import SerialSettings
-from harlsync.link.exchange import MIN_SLEEP
 from harlsync.sim.serve import PtyServer, TcpServer
 
 LINE = SerialSettings(baudrate=9600, timeout=0.5, retries=3)
@@ -34,11 +34,16 @@ STEPS = {
 }
 
 
-@pytest.fixture
-def sim() -> ScriptedSim:
+def robot(baudrate: int) -> ScriptedSim:
+    """A robot whose MAIN 0 holds :data:`STEPS`, on a line of ``baudrate``."""
     state = SimState.generate(3, SMALL)
     state.data.programs[(ProgramType.MAIN, 0)] = dict(STEPS)
-    return ScriptedSim(state, baudrate=LINE.baudrate)
+    return ScriptedSim(state, baudrate=baudrate)
+
+
+@pytest.fixture
+def sim() -> ScriptedSim:
+    return robot(LINE.baudrate)
 
 
 @pytest.fixture(params=["pty", "tcp"])
@@ -49,14 +54,6 @@ def link(request: pytest.FixtureRequest, sim: ScriptedSim) -> Iterator[Link]:
         link = Link(url, 1, LINE)
         with link:
             yield link
-
-
-def test_a_reply_is_long_enough_on_the_wire_for_the_link_to_sleep(link: Link) -> None:
-    # The premise of the other tests: a step's exchange takes longer than MIN_SLEEP.
-    request = cmd.read_step(ProgramType.MAIN, 0, 0)
-    link.exchange(request)
-    took = next(iter(link._took.values()))
-    assert took.shortest(len(request.encode(1)), link._char) > 2 * MIN_SLEEP
 
 
 def test_replies_shorter_and_longer_than_the_recent_ones_are_each_read_whole(
@@ -83,40 +80,36 @@ def test_a_reply_slower_than_the_recent_ones_is_its_own_or_retried_past_its_dead
     assert link.stats.retries == retries and link.stats.unrequested == 0
 
 
-class _CountedPoll:
-    """The link's poll object, counting how often the link waits in it."""
-
-    def __init__(self, poll: select.poll) -> None:
-        self._poll, self.calls = poll, 0
-
-    def poll(self, timeout: float) -> list[tuple[int, int]]:
-        self.calls += 1
-        return self._poll.poll(timeout)
-
-
-def test_replies_a_little_shorter_each_time_keep_the_link_asleep_while_on_the_wire(
-    link: Link, sim: ScriptedSim
+def test_a_reply_paced_by_a_slow_line_is_read_as_it_comes_woken_by_its_bytes_only(
+    link: Link, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # Each reply a byte shorter than every one before it (as IAI positions with
-    # fewer digits are): each is whole before the link wakes, and the next is still
-    # timed from the kind's history, not read a byte per wake-up (some 20 at 9600).
-    params = [
-        ("P001", "S100", "A123"),
-        ("P001", "S100", "A12"),
-        ("P001", "S100", "A1"),
-        ("P001", "S10", "A1"),
-        ("P01", "S10", "A1"),
-        ("P1", "S10", "A1"),
-        ("P1", "S1", "A1"),
-        ("P1", "S1", "A"),
-    ]
-    program = sim.stations[1].data.programs[(ProgramType.MAIN, 0)]
-    program.update((n, Step("MOVE", p)) for n, p in enumerate(params))
-    assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, 0)) == program[0]  # by poll
-    counted = link._poll = _CountedPoll(link._poll)
-    for n in range(1, len(params)):
-        assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, n)) == program[n]
-    (took,) = link._took.values()
-    assert len(took.turnaround) == len(params)  # every exchange timed the next
-    assert counted.calls <= 3 * (len(params) - 1)
-    assert link.stats.retries == 0 and link.stats.unrequested == 0
+    # At 9600 baud a step's reply is some 30 ms on the wire, in 1 ms ticks: the link
+    # waits in poll until its deadline, woken by the bytes; no wait ends without
+    # bytes (the link's clock never moves), and it never sleeps.
+    clock = watch_waits(link, monkeypatch)
+    for n, step in STEPS.items():
+        assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, n)) == step
+    assert clock.sleeps == [] and clock.now == clock.start
+    assert len(clock.polls) >= len(STEPS)
+    assert all(wait == pytest.approx(LINE.timeout) for wait in clock.polls)
+
+
+def test_issue_29_behind_a_device_server_no_exchange_waits_for_a_wire_time_from_robot_yaml_baud(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The device server runs the line at 115200 baud and robot.yaml keeps its default,
+    # 9600: a wire time worked out from it is 12 times the line's.  The link timed one
+    # exchange in 16 of a kind by it, a sleep of 20-70 ms each (a pull 1.60 x a bare
+    # client's).  Now it asks for no wait but the reply's deadline, and never sleeps.
+    yaml = SerialSettings(baudrate=9600, timeout=5.0, retries=0)  # 5 s: never reached
+    sim = robot(115200)
+    timer = sim.stations[1].data.timers[2]
+    with TcpServer(sim) as server, Link(server.url, 1, yaml) as link:
+        clock = watch_waits(link, monkeypatch)
+        for _ in range(8):  # 40 step reads, 40 timer reads: kinds of more than 16 each
+            for n, step in STEPS.items():
+                assert link.exchange(cmd.read_step(ProgramType.MAIN, 0, n)) == step
+                assert link.exchange(cmd.read_timer(2)) == timer
+    assert clock.sleeps == [], "slept for wire times at robot.yaml's 9600 baud"
+    assert all(wait == pytest.approx(yaml.timeout) for wait in clock.polls)
+    assert link.stats.retries == 0

@@ -66,7 +66,7 @@ def test_issue_20_with_offset_tables_set_the_pull_keeps_every_table_and_says_its
         robot_yaml(project, server.url, 120)
         # What the pull's closing line says (on a terminal): the range it covered.
         contents = engine.pull(project).contents
-        assert "120 offset tables (0-119, the controller has no table 120)" in contents
+        assert "120 offset tables (0-119, no table 120: E21 twice)" in contents
         assert "  110: {x: 12.50, y: -3.00" in (project / "offsets.yaml").read_text()
         assert "offset_tables: 120" in (project / "robot.yaml").read_text()
         assert main(["validate", str(project)]) == 0
@@ -85,7 +85,10 @@ def test_issue_20_validate_refuses_a_table_past_robot_yamls_count(
     (project / "robot.yaml").write_text(text.replace("offset_tables: 120", "offset_tables: 110"))
     capsys.readouterr()
     assert main(["validate", str(project)]) == 1
-    assert "table 110 is outside the configuration (allowed: 0-109)" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert (
+        "table 110 is outside the configuration (allowed: 0-109, robot.yaml offset_tables)" in out
+    )
 
 
 def test_issue_20_a_pull_of_the_manuals_100_tables_says_the_range_it_covered(
@@ -94,8 +97,14 @@ def test_issue_20_a_pull_of_the_manuals_100_tables_says_the_range_it_covered(
     sim = robot_with(100)
     with TcpServer(sim) as server:
         contents = engine.pull(tmp_path / "cell", port=server.url).contents
-    assert "100 offset tables (0-99, the controller has no table 100)" in contents
-    assert [r.payload for r in sim.received if r.command == "LNL"][-1] == "LNL 100"
+    assert "100 offset tables (0-99, no table 100: E21 twice)" in contents
+    # table 100 twice, table 99 read again between (issue 29)
+    assert [r.payload for r in sim.received if r.command == "LNL"][-4:] == [
+        "LNL 99",
+        "LNL 100",
+        "LNL 99",
+        "LNL 100",
+    ]
 
 
 def test_issue_20_a_busy_answer_to_the_table_probe_fails_the_pull_it_is_not_no_such_table(
@@ -103,18 +112,24 @@ def test_issue_20_a_busy_answer_to_the_table_probe_fails_the_pull_it_is_not_no_s
 ) -> None:
     # Review finding 7: any "E" reply to LNL 100 counted as "no such table", so a
     # robot that was busy (or had a transient fault) at the probe passed a backup
-    # that may be short.  Only profile.NO_SUCH_TABLE means the table is absent.
+    # that may be short.  Since issue 29 a first pull takes the reply a controller
+    # gives twice (no code is in the manual) and records it: a later pull that gets
+    # another one there fails, naming both, and saves nothing.
     sim = robot_with(100)
-    sim.stations[1].errors["LNL 100"] = STATUS_BUSY
-    assert STATUS_BUSY != profile.NO_SUCH_TABLE
+    project = tmp_path / "cell"
     with TcpServer(sim) as server:
-        assert main(["pull", str(tmp_path / "new"), "--port", server.url]) == 2
+        assert main(["pull", str(project), "--port", server.url]) == 0
+        before = (project / "offsets.yaml").read_bytes()
+        sim.stations[1].errors["LNL 100"] = STATUS_BUSY
+        assert STATUS_BUSY != profile.NO_SUCH_TABLE
+        capsys.readouterr()
+        assert main(["pull", str(project)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1, err
     assert "command LNL 100" in err[0]
-    assert f"offset table 100 answered error status E{STATUS_BUSY}, not E21" in err[0]
-    assert "saves no backup" in err[0]
-    assert not (tmp_path / "new" / "offsets.yaml").exists()
+    assert f"offset table 100 answered E{STATUS_BUSY} twice, not E21" in err[0]
+    assert "saves nothing" in err[0]
+    assert (project / "offsets.yaml").read_bytes() == before
     assert [r.payload for r in sim.received if r.command == "LNL"][-1] == "LNL 100"
     assert not sim.writes_received()
 

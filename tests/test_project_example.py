@@ -6,9 +6,16 @@ regenerate them with ``python tests/test_project_example.py``.
 
 from __future__ import annotations
 
+import os
+import pty
+import re
+import shlex
+import subprocess
 import sys
 from datetime import datetime, time
 from pathlib import Path
+
+import pytest
 
 from harlsync.families.harl_u2.layout import KINDS, SCHEMAS
 from harlsync.families.harl_u2.model import (
@@ -221,6 +228,144 @@ def test_the_example_window_is_weekday_nights() -> None:
     assert robot.in_window(datetime(2026, 3, 7, 5, 59))  # Saturday morning: Friday's window
     assert not robot.in_window(datetime(2026, 3, 7, 23, 0))  # Saturday night
     assert not robot.in_window(datetime(2026, 3, 2, 6, 0))  # end is outside
+
+
+# --- the README's full cycle, run as it is written (issue 34 item 13) ---------------------
+
+
+def walkthrough() -> list[tuple[str, list[str]]]:
+    """The README's "A full cycle" section: each command it gives (a ``$`` line) and
+    the output it shows under it."""
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    section = text.split("\n## A full cycle", 1)[1].split("\n## ", 1)[0]
+    steps: list[tuple[str, list[str]]] = []
+    for block in re.findall(r"\n```\n(.*?)\n```", section, re.DOTALL):
+        for line in block.splitlines():
+            if line.startswith("$ "):
+                steps.append((line[2:], []))
+            elif steps:
+                steps[-1][1].append(line)
+    return steps
+
+
+def shown_as_pattern(line: str) -> str:
+    """A line of output as the README shows it, as a regular expression: ``...``
+    stands for anything, a commit (10 hex digits) for any, a snapshot's time for any."""
+    parts = re.split(r"(\.\.\.|\b[0-9a-f]{10}\b|\d{8}T\d{6}\.\d{6}Z)", line)
+    wild = {"...": ".*"}
+    return "".join(
+        wild.get(part)
+        or (
+            "[0-9a-f]{10}"
+            if re.fullmatch(r"[0-9a-f]{10}", part)
+            else r"\d{8}T\d{6}\.\d{6}Z"
+            if re.fullmatch(r"\d{8}T\d{6}\.\d{6}Z", part)
+            else re.escape(part)
+        )
+        for part in parts
+    )
+
+
+def shows(shown: list[str], printed: list[str]) -> bool:
+    """Whether ``printed`` is what the README ``shown``: line by line, a line that is
+    only ``...`` standing for any number of lines."""
+    if not shown:
+        return not printed
+    if shown[0] == "...":
+        return any(shows(shown[1:], printed[n:]) for n in range(len(printed) + 1))
+    return (
+        bool(printed)
+        and re.fullmatch(shown_as_pattern(shown[0]), printed[0]) is not None
+        and shows(shown[1:], printed[1:])
+    )
+
+
+def run_shell(command: str, cwd: Path, env: dict[str, str], answer: bool) -> tuple[int, str]:
+    """``command`` through bash in ``cwd``: its exit status and standard output.
+    ``answer``: its standard input is a terminal on which ``y`` was typed, and the
+    output shows it after the question, as a terminal would."""
+    keyboard, terminal = pty.openpty() if answer else (None, None)
+    try:
+        if keyboard is not None:
+            os.write(keyboard, b"y\n")  # typed ahead: the terminal keeps it for the question
+        done = subprocess.run(
+            ["bash", "-c", command],
+            cwd=cwd,
+            env=env,
+            stdin=subprocess.DEVNULL if terminal is None else terminal,
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+    finally:
+        for fd in (keyboard, terminal):
+            if fd is not None:
+                os.close(fd)
+    out = done.stdout.replace("[y/N] ", "[y/N] y\n") if answer else done.stdout
+    return done.returncode, out
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="the README's walkthrough is a POSIX shell's")
+def test_issue_34_item_13_the_readmes_full_cycle_runs_on_the_simulator_as_it_shows(
+    tmp_path: Path,
+) -> None:
+    steps = walkthrough()
+    audit_log = os.environ["HARLSYNC_AUDIT_LOG"]
+    env = dict(
+        os.environ,
+        PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+        GIT_AUTHOR_NAME="t",
+        GIT_AUTHOR_EMAIL="t@t",
+        GIT_COMMITTER_NAME="t",
+        GIT_COMMITTER_EMAIL="t@t",
+        NO_COLOR="1",
+    )
+    # The simulator as the README starts it, on a free port, answering at once and
+    # reading no commands (the README's is typed into a terminal of its own).
+    started = next(command for command, _ in steps if command.startswith("harlsync sim "))
+    given = "127.0.0.1:5020"
+    assert given in started
+    sim = subprocess.Popen(
+        [*shlex.split(started.replace(given, "127.0.0.1:0")), "--baud", "0", "--no-input"],
+        cwd=REPO,
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert sim.stdout is not None
+        said = [sim.stdout.readline() for _ in range(3)]
+        address = said[1].strip().removeprefix("tcp: socket://")
+        assert said[2] == "stations: 1\n", said
+        plant = tmp_path / "plant"
+        ran = []
+        for command, shown in steps:
+            if command.startswith((". ", "harlsync sim ")):
+                continue
+            command = command.replace("/tmp/plant", str(plant)).replace(given, address)
+            expected = [
+                line.replace("/tmp/plant", str(plant))
+                .replace(given, address)
+                .replace("~/.local/state/harlsync/audit.jsonl", audit_log)
+                for line in shown
+            ]
+            answer = any(line.endswith("[y/N] y") for line in expected)
+            code, out = run_shell(command, plant if plant.is_dir() else tmp_path, env, answer)
+            ran.append(command)
+            assert code == (1 if command.startswith("harlsync diff ") else 0), (command, out)
+            if expected:
+                assert shows(expected, out.splitlines()), (command, expected, out)
+        # Both edits reached the robot and came back: the diff showed two items.
+        assert any(c.startswith("harlsync rollback ") for c in ran)
+        diff = next(shown for command, shown in steps if command == "harlsync diff cell-1")
+        assert [line for line in diff if line.startswith("@@")] == [
+            "@@ timers @@",
+            "@@ MAIN program 0 @@",
+        ]
+    finally:
+        sim.terminate()
+        sim.wait(timeout=30)
 
 
 if __name__ == "__main__":

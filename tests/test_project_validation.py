@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from harlsync.cli import main
 from harlsync.errors import FrameError, ProjectFormatError, ProjectInvalid
 from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame
 from harlsync.link import SerialSettings
@@ -306,7 +307,7 @@ def test_unknown_keys_are_reported_with_the_allowed_ones(root: Path) -> None:
         ),
         (
             "robot.yaml:20: colour: unknown key (allowed: format, family, name, description, connection, "
-            "maintenance_windows, keep_registers, offset_tables)"
+            "maintenance_windows, keep_registers, offset_tables, no_such_table)"
         ),
         "programs/hand-01.yaml:4: comment: unknown key (allowed: format, type, number, steps)",
     ]
@@ -365,6 +366,30 @@ def test_a_step_written_twice_in_format_1_is_reported_with_both_lines(root1: Pat
         load_project(root)
 
 
+@pytest.mark.parametrize(
+    ("key", "shown"), [("-1", "'-1'"), ("'07'", "'07'"), ("1.5", "'1.5'"), ("10000", "'10000'")]
+)
+def test_issue_34_item_7_a_bad_step_key_in_format_1_is_named_with_its_line(
+    root1: Path, key: str, shown: str
+) -> None:
+    edit(root1, "programs/main-00.yaml", "  2: WAIT DI02 ON", f"  {key}: WAIT DI02 ON")
+    edit(root1, "programs/main-00.yaml", "  5: TIMER T00", "  5x: TIMER T00")
+    plain = key.strip("'")
+    assert validate_project(root1) == [
+        (
+            f"programs/main-00.yaml:8: steps.{plain}: {shown} is not a step number "
+            "(allowed: 0-9999, written without sign, point or leading zero)"
+        ),
+        (
+            "programs/main-00.yaml:11: steps.5x: '5x' is not a step number "
+            "(allowed: 0-9999, written without sign, point or leading zero)"
+        ),
+    ]
+    with pytest.raises(ProjectInvalid) as caught:
+        load_project(root1)
+    assert "programs/main-00.yaml:8: steps." in str(caught.value)
+
+
 def test_a_file_in_a_newer_format_is_refused_and_never_rewritten(root: Path) -> None:
     edit(root, "programs/main-00.yaml", "format: 2", "format: 3")
     edit(root, "programs/main-00.yaml", "type: MAIN", "type: MAIN\nfuture: feature")
@@ -418,8 +443,14 @@ def test_timers_must_match_the_configured_count(root: Path) -> None:
 def test_every_offset_table_must_be_present_and_numbered_0_to_99(root: Path) -> None:
     edit(root, "offsets.yaml", "  9: {", "  100: {")
     assert validate_project(root) == [
-        "offsets.yaml:3: tables: table 9 missing (allowed: every table 0-99)",
-        "offsets.yaml:13: tables.100: table 100 is outside the configuration (allowed: 0-99)",
+        (
+            "offsets.yaml:3: tables: table 9 missing "
+            "(allowed: every table 0-99, robot.yaml offset_tables)"
+        ),
+        (
+            "offsets.yaml:13: tables.100: table 100 is outside the configuration "
+            "(allowed: 0-99, robot.yaml offset_tables)"
+        ),
     ]
 
 
@@ -575,3 +606,17 @@ def test_an_older_format_is_migrated_on_load_and_written_as_current_on_save(
     assert project.data == load_project(EXAMPLE).data
     assert save_project(root, project) == ["offsets.yaml"]
     assert (root / "offsets.yaml").read_bytes() == (EXAMPLE / "offsets.yaml").read_bytes()
+
+
+def test_issue_34_item_15_validate_says_in_one_line_what_it_checked_when_the_project_is_valid(
+    root: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["validate", str(root)]) == 0
+    out, err = capsys.readouterr()
+    checked = [p for p in root.rglob("*.yaml") if ".schemas" not in p.relative_to(root).parts]
+    assert len(checked) == 18  # robot.yaml, four settings files, thirteen programs
+    assert out == (
+        f"{root}: valid harl-u2 project: 18 files checked against their schemas and "
+        "its own configuration\n"
+    )
+    assert err == ""

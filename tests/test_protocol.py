@@ -7,7 +7,7 @@ from conftest import examples
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from harlsync.errors import FrameError, LRCError, ProtocolError, ReplyError
+from harlsync.errors import ChecksumError, FrameError, ProtocolError, ReplyError
 from harlsync.families.harl_u2.model import (
     Config,
     OffsetTable,
@@ -136,7 +136,7 @@ def test_noise_before_stx_is_dropped_and_counted() -> None:
 def test_a_bad_lrc_is_an_error_and_the_next_frame_still_decodes(feed) -> None:
     bad = WORKED_REPLY[:-1] + b"\x28"
     out, _ = feed(bad + LNV_REPLY)
-    assert isinstance(out[0], LRCError)
+    assert isinstance(out[0], ChecksumError)
     assert [f.payload for f in out[1:]] == ["5.00"]
 
 

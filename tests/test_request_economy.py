@@ -42,7 +42,8 @@ def full_read(config: Config) -> Counter[str]:
             "LNV": 1,
             "LNE": 1,
             "LN step": config.step_count,
-            "LNL": OFFSET_TABLE_COUNT + 1,  # the probe past the last table (issue 20)
+            # past the last table (issue 20): table 100, 99 again, 100 again (issue 29)
+            "LNL": OFFSET_TABLE_COUNT + 3,
             "LNT": config.timers,
         }
     )

@@ -85,6 +85,8 @@ def robots(draw: st.DrawFn) -> Robot:
     )
     if draw(st.booleans()):
         robot.options["offset_tables"] = draw(st.integers(0, 10001))
+    if draw(st.booleans()):  # issue 29: E and a status, or something else
+        robot.options["no_such_table"] = draw(st.sampled_from(["E21", "E2", "E", "21"]) | texts)
     return robot
 
 
@@ -106,7 +108,7 @@ def test_the_plain_robot_yaml_harlsync_writes_is_read_back_as_written(tmp_path) 
         windows=[Window(("mon", "fri"), time(22, 0), time(6, 30))],
         description="Press 3: the 'old' one",
         family="harl-u2",
-        options={"offset_tables": 12},
+        options={"offset_tables": 12, "no_such_table": "E2"},
     )
     root = written(tmp_path, render_robot(robot))
     assert full(root) == ("harl-u2", robot)

@@ -84,6 +84,26 @@ def test_a_plan_of_another_robot_says_so_and_a_stale_plan_exits_3(robot, tmp_pat
     assert "the robot changed since the plan" in capsys.readouterr().err
 
 
+def test_issue_32_a_push_called_from_python_refuses_another_robots_plan_before_reading(
+    robot, tmp_path
+) -> None:
+    """The plan file's check lived in the command line: a push called from Python
+    read the robot before the plan's own check refused it."""
+    from harlsync.errors import StalePlanError
+    from harlsync.sync.deploy import PushOptions, push
+
+    robot.edit_timer(1, "0.80")
+    saved = tmp_path / "plan.json"
+    assert main(["plan", str(robot.project), "--out", str(saved)]) == 0
+    other = robot.repo / "other"
+    engine.pull(other, port=robot.url, commit=True)
+    asked = len(robot.sim.received)
+    with pytest.raises(StalePlanError, match="was made for robot press"):
+        push(other, PushOptions(yes=True, plan_file=saved))
+    assert robot.sim.received[asked:] == []  # refused before a single request
+    assert audit.read() == []
+
+
 def test_plan_lists_every_reason_a_push_would_be_refused(robot, capsys) -> None:
     from datetime import datetime
 

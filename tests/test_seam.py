@@ -13,6 +13,8 @@ import ast
 import re
 from pathlib import Path
 
+import pytest
+
 import harlsync
 
 ROOT = Path(harlsync.__file__).parent
@@ -59,3 +61,33 @@ def _family_words_in_code(path: Path) -> list[str]:
 def test_issue_21_no_module_outside_the_families_names_a_family_in_code() -> None:
     found = [line for path in _engine_modules() for line in _family_words_in_code(path)]
     assert found == []
+
+
+def test_issue_32_an_installed_distribution_adds_a_family_through_its_entry_point(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A site adds a family without editing the registry: its distribution declares
+    the package in the ``harlsync.families`` entry-point group, and ``--family``,
+    the registry and a robot.yaml then know it."""
+    import importlib.metadata
+
+    from harlsync import cli, families
+
+    point = importlib.metadata.EntryPoint("toy", "toyfamily", families.ENTRY_POINTS)
+    asked: list[str] = []
+
+    def entry_points(*, group: str) -> list[importlib.metadata.EntryPoint]:
+        asked.append(group)
+        return [point] if group == families.ENTRY_POINTS else []
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
+    monkeypatch.setattr(families, "FAMILIES", dict(families.FAMILIES))
+    monkeypatch.setattr(families, "_discovered", False)
+    assert families.get("harl-u2").name == "harl-u2"
+    assert asked == []  # a registered name needs no look at the installed distributions
+    assert families.get("toy").name == "toy"
+    assert asked == [families.ENTRY_POINTS]
+    assert "toy" in families.names() and "toy" in families.KNOWN
+    with pytest.raises(SystemExit):
+        cli.main(["pull", "--help"])
+    assert "toy" in capsys.readouterr().out

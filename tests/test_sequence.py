@@ -10,8 +10,8 @@ import pytest
 from conftest import git
 from test_sync import pulled
 
+from harlsync.alignment import align
 from harlsync.cli import main
-from harlsync.families.base import align
 from harlsync.families.harl_u2.catalogue import CATALOGUE, StepKey
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.sim import SimState, Simulator

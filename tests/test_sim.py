@@ -13,7 +13,7 @@ from simprocess import harlsync_sim
 
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
 from harlsync.families.harl_u2.protocol import FrameDecoder, encode_frame, lrc
-from harlsync.families.harl_u2.sim import SimState, Simulator
+from harlsync.families.harl_u2.sim import SIM_FAMILY, SimState, Simulator
 from harlsync.families.harl_u2.sim.device import STATUS_RANGE
 from harlsync.sim import Faults
 from harlsync.sim.control import apply_command
@@ -332,3 +332,58 @@ def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Pa
         (1, "LNR", False),
         (1, "LNR", True),
     ]
+
+
+def test_issue_29_a_variant_the_family_lacks_is_one_line_on_the_command_line_and_in_a_url(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from harlsync import cli
+
+    assert cli.main(["sim", "--no-pty", "--listen", "127.0.0.1:0", "--variant", "nope=1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--variant" in err and "nope" in err and "\n" not in err
+    assert cli.main(["sim", "--no-pty", "--listen", "127.0.0.1:0", "--variant", "nope"]) == 2
+    assert "NAME=VALUE" in capsys.readouterr().err
+    with pytest.raises(serial.SerialException, match="nope"):
+        simulator_from_url("sim://?seed=1&nope=1")
+
+
+@pytest.mark.parametrize("reply", ["E2", "E99"])
+def test_issue_29_the_harl_u2_missing_table_variant_answers_every_number_it_lacks(
+    sim: Simulator, reply: str
+) -> None:
+    sim.vary({"missing_table": reply})
+    for payload in ("LNL 100", "SNL 100 0.00 0.00 0.00 0.00 0.00 0.00 0 0", "LNT 4", "LNM 9 0"):
+        assert ask(sim, payload) == reply, payload
+    assert ask(sim, "LNL 99") == "0.00 0.00 0.00 0.00 0.00 0.00 0 0"
+    assert sim.writes == 0  # the refused SNL changed nothing
+
+
+def test_issue_29_the_harl_u2_offset_tables_variant_sets_how_many_tables_it_has(
+    sim: Simulator,
+) -> None:
+    sim.vary({"offset_tables": "64"})
+    assert ask(sim, "LNL 63") == "0.00 0.00 0.00 0.00 0.00 0.00 0 0"
+    assert ask(sim, "LNL 64") == "E" + STATUS_RANGE
+    # a robot built with its own count (more tables, or from a project) keeps it
+    sim.stations[1].offset_tables = 120
+    sim.stations[1].__post_init__()
+    assert ask(sim, "LNL 119") == "0.00 0.00 0.00 0.00 0.00 0.00 0 0"
+    with pytest.raises(ValueError, match="128 is not one of 100, 64"):
+        sim.vary({"offset_tables": "128"})  # more: tested apart (tests/test_offset_end.py)
+
+
+def test_issue_29_a_harl_u2_simulator_of_a_project_has_the_tables_its_pull_found(
+    tmp_path: Path,
+) -> None:
+    sim = Simulator(SimState.generate(1, SMALL))
+    sim.vary({"offset_tables": "64"})
+    url = register(sim)
+    try:
+        from harlsync.sync import engine
+
+        engine.pull(tmp_path / "cell", port=url)
+    finally:
+        unregister(url)
+    again = SIM_FAMILY.from_project(tmp_path / "cell", None)  # the profile's variants
+    assert ask(again, "LNL 63") is not None and ask(again, "LNL 64") == "E" + STATUS_RANGE

@@ -111,9 +111,9 @@ def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(robot,
     sim.stations[1].data.timers[1] = "6.66"
     report = backup([project], commit=True)
     state = json.loads(history.read_text())
-    assert state["last_changes"] == "1 timer" and state["last_commit"] == report.commit == head(
-        repo
-    )
+    # Issue 30: the commit is on the backup branch; the approved one stays.
+    kept = git(repo, "rev-parse", "harlsync/backup").strip()
+    assert state["last_changes"] == "1 timer" and state["last_commit"] == report.commit == kept
 
     sim.faults = Faults(drop=1.0)
     fast = project / "robot.yaml"
@@ -153,7 +153,7 @@ def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(
     assert {name: cells[1] for name, cells in rows.items()} == STATES
     assert rows["cell-9"][2:5] == ["iai", plant.urls["cell-9"], "1A"]  # hex, as IAI writes it
     assert rows["press"][2:5] == ["harl-u2", plant.urls["press"], "1"]
-    last = git(plant.root, "log", "-1", "--format=%H", "--", "press").strip()
+    last = git(plant.root, "log", "-1", "--format=%H", "harlsync/backup", "--", "press").strip()
     assert rows["press"][6] == last[:10] and rows["press"][7] == "1 program (1 step)"
     assert rows["cell-9"][7] == "1 position"
     assert rows["spare"][5] == "never"

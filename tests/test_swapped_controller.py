@@ -99,3 +99,28 @@ def test_an_epson_of_another_model_is_refused_after_2153_and_2154(epson, command
     numbers = [c.number for c in sim.commands()[before:]]
     assert numbers[0] == 2153 and set(numbers[1:]) == {2154}, numbers  # the type, the model
     assert len(numbers) == 1 + len("G3-301S")  # one character a command
+
+
+@pytest.mark.parametrize("command", ["diff", "plan", "push"])
+def test_issue_34_item_17_a_harl_u2_of_another_version_is_refused_by_diff_plan_and_push(
+    harl_u2, command, capsys
+) -> None:
+    # A pull refused a swapped controller, a push did not: it read the robot, planned
+    # and wrote the project's items to another robot's controller.
+    sim, project = harl_u2
+    before_files = {p: p.read_bytes() for p in project.rglob("*.yaml")}
+    sim.stations[1].data.version = "9.99"  # another robot's controller on the port
+    sim.stations[1].data.timers[0] = "7.77"  # what a push would write back
+    before = len(sim.received)
+    capsys.readouterr()
+    code = main([command, str(project), *(["--yes"] if command == "push" else [])])
+    err = capsys.readouterr().err
+    assert code == {"diff": 2, "plan": 2, "push": 3}[command], err
+    assert err.count("\n") == 1, err
+    assert "version '9.99' (LNV), the project is of version '5.00'" in err, err
+    assert "--new-robot" in err
+    asked = since(sim, before)
+    # its identity, after the interlock's two LNR for a push, and nothing more
+    assert asked == (["LNR", "LNR"] if command == "push" else []) + ["LNX", "LNV"], asked
+    assert not sim.writes_received()
+    assert {p: p.read_bytes() for p in project.rglob("*.yaml")} == before_files

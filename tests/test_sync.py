@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 from collections.abc import Iterator
 from datetime import datetime
 from decimal import Decimal
@@ -823,3 +824,49 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
     )
     [record] = audit_log.results()
     assert record.result == "refused" and len(record.done) == 2
+
+
+#: The example project, and the same robot as format 1 wrote it (steps keyed by number).
+EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
+FORMAT_1 = Path(__file__).resolve().parent / "fixtures" / "format-1" / "pick-and-place"
+
+
+@pytest.mark.parametrize("command", ["pull", "backup"])
+def test_issue_34_item_4_a_format_1_project_migrated_by_a_commit_is_committed_and_said(
+    repo: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    project = repo / "cell"
+    shutil.copytree(FORMAT_1, project)
+    robot_yaml = project / "robot.yaml"  # the robot the example project is a backup of
+    robot_yaml.write_text(
+        robot_yaml.read_text().replace("sim://projects/pick-and-place", f"sim://{EXAMPLE}?baud=0")
+    )
+    git(repo, "add", "-A")
+    git(repo, "commit", "-qm", "as format 1 wrote it")
+    head = git(repo, "rev-parse", "HEAD").strip()
+    capsys.readouterr()
+    assert main([command, str(project), "--commit"]) == 0
+    out = capsys.readouterr().out
+    # The robot holds what the backup holds: only the format changed, and it is committed:
+    # by a pull on the branch, by a backup on its own (issue 30: never over the approved
+    # branch and the working tree, which keep format 1 until an engineer pulls).
+    branch = "HEAD" if command == "pull" else "harlsync/backup"
+    [commit] = git(repo, "rev-list", f"{head}..{branch}").split()
+    assert git(repo, "status", "--porcelain") == ""
+    migrated = sorted(
+        p.relative_to(FORMAT_1).as_posix()
+        for p in FORMAT_1.rglob("*.yaml")
+        if p.name != "robot.yaml"
+    )
+    assert len(migrated) == 17
+    committed = git(repo, "show", "--name-only", "--format=", branch).split()
+    assert {f"cell/{name}" for name in migrated} <= set(committed)
+    assert "cell/robot.yaml" not in committed  # a person's file, never rewritten
+    for name in migrated:
+        kept = git(repo, "show", f"{branch}:cell/{name}").encode()
+        assert kept == (EXAMPLE / name).read_bytes(), name
+        if command == "backup":
+            assert (project / name).read_bytes() == (FORMAT_1 / name).read_bytes(), name
+    said = "17 files migrated from format 1 to format 2"
+    assert said in git(repo, "log", "-1", "--format=%B", branch)
+    assert said in out and commit[:10] in out

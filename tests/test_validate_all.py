@@ -191,7 +191,7 @@ def test_harl_a_schema_error_in_robot_yaml_keeps_its_offset_tables(harl) -> None
     assert said(harl) == [
         (
             "robot.yaml:21: bogus: unknown key (allowed: format, family, name, description, "
-            "connection, maintenance_windows, keep_registers, offset_tables)"
+            "connection, maintenance_windows, keep_registers, offset_tables, no_such_table)"
         )
     ]
     replace(robot, "offset_tables: 101", "offset_tables: many")

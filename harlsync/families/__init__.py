@@ -3,7 +3,16 @@
 This registry is the one place that names the family packages (python-can's
 ``BACKENDS``): adding a family adds a package under ``harlsync/families/`` and
 one line in :data:`FAMILIES`, and changes no engine file.  A family kept
-elsewhere (a test's, a plant's own) joins with :func:`register`.  A project
+elsewhere (a test's, a plant's own) joins with :func:`register`, or, installed
+as a distribution of its own, through the entry-point group
+``harlsync.families`` (python-can finds its interfaces so)::
+
+    [project.entry-points."harlsync.families"]
+    kuka-krc = "myplant.kuka"     # the package holding its family and sim modules
+
+Entry points are looked at only when a name is not registered already, or
+when every name is asked for (importing :mod:`importlib.metadata` costs more
+than a pull's whole start-up).  A project
 whose ``robot.yaml`` has no ``family`` key is of the :data:`DEFAULT` family.
 
 Every family package has a ``family`` module whose ``FAMILY`` is its
@@ -19,7 +28,7 @@ imported: they never import it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from importlib import import_module
 from pathlib import Path
 from types import ModuleType
@@ -33,11 +42,15 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT",
+    "ENTRY_POINTS",
     "FAMILIES",
+    "KNOWN",
     "every",
     "get",
     "names",
+    "of_port",
     "of_project",
+    "port_hint",
     "refuse_options",
     "register",
     "simulator_module",
@@ -51,6 +64,42 @@ FAMILIES: dict[str, str] = {
     "epson": f"{__name__}.epson",
 }
 DEFAULT = "harl-u2"
+#: The entry-point group through which an installed distribution adds a family.
+ENTRY_POINTS = "harlsync.families"
+_discovered = False
+
+
+def _discover() -> None:
+    """Add the families installed distributions declare (:data:`ENTRY_POINTS`),
+    once; a name registered already keeps its package."""
+    global _discovered
+    if _discovered:
+        return
+    _discovered = True
+    from importlib.metadata import entry_points
+
+    for point in entry_points(group=ENTRY_POINTS):
+        FAMILIES.setdefault(point.name, point.value)
+
+
+class _Known:
+    """Every family name, for a command line's ``choices``: a name registered
+    already is found without looking at the installed entry points."""
+
+    def __contains__(self, name: object) -> bool:
+        if name not in FAMILIES:
+            _discover()
+        return name in FAMILIES
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(names())
+
+    def __len__(self) -> int:
+        return len(names())
+
+
+#: The family names as a command line's ``choices=`` takes them.
+KNOWN = _Known()
 
 
 def register(name: str, package: str) -> None:
@@ -60,10 +109,14 @@ def register(name: str, package: str) -> None:
 
 
 def names() -> tuple[str, ...]:
+    """Every family: the registered ones and those installed distributions add."""
+    _discover()
     return tuple(FAMILIES)
 
 
 def _package(name: str) -> str:
+    if name not in FAMILIES:
+        _discover()
     try:
         return FAMILIES[name]
     except KeyError:
@@ -80,7 +133,7 @@ def get(name: str | None) -> AnyFamily:
 
 def every() -> tuple[AnyFamily, ...]:
     """Every family registered, in :data:`FAMILIES` order (each one imported)."""
-    return tuple(get(name) for name in FAMILIES)
+    return tuple(get(name) for name in names())
 
 
 def of_project(root: Path, *, strict: bool = False) -> AnyFamily:
@@ -109,8 +162,40 @@ def refuse_options(family: AnyFamily, given: Mapping[str, bool]) -> None:
 
 
 def url_schemes() -> dict[str, int]:
-    """Every family's own URL schemes -> the port a URL of it means when it names none."""
-    return {s.name: s.default_port for family in every() for s in family.schemes}
+    """Every family's own URL schemes -> the port a URL of it means when it names none.
+
+    The families registered so far: one an entry point adds is registered as soon as
+    a robot.yaml or ``--family`` names it, before its line is opened."""
+    return {s.name: s.default_port for name in tuple(FAMILIES) for s in get(name).schemes}
+
+
+def of_port(port: str | None) -> str | None:
+    """The name of the family whose own URL scheme ``port`` has (``modbus://``), or None."""
+    scheme = port.partition("://")[0].lower() if port and "://" in port else None
+    for family in every():
+        if scheme and scheme in {s.name for s in family.schemes}:
+            return family.name
+    return None
+
+
+def port_hint(port: str) -> str | None:
+    """What to give instead of a ``HOST:PORT`` without a scheme, which pyserial would
+    take for a device file (None when ``port`` is not one)."""
+    import re
+
+    if "://" in port or not re.fullmatch(
+        r"[A-Za-z0-9.-]+:\d{1,5}|\[[0-9A-Fa-f:.]+\]:\d{1,5}", port
+    ):
+        return None
+    own = [
+        f"{scheme.name}://{port} ({scheme.help.partition(':')[0]})"
+        for family in every()
+        for scheme in family.schemes
+    ]
+    return (
+        f"--port {port}: a network port is given as a URL: socket://{port} (a serial "
+        f"device server){''.join(', or ' + text for text in own)}"
+    )
 
 
 def simulator_module(name: str | None) -> ModuleType:

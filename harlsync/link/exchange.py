@@ -46,35 +46,28 @@ number at most), so the link counts these frames, and from the second in one
 session (:data:`UNREQUESTED_LIMIT`) it fails every read and sends nothing more:
 a :class:`LinkError` that names the port and station and says to fix the line.
 
-Waiting.  The link sleeps until bytes arrive or a deadline passes, never in
-polls.  On a port with a descriptor (a device, a pty, ``socket://``) it waits in
-``poll``, woken by the bytes.  A reply paced by a slow line comes a byte or a few
-at a time (a 30-byte reply at 9600 baud is some 30 arrivals, a 2 KiB IAI reply
-2,000), and waking for each costs more CPU than the rest of the exchange.  So
-when the recent exchanges of the same kind (the same command, and for IAI the
-same longest reply) say that the reply's last bytes come later than
-:data:`MIN_SLEEP` after the request, the link sleeps until then and reads the
-reply whole, in one read; what is still missing it waits for in ``poll``::
+Waiting.  The link reads a reply as it comes: it waits until bytes arrive or the
+reply's deadline passes, never at intervals, and never for a time it works out
+itself.  On a port with a descriptor (a device, a pty, ``socket://``) it waits in
+``poll``, woken by the bytes, and reads all that is there; the decoder says when
+the frame is whole::
 
-    send                      (asleep: the reply is on the wire)       last bytes
-    |-------------------------------------------------------------|~~~~|
-                                                        wake (timer): one read
+    send          poll ... read ... read ... read: the frame is whole -> decode
+    |-------------|~~~~~~~~|~~~~~~~~|~~~~~~~~|
+                  (woken by the bytes, never by a timer of the link's)
 
-A reply as long as the shortest recent one is one wake-up and one read, a
-longer one or a slower one is read as it comes after that.  One exchange in
-:data:`RETIME` of a kind wakes when the reply's bytes alone could have crossed the
-line and is timed by when its last bytes were there, to time the kind afresh: a
-reply found whole when the timer wakes says only that it came no later,
-so without it a kind timed by replies that came late once (a fleet's busy start)
-would wait as long for the rest of the pull.  Only a reply much
-quicker than all of them (an END after full steps) is taken late, when the
-timer wakes; the next of its kind is timed afresh, by poll.  The thread that waits
-has the kernel's timer slack lowered to 1 us (:mod:`harlsync.timers`): by default
-a sleep may end 50 us late, which at 115200 baud is a quarter of the time between
-a reply and the next request.  Fast lines and
-whole replies are read as they come, one wake-up a piece.  Ports without a
-descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are read with
-pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
+So no wait of the link's depends on the line's speed: not on robot.yaml's baud
+rate, which is not the line's behind a device server (``socket://``,
+``rfc2217://`` where the server sets the rate), nor on how the bytes are grouped
+on the way (a USB adapter's latency timer, a device server's packets).  The baud
+rate still sets a local port, and the IAI codec's reply deadline: a bound on a
+reply that does not come, not a wait for one that does.  (``modbus://`` is the
+Epson family's own transport, which has no baud rate.)  A reply paced by a slow
+line wakes the link once per arrival, as it wakes a bare client blocking on its
+port; docs/BENCHMARKS.md ("Issues 29 and 33: the link reads replies as they come")
+measures what the timers that predicted a reply's end saved and what they cost.
+Ports without a descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are
+read with pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
 
 Reading.  A port of our own with a descriptor (a device path, ``socket://``:
 :func:`~harlsync.link.port.direct_fd`) is read with one ``os.read`` of all that
@@ -108,18 +101,15 @@ import os
 import select
 import threading
 import time
-from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from math import ceil
 from types import TracebackType
-from typing import Generic, NamedTuple, TypeVar
+from typing import Generic, TypeVar
 
 import serial
 
 from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyError, WriteUnconfirmed
 from ..settings import SerialSettings, seconds
-from ..timers import precise_timers
 from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
 from .port import SerialPort, describe, direct_fd, fileno, gone_hint, open_port
@@ -135,30 +125,9 @@ MAX_REASONS = 500
 #: line repeats replies, and a repeated reply may pass for the answer to the next
 #: request.
 UNREQUESTED_LIMIT = 2
-#: The shortest sleep worth a timer.  Below it a reply is a byte or two, read as it
-#: comes; above it, reading it as it comes is a wake-up per arrival (a simulated line
-#: writes every millisecond, a USB adapter every latency tick).
-MIN_SLEEP = 0.001
-#: Bytes in the shortest frame of any family (HARL-U2 ``STX 1 SP payload ETX LRC``
-#: is 7 at least, IAI protocol B more): the time this many characters take on the
-#: line is too short for a whole frame to have come in since the link last read it.
-MIN_FRAME = 6
 #: How much one read takes from a descriptor the link reads itself: more than any
 #: reply of any family, so that a reply waiting whole is one read.
 READ_SIZE = 65536
-#: A reply whole when the link woke, shorter than every recent one of its kind by at
-#: most 1/LEARN_SHORTER of its length, teaches the kind its length.  After a much
-#: shorter one (an END after full steps) the kind is timed afresh: timed for the
-#: short one, the next full replies would be read from its end on as they come, a
-#: wake-up a byte, for as long as it is among the recent ones.
-LEARN_SHORTER = 8
-#: Exchanges of a kind whose durations the link keeps: it sleeps for the quickest,
-#: so that a reply is taken late only when it is quicker than all of them.
-RECENT = 64
-#: One exchange in this many of a kind is read as it comes, not by the timer, so
-#: that the kind's timing follows replies that got quicker (a timer that wakes after
-#: the reply came cannot tell how much sooner it was there).
-RETIME = 16
 
 
 @dataclass
@@ -250,14 +219,6 @@ class Link(Generic[F]):
         self._unrequested = 0  # frames nobody asked for since open()
         self._replied_at = 0.0  # when the last reply was taken, for the codec's reply_gap
         self._sent = b""  # the last frame sent, to know its echo
-        # Pacing the wait for a reply (module docstring, "Waiting").
-        self._char = _char_time(self.settings)
-        self._took: dict[_Kind, _Took] = {}
-        self._frame_bytes = 0  # bytes of the last frame taken from the decoder
-        self._sent_at = 0.0  # when the request was sent
-        self._got_at = 0.0  # when bytes were last read
-        self._polled = False  # ... and whether poll woke for them (not a timer)
-        self._retiming = False  # the exchange times its kind afresh (RETIME)
 
     # --- open / close ---------------------------------------------------------------
 
@@ -420,6 +381,7 @@ class Link(Generic[F]):
         return max(self.settings.timeout, 1.0)
 
     def _send(self, port: SerialPort, frame: bytes, station: int, command: str) -> float:
+        """Write ``frame``; when it was written (``time.monotonic``)."""
         gap = self._replied_at + self.codec.reply_gap - time.monotonic()
         if gap > 0:  # the controller is not ready for the next command yet
             time.sleep(gap)
@@ -442,8 +404,7 @@ class Link(Generic[F]):
             ) from exc
         except Exception as exc:  # any failure of pyserial; see the module docstring
             raise self._gone(exc, station, command, " while sending") from exc
-        self._sent_at = time.monotonic()
-        return self._sent_at
+        return time.monotonic()
 
     def _take(self, port: SerialPort, station: int, command: str, *, ready: bool = False) -> bytes:
         """Whatever input is there, without waiting.  ``ready``: ``poll`` said there
@@ -492,9 +453,7 @@ class Link(Generic[F]):
             raise self._gone(exc, station, command, "") from exc
         if not ready:
             return b""
-        data = self._take(port, station, command, ready=True)
-        self._polled = True
-        return data
+        return self._take(port, station, command, ready=True)
 
     def _read_polled(self, port: SerialPort, station: int, command: str) -> bytes:
         """A port without a descriptor: wait up to one pyserial timeout for a byte,
@@ -511,35 +470,9 @@ class Link(Generic[F]):
     def _fed(self, data: bytes) -> bytes:
         """``data`` counted and given to the decoder."""
         if data:
-            self._got_at = time.monotonic()
-            self._polled = False
             self._rx += data
             self._decoder.feed(data)
         return data
-
-    def _learn(self, kind: _Kind) -> None:
-        """Remember how long the exchange just done took, when that is known: when poll
-        woke for the reply's last bytes.  A reply found whole on waking from the timer
-        came no later than the recent ones said (the timer is set for then): the next
-        of its kind is timed the same, and for a reply as short when this one was a
-        little shorter than all of them.  One much shorter than them all (an END after
-        full steps) may have waited long: the next is timed afresh, by poll."""
-        sent, got = len(self._sent), self._frame_bytes
-        took = self._took.get(kind)
-        if self._polled or self._retiming:
-            # poll woke for the last bytes, or the timer woke as soon as they could have
-            # come and found them there: either way no later than they came
-            took = took or self._took.setdefault(kind, _Took())
-            took.turnaround.append(self._got_at - self._sent_at - (sent + got) * self._char)
-            took.longer.append(got - sent)
-        elif took and (min(took.longer) - (got - sent)) * LEARN_SHORTER <= got:
-            # As long as the recent ones, or a little shorter (IAI positions of fewer
-            # digits): the next of its kind is timed for a reply as short, at the same
-            # turnaround.
-            took.turnaround.append(min(took.turnaround))
-            took.longer.append(got - sent)
-        else:
-            self._took.pop(kind, None)
 
     def _gone(self, exc: Exception, station: int, command: str, doing: str) -> PortError:
         return PortError(
@@ -610,7 +543,6 @@ class Link(Generic[F]):
             consumed = self._log_rx()
             if frame is None:
                 return
-            self._frame_bytes = len(consumed)
             if self._sent and consumed.endswith(self._sent):
                 self._echo(frame)
                 continue
@@ -690,29 +622,12 @@ class Link(Generic[F]):
     def _await(
         self, port: SerialPort, request: Request[F, T], station: int, timeout: float
     ) -> _Reply[T] | _Failure:
-        """The decoded reply, or a :class:`_Failure` once ``timeout`` has passed."""
-        precise_timers()  # once a thread, while the first request is on the line
+        """The decoded reply, read as it comes, or a :class:`_Failure` once ``timeout``
+        has passed."""
         deadline = time.monotonic() + timeout
         failure = _Failure(f"no reply within {_within(timeout, self.settings.timeout)}")
         command = request.payload
         shown = self.codec.station_text(station)
-        kind = _Kind(command[:3], getattr(request, "reply_bytes", None))
-        took = self._took.get(kind)
-        # When to look first: when the reply's last bytes are due, if the recent
-        # exchanges of this kind say when that is.
-        # Every RETIME-th exchange of a kind is timed afresh: a reply found whole when
-        # the timer woke says only that it came no later, so a kind timed by replies
-        # that came late once (a busy start) would wait as long for ever.  That one
-        # wakes when the bytes alone could have crossed the line (no turnaround) and
-        # is learnt from, whole then or read as it comes after.
-        look = 0.0
-        self._retiming = False
-        if took:
-            took.timed += 1
-            self._retiming = not took.timed % RETIME
-            look = self._sent_at + took.shortest(
-                len(self._sent), self._char, turnaround=not self._retiming
-            )
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
@@ -728,18 +643,11 @@ class Link(Generic[F]):
                     self._stray(station, frame.payload)
                     continue
                 self._count_noise()
-                self._learn(kind)
-                self._replied_at = self._got_at
+                self._replied_at = time.monotonic()
                 return _Reply(value)
-            now = time.monotonic()
-            if now >= deadline:
+            if time.monotonic() >= deadline:
                 self._count_noise()
                 return failure
-            pause, look = min(look, deadline) - now, 0.0
-            if pause >= MIN_SLEEP:
-                time.sleep(pause)
-                if self._take(port, station, command):
-                    continue
             self._wait(port, station, command, deadline)
 
 
@@ -750,38 +658,6 @@ class _Reply(Generic[T]):
     value: T
 
 
-class _Took:
-    """How the recent exchanges of one kind went: the turnaround (from the request's
-    last byte to the reply's first, on the line) and how many bytes the reply was
-    longer than its request (the same for ``LNM 0 9`` and ``LNM 0 10``: the reply
-    repeats the step number).  Times on the line are at robot.yaml's baud rate."""
-
-    def __init__(self) -> None:
-        self.turnaround: deque[float] = deque(maxlen=RECENT)
-        self.longer: deque[int] = deque(maxlen=RECENT)
-        self.timed = 0  # exchanges of the kind begun since it was first timed
-
-    def __bool__(self) -> bool:
-        return bool(self.turnaround)
-
-    def shortest(self, request: int, char: float, *, turnaround: bool = True) -> float:
-        """Seconds from sending a ``request``-byte request to the last byte of its
-        reply, for the quickest of the recent exchanges (without ``turnaround``: the
-        bytes' time on the line alone, the soonest the reply can be whole)."""
-        return (min(self.turnaround) if turnaround else 0.0) + (
-            2 * request + min(self.longer)
-        ) * char
-
-
-class _Kind(NamedTuple):
-    """Requests whose exchanges take about as long as each other's: the same command,
-    and the same longest reply where the request gives one (IAI's ``reply_bytes``:
-    a 22DH of 16 positions is not one of 24)."""
-
-    command: str
-    longest: int | None
-
-
 def _within(timeout: float, configured: float) -> str:
     """The deadline a reply missed, as configured (``0.5 s``), and the time the
     codec added for a reply long on the wire, if any."""
@@ -789,12 +665,6 @@ def _within(timeout: float, configured: float) -> str:
     return f"{seconds(configured)} s" + (
         f" (+{extra:.3f} s for its time on the wire)" if extra >= 0.0005 else ""
     )
-
-
-def _char_time(settings: SerialSettings) -> float:
-    """Seconds a character takes on the line: start bit, data bits, parity, stop bits."""
-    bits = 1 + settings.bytesize + (settings.parity != "N") + ceil(settings.stopbits)
-    return bits / max(settings.baudrate, 1)
 
 
 def _hex(data: bytes) -> str:

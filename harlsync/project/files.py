@@ -24,6 +24,7 @@ __all__ = [
     "SCHEMAS_DIR",
     "FileSet",
     "Flaws",
+    "MigrationError",
     "build_serial",
     "build_windows",
     "canonical_integer",
@@ -31,6 +32,7 @@ __all__ = [
     "newer_format",
     "not_canonical",
     "numbers",
+    "older_format",
     "robot_items",
     "serial_items",
     "text_of",
@@ -40,8 +42,19 @@ __all__ = [
 SCHEMAS_DIR = ".schemas"
 
 #: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind ``kind``
-#: into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).
+#: into a format-``n+1`` one (data as :func:`yamlio.parse` gives it), or raises
+#: :class:`MigrationError` naming what it cannot carry over.
 Migrations = dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]]
+
+
+class MigrationError(ValueError):
+    """What a migration cannot carry over from the older format, each problem a
+    (path in the document, message): the read reports each at the line it is on."""
+
+    def __init__(self, problems: Sequence[tuple[tuple[str | int, ...], str]]) -> None:
+        super().__init__("; ".join(message for _, message in problems))
+        self.problems = list(problems)
+
 
 _DIGITS = re.compile(r"[0-9]+")
 _INTEGER = re.compile(r"[-+]?[0-9]+")
@@ -134,7 +147,13 @@ class FileSet:
                     )
                 )
                 return False
-            doc.data = self.migrations[number](kind, doc.data)
+            try:
+                doc.data = self.migrations[number](kind, doc.data)
+            except MigrationError as exc:
+                for path, message in exc.problems:
+                    field_name = ".".join(str(p) for p in path) or None
+                    issues.append(Issue(name, doc.line(path), field_name, message))
+                return False
             number += 1
             doc.data["format"] = y.Number(str(number))
             _listed_lines(doc)
@@ -213,6 +232,20 @@ def newer_format(name: str, raw: bytes, current: int) -> Issue | None:
     except (UnicodeDecodeError, y.YamlSyntaxError):
         return None
     return _newer(name, doc, current)
+
+
+def older_format(raw: bytes, current: int) -> int | None:
+    """The format of a file whose content is ``raw`` when it is older than
+    ``current`` (a load migrates it, a save rewrites it); None when it is not, or
+    cannot be read.  Read by the YAML parser, as :func:`newer_format` reads it."""
+    try:
+        doc = y.parse(raw.decode("utf-8"))
+    except (UnicodeDecodeError, y.YamlSyntaxError):
+        return None
+    value = doc.data.get("format") if isinstance(doc.data, dict) else None
+    if isinstance(value, y.Number) and value.integral and 0 < value < current:
+        return int(value)
+    return None
 
 
 def _newer(name: str, doc: y.Parsed, current: int) -> Issue | None:

@@ -57,7 +57,7 @@ import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 from .. import lookup
 from ..errors import ProjectError, ProjectFormatError, ProjectInvalid
@@ -72,7 +72,10 @@ if TYPE_CHECKING:
 __all__ = [
     "LOCAL_DIR",
     "SCHEMAS_DIR",
+    "Checked",
     "Project",
+    "check_project",
+    "check_replaceable",
     "disk_error",
     "edited_since_save",
     "family_name",
@@ -183,21 +186,38 @@ def require_project(root: Path) -> None:
         )
 
 
+class Checked(NamedTuple):
+    """What a check of a project found (:func:`check_project`)."""
+
+    issues: list[str]  # ``file:line: field: message`` each; none: the project is valid
+    notes: list[str]  # what its family tells beyond the issues
+    files: list[str]  # the files checked, relative to the project
+    family: str  # the family's name, which read them
+
+
+def check_project(path: str | os.PathLike[str], family: AnyFamily | None = None) -> Checked:
+    """Check the project at ``path`` against its schemas and its own configuration,
+    as ``harlsync validate`` does.  Raises ProjectFormatError only when ``path`` is
+    not a project directory (none, or no robot.yaml in it)."""
+    family, files, problems = _gather(Path(path), family)
+    found = family.analyse(files)
+    issues = [str(issue) for issue in problems + found.issues]
+    return Checked(issues, list(found.notes), sorted(files), family.name)
+
+
 def validate_project(path: str | os.PathLike[str], family: AnyFamily | None = None) -> list[str]:
     """Every issue of the project at ``path``, as ``file:line: field: message`` lines.
 
     An empty list means the project is valid.  Raises ProjectFormatError only when
     ``path`` is not a project directory (none, or no robot.yaml in it).
     """
-    family, files, problems = _gather(Path(path), family)
-    return [str(issue) for issue in problems + family.analyse(files).issues]
+    return check_project(path, family).issues
 
 
 def project_notes(path: str | os.PathLike[str], family: AnyFamily | None = None) -> list[str]:
     """What ``validate`` tells of the project at ``path`` beyond its issues (its
     family's notes).  Raises as :func:`validate_project`."""
-    family, files, _ = _gather(Path(path), family)
-    return list(family.analyse(files).notes)
+    return check_project(path, family).notes
 
 
 def load_project(path: str | os.PathLike[str], family: AnyFamily | None = None) -> Project:
@@ -429,6 +449,14 @@ def replace_file(target: Path, data: bytes) -> None:
         os.replace(temp, target)
     finally:
         _quietly(temp.unlink, missing_ok=True)
+
+
+def check_replaceable(target: Path) -> None:
+    """Raise OSError unless :func:`replace_file` could replace ``target`` now: it is
+    no directory, and a file can be made beside it (one is, and removed at once)."""
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(target))
+    _write_temp(target, b"", fsync=False).unlink()
 
 
 def disk_error(exc: OSError, where: Path, doing: str) -> ProjectError:

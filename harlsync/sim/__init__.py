@@ -19,6 +19,7 @@ from .family import (
     project_family,
     sim_family,
 )
+from .variants import Variant
 
 __all__ = [
     "Decoder",
@@ -32,6 +33,7 @@ __all__ = [
     "SimFamily",
     "SimServer",
     "Simulator",
+    "Variant",
     "Verb",
     "line_family",
     "project_family",

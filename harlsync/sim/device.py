@@ -33,22 +33,32 @@ battery-backed memory.  A family whose controllers are reached another way
 from __future__ import annotations
 
 import logging
-import random
 import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar, cast
+from typing import Any, ClassVar, Generic, Protocol, TypeVar, cast, runtime_checkable
 
 from .. import families
 from ..errors import ProtocolError
+from . import variants
+from .faults import Faults
+from .variants import Variant
 
-if TYPE_CHECKING:
-    from .family import LineFamily, SimFamily
-
-__all__ = ["Decoder", "Device", "Faults", "Received", "Refused", "RequestFrame", "Simulator"]
+__all__ = [
+    "Decoder",
+    "Device",
+    "Faults",
+    "LineFamily",
+    "Received",
+    "Refused",
+    "RequestFrame",
+    "SimFamily",
+    "Simulator",
+    "Verb",
+]
 
 log = logging.getLogger(__name__)
 
@@ -90,6 +100,72 @@ class Decoder(Protocol[F_co]):
         ...
 
 
+@dataclass(frozen=True)
+class Verb:
+    """One control command of a family's simulator, as ``harlsync sim`` help lists it."""
+
+    name: str
+    #: the words after the verb, ``[STATION [TASK]]``
+    usage: str
+    #: what it does, in a few words
+    does: str
+
+    def __str__(self) -> str:
+        return f"{self.name} {self.usage}".strip()
+
+
+class SimFamily(Protocol):
+    """What the framework needs of a family's simulated controller."""
+
+    @property
+    def name(self) -> str:
+        """The family's name, as ``robot.yaml`` and ``--family`` say it."""
+        ...
+
+    @property
+    def verbs(self) -> tuple[Verb, ...]:
+        """The control verbs its stations take (``status`` and ``BUSY-after-writes
+        N`` are the framework's, for every family)."""
+        ...
+
+    @property
+    def busy_verb(self) -> str:
+        """The verb that makes a station busy with no more arguments (``auto``,
+        ``run``); it also names the schedule, ``auto-after-writes N``."""
+        ...
+
+    @property
+    def variants(self) -> tuple[Variant, ...]:
+        """Each choice its profile makes where the manual is silent, with the other
+        ways a controller may answer (:mod:`harlsync.sim.variants`)."""
+        ...
+
+    @property
+    def default_station(self) -> int:
+        """Where a generated robot sits.  (How stations are written is the family's
+        :class:`~harlsync.families.base.Family`'s, not repeated here.)"""
+        ...
+
+    def generate(self, seed: int, stations: Sequence[int]) -> Device[Any]:
+        """Realistic robots drawn from seeds ``seed``, ``seed + 1`` ..., one a station."""
+        ...
+
+    def from_project(self, project: Path, stations: Sequence[int] | None) -> Device[Any]:
+        """The robot of a project directory, on its own station or on each of
+        ``stations``.  Raises :class:`~harlsync.errors.ProjectError`."""
+        ...
+
+
+@runtime_checkable
+class LineFamily(SimFamily, Protocol):
+    """A family whose controllers sit on a serial line: the framework serves its
+    :class:`~harlsync.sim.device.Simulator` (pty, TCP, ``sim://``)."""
+
+    def decoder(self) -> Decoder[RequestFrame]:
+        """A new decoder for the requests a client sends this family's controllers."""
+        ...
+
+
 class Refused(Exception):
     """A well-formed request a simulated station does not carry out: the family
     answers it with its error reply, carrying ``code`` (HARL-U2 ``E`` + status,
@@ -118,91 +194,6 @@ class Received:
     busy: bool
     #: who sent it: "pty", a TCP peer "host:port", ... ("" when unknown)
     client: str = ""
-
-
-#: The bytes line noise is drawn from: no CR or LF (which could end an IAI frame)
-#: and no STX (which could start a HARL-U2 one), so noise is always dropped whole.
-_NOISE = b"\x00\x7f\xff#*?!ZQ\x03 "
-
-
-@dataclass
-class Faults:
-    """Fault injection on replies: each rate is a probability per reply (0-1).
-
-    ``noise`` prefixes random bytes, ``drop`` sends nothing, ``bad_checksum``
-    corrupts the checksum (the HARL-U2 LRC, the IAI SC), ``fragment`` splits the
-    reply into pieces sent with gaps, ``slow`` delays it by ``slow_delay``
-    seconds (longer than the client's deadline by default).
-    """
-
-    noise: float = 0.0
-    drop: float = 0.0
-    bad_checksum: float = 0.0
-    fragment: float = 0.0
-    slow: float = 0.0
-    slow_delay: float = 1.5
-    fragment_gap: float = 0.002
-    seed: int | None = None
-    _rng: random.Random = field(init=False, repr=False, compare=False)
-
-    #: Other spellings a user may give a setting in: the HARL-U2 name of its checksum.
-    SPELLINGS: ClassVar[Mapping[str, str]] = {"bad_lrc": "bad_checksum"}
-
-    def __post_init__(self) -> None:
-        self._rng = random.Random(self.seed)
-
-    @classmethod
-    def names(cls) -> tuple[str, ...]:
-        """The settings a user can give: the rates, the timings and the seed."""
-        return tuple(f.name for f in fields(cls) if f.init)
-
-    @classmethod
-    def from_settings(cls, settings: Mapping[str, str]) -> Faults:
-        """From name -> text (``{"noise": "0.1", "seed": "3"}``).  Raises ValueError."""
-        named = {cls.SPELLINGS.get(name, name): value for name, value in settings.items()}
-        unknown = set(named) - set(cls.names())
-        if unknown:
-            raise ValueError(
-                f"unknown fault {', '.join(sorted(unknown))} (known: {', '.join(cls.names())})"
-            )
-        return cls(
-            **{  # type: ignore[arg-type]
-                name: int(value) if name == "seed" else float(value)
-                for name, value in named.items()
-            }
-        )
-
-    @classmethod
-    def parse(cls, text: str) -> Faults:
-        """From ``"noise=0.1,drop=0.05,seed=3"`` (the CLI form).  Raises ValueError."""
-        pairs = (item.partition("=") for item in filter(None, text.split(",")))
-        return cls.from_settings({k.strip().replace("-", "_"): v for k, _, v in pairs})
-
-    def chance(self, rate: float) -> bool:
-        """One draw from the seeded generator: True with probability ``rate``
-        (for a family that applies a fault its own way)."""
-        return bool(rate) and self._rng.random() < rate
-
-    def shape(self, frame: bytes, corrupt: Callable[[bytes], bytes]) -> list[tuple[float, bytes]]:
-        """The reply as chunks ``(extra delay, bytes)``; empty when dropped.
-
-        ``corrupt`` returns the frame with a wrong checksum (the family knows where
-        its checksum sits).
-        """
-        rng = self._rng
-        if self.drop and rng.random() < self.drop:
-            return []
-        data = bytearray(frame)
-        if self.bad_checksum and rng.random() < self.bad_checksum:
-            data = bytearray(corrupt(bytes(data)))
-        if self.noise and rng.random() < self.noise:
-            data[:0] = bytes(rng.choice(_NOISE) for _ in range(rng.randrange(1, 8)))
-        delay = self.slow_delay if self.slow and rng.random() < self.slow else 0.0
-        if self.fragment and rng.random() < self.fragment and len(data) > 2:
-            cuts = sorted(rng.sample(range(1, len(data)), k=min(3, len(data) - 1)))
-            pieces = [bytes(data[a:b]) for a, b in zip([0, *cuts], [*cuts, len(data)])]
-            return [(delay + i * self.fragment_gap, p) for i, p in enumerate(pieces)]
-        return [(delay, bytes(data))]
 
 
 class Device(ABC, Generic[S]):
@@ -242,6 +233,14 @@ class Device(ABC, Generic[S]):
         #: The clock the device's times come from (tests give it one they move).
         self.clock = clock
         self.lock = threading.RLock()
+        #: How this controller fills each silence of its manual (name -> value, every
+        #: variant of :attr:`family` present): :meth:`vary` changes it.
+        self.variant: dict[str, str] = variants.defaults(self.family.variants)
+
+    def vary(self, chosen: Mapping[str, str]) -> None:
+        """Answer as ``chosen`` says where the manual is silent (the rest at the
+        profile's choice).  Raises ValueError for an unknown variant or value."""
+        self.variant = variants.choose(self.family.variants, chosen)
 
     def record(self, request: Received) -> None:
         """Keep ``request`` in :attr:`received` and tell the listeners."""

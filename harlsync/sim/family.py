@@ -8,19 +8,20 @@ framework serves its :class:`~harlsync.sim.device.Simulator` on a pty, TCP and
 ``sim://``.  A :class:`ServedFamily` (Epson: registers over Modbus TCP) serves
 its :class:`~harlsync.sim.device.Device` itself, with the protocol's own
 library, and ``harlsync sim`` asks it to.
+
+:class:`SimFamily`, :class:`LineFamily` and :class:`Verb` are defined beside
+:class:`~harlsync.sim.device.Device` (each names the other) and re-exported here.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from .. import families
 from ..errors import ProjectError
-from .device import Decoder, Device, RequestFrame
+from .device import Device, LineFamily, SimFamily, Verb
 
 __all__ = [
     "LineFamily",
@@ -32,66 +33,6 @@ __all__ = [
     "project_family",
     "sim_family",
 ]
-
-
-@dataclass(frozen=True)
-class Verb:
-    """One control command of a family's simulator, as ``harlsync sim`` help lists it."""
-
-    name: str
-    #: the words after the verb, ``[STATION [TASK]]``
-    usage: str
-    #: what it does, in a few words
-    does: str
-
-    def __str__(self) -> str:
-        return f"{self.name} {self.usage}".strip()
-
-
-class SimFamily(Protocol):
-    """What the framework needs of a family's simulated controller."""
-
-    @property
-    def name(self) -> str:
-        """The family's name, as ``robot.yaml`` and ``--family`` say it."""
-        ...
-
-    @property
-    def verbs(self) -> tuple[Verb, ...]:
-        """The control verbs its stations take (``status`` and ``BUSY-after-writes
-        N`` are the framework's, for every family)."""
-        ...
-
-    @property
-    def busy_verb(self) -> str:
-        """The verb that makes a station busy with no more arguments (``auto``,
-        ``run``); it also names the schedule, ``auto-after-writes N``."""
-        ...
-
-    @property
-    def default_station(self) -> int:
-        """Where a generated robot sits.  (How stations are written is the family's
-        :class:`~harlsync.families.base.Family`'s, not repeated here.)"""
-        ...
-
-    def generate(self, seed: int, stations: Sequence[int]) -> Device[Any]:
-        """Realistic robots drawn from seeds ``seed``, ``seed + 1`` ..., one a station."""
-        ...
-
-    def from_project(self, project: Path, stations: Sequence[int] | None) -> Device[Any]:
-        """The robot of a project directory, on its own station or on each of
-        ``stations``.  Raises :class:`~harlsync.errors.ProjectError`."""
-        ...
-
-
-@runtime_checkable
-class LineFamily(SimFamily, Protocol):
-    """A family whose controllers sit on a serial line: the framework serves its
-    :class:`~harlsync.sim.device.Simulator` (pty, TCP, ``sim://``)."""
-
-    def decoder(self) -> Decoder[RequestFrame]:
-        """A new decoder for the requests a client sends this family's controllers."""
-        ...
 
 
 class SimServer(Protocol):

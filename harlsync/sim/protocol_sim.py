@@ -13,8 +13,9 @@ pyserial finds this module because :mod:`harlsync.link` adds ``harlsync.sim`` to
 Query options: ``family``, ``seed``, ``stations`` (as the family writes them),
 ``baud``, ``turnaround``, the family's schedule ``auto_after_writes`` (HARL-U2)
 or ``run_after_writes`` (IAI), and the faults ``noise``, ``drop``,
-``bad_checksum`` (or ``bad_lrc``), ``fragment``, ``slow``, ``slow_delay``,
-``fault_seed`` (rates 0-1).
+``bad_checksum``, ``fragment``, ``slow``, ``slow_delay``,
+``fault_seed`` (rates 0-1), and the family's variants by name
+(``?missing_table=E2``, :mod:`harlsync.sim.variants`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import itertools
 import threading
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Generic, Protocol, TypeVar
 from urllib.parse import parse_qs
@@ -93,6 +95,7 @@ def build_simulator(
     turnaround: float = 0.0,
     faults: Faults | None = None,
     busy_after_writes: int = 0,
+    variant: Mapping[str, str] | None = None,
 ) -> Device[Any]:
     """A simulated controller: the robot of a project directory, or generated robots.
 
@@ -100,7 +103,8 @@ def build_simulator(
     default family.  ``baudrate`` and ``turnaround`` are a serial line's (a
     :class:`Simulator`'s); other families have no wire time.  Raises
     :class:`~harlsync.errors.ProjectError` for an unreadable project, an
-    unknown family, or a project of another family.
+    unknown family, or a project of another family; ValueError for an unknown
+    ``variant`` (name -> value, :mod:`harlsync.sim.variants`).
     """
     if project:
         named = project_family(project)
@@ -117,13 +121,12 @@ def build_simulator(
         sim.turnaround = turnaround
     sim.faults = faults or Faults()
     sim.busy_after_writes = busy_after_writes
+    sim.vary(variant or {})
     return sim
 
 
 #: sim:// options that set faults: every fault setting and spelling, the seed spelt fault_seed.
-_FAULT_KEYS = {
-    ("fault_seed" if n == "seed" else n): n for n in (*Faults.names(), *Faults.SPELLINGS)
-}
+_FAULT_KEYS = {("fault_seed" if n == "seed" else n): n for n in Faults.names()}
 
 
 def simulator_from_url(url: str) -> Simulator[Any, Any]:
@@ -143,7 +146,8 @@ def simulator_from_url(url: str) -> Simulator[Any, Any]:
         raise SerialException(f"{url}: {exc}") from exc
     after_writes = f"{sim_side.busy_verb}_after_writes"
     known = {"family", "seed", "stations", "baud", "turnaround", after_writes}
-    unknown = set(opts) - known - set(_FAULT_KEYS)
+    declared = {v.name for v in sim_side.variants}
+    unknown = set(opts) - known - set(_FAULT_KEYS) - declared
     if unknown:
         raise SerialException(f"{url}: unknown sim:// option(s) {', '.join(sorted(unknown))}")
     try:
@@ -165,6 +169,7 @@ def simulator_from_url(url: str) -> Simulator[Any, Any]:
             turnaround=float(opts.get("turnaround", 0)),
             faults=faults,
             busy_after_writes=int(opts.get(after_writes, 0)),
+            variant={name: opts[name] for name in declared if name in opts},
         )
     except ValueError as exc:
         raise SerialException(f"{url}: bad sim:// option: {exc}") from exc

@@ -9,9 +9,9 @@ Records, tied together by ``id`` (one per push or rollback)::
 
     {"event": "start", "id", "action", "time", "user", "host", "pid", "robot",
      "project", "commit", "reason", "outside_window", "plan", "snapshot"}
-        before the first SN command is sent (write-ahead)
+        before the first write command is sent (write-ahead)
     {"event": "write", "id", "time", "item", "command"}
-        just before each SN command is sent; the push reads each item back
+        just before each write command is sent; the push reads each item back
         before it logs the next one, so every write record but the last of an
         unfinished push was written and verified
     {"event": "end", "id", "action", "time", "user", "host", "pid", "robot", ...,

@@ -10,7 +10,7 @@ the same way, a field that is None left out (a reader takes a missing field and 
 null alike)::
 
     AuditRecord                 event, id, action, time, user, host, pid, project,
-      robot: RecordedRobot      commit, reason, outside_window, plan, snapshot,
+      robot: RecordedRobot      commit, reason, outside_window, plan, reverts, snapshot,
       written: [Written]        result, error, failed_item, warnings, notes, note;
         changes: [Change]       a write record's item, command and changes
       partly_written: PartlyRecorded
@@ -177,6 +177,8 @@ class AuditRecord:
     outside_window: str | None = None
     #: The wire commands the push planned, in order.
     plan: list[str] | None = None
+    #: Its writes that put back a change made on the robot, each ``item: why``.
+    reverts: list[str] | None = None
     #: The snapshot of the robot taken just before the first write.
     snapshot: str | None = None
     #: ``ok``, ``nothing to write``, ``refused``, ``failed``, ``interrupted``; an
@@ -227,6 +229,7 @@ class AuditRecord:
             command=one.text("command"),
             note=one.text("note"),
             plan=one.texts("plan"),
+            reverts=one.texts("reverts"),
             warnings=one.texts("warnings"),
             notes=one.texts("notes"),
             extra={k: v for k, v in value.items() if k not in _KNOWN},

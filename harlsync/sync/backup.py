@@ -16,10 +16,12 @@ from __future__ import annotations
 import json
 import logging
 import os
+import re
+import shlex
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta, timezone
@@ -31,13 +33,12 @@ from ..errors import HarlsyncError, LinkError, ProjectError, SyncError
 from ..families.base import AnyFamily, Progress
 from ..link import lock_key
 from ..link.lock import LockTimeout
-from ..project import family_of, load_robot
+from ..project import family_of, load_robot, statefile
 from ..project.lock import holder, lock_path, project_lock
-from ..project.store import replace_file
+from ..project.store import check_replaceable, replace_file
 from ..robotlog import about
-from . import audit, auditindex, git, history
+from . import audit, auditindex, backupref, git, history, nightly, states
 from .items import summarize
-from .pulling import pull
 
 __all__ = [
     "BackupReport",
@@ -48,6 +49,8 @@ __all__ = [
     "in_process",
     "line_of",
     "lines_of",
+    "output_problems",
+    "record_not_backed_up",
     "run_hook",
     "write_metrics",
 ]
@@ -85,6 +88,17 @@ class RobotOutcome:
     items: list[str] = field(default_factory=list)
     #: The pushes and rollbacks the audit log holds since its previous good backup.
     pushed: list[str] = field(default_factory=list)
+    #: Its three states compared (:class:`.states.Standing` as JSON): same as
+    #: approved, pending or drift; None when not read into git's keeping.
+    standing: dict[str, Any] | None = None
+    #: What the run commits of its read on the backup branch (:meth:`.nightly.Observed.kept`);
+    #: None when it was pulled into its directory (not in git, no approved version).
+    kept: dict[str, Any] | None = None
+
+    @property
+    def compared(self) -> states.Standing | None:
+        """:attr:`standing` read back."""
+        return states.Standing.from_json(self.standing)
 
     def line(self) -> str:
         """One line as it finishes: ``press: ok, changed: 1 program (1 step) (4.0 s)``."""
@@ -93,7 +107,11 @@ class RobotOutcome:
             tries = f" after {len(self.attempts)} attempts" if len(self.attempts) > 1 else ""
             return f"{self.label or self.name}: FAILED{tries}: {audit.shorten(self.error)}{took}"
         said = f"changed: {self.summary}" if self.changed else self.summary or "no change"
-        return f"{self.label or self.name}: ok, {said}{took}"
+        standing = self.compared  # said when there is something to say
+        verdict = (
+            f"; {standing.verdict}" if standing and (standing.pending or standing.drift) else ""
+        )
+        return f"{self.label or self.name}: ok, {said}{verdict}{took}"
 
 
 @dataclass
@@ -107,6 +125,9 @@ class BackupReport:
     push_error: str | None = None
     started: str = ""
     duration: float = 0.0
+    #: What the run set up or could not do beside the robots (the backup branch,
+    #: deployed refs, a fetch that failed), a line each.
+    said: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -130,7 +151,12 @@ class BackupReport:
             "commit_error": self.commit_error,
             "pushed": self.pushed,
             "push_error": self.push_error,
-            "robots": [asdict(r) | {"duration": round(r.duration, 3)} for r in self.robots],
+            "said": self.said,
+            "robots": [
+                {k: v for k, v in asdict(r).items() if k != "kept"}
+                | {"duration": round(r.duration, 3)}
+                for r in self.robots
+            ],
         }
 
     def commit_message(self) -> str:
@@ -146,12 +172,23 @@ class BackupReport:
             ).split("\n", 1)[0]
         else:
             subject = f"{head}: {', '.join(r.label or r.name for r in changed)}"
+        if not changed:  # a first backup that keeps the robots' own state apart
+            subject = (
+                f"backup: no change of {len(self.robots)} robot(s); their own state kept apart"
+            )
         if len(subject) > 72:
             subject = head
         lines = [subject, ""]
         for r in changed:
             said = history.body(r.summary, r.items, r.pushed, "  ")
             lines += [f"- {r.label or r.name}: {said[0].strip()}", *said[1:]]
+        standings = [(r, r.compared) for r in self.robots if r.ok]
+        differ = [(r, s) for r, s in standings if s is not None and (s.pending or s.drift)]
+        if differ:
+            lines += ["", "Against the approved version:"]
+            for r, s in differ:
+                lines += [f"- {r.label or r.name}: {s.verdict}"]
+                lines += [f"    {line}" for line in statefile.fold(s.lines(), history.NAMED)]
         failed = [r for r in self.robots if not r.ok]
         if failed:
             lines += ["", "Not backed up:"] + [
@@ -173,6 +210,9 @@ class BackupReport:
             elif r.stale:
                 flags.append(f"stale: last good backup {r.last_success}")
             changes = r.summary if r.ok else (audit.shorten(r.error) or "")
+            standing = r.compared if r.ok else None
+            if standing is not None:
+                changes = f"{changes}; {standing.verdict}"
             if flags:
                 changes = f"{changes} ({'; '.join(flags)})" if changes else f"({'; '.join(flags)})"
             rows.append((r.label or r.name, result, f"{r.duration:.1f}s", changes))
@@ -199,6 +239,12 @@ class BackupReport:
         elif self.pushed:
             tail += ", pushed"
         notes = [f"note: {r.name}: {note}" for r in self.robots for note in r.notes]
+        for r in self.robots:
+            standing = r.compared if r.ok else None
+            if standing is not None:
+                notes += [f"{r.label or r.name}: {line}" for line in standing.lines()]
+                notes += [f"note: {r.label or r.name}: {note}" for note in standing.notes]
+        notes += [f"note: {line}" for line in self.said]
         return "\n".join(lines + ["", *notes, *([""] if notes else []), tail]) + "\n"
 
 
@@ -319,7 +365,7 @@ def _pull_one(
     outcome = RobotOutcome(robot.name, str(path), robot.port, robot.station)
     for attempt in range(1, attempts + 1):
         try:
-            result = pull(
+            result = nightly.read_robot(
                 path,
                 lock_timeout=lock_timeout,
                 progress=progress,
@@ -348,6 +394,9 @@ def _pull_one(
         outcome.summary = result.summary
         outcome.counts = summarize(family.catalogue, result.changes or [])
         outcome.items = audit.changed_names(result.changes or [])
+        if isinstance(result, nightly.Observed):
+            outcome.kept = result.kept()
+            outcome.standing = result.standing.to_json() if result.standing else None
         break
     outcome.duration = time.monotonic() - start
     return outcome
@@ -421,6 +470,17 @@ def not_backed_up(path: Path, exc: HarlsyncError) -> RobotOutcome:
     outcome.attempts.append(f"attempt 1: {exc}")
     outcome.last_success = history.read(path).get("last_success")
     return outcome
+
+
+def record_not_backed_up(path: Path, exc: HarlsyncError, now: datetime) -> RobotOutcome:
+    """The outcome of a robot whose backup was started and never told its end (its
+    worker process was killed), recorded failed in its history as of ``now``: the
+    report fails it, so ``harlsync status`` must not show last night's "ok".
+
+    Its project lock died with the worker; a harlsync that took the project since
+    records its own result after this one (a record is replaced whole, never mixed).
+    """
+    return _record(not_backed_up(path, exc), now)
 
 
 def _record(outcome: RobotOutcome, now: datetime, exchanges: int = 0) -> RobotOutcome:
@@ -520,6 +580,9 @@ def _run(
         return now + timedelta(seconds=time.monotonic() - started)
 
     projects = find_projects(paths)
+    # Pushes made from other clones moved their deployed refs there: fetched first,
+    # so that tonight's comparison credits them.
+    fetched = nightly.fetch_deployed(projects[0]) if push and projects else None
     outcomes = fleet.read_lines(
         projects,
         fleet.Task(attempts, lock_timeout, clock),
@@ -540,24 +603,140 @@ def _run(
         outcome.stale = history.stale(outcome.last_success, now, stale_after)
 
     report = BackupReport(outcomes, started=now.isoformat(timespec="seconds"))
+    if fetched:
+        report.said.append(fetched)
+    legacy = [Path(o.path) for o in outcomes if o.ok and o.changed and o.kept is None]
+    kept = [o for o in outcomes if o.ok and o.kept is not None]
     if commit:
-        done = [Path(o.path) for o in outcomes if o.ok and o.changed]
-        if done:
+        if legacy:  # pulled into their directories: committed on their branch, as before
             try:
-                report.commit = git.commit(done, report.commit_message())
+                report.commit = git.commit(legacy, report.commit_message())
             except HarlsyncError as exc:  # the night's report, metrics and hooks still come
                 report.commit_error = str(exc)
             if report.commit:
-                _record_commit(done, report.commit)
+                _record_commit(legacy, report.commit)
+        if kept:
+            _commit_kept(report, kept)
         if push:
             # Push even when nothing changed tonight: it catches up a failed push.
             try:
-                git.push(projects[0])
+                # The robots' own states; the branch only for what was committed on it
+                # (robots pulled into their directories), or in a plant without them.
+                if not nightly.push_refs(projects[0]) or legacy:
+                    git.push(projects[0])
                 report.pushed = True
             except HarlsyncError as exc:
                 report.pushed, report.push_error = False, str(exc)
+    _record_states(kept)
     report.duration = time.monotonic() - started
     return report
+
+
+def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
+    """Commit what the robots in git were read to hold on the backup branch (the
+    approved branch and working tree untouched), and record where it is."""
+    try:
+        new, said = nightly.commit_observed(
+            [(Path(o.path), o.kept or {}, o.compared) for o in kept], report.commit_message()
+        )
+    except HarlsyncError as exc:
+        report.commit_error = str(exc)
+        return
+    report.said += said
+    if new is not None:
+        report.commit = report.commit or new
+        _record_commit([Path(o.path) for o in kept if o.changed], new)
+    for o in kept:
+        standing, where = o.compared, (o.kept or {})
+        if standing is None:
+            continue
+        root = Path(where["root"])
+        standing.observed = backupref.commit_of(root, backupref.BACKUP_REF)
+        if standing.deployed is None:
+            standing.deployed = backupref.commit_of(root, backupref.deployed_ref(where["where"]))
+        o.standing = standing.to_json()
+
+
+def _record_states(kept: list[RobotOutcome]) -> None:
+    """Record each robot's three states for ``harlsync status``; a record that cannot
+    be written is logged (the backup itself is done)."""
+    for o in kept:
+        standing = o.compared
+        if standing is None:
+            continue
+        try:
+            states.write(Path(o.path), standing)
+        except HarlsyncError as exc:
+            log.warning("%s", exc)
+
+
+def output_problems(files: Mapping[str, str | None], hooks: Mapping[str, str | None]) -> list[str]:
+    """Why each output of a backup could not be made, found before any robot is read,
+    one line each: ``files`` (the metrics file, the report page) by the option that
+    names them (``--metrics``), each written as :func:`replace_file` writes it, and
+    ``hooks`` (``--on-failure``) the commands the shell is to run.  A mistyped
+    output would otherwise show only after the night's reads, and one a night."""
+    problems = []
+    for option, given in files.items():
+        if given:
+            why = _unwritable(Path(given))
+            if why is not None:
+                problems.append(
+                    f"cannot write the {_OUTPUTS.get(option, 'file')} {given} ({why}): "
+                    f"fix that, or give another {option} FILE"
+                )
+    for option, command in hooks.items():
+        if command:
+            why = _hook_problem(command)
+            if why is not None:
+                problems.append(f"{option} '{command}': {why}")
+    return problems
+
+
+#: What each output option of a backup writes, as its messages name it.
+_OUTPUTS = {"--metrics": "metrics file", "--html": "report page"}
+
+
+def _unwritable(target: Path) -> str | None:
+    """Why ``target`` cannot be replaced now, or None."""
+    folder = target.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        return f"not a directory: {folder}"
+    if folder != target.parent:
+        return f"no directory {target.parent}"
+    try:
+        check_replaceable(target)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return None
+
+
+def _hook_problem(command: str) -> str | None:
+    """Why the shell could not run ``command``: it cannot parse it, or finds no
+    command by its first word (a word it would look up; None for anything else).
+    Nothing is run: the shell only reads it (``sh -n``) and looks the word up."""
+    if os.name != "posix":  # cmd.exe runs the hooks there: it has no such check
+        return None
+    read = subprocess.run(
+        ["/bin/sh", "-n", "-c", command], capture_output=True, text=True, check=False
+    )
+    if read.returncode:
+        said = (read.stderr.strip().splitlines() or ["syntax error"])[-1]
+        said = re.sub(r"^\S*sh: (line )?\d+: ", "", said)
+        return f"the shell cannot read it ({said}): correct it"
+    try:
+        words = shlex.split(command, comments=True)
+    except ValueError:
+        return None
+    word = words[0] if words else ""
+    if not re.fullmatch(r"[\w./+][\w./+-]*", word):
+        return None  # an assignment, a redirection, a group: the shell's to judge
+    found = subprocess.run(["/bin/sh", "-c", 'command -v "$1" >/dev/null', "sh", word], check=False)
+    if found.returncode:
+        return f"the shell finds no command {word}: correct it, or give its full path"
+    return None
 
 
 def run_hook(command: str, report: BackupReport, event: str) -> int:
@@ -582,6 +761,12 @@ def run_hook(command: str, report: BackupReport, event: str) -> int:
     return done.returncode
 
 
+def _standing(r: RobotOutcome) -> states.Standing:
+    """What the robot's backup found of its states: tonight's, else (a failed robot)
+    what the last one recorded, else nothing pending or drifted."""
+    return r.compared or states.read(Path(r.path)) or states.Standing("")
+
+
 def write_metrics(path: str | Path, report: BackupReport) -> None:
     """Write a Prometheus textfile (node_exporter's textfile collector), atomically.
 
@@ -604,6 +789,16 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
             lambda r: str(sum(v for k, v in r.counts.items() if k != "programs")),
         ),
         ("failed_attempts", "Failed attempts in this run.", lambda r: str(len(r.attempts))),
+        (
+            "pending_items",
+            "Items approved and not yet on the robot (a push deploys them).",
+            lambda r: str(len(_standing(r).pending)),
+        ),
+        (
+            "drift_items",
+            "Items changed on the robot since the last push or rollback, not by one.",
+            lambda r: str(len(_standing(r).drift)),
+        ),
     ]
     lines: list[str] = []
     # Each metric's samples in one group, each robot once: by its project (two robots

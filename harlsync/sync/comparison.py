@@ -41,14 +41,21 @@ class Comparison:
         return self.driver.label
 
     def plan(self) -> Plan[Any]:
-        """The plan a push would carry out, from this comparison."""
-        return make_plan(
-            self.project.family.catalogue,
+        """The plan a push would carry out, from this comparison, each write that
+        reverts a change made on the robot named (:attr:`Plan.reverts`)."""
+        from .states import mark_reverts
+
+        return mark_reverts(
+            self.project.path,
             self.live,
-            self.project.data,
-            self.driver,
-            robot=self.project.robot.name,
-            registers=self.registers,
+            make_plan(
+                self.project.family.catalogue,
+                self.live,
+                self.project.data,
+                self.driver,
+                robot=self.project.robot.name,
+                registers=self.registers,
+            ),
         )
 
 
@@ -85,6 +92,7 @@ def compare(
         idle_check=idle_check,
         options=connect_options,
         identified=not_another_robot,
+        recorded=lambda: project.data,
     )
     why = things.other_robot(read.live, project.data)
     if why is not None:

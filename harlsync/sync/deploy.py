@@ -37,9 +37,8 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
-from datetime import datetime
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -51,75 +50,22 @@ from ..errors import (
     StalePlanError,
     SyncError,
 )
-from ..families.base import Driver, Progress
-from ..project import Project, load_project
+from ..families.base import Driver
+from ..project import Project, load_project, load_robot
 from ..project.lock import holding_project
 from ..project.store import read_project
 from . import audit, git
 from .live import Station, connect, station_number, unfinished_pushes
 from .plan import Plan, PlannedWrite, make_plan
 from .policy import check_committed
-from .snapshots import save_snapshot, snapshots
+from .pushtypes import PushFailed, PushOptions, PushResult
+from .snapshots import load_snapshot, save_snapshot, snapshots
+from .states import mark_reverts
 from .writes import check_window, interlock, write_all
 
 __all__ = ["PushFailed", "PushOptions", "PushResult", "push", "rollback", "run"]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class PushOptions:
-    """Everything a person decides for one push or rollback."""
-
-    yes: bool = False
-    #: Asks a person to confirm the plan; without it and without ``yes`` the push is
-    #: refused before the robot is read.
-    confirm: Callable[[Plan[Any]], bool] | None = None
-    reason: str | None = None
-    allow_dirty: bool = False
-    outside_window: str | None = None
-    allow_reconfigure: bool = False
-    allow_live_tuning: bool = False
-    registers: bool = False
-    plan_file: str | Path | None = None
-    lock_timeout: float = 10.0
-    now: datetime | None = None
-    progress: Progress | None = None
-    #: the connection's family options (see :func:`connect`): ``reset_function``
-    connect_options: Mapping[str, bool] = field(default_factory=dict)
-
-
-@dataclass
-class PushResult:
-    """What a push did: the plan, what was written, and what was not."""
-
-    plan: Plan[Any] | None = None
-    written: list[PlannedWrite[Any]] = field(default_factory=list)
-    not_written: list[PlannedWrite[Any]] = field(default_factory=list)
-    failed: PlannedWrite[Any] | None = None
-    #: set when ``failed`` stopped part way (:class:`~harlsync.errors.PartlyWritten`):
-    #: its parts that went out, may have, and did not
-    partly_written: PartlyWritten | None = None
-    error: str | None = None
-    snapshot: Path | None = None
-    audit_log: Path | None = None
-    #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
-    warnings: list[str] = field(default_factory=list)
-    #: What the family says after anything was written (``Family.deploy_notes``).
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        return self.error is None
-
-
-class PushFailed(SyncError):
-    """A push stopped; ``result`` says exactly what was and was not written."""
-
-    def __init__(self, cause: HarlsyncError, result: PushResult) -> None:
-        self.cause = cause
-        self.result = result
-        super().__init__(str(cause))
 
 
 def run(
@@ -169,17 +115,25 @@ def run(
         other = None if now is None else family.catalogue.other_identity(now, target)
         if other is not None:
             raise PolicyError(f"cannot deploy: {other}")
+        driver.hold_to(target)  # what the deployed state recorded of the robot
         live = driver.read_all(registers=opts.registers, progress=opts.progress)
         result.plan = the_plan = make_plan(
             family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
         )
+        mark_reverts(project.path, live, the_plan)
         record.plan = list(the_plan.commands)
+        if the_plan.reverts:
+            record.reverts = [f"{name}: {said}" for name, said in the_plan.reverts.items()]
         _check_plan(the_plan, opts)
         if the_plan.empty:
             record.result = "nothing to write"
             return result
         if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
             raise PolicyError("push not confirmed: nothing was written")
+        for name, said in the_plan.reverts.items():  # said before the first write
+            log.warning("%s: %s: %s", robot.name, name, said)
+            if opts.yes and opts.told is not None:
+                opts.told(f"{name}: {said}")
         result.snapshot = save_snapshot(project.path, robot, live, action)
         record.snapshot = str(result.snapshot)
         _journal(replace(record, event="start"))
@@ -285,6 +239,19 @@ def _check_audit_log() -> None:
         ) from exc
 
 
+def _check_plan_file(path: str | Path, plan_file: str | Path) -> None:
+    """Refuse, before the robot is read, a plan file that cannot be read
+    (ProjectFormatError) or that was made for another robot (StalePlanError)."""
+    saved = Plan.load_saved(plan_file)
+    robot = load_robot(path)
+    if saved.get("robot") != robot.name:
+        raise StalePlanError(
+            f"the plan {plan_file} was made for robot {saved.get('robot')} "
+            f"({saved.get('target')}), not {robot.name}; make one for this robot with "
+            f"'harlsync plan {path} --out FILE' and review it"
+        )
+
+
 def _check_plan(the_plan: Plan[Any], opts: PushOptions) -> None:
     if opts.plan_file is not None:
         saved = Plan.load_saved(opts.plan_file)
@@ -321,8 +288,12 @@ def push(
     """Make the robot equal the project, safely.  Raises PushFailed with the result.
 
     An invalid or uncommitted project is refused before the port is opened, and
-    the refusal is audited like any other.
+    the refusal is audited like any other.  A plan file (``opts.plan_file``) that
+    cannot be read or was made for another robot is refused first: nothing was
+    asked of the robot, so there is no push to record.
     """
+    if opts.plan_file is not None:
+        _check_plan_file(path, opts.plan_file)
     try:
         project, files = read_project(path)
         station = station_number(project.family, station)
@@ -331,7 +302,37 @@ def push(
     except HarlsyncError as exc:
         _audit_refusal("push", path, opts, exc)
         raise
-    return run("push", project, project.data, opts, port, station)
+    result = run("push", project, project.data, opts, port, station)
+    _deployed(Path(path), files, "push", project, opts, result)
+    return result
+
+
+def _deployed(
+    path: Path,
+    files: Mapping[str, bytes],
+    action: str,
+    project: Project,
+    opts: PushOptions,
+    result: PushResult,
+) -> None:
+    """Move the robot's deployed ref to what the finished push or rollback made it
+    hold (``files``); when it cannot move, a warning says so: the robot was written."""
+    from .states import record_deployed
+
+    try:
+        result.deployed = record_deployed(
+            path,
+            files,
+            action,
+            project.robot.name,
+            [w.name for w in result.written],
+            opts.reason,
+        )
+    except HarlsyncError as exc:
+        result.warnings.append(
+            f"the robot's deployed state was not recorded in git ({exc}): the next backup "
+            f"may report what this {action} wrote as pending"
+        )
 
 
 def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:
@@ -367,5 +368,8 @@ def rollback(
     chosen = Path(snapshot) if snapshot else (taken[-1] if taken else None)
     if chosen is None:
         raise SyncError(f"{path}: no snapshot to roll back to (none has been taken by a push)")
-    saved = load_project(chosen, project.family)
-    return run("rollback", project, saved.data, opts, port, station)
+    saved = load_snapshot(path, chosen, project.family)
+    _, files = read_project(chosen, project.family)  # what the deployed ref will hold
+    result = run("rollback", project, saved.data, opts, port, station)
+    _deployed(Path(path), files, "rollback", project, opts, result)
+    return result

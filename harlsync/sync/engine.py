@@ -16,10 +16,11 @@ from . import git, pulling
 from .comparison import Comparison, compare, plan
 from .deploy import PushFailed, PushOptions, PushResult, push, rollback
 from .deploy import run as _deploy
+from .items import change_summary
 from .live import LiveRead, Station, read_live
 from .live import connect as connect_family
 from .live import station_number as family_station_number
-from .pulling import PullResult, change_summary
+from .pulling import PullResult
 from .snapshots import SNAPSHOT_DIR, Snapshot, all_snapshots, snapshots
 
 __all__ = [

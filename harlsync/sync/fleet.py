@@ -33,7 +33,8 @@ robot's read stops at its next exchange, leaving its previous backup as it was,
 as with one process; this process waits for the workers to end (their locks
 released) before the interruption goes on.  A worker that ends without finishing
 its share (killed, out of memory) fails the robots it had not finished, naming
-that; the others and the report go on.
+that, and records them failed as a failed pull is (``harlsync status`` then shows
+them failed); the others and the report go on.
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ from .backup import (
     backup_one,
     in_process,
     lines_of,
-    not_backed_up,
+    record_not_backed_up,
 )
 
 __all__ = ["default_workers", "in_process", "plan", "read_lines", "weights", "worker"]
@@ -404,6 +405,7 @@ class _Child:
 
     def __init__(self, task: Task, offset: float, watch: _Collect, watched: bool) -> None:
         self.watch = watch
+        self.clock = task.clock
         self.keys: list[str] = []
         self.share: list[list[Path]] = []
         self.finished: set[str] = set()
@@ -489,8 +491,9 @@ class _Child:
             pass
 
     def wait(self, *, stopped: bool = False) -> None:
-        """Wait for the worker to end; fail each robot it did not finish, unless it
-        was ``stopped`` (a robot stopped is told of no more than in this process)."""
+        """Wait for the worker to end; fail each robot it did not finish, in the report
+        and in the robot's history, unless it was ``stopped`` (a robot stopped is told
+        of no more than in this process)."""
         self._reader.join()
         code = self.process.wait()
         if self.process.stdin and not self.process.stdin.closed:
@@ -505,12 +508,13 @@ class _Child:
                     f"killed by {_signal_name(-code)}" if code < 0 else f"exit status {code}"
                 )
                 self.watch.finished(
-                    not_backed_up(
+                    record_not_backed_up(
                         path,
                         SyncError(
                             f"the backup's worker process ended before this robot was "
                             f"backed up ({why}); its previous backup is kept"
                         ),
+                        self.clock(),
                     )
                 )
 

@@ -11,7 +11,7 @@ import os
 import socket
 import subprocess
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import NamedTuple
 
@@ -28,8 +28,10 @@ __all__ = [
     "log",
     "not_in_commit",
     "push",
+    "read_blobs",
     "repo_root",
     "resolve",
+    "run",
     "show",
 ]
 
@@ -382,17 +384,54 @@ def files_at(root: Path, commit: str, where: str) -> dict[str, bytes]:
     """Every file under ``where`` (relative to ``root``) in ``commit``, by its path
     relative to ``where``, with its bytes."""
     listing = _git(root, "ls-tree", "-r", "-z", "--full-tree", commit, "--", where).stdout
-    found: dict[str, bytes] = {}
+    oids: dict[str, str] = {}
     prefix = f"{where}/" if where not in ("", ".") else ""
     for entry in filter(None, listing.split("\0")):
         meta, _, name = entry.partition("\t")
         _mode, kind, oid = meta.split(" ")
-        if kind != "blob" or not name.startswith(prefix):
-            continue
-        blob = subprocess.run(
-            ["git", "cat-file", "blob", oid], cwd=root, capture_output=True, check=False
+        if kind == "blob" and name.startswith(prefix):
+            oids[name[len(prefix) :]] = oid
+    blobs = read_blobs(root, oids.values())
+    return {name: blobs[oid] for name, oid in oids.items()}
+
+
+def read_blobs(root: Path, oids: Iterable[str]) -> dict[str, bytes]:
+    """The bytes of each blob ``oids`` names, read by one ``git cat-file --batch``
+    (a process a file made a robot of a hundred programs slow to read from git).
+    Raises SyncError when git cannot give one of them."""
+    wanted = list(dict.fromkeys(oids))
+    if not wanted:
+        return {}
+    try:
+        done = subprocess.run(
+            ["git", "cat-file", "--batch"],
+            cwd=root,
+            input="".join(f"{oid}\n" for oid in wanted).encode("ascii"),
+            capture_output=True,
+            check=False,
         )
-        if blob.returncode != 0:
-            raise SyncError(f"git cat-file failed in {root} for {name}")
-        found[name[len(prefix) :]] = blob.stdout
+    except FileNotFoundError as exc:
+        raise _not_installed() from exc
+    out, found, at = done.stdout, {}, 0
+    for oid in wanted:
+        end = out.find(b"\n", at)
+        header = out[at:end].split(b" ") if end >= 0 else []
+        if done.returncode != 0 or len(header) != 3 or header[1] != b"blob":
+            raise SyncError(f"git cat-file failed in {root} for the object {oid}")
+        size = int(header[2])
+        found[oid] = out[end + 1 : end + 1 + size]
+        at = end + 1 + size + 1  # the content, then a newline
     return found
+
+
+def run(
+    root: Path,
+    *args: str,
+    stdin: str | None = None,
+    env: Mapping[str, str] | None = None,
+    ok: tuple[int, ...] = (0,),
+) -> str:
+    """git ``args`` in ``root``: its standard output.  Raises SyncError naming the
+    subcommand and git's reason when its exit status is not in ``ok`` (the plumbing
+    of :mod:`.backupref`)."""
+    return _git(root, *args, stdin=stdin, env=env, ok=ok).stdout

@@ -19,7 +19,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Generic
 
-from ..families.base import Catalogue, Change3, D, K, Shift, align
+from ..alignment import Shift, align
+from ..families.base import Catalogue, Change3, D, K
 
 __all__ = ["Change", "diff", "diff_items", "render_text", "summarize", "to_json"]
 
@@ -79,9 +80,30 @@ def summarize(catalogue: Catalogue[K, Any], changes: Iterable[Change[K]]) -> dic
     return catalogue.counts(_triples(changes))
 
 
-def change_summary(catalogue: Catalogue[K, Any], changes: Iterable[Change[K]]) -> str:
+def change_summary(changes: list[Change[Any]]) -> str:
     """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
-    return catalogue.summary(_triples(changes))
+    if not changes:
+        return "no change"
+    return changes[0].catalogue.summary(_triples(changes))
+
+
+def differ_words(changes: list[Change[Any]]) -> str:
+    """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
+    if not changes:
+        return "; no differences"
+    n = len(changes)
+    return f"; {n} item{'s' * (n != 1)} differ{'s' * (n == 1)} ({change_summary(changes)})"
+
+
+def changes_json(changes: list[Change[Any]], **about: object) -> dict[str, object]:
+    """What ``diff --format json`` prints: ``about`` (the robot, what was compared),
+    whether the two sides are identical, the summary, and each change."""
+    return {
+        **about,
+        "identical": not changes,
+        "summary": change_summary(changes),
+        "changes": [to_json(c) for c in changes],
+    }
 
 
 def to_json(change: Change[K]) -> dict[str, object]:

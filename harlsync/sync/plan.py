@@ -75,6 +75,10 @@ class Plan(Generic[K]):
     #: What the family says of these writes (items that go to a memory card,
     #: say); a push's result and audit record carry it too.
     notes: list[str] = field(default_factory=list)
+    #: The items whose write reverts a change made on the robot since the last push
+    #: or rollback (drift, :mod:`.states`): name -> ``reverts a change made on the
+    #: robot on 2026-11-25``.
+    reverts: dict[str, str] = field(default_factory=dict)
 
     @property
     def reconfigure(self) -> bool:

@@ -18,6 +18,7 @@ from ..families.base import AnyFamily, Catalogue, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
 from . import git
+from .items import change_summary
 from .live import Station, read_live, station_number
 
 if TYPE_CHECKING:
@@ -25,7 +26,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FEW_ITEMS", "MOST", "PullResult", "change_summary", "pull"]
+__all__ = ["FEW_ITEMS", "MOST", "PullResult", "pull"]
 
 
 @dataclass
@@ -39,18 +40,35 @@ class PullResult:
     earlier: list[str] = field(default_factory=list)
     #: What was read, in the family's words (Catalogue.contents).
     contents: str = ""
+    #: Every file the save wrote or removed (relative to the project).
+    written: list[str] = field(default_factory=list)
+    #: Those of them an older format had written: the save wrote them in the
+    #: current one, ``formats`` (the oldest found, the current).
+    migrated: list[str] = field(default_factory=list)
+    formats: tuple[int, int] = (0, 0)
 
     @property
     def changed(self) -> bool:
-        """Whether the backup in git changes: a first backup, a change, or an earlier
-        pull's files still to commit."""
-        return self.changes is None or bool(self.changes) or bool(self.earlier)
+        """Whether the backup in git changes: a first backup, a change, files the save
+        rewrote (a migration to the current format), or an earlier pull's files still
+        to commit."""
+        return (
+            self.changes is None or bool(self.changes) or bool(self.written) or bool(self.earlier)
+        )
 
     @property
     def summary(self) -> str:
         from .policy import listed
 
         said = "first backup" if self.changes is None else change_summary(self.changes)
+        if self.migrated:
+            count = len(self.migrated)
+            said += (
+                f"; {count} file{'s' * (count != 1)} migrated from format {self.formats[0]} "
+                f"to format {self.formats[1]}"
+            )
+        elif self.changes == [] and self.written:
+            said += f"; rewritten as this harlsync writes them: {listed(self.written)}"
         if self.earlier:
             said += f"; with an earlier pull's backup, never committed ({listed(self.earlier)})"
         return said
@@ -118,6 +136,7 @@ def pull(
     new_robot: bool = False,
     connect_options: Mapping[str, bool] | None = None,
     noted: Callable[[str], None] | None = None,
+    discard_pending: bool = False,
 ) -> PullResult:
     """Read everything from the robot and write the project, atomically.
 
@@ -128,7 +147,9 @@ def pull(
 
     A pull that fails leaves the previous files untouched.  A project with
     uncommitted edits (other than robot.yaml, which a pull never rewrites) is
-    refused unless ``allow_dirty``: the pull would overwrite them.  Files an
+    refused unless ``allow_dirty``: the pull would overwrite them.  So is a project
+    whose branch approved changes no push deployed yet and the robot does not hold
+    (pending, :mod:`.states`), unless ``discard_pending``.  Files an
     earlier pull saved, untouched since, are not edits: this pull takes them over
     (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
     is the controller family of a first pull (default: the registry's default);
@@ -159,6 +180,7 @@ def pull(
             new_robot=new_robot,
             connect_options=connect_options,
             noted=noted,
+            discard_pending=discard_pending,
         )
     finally:
         if asked is not None:
@@ -179,12 +201,14 @@ def _pull(
     new_robot: bool,
     connect_options: Mapping[str, bool] | None,
     noted: Callable[[str], None] | None,
+    discard_pending: bool = False,
 ) -> PullResult:
     """:func:`pull` once robot.yaml is read and git asked (``asked``; None:
     ``allow_dirty``)."""
     earlier: list[str] = []
     settled: list[bool] = []
     loaded: list[Any] = []
+    read_from: dict[str, bytes] = {}  # the backup's files, as loaded
 
     def settle() -> None:
         """What waits for the line to be open, done once, before anything else is
@@ -207,10 +231,12 @@ def _pull(
         """The backup in ``path`` (None: none), loaded once the line is open: the
         first request need not wait for it (issue 15)."""
         if not loaded:
-            from ..project.store import load_project
+            from ..project.store import read_project
 
             try:
-                loaded.append(load_project(path, family).data)
+                project, files = read_project(path, family)
+                loaded.append(project.data)
+                read_from.update(files)
             except ProjectError:
                 loaded.append(None)
         return loaded[0]
@@ -223,6 +249,12 @@ def _pull(
             differ = _identity_differs(family.catalogue.robot_identity(previous), now)
             if differ:
                 raise _not_this_robot(path, where, differ)
+
+    def recorded() -> Any:
+        """What the backup recorded of the robot for the read to hold it to; nothing
+        for a new robot, which may answer otherwise."""
+        settle()
+        return None if new_robot else backup()
 
     if family.connect_writes:  # a dirty project refused before anything is sent
         settle()
@@ -238,6 +270,7 @@ def _pull(
         whole=True,  # a backup finds out how far each table goes
         noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
         identified=same_identity,
+        recorded=recorded,
     )
     settle()  # a family that cannot tell its identity first: after the read
     from ..project.store import Project, save_project
@@ -250,7 +283,18 @@ def _pull(
     compared = None  # the changes without runtime data, when _same_robot found them
     if previous is not None and not new_robot:
         compared = _same_robot(path, things, previous, live, read.driver.label)
-    save_project(path, Project(path, robot, live, family))
+    if not discard_pending:
+        from .policy import listed
+        from .states import check_pending
+
+        pending = check_pending(path, things, live)
+        if pending:
+            raise PolicyError(
+                f"{path}: approved changes not yet on the robot that a pull would overwrite "
+                f"({listed(pending)}); push them, or overwrite them with "
+                f"'harlsync pull {path} --discard-pending'"
+            )
+    written = save_project(path, Project(path, robot, live, family))
     if previous is None:
         changes = None
     elif compared is not None and not robot.keep_registers:
@@ -263,7 +307,9 @@ def _pull(
         changes,
         earlier=earlier,
         contents=things.contents(live, registers=robot.keep_registers),
+        written=written,
     )
+    _migrated(result, read_from, family.format)
     since = history.read(path).get("last_success")
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
@@ -277,6 +323,21 @@ def _pull(
         if result.commit:
             history.committed(path, result.commit)
     return result
+
+
+def _migrated(result: PullResult, was: Mapping[str, bytes], current: int) -> None:
+    """Note in ``result`` the files it wrote that ``was`` (the backup as loaded) had in
+    a format older than ``current``: a migration, which the pull says and commits."""
+    from ..project.files import older_format
+
+    found = {
+        name: number
+        for name in result.written
+        if name in was and (number := older_format(was[name], current)) is not None
+    }
+    if found:
+        result.migrated = sorted(found)
+        result.formats = (min(found.values()), current)
 
 
 def _record_notes(
@@ -377,10 +438,3 @@ def _not_this_robot(path: Path, where: str, differ: list[str]) -> PolicyError:
         f"robot (replaced, reconfigured, updated), accept it with "
         f"'harlsync pull {path} --new-robot'"
     )
-
-
-def change_summary(changes: list[Change[Any]]) -> str:
-    """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
-    if not changes:
-        return "no change"
-    return changes[0].catalogue.summary([(c.key, c.old, c.new) for c in changes])

@@ -4,7 +4,9 @@ It holds no external asset and no script, so it opens from a file share on any
 plant PC: a table of every robot with its coloured state; for each robot that
 changed, was pushed or needs someone, what changed (the diff of its last backup's
 commit, or what its last push wrote) and its recent backups and pushes; and the
-plant's recent backups and pushes.  The template (``templates/status.html``) is
+plant's recent backups and pushes; for each robot, the items pending (approved,
+not yet on the robot: who committed them) and drifted (changed on the robot, not
+by a push), with the night a backup first saw each.  The template (``templates/status.html``) is
 rendered by Jinja2 with autoescaping on: a step's text or a push's reason is
 shown as text, never taken as markup.
 """
@@ -171,7 +173,9 @@ def _environment() -> jinja2.Environment:
 
 def render_html(status: PlantStatus) -> str:
     """The page, as text.  Reads git for the diffs and timelines."""
-    details = [_details(r) for r in status.robots if r.state != "ok" or r.last_push]
+    details = [
+        _details(r) for r in status.robots if r.state != "ok" or r.last_push or r.pending or r.drift
+    ]
     anchors = {d.robot.path: f"robot-{n}" for n, d in enumerate(details, 1)}
     events = [e for d in details for e in d.events]
     events += [e for r in status.robots if r.path not in anchors for e in _events(r)]

@@ -21,7 +21,7 @@ from ..errors import HarlsyncError, ProjectError
 from ..project import Project, load_project
 from . import git
 from .items import Change, diff
-from .snapshots import all_snapshots
+from .snapshots import all_snapshots, load_snapshot
 
 __all__ = ["Version", "compare_versions", "snapshot_path", "version_of"]
 
@@ -37,7 +37,9 @@ class Version:
 def _snapshot(path: Path, number: int) -> Version | None:
     for taken in all_snapshots(path):
         if taken.number == number:
-            return Version(f"snapshot {number} (before a {taken.action})", load_project(taken.path))
+            return Version(
+                f"snapshot {number} (before a {taken.action})", load_snapshot(path, taken.path)
+            )
     return None
 
 

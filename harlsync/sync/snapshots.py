@@ -8,13 +8,24 @@ import re
 import shutil
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
-from ..project import Project, Robot, save_project
+from ..errors import HarlsyncError, ProjectError
+from ..project import Project, Robot, load_project, save_project
 from ..project.store import disk_error
 from . import history
 
-__all__ = ["SNAPSHOT_DIR", "Snapshot", "all_snapshots", "save_snapshot", "snapshots"]
+if TYPE_CHECKING:
+    from ..families.base import AnyFamily
+
+__all__ = [
+    "SNAPSHOT_DIR",
+    "Snapshot",
+    "all_snapshots",
+    "load_snapshot",
+    "save_snapshot",
+    "snapshots",
+]
 
 
 SNAPSHOT_DIR = history.LOCAL_DIR / "snapshots"
@@ -72,6 +83,23 @@ def snapshots(path: str | Path, action: str = "push") -> list[Path]:
     """The snapshots taken before each ``action`` (push or rollback), oldest first:
     rollback restores the last of the pushes'."""
     return [s.path for s in all_snapshots(path) if s.action == action]
+
+
+def load_snapshot(project: str | Path, snapshot: Path, family: AnyFamily | None = None) -> Project:
+    """The robot as the snapshot ``snapshot`` of ``project`` holds it.
+
+    Raises ProjectError naming the snapshot (its number and directory) when it
+    cannot be read: its file names alone would point at the project's own files.
+    """
+    try:
+        return load_project(snapshot, family)
+    except HarlsyncError as exc:
+        number = _snapshot_number(snapshot) if _SNAPSHOT_NAME.fullmatch(snapshot.name) else 0
+        named = f"snapshot {number} ({snapshot})" if number else f"snapshot {snapshot}"
+        raise ProjectError(
+            f"{project}: {named} cannot be read: {exc}; it cannot be compared or restored: "
+            f"'harlsync snapshots {project}' lists the others"
+        ) from exc
 
 
 def save_snapshot(path: Path, robot: Robot, live: Any, action: str) -> Path:

@@ -4,7 +4,9 @@ For each robot project it reads ``robot.yaml`` (family, port, station, as the
 family writes them), ``DIR/.harlsync/backup.json`` (:mod:`.history`: the last
 attempt, the last good backup, what it changed and its commit), the audit log
 (:mod:`.audit`: pushes, rollbacks, and those that never ended), git (the commit
-that holds a backup harlsync did not commit itself) and the snapshots.
+that holds a backup harlsync did not commit itself), the snapshots, and
+``DIR/.harlsync/states.json`` (:mod:`.states`: what the last backup found pending
+and drifted, shown beside the state, never changing it).
 
 A robot's state is the first of these that applies::
 
@@ -30,11 +32,12 @@ from typing import Any
 from .. import columns
 from ..errors import HarlsyncError
 from ..project import family_of, load_robot
-from . import audit, auditindex, git, history
+from . import audit, auditindex, git, history, states
 from .auditindex import AuditIndex, RobotRecords
 from .auditrecord import AuditRecord, local_time
 from .backup import find_projects, project_labels, shown_names
 from .snapshots import snapshots
+from .states import Seen
 
 __all__ = [
     "ATTENTION",
@@ -59,6 +62,10 @@ STATES = (
 )
 #: The states someone must look at: ``harlsync status`` exits 1 when a robot is in one.
 ATTENTION = frozenset(("unfinished push", "partial push", "never backed up", "failed", "stale"))
+
+
+def _items(found: list[dict[str, Any]]) -> str:
+    return f"{len(found)} item{'s' * (len(found) != 1)}" if found else "0"
 
 
 @dataclass
@@ -94,6 +101,13 @@ class RobotStatus:
     #: Its name as a person reads it: ``cell``, or ``cell (lineA/cell)`` when
     #: another robot of the plant has that name.
     label: str = ""
+    #: What its last backup found against the approved version (:mod:`.states`):
+    #: ``{"item", "first_seen", "by"}`` for each pending item (approved, not yet on
+    #: the robot) and each drifted one (changed on the robot, not by a push).
+    pending: list[dict[str, Any]] = field(default_factory=list)
+    drift: list[dict[str, Any]] = field(default_factory=list)
+    #: When that backup read it (None: no backup under the three-state model yet).
+    compared: str | None = None
 
     @property
     def attention(self) -> bool:
@@ -110,6 +124,23 @@ class RobotStatus:
     def changes_text(self) -> str:
         """What the last good backup changed, as a table shows it."""
         return (self.changes or "-") if self.last_success else "-"
+
+    @property
+    def pending_text(self) -> str:
+        """``2 items``, or ``-``."""
+        return _items(self.pending) if self.compared else "-"
+
+    @property
+    def drift_text(self) -> str:
+        return _items(self.drift) if self.compared else "-"
+
+    def seen(self) -> list[str]:
+        """A line per pending and drifted item: ``drift: timer 3 (first seen 2026-11-25)``."""
+        return [
+            f"{what}: {Seen(s['item'], s['first_seen'], s.get('by')).describe()}"
+            for what, found in (("pending", self.pending), ("drift", self.drift))
+            for s in found
+        ]
 
     def to_json(self) -> dict[str, Any]:
         data = asdict(self)
@@ -186,6 +217,8 @@ class PlantStatus:
                 "changes",
                 "last attempt",
                 "last push",
+                "pending",
+                "drift",
             )
         ]
         notes = []
@@ -205,12 +238,15 @@ class PlantStatus:
                     f"{local_time(push.time)} {push.shown_action} {push.shown_result}"
                     if push
                     else "-",
+                    r.pending_text,
+                    r.drift_text,
                 )
             )
             shown = r.label or r.name
             if r.last_result == "failed":
                 notes.append(f"{shown}: failed: {audit.shorten(r.last_error)}")
             notes += [f"{shown}: {text}" for text in r.unfinished]
+            notes += [f"{shown}: {line}" for line in r.seen()]
             if push is not None:
                 notes.append(f"{shown}: last {push.describe()}")
                 notes += [f"    {line}" for line in push.written_lines(3)]
@@ -317,6 +353,11 @@ def _robot_status(
         # record commits): the last commit of the directory holds it.
         found = git.log(path, 1)
         status.last_commit = found[0].sha if found else None
+    standing = states.read(path)
+    if standing is not None:
+        status.compared = standing.checked
+        status.pending = [asdict(s) for s in standing.pending]
+        status.drift = [asdict(s) for s in standing.drift]
     status.never_backed_up = status.last_success is None
     status.stale = history.stale(status.last_success, now, stale_after)
     mine = _pushes(log, robot.port, robot.station, path, warnings)

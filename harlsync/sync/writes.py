@@ -6,7 +6,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from datetime import datetime
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..errors import (
     HarlsyncError,
@@ -25,9 +25,7 @@ from ..families.base import AnyFamily, Driver, Words
 from ..project import Robot
 from . import audit
 from .plan import Plan, PlannedWrite
-
-if TYPE_CHECKING:
-    from .deploy import PushOptions, PushResult
+from .pushtypes import PushOptions, PushResult
 
 __all__ = ["check_window", "interlock", "write_all"]
 

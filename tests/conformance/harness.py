@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import random
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -20,7 +20,7 @@ import pytest
 import toyfamily
 
 from harlsync import families
-from harlsync.sim import ServedFamily, protocol_sim, sim_family
+from harlsync.sim import ServedFamily, protocol_sim, sim_family, variants
 from harlsync.sim.device import Device
 
 
@@ -117,6 +117,22 @@ HARNESSES: dict[str, Harness] = {
 }
 
 
+def variant_cases() -> list[Any]:
+    """``(family, variant)`` for every registered family: the profile's guesses and
+    each other value of each variant on its own in the default run, and every other
+    combination marked ``slow`` (the full matrix)."""
+    cases = []
+    for name in names():
+        declared = () if name == toyfamily.NAME else sim_family(name).variants
+        profile = variants.defaults(declared)
+        for full in variants.combinations(declared):
+            case = {k: v for k, v in full.items() if v != profile[k]}
+            label = ",".join(f"{k}={v}" for k, v in sorted(case.items())) or "profile"
+            marks = [pytest.mark.slow] if len(case) > 1 else []
+            cases.append(pytest.param(name, case, id=f"{name}-{label}", marks=marks))
+    return cases
+
+
 def names() -> list[str]:
     """Every registered family and the toy; one without a harness fails the suite."""
     return [*families.names(), toyfamily.NAME]
@@ -131,11 +147,15 @@ def join(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 @contextmanager
-def served(name: str, seed: int) -> Iterator[tuple[Device[Any], int, str]]:
+def served(
+    name: str, seed: int, variant: Mapping[str, str] | None = None
+) -> Iterator[tuple[Device[Any], int, str]]:
     """A generated controller of family ``name``: the simulator, its station and
-    the URL a port option gives for it."""
+    the URL a port option gives for it; ``variant`` says how it fills its manual's
+    silences where not as the profile guesses (:mod:`harlsync.sim.variants`)."""
     side = sim_family(name)
     device = side.generate(seed, [side.default_station])
+    device.vary(variant or {})
     station = side.default_station
     if isinstance(side, ServedFamily):
         server = side.serve(device, "127.0.0.1", 0)

@@ -20,7 +20,7 @@ from harlsync.sim import sim_family
 from harlsync.sync import comparison, deploy, pulling
 from harlsync.sync.deploy import PushFailed, PushOptions
 
-from .harness import HARNESSES, join, names, served
+from .harness import HARNESSES, join, names, served, variant_cases
 
 FAMILIES = names()
 #: Seeds of the property run: a few, fixed, so the suite stays fast and repeatable
@@ -183,3 +183,30 @@ def test_no_write_reaches_a_controller_started_mid_push_and_an_undisturbed_push_
         if not switched:
             assert failed is None, f"{why}: {failed}"
             assert comparison.compare(project).changes == [], why
+
+
+@pytest.mark.parametrize(("family", "variant"), variant_cases())
+def test_every_variant_of_a_controller_is_pulled_diffed_pushed_and_restored_with_the_defaults(
+    family: str, variant: dict[str, str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 29: a controller that fills its manual's silences otherwise than the
+    profile guesses (each variant of its simulator) is backed up, compared, pushed to
+    and restored with robot.yaml's defaults, as the profile's own is."""
+    join(family, monkeypatch)
+    HARNESSES[family].quick(monkeypatch)
+    with served(family, 21, variant) as (device, station, url):
+        project = pulled(tmp_path, family, url, station)
+        assert comparison.compare(project).changes == []
+        assert writes_since(device, 0) == []
+        HARNESSES[family].edit(device.stations[station], random.Random(3))
+        assert comparison.compare(project).changes
+        result = deploy.push(project, PushOptions(yes=True, allow_dirty=True))
+        assert result.ok and result.written
+        assert comparison.compare(project).changes == []
+        device.stations[station] = HARNESSES[family].blank(device.stations[station])
+        result = deploy.push(
+            project, PushOptions(yes=True, allow_dirty=True, allow_reconfigure=True)
+        )
+        assert result.ok and result.written
+        assert comparison.compare(project).changes == []
+        assert all(not r.busy for r in writes_since(device, 0))

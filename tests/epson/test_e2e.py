@@ -528,9 +528,11 @@ def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(r
         assert by_name["epson-cell"].changed and by_name["iai-cell"].changed
         assert not by_name["press"].changed
         assert by_name["epson-cell"].summary == "5 table entries, 1 setting"
-        message = git(repo, "log", "-1", "--format=%B")
+        # Issue 30: kept on the backup branch, the approved files as committed.
+        message = git(repo, "log", "-1", "--format=%B", "harlsync/backup")
         assert "epson-cell" in message and "iai-cell" in message
-        assert "accel_s: {}" in (repo / "epson-cell" / "settings.yaml").read_text()
+        assert "accel_s: {}" in git(repo, "show", "harlsync/backup:epson-cell/settings.yaml")
+        assert "accel_s: {}" not in (repo / "epson-cell" / "settings.yaml").read_text()
         assert not iai.writes_while_busy() and not iai.off_list()
     finally:
         for server in servers:

@@ -262,8 +262,11 @@ def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo) -> None:
         by_name = {r.name: r for r in report.robots}
         assert by_name["iai-cell"].changed and not by_name["press"].changed
         assert by_name["iai-cell"].summary == "1 position"
-        assert f"  {first}: " not in (repo / "iai-cell" / "positions.yaml").read_text()
-        assert "iai-cell" in git(repo, "log", "-1", "--format=%B")
+        # Issue 30: kept on the backup branch; the approved files stay as committed.
+        kept = git(repo, "show", "harlsync/backup:iai-cell/positions.yaml")
+        assert f"  {first}: " not in kept
+        assert f"  {first}: " in (repo / "iai-cell" / "positions.yaml").read_text()
+        assert "iai-cell" in git(repo, "log", "-1", "--format=%B", "harlsync/backup")
         assert not iai.writes_while_busy() and not iai.off_list()
     finally:
         for server in servers:

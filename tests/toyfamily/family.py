@@ -48,6 +48,15 @@ class ToyCatalogue(Catalogue[SlotKey, ToyData]):
     def items(self, data: ToyData, *, registers: bool = False) -> dict[SlotKey, object]:
         return {SlotKey("slot", n): v for n, v in data.slots.items()}
 
+    def with_items(self, data: ToyData, values: Mapping[SlotKey, object]) -> ToyData:
+        slots = dict(data.slots)
+        for key, value in values.items():
+            if value is None:
+                slots.pop(key.number, None)
+            else:
+                slots[key.number] = int(value)  # type: ignore[call-overload]
+        return ToyData(data.version, slots)
+
     def order(self, key: SlotKey) -> tuple[int | str, ...]:
         return (key.number,)
 
@@ -192,9 +201,11 @@ class ToyFamily(Family[SlotKey, ToyData]):
             except (UnicodeDecodeError, yamlio.YamlSyntaxError) as exc:
                 line = getattr(exc, "line", None)
                 issues.append(Issue(name, line, None, f"not YAML: {exc}", fatal=True))
-        if issues:
+        if "robot.yaml" not in docs:
             return Analysis(issues=issues)
-        robot = _robot(docs["robot.yaml"], issues)
+        robot = _robot(docs["robot.yaml"], issues)  # alone too: what load_robot reads
+        if "slots.yaml" not in docs:
+            return Analysis(robot=robot, issues=issues)
         slots_doc = docs["slots.yaml"]
         plain = _plain(slots_doc.data)
         for error in jsonschema.Draft202012Validator(json.loads(SCHEMA)).iter_errors(plain):

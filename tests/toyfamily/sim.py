@@ -11,6 +11,7 @@ from pathlib import Path
 from harlsync.errors import ProjectError
 from harlsync.sim import device
 from harlsync.sim.family import Verb
+from harlsync.sim.variants import Variant
 
 from .codec import SLOTS, Decoder, Frame, corrupt, encode
 
@@ -33,6 +34,8 @@ class ToySimFamily:
     verbs = (Verb("run", "[STATION]", "running a program"), Verb("stop", "[STATION]", "idle"))
     busy_verb = "run"
     default_station = 1
+    #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
+    variants: tuple[Variant, ...] = ()
 
     def decoder(self) -> Decoder:
         return Decoder()

@@ -25,6 +25,7 @@ A plan names the persistent items it writes (the controller's memory card).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
@@ -127,6 +128,15 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
     def items(self, data: EpsonData, *, registers: bool = False) -> dict[Key, Any]:
         """Every setting and point; there is no runtime data to add for ``registers``."""
         return {key: value for key, value in data.items.items()}
+
+    def with_items(self, data: EpsonData, values: Mapping[Key, Any]) -> EpsonData:
+        items = dict(data.items)
+        for key, value in values.items():
+            if value is None:
+                items.pop(key, None)
+            else:
+                items[key] = value
+        return dataclasses.replace(data, items=items)
 
     def order(self, key: Key) -> tuple[Any, ...]:
         return (_RANK[key.kind], -1 if key.number is None else key.number)

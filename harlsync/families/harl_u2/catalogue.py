@@ -15,11 +15,22 @@ of the project after it.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import copy
+from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
-from ..base import Catalogue, PlanShape, align, spans
-from .model import OFFSET_FIELDS, Config, OffsetTable, Parameters, ProgramType, RobotData, Step
+from ...alignment import align, spans
+from ..base import Catalogue, PlanShape
+from .model import (
+    OFFSET_FIELDS,
+    Config,
+    OffsetEnd,
+    OffsetTable,
+    Parameters,
+    ProgramType,
+    RobotData,
+    Step,
+)
 
 __all__ = [
     "CATALOGUE",
@@ -87,6 +98,33 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
                 if step.command is not None:  # not step.empty
                     out[StepKey("step", name, number, n)] = step
         return out
+
+    def with_items(self, data: RobotData, values: Mapping[Key, Any]) -> RobotData:
+        new = copy.deepcopy(data)
+        for key, value in values.items():
+            table: dict[int, Any] | None
+            if isinstance(key, StepKey):
+                table = new.programs.setdefault((ProgramType(key.program_type), key.program), {})
+                number = key.step
+            elif isinstance(key, NumberKey):
+                if key.kind == "register" and new.registers is None:
+                    new.registers = {}
+                tables: dict[str, dict[int, Any] | None] = {
+                    "offset": new.offsets,
+                    "timer": new.timers,
+                    "register": new.registers,
+                }
+                table = tables[key.kind]
+                number = key.number
+            else:
+                setattr(new, key.kind, value)
+                continue
+            assert table is not None
+            if value is None:
+                table.pop(number, None)
+            else:
+                table[number] = value
+        return new
 
     def order(self, key: Key) -> tuple[Any, ...]:
         if isinstance(key, StepKey):
@@ -190,14 +228,32 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
         """The version (LNV) and the program configuration (LNX)."""
         return identity_of(data.version, data.config)
 
+    def other_identity(self, now: Mapping[str, str], project: RobotData) -> str | None:
+        """Why the controller that reports ``now`` (:meth:`robot_identity`, from LNX
+        and LNV) is not the project's robot, for diff, plan, push and rollback:
+        another version, which no command writes.  Another program configuration
+        is not: a push writes it (SNX, with ``--allow-reconfigure``), as a restore
+        to a controller that lost its memory must."""
+        version = now.get("version")
+        if version == project.version:
+            return None
+        said = "none" if version is None else f"'{version}'"
+        return (
+            f"the controller answers version {said} (LNV), the project is of version "
+            f"'{project.version}': another robot's controller, or one replaced or updated. "
+            "Check the port and station (a replacement must run the project's version, "
+            "docs/restore.md); if this is the robot, updated, take it into the project "
+            "with 'harlsync pull DIR --new-robot' first"
+        )
+
     def contents(self, data: RobotData, *, registers: bool) -> str:
         """What a live read holds: programs, timers and registers to the sizes LNX
-        reports, and the offset tables with the range the read covered (it probed
-        the table after the last: ``Controller.probe_offsets``)."""
+        reports, and the offset tables with the range the read covered and the
+        reply that ended it (``Controller.read_offsets``)."""
         steps = sum(not step.empty for steps in data.programs.values() for step in steps.values())
         parts = [
             f"{_many(len(data.programs), 'program')} ({_many(steps, 'step')} used)",
-            _tables(len(data.offsets)),
+            _tables(len(data.offsets), data.offset_end),
             _many(len(data.timers), "timer"),
         ]
         if registers and data.registers is not None:
@@ -298,9 +354,17 @@ def _steps(numbers: list[int]) -> str:
     return f"step{'s' * (len(numbers) != 1)} {spans(numbers)}"
 
 
-def _tables(count: int) -> str:
-    """``100 offset tables (0-99, the controller has no table 100)``: the range read."""
-    return f"{_many(count, 'offset table')} (0-{count - 1}, the controller has no table {count})"
+def _tables(count: int, end: OffsetEnd | None) -> str:
+    """``100 offset tables (0-99, no table 100: E21 twice)``: the range read and the
+    reply that ended it; a controller with fewer than robot.yaml's ``offset_tables``
+    is said to be so."""
+    said = f"{_many(count, 'offset table')} (0-{count - 1}, no table {count}"
+    if end is None:
+        return said + ")"
+    said += f": {end.reply} twice"
+    if end.count < end.asked:
+        said += f"; fewer than robot.yaml's offset_tables: {end.asked}"
+    return said + ")"
 
 
 def _many(count: int, one: str) -> str:

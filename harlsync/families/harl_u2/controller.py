@@ -33,7 +33,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 from ...errors import ControllerError, SyncError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
@@ -45,6 +45,7 @@ from .link import Link
 from .model import (
     OFFSET_TABLE_COUNT,
     Config,
+    OffsetEnd,
     OffsetTable,
     Parameters,
     ProgramKey,
@@ -56,7 +57,7 @@ from .model import (
 from .protocol import Ack, ErrorReply, Frame, Request, profile
 from .protocol import commands as cmd
 
-__all__ = ["Controller", "Progress", "TableBeyondRange"]
+__all__ = ["Controller", "NoSuchTable", "Progress", "TableBeyondRange"]
 
 log = logging.getLogger(__name__)
 
@@ -316,43 +317,133 @@ class Controller(OnLink):
             needs_idle=needs_idle,
         )
 
-    def probe_offsets(self, count: int) -> None:
-        """Make sure the controller has no offset table ``count`` (LNX does not
-        report how many it has): LNL ``count`` must answer
-        ``E`` + ``profile.NO_SUCH_TABLE``.
+    def read_offsets(
+        self,
+        limit: int = OFFSET_TABLE_COUNT,
+        *,
+        expect: NoSuchTable | None = None,
+        tick: Callable[[], None] | None = None,
+    ) -> tuple[dict[int, OffsetTable], OffsetEnd]:
+        """The offset tables from 0 to where the controller's answers say they end,
+        at most ``limit`` (robot.yaml's ``offset_tables``), and that end.
 
-        Raises :class:`TableBeyondRange` naming the table and robot.yaml's
-        ``offset_tables`` when it answers a table, and :class:`ControllerError`
-        when it answers any other error status (busy, a fault): that does not
-        say the table is absent, so the backup could be short.
+        LNX does not report how many tables there are, and which status a missing
+        one answers is not in the manual, so the end is the controller's own:
+        table ``n`` answers an error reply, table ``n`` - 1 reads normally once
+        more, and table ``n`` answers the same reply again.  That is table
+        ``limit`` (the probe past the range) or an earlier one (a controller with
+        fewer tables: read to its end, not failed).  Three exchanges beyond the
+        tables' own reads; a table that answers an error once and then reads is
+        taken as read.  ``expect`` is the reply robot.yaml pins or the project
+        recorded; None: whatever the controller answers twice.  ``tick`` is
+        called after each table read.
+
+        Raises :class:`TableBeyondRange` naming robot.yaml's ``offset_tables`` when
+        table ``limit`` answers data, and :class:`ControllerError` in one line when
+        the answers do not show an end (two different replies, table ``n`` - 1 not
+        reading again, table 0 missing) or show one with a reply other than
+        ``expect``: the tables read could be short.
         """
+        offsets: dict[int, OffsetTable] = {}
+        n = 0
+        while True:
+            answer = self._table_or_reply(n)
+            if isinstance(answer, str):
+                answer = self._asked_again(n, answer)
+            if isinstance(answer, OffsetTable):
+                if n >= limit:
+                    raise TableBeyondRange(
+                        f"port {self.port}, station {self.station}: offset table {n} answers "
+                        f"({' '.join(answer.values)}): the controller has more than the {n} "
+                        f"offset tables a read goes to (0-{n - 1}), so the backup would be "
+                        "short; set offset_tables in robot.yaml to the controller's count "
+                        "and pull again"
+                    )
+                offsets[n] = answer
+                if tick is not None:
+                    tick()
+                n += 1
+                continue
+            if expect is not None and answer != expect.reply:
+                raise self._unreadable_end(
+                    n,
+                    answer,
+                    f"offset table {n} answered {answer} twice, not {expect.reply} "
+                    f"({expect.source}): the controller now answers a missing table "
+                    "otherwise, or cannot answer normally (an abnormal condition)",
+                    advice=(
+                        f"; if {answer} is what this controller answers for a table it "
+                        f"does not have, set no_such_table: {answer} in robot.yaml"
+                    ),
+                )
+            end = OffsetEnd(n, answer, asked=limit)
+            if n < limit:
+                log.info(
+                    "port %s, station %s: %d offset tables, fewer than the %d a read goes "
+                    "to (robot.yaml offset_tables): table %d answered %s twice",
+                    self.port,
+                    self.station,
+                    n,
+                    limit,
+                    n,
+                    answer,
+                )
+            return offsets, end
+
+    def _table_or_reply(self, table: int) -> OffsetTable | str:
+        """LNL ``table``: the table, or the error reply (``E`` + status) it answered."""
         try:
-            table = self.read_offset(count)
+            return self.read_offset(table)
         except ControllerError as exc:
-            if exc.status == profile.NO_SUCH_TABLE:
-                return
-            raise ControllerError(
-                exc.status,
-                port=self.port,
-                station=self.station,
-                command=exc.command,
-                message=(
-                    f"offset table {count} answered error status "
-                    f"{profile.ERROR_PREFIX}{exc.status}, not "
-                    f"{profile.ERROR_PREFIX}{profile.NO_SUCH_TABLE} (no such table): "
-                    f"harlsync cannot tell whether the controller has more than the "
-                    f"{count} offset tables this pull reads, so it saves no backup; pull "
-                    "again when the robot answers normally (a controller that always "
-                    "answers this for a missing table needs NO_SUCH_TABLE set to it in "
-                    "harlsync's HARL-U2 profile)"
-                ),
-            ) from exc
-        shown = " ".join(table.values)
-        raise TableBeyondRange(
-            f"port {self.port}, station {self.station}: offset table {count} answers "
-            f"({shown}): the controller has more than the {count} offset tables this pull "
-            f"reads (0-{count - 1}), so the backup would be short; set offset_tables in "
-            "robot.yaml to the controller's count and pull again"
+            return profile.ERROR_PREFIX + exc.status
+
+    def _asked_again(self, table: int, first: str) -> OffsetTable | str:
+        """Table ``table`` answered the error reply ``first``: read the table before it
+        again (the robot still answers normally), then ``table`` again.  Returns the
+        table when it reads now, or ``first`` when it answers that again.
+
+        Raises :class:`ControllerError` when the answers show no end.
+        """
+        if table > 0:
+            before = self._table_or_reply(table - 1)
+            if isinstance(before, str):
+                raise self._unreadable_end(
+                    table,
+                    first,
+                    f"offset table {table} answered {first}, and table {table - 1}, which "
+                    f"read normally, answers {before} now: the robot does not answer "
+                    "normally",
+                )
+        second = self._table_or_reply(table)
+        if isinstance(second, OffsetTable) or (second == first and table > 0):
+            return second
+        if second == first:
+            raise self._unreadable_end(
+                table,
+                first,
+                f"offset table 0 answered {first} twice: no offset table reads normally, "
+                "so the robot either has none or cannot answer now",
+            )
+        raise self._unreadable_end(
+            table,
+            second,
+            f"offset table {table} answered {first}, then {second}: not the same reply twice",
+        )
+
+    def _unreadable_end(
+        self, table: int, reply: str, why: str, advice: str = ""
+    ) -> ControllerError:
+        """The one-line error of a read whose offset tables show no end it can trust."""
+        return ControllerError(
+            reply[len(profile.ERROR_PREFIX) :],
+            port=self.port,
+            station=self.station,
+            command=cmd.read_offset(table).payload,
+            message=(
+                f"{why}; harlsync cannot tell where the offset tables end, so it saves "
+                f"nothing and writes nothing: pull again when the robot answers "
+                f"normally{advice}"
+            ),
         )
 
     # --- everything ---------------------------------------------------------------------
@@ -363,26 +454,31 @@ class Controller(OnLink):
         progress: Progress | None = None,
         *,
         offset_tables: int = OFFSET_TABLE_COUNT,
+        no_such_table: NoSuchTable | None = None,
         known: tuple[Config, str] | None = None,
     ) -> RobotData:
         """Everything a backup holds, read in pull order.
 
         The configuration first (it says what exists), then version, parameters,
-        every step of every program, the offset tables 0 to ``offset_tables`` - 1
-        (robot.yaml's ``offset_tables``, the manual's 100 by default) and the
-        probe past them (:meth:`probe_offsets`), the timers, and the registers
-        when ``include_registers``.  Programs, timers and registers are read to
-        the sizes LNX reports; only the offset tables' count is not reported.
+        every step of every program, the offset tables from 0 to their end, at
+        most ``offset_tables`` - 1 (robot.yaml's ``offset_tables``, the manual's
+        100 by default: :meth:`read_offsets`, which holds the controller to
+        ``no_such_table`` when given), the timers, and the registers when
+        ``include_registers``.  Programs, timers and registers are read to the
+        sizes LNX reports; only the offset tables' count is not reported.
         ``progress(done, total)`` is called after each item.
 
         ``known`` is the configuration and version just read (the robot's identity,
         :meth:`HarlU2Driver.identity`): not asked for again.
 
-        Raises :class:`TableBeyondRange` when the controller has more offset tables.
+        Raises :class:`TableBeyondRange` when the controller has more offset tables,
+        and :class:`ControllerError` when their end cannot be trusted.
         """
         config = self.config() if known is None else known[0]
         registers = config.registers if include_registers else 0
-        total = 4 + config.step_count + offset_tables + config.timers + registers
+        # LNX, LNV, LNE, the steps, the tables and the three exchanges of their end
+        # (:meth:`read_offsets`), the timers and the registers
+        total = 6 + config.step_count + offset_tables + config.timers + registers
         done = 0
 
         def tick(value: T) -> T:
@@ -401,9 +497,12 @@ class Controller(OnLink):
             )
             for ptype, number in config.programs()
         }
-        offsets = {n: tick(self.read_offset(n)) for n in range(offset_tables)}
-        self.probe_offsets(offset_tables)
-        tick(None)
+        offsets, end = self.read_offsets(
+            offset_tables, expect=no_such_table, tick=lambda: tick(None)
+        )
+        done += offset_tables - end.count  # the tables a smaller controller does not have
+        for _ in range(3):  # the end: table N, table N - 1 again, table N again
+            tick(None)
         timers = {n: tick(self.read_timer(n)) for n in range(config.timers)}
         regs = {n: tick(self.read_register(n)) for n in range(registers)}
         return RobotData(
@@ -414,7 +513,16 @@ class Controller(OnLink):
             offsets=offsets,
             timers=timers,
             registers=regs if include_registers else None,
+            offset_end=end,
         )
+
+
+class NoSuchTable(NamedTuple):
+    """The reply a read takes for "no such table" past the last offset table, and
+    what says so, for its message: ``NoSuchTable("E21", "robot.yaml's no_such_table")``."""
+
+    reply: str
+    source: str
 
 
 class TableBeyondRange(SyncError):

@@ -9,7 +9,7 @@ from typing import Any
 from ..base import Driver, Progress
 from ..base import Status as AnyStatus
 from .catalogue import Key, NumberKey, StepKey, identity_of
-from .controller import Controller
+from .controller import Controller, NoSuchTable
 from .model import (
     OFFSET_TABLE_COUNT,
     TASK_STATUS_NAMES,
@@ -31,12 +31,39 @@ _SUSPENDED = 2
 class HarlU2Driver(Driver[Key, RobotData]):
     """The HARL-U2 over a :class:`~harlsync.controller.Controller`."""
 
-    def __init__(self, controller: Controller, *, offset_tables: int = OFFSET_TABLE_COUNT) -> None:
+    def __init__(
+        self,
+        controller: Controller,
+        *,
+        offset_tables: int = OFFSET_TABLE_COUNT,
+        no_such_table: str | None = None,
+    ) -> None:
         self.controller = controller
         #: robot.yaml's ``offset_tables``: how many tables a read of everything reads
+        #: at most
         self.offset_tables = offset_tables
+        #: robot.yaml's ``no_such_table``: the only reply taken for a missing table
+        self.no_such_table = no_such_table
+        #: the reply the project recorded for a missing table (:meth:`hold_to`)
+        self.recorded: str | None = None
         self.label = f"port {controller.port} station {controller.station}"
         self._known: tuple[Config, str] | None = None
+
+    def hold_to(self, recorded: RobotData) -> None:
+        """The reply the project recorded past its last offset table: the next read
+        of everything takes only that one for "no such table" (robot.yaml's
+        ``no_such_table``, when set, still goes first)."""
+        end = recorded.offset_end
+        self.recorded = None if end is None else end.reply
+
+    def _expected_end(self) -> NoSuchTable | None:
+        if self.no_such_table is not None:
+            return NoSuchTable(self.no_such_table, "robot.yaml's no_such_table")
+        if self.recorded is not None:
+            return NoSuchTable(
+                self.recorded, "as the project recorded, controller.yaml offset_tables"
+            )
+        return None
 
     def identity(self) -> dict[str, str]:
         """LNX and LNV, the first two requests of a read: kept for :meth:`read_all`."""
@@ -52,6 +79,7 @@ class HarlU2Driver(Driver[Key, RobotData]):
             include_registers=registers,
             progress=progress,
             offset_tables=self.offset_tables,
+            no_such_table=self._expected_end(),
             known=known,
         )
 

@@ -148,7 +148,7 @@ class HarlU2Family(Family["Key", "RobotData"]):
     ) -> Driver[Key, RobotData]:
         from .controller import Controller
         from .driver import HarlU2Driver
-        from .model import offset_tables
+        from .model import no_such_table, offset_tables
 
         controller = Controller.from_url(
             port or robot.port,
@@ -156,7 +156,11 @@ class HarlU2Family(Family["Key", "RobotData"]):
             robot.serial,
             lock_timeout=lock_timeout,
         )
-        return HarlU2Driver(controller, offset_tables=offset_tables(robot))
+        return HarlU2Driver(
+            controller,
+            offset_tables=offset_tables(robot),
+            no_such_table=no_such_table(robot),
+        )
 
 
 #: The family, as the registry hands it out.

@@ -17,12 +17,14 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ...alignment import spans
 from ...project import yamlio as y
 from ...project.files import (
     HUGE,
     SCHEMAS_DIR,
     FileSet,
     Flaws,
+    MigrationError,
     not_canonical,
     numbered,
     numbers,
@@ -33,7 +35,7 @@ from ...project.files import (
 )
 from ...project.robot import Robot
 from ...project.schema import Issue, SchemaSet, show
-from ..base import Analysis, spans
+from ..base import Analysis
 from .declared import FIRST_STATION, LAST_STATION, PROGRAMS_DIR, STATION_ALLOWED
 from .model import (
     CODE_RE,
@@ -44,6 +46,7 @@ from .model import (
     REGISTER_RE,
     TIMER_RE,
     Config,
+    OffsetEnd,
     OffsetTable,
     Parameters,
     ProgramArea,
@@ -53,6 +56,7 @@ from .model import (
     Step,
     canonical_code,
     canonical_offset,
+    no_such_table,
     offset_tables,
 )
 from .protocol import commands as cmd
@@ -104,14 +108,23 @@ def migrate_1_to_2(kind: str, data: dict[str, Any]) -> dict[str, Any]:
     """Format 1 to 2: a program's ``steps`` mapping (step number -> step, empty steps
     left out) becomes the list of its steps in step order, an empty step ``null``.
 
-    A mapping that is not a format-1 step mapping (a key that is no step number) is
-    left as it is, for the schema to report; every other file is unchanged.
+    Raises MigrationError naming each key that is no step number (``-1``, ``'07'``,
+    ``1.5``), at its line; ``steps`` that is not a mapping is left as it is, for the
+    schema to report.  Every other file is unchanged.
     """
     steps = data.get("steps") if kind == "program" else None
-    if not isinstance(steps, dict) or not all(
-        isinstance(k, str) and _STEP_NUMBER.fullmatch(k) and int(k) <= MAX_STEPS for k in steps
-    ):
+    if not isinstance(steps, dict):
         return data
+    bad = [
+        k
+        for k in steps
+        if not (isinstance(k, str) and _STEP_NUMBER.fullmatch(k) and int(k) <= MAX_STEPS)
+    ]
+    if bad:
+        allowed = f"(allowed: 0-{MAX_STEPS}, written without sign, point or leading zero)"
+        raise MigrationError(
+            [(("steps", k), f"{show(k)} is not a step number {allowed}") for k in bad]
+        )
     listed: list[Any] = [None] * (max((int(k) for k in steps), default=-1) + 1)
     for k, step in steps.items():
         listed[int(k)] = step
@@ -188,27 +201,30 @@ def render_robot(robot: Robot) -> str:
     ]
     if "offset_tables" in robot.options:
         items.append(("offset_tables", y.num(str(offset_tables(robot)))))
+    pinned = no_such_table(robot)
+    if pinned is not None:
+        items.append(("no_such_table", y.text(pinned)))
     return FILES.document("robot", "robot.yaml", items)
 
 
-def render_controller(version: str, config: Config) -> str:
+def render_controller(version: str, config: Config, offset_end: OffsetEnd | None = None) -> str:
     def area(a: ProgramArea) -> Any:
         return y.mapping(
             [("count", y.num(str(a.count))), ("steps", y.num(str(a.steps)))], flow=True
         )
 
     programs = y.mapping([(t.value.lower(), area(config.area(t))) for t in ProgramType])
-    return FILES.document(
-        "controller",
-        "controller.yaml",
-        [
-            ("version", y.text(version)),
-            ("programs", programs),
-            ("timers", y.num(str(config.timers))),
-            ("memory_bits", y.num(str(config.memory_bits))),
-            ("registers", y.num(str(config.registers))),
-        ],
-    )
+    items: list[tuple[str, Any]] = [
+        ("version", y.text(version)),
+        ("programs", programs),
+        ("timers", y.num(str(config.timers))),
+        ("memory_bits", y.num(str(config.memory_bits))),
+        ("registers", y.num(str(config.registers))),
+    ]
+    if offset_end is not None:
+        end = [("count", y.num(str(offset_end.count))), ("no_such_table", y.text(offset_end.reply))]
+        items.append(("offset_tables", y.mapping(end, flow=True)))
+    return FILES.document("controller", "controller.yaml", items)
 
 
 def render_parameters(parameters: Parameters) -> str:
@@ -265,7 +281,7 @@ def render_files(robot: Robot, data: RobotData) -> dict[str, str]:
     """
     out = {
         "robot.yaml": render_robot(robot),
-        "controller.yaml": render_controller(data.version, data.config),
+        "controller.yaml": render_controller(data.version, data.config, data.offset_end),
         "parameters.yaml": render_parameters(data.parameters),
         "offsets.yaml": render_offsets(data.offsets),
         "timers.yaml": render_timers(data.timers),
@@ -350,7 +366,7 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
     if "controller.yaml" in docs:
         limits = _Limits.of(docs["controller.yaml"], flaws["controller.yaml"])
         tables = _offset_tables(robot_doc, flaws.get("robot.yaml"))
-        _check_against_config(limits, docs, programs, issues, tables)
+        _check_against_config(limits, docs, programs, issues, _table_limit(tables, limits))
     _check_wire(docs, flaws, programs, issues)
 
     if not issues:
@@ -369,6 +385,8 @@ class _Limits:
     steps: Mapping[ProgramType, int | None]
     timers: int | None
     registers: int | None
+    #: the offset tables' count a pull recorded (0: none recorded, None: unsound)
+    tables: int | None = 0
 
     @classmethod
     def of(cls, doc: y.Parsed, flaws: Flaws) -> _Limits:
@@ -382,6 +400,11 @@ class _Limits:
             steps={t: area(t, "steps") for t in ProgramType},
             timers=flaws.number("timers", data=data),
             registers=flaws.number("registers", data=data),
+            tables=(
+                flaws.number("offset_tables", "count", data=data)
+                if isinstance(data, dict) and "offset_tables" in data
+                else 0
+            ),
         )
 
 
@@ -393,6 +416,17 @@ def _offset_tables(doc: y.Parsed | None, flaws: Flaws | None) -> int | None:
     if _get(doc, "offset_tables") is None:
         return OFFSET_TABLE_COUNT
     return flaws.number("offset_tables", data=doc.data)
+
+
+def _table_limit(asked: int | None, limits: _Limits) -> tuple[int, str] | None:
+    """How many offset tables offsets.yaml holds, and what says so: robot.yaml's
+    count (:func:`_offset_tables`), or fewer when controller.yaml records that the
+    controller has fewer; None when either cannot say."""
+    if asked is None or limits.tables is None:
+        return None
+    if limits.tables and limits.tables < asked:
+        return limits.tables, "controller.yaml offset_tables.count"
+    return asked, "robot.yaml offset_tables"
 
 
 def _get(doc: y.Parsed, key: str) -> Any:
@@ -436,9 +470,17 @@ def _span(count: int) -> str:
 
 
 def _check_numbered(
-    name: str, doc: y.Parsed, key: str, count: int, what: str, issues: list[Issue]
+    name: str,
+    doc: y.Parsed,
+    key: str,
+    count: int,
+    what: str,
+    issues: list[Issue],
+    source: str = "",
 ) -> None:
-    """Every number 0..count-1 present under ``key``, and no other."""
+    """Every number 0..count-1 present under ``key``, and no other; ``source`` names
+    the setting that gives ``count``, for the message."""
+    source = f", {source}" if source else ""
     if not isinstance(_get(doc, key), dict):
         return
     found = numbers(_get(doc, key))
@@ -450,7 +492,7 @@ def _check_numbered(
                     doc.line((key, text)),
                     f"{key}.{text}",
                     f"{what} {show(y.Number(text))} is outside the configuration "
-                    f"(allowed: {_span(count)})",
+                    f"(allowed: {_span(count)}{source})",
                 )
             )
     missing = set(range(count)) - {n for _, n in found}
@@ -460,7 +502,7 @@ def _check_numbered(
                 name,
                 doc.line((key,)),
                 key,
-                f"{what} {spans(missing)} missing (allowed: every {what} {_span(count)})",
+                f"{what} {spans(missing)} missing (allowed: every {what} {_span(count)}{source})",
             )
         )
 
@@ -470,12 +512,14 @@ def _check_against_config(
     docs: Mapping[str, y.Parsed],
     programs: Mapping[ProgramKey, y.Parsed | None],
     issues: list[Issue],
-    tables: int | None = OFFSET_TABLE_COUNT,
+    tables: tuple[int, str] | None = (OFFSET_TABLE_COUNT, "robot.yaml offset_tables"),
 ) -> None:
     """What the schemas cannot say: numbers that depend on controller.yaml (and the
-    offset tables' count on robot.yaml); a check whose limit is unsound is skipped."""
+    offset tables' count on robot.yaml, or the fewer controller.yaml records,
+    :func:`_table_limit`); a check whose limit is unsound is skipped."""
+    if tables is not None and (offsets := docs.get("offsets.yaml")) is not None:
+        _check_numbered("offsets.yaml", offsets, "tables", tables[0], "table", issues, tables[1])
     for file, numbered_key, limit, what in (
-        ("offsets.yaml", "tables", tables, "table"),
         ("timers.yaml", "timers", limits.timers, "timer"),
         ("registers.yaml", "registers", limits.registers, "register"),
     ):
@@ -708,4 +752,14 @@ def _build_data(
         },
         timers={int(n): text_of(v) for n, v in doc("timers.yaml")["timers"].items()},
         registers=registers,
+        offset_end=_offset_end(doc("controller.yaml")),
     )
+
+
+def _offset_end(controller: Mapping[str, Any]) -> OffsetEnd | None:
+    """The end of the offset tables controller.yaml records, or None when it records none."""
+    end = controller.get("offset_tables")
+    if end is None:
+        return None
+    count = int(end["count"])
+    return OffsetEnd(count, text_of(end["no_such_table"]), asked=count)

@@ -31,6 +31,7 @@ __all__ = [
     "TIMER_RE",
     "TOKEN_RE",
     "Config",
+    "OffsetEnd",
     "OffsetTable",
     "Parameters",
     "ProgramArea",
@@ -42,6 +43,7 @@ __all__ = [
     "TaskState",
     "canonical_code",
     "canonical_offset",
+    "no_such_table",
     "offset_tables",
 ]
 
@@ -62,16 +64,29 @@ MAX_STEP_DATA = 4
 #: A step's tokens joined by NUL when each is one TOKEN_RE and there are at most
 #: 1 + MAX_STEP_DATA (and no token holds a NUL): :meth:`Step.problems` in one test.
 _SOUND_TOKENS = re.compile(rf"[!-~]+(?:\0[!-~]+){{0,{MAX_STEP_DATA}}}")
-#: Offset tables 0-99 (the manual's fixed count; LNX does not report it).
+#: Offset tables 0-99: the manual's "between 0 and 99 (variable)" (3.1.7 LNL, p. 3-4).
+#: LNX does not report how many a controller has: a read goes at most this far by
+#: default and finds the real end from the controller's answers (:class:`OffsetEnd`).
 OFFSET_TABLE_COUNT = 100
 
 
 def offset_tables(robot: Robot | None) -> int:
-    """How many offset tables the robot has, 0 to N - 1: robot.yaml's ``offset_tables``,
-    else the manual's 100 (LNX does not report it; a pull probes table N)."""
+    """How many offset tables a read goes to at most, 0 to N - 1: robot.yaml's
+    ``offset_tables``, else the manual's 100.  A controller with fewer is read to
+    its end (:class:`OffsetEnd`); table N answering data fails the read."""
     if robot is None:
         return OFFSET_TABLE_COUNT
     return int(robot.options.get("offset_tables", OFFSET_TABLE_COUNT))
+
+
+def no_such_table(robot: Robot | None) -> str | None:
+    """robot.yaml's ``no_such_table``: the only reply (``E`` + status) taken for "no
+    such table" past the last offset table; None (absent): the reply the controller
+    gives twice at its first pull, then the one that pull recorded."""
+    if robot is None:
+        return None
+    pinned = robot.options.get("no_such_table")
+    return None if pinned is None else str(pinned)
 
 
 class ProgramType(enum.Enum):
@@ -270,6 +285,24 @@ class OffsetTable:
         return out
 
 
+@dataclass(frozen=True)
+class OffsetEnd:
+    """Where a read found the offset tables to end (LNX does not report their count).
+
+    Tables 0 to ``count`` - 1 read normally, and table ``count`` answered ``reply``
+    (``E`` + status, as the wire gives it) twice, with table ``count`` - 1 read
+    normally again between the two: that reply is the controller's "no such table".
+    A pull records both in controller.yaml (``offset_tables``).  ``asked`` is how
+    many tables the read was to read at most (robot.yaml's ``offset_tables``),
+    for what the read says; it is not recorded, and equal ends compare equal
+    whatever was asked.
+    """
+
+    count: int
+    reply: str
+    asked: int = field(default=0, compare=False)
+
+
 def canonical_offset(text: str) -> str:
     """An offset X..C as the controller gives it back: no leading zero, no minus on
     zero (``"0012.50"`` -> ``"12.50"``, ``"-0000.00"`` -> ``"0.00"``).
@@ -410,7 +443,9 @@ class RobotData:
 
     ``programs`` maps each program to its non-empty steps by step number; every
     program the configuration has is present (an empty program maps to ``{}``).
-    ``registers`` is ``None`` unless the project keeps registers.
+    ``registers`` is ``None`` unless the project keeps registers.  ``offset_end``
+    is where the offset tables ended when they were read (None: a project pulled
+    before harlsync recorded it).
     """
 
     version: str
@@ -420,3 +455,4 @@ class RobotData:
     offsets: dict[int, OffsetTable] = field(default_factory=dict)
     timers: dict[int, str] = field(default_factory=dict)
     registers: dict[int, str] | None = None
+    offset_end: OffsetEnd | None = None

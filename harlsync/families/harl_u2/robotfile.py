@@ -24,5 +24,15 @@ def build_robot(data: Mapping[str, Any]) -> Robot:
         windows=build_windows(data),
         keep_registers=bool(data.get("keep_registers", False)),
         description=data.get("description"),
-        options=({"offset_tables": int(data["offset_tables"])} if "offset_tables" in data else {}),
+        options=_options(data),
     )
+
+
+def _options(data: Mapping[str, Any]) -> dict[str, Any]:
+    """The HARL-U2's own settings robot.yaml gives: ``offset_tables``, ``no_such_table``."""
+    options: dict[str, Any] = {}
+    if "offset_tables" in data:
+        options["offset_tables"] = int(data["offset_tables"])
+    if "no_such_table" in data:
+        options["no_such_table"] = str(data["no_such_table"])
+    return options

@@ -25,6 +25,7 @@ for a project that does not keep them.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterable, Mapping
 from itertools import zip_longest
 from typing import Any, NamedTuple
@@ -199,6 +200,22 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
             for n, value in records.get(_KINDS[kind][0], {}).items():
                 out[RecordKey(kind, n)] = value
         return out
+
+    def with_items(self, data: IaiData, values: Mapping[Key, Any]) -> IaiData:
+        new = copy.deepcopy(data)
+        for key, value in values.items():
+            if isinstance(key, Run):  # a plan's, never an item of a diff
+                raise NotImplementedError
+            section = _KINDS[_item_kind(key)][0]
+            table = getattr(new, section)
+            if table is None:
+                table = {}
+                setattr(new, section, table)
+            if value is None:
+                table.pop(key.number, None)
+            else:
+                table[key.number] = value
+        return new
 
     def order(self, key: Key) -> tuple[Any, ...]:
         number = key.start if isinstance(key, Run) else key.number

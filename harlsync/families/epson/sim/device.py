@@ -43,6 +43,7 @@ from ....errors import ProjectError, ProjectFormatError
 from ....sim import device
 from ....sim.device import Faults, Received
 from ....sim.family import Verb
+from ....sim.variants import Variant
 from .. import profile
 from ..profile import RegisterMap
 from .commands import (
@@ -97,6 +98,8 @@ class EpsonSimFamily:
     )
     busy_verb = "run"
     default_station = profile.DEFAULT_UNIT
+    #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
+    variants: tuple[Variant, ...] = ()
 
     def generate(self, seed: int, stations: Sequence[int]) -> Simulator:
         return Simulator({n: SimState.generate(seed + i) for i, n in enumerate(stations)})

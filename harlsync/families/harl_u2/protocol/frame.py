@@ -20,7 +20,7 @@ import re
 from dataclasses import dataclass
 from functools import reduce
 
-from ....errors import FrameError, LRCError
+from ....errors import ChecksumError, FrameError
 from . import profile
 
 __all__ = [
@@ -168,7 +168,7 @@ class FrameDecoder:
     def next_frame(self) -> Frame | None:
         """The next complete frame, or None when more bytes are needed.
 
-        Raises :class:`FrameError` or :class:`LRCError` for a bad frame; the bad
+        Raises :class:`FrameError` or :class:`ChecksumError` for a bad frame; the bad
         frame's bytes are consumed first, so calling again continues after it.
         """
         buf = self._buf
@@ -209,7 +209,9 @@ def _parse(body: bytes, got_lrc: bytes) -> Frame:
     want = _lrc_bytes(lrc(body))
     text = body[:-1]
     if got_lrc != want:
-        raise LRCError(f"LRC {got_lrc.hex()} does not match {want.hex()} for frame {_show(text)}")
+        raise ChecksumError(
+            f"LRC {got_lrc.hex()} does not match {want.hex()} for frame {_show(text)}"
+        )
     if _NOT_PRINTABLE.search(text):
         raise FrameError(f"control or non-ASCII byte in frame {_show(text)}")
     head, sep, payload = text.decode("ascii").partition(" ")

@@ -1,9 +1,12 @@
 """Every choice the HARL-U2 manual leaves open, in one place.
 
-These are the *(profile)* decisions of ``shared/spec/harl-u2-wire-profile.md``.
-A site whose controller differs changes the constant here and nothing else:
+These are the *(profile)* decisions of ``shared/spec/harl-u2-wire-profile.md``:
 the codec, the link, the simulator and the sync engine all read them from this
-module.
+module.  Each is a default.  Where a site's controller may differ, robot.yaml
+has the setting that overrides it (the serial settings and timeout under
+``connection``, ``offset_tables``, ``no_such_table``), or the controller's own
+answers decide at each pull; docs/profile.md lists every guess with its setting,
+its simulator variant, and the ones that have neither ("one way only").
 """
 
 from __future__ import annotations
@@ -39,17 +42,15 @@ SN_OK = "0"
 #: An error reply is this letter followed directly by the raw status.
 ERROR_PREFIX = "E"
 
-#: The status an LNL read of a table the controller does not have answers
-#: (``E21``).  LNX does not report how many offset tables there are, so a pull
-#: reads robot.yaml's ``offset_tables`` and then asks for the next one: only this
-#: status tells it the controller has no such table.  The manual does not give
-#: it: it says only that a robot that cannot answer normally sends "E" + status
-#: and defers the codes to the HRCS-R3 manual, which we do not have.  ``21`` is a
-#: profile choice (the status this profile gives any number outside the
-#: configuration).  Any other status (the robot busy, a transient fault) says
-#: nothing about whether the table exists, so it fails the robot's pull instead of
-#: passing a backup that may be short.  A controller that answers another code
-#: for a missing table fails every pull in one line naming both codes: set it here.
+#: The status the profile guesses an LNL read of a table the controller does not
+#: have answers (``E21``, the status this profile gives any number outside the
+#: configuration).  The manual does not give it: it says only that a robot that
+#: cannot answer normally sends "E" + status and defers the codes to the HRCS-R3
+#: manual, which we do not have.  So harlsync does not rely on it: the offset
+#: tables end where one answers the same reply twice (``Controller.read_offsets``),
+#: a pull records that reply in controller.yaml and later reads hold the
+#: controller to it, and robot.yaml's ``no_such_table`` pins one.  The simulator
+#: answers this by default (its ``missing_table`` variant answers others).
 NO_SUCH_TABLE = "21"
 
 #: LNR reports this many tasks (0-4), four fields each: S K N L.

@@ -22,8 +22,10 @@ from ....errors import ProtocolError
 from ....sim import device
 from ....sim.device import Refused
 from ....sim.family import Verb
+from ....sim.variants import Variant
 from ..model import (
     MAX_STEP_DATA,
+    OFFSET_TABLE_COUNT,
     REGISTER_RE,
     TIMER_RE,
     TOKEN_RE,
@@ -43,16 +45,33 @@ __all__ = [
     "STATUS_COMMAND",
     "STATUS_DATA",
     "STATUS_RANGE",
+    "VARIANTS",
     "Simulator",
 ]
 
 #: Error statuses the simulator answers with (the real codes are in the HRCS-R3
-#: manual, which we do not have; harlsync shows them raw, and relies on one:
-#: ``profile.NO_SUCH_TABLE``, which an LNL or SNL of a table it lacks answers).
-STATUS_RANGE = "21"  # number outside the configuration
+#: manual, which we do not have; harlsync shows them raw and relies on none).
+STATUS_RANGE = profile.NO_SUCH_TABLE  # number outside the configuration (the profile's)
 STATUS_COMMAND = "10"  # unknown command or wrong number of fields
 STATUS_DATA = "22"  # value out of range for a write
 STATUS_BUSY = "30"  # cannot answer normally now (``SimState.errors``)
+
+#: How this simulator may fill the manual's silences (:mod:`harlsync.sim.variants`),
+#: the profile's guess first.  docs/profile.md lists them with the guesses they vary.
+VARIANTS = (
+    Variant(
+        "missing_table",
+        (profile.ERROR_PREFIX + STATUS_RANGE, "E2", "E99"),
+        "the reply to a number it does not have: an offset table past its last, a "
+        "program, step, timer or register outside LNX's configuration",
+    ),
+    Variant(
+        "offset_tables",
+        (str(OFFSET_TABLE_COUNT), "64"),
+        "how many offset tables it has (one with more than robot.yaml's offset_tables "
+        "is refused by the default pull, so it is tested apart: SimState.offset_tables)",
+    ),
+)
 
 
 class HarlU2SimFamily:
@@ -66,6 +85,8 @@ class HarlU2SimFamily:
     )
     busy_verb = "auto"
     default_station = 1
+    #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
+    variants: tuple[Variant, ...] = VARIANTS
 
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
@@ -168,6 +189,8 @@ class Simulator(device.Simulator[SimState, Frame]):
                 return reply
             return self._read(state, request)
         except Refused as refusal:
+            if refusal.code == STATUS_RANGE:  # a number it does not have
+                return self.variant["missing_table"]
             return profile.ERROR_PREFIX + refusal.code
         except ValueError:
             return profile.ERROR_PREFIX + STATUS_COMMAND
@@ -185,7 +208,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             assert data.registers is not None
             return data.registers[_index(a[0], cfg.registers)]
         if letters == "LNL":
-            return " ".join(data.offsets[_table(a[0], state.offset_tables)].values)
+            return " ".join(data.offsets[_index(a[0], self.offset_tables(state))].values)
         if letters in ("LNIB", "LNOB"):
             bits = state.di if letters == "LNIB" else state.do
             return str(bits[_index(a[0], IO_BITS)])
@@ -230,7 +253,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             table = OffsetTable.from_values(a[1:])
             if table.problems():
                 raise Refused(STATUS_DATA)
-            data.offsets[_table(a[0], state.offset_tables)] = table
+            data.offsets[_index(a[0], self.offset_tables(state))] = table
         elif letters in ("SNOB", "SNBB"):
             bits = state.do if letters == "SNOB" else state.mem
             base, size = (0, IO_BITS) if letters == "SNOB" else (MEM_BIT_BASE, cfg.memory_bits)
@@ -257,6 +280,13 @@ class Simulator(device.Simulator[SimState, Frame]):
             raise Refused(STATUS_COMMAND)
         return profile.SN_OK
 
+    def offset_tables(self, state: SimState) -> int:
+        """How many offset tables the robot has: its own count when it has one (a
+        robot built with more, or from a project), else the ``offset_tables`` variant's."""
+        if state.offset_tables is not None:
+            return state.offset_tables
+        return int(self.variant["offset_tables"])
+
     # --- for tests -------------------------------------------------------------------
 
     def unsafe_in_automatic(self) -> list[device.Received]:
@@ -273,16 +303,6 @@ def _index(text: str, size: int, base: int = 0) -> int:
     if not 0 <= n < size:
         raise Refused(STATUS_RANGE)
     return n
-
-
-def _table(text: str, count: int) -> int:
-    """An offset table number the robot has, else ``profile.NO_SUCH_TABLE``."""
-    try:
-        return _index(text, count)
-    except Refused as refusal:
-        if refusal.code == STATUS_RANGE:
-            raise Refused(profile.NO_SUCH_TABLE) from None
-        raise
 
 
 def _program_step(

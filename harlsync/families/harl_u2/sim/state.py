@@ -61,8 +61,9 @@ class SimState:
     do: list[int] = field(default_factory=lambda: [0] * IO_BITS)
     mem: list[int] = field(default_factory=list)
     tasks: list[TaskState] = field(default_factory=_idle_tasks)
-    #: How many offset tables the controller has: the manual's 0-99 "(variable)".
-    offset_tables: int = OFFSET_TABLE_COUNT
+    #: How many offset tables the controller has (the manual's 0-99 "(variable)");
+    #: None: as the simulator's ``offset_tables`` variant says (100 by default).
+    offset_tables: int | None = None
     #: Requests this robot answers with ``E`` + status instead of carrying them
     #: out (request payload -> status): the manual's robot "under abnormal
     #: conditions" that "is unable to return data normally", e.g.
@@ -77,8 +78,10 @@ class SimState:
             self.data.registers = {}
         for key in cfg.programs():
             self.data.programs.setdefault(key, {})
-        self.offset_tables = max(self.offset_tables, len(self.data.offsets))
-        for n in range(self.offset_tables):
+        held = len(self.data.offsets)
+        if held > max(OFFSET_TABLE_COUNT, self.offset_tables or 0):
+            self.offset_tables = held  # a robot built with more tables has them all
+        for n in range(max(OFFSET_TABLE_COUNT, self.offset_tables or 0)):
             self.data.offsets.setdefault(n, OffsetTable())
         for n in range(cfg.timers):
             self.data.timers.setdefault(n, "0.00")
@@ -92,7 +95,8 @@ class SimState:
 
     @classmethod
     def from_robot_data(cls, data: RobotData) -> SimState:
-        """A robot that holds ``data`` (deep-copied: the caller's data is not shared)."""
+        """A robot that holds ``data`` (deep-copied: the caller's data is not shared),
+        with as many offset tables as a pull of it found."""
         copy = RobotData(
             version=data.version,
             config=data.config,
@@ -102,7 +106,8 @@ class SimState:
             timers=dict(data.timers),
             registers=dict(data.registers) if data.registers is not None else None,
         )
-        return cls(copy)
+        end = data.offset_end
+        return cls(copy, offset_tables=None if end is None else end.count)
 
     @classmethod
     def generate(cls, seed: int, config: Config = DEFAULT_CONFIG) -> SimState:

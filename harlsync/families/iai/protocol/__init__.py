@@ -43,7 +43,8 @@ The package, a module a job: :mod:`.frame` (frames and SC), :mod:`.request`
 write: :mod:`.status`, :mod:`.positions`, :mod:`.variables`, :mod:`.records`.
 """
 
-from .frame import ChecksumError, Frame, FrameDecoder, FrameKind, encode_frame, sc
+from ....errors import ChecksumError
+from .frame import Frame, FrameDecoder, FrameKind, encode_frame, sc
 from .positions import (
     max_flags_per_read,
     max_positions_per_read,

@@ -5,7 +5,7 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from ....errors import FrameError
+from ....errors import ChecksumError, FrameError
 from .. import profile
 
 #: ``!`` command, ``#`` normal reply, ``&`` error reply.
@@ -36,10 +36,6 @@ _VARIABLES_OVERHEAD = _FRAME_OVERHEAD + 2 + 3 + 2
 _VARIABLE_WIDTH = {"integers": 8, "reals": 16}
 #: The most variables the 2-hex count field carries.
 _VARIABLES_MAX = 0xFF
-
-
-class ChecksumError(FrameError):
-    """A frame whose SC does not match its bytes."""
 
 
 def sc(data: bytes) -> int:

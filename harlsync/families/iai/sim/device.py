@@ -46,6 +46,7 @@ from ....errors import ProjectError, ProjectFormatError
 from ....sim import device
 from ....sim.device import Refused
 from ....sim.family import Verb
+from ....sim.variants import Variant
 from .. import profile
 from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes, real_value
 from ..protocol import Frame, FrameDecoder, parse_write_positions, position_record
@@ -81,6 +82,8 @@ class IaiSimFamily:
     )
     busy_verb = "run"
     default_station = profile.DEFAULT_STATION
+    #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
+    variants: tuple[Variant, ...] = ()
 
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
