@@ -486,13 +486,6 @@ class Family(ABC, Generic[K, D]):
         """Managed files on disk that a save of ``texts`` must remove (default: none)."""
         return []
 
-    def quick_robot(self, data: Mapping[str, Any]) -> Robot | None:
-        """The robot of robot.yaml's ``data`` as :func:`harlsync.project.quick.parse`
-        reads it (no project store, no YAML: a pull's first request waits for it),
-        when the family is sure the full reading (:meth:`analyse`) finds the same
-        robot and no issue; None (the default) to have the file read the whole way."""
-        return None
-
     def new_robot(self, name: str, port: str, station: int | None, **fields: object) -> Robot:
         """The robot.yaml of a first pull: the family's defaults, then ``fields``
         (:class:`~harlsync.project.robot.Robot` fields)."""

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Iterable, Mapping
+from itertools import zip_longest
 from typing import Any, NamedTuple
 
 from ..base import Catalogue, PlanShape
@@ -237,6 +238,8 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         return str(key.start if isinstance(key, Run) else key.number)
 
     def fields(self, key: Key, old: Any, new: Any) -> list[tuple[str, str | None, str | None]]:
+        """An item's value as one field; a run's values (a tuple each, as one command
+        writes them) compared one by one, a value one side lacks as none."""
         kind = _item_kind(key)
         show = (
             position_text
@@ -247,8 +250,11 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
             if kind in _RECORD_KINDS
             else value_text
         )
-        a, b = show(old), show(new)
-        return [] if a == b else [("", a, b)]
+        if not isinstance(key, Run):
+            old, new = (old,), (new,)
+        pairs = zip_longest(*(v if isinstance(v, tuple) else () for v in (old, new)))
+        texts = [(show(a), show(b)) for a, b in pairs]
+        return [("", a, b) for a, b in texts if a != b]
 
     def identity(self, key: Key) -> dict[str, Any]:
         ident: dict[str, Any] = key._asdict()
