@@ -18,7 +18,6 @@ from ..families.base import AnyFamily, Catalogue, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
 from . import git
-from .items import change_summary
 from .live import Station, read_live, station_number
 
 if TYPE_CHECKING:
@@ -58,6 +57,7 @@ class PullResult:
 
     @property
     def summary(self) -> str:
+        from .items import change_summary  # not before the first request (issue 24)
         from .policy import listed
 
         said = "first backup" if self.changes is None else change_summary(self.changes)
@@ -392,7 +392,7 @@ def _same_robot(
 
     Returns the changes, runtime data aside (``diff(things, backup, live)``): the
     pull need not work them out again."""
-    from .items import diff_items
+    from .items import change_summary, diff_items
 
     differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
     changes: list[Change[Any]] = []
