@@ -30,6 +30,7 @@ __all__ = [
     "FLAG_QUERY_ALIGNMENT",
     "INTER_COMMAND_GAP",
     "MAX_FRAME",
+    "NUMBER_FIRST",
     "OPT_IN_MESSAGE_IDS",
     "PARITY",
     "PERSISTENCE_NOTICE",
@@ -151,13 +152,12 @@ DEFAULT_POSITION_RANGE = (1, 1000)
 
 #: The highest position number 22DH can name (4 hex digits).
 POSITION_NUMBER_END = 0xFFFF
-#: The probe past the table (issue 20): a pull asks, with one 22DH each, for every
-#: number below the robot's first position and above its last (to FFFFh).  The
-#: reply carries the first defined records that fit the send buffer, and one is
-#: enough to know the table goes on.  The manual does not say what a controller
-#: does with a count that does not fit (digest 1.5): one that answers ``&`` to it is
-#: probed instead in queries sized as the table's reads, up to this number, the
-#: most position records 22DH carries (p.36) **(profile)**.
+#: Where a probe past the position table stops reading when a controller will not
+#: answer a 22DH for every number past it at once (it refuses so wide a query, or
+#: is seen to scan fewer numbers than asked) and does not show where its table
+#: ends (it answers a number past it with an empty reply, not ``&``): the most
+#: position records 22DH carries (p.36, "Max 20000 records").  Such a probe reads
+#: that far in queries of the table's read size (tables.py).
 POSITION_PROBE_FALLBACK_END = 20000
 
 #: 291H records carry no position number: pattern, acc, dec, speed, up to 8
@@ -186,19 +186,42 @@ DEFAULT_VARIABLE_RANGES: Mapping[str, tuple[int, int]] = MappingProxyType(
 FLAG_QUERY_ALIGNMENT = 8
 
 #: The last flag (20DH: 4 hex digits) and variable (20EH, 20FH: 3 hex digits)
-#: number the messages can name: the probe past a kept range stops there.
+#: number the messages can name: a probe past a kept range stops there when the
+#: controller's table goes on that far.
 VARIABLE_NUMBER_END: Mapping[str, int] = MappingProxyType(
     {"flags": 0xFFFF, "integers": 0xFFF, "reals": 0xFFF}
 )
+#: The lowest number of each table a probe below a range goes down to: positions
+#: and variables from 1, as the X-SEL numbers them (no page says); flags from 0,
+#: the multiple of 8 below (20DH starts at one, p.22); coordinate systems from 0
+#: (2A0H: "0~", p.65).  Where a controller's table starts above it, its own
+#: "not there" reply says so (tables.py).
+NUMBER_FIRST: Mapping[str, int] = MappingProxyType(
+    {
+        "positions": 1,
+        "flags": 0,
+        "integers": 1,
+        "reals": 1,
+        "strings": 1,
+        "work_coordinates": 0,
+        "tool_coordinates": 0,
+    }
+)
 
-#: How 20FH (and, **(profile)**, 24DH) carry a real variable's IEEE double, by
-#: robot.yaml's ``controller.real_word_order`` (p.24): ``upper-first``, plain big
-#: endian (``0123456789ABCDEF``); ``lower-first``, the lower 4 bytes then the upper
-#: 4 (``89ABCDEF01234567``), on X-SEL-J/K main application V0.41 or earlier, or
-#: with Other parameter No. 46 bits 0-3 at 0.  p.50 prints only the big-endian form
-#: for 24DH and does not say whether the parameter swaps writes too: the profile
-#: writes in the order it reads, so that a value written reads back the same.
+#: How 20FH (and, **(profile)**, 24DH) carry a real variable's IEEE double (p.24):
+#: ``upper-first``, plain big endian (``0123456789ABCDEF``); ``lower-first``, the
+#: lower 4 bytes then the upper 4 (``89ABCDEF01234567``), on X-SEL-J/K main
+#: application V0.41 or earlier, or with Other parameter No. 46 bits 0-3 at 0.
+#: Which one a controller uses is read from the values themselves at each read
+#: (:func:`~.model.real_word_order_of`) unless robot.yaml's
+#: ``controller.real_word_order`` says it; a pull records what it saw in
+#: controller.yaml.  p.50 prints only the big-endian form for 24DH and does not say
+#: whether the parameter swaps writes too: the profile writes in the order it
+#: reads, so that a value written reads back the same.
 REAL_WORD_ORDERS = ("upper-first", "lower-first")
+#: The order values are read in when neither robot.yaml nor any value read (now or
+#: at the last pull) tells: all-zero reals read the same either way; a push that
+#: would write a value that differs between the orders is then refused.
 DEFAULT_REAL_WORD_ORDER = "upper-first"
 
 # --- messages -----------------------------------------------------------------------
