@@ -504,8 +504,9 @@ def random_variables(
 
 
 def variable_reads(model: str, section: str, first: int, last: int) -> int:
-    """The queries a read of ``section`` ``first``-``last`` and its probe past ``last``
-    (up to the last number the message names) take, when no query is refused."""
+    """The queries a read of ``section`` ``first``-``last`` and its probes past ``last``
+    (up to the last number the message names) and below ``first`` (down to the
+    lowest) take, when no query is refused."""
     step = (
         max_flags_per_read(model) if section == "flags" else max_variables_per_read(model, section)
     )
@@ -513,7 +514,9 @@ def variable_reads(model: str, section: str, first: int, last: int) -> int:
     end = profile.VARIABLE_NUMBER_END[section]
     read = -(-(last + 1 - (first - first % align)) // step)
     head = (last + 1) - (last + 1) % align
-    return read + -(-(end + 1 - head) // step)
+    lowest = profile.NUMBER_FIRST[section]
+    below = -(-(first - lowest) // step)  # issue 29: down to the lowest number too
+    return read + -(-(end + 1 - head) // step) + below
 
 
 def held(state: SimState, keeps: dict[str, tuple[int, int]] | None) -> IaiData:
@@ -630,6 +633,10 @@ def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
     if case.keeps is not None:
         robot.keep_registers = True
         robot.options.update(case.keeps)
+        # The real variables' word order is the simulator's (issue 29: read from the
+        # values when robot.yaml gives none, and a push of reals refused while none
+        # tells; tests/iai/test_real_order.py): this test is about the interlock.
+        robot.options["real_word_order"] = case.sim.state.real_word_order
     return robot
 
 

@@ -32,6 +32,7 @@ from ..base import Catalogue, PlanShape
 from .layout import IaiData
 from .model import ARM_NAMES, VARIABLE_SECTIONS, Position, Version
 from .protocol import max_positions_per_write, max_variables_per_write
+from .tables import replies_differ
 
 __all__ = [
     "CATALOGUE",
@@ -260,7 +261,9 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
     def contents(self, data: IaiData, *, registers: bool) -> str:
         """Positions, and the flags and variables read with them, each with the
         range it covered when the read probed it: ``42 positions in 1-1000 (none
-        defined outside it)``."""
+        defined outside it)``; a controller's table smaller than the range is said:
+        ``42 positions in 1-600 (the controller's table ends at 600, inside
+        robot.yaml's 1-1000; none defined outside it)``."""
         kept = data.variables() if registers else {}
         held = {"positions": data.positions, **kept}
         parts = []
@@ -270,11 +273,39 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
             text = f"{len(held[section])} {one if len(held[section]) == 1 else several}"
             covered = data.covered.get(section)
             if covered is not None:
-                text += f" in {covered.first}-{covered.last}"
+                text += f" in {covered.read_first}-{covered.read_last}"
+                said = []
+                if (covered.read_first, covered.read_last) != (covered.first, covered.last):
+                    ends = (
+                        [f"starts at {covered.start}"] if covered.read_first > covered.first else []
+                    )
+                    if covered.read_last < covered.last:
+                        ends.append(f"ends at {covered.end}")
+                    said.append(
+                        f"the controller's table {' and '.join(ends)}, inside robot.yaml's "
+                        f"{covered.first}-{covered.last}"
+                    )
                 if section == "positions":
-                    text += " (none defined outside it)"
+                    said.append("none defined outside it")
+                if said:
+                    text += f" ({'; '.join(said)})"
             parts.append(text)
         return ", ".join(parts)
+
+    def other_robot(self, live: IaiData, project: IaiData) -> str | None:
+        """A controller whose "not there" reply before or past a table differs from
+        the one the project's pull recorded (controller.yaml ``covered``), for the
+        same range: another controller, or one that now answers otherwise."""
+        for section, now in live.covered.items():
+            was = project.covered.get(section)
+            if was is not None:
+                why = replies_differ(section, was, now)
+                if why is not None:
+                    return (
+                        f"{why}; if it is this robot (its firmware or parameters changed), "
+                        "a pull with --new-robot takes it as it answers now"
+                    )
+        return None
 
     def version(self, data: IaiData) -> str:
         v = data.version
