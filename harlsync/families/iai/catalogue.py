@@ -10,17 +10,21 @@ project keeps them; their keys, names and how a plan writes them.
     Run("positions", 12, 4)              positions 12-15 written by one 291H (plans only)
     Run("integers", 200, 3)              integer variables 200-202 by one 24CH (plans only)
     Run("reals", 300, 2)                 real variables 300-301 by one 24DH (plans only)
+    RecordKey("string", 1)               string variable columns 1-32 (diff, and one 24EH)
+    RecordKey("work", 1)                 work coordinate system 1 (diff only: read only)
 
 A diff compares items one by one; flags and variables only when asked
-(``registers``: runtime data, like the HARL-U2's registers).  A plan writes each
-run of consecutive changed positions, integer or real variables with one
-command, as long as the controller's receive buffer takes it, each changed flag
-with its own 24BH, and never an item that did not change.  Push order:
-positions, integer variables, real variables, then flags (a flag is often the
-signal that the data beside it is ready).  A position the robot has and the
-project lacks cannot be written: no message of protocol B clears a position, so
-such a plan is refused with what to do; so is a plan with flags and variables
-for a project that does not keep them.
+(``registers``: runtime data, like the HARL-U2's registers), the records when
+robot.yaml keeps them.  A plan writes each run of consecutive changed positions,
+integer or real variables with one command, as long as the controller's receive
+buffer takes it, each changed row of string variable columns with one 24EH, each
+changed flag with its own 24BH, and never an item that did not change.  Push
+order: positions, integer variables, real variables, string variables, then
+flags (a flag is often the signal that the data beside it is ready).  A position
+the robot has and the project lacks cannot be written: no message of protocol B
+clears a position, so such a plan is refused with what to do; so is a plan with
+flags and variables for a project that does not keep them, and one that would
+change a coordinate system (no message harlsync sends writes one).
 """
 
 from __future__ import annotations
@@ -94,10 +98,16 @@ _KINDS = {
     "tool": ("tool_coordinates", "tool coordinate system", "tool coordinate systems"),
     "string": ("strings", "string variable row", "string variable rows"),
 }
-#: The read-only record kinds, and the message that reads each.
+#: The record kinds, and the message that reads each.
 _RECORD_KINDS = {"work": "2A0H", "tool": "2A0H", "string": "210H"}
-#: The safe push order, by item kind; a run sorts with its items.
-_ORDER = {kind: i for i, kind in enumerate(_KINDS)}
+#: The records no message harlsync sends writes (string variables: 24EH, p.51).
+_READ_ONLY_KINDS = {"work", "tool"}
+#: The safe push order, by item kind (a flag last of what is written: it is often
+#: the signal that the data beside it is ready); a run sorts with its items.
+_ORDER = {
+    kind: i
+    for i, kind in enumerate(("position", "integer", "real", "string", "flag", "work", "tool"))
+}
 #: A run's kind -> its items' kind.
 _ITEM_OF_RUN = {section: kind for kind, (section, _, _) in _KINDS.items()}
 
@@ -328,7 +338,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 "in robot.yaml and pull, or push without --registers"
             )
         for key, _, new in changes:
-            if key.kind in _RECORD_KINDS:
+            if key.kind in _READ_ONLY_KINDS:
                 section = _KINDS[key.kind][0]
                 unwritable.append(
                     f"{self.describe(key)}: differs on the robot, and no message harlsync "
@@ -339,6 +349,11 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 continue
             if new is not None:
                 continue
+            if key.kind == "string":
+                unwritable.append(
+                    f"{self.describe(key)}: on the robot but not in records.yaml; pull to take "
+                    "it in, or narrow robot.yaml controller.strings"
+                )
             if key.kind == "position":
                 unwritable.append(
                     f"{self.describe(key)}: defined on the robot but not in the project, and no "
@@ -355,6 +370,9 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         for key, _, new in changes:
             if new is not None and key.kind not in _RECORD_KINDS:
                 changed[_KINDS[key.kind][0]].append(key.number)
+        rows = [
+            (key, old, new) for key, old, new in changes if key.kind == "string" and new is not None
+        ]
         wanted: list[tuple[Any, Any, Any]] = []
         wanted += runs(
             "positions",
@@ -372,6 +390,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 live.variables().get(section, {}),
                 kept.get(section, {}),
             )
+        wanted += rows  # each changed row of string variable columns with its own 24EH
         wanted += [
             (key, old, new) for key, old, new in changes if key.kind == "flag" and new is not None
         ]

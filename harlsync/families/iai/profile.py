@@ -232,14 +232,14 @@ CORE_MESSAGE_IDS = frozenset({0x201, 0x215, 0x212, 0x22D, 0x291})
 #: Global flags and variables, when the project opts in: read flags, integer and
 #: real variables; write a flag, integer variables, real variables.
 OPT_IN_MESSAGE_IDS = frozenset({0x20D, 0x20E, 0x20F, 0x24B, 0x24C, 0x24D})
-#: Read-only records, when robot.yaml gives their ranges (issue 20): coordinate
-#: system definitions (2A0H, p.65) and string variables (210H, p.26).  Reads only:
-#: no message on the allow-list writes them.
-RECORD_MESSAGE_IDS = frozenset({0x2A0, 0x210})
+#: Records, when robot.yaml gives their ranges (issue 20): coordinate system
+#: definitions (2A0H, p.65), read only (no message we have writes them), and string
+#: variables, read (210H, p.26) and written back (24EH, p.51, issue 34 item 18).
+RECORD_MESSAGE_IDS = frozenset({0x2A0, 0x210, 0x24E})
 #: The only message ids the encoder will put on the wire.
 ALLOWED_MESSAGE_IDS = CORE_MESSAGE_IDS | OPT_IN_MESSAGE_IDS | RECORD_MESSAGE_IDS
 #: The allowed ids that change the controller's data.
-WRITE_MESSAGE_IDS = frozenset({0x291, 0x24B, 0x24C, 0x24D})
+WRITE_MESSAGE_IDS = frozenset({0x291, 0x24B, 0x24C, 0x24D, 0x24E})
 #: The allowed reads whose answer changes without any write from us: status, and
 #: the flags and variables running programs change.
 VOLATILE_MESSAGE_IDS = frozenset({0x215, 0x212, 0x20D, 0x20E, 0x20F, 0x210})

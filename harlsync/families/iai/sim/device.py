@@ -15,7 +15,7 @@ the placeholder codes of :mod:`~harlsync.families.iai.sim.codes`:
 
 - any message off the allow-list (motion, servo, program control, resets ...):
   refused and recorded, so a test can assert it was never sent (:meth:`Simulator.off_list`);
-- a write (291H, 24BH-24DH) while the controller is not idle by the profile's
+- a write (291H, 24BH-24EH) while the controller is not idle by the profile's
   interlock: refused before its data is looked at;
 - 291H with a record of axis pattern 00, a coordinate for an axis the robot does
   not have, extended bits 0-3 set, or a number outside the position range:
@@ -650,4 +650,5 @@ _HANDLERS: dict[int, Handler] = {
     0x24D: Simulator._write_reals,
     0x2A0: Simulator._read_coordinate_systems,
     0x210: Simulator._read_strings,
+    0x24E: Simulator._write_strings,
 }
