@@ -1,10 +1,14 @@
 """Every choice the IAI protocol B manual leaves open, in one place.
 
 These are the *(profile)* decisions of ``shared/spec/iai-protocol-b-profile.md``
-(and the few fixed facts the codec needs beside them, each with its manual page).
-A site whose controller differs changes the constant here and nothing else: the
-codec, the link settings, the simulator and the sync engine read them from this
-module.
+(and the few fixed facts the codec needs beside them, each with its manual page):
+the codec, the link settings, the simulator and the sync engine read them from
+this module.  Each is a default.  Where a controller may answer otherwise, either
+its own replies decide at each read (where a table ends, what a number it lacks
+answers, the real variables' word order: :mod:`.tables`), or robot.yaml has the
+setting, named beside the default and in every message that mentions it; a site
+never edits this module.  docs/profile.md lists every one, with the simulator
+variant that answers the other way.
 """
 
 from __future__ import annotations
