@@ -93,14 +93,14 @@ _KINDS = {
     "integer": ("integers", "integer variable", "integer variables"),
     "real": ("reals", "real variable", "real variables"),
     "flag": ("flags", "flag", "flags"),
-    # read-only records: stored and diffed, never written
+    # records: stored and diffed; coordinate systems never written, strings with 24EH
     "work": ("work_coordinates", "work coordinate system", "work coordinate systems"),
     "tool": ("tool_coordinates", "tool coordinate system", "tool coordinate systems"),
     "string": ("strings", "string variable row", "string variable rows"),
 }
 #: The record kinds, and the message that reads each.
 _RECORD_KINDS = {"work": "2A0H", "tool": "2A0H", "string": "210H"}
-#: The records no message harlsync sends writes (string variables: 24EH, p.51).
+#: The records no message harlsync sends writes (string variables it writes: 24EH, p.51).
 _READ_ONLY_KINDS = {"work", "tool"}
 #: The safe push order, by item kind (a flag last of what is written: it is often
 #: the signal that the data beside it is ready); a run sorts with its items.

@@ -19,9 +19,10 @@
           1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, speed: 100}
           7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, arm1: right}
 
-    records.yaml       only when robot.yaml gives their ranges: read-only records,
-                       the work and tool coordinate systems (2A0H) and string
-                       variables (210H, a row of 32 columns a line, as hex codes)
+    records.yaml       only when robot.yaml gives their ranges: records, the work
+                       and tool coordinate systems (2A0H, read only) and string
+                       variables (210H, written back with 24EH; a row of 32
+                       columns a line, as hex codes)
 
         work_coordinates:
           1: [100.000, 50.000, 0.000, 90.000]

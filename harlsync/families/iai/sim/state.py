@@ -93,7 +93,7 @@ class SimState:
     reals: dict[int, float] = field(default_factory=dict)
     #: how 20FH and 24DH carry a real's double (robot.yaml's controller.real_word_order)
     real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER
-    # --- read-only records (2A0H, 210H): set on the controller, never by the protocol --
+    # --- records (2A0H, 210H): coordinate systems set on the controller only; strings 24EH
     #: coordinate system definitions by number: X, Y, Z, R as coordinate text (0 when absent)
     work_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
     tool_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
