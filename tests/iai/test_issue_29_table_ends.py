@@ -76,23 +76,42 @@ KEEP = ("maintenance_windows", "keep_registers: true\nmaintenance_windows")
 # --- positions ------------------------------------------------------------------------
 
 
-def test_issue_29_positions_past_a_1000_table_refused_with_0a3_cost_two_queries(
-    repo: Path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(
+    ("past_table", "probes", "covered"),
+    [
+        (
+            "refused-0A3",
+            ["22D0003E90001", "22D0003E90001"],  # 1001 alone, refused twice
+            Coverage(1, 1000, 1000, 1, None, 1000, None, "error 0A3H"),
+        ),
+        (
+            "empty",
+            ["22D0003E90001", "22D000001FFFF"],  # 1001 alone, then every number from 1
+            Coverage(1, 1000, 0xFFFF, 1, None, None, None, "empty"),
+        ),
+    ],
+)
+def test_issue_29_positions_past_a_1000_table_cost_two_queries_whatever_it_answers(
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    past_table: str,
+    probes: list[str],
+    covered: Coverage,
 ) -> None:
     """The controller of the issue: its 1000-position table answers & 0A3 to a 22DH
-    whose head lies past it.  Every pull failed on the wire's words."""
-    with served(controller([1, 2, 999, 1000]), past_table="refused-0A3") as (sim, url):
+    whose head lies past it.  Every pull failed on the wire's words.  One that
+    answers it empty is probed as cheaply."""
+    with served(controller([1, 2, 999, 1000]), past_table=past_table) as (sim, url):
         assert pull(repo / "cell", url) == 0, capsys.readouterr().err
-    reads = 1000 // 24 + 1
-    probes = asked(sim, "22D")[reads:]
-    assert probes == ["22D0003E90001", "22D0003E90001"]  # 1001 alone, refused twice
-    covered = load_project(repo / "cell").data.covered["positions"]
-    assert covered == Coverage(1, 1000, 1000, 1, None, 1000, None, "error 0A3H")
-    text = (repo / "cell" / "controller.yaml").read_text()
-    assert (
-        "positions: {first: 1, last: 1000, checked_from: 1, checked_to: 1000, end: 1000, "
-        'past: "error 0A3H"}'
-    ) in text
+    reads = -(-1000 // 24)
+    assert asked(sim, "22D")[reads:] == probes  # the table's reads, then two queries
+    assert load_project(repo / "cell").data.covered["positions"] == covered
+    if past_table == "refused-0A3":
+        text = (repo / "cell" / "controller.yaml").read_text()
+        assert (
+            "positions: {first: 1, last: 1000, checked_from: 1, checked_to: 1000, end: 1000, "
+            'past: "error 0A3H"}'
+        ) in text
 
 
 @pytest.mark.parametrize("past_table", ["refused-0A3", "empty"])

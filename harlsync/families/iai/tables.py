@@ -75,7 +75,7 @@ def error_reply(code: str) -> str:
 def reply_words(reply: str | None) -> str:
     """A recorded "not there" reply in a person's words."""
     if reply is None:
-        return "no such reply (the table went on to the last number its message names)"
+        return 'no "not there" reply (the table went on to the last number its message names)'
     if reply == EMPTY:
         return "an empty reply"
     return f"error code {reply.removeprefix('error ')}"
@@ -213,13 +213,10 @@ class Reader(Generic[V]):
         self.model_advice = model_advice
         #: every "not there" reply seen, by the number asked alone
         self._absent: dict[int, list[str]] = {}
-        #: how many queries this reader sent
-        self.queries = 0
 
     # --- queries -----------------------------------------------------------------
 
     def ask(self, head: int, count: int) -> Values[V] | NotThere:
-        self.queries += 1
         return self.table.ask(head, count)
 
     def one(self, number: int) -> Values[V] | NotThere:
@@ -253,7 +250,7 @@ class Reader(Generic[V]):
         t = self.table
         return TableUnclear(
             f"{self.label}: {t.message} for {t.called} {number} answered {said}: where the "
-            f"controller's {t.section} end is unclear; run again, and if it persists check "
+            f"controller's {t.section} table ends is unclear; run again, and if it persists check "
             f"the line and {t.setting} in robot.yaml"
         )
 
