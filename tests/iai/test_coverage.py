@@ -126,11 +126,12 @@ def test_issue_20_a_whole_table_is_read_and_its_range_recorded_and_said(repo: Pa
         'past: "empty"}\n'
     ) in text
     # Issue 29: the probe is two requests (none below the range: it starts at 1).  Position
-    # 1001 alone (its table goes to 2000: an empty reply), then every number from the
-    # first of the range (0001, FFFFh of them): the reply must carry the four positions
-    # read, so the controller is seen to scan the whole of so wide a query.
+    # 1001 alone (its table goes to 2000: an empty reply), then every number from 3, past
+    # the positions read before 999 (FFFDh of them): the reply must carry 999 and 1000, the
+    # last more than a read's 24 numbers in, so the controller is seen to scan so wide a
+    # query whole.
     probes = [r.payload for r in sim.received if r.command == "22D"][-2:]
-    assert probes == ["22D0003E90001", "22D000001FFFF"]
+    assert probes == ["22D0003E90001", "22D000003FFFD"]
 
 
 def test_issue_20_a_flag_set_past_the_kept_range_fails_the_pull(

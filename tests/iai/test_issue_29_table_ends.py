@@ -86,7 +86,7 @@ KEEP = ("maintenance_windows", "keep_registers: true\nmaintenance_windows")
         ),
         (
             "empty",
-            ["22D0003E90001", "22D000001FFFF"],  # 1001 alone, then every number from 1
+            ["22D0003E90001", "22D000003FFFD"],  # 1001 alone, then every number from 3
             Coverage(1, 1000, 0xFFFF, 1, None, None, None, "empty"),
         ),
     ],

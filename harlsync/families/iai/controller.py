@@ -613,19 +613,22 @@ class Controller(OnLink):
         send = profile.BUFFERS[self.model].send
         room = send - _READ_OVERHEAD - profile.READ_RECORD_MAX  # room for one more
         numbers = sorted(known)
+        step = reader.table.step
+        # The fewest of the last positions read whose first lies more than a read's
+        # numbers before the last (so that a short scan shows), if they fit a reply.
         tail: list[int] = []
+        head = self.last + 1
         size = 0
-        for number in reversed(numbers):
-            size += len(position_record(known[number], numbered=True))
+        for i in range(len(numbers) - 1, -1, -1):
+            size += len(position_record(known[numbers[i]], numbered=True))
             if size > room:
                 break
-            tail.insert(0, number)
-        if not numbers:
-            head = self.last + 1
-        elif len(tail) == len(numbers):
-            head = self.first
-        else:
-            head = numbers[len(numbers) - len(tail) - 1] + 1
+            tail.insert(0, numbers[i])
+            head = numbers[i - 1] + 1 if i else self.first
+            if numbers[-1] - head >= step:
+                break
+        if tail and numbers[-1] - head < step:  # cannot show a short scan: not worth a page
+            tail, head = [], self.last + 1
         answer = reader.ask(head, profile.POSITION_NUMBER_END - head + 1)
         if isinstance(answer, NotThere):
             log.info(
@@ -653,7 +656,7 @@ class Controller(OnLink):
             self._wide_scan = False
             return False
         self._defined_past([n for n in got if n > self.last])
-        if not tail or tail[-1] - head < reader.table.step:
+        if not tail:
             log.info(
                 "%s: no position of the table lies far enough from another to check that "
                 "the controller scans a wide 22DH whole: taken as it answers",
