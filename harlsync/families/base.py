@@ -278,8 +278,9 @@ class Catalogue(ABC, Generic[K, D]):
 
     def other_robot(self, live: D, project: D) -> str | None:
         """Why the controller read (``live``) is not the project's robot, for diff,
-        plan and push (a pull asks :meth:`robot_identity`); None when it is.
-        Default: what :meth:`other_identity` says of its identity."""
+        plan and push, and for a pull once :meth:`robot_identity` agrees (a pull
+        with ``--new-robot`` does not ask); None when it is.  Default: what
+        :meth:`other_identity` says of its identity."""
         return self.other_identity(self.robot_identity(live), project)
 
     def other_identity(self, now: Mapping[str, str], project: D) -> str | None:

@@ -384,8 +384,10 @@ def _same_robot(
 ) -> list[Change[Any]]:
     """Raise PolicyError unless the controller read (``live``) looks like the robot
     backed up in ``path``: the same identity (the family's: version, configuration,
-    model), and not most items of a kind changed at once (runtime data aside), which
-    a wrong port or station, a swapped controller or a lost memory would do.
+    model), nothing else the family tells from a whole read
+    (:meth:`~harlsync.families.base.Catalogue.other_robot`), and not most items of a
+    kind changed at once (runtime data aside), which a wrong port or station, a
+    swapped controller or a lost memory would do.
 
     Each kind is judged alone: a hundred tables, most of them unused and alike
     on every robot, must not hide that every program step changed.
@@ -395,6 +397,9 @@ def _same_robot(
     from .items import change_summary, diff_items
 
     differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
+    if not differ:  # what only a whole read tells (IAI: a table's "not there" reply)
+        why = things.other_robot(live, backup)
+        differ = [why] if why is not None else []
     changes: list[Change[Any]] = []
     if not differ:
         was, now = things.items(backup, registers=False), things.items(live, registers=False)
