@@ -1,6 +1,6 @@
 """What the probe past the position table costs an IAI pull (issue 20), and the
-probe past the kept flags and variables (review finding 3): extra exchanges,
-bytes on the line and seconds.
+probes around the kept flags and variables (review finding 3, issue 29): extra
+exchanges, bytes on the line and seconds.
 
     python bench/iai_probe.py                    TTA and TT, 9600 and 115200 baud (~2 min)
     python bench/iai_probe.py --baud 9600 --model TTA --repeat 3
@@ -9,13 +9,17 @@ A simulator process (bench/simserver.py, the ``iai-mix`` table: 1,000 positions
 defined, 1-1000, with wire-time emulation at the baud rate) is read by a
 :class:`~harlsync.families.iai.controller.Controller` in this process, the way a
 pull reads it: the whole table (``read_all``, which ends with the probe), then
-the probe alone (``probe_positions``: one 22DH for every number from 1001 to
-FFFFh; the range starts at 1, so there is none below it), then the probe past
-the profile's flag, integer and real ranges alone (``probe_variables``: each up
-to the last number its message names, 65535 flags and 4095 variables, in
-queries of the largest size; nothing set there).  The simulator counts
-the exchanges and the bytes both ways; the seconds are this process's monotonic
-clock.  The share is the probe's time over the whole read's.
+the table and its probe again (``read_position_table``: the probe is what it
+asks beyond the table's reads; past 1000, position 1001 alone and one 22DH for
+every number from the range's first; the range starts at 1, so there is none
+below it), then the profile's flag, integer and real ranges with their probes
+(``read_section``: each read, then below it down to the lowest number and past it
+up to the last its message names, 65535 flags and 4095 variables, in queries of
+the read size; nothing set there; issue 29).  The simulator counts the exchanges
+and the bytes both ways; the seconds are this process's monotonic clock.  The
+probe's exchanges, bytes and seconds are the table read with the probe less its
+pages read alone (``read_positions``); the share is the probe's time over the
+whole read's.
 """
 
 from __future__ import annotations
@@ -46,13 +50,21 @@ def measure(model: str, baud: int, repeat: int) -> dict[str, float]:
                 whole = sim.stats()[0]
                 sim.reset()
                 start = time.monotonic()
-                c.probe_positions()
-                best_probe = min(best_probe, time.monotonic() - start)
-                probe = sim.stats()[0]
+                c.read_positions(1, 1000)  # the table's pages alone
+                pages_seconds = time.monotonic() - start
+                pages = sim.stats()[0]
+                sim.reset()
+                start = time.monotonic()
+                c.read_position_table()  # the pages and the probe
+                best_probe = min(best_probe, max(0.0, time.monotonic() - start - pages_seconds))
+                table = sim.stats()[0]
+                probe = {
+                    key: table[key] - pages[key] for key in ("exchanges", "bytes_in", "bytes_out")
+                }
                 sim.reset()
                 start = time.monotonic()
                 for section in ("flags", "integers", "reals"):
-                    c.probe_variables(section)
+                    c.read_section(section)
                 best_vars = min(best_vars, time.monotonic() - start)
                 variables = sim.stats()[0]
             assert len(data.positions) == 1000

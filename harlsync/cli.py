@@ -619,7 +619,7 @@ def _project_dir(path: str) -> Path:
 def _cmd_log(args: argparse.Namespace) -> int:
     from .project import load_robot
     from .sync import audit
-    from .sync.status import PushRecord, local_time
+    from .sync.status import local_time
 
     if args.max_count is not None and args.max_count < 1:
         return _usage("log: -n/--max-count must be 1 or more")
@@ -631,27 +631,27 @@ def _cmd_log(args: argparse.Namespace) -> int:
         records = audit.of_robot(records, robot.port, robot.station, Path(args.dir))
     records = records[::-1][: args.max_count]
     if args.format == "json":
-        _print(json.dumps(records, indent=2, default=str))
+        _print(json.dumps([r.to_json() for r in records], indent=2, default=str))
         return EXIT_OK
     if not records:
         _print(f"no push or rollback recorded in {audit.audit_path()}")
-    for record in records:
-        r = PushRecord.from_record(record)
+    for r in records:
         head = (
-            f"{local_time(r.time)}  {r.robot or '?'}  {r.action} {r.result}  by {r.user}@{r.host}"
+            f"{local_time(r.time)}  {r.robot_name or '?'}  {r.shown_action} {r.shown_result}  "
+            f"by {r.user}@{r.host}"
         )
         _print(head + (f"  commit {r.commit[:10]}" if r.commit else ""))
         if r.reason:
             _print(f"    reason: {r.reason}")
-        lines = audit.written_lines(r.written, None)
+        lines = r.written_lines(None)
         shown = lines if args.verbose or len(lines) <= audit.SHOWN else lines[: audit.SHOWN - 1]
         for line in shown:
             _print(f"    wrote {line}")
         if len(shown) < len(lines):
             _print(f"    and {len(lines) - len(shown)} more (-v shows them)")
         if args.verbose:
-            for w in r.written:
-                _print(f"    command {w.get('item')}: {w.get('command')}")
+            for w in r.done:
+                _print(f"    command {w.item}: {w.command}")
         if r.partly_written:
             _print(f"    partly written: {r.partly_text()}")
         elif r.failed_item:

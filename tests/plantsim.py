@@ -87,8 +87,8 @@ def _killed_before_its_end_record() -> Iterator[None]:
     write records and never gets the end record (as after SIGKILL or a power loss)."""
     real = audit.append
 
-    def append(record: dict[str, Any], path: Path | None = None) -> Path:
-        if record.get("event", "end") == "end":
+    def append(record: audit.AuditRecord, path: Path | None = None) -> Path:
+        if record.event == "end":
             raise OSError("killed")
         return real(record, path)
 

@@ -436,9 +436,9 @@ def check_failure(why: Why, got: Outcome) -> None:
         if result.failed is not None:
             assert result.failed in result.not_written, why("unknown write not listed")
     record = audit_log.read()[-1]
-    assert record["error"] == result.error, why("audit record is not this push's")
-    assert [w["command"] for w in record["written"]] == [w.command for w in result.written]
-    assert record.get("failed_item") == (result.failed.name if result.failed else None)
+    assert record.error == result.error, why("audit record is not this push's")
+    assert [w.command for w in record.done] == [w.command for w in result.written]
+    assert record.failed_item == (result.failed.name if result.failed else None)
 
 
 def check_wrote_nothing(why: Why, got: Outcome) -> None:

@@ -126,6 +126,20 @@ DEFECTS: dict[tuple[str, str], tuple[str, str, str, str]] = {
         "robot.yaml:7",
         "connection.speed: unknown key (allowed: port, station, ",
     ),
+    # Issue 34 item 11: more digits than Python converts to an int (4,300) crashed a
+    # pull in the quick reader; pull, push, diff and plan say it as validate does.
+    ("robot.yaml", "issue 34: a number of 5000 digits"): (
+        "  station: 1\n",
+        f"  station: {'9' * 5000}\n",
+        "robot.yaml:6",
+        f"connection.station: {'9' * 77}... is out of range (allowed: 1-99)",
+    ),
+    ("robot.yaml", "issue 34: a format of 5000 digits"): (
+        "format: 2\n",
+        f"format: {'3' * 5000}\n",
+        "robot.yaml:2",
+        f"format {'3' * 77}... is newer than this harlsync understands (2): upgrade harlsync",
+    ),
     ("controller.yaml", "malformed"): (
         "timers: 4\n",
         "timers: {4\n",

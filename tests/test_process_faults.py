@@ -312,27 +312,28 @@ def test_a_push_killed_mid_write_is_audited_and_running_it_again_converges(plant
     assert 3 <= len(sent) < 8
 
     [record] = audit.results()
-    assert record["result"] == "unfinished" and record["reason"] == "eight edits"
-    written = [w["command"] for w in record["written"]]
+    assert record.result == "unfinished" and record.reason == "eight edits"
+    written = [w.command for w in record.done]
     # The audit never claims less than was verified, nor more than was sent.
     assert written == sent[: len(written)] and len(written) >= len(sent) - 1
-    assert record["failed_item"] is not None
-    assert len(record["plan"]) == 8 and record["snapshot"]
+    assert record.failed_item is not None
+    assert len(record.plan or []) == 8 and record.snapshot
 
     diff = run("diff", str(plant.cell))
     assert diff.returncode == 1
     warning = diff.stderr.splitlines()[0]
     assert warning.startswith("harlsync: warning: an earlier push to this robot did not finish")
-    assert f"by {record['user']} on {record['host']}" in warning and record["time"] in warning
+    assert record.time is not None
+    assert f"by {record.user} on {record.host}" in warning and record.time in warning
     assert f"wrote {len(written)} of 8 item(s)" in warning
-    assert all(w["item"] in warning for w in record["written"])
+    assert all(w.item is not None and w.item in warning for w in record.done)
 
     again = run("push", str(plant.cell), "--yes")
     assert again.returncode == 0, again.stderr
     assert "did not finish" in again.stderr  # said once more, then settled
     assert run("diff", str(plant.cell)).returncode == 0
     assert "did not finish" not in run("diff", str(plant.cell)).stderr
-    assert [r["result"] for r in audit.results()] == ["unfinished", "ok"]
+    assert [r.result for r in audit.results()] == ["unfinished", "ok"]
     assert plant.sim.unsafe_in_automatic() == []
     assert temp_files(plant.cell) == []
 

@@ -20,6 +20,7 @@ import pytest
 from harlsync.families.harl_u2.layout import KINDS, SCHEMAS
 from harlsync.families.harl_u2.model import (
     Config,
+    OffsetEnd,
     OffsetTable,
     Parameters,
     ProgramArea,
@@ -157,6 +158,7 @@ def build_example(path: Path = EXAMPLE) -> Project:
         },
         offsets={n: OFFSETS.get(n, OffsetTable()) for n in range(100)},
         timers={n: TIMERS.get(n, "0.00") for n in range(config.timers)},
+        offset_end=OffsetEnd(100, "E21"),  # what a pull finds the simulator answer (issue 29)
     )
     robot = new_robot(
         "pick-and-place",

@@ -117,14 +117,12 @@ def test_log_status_and_the_report_page_show_each_field_old_to_new_in_the_family
     assert cli.main(["push", str(project), "--yes", "--reason", "tuning"]) == 0
     capsys.readouterr()
     record = audit.read()[-1]
-    for entry in record["written"]:
-        assert entry["changes"], entry
-    assert [audit.change_line(c) for w in record["written"] for c in w["changes"]] == (
-        edited.expected
-    )
+    for entry in record.done:
+        assert entry.changes, entry
+    assert [audit.change_line(c) for w in record.done for c in w.changes or ()] == (edited.expected)
     readable(
-        json.dumps(record["written"], ensure_ascii=False).replace(
-            record["written"][0]["command"], ""
+        json.dumps([w.to_json() for w in record.done], ensure_ascii=False).replace(
+            str(record.done[0].command), ""
         )
     )
 
@@ -149,19 +147,16 @@ def test_log_status_and_the_report_page_show_each_field_old_to_new_in_the_family
 def test_log_folds_long_lists_hides_frames_and_old_reprs_unless_asked(tmp_path, capsys) -> None:
     frame = " ".join(f"{n:02X}" for n in range(40))
     record = audit.base_record("push")
-    record.update(
-        robot={"name": "cell-9", "port": "sim://x", "station": 1},
-        result="failed",
-        error=f"the controller refused 291H: reply {frame}",
-        written=[
-            {"item": f"position {n}", "command": f"291H {frame}", "changes": [
-                {"item": f"position {n}", "field": "speed", "old": "0", "new": str(n)}
-            ]}
-            for n in range(50)
-        ]
-        + [{"item": "position 99", "command": "291H", "old": "Position(axes=(1,), speed=0)",
-            "new": "Position(axes=(1,), speed=5)"}],
-    )  # fmt: skip
+    record.robot = audit.RecordedRobot("cell-9", "sim://x", 1)
+    record.result = "failed"
+    record.error = f"the controller refused 291H: reply {frame}"
+    record.written = [
+        audit.Written(f"position {n}", f"291H {frame}", changes=(
+            audit.Change(f"position {n}", "speed", "0", str(n)),
+        ))
+        for n in range(50)
+    ] + [audit.Written("position 99", "291H", "Position(axes=(1,), speed=0)",
+                       "Position(axes=(1,), speed=5)")]  # fmt: skip
     audit.append(record)
     assert cli.main(["log"]) == 0
     out = capsys.readouterr().out
@@ -228,3 +223,27 @@ def test_an_error_line_names_a_frame_by_its_size_and_shows_it_with_vv(
     assert "answered & to 291H: [a 60-byte frame: -vv shows it]" in err
     assert cli.main(["-vv", "diff", str(tmp_path)]) == 2
     assert frame in capsys.readouterr().err
+
+
+def test_issue_32_a_drift_error_names_the_fields_of_a_value_of_several_numbers() -> None:
+    """``audit.difference`` asks the family's fields of the value as it is: a setting
+    of four joints is one value (it said "its value differs", having compared its
+    numbers one by one as if they were a run, and swallowed the TypeError); a run of
+    IAI positions is compared position by position by the IAI catalogue."""
+    from harlsync import families
+    from harlsync.families.epson.model import SettingKey
+    from harlsync.families.iai.catalogue import PositionKey, Run
+    from harlsync.families.iai.model import Position
+
+    epson = families.get("epson").catalogue
+    fine = SettingKey("fine")
+    assert audit.difference(epson, fine, (10, 10, 10, 10), (10, 9, 10, 10)) == "joint 2 10 → 9"
+    iai = families.get("iai").catalogue
+    at = Position(3, (1, 2), "0.30", "0.30", 100, ("1.000", "2.000"))
+    faster = Position(4, (1, 2), "0.30", "0.30", 150, ("1.000", "2.000"))
+    assert audit.difference(iai, Run("positions", 3, 2), (at, at), (at, faster)) == (
+        "speed 100 → 150"
+    )
+    assert audit.difference(iai, PositionKey("position", 3), at, None) == (
+        "axes [1, 2] coords [1.000, 2.000] acc 0.30 dec 0.30 speed 100 → (empty)"
+    )

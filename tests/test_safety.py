@@ -351,9 +351,9 @@ def test_ctrl_c_mid_push_still_leaves_an_audit_record_saying_what_was_written(
     assert [w.name for w in result.written] == ["MAIN program 1 step 3"]
     assert result.failed is not None and result.failed.name == "MAIN program 1 step 5"
     [record] = audit_log.results(tmp_path / "audit.jsonl")
-    assert record["result"] == "interrupted"
-    assert [w["item"] for w in record["written"]] == ["MAIN program 1 step 3"]
-    assert record["failed_item"] == "MAIN program 1 step 5"
+    assert record.result == "interrupted"
+    assert [w.item for w in record.done] == ["MAIN program 1 step 3"]
+    assert record.failed_item == "MAIN program 1 step 5"
     assert sim.sent("SNM 1 5") == []
 
 
@@ -430,7 +430,7 @@ def test_what_no_write_can_fix_refuses_the_push_before_any_write(
     assert expect in str(failed.value)
     assert target.writes_received() == []
     [record] = audit_log.results(tmp_path / "audit.jsonl")
-    assert record["result"] == "refused"
+    assert record.result == "refused"
 
 
 # --- the start button pressed while a write is on the wire ---------------------------------
@@ -450,7 +450,7 @@ def test_a_robot_started_while_the_last_write_was_on_the_wire_is_reported_after_
     assert "started after the status read before MAIN program 1 step 3" in warning
     assert "that write may have reached it while a task ran" in warning
     [record] = audit_log.read(tmp_path / "audit.jsonl")[-1:]
-    assert record["warnings"] == [warning]
+    assert record.warnings == [warning]
 
 
 def test_a_robot_started_between_two_writes_stops_the_push_naming_the_write_it_may_have_hit(
@@ -502,8 +502,8 @@ def test_an_audit_log_that_fails_at_the_end_does_not_hide_what_the_push_did(
     commit_step(project, 1, 3, "MOVE P999 S20")
     real = audit_log.append
 
-    def full_disk_at_the_end(record: dict[str, object], path: Path | None = None) -> Path:
-        if record.get("event") == "end":
+    def full_disk_at_the_end(record: audit_log.AuditRecord, path: Path | None = None) -> Path:
+        if record.event == "end":
             raise OSError(28, "No space left on device")
         return real(record, path)
 
@@ -519,6 +519,6 @@ def test_an_audit_record_is_appended_whole_even_when_the_disk_takes_it_in_pieces
     real = os.write
     monkeypatch.setattr(os, "write", lambda fd, data: real(fd, data[:7]))
     log_file = tmp_path / "pieces.jsonl"
-    audit_log.append({"event": "end", "item": "x" * 50}, log_file)
-    audit_log.append({"event": "end", "item": "y"}, log_file)
-    assert [r["item"] for r in audit_log.read(log_file)] == ["x" * 50, "y"]
+    audit_log.append(audit_log.AuditRecord(event="end", item="x" * 50), log_file)
+    audit_log.append(audit_log.AuditRecord(event="end", item="y"), log_file)
+    assert [r.item for r in audit_log.read(log_file)] == ["x" * 50, "y"]

@@ -1,6 +1,8 @@
-"""The fast schema check (project/schema.py, _compile) against jsonschema: it never
-passes a document jsonschema finds an error in, and it passes the valid documents
-harlsync writes, so that checking them needs no jsonschema at all.
+"""The fast schema check (project/schema.py, _compile) against jsonschema, the
+reference: it never passes a document jsonschema finds an error in, and it passes the
+valid documents harlsync writes, so that checking them needs no jsonschema at all
+(jsonschema's import alone is about the whole start-up budget of a pull: issue 32
+kept the compiled check for that, inside the one check, SchemaSet.check).
 
 Documents: every file of generated HARL-U2 projects, of IAI and Epson projects,
 and of the example; then the same with one part changed at random (a value of

@@ -167,6 +167,29 @@ def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(
     assert "\x1b[" not in out  # no colour off a terminal
 
 
+@pytest.mark.parametrize("shape", ["offset as text", "pair as a bare number", "writes as text"])
+def test_issue_34_an_index_entry_of_the_wrong_shape_is_built_again_and_status_says_the_same(
+    plant, records, capsys, shape
+) -> None:
+    code = main(["status", str(plant.root)])
+    before = capsys.readouterr()
+    index = records.with_name(records.name + ".index")
+    saved = json.loads(index.read_text())
+    for entry in saved["keys"].values():
+        if shape == "offset as text":
+            entry[0] = [[seq, str(offset)] for seq, offset in entry[0]]
+        elif shape == "pair as a bare number":
+            entry[0] = [seq for seq, _ in entry[0]]
+    for entry in saved["open"].values():
+        if shape == "writes as text":
+            entry["writes"] = [str(offset) for offset in entry["writes"]]
+    index.write_text(json.dumps(saved))
+    assert main(["status", str(plant.root)]) == code
+    after = capsys.readouterr()
+    assert (after.out, after.err) == (before.out, before.err)
+    assert json.loads(index.read_text()) != saved  # built again, and saved
+
+
 def test_status_json_carries_the_last_push_and_the_unfinished_one(plant, records, capsys) -> None:
     code, seen = status_json(capsys, str(plant.root))
     robots = {r["name"]: r for r in seen["robots"]}

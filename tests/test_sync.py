@@ -415,14 +415,15 @@ def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path)
     with pytest.raises(PushFailed):
         engine.push(project, YES, port=url)
     records = audit_log.results(tmp_path / "audit.jsonl")
-    assert [r["result"] for r in records] == ["ok", "refused"]
+    assert [r.result for r in records] == ["ok", "refused"]
     ok = records[0]
-    assert ok["action"] == "push" and ok["reason"] == "cycle time tuning"
-    assert ok["user"] and ok["host"] and ok["time"]
-    assert ok["commit"] == git(repo, "rev-parse", "HEAD~1").strip()
-    assert ok["robot"] == {"name": "cell", "port": url, "station": 1}
-    assert ok["plan"] == ["SNT 2 2.22"]
-    assert ok["written"] == [
+    assert ok.action == "push" and ok.reason == "cycle time tuning"
+    assert ok.user and ok.host and ok.time
+    assert ok.commit == git(repo, "rev-parse", "HEAD~1").strip()
+    assert ok.robot is not None
+    assert ok.robot.to_json() == {"name": "cell", "port": url, "station": 1}
+    assert ok.plan == ["SNT 2 2.22"]
+    assert [w.to_json() for w in ok.done] == [
         {
             "item": "timer 2",
             "command": "SNT 2 2.22",
@@ -431,7 +432,8 @@ def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path)
             "changes": [{"item": "timer 2", "field": None, "old": old, "new": "2.22"}],
         }
     ]
-    assert "task 0 in execution" in records[1]["error"] and records[1]["written"] == []
+    assert records[1].error and "task 0 in execution" in records[1].error
+    assert records[1].written == []
 
 
 def test_a_dirty_project_or_one_outside_git_is_refused(served, repo, tmp_path) -> None:
@@ -711,8 +713,8 @@ def test_a_push_refused_before_the_port_is_audited_too(served, repo, tmp_path) -
     with pytest.raises(ProjectError):
         engine.push(project, PushOptions(yes=True, reason="try"), port=url)
     [record] = audit_log.results(tmp_path / "audit.jsonl")
-    assert record["result"] == "refused" and "timers.yaml" in record["error"]
-    assert record["reason"] == "try" and record["written"] == []
+    assert record.result == "refused" and record.error and "timers.yaml" in record.error
+    assert record.reason == "try" and record.written == []
 
 
 def test_a_first_pull_from_a_relative_sim_path_saves_it_absolute(tmp_path, monkeypatch) -> None:
@@ -821,7 +823,7 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
         "(sat 22:00-04:00); stopped before writing timer 2"
     )
     [record] = audit_log.results()
-    assert record["result"] == "refused" and len(record["written"]) == 2
+    assert record.result == "refused" and len(record.done) == 2
 
 
 #: The example project, and the same robot as format 1 wrote it (steps keyed by number).

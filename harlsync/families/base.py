@@ -349,8 +349,9 @@ class Catalogue(ABC, Generic[K, D]):
 
     def other_robot(self, live: D, project: D) -> str | None:
         """Why the controller read (``live``) is not the project's robot, for diff,
-        plan and push (a pull asks :meth:`robot_identity`); None when it is.
-        Default: what :meth:`other_identity` says of its identity."""
+        plan and push, and for a pull once :meth:`robot_identity` agrees (a pull
+        with ``--new-robot`` does not ask); None when it is.  Default: what
+        :meth:`other_identity` says of its identity."""
         return self.other_identity(self.robot_identity(live), project)
 
     def other_identity(self, now: Mapping[str, str], project: D) -> str | None:
@@ -577,13 +578,6 @@ class Family(ABC, Generic[K, D]):
     def stale_files(self, root: Path, texts: Mapping[str, str], robot: Robot, data: D) -> list[str]:
         """Managed files on disk that a save of ``texts`` must remove (default: none)."""
         return []
-
-    def quick_robot(self, data: Mapping[str, Any]) -> Robot | None:
-        """The robot of robot.yaml's ``data`` as :func:`harlsync.project.quick.parse`
-        reads it (no project store, no YAML: a pull's first request waits for it),
-        when the family is sure the full reading (:meth:`analyse`) finds the same
-        robot and no issue; None (the default) to have the file read the whole way."""
-        return None
 
     def new_robot(self, name: str, port: str, station: int | None, **fields: object) -> Robot:
         """The robot.yaml of a first pull: the family's defaults, then ``fields``

@@ -82,7 +82,7 @@ def new_robot(name: str, port: str, station: int = 1, **options: Any) -> Robot:
     return Robot(name=name, port=port, station=station, **options)
 
 
-# -- from robot.yaml's data (the full reading's, or harlsync.project.quick's) ------------
+# -- from robot.yaml's data, as the family's layout read and checked it ----------------
 
 
 def build_serial(connection: Mapping[str, Any], defaults: SerialSettings) -> SerialSettings:

@@ -21,7 +21,6 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from decimal import Decimal
 from functools import cache
-from importlib.resources import files
 from typing import TYPE_CHECKING, Any
 
 from .yamlio import Number, Parsed
@@ -177,6 +176,8 @@ class SchemaSet:
                     return f.read()
             except FileNotFoundError:
                 pass  # not unpacked: the resources API finds it, or says so
+        from importlib.resources import files  # its readers: only for a package in a zip
+
         folder: Any = files(self.package)
         text: str = folder.joinpath(name).read_text(encoding="utf-8")
         return text

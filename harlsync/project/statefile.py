@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -83,6 +82,8 @@ def kind_of(value: Any) -> str:
 def timestamp(value: str) -> bool:
     """Whether ``value`` is a time as harlsync records them: ISO 8601 with a zone."""
     try:
+        from datetime import datetime  # not at import: robot.yaml's reading needs none
+
         return datetime.fromisoformat(value).tzinfo is not None
     except ValueError:
         return False

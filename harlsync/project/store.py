@@ -53,8 +53,6 @@ import json
 import logging
 import os
 import re
-import secrets
-import shutil
 import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -407,6 +405,8 @@ IN_PROGRESS = (".*.harlsync-new-*", ".*.harlsync-old-*", JOURNAL)
 
 
 def _sibling(target: Path, what: str) -> Path:
+    import secrets  # a save's, not a load's (robot.yaml before a pull's first request)
+
     return target.with_name(f".{target.name}.harlsync-{what}-{os.getpid()}-{secrets.token_hex(4)}")
 
 
@@ -483,6 +483,8 @@ def _backup(target: Path) -> Path | None:
         os.link(target, backup)
     except OSError:
         try:
+            import shutil  # only for a file with no second name (another file system)
+
             shutil.copy2(target, backup)
         except BaseException:
             _quietly(backup.unlink, missing_ok=True)

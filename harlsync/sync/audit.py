@@ -27,11 +27,15 @@ for the next push, rollback or diff of that robot, until a push or rollback of
 that robot ends ok.  Records written before these events existed have no
 ``event`` and count as end records.
 
+Each record is an :class:`~.auditrecord.AuditRecord`, read and written: that
+module says how a line is read, field by field, and how a record reads to a person.
+
 The log only grows, and it is never rotated: a log of any size, an older
 harlsync's included, is one file read the one way.  Only ``harlsync log`` reads
-it whole (:func:`results`); a pull, push, rollback, diff and status ask
-:func:`index` (:mod:`.auditindex`, a cache beside the log that the readers keep),
-which reads what was appended since the last reader.  Rotation into segments
+it whole (:func:`results`); a pull, push, rollback, diff and status ask its index
+(:mod:`.auditindex`, a cache beside the log that the readers keep, and the API
+that reads it: ``index``, ``unfinished``, ``pushes_since``), which reads what was
+appended since the last reader.  This module imports no index.  Rotation into segments
 would bound the file but not the question: a push killed a year ago is still
 unsettled, so the reader would still have to open every segment to find it.
 """
@@ -47,28 +51,58 @@ import re
 import secrets
 import socket
 from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..link import lock_key
 from ..project import statefile
-from ..project.statefile import Fields, fold, kind_of
+from ..project.statefile import fold, kind_of
+from .auditrecord import (
+    EMPTY,
+    SHOWN,
+    AuditRecord,
+    Change,
+    PartlyRecorded,
+    RecordedRobot,
+    Written,
+    change_line,
+    shorten,
+    written_lines,
+)
 
 if TYPE_CHECKING:
-    from .auditindex import AuditIndex
+    from ..families.base import Catalogue
+    from . import items
+    from .plan import PlannedWrite
 
 __all__ = [
+    "EMPTY",
+    "SETTLED",
+    "SHOWN",
+    "AuditRecord",
+    "Change",
+    "OpenPush",
+    "PartlyRecorded",
+    "RecordedRobot",
+    "Written",
     "append",
     "audit_path",
     "base_record",
+    "change_entries",
+    "change_line",
+    "changed_names",
     "describe_unfinished",
-    "index",
+    "difference",
     "of_robot",
+    "parse_line",
     "read",
     "results",
-    "unfinished",
+    "shorten",
     "unsettled",
+    "written_entry",
+    "written_lines",
 ]
 
 log = logging.getLogger(__name__)
@@ -89,24 +123,25 @@ def now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
 
 
-def base_record(action: str) -> dict[str, Any]:
-    """The fields every end record starts with: event, id, action, time, user, host, pid."""
+def base_record(action: str) -> AuditRecord:
+    """An end record with what every one starts with: event, id, action, time, user,
+    host, pid."""
     try:
         user = getpass.getuser()
     except (KeyError, OSError):
         user = str(os.getuid()) if hasattr(os, "getuid") else "unknown"
-    return {
-        "event": "end",
-        "id": secrets.token_hex(8),
-        "action": action,
-        "time": now(),
-        "user": user,
-        "host": socket.gethostname(),
-        "pid": os.getpid(),
-    }
+    return AuditRecord(
+        event="end",
+        id=secrets.token_hex(8),
+        action=action,
+        time=now(),
+        user=user,
+        host=socket.gethostname(),
+        pid=os.getpid(),
+    )
 
 
-def append(record: dict[str, Any], path: Path | None = None) -> Path:
+def append(record: AuditRecord, path: Path | None = None) -> Path:
     """Append one record as a JSON line, fsynced; return the log's path.
 
     A line left unterminated by an earlier writer (a full disk) is ended first,
@@ -114,7 +149,7 @@ def append(record: dict[str, Any], path: Path | None = None) -> Path:
     """
     path = path or audit_path()
     path.parent.mkdir(parents=True, exist_ok=True)
-    line = json.dumps(record, sort_keys=True, default=str) + "\n"
+    line = json.dumps(record.to_json(), sort_keys=True, default=str) + "\n"
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o644)
     try:
         size = os.fstat(fd).st_size
@@ -132,84 +167,22 @@ def append(record: dict[str, Any], path: Path | None = None) -> Path:
     return path
 
 
-#: The fields of an audit record, by the type they must hold (anything else is read
-#: as missing, and said so once).
-_TEXT = (
-    "event", "id", "action", "user", "host", "project", "commit", "reason", "result",
-    "error", "failed_item", "snapshot", "item", "command", "outside_window", "time",
-)  # fmt: skip
-_TEXTS = ("plan", "warnings", "notes")
-_WRITTEN_TEXT = ("item", "command", "old", "new")
-_CHANGE_TEXT = ("item", "field", "old", "new")
-
 #: Problems already said by this process (path, line): a backup of 40 robots reads
 #: the log 40 times and says each once.
 _said: set[tuple[str, int]] = set()
 
 
-def _clean(record: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
-    """The record with every field of the wrong type left out, and what was wrong."""
-    fields = Fields(record)
-    clean: dict[str, Any] = {k: v for k, v in record.items() if k not in _KNOWN}
-    for name in _TEXT:
-        clean[name] = fields.text(name)
-    clean["pid"] = fields.integer("pid")
-    for name in _TEXTS:
-        clean[name] = fields.texts(name)
-    robot = fields.object("robot")
-    if robot is not None:
-        of_robot = Fields(robot)
-        clean["robot"] = {
-            "name": of_robot.text("name"),
-            "port": of_robot.text("port"),
-            "station": of_robot.integer("station"),
-        }
-        fields.problems += [f"robot's {p}" for p in of_robot.problems]
-    clean["changes"] = _changes(fields)  # a write record's, see written_entry
-    written = fields.objects("written")
-    if written is not None:
-        clean["written"] = []
-        for entry in written:
-            one = Fields(entry)
-            kept: dict[str, Any] = {}
-            for name in _WRITTEN_TEXT:
-                if (value := one.text(name)) is not None:
-                    kept[name] = value
-            if (changes := _changes(one)) is not None:
-                kept["changes"] = changes
-            clean["written"].append(kept)
-            fields.problems += [f"written item's {p}" for p in one.problems]
-    return {k: v for k, v in clean.items() if v is not None}, fields.problems
-
-
-def _changes(fields: Fields) -> list[dict[str, Any]] | None:
-    """The ``changes`` of a record or written entry (see :func:`written_entry`), each
-    field checked; what was wrong is added to ``fields.problems``."""
-    changes = fields.objects("changes")
-    if changes is None:
-        return None
-    found = []
-    for change in changes:
-        of_change = Fields(change)
-        found.append({n: of_change.text(n) for n in _CHANGE_TEXT})
-        fields.problems += of_change.problems
-    return found
-
-
-_KNOWN = frozenset((*_TEXT, *_TEXTS, "pid", "robot", "written", "changes"))
-
-
-def parse_line(raw: bytes) -> tuple[dict[str, Any] | None, str | None]:
+def parse_line(raw: bytes) -> tuple[AuditRecord | None, str | None]:
     """One line of the log: the record (each field of the type it must have; None
     when the line is no record) and what was wrong with it (None: nothing)."""
     try:
-        record = statefile.parse(raw.decode("utf-8"))
+        value = statefile.parse(raw.decode("utf-8"))
     except ValueError as exc:  # UnicodeDecodeError too
         why = str(exc) if not isinstance(exc, UnicodeDecodeError) else "not UTF-8 text"
         return None, f"not an audit record ({why}): {_LEFT_OUT}"
-    if not isinstance(record, dict):
-        return None, f"not an audit record ({kind_of(record)}, not an object): {_LEFT_OUT}"
-    record, wrong = _clean(record)
+    if not isinstance(value, dict):
+        return None, f"not an audit record ({kind_of(value)}, not an object): {_LEFT_OUT}"
+    record, wrong = AuditRecord.from_json(value)
     return record, (f"{'; '.join(fold(wrong, 3))}: {_MISSING}" if wrong else None)
 
 
@@ -243,7 +216,7 @@ def report(
 SHOWN_PROBLEMS = 5
 
 
-def read(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
+def read(path: Path | None = None, problems: list[str] | None = None) -> list[AuditRecord]:
     """Every record, in order, each field of the type it must have.
 
     A line that is not a JSON object is left out, a field of the wrong type is read
@@ -271,219 +244,138 @@ _MISSING = "read as missing; fix that line, or move it to another file"
 _LEFT_OUT = "left out; move that line to another file to keep it (harlsync only appends)"
 
 
-def pending(start: dict[str, Any]) -> dict[str, Any]:
-    """An unfinished push or rollback, from its start record (see :func:`results`)."""
-    return {**start, "result": "unfinished", "written": [], "failed_item": None}
+@dataclass
+class OpenPush:
+    """A push or rollback whose start record has been read and its end not (yet):
+    the start, and its write records so far."""
+
+    start: AuditRecord
+    writes: list[AuditRecord] = field(default_factory=list)
+
+    def record(self) -> AuditRecord:
+        """The push as :func:`results` gives it while the log has no end of it: its
+        start record with ``result`` unfinished, ``written`` (the write records but
+        the last) and ``failed_item`` (the last: it may or may not have been written)."""
+        return replace(
+            self.start,
+            result="unfinished",
+            written=[write.as_written() for write in self.writes[:-1]],
+            failed_item=self.writes[-1].item if self.writes else None,
+        )
 
 
-def add_write(push: dict[str, Any], write: dict[str, Any]) -> None:
-    """One more write record of the unfinished ``push``: the one before it was written."""
-    if push["failed_item"] is not None:
-        push["written"].append(push["failed_item"])
-    push["failed_item"] = {k: write.get(k) for k in ("item", "command", "changes") if k in write}
-
-
-def unended(push: dict[str, Any]) -> dict[str, Any]:
-    """``push`` as :func:`results` gives it once the log has no more of it."""
-    push["failed_item"] = (push["failed_item"] or {}).get("item")
-    return push
-
-
-def results(path: Path | None = None, problems: list[str] | None = None) -> list[dict[str, Any]]:
+def results(path: Path | None = None, problems: list[str] | None = None) -> list[AuditRecord]:
     """One record per push or rollback, in the order they started: the whole log
-    (``harlsync log``; the other commands ask :func:`index`).
+    (``harlsync log``; the other commands ask :mod:`.auditindex`).
 
     A finished one is its end record.  An unfinished one is its start record
-    with ``result: "unfinished"``, ``written`` (the write records but the last)
-    and ``failed_item`` (the last: it may or may not have been written).
+    with ``result`` unfinished (see :meth:`OpenPush.record`).
     """
-    started: dict[str, dict[str, Any]] = {}
-    where: dict[str, int] = {}
-    order: list[dict[str, Any]] = []
-    pushes: list[dict[str, Any]] = []  # every start: one whose id came back is unended too
+    started: dict[str, int] = {}  # the id of each open one -> its place in ``order``
+    order: list[AuditRecord | OpenPush] = []
     for record in read(path, problems):
-        event = record.get("event", "end")
-        rid = record.get("id")
-        if event == "start" and rid:
-            started[rid] = pending(record)
-            pushes.append(started[rid])
-            where[rid] = len(order)
-            order.append(started[rid])
-        elif event == "write" and rid in started:
-            add_write(started[rid], record)
-        elif event == "end":
+        rid = record.id
+        if record.event == "start" and rid:
+            started[rid] = len(order)
+            order.append(OpenPush(record))
+        elif record.event == "write" and rid in started:
+            opened = order[started[rid]]
+            assert isinstance(opened, OpenPush)
+            opened.writes.append(record)
+        elif record.event == "end":
             if rid in started:
-                del started[rid]
-                order[where[rid]] = record
+                order[started.pop(rid)] = record
             else:
                 order.append(record)
-    for push in pushes:
-        unended(push)
-    return order
+    return [r.record() if isinstance(r, OpenPush) else r for r in order]
 
 
-def _same_robot(record: dict[str, Any], port: str, station: int) -> bool:
-    robot = record.get("robot")
-    if not isinstance(robot, dict) or robot.get("station") != station:
+def _same_robot(record: AuditRecord, port: str, station: int) -> bool:
+    robot = record.robot
+    if robot is None or robot.station != station:
         return False
-    other = robot.get("port")
-    return isinstance(other, str) and (other == port or lock_key(other) == lock_key(port))
+    other = robot.port
+    return other is not None and (other == port or lock_key(other) == lock_key(port))
 
 
 def of_robot(
-    records: Iterable[dict[str, Any]], port: str, station: int, project: Path | None = None
-) -> list[dict[str, Any]]:
+    records: Iterable[AuditRecord], port: str, station: int, project: Path | None = None
+) -> list[AuditRecord]:
     """The records of the robot at ``port``/``station``, whatever project pushed to it,
     and those of ``project`` (a push refused before it named its robot)."""
     where = str(project.resolve()) if project is not None else None
     return [
         r
         for r in records
-        if _same_robot(r, port, station) or (where is not None and r.get("project") == where)
+        if _same_robot(r, port, station) or (where is not None and r.project == where)
     ]
 
 
-def unsettled(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+def unsettled(records: Iterable[AuditRecord]) -> list[AuditRecord]:
     """The unfinished pushes and rollbacks among one robot's ``records`` (from
     :func:`results`) that no later one has settled."""
-    found: list[dict[str, Any]] = []
+    found: list[AuditRecord] = []
     for record in records:
-        if record.get("result") == "unfinished":
+        if record.result == "unfinished":
             found.append(record)
-        elif record.get("result") in SETTLED:
+        elif record.result in SETTLED:
             found = []
     return found
 
 
-def index(path: Path | None = None, problems: list[str] | None = None) -> AuditIndex:
-    """The log's index (:mod:`.auditindex`), brought up to its end: what a command
-    asks of one robot, read without reading the whole log.  What is wrong with the
-    log's lines is said as :func:`read` says it.  Raises OSError."""
-    from . import auditindex
-
-    found = auditindex.load(path)
-    found.report(problems)
-    return found
-
-
-def unfinished(
-    port: str, station: int, path: Path | None = None, problems: list[str] | None = None
-) -> list[dict[str, Any]]:
-    """The unfinished pushes and rollbacks of the robot at ``port``/``station``
-    that no later push or rollback of it has settled (see :func:`results`)."""
-    return index(path, problems).robot(port, station).unsettled
-
-
-def describe_unfinished(record: dict[str, Any]) -> str:
+def describe_unfinished(record: AuditRecord) -> str:
     """One line: who started it when, what it wrote, what it may have written."""
-    written = [w.get("item") for w in record.get("written", [])]
-    plan = record.get("plan") or []
-    reason = f", reason {record['reason']!r}" if record.get("reason") else ""
+    written = [w.item for w in record.done]
+    reason = f", reason {record.reason!r}" if record.reason else ""
     text = (
-        f"an earlier {record.get('action', 'push')} to this robot did not finish: started "
-        f"{record.get('time')} by {record.get('user')} on {record.get('host')} "
-        f"(pid {record.get('pid')}{reason}); it wrote {len(written)} of {len(plan)} item(s)"
+        f"an earlier {record.shown_action} to this robot did not finish: started "
+        f"{record.time} by {record.user} on {record.host} "
+        f"(pid {record.pid}{reason}); it wrote {len(written)} of {record.planned} item(s)"
     )
     if written:
         text += ": " + ", ".join(str(w) for w in written)
-    if record.get("failed_item"):
-        text += f"; unknown: {record['failed_item']} (may or may not have been written)"
-    if record.get("snapshot"):
-        text += f"; the robot before it: {record['snapshot']}"
+    if record.failed_item:
+        text += f"; unknown: {record.failed_item} (may or may not have been written)"
+    if record.snapshot:
+        text += f"; the robot before it: {record.snapshot}"
     return text
 
 
 # --- the record in the family's words ------------------------------------------------
 
-#: A value an older harlsync recorded as Python's repr: ``Position(axes=..., ...)``.
-_REPR = re.compile(r"^[A-Z]\w*\(.*\)$", re.DOTALL)
-#: A run of hex a person cannot read: a frame on the wire (at least 12 bytes).
-_HEX = re.compile(
-    r"(?<![0-9A-Za-z])(?=[0-9A-Fa-f ]*[A-Fa-f])(?:[0-9A-Fa-f]{2} ?){12,}(?![0-9A-Za-z])"
-)
-#: How many changes a push's entry shows before "and 40 more".
-SHOWN = 10
-#: What an item one side does not have is called (an empty step, an undefined position).
-EMPTY = "(empty)"
 
-
-def change_entries(changes: Iterable[Any]) -> list[dict[str, str | None]]:
-    """The changes (:class:`~.items.Change`) field by field, as ``diff`` shows them:
-    ``{"item": "position 3", "field": "speed", "old": "150", "new": "200"}``."""
-    found: list[dict[str, str | None]] = []
+def change_entries(changes: Iterable[items.Change[Any]]) -> list[Change]:
+    """The changes field by field, as ``diff`` shows them: ``position 3: speed 150 →
+    200`` is ``Change("position 3", "speed", "150", "200")``."""
+    found: list[Change] = []
     for change in changes:
         for name, old, new in change.fields():
             for part, a, b in _narrow(name, old, new):
-                found.append({"item": change.name, "field": part or None, "old": a, "new": b})
+                found.append(Change(change.name, part or None, a, b))
     return found
 
 
-def difference(catalogue: Any, key: Any, old: Any, new: Any) -> str:
-    """How ``new`` differs from ``old`` for the item ``key``, in the family's words:
-    ``speed 150 → 200; acc 0.30 → 0.50`` (a run's values compared one by one)."""
-    pairs = list(zip(old, new)) if isinstance(old, tuple) and isinstance(new, tuple) else []
-    if not pairs or len(old) != len(new):
-        pairs = [(old, new)]
-    lines: list[str] = []
-    try:
-        for a, b in pairs:
-            for name, x, y in catalogue.fields(key, a, b):
-                for part, p, q in _narrow(name, x, y):
-                    lines.append(change_line({"item": None, "field": part, "old": p, "new": q}))
-    except (AttributeError, TypeError, ValueError):  # a value the family cannot show
-        return "its value differs"
-    texts = [line.split(": ", 1)[1] for line in lines]
+def difference(catalogue: Catalogue[Any, Any], key: object, old: object, new: object) -> str:
+    """How ``new`` differs from ``old`` for the item (or run of items) ``key``, in the
+    family's words: ``speed 150 → 200; acc 0.30 → 0.50`` (the family's
+    :meth:`~harlsync.families.base.Catalogue.fields`, each field narrowed as diff
+    narrows it)."""
+    texts = [
+        change_line(Change(None, part, p, q)).split(": ", 1)[1]
+        for name, x, y in catalogue.fields(key, old, new)
+        for part, p, q in _narrow(name, x, y)
+    ]
     return "; ".join(fold(texts, 4, "more")) or "its value differs"
 
 
-def written_entry(write: Any) -> dict[str, Any]:
-    """A write (:class:`~.plan.PlannedWrite`) as the audit log keeps it: the item, the
-    wire command (for the record; shown with -v only) and what it changes."""
+def written_entry(write: PlannedWrite[Any]) -> Written:
+    """A write as the audit log keeps it: the item, the wire command (for the record;
+    shown with -v only) and what it changes."""
     changes = change_entries(write.items)
-    entry: dict[str, Any] = {"item": write.name, "command": write.command}
-    if len(changes) == 1 and changes[0]["field"] is None and changes[0]["item"] == write.name:
-        entry.update(old=changes[0]["old"], new=changes[0]["new"])  # as older records had
-    return entry | {"changes": changes}
-
-
-def change_line(entry: dict[str, Any]) -> str:
-    """``position 3: speed 150 → 200``."""
-    field = f"{entry['field']} " if entry.get("field") else ""
-    old, new = entry.get("old"), entry.get("new")
-    return f"{entry.get('item')}: {field}{EMPTY if old is None else old} → {EMPTY if new is None else new}"
-
-
-def written_lines(written: Iterable[dict[str, Any]], most: int | None = SHOWN) -> list[str]:
-    """What the written entries changed, a line per field (``position 3: speed 150 →
-    200``), at most ``most`` then ``and 40 more``.  An entry an older harlsync recorded
-    shows its values when they are the family's text, else only its item."""
-    lines: list[str] = []
-    for w in written:
-        if w.get("changes") is not None:
-            lines += [change_line(c) for c in w["changes"]]
-            continue
-        old, new = w.get("old"), w.get("new")
-        if any(isinstance(v, str) and _REPR.match(v) for v in (old, new)) or (old is new is None):
-            lines.append(f"{w.get('item')}: changed")
-        else:
-            lines.append(change_line({"item": w.get("item"), "old": old, "new": new}))
-    return lines if most is None else fold(lines, most, "more")
-
-
-def shorten(text: str | None, verbose: int = 0) -> str | None:
-    """A recorded error as a line a person reads: a frame on the wire (a long run of
-    hex) named by its size, unless ``verbose`` >= 2 (the advice around it is kept)."""
-    if text is None or verbose >= 2:
-        return text
-    return _HEX.sub(_frame, text)
-
-
-def _frame(match: re.Match[str]) -> str:
-    found = match.group()
-    if found.strip() == found and len(found) in (40, 64):  # a git commit, a SHA-256
-        return found
-    size = len(re.sub(r"\s", "", found)) // 2
-    return f"[a {size}-byte frame: -vv shows it]"
+    if len(changes) == 1 and changes[0].field is None and changes[0].item == write.name:
+        # as older records had it too
+        return Written(write.name, write.command, changes[0].old, changes[0].new, tuple(changes))
+    return Written(write.name, write.command, changes=tuple(changes))
 
 
 _TOKEN = re.compile(r"\[[^\]]*\]|\S+")
@@ -520,10 +412,9 @@ def _narrow(
     return differ if 0 < len(differ) < len(a) else [(name, old, new)]
 
 
-def changed_names(changes: Iterable[Any]) -> list[str]:
-    """What the changes (:class:`~.items.Change`) touch, item by item, with the fields
-    that differ where an item has several: ``MAIN program 0 step 4``, ``position 12
-    speed``, ``AccelS 3 decel``."""
+def changed_names(changes: Iterable[items.Change[Any]]) -> list[str]:
+    """What the changes touch, item by item, with the fields that differ where an item
+    has several: ``MAIN program 0 step 4``, ``position 12 speed``, ``AccelS 3 decel``."""
     names = []
     for change in changes:
         parts = [
@@ -534,50 +425,3 @@ def changed_names(changes: Iterable[Any]) -> list[str]:
         ]
         names.append(f"{change.name} {', '.join(parts)}" if parts else change.name)
     return names
-
-
-def pushes_since(
-    port: str, station: int, project: Path, since: str | None, path: Path | None = None
-) -> list[str]:
-    """The pushes and rollbacks of the robot at ``port``/``station`` (or of
-    ``project``) recorded after ``since`` (a time as harlsync records them; None: all),
-    each as ``push ok 2026-11-24T20:23:50+00:00 by alice@pc: "faster pick"``; one in
-    the same second as ``since`` is named too (times are to the second).  The audit
-    log unreadable, none."""
-    try:
-        latest = index(path, []).robot(port, station, project)
-        records = latest.recent
-        if not latest.complete and not _reaches(records, since):  # more than it keeps
-            records = of_robot(results(path, []), port, station, project)
-    except OSError:
-        return []
-    found = []
-    for r in records:
-        when = r.get("time")
-        if since is not None and (
-            not isinstance(when, str)
-            or not statefile.timestamp(when)
-            or when_of(when) < when_of(since)
-        ):
-            continue
-        reason = f': "{r["reason"]}"' if r.get("reason") else ""
-        found.append(
-            f"{r.get('action', 'push')} {r.get('result', '?')} {when} by "
-            f"{r.get('user', '?')}@{r.get('host', '?')}{reason}"
-        )
-    return found
-
-
-def _reaches(records: list[dict[str, Any]], since: str | None) -> bool:
-    """Whether ``records`` (a robot's latest) go back to before ``since``."""
-    first = records[0].get("time") if records else None
-    return (
-        since is not None
-        and isinstance(first, str)
-        and statefile.timestamp(first)
-        and when_of(first) < when_of(since)
-    )
-
-
-def when_of(stamp: str) -> datetime:
-    return datetime.fromisoformat(stamp)

@@ -32,8 +32,10 @@ read as it always was.  A reader checks that the log still starts and continues
 as the index read it (``ino``, ``head``, ``tail``, a size no smaller), reads only
 what was appended since (a few records) and, when there was some, writes the
 index again (a temporary and a rename: readers see the old index or the new
-one).  An index that does not match, is missing or cannot be parsed is built
-again from the whole log, once.  A last line without its newline (a writer
+one).  An index that does not match, is missing, cannot be parsed or holds an
+entry of another shape than it writes (an offset as text, a pair as a bare
+number: :meth:`AuditIndex.restore` checks each) is built again from the whole
+log, once.  A last line without its newline (a writer
 still at it, or killed mid-append) is read but left out of the index: the next
 append ends it, and the index reads it then.  A directory the reader may not
 write in only costs it the whole log on every read.
@@ -49,13 +51,25 @@ import os
 import re
 import secrets
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Any, BinaryIO
 
 from ..link import lock_key
+from ..project import statefile
 from . import audit
+from .audit import AuditRecord, OpenPush
 
-__all__ = ["RECENT", "AuditIndex", "RobotRecords", "index_path", "load"]
+__all__ = [
+    "RECENT",
+    "AuditIndex",
+    "RobotRecords",
+    "index",
+    "index_path",
+    "load",
+    "pushes_since",
+    "unfinished",
+]
 
 log = logging.getLogger(__name__)
 
@@ -89,9 +103,9 @@ class RobotRecords:
     """What the log says about one robot (and its project)."""
 
     #: its latest pushes and rollbacks (at most :data:`RECENT`), as :func:`audit.results`
-    recent: list[dict[str, Any]]
+    recent: list[AuditRecord]
     #: the unfinished ones no later one settled (:func:`audit.unsettled`)
-    unsettled: list[dict[str, Any]]
+    unsettled: list[AuditRecord]
     #: whether ``recent`` is all of them
     complete: bool
 
@@ -113,19 +127,29 @@ class _Key:
         self.unsettled = [e for e in self.unsettled if e[0] != seq]
         self.count -= 1
 
-    def ended(self, seq: int, offset: int, result: Any) -> None:
+    def ended(self, seq: int, offset: int, result: str | None) -> None:
         for entry in self.recent:
             if entry[0] == seq:
                 entry[1] = offset
         self.unsettled = [e for e in self.unsettled if e[0] != seq]
         self.result(seq, offset, result)
 
-    def result(self, seq: int, offset: int, result: Any) -> None:
+    def result(self, seq: int, offset: int, result: str | None) -> None:
         if result == "unfinished":
             bisect.insort(self.unsettled, [seq, offset])
         elif result in audit.SETTLED:
             self.settled = max(self.settled, seq)
             self.unsettled = [e for e in self.unsettled if e[0] > self.settled]
+
+
+@dataclass
+class _Open:
+    """A push started and not ended: the offsets of its start and write records, and
+    the keys its start record is found under."""
+
+    start: int
+    writes: list[int] = field(default_factory=list)
+    keys: list[str] = field(default_factory=list)
 
 
 class _Stale(Exception):
@@ -142,10 +166,10 @@ class AuditIndex:
         self.size = 0
         self.lines = 0
         self.seq = 0
-        self.open: dict[int, dict[str, Any]] = {}
+        self.open: dict[int, _Open] = {}
         self.ids: dict[str, int] = {}
         self.keys: dict[str, _Key] = {}
-        self.problems: list[list[Any]] = []
+        self.problems: list[tuple[int, str]] = []
         self.problem_count = 0
         self.bytes_read = 0
         self.lines_parsed = 0
@@ -153,17 +177,16 @@ class AuditIndex:
 
     # --- reading the log --------------------------------------------------------------
 
-    def _keys_of(self, record: dict[str, Any]) -> set[str]:
+    def _keys_of(self, record: AuditRecord) -> set[str]:
         keys = set()
-        robot = record.get("robot")
-        if isinstance(robot, dict):
-            port, station = robot.get("port"), robot.get("station")
-            if isinstance(port, str) and isinstance(station, int):
-                if (port, station) not in self._ports:
-                    self._ports[(port, station)] = robot_keys(port, station)
-                keys |= self._ports[(port, station)]
-        if isinstance(record.get("project"), str):
-            keys.add(_project_key(record["project"]))
+        robot = record.robot
+        if robot is not None and robot.port is not None and robot.station is not None:
+            port, station = robot.port, robot.station
+            if (port, station) not in self._ports:
+                self._ports[(port, station)] = robot_keys(port, station)
+            keys |= self._ports[(port, station)]
+        if record.project is not None:
+            keys.add(_project_key(record.project))
         return keys
 
     def _key(self, name: str) -> _Key:
@@ -190,36 +213,36 @@ class AuditIndex:
         record, problem = audit.parse_line(raw)
         if problem is not None:
             if len(self.problems) < audit.SHOWN_PROBLEMS:
-                self.problems.append([self.lines, problem])
+                self.problems.append((self.lines, problem))
             self.problem_count += 1
         if record is None:
             return
-        event, rid = record.get("event", "end"), record.get("id")
+        event, rid = record.event, record.id
         if event == "start" and rid:
             seq = self._next()
             keys = self._keys_of(record)
-            self.open[seq] = {"start": offset, "writes": [], "keys": sorted(keys)}
+            self.open[seq] = _Open(offset, [], sorted(keys))
             self.ids[rid] = seq
             for name in keys:
                 self._key(name).add(seq, offset)
                 self._key(name).result(seq, offset, "unfinished")
-        elif event == "write" and rid in self.ids:
-            self.open[self.ids[rid]]["writes"].append(offset)
-        elif event == "end" and rid in self.ids:
+        elif event == "write" and rid is not None and rid in self.ids:
+            self.open[self.ids[rid]].writes.append(offset)
+        elif event == "end" and rid is not None and rid in self.ids:
             seq = self.ids.pop(rid)
-            before = set(self.open.pop(seq)["keys"])
+            before = set(self.open.pop(seq).keys)
             after = self._keys_of(record)
             for name in before - after:
                 self._key(name).drop(seq)
             for name in after - before:
                 self._key(name).add(seq, offset)
             for name in after:
-                self._key(name).ended(seq, offset, record.get("result"))
+                self._key(name).ended(seq, offset, record.result)
         elif event == "end":
             seq = self._next()
             for name in self._keys_of(record):
                 self._key(name).add(seq, offset)
-                self._key(name).result(seq, offset, record.get("result"))
+                self._key(name).result(seq, offset, record.result)
 
     def _next(self) -> int:
         self.seq += 1
@@ -260,15 +283,15 @@ class AuditIndex:
                 complete,
             )
 
-    def _record(self, f: BinaryIO, seq: int, offset: int) -> dict[str, Any]:
+    def _record(self, f: BinaryIO, seq: int, offset: int) -> AuditRecord:
         if seq not in self.open:
             return self._at(f, offset)
-        push = audit.pending(self._at(f, self.open[seq]["start"]))
-        for write in self.open[seq]["writes"]:
-            audit.add_write(push, self._at(f, write))
-        return audit.unended(push)
+        opened = self.open[seq]
+        return OpenPush(
+            self._at(f, opened.start), [self._at(f, write) for write in opened.writes]
+        ).record()
 
-    def _at(self, f: BinaryIO, offset: int) -> dict[str, Any]:
+    def _at(self, f: BinaryIO, offset: int) -> AuditRecord:
         f.seek(offset)
         raw = f.readline()
         self.bytes_read += len(raw)
@@ -279,7 +302,7 @@ class AuditIndex:
 
     def report(self, problems: list[str] | None) -> None:
         """Say what was wrong with the log's lines, as :func:`audit.read` does."""
-        audit.report(self.path, [(n, t) for n, t in self.problems], problems, self.problem_count)
+        audit.report(self.path, list(self.problems), problems, self.problem_count)
 
     # --- the index file ---------------------------------------------------------------
 
@@ -294,7 +317,11 @@ class AuditIndex:
             "head": head,
             "tail": tail,
             "seq": self.seq,
-            "open": {str(seq): entry for seq, entry in self.open.items() if seq in kept},
+            "open": {
+                str(seq): {"start": entry.start, "writes": entry.writes, "keys": entry.keys}
+                for seq, entry in self.open.items()
+                if seq in kept
+            },
             "ids": self.ids,
             "keys": {
                 name: [key.recent, key.count, key.settled, key.unsettled]
@@ -305,25 +332,109 @@ class AuditIndex:
         }
 
     def restore(self, state: dict[str, Any]) -> None:
-        """Take up ``state`` (:meth:`state`'s).  Raises _Stale for anything else."""
+        """Take up ``state`` (:meth:`state`'s), each of its entries of the shape
+        :meth:`state` writes.  Raises _Stale for anything else: a cache that cannot be
+        trusted is built again from the log, whatever is wrong with it."""
+        if state.get("version") != VERSION:
+            raise _Stale("another version")
         try:
-            if state["version"] != VERSION:
-                raise _Stale("another version")
-            self.size, self.lines = int(state["size"]), int(state["lines"])
-            self.seq = int(state["seq"])
-            self.open = {int(seq): dict(entry) for seq, entry in state["open"].items()}
-            for entry in self.open.values():
-                if not isinstance(entry["start"], int) or not isinstance(entry["writes"], list):
-                    raise _Stale("an open push without its offsets")
-            self.ids = {str(rid): int(seq) for rid, seq in state["ids"].items()}
-            self.keys = {
-                name: _Key(list(recent), int(count), int(settled), list(unsettled))
-                for name, (recent, count, settled, unsettled) in state["keys"].items()
+            self.size, self.lines = _count(state["size"]), _count(state["lines"])
+            self.seq = _count(state["seq"])
+            self.open = {
+                _seq(seq): _open(entry, self.size) for seq, entry in _object(state["open"])
             }
-            self.problems = [[int(n), str(t)] for n, t in state["problems"]]
-            self.problem_count = int(state["problem_count"])
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise _Stale(f"not an index ({exc})") from exc
+            self.ids = {rid: _count(seq) for rid, seq in _object(state["ids"])}
+            self.keys = {name: _key(entry, self.size) for name, entry in _object(state["keys"])}
+            self.problems = [_problem(entry) for entry in _array(state["problems"])]
+            self.problem_count = _count(state["problem_count"])
+        except KeyError as exc:
+            raise _Stale(f"not an index (no {exc})") from None
+        if not all(seq in self.open for seq in self.ids.values()):
+            raise _Stale("not an index (an id of no open push)")
+
+
+# --- the index file's entries, checked as they are taken up --------------------------------
+
+
+def _count(value: Any) -> int:
+    """A count, a sequence number or a byte offset: an integer, not negative."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise _Stale(f"not an index ({statefile.kind_of(value)} where a count belongs)")
+    return value
+
+
+def _offset(value: Any, size: int) -> int:
+    """A line's offset in the part of the log the index has read."""
+    offset = _count(value)
+    if offset >= size:
+        raise _Stale(f"not an index (offset {offset} past the {size} bytes read)")
+    return offset
+
+
+def _seq(text: str) -> int:
+    if not (text.isascii() and text.isdigit()):
+        raise _Stale("not an index (an open push's number is not a number)")
+    return int(text)
+
+
+def _array(value: Any, size: int | None = None) -> list[Any]:
+    """A JSON array (of ``size`` values, when given)."""
+    if not isinstance(value, list) or (size is not None and len(value) != size):
+        wanted = "an array" if size is None else f"an array of {size}"
+        raise _Stale(f"not an index ({statefile.kind_of(value)} where {wanted} belongs)")
+    return value
+
+
+def _object(value: Any) -> list[tuple[str, Any]]:
+    """A JSON object's members."""
+    if not isinstance(value, dict):
+        raise _Stale(f"not an index ({statefile.kind_of(value)} where an object belongs)")
+    return list(value.items())
+
+
+def _pairs(value: Any, size: int) -> list[list[int]]:
+    """``[[seq, offset], ...]``: a key's latest or unsettled pushes.  (One test a pair,
+    not a call a value: a plant's index holds thousands of them.)"""
+    pairs = _array(value)
+    if not all(
+        type(pair) is list  # JSON's types exactly: true is no count
+        and len(pair) == 2
+        and type(pair[0]) is int
+        and type(pair[1]) is int
+        and pair[0] >= 0
+        and 0 <= pair[1] < size
+        for pair in pairs
+    ):
+        raise _Stale("not an index (a [seq, offset] pair of another shape)")
+    return pairs
+
+
+def _open(value: Any, size: int) -> _Open:
+    entry = dict(_object(value))
+    names = _array(entry.get("keys"))
+    if not all(isinstance(name, str) for name in names):
+        raise _Stale("not an index (an open push's key is not text)")
+    return _Open(
+        _offset(entry.get("start"), size),
+        [_offset(write, size) for write in _array(entry.get("writes"))],
+        names,
+    )
+
+
+def _key(value: Any, size: int) -> _Key:
+    recent, count, settled, unsettled = _array(value, 4)
+    if isinstance(settled, bool) or not isinstance(settled, int) or settled < -1:
+        raise _Stale(
+            f"not an index ({statefile.kind_of(settled)} where the last settled push belongs)"
+        )
+    return _Key(_pairs(recent, size), _count(count), settled, _pairs(unsettled, size))
+
+
+def _problem(value: Any) -> tuple[int, str]:
+    line, text = _array(value, 2)
+    if not isinstance(text, str):
+        raise _Stale(f"not an index ({statefile.kind_of(text)} where a problem's words belong)")
+    return _count(line), text
 
 
 def _digest(f: BinaryIO, start: int, end: int) -> str:
@@ -400,3 +511,66 @@ def _rebuilt(path: Path) -> AuditIndex:
     except OSError:
         pass
     return load(path)
+
+
+# --- what the commands ask ----------------------------------------------------------------
+
+
+def index(path: Path | None = None, problems: list[str] | None = None) -> AuditIndex:
+    """The log's index, brought up to its end: what a command asks of one robot, read
+    without reading the whole log.  What is wrong with the log's lines is said as
+    :func:`audit.read` says it.  Raises OSError."""
+    found = load(path)
+    found.report(problems)
+    return found
+
+
+def unfinished(
+    port: str, station: int, path: Path | None = None, problems: list[str] | None = None
+) -> list[AuditRecord]:
+    """The unfinished pushes and rollbacks of the robot at ``port``/``station``
+    that no later push or rollback of it has settled (see :func:`audit.results`)."""
+    return index(path, problems).robot(port, station).unsettled
+
+
+def pushes_since(
+    port: str, station: int, project: Path, since: str | None, path: Path | None = None
+) -> list[str]:
+    """The pushes and rollbacks of the robot at ``port``/``station`` (or of
+    ``project``) recorded after ``since`` (a time as harlsync records them; None: all),
+    each as ``push ok 2026-11-24T20:23:50+00:00 by alice@pc: "faster pick"``; one in
+    the same second as ``since`` is named too (times are to the second).  The audit
+    log unreadable, none."""
+    try:
+        latest = index(path, []).robot(port, station, project)
+        records = latest.recent
+        if not latest.complete and not _reaches(records, since):  # more than it keeps
+            records = audit.of_robot(audit.results(path, []), port, station, project)
+    except OSError:
+        return []
+    found = []
+    for r in records:
+        when = r.time
+        if since is not None and (
+            when is None or not statefile.timestamp(when) or _when(when) < _when(since)
+        ):
+            continue
+        reason = f': "{r.reason}"' if r.reason else ""
+        result, user, host = (("?" if v is None else v) for v in (r.result, r.user, r.host))
+        found.append(f"{r.shown_action} {result} {when} by {user}@{host}{reason}")
+    return found
+
+
+def _reaches(records: list[AuditRecord], since: str | None) -> bool:
+    """Whether ``records`` (a robot's latest) go back to before ``since``."""
+    first = records[0].time if records else None
+    return (
+        since is not None
+        and first is not None
+        and statefile.timestamp(first)
+        and _when(first) < _when(since)
+    )
+
+
+def _when(stamp: str) -> datetime:
+    return datetime.fromisoformat(stamp)

@@ -37,7 +37,7 @@ from ..project import family_of, load_robot, statefile
 from ..project.lock import holder, lock_path, project_lock
 from ..project.store import check_replaceable, replace_file
 from ..robotlog import about
-from . import audit, backupref, git, history, nightly, states
+from . import audit, auditindex, backupref, git, history, nightly, states
 from .items import summarize
 
 __all__ = [
@@ -445,7 +445,7 @@ def backup_one(
             since = history.read(path).get("last_success")
             outcome = _pull_one(path, attempts, lock_timeout, progress)
             if outcome.ok and outcome.changed:
-                outcome.pushed = audit.pushes_since(outcome.port, outcome.station, path, since)
+                outcome.pushed = auditindex.pushes_since(outcome.port, outcome.station, path, since)
             outcome = _record(outcome, clock(), read[0])
     watch.finished(outcome)
     return outcome

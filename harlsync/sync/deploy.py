@@ -38,6 +38,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -81,17 +82,13 @@ def run(
     _check_audit_log()
     result = PushResult()
     record = audit.base_record(action)
-    record.update(
-        robot={
-            "name": robot.name,
-            "port": port or robot.port,
-            "station": station if station is not None else robot.station,
-        },
-        project=str(project.path.resolve()),
-        commit=git.head(project.path),
-        reason=opts.reason,
-        outside_window=opts.outside_window,
+    record.robot = audit.RecordedRobot(
+        robot.name, port or robot.port, station if station is not None else robot.station
     )
+    record.project = str(project.path.resolve())
+    record.commit = git.head(project.path)
+    record.reason = opts.reason
+    record.outside_window = opts.outside_window
     driver: Driver[Any, Any] | None = None
     try:
         if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
@@ -125,12 +122,12 @@ def run(
             family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
         )
         mark_reverts(project.path, live, the_plan)
-        record["plan"] = the_plan.commands
+        record.plan = list(the_plan.commands)
         if the_plan.reverts:
-            record["reverts"] = [f"{name}: {said}" for name, said in the_plan.reverts.items()]
+            record.reverts = [f"{name}: {said}" for name, said in the_plan.reverts.items()]
         _check_plan(the_plan, opts)
         if the_plan.empty:
-            record["result"] = "nothing to write"
+            record.result = "nothing to write"
             return result
         if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
             raise PolicyError("push not confirmed: nothing was written")
@@ -139,8 +136,8 @@ def run(
             if opts.yes and opts.told is not None:
                 opts.told(f"{name}: {said}")
         result.snapshot = save_snapshot(project.path, robot, live, action)
-        record["snapshot"] = str(result.snapshot)
-        _journal(dict(record, event="start"))
+        record.snapshot = str(result.snapshot)
+        _journal(replace(record, event="start"))
         write_all(
             family,
             driver,
@@ -149,17 +146,17 @@ def run(
             opts,
             result,
             lambda w: _journal(
-                {
-                    "event": "write",
-                    "id": record["id"],
-                    "time": audit.now(),
-                    "item": w.name,
-                    "command": w.command,
-                    "changes": audit.change_entries(w.items),
-                }
+                audit.AuditRecord(
+                    event="write",
+                    id=record.id,
+                    time=audit.now(),
+                    item=w.name,
+                    command=w.command,
+                    changes=audit.change_entries(w.items),
+                )
             ),
         )
-        record["result"] = "ok"
+        record.result = "ok"
         return result
     except (HarlsyncError, KeyboardInterrupt) as exc:
         stopped: HarlsyncError = (
@@ -169,36 +166,36 @@ def run(
         if isinstance(stopped, PartlyWritten):  # refused or failed as its cause says
             stopped = stopped.cause
         refused = isinstance(stopped, InterlockError | PolicyError | StalePlanError)
-        record["result"] = (
+        record.result = (
             "refused"
             if refused
             else "interrupted"
             if isinstance(exc, KeyboardInterrupt)
             else "failed"
         )
-        record["error"] = result.error
+        record.error = result.error
         if result.plan is not None:
             done = {id(w) for w in result.written}
             result.not_written = [w for w in result.plan.writes if id(w) not in done]
         raise PushFailed(stopped, result) from exc
     except BaseException as exc:  # a bug: still record what was written
         result.error = f"{type(exc).__name__}: {exc}"
-        record["result"] = "failed"
-        record["error"] = result.error
+        record.result = "failed"
+        record.error = result.error
         raise
     finally:
-        record["written"] = [audit.written_entry(w) for w in result.written]
+        record.written = [audit.written_entry(w) for w in result.written]
         if result.failed is not None:
-            record["failed_item"] = result.failed.name
+            record.failed_item = result.failed.name
             if result.partly_written is not None:
-                record["partly_written"] = _partly(result.failed, result.partly_written)
+                record.partly_written = _partly(result.failed, result.partly_written)
         if result.warnings:
-            record["warnings"] = result.warnings
+            record.warnings = result.warnings
         if result.written or result.failed is not None:
             planned = result.plan.notes if result.plan is not None else []
             result.notes = [*planned, *family.deploy_notes]
             if result.notes:
-                record["notes"] = result.notes
+                record.notes = result.notes
         if driver is not None:
             driver.close()
         try:
@@ -212,25 +209,21 @@ def run(
             )
 
 
-def _partly(write: PlannedWrite[Any], partly: PartlyWritten) -> dict[str, Any]:
+def _partly(write: PlannedWrite[Any], partly: PartlyWritten) -> audit.PartlyRecorded:
     """The audit record's account of an item written part way."""
-    return {
-        "item": write.name,
-        "command": write.command,
-        "sent": partly.sent,
-        "unknown": partly.unknown,
-        "not sent": partly.left,
-    }
+    return audit.PartlyRecorded(
+        write.name, write.command, tuple(partly.sent), partly.unknown, tuple(partly.left)
+    )
 
 
-def _journal(record: dict[str, Any]) -> None:
+def _journal(record: audit.AuditRecord) -> None:
     """Append a start or write record before the write it announces; stop if it fails."""
     try:
         audit.append(record)
     except OSError as exc:
         raise SyncError(
             f"cannot write the audit log {audit.audit_path()} ({exc}); stopped before "
-            + ("the first write" if record["event"] == "start" else f"writing {record['item']}")
+            + ("the first write" if record.event == "start" else f"writing {record.item}")
         ) from exc
 
 
@@ -345,13 +338,11 @@ def _deployed(
 
 def _audit_refusal(action: str, path: str | Path, opts: PushOptions, exc: HarlsyncError) -> None:
     record = audit.base_record(action)
-    record.update(
-        project=str(Path(path).resolve()),
-        reason=opts.reason,
-        result="refused",
-        error=str(exc),
-        written=[],
-    )
+    record.project = str(Path(path).resolve())
+    record.reason = opts.reason
+    record.result = "refused"
+    record.error = str(exc)
+    record.written = []
     try:
         audit.append(record)
     except OSError as err:

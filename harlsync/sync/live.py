@@ -167,11 +167,11 @@ def unfinished_pushes(robot: Robot, port: str | None, station: int | None) -> li
 
     Called with the line held, so no push in progress can be mistaken for one.
     """
-    from . import audit  # not at import: the first request does not wait for it
+    from . import audit, auditindex  # not at import: the first request does not wait for it
 
     problems: list[str] = []
     try:
-        found = audit.unfinished(
+        found = auditindex.unfinished(
             port or robot.port, station if station is not None else robot.station, problems=problems
         )
     except OSError as exc:

@@ -18,7 +18,6 @@ from ..families.base import AnyFamily, Catalogue, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
 from . import git
-from .items import change_summary
 from .live import Station, read_live, station_number
 
 if TYPE_CHECKING:
@@ -58,6 +57,7 @@ class PullResult:
 
     @property
     def summary(self) -> str:
+        from .items import change_summary  # not before the first request (issue 24)
         from .policy import listed
 
         said = "first backup" if self.changes is None else change_summary(self.changes)
@@ -76,18 +76,11 @@ class PullResult:
 
 def _robot_for(
     path: Path, port: str | None, station: Station, family: AnyFamily | None
-) -> tuple[AnyFamily, Robot, bool]:
-    """The project's family and robot: robot.yaml's, or a first pull's (``family``,
-    by default the default family); and whether robot.yaml was read by the quick
-    reader (:mod:`harlsync.project.quick`), which :func:`_read_robot` is to check
-    once the line is open."""
+) -> tuple[AnyFamily, Robot]:
+    """The project's family and robot: robot.yaml's (:func:`_read_robot`), or a first
+    pull's (``family``, by default the default family)."""
     if (path / "robot.yaml").exists():
-        from ..project import quick
-
-        found = quick.robot(path, family)
-        if found is not None:
-            return found[0], found[1], True
-        return (*_read_robot(path, family), False)
+        return _read_robot(path, family)
     if not port:
         raise ProjectError(
             f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
@@ -98,13 +91,14 @@ def _robot_for(
         family.new_robot(
             path.resolve().name, _absolute_sim_path(port), station_number(family, station)
         ),
-        False,
     )
 
 
 def _read_robot(path: Path, family: AnyFamily | None) -> tuple[AnyFamily, Robot]:
-    """robot.yaml read the whole way, through the project store (which first finishes
-    an interrupted save): its family and robot, or its problems raised."""
+    """robot.yaml read by the project store, its one reader (which first finishes an
+    interrupted save): its family and robot, or its problems raised, before the line
+    opens.  What the first request waits for: PyYAML (its C parser where built) and
+    the robot schema's compiled check; jsonschema only for a file that check refuses."""
     from ..project.store import family_of, load_robot
 
     found = family_of(path)
@@ -115,29 +109,6 @@ def _read_robot(path: Path, family: AnyFamily | None) -> tuple[AnyFamily, Robot]
             "into another directory"
         )
     return found, load_robot(path, found)
-
-
-def _same_reading(
-    path: Path, quick: tuple[AnyFamily, Robot], full: tuple[AnyFamily, Robot]
-) -> None:
-    """Raise ProjectError unless robot.yaml's quick reading, which the line was opened
-    with, found what the full one does: it always does, unless the file changed
-    meanwhile or harlsync has a bug."""
-    (quick_family, quick_robot), (family, robot) = quick, full
-    fields = ("family", "name", "port", "station", "serial", "windows", "keep_registers")
-    differ = [
-        name
-        for name in (*fields, "description", "options")
-        if getattr(quick_robot, name) != getattr(robot, name)
-    ]
-    if quick_family.name != family.name and "family" not in differ:
-        differ.insert(0, "family")
-    if differ:
-        raise ProjectError(
-            f"{path / 'robot.yaml'}: its {', '.join(differ)} read otherwise now than when "
-            "the line was opened (the file changed meanwhile, or a bug in harlsync: please "
-            "report it); nothing was saved, run the pull again"
-        )
 
 
 def _absolute_sim_path(port: str) -> str:
@@ -188,7 +159,7 @@ def pull(
     """
     path = Path(path)
     given = family
-    family, robot, quick = _robot_for(path, port, station, given)
+    family, robot = _robot_for(path, port, station, given)
     station = station_number(family, station)
     # git's answer on uncommitted edits, asked now and taken before the family
     # connects, or, for a family whose connection only reads (Family.connect_writes
@@ -201,8 +172,6 @@ def pull(
             path,
             family,
             robot,
-            quick=(family, robot) if quick else None,
-            given=given,
             asked=asked,
             port=port,
             station=station,
@@ -238,8 +207,6 @@ def _pull(
     family: AnyFamily,
     robot: Robot,
     *,
-    quick: tuple[AnyFamily, Robot] | None,
-    given: AnyFamily | None,
     asked: git.Asked | None,
     port: str | None,
     station: int | None,
@@ -251,8 +218,8 @@ def _pull(
     noted: Callable[[str], None] | None,
     discard_pending: bool = False,
 ) -> PullResult:
-    """:func:`pull` once robot.yaml is read (``quick``: by the quick reader, as
-    found) and git asked (``asked``; None: ``allow_dirty``)."""
+    """:func:`pull` once robot.yaml is read and git asked (``asked``; None:
+    ``allow_dirty``)."""
     earlier: list[str] = []
     settled: list[bool] = []
     loaded: list[Any] = []
@@ -260,16 +227,11 @@ def _pull(
 
     def settle() -> None:
         """What waits for the line to be open, done once, before anything else is
-        read or saved: robot.yaml read the whole way when the quick reader read it
-        (its problems raised as before the line opened), and git's answer."""
-        nonlocal robot, earlier
+        read or saved: git's answer."""
+        nonlocal earlier
         if settled:
             return
         settled.append(True)
-        if quick is not None:
-            full = _read_robot(path, given)
-            _same_reading(path, quick, full)
-            robot = full[1]
         if asked is not None:
             from .policy import earlier_pull_and_edits
 
@@ -328,7 +290,7 @@ def _pull(
     )
     settle()  # a family that cannot tell its identity first: after the read
     from ..project.store import Project, save_project
-    from . import audit, history
+    from . import audit, auditindex, history
     from .items import diff
 
     things = family.catalogue
@@ -371,7 +333,7 @@ def _pull(
             f"pull {robot.name}",
             result.summary,
             audit.changed_names(result.changes or []),
-            audit.pushes_since(robot.port, robot.station, path, since),
+            auditindex.pushes_since(robot.port, robot.station, path, since),
         )
         result.commit = git.commit([path], message)
         if result.commit:
@@ -411,16 +373,12 @@ def _record_notes(
         if noted is not None:
             noted(note)
         record = audit.base_record("recover")
-        record.update(
-            event="recover",
-            robot={
-                "name": robot.name,
-                "port": port or robot.port,
-                "station": station if station is not None else robot.station,
-            },
-            project=str(path.resolve()),
-            note=note,
+        record.event = "recover"
+        record.robot = audit.RecordedRobot(
+            robot.name, port or robot.port, station if station is not None else robot.station
         )
+        record.project = str(path.resolve())
+        record.note = note
         try:
             audit.append(record)
         except OSError as exc:
@@ -441,17 +399,22 @@ def _same_robot(
 ) -> list[Change[Any]]:
     """Raise PolicyError unless the controller read (``live``) looks like the robot
     backed up in ``path``: the same identity (the family's: version, configuration,
-    model), and not most items of a kind changed at once (runtime data aside), which
-    a wrong port or station, a swapped controller or a lost memory would do.
+    model), nothing else the family tells from a whole read
+    (:meth:`~harlsync.families.base.Catalogue.other_robot`), and not most items of a
+    kind changed at once (runtime data aside), which a wrong port or station, a
+    swapped controller or a lost memory would do.
 
     Each kind is judged alone: a hundred tables, most of them unused and alike
     on every robot, must not hide that every program step changed.
 
     Returns the changes, runtime data aside (``diff(things, backup, live)``): the
     pull need not work them out again."""
-    from .items import diff_items
+    from .items import change_summary, diff_items
 
     differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
+    if not differ:  # what only a whole read tells (IAI: a table's "not there" reply)
+        why = things.other_robot(live, backup)
+        differ = [why] if why is not None else []
     changes: list[Change[Any]] = []
     if not differ:
         was, now = things.items(backup, registers=False), things.items(live, registers=False)

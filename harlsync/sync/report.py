@@ -116,7 +116,7 @@ def _written(robot: RobotStatus) -> list[DiffLine]:
     push = robot.last_push
     if push is None:
         return []
-    lines = [DiffLine("change", line) for line in push.changes(MAX_WRITTEN_LINES)]
+    lines = [DiffLine("change", line) for line in push.written_lines(MAX_WRITTEN_LINES)]
     if push.failed_item:
         lines.append(DiffLine("hunk", f"{push.failed_item}: may or may not have been written"))
     return lines
@@ -130,7 +130,11 @@ def _events(robot: RobotStatus) -> list[Event]:
     ]
     events += [
         Event(
-            p.time or "", robot.label or robot.name, p.action, f"{p.result} {p.details()}", p.result
+            p.time or "",
+            robot.label or robot.name,
+            p.shown_action,
+            f"{p.shown_result} {p.details()}",
+            p.shown_result,
         )
         for p in robot.pushes[-ROBOT_EVENTS:]
     ]

@@ -394,7 +394,7 @@ def audit_user() -> str:
     from . import audit
 
     record = audit.base_record("push")
-    return f"{record.get('user', '?')}@{record.get('host', '?')}"
+    return f"{record.user}@{record.host}"
 
 
 def mark_reverts(path: Path, live: Any, plan: Plan[Any]) -> Plan[Any]:

@@ -30,10 +30,11 @@ from pathlib import Path
 from typing import Any
 
 from .. import columns
-from ..errors import HarlsyncError, partly_words
+from ..errors import HarlsyncError
 from ..project import family_of, load_robot
-from . import audit, git, history, states
+from . import audit, auditindex, git, history, states
 from .auditindex import AuditIndex, RobotRecords
+from .auditrecord import AuditRecord, local_time
 from .backup import find_projects, project_labels, shown_names
 from .snapshots import snapshots
 from .states import Seen
@@ -42,7 +43,6 @@ __all__ = [
     "ATTENTION",
     "STATES",
     "PlantStatus",
-    "PushRecord",
     "RobotStatus",
     "collect",
     "local_time",
@@ -64,93 +64,8 @@ STATES = (
 ATTENTION = frozenset(("unfinished push", "partial push", "never backed up", "failed", "stale"))
 
 
-@dataclass
-class PushRecord:
-    """One push or rollback, as the audit log tells it (see :func:`.audit.results`)."""
-
-    action: str
-    time: str | None
-    user: str | None
-    host: str | None
-    commit: str | None
-    reason: str | None
-    result: str
-    error: str | None
-    robot: str | None
-    #: ``{"item", "command", "old", "new"}`` for each item written and verified.
-    written: list[dict[str, Any]]
-    #: The item whose write may or may not have happened (a push stopped there).
-    failed_item: str | None
-    #: How many writes it planned.
-    planned: int
-    #: ``{"item", "command", "sent", "unknown", "not sent"}``: the item it stopped
-    #: part way through (some of its parts went out), or None
-    partly_written: dict[str, Any] | None = None
-
-    @classmethod
-    def from_record(cls, record: dict[str, Any]) -> PushRecord:
-        robot = record.get("robot")
-        name = robot.get("name") if isinstance(robot, dict) else None
-        if name is None and record.get("project"):
-            name = Path(str(record["project"])).name
-        return cls(
-            action=str(record.get("action", "push")),
-            time=record.get("time"),
-            user=record.get("user"),
-            host=record.get("host"),
-            commit=record.get("commit"),
-            reason=record.get("reason"),
-            result=str(record.get("result", "unknown")),
-            error=record.get("error"),
-            robot=name,
-            written=[w for w in record.get("written") or [] if isinstance(w, dict)],
-            failed_item=record.get("failed_item"),
-            planned=len(record.get("plan") or []),
-            partly_written=partly
-            if isinstance(partly := record.get("partly_written"), dict)
-            else None,
-        )
-
-    def partly_text(self) -> str:
-        """``P12: x, y went out; z, hand not sent`` ("" when nothing was partly written)."""
-        p = self.partly_written
-        if not p:
-            return ""
-        return f"{p.get('item')}: " + partly_words(
-            _names(p.get("sent")), p.get("unknown"), _names(p.get("not sent"))
-        )
-
-    def describe(self) -> str:
-        """One line: ``push ok 2026-11-24 20:23 by alice@pc, wrote 2 of 2 item(s): "faster pick"``."""
-        return f"{self.action} {self.result} {local_time(self.time)} {self.details()}"
-
-    def details(self) -> str:
-        """Who, what it wrote, why: ``by alice@pc, wrote 2 of 2 item(s): "faster pick"``."""
-        text = f"by {self.user}@{self.host}"
-        if self.written or self.planned:
-            text += f", wrote {len(self.written)} of {self.planned} item(s)"
-        if self.partly_written:
-            text += f", partly written: {self.partly_text()}"
-        elif self.failed_item:
-            text += f", {self.failed_item} unknown"
-        if self.reason:
-            text += f': "{self.reason}"'
-        if self.error and self.result != "ok":
-            text += f" ({audit.shorten(self.error)})"
-        return text
-
-    def changes(self, most: int | None = audit.SHOWN) -> list[str]:
-        """What it wrote, a line per field as ``diff`` shows it (``position 3: speed
-        150 → 200``), at most ``most`` then ``and 40 more``."""
-        return audit.written_lines(self.written, most)
-
-
 def _items(found: list[dict[str, Any]]) -> str:
     return f"{len(found)} item{'s' * (len(found) != 1)}" if found else "0"
-
-
-def _names(value: object) -> list[str]:
-    return [str(v) for v in value] if isinstance(value, list) else []
 
 
 @dataclass
@@ -174,13 +89,13 @@ class RobotStatus:
     changes: str | None = None
     stale: bool = False
     never_backed_up: bool = False
-    last_push: PushRecord | None = None
+    last_push: AuditRecord | None = None
     #: Pushes and rollbacks of this robot that never ended, with what they wrote.
     unfinished: list[str] = field(default_factory=list)
     #: How many snapshots a rollback can restore.
     snapshots: int = 0
     #: Its latest pushes and rollbacks (at most :data:`.auditindex.RECENT`), oldest first.
-    pushes: list[PushRecord] = field(default_factory=list, repr=False)
+    pushes: list[AuditRecord] = field(default_factory=list, repr=False)
     #: Its project's directory under the plant's (``lineA/cell``).
     project: str = ""
     #: Its name as a person reads it: ``cell``, or ``cell (lineA/cell)`` when
@@ -230,7 +145,27 @@ class RobotStatus:
     def to_json(self) -> dict[str, Any]:
         data = asdict(self)
         del data["pushes"]
+        data["last_push"] = None if self.last_push is None else _push_json(self.last_push)
         return data
+
+
+def _push_json(push: AuditRecord) -> dict[str, Any]:
+    """The last push as ``status --format json`` gives it: who, when, what it wrote."""
+    return {
+        "action": push.shown_action,
+        "time": push.time,
+        "user": push.user,
+        "host": push.host,
+        "commit": push.commit,
+        "reason": push.reason,
+        "result": push.shown_result,
+        "error": push.error,
+        "robot": push.robot_name,
+        "written": [w.to_json() for w in push.done],
+        "failed_item": push.failed_item,
+        "planned": push.planned,
+        "partly_written": None if push.partly_written is None else push.partly_written.to_json(),
+    }
 
 
 @dataclass
@@ -300,7 +235,9 @@ class PlantStatus:
                     r.commit_text,
                     r.changes_text,
                     f"{local_time(r.last_attempt)} {r.last_result}" if r.last_attempt else "-",
-                    f"{local_time(push.time)} {push.action} {push.result}" if push else "-",
+                    f"{local_time(push.time)} {push.shown_action} {push.shown_result}"
+                    if push
+                    else "-",
                     r.pending_text,
                     r.drift_text,
                 )
@@ -312,7 +249,7 @@ class PlantStatus:
             notes += [f"{shown}: {line}" for line in r.seen()]
             if push is not None:
                 notes.append(f"{shown}: last {push.describe()}")
-                notes += [f"    {line}" for line in push.changes(3)]
+                notes += [f"    {line}" for line in push.written_lines(3)]
         widths = [min(max(columns.width(row[i]) for row in rows), 40) for i in range(len(rows[0]))]
         lines = []
         for row in rows:
@@ -348,19 +285,9 @@ def _paint(state: str, text: str) -> str:
     return f"\x1b[{_COLOURS.get(state, '0')}m{text}\x1b[0m"
 
 
-def local_time(stamp: str | None) -> str:
-    """A recorded time (ISO 8601, UTC) as this machine's wall clock: ``2026-11-24 21:23``."""
-    if not stamp:
-        return "-"
-    try:
-        return datetime.fromisoformat(stamp).astimezone().strftime("%Y-%m-%d %H:%M")
-    except ValueError:
-        return stamp
-
-
 def _audit_index(warnings: list[str]) -> AuditIndex | None:
     try:
-        return audit.index(problems=warnings)
+        return auditindex.index(problems=warnings)
     except (OSError, ValueError) as exc:
         warnings.append(
             f"cannot read the audit log {audit.audit_path()} ({exc}): pushes are not shown"
@@ -434,7 +361,7 @@ def _robot_status(
     status.never_backed_up = status.last_success is None
     status.stale = history.stale(status.last_success, now, stale_after)
     mine = _pushes(log, robot.port, robot.station, path, warnings)
-    status.pushes = [PushRecord.from_record(r) for r in mine.recent]
+    status.pushes = list(mine.recent)
     status.last_push = status.pushes[-1] if status.pushes else None
     status.unfinished = [audit.describe_unfinished(r) for r in mine.unsettled]
     last = status.last_push

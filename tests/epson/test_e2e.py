@@ -383,9 +383,10 @@ def test_a_point_interrupted_part_way_is_recorded_as_partly_written_and_complete
     st = sim.stations[1]
     assert st.points[12].coords[2] == -10750 and st.points[12].hand == 0
     record = audit.read()[-1]
-    assert record["partly_written"] == {
+    assert record.partly_written is not None
+    assert record.partly_written.to_json() == {
         "item": "P12",
-        "command": record["partly_written"]["command"],
+        "command": record.partly_written.command,
         "sent": ["z"],
         "unknown": None,
         "not sent": ["hand"],
@@ -828,8 +829,8 @@ def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
         "Ready 1): left by a harlsync that is gone; reset (manual 6.5.2) before the backup"
     )
     assert f"note: cell-3: {note}" in report.render()
-    (record,) = [r for r in audit.read() if r.get("event") == "recover"]
-    assert record["note"] == note and record["robot"]["name"] == "cell-3"
+    (record,) = [r for r in audit.read() if r.event == "recover"]
+    assert record.note == note and record.robot is not None and record.robot.name == "cell-3"
     assert audit.results() == []  # no push or rollback
     (dropped,) = sim.remote().reset_drops  # the simulator saw one reset, at rest
     assert not any(dropped[s] for s in ("Running", "Paused", "EStopOn", "Error"))
@@ -853,11 +854,11 @@ def test_issue_22_a_function_reset_is_in_the_audit_log_and_the_report_when_the_p
     (cell,) = report.robots
     assert "defined past controller.last_point 29" in (cell.error or "")
     assert len(sim.remote().reset_drops) == 1  # the robot was reset ...
-    (record,) = [r for r in audit.read() if r.get("event") == "recover"]  # ... and it says so
-    assert record["note"].startswith("the Remote Control function was found in use")
-    assert record["robot"]["name"] == "cell-3"
-    assert cell.notes == [record["note"]]
-    assert f"note: cell-3: {record['note']}" in report.render()
+    (record,) = [r for r in audit.read() if r.event == "recover"]  # ... and it says so
+    assert record.note and record.note.startswith("the Remote Control function was found in use")
+    assert record.robot is not None and record.robot.name == "cell-3"
+    assert cell.notes == [record.note]
+    assert f"note: cell-3: {record.note}" in report.render()
 
 
 def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_and_the_report(
@@ -889,10 +890,10 @@ def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_an
     # The first attempt failed on the reset; the next found the function idle again.
     assert "not ready after its reset" in cell.attempts[0] and report.ok
     assert len(sim.remote().reset_drops) == 1  # the robot was reset ...
-    (record,) = [r for r in audit.read() if r.get("event") == "recover"]  # ... and it says so
-    assert "a reset (manual 6.5.2) was begun and did not finish" in record["note"]
-    assert cell.notes == [record["note"]]
-    assert f"note: cell-3: {record['note']}" in report.render()
+    (record,) = [r for r in audit.read() if r.event == "recover"]  # ... and it says so
+    assert record.note and "a reset (manual 6.5.2) was begun and did not finish" in record.note
+    assert cell.notes == [record.note]
+    assert f"note: cell-3: {record.note}" in report.render()
 
 
 @pytest.mark.parametrize(
@@ -916,7 +917,7 @@ def test_issue_22_a_nightly_backup_never_resets_the_function_of_a_robot_not_at_r
     assert f"on a robot not at rest ({signal}" in error
     assert "'harlsync pull --reset-function' clears it" in error
     assert sim.remote().reset_drops == []  # ExtCmdReset never dropped
-    assert [r for r in audit.read() if r.get("event") == "recover"] == []
+    assert [r for r in audit.read() if r.event == "recover"] == []
     assert report.robots[0].notes == []
 
 
@@ -928,7 +929,7 @@ def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(robo
     report = backup([repo])
     assert not report.ok
     assert "the Remote Control function is in use" in (report.robots[0].error or "")
-    assert [r for r in audit.read() if r.get("event") == "recover"] == []
+    assert [r for r in audit.read() if r.event == "recover"] == []
     apply_command(sim, "stop")
     assert sim.stations[1].points and project.exists()
 

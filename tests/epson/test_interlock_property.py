@@ -721,7 +721,7 @@ def check_stopped_item(case: Case, got: Outcome, tally: EpsonTally) -> None:
         assert took in ([], changed[:1], changed), case.why(
             f"{w.name}: fields {took} took, yet the push does not say partly written"
         )
-        assert "partly_written" not in record, case.why("audit record says partly written")
+        assert record.partly_written is None, case.why("audit record says partly written")
         return
     tally.partly += 1
     assert partly.sent == fields[: len(partly.sent)] and partly.sent, case.why(
@@ -736,8 +736,9 @@ def check_stopped_item(case: Case, got: Outcome, tally: EpsonTally) -> None:
                 f"{w.name} {f}: said not sent, yet the robot holds {held_fields.get(f)}"
             )
     assert "nothing written" not in (result.error or ""), case.why(result.error or "")
-    assert record.get("partly_written", {}).get("sent") == partly.sent, case.why(
-        f"audit record: {record.get('partly_written')}"
+    recorded = record.partly_written
+    assert recorded is not None and list(recorded.sent) == partly.sent, case.why(
+        f"audit record: {recorded}"
     )
 
 

@@ -118,13 +118,20 @@ def test_issue_20_a_whole_table_is_read_and_its_range_recorded_and_said(repo: Pa
         server.stop()
     assert result.contents == "4 positions in 1-1000 (none defined outside it)"
     data = load_project(repo / "cell").data
-    assert data.covered == {"positions": Coverage(1, 1000, 0xFFFF)}
+    assert data.covered == {"positions": Coverage(1, 1000, 0xFFFF, checked_from=1, past="empty")}
     assert sorted(data.positions) == [1, 2, 999, 1000]
     text = (repo / "cell" / "controller.yaml").read_text()
-    assert "covered:\n  positions: {first: 1, last: 1000, checked_to: 65535}\n" in text
-    # The probe is two requests: one below the range (none here: it starts at 1), one above, 1001-65535 (FC17h numbers).
-    probes = [r.payload for r in sim.received if r.command == "22D"][-1:]
-    assert probes == ["22D0003E9FC17"]
+    assert (
+        "covered:\n  positions: {first: 1, last: 1000, checked_from: 1, checked_to: 65535, "
+        'past: "empty"}\n'
+    ) in text
+    # Issue 29: the probe is two requests (none below the range: it starts at 1).  Position
+    # 1001 alone (its table goes to 2000: an empty reply), then every number from 3, past
+    # the positions read before 999 (FFFDh of them): the reply must carry 999 and 1000, the
+    # last more than a read's 24 numbers in, so the controller is seen to scan so wide a
+    # query whole.
+    probes = [r.payload for r in sim.received if r.command == "22D"][-2:]
+    assert probes == ["22D0003E90001", "22D000003FFFD"]
 
 
 def test_issue_20_a_flag_set_past_the_kept_range_fails_the_pull(

@@ -9,7 +9,8 @@ doing when it arrived (``Simulator.received``, and :attr:`Operator.arrival`, the
 reasons it was not idle), never from what harlsync believed:
 
 1. every write (291H positions and, with ``--registers``, 24BH a flag, 24CH
-   integer and 24DH real variables) arrived straight after a 212H (for the
+   integer and 24DH real variables; 24EH a row of string variable columns, issue
+   34 item 18) arrived straight after a 212H (for the
    robot's axes) and a 215H, in that order (issue 19: 215H last), with nothing
    between the three; the 215H found the controller idle (AUTO mode, no program
    running, no flash write, no emergency stop, ready, no critical error, drive
@@ -38,10 +39,12 @@ reasons it was not idle), never from what harlsync believed:
 A case is: a random IAI robot (its model, a small-buffer one like the TT among
 them so that runs split; its axes; its position range; ``SimState.generate`` or a
 table of its own; in about a third of the cases global flags and variables that
-robot.yaml keeps); a project made from it by a random diff (positions changed and
+robot.yaml keeps, and in about a quarter string variable columns it keeps); a
+project made from it by a random diff (positions changed and
 added, scattered and in runs, sometimes a run long enough for several 291H,
 rarely one left out; flags set and cleared, integer and real variables changed,
-pushed with ``--registers``); and, at random moments (after the controller has
+pushed with ``--registers``; rows of string variable columns edited); and, at
+random moments (after the controller has
 answered the k-th request, most of them while the push writes), an operator who
 starts a program, switches MANUAL, presses the emergency stop, starts a flash
 write, holds an axis, takes the system out of ready, switches positioner mode,
@@ -99,7 +102,14 @@ from pushproperty import (
 from harlsync import cli, families
 from harlsync.errors import PolicyError
 from harlsync.families.iai import profile
-from harlsync.families.iai.catalogue import CATALOGUE, Key, PositionKey, Run, VariableKey
+from harlsync.families.iai.catalogue import (
+    CATALOGUE,
+    Key,
+    PositionKey,
+    RecordKey,
+    Run,
+    VariableKey,
+)
 from harlsync.families.iai.codec import CODEC
 from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.model import Position, real_text, real_value
@@ -107,12 +117,14 @@ from harlsync.families.iai.protocol import (
     Frame,
     max_flags_per_read,
     max_positions_per_read,
+    max_string_columns_per_read,
     max_variables_per_read,
     system_status,
     write_flag,
     write_integers,
     write_positions,
     write_reals,
+    write_strings,
 )
 from harlsync.families.iai.sim import SimState, Simulator
 from harlsync.project import Project, Robot, load_project, save_project
@@ -139,13 +151,15 @@ CALM = SerialSettings(baudrate=115200, timeout=1.0, retries=3)
 MODELS = ["TT", "TT", "TTA", "TTA", "XSEL-JK", "PSEL"]
 
 
-#: The writes (291H positions; 24BH a flag, 24CH integer and 24DH real variables) and,
+#: The writes (291H positions; 24BH a flag, 24CH integer and 24DH real variables; 24EH
+#: string variable columns) and,
 #: for each, the read that reads it back, and where start and count sit in both.
 READ_BACK = {
     "291": ("22D", slice(5, 9), slice(9, 13)),
     "24C": ("20E", slice(5, 8), slice(8, 10)),
     "24D": ("20F", slice(5, 8), slice(8, 10)),
     "24B": ("20D", slice(5, 9), slice(9, 13)),  # one flag: no count in the write
+    "24E": ("210", slice(5, 8), slice(8, 10)),  # issue 34 item 18: a row of string columns
 }
 WRITES = {command.encode() for command in READ_BACK}
 #: Every message a push of positions, flags and variables sends.
@@ -263,6 +277,8 @@ class Case:
     #: whether the push writes them too (--registers)
     registers: bool = False
     story: list[str] = field(default_factory=list)
+    #: the string variable columns robot.yaml keeps (records.yaml), if any
+    strings: tuple[int, int] | None = None
 
     def why(self, message: str) -> str:
         return explain(self.seed, self.story + self.sim.done, message)
@@ -504,8 +520,9 @@ def random_variables(
 
 
 def variable_reads(model: str, section: str, first: int, last: int) -> int:
-    """The queries a read of ``section`` ``first``-``last`` and its probe past ``last``
-    (up to the last number the message names) take, when no query is refused."""
+    """The queries a read of ``section`` ``first``-``last`` and its probes past ``last``
+    (up to the last number the message names) and below ``first`` (down to the
+    lowest) take, when no query is refused."""
     step = (
         max_flags_per_read(model) if section == "flags" else max_variables_per_read(model, section)
     )
@@ -513,13 +530,30 @@ def variable_reads(model: str, section: str, first: int, last: int) -> int:
     end = profile.VARIABLE_NUMBER_END[section]
     read = -(-(last + 1 - (first - first % align)) // step)
     head = (last + 1) - (last + 1) % align
-    return read + -(-(end + 1 - head) // step)
+    lowest = profile.NUMBER_FIRST[section]
+    below = -(-(first - lowest) // step)  # issue 29: down to the lowest number too
+    return read + -(-(end + 1 - head) // step) + below
 
 
-def held(state: SimState, keeps: dict[str, tuple[int, int]] | None) -> IaiData:
-    """What the controller holds: its table, and the flags and variables robot.yaml
-    keeps (every number of their ranges: an unset one is off, or 0)."""
+def held(
+    state: SimState,
+    keeps: dict[str, tuple[int, int]] | None,
+    strings: tuple[int, int] | None = None,
+) -> IaiData:
+    """What the controller holds: its table, the flags and variables robot.yaml
+    keeps (every number of their ranges: an unset one is off, or 0), and the string
+    variable columns it keeps, as rows of records.yaml."""
     data = IaiData(state.versions[(0, 0)], dict(state.positions), state.model)
+    if strings is not None:
+        first, last = strings
+        row = profile.STRING_ROW
+        data.strings = {
+            start: "".join(
+                f"{state.strings.get(n, 0):02X}"
+                for n in range(start, min(last, start + row - 1) + 1)
+            )
+            for start in range(first, last + 1, row)
+        }
     if keeps is not None:
         flags, integers, reals = (range(a, b + 1) for a, b in keeps.values())
         data.flags = {n: n in state.flags for n in flags}
@@ -551,6 +585,28 @@ def random_variable_edits(
     story.append(f"variables edited: {', '.join(changed) or 'none'}")
 
 
+def random_strings(
+    rng: random.Random, state: SimState, target: IaiData, story: list[str]
+) -> tuple[int, int]:
+    """String variable columns on the controller in a range robot.yaml keeps, and
+    rows of them edited in the project (issue 34 item 18: written back with 24EH)."""
+    first = 1 + rng.randrange(40)
+    last = first + rng.randint(10, 100)
+    state.strings = {
+        n: rng.randrange(0x20, 0x7F) for n in range(first, last + 1) if rng.random() < 0.3
+    }
+    target.strings = held(state, None, (first, last)).strings
+    assert target.strings is not None
+    for start in rng.sample(sorted(target.strings), k=rng.randint(1, len(target.strings))):
+        row = target.strings[start]
+        target.strings[start] = "".join(
+            f"{rng.randrange(0x20, 0x7F):02X}" if rng.random() < 0.3 else row[i : i + 2]
+            for i in range(0, len(row), 2)
+        )
+    story.append(f"string variable columns kept: {first}-{last}, rows edited")
+    return first, last
+
+
 def make_case(seed: int, settings: SerialSettings) -> Case:
     rng = random.Random(seed)
     story: list[str] = []
@@ -565,7 +621,10 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     vrng = random.Random(f"variables {seed}")
     keeps = random_variables(vrng, state, story) if vrng.random() < 0.3 else None
     registers = keeps is not None and vrng.random() < 0.85
-    before = held(state, keeps)
+    # String variables from a generator of their own too, in a quarter of the cases.
+    srng = random.Random(f"strings {seed}")
+    strings = random_strings(srng, state, target, story) if srng.random() < 0.25 else None
+    before = held(state, keeps, strings)
     if keeps is not None:
         variables = held(state, keeps)
         target.flags, target.integers, target.reals = (
@@ -586,6 +645,8 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
     reads = 3 + -(-(last - first + 1) // step)  # 212H, 215H, 201H, the 22DH pages
     if registers and keeps is not None:  # each section's read, then its probe to the wire's end
         reads += sum(variable_reads(state.model, s, *keeps[s]) for s in keeps)
+    if strings is not None:  # their range's reads (no probe outside it)
+        reads += -(-(strings[1] - strings[0] + 1) // max_string_columns_per_read(state.model))
     changes = sync_items.diff(CATALOGUE, before, target, registers=registers)
     horizon = reads + 6 * len(changes) + 8
     wait = deadline(settings)
@@ -616,6 +677,7 @@ def make_case(seed: int, settings: SerialSettings) -> Case:
         keeps,
         registers,
         story,
+        strings,
     )
 
 
@@ -630,6 +692,12 @@ def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
     if case.keeps is not None:
         robot.keep_registers = True
         robot.options.update(case.keeps)
+        # The real variables' word order is the simulator's (issue 29: read from the
+        # values when robot.yaml gives none, and a push of reals refused while none
+        # tells; tests/iai/test_real_order.py): this test is about the interlock.
+        robot.options["real_word_order"] = case.sim.state.real_word_order
+    if case.strings is not None:
+        robot.options["strings"] = case.strings
     return robot
 
 
@@ -714,6 +782,8 @@ class IaiTally(Tally):
     several_runs: int = 0
     #: pushes that wrote a flag or a variable
     variables_written: int = 0
+    #: pushes that wrote a row of string variable columns (24EH)
+    strings_written: int = 0
     #: pushes refused for a condition issue 19 added, by condition
     issue_19: dict[str, int] = field(default_factory=dict)
 
@@ -731,6 +801,9 @@ ISSUE_19 = {
 def wire(write: PlannedWrite) -> str:
     """The payload of the write a planned write sends, as the controller records it."""
     key = write.key
+    if isinstance(key, RecordKey):  # a row of string variable columns
+        codes = [int(write.new[i : i + 2], 16) for i in range(0, len(write.new), 2)]
+        return write_strings(key.number, codes).payload
     if not isinstance(key, Run):
         return write_flag(key.number, write.new).payload
     if key.kind == "positions":
@@ -872,12 +945,13 @@ def check_converged(case: Case, final: IaiData) -> None:
 
 def check_case(case: Case, deploy: Deploy, tally: IaiTally, settings: SerialSettings) -> None:
     got = deploy(case, settings)
-    final = held(case.sim.state, case.keeps)
+    final = held(case.sim.state, case.keeps, case.strings)
     tally.cases += 1
     tally.lost_writes += case.sim.lost_writes
     if got.result.plan is not None and len(got.result.plan.writes) > 1:
         tally.several_runs += 1
     tally.variables_written += any(r.is_write and r.command != "291" for r in got.received)
+    tally.strings_written += any(r.is_write and r.command == "24E" for r in got.received)
     check_interlock(case, got, tally)
     check_writes(case, got, final)
     if got.snapshot is not None:
@@ -900,7 +974,7 @@ def check_case(case: Case, deploy: Deploy, tally: IaiTally, settings: SerialSett
     case.sim.calm()
     case.before = final
     again = deploy(case, CALM)
-    final = held(case.sim.state, case.keeps)
+    final = held(case.sim.state, case.keeps, case.strings)
     check_interlock(case, again, tally)
     check_writes(case, again, final)
     # No message clears a position: a project that lacks one is refused every time.
@@ -921,7 +995,7 @@ def test_no_write_reaches_a_controller_that_is_not_idle_and_every_push_converges
     if not ONLY:  # the cases still reach what they are meant to (a generator can rot)
         assert tally.ok >= 25 and tally.failed - tally.refused_before_writing >= 10, tally
         assert tally.lost_writes >= 5 and tally.several_runs >= 25, tally
-        assert tally.variables_written >= 8, tally
+        assert tally.variables_written >= 8 and tally.strings_written >= 5, tally
         assert sum(tally.issue_19.values()) >= 3, tally  # issue 19's conditions are drawn
 
 

@@ -392,8 +392,9 @@ def test_a_frame_that_cannot_be_put_on_the_wire_is_refused(frame: Frame) -> None
 # --- the allow-list ----------------------------------------------------------------
 
 ALLOWED = {0x201, 0x215, 0x212, 0x22D, 0x291, 0x20D, 0x20E, 0x20F, 0x24B, 0x24C, 0x24D}
-#: issue 20: the read-only records, reads only (2A0H coordinate systems, 210H strings)
-ALLOWED |= {0x2A0, 0x210}
+#: issue 20: the records (2A0H coordinate systems, 210H strings); issue 34 item 18:
+#: the string variables written back (24EH, p.51)
+ALLOWED |= {0x2A0, 0x210, 0x24E}
 NEVER = [
     0x232,  # servo
     *range(0x233, 0x239),  # home, moves, jog, stop
@@ -408,7 +409,6 @@ NEVER = [
     0x200,  # test call: not on the list either
     0x244,
     0x245,
-    0x24E,
     0x26D,  # other writes
     0x209,
     0x21F,
@@ -416,10 +416,10 @@ NEVER = [
 ]
 
 
-def test_the_allow_list_is_the_profiles_thirteen_messages() -> None:
+def test_the_allow_list_is_the_profiles_fourteen_messages() -> None:
     assert profile.ALLOWED_MESSAGE_IDS == ALLOWED
     assert isinstance(profile.ALLOWED_MESSAGE_IDS, frozenset)
-    assert profile.WRITE_MESSAGE_IDS == {0x291, 0x24B, 0x24C, 0x24D}
+    assert profile.WRITE_MESSAGE_IDS == {0x291, 0x24B, 0x24C, 0x24D, 0x24E}
 
 
 @pytest.mark.parametrize("message_id", NEVER, ids=[f"{i:03X}H" for i in NEVER])

@@ -1,8 +1,10 @@
-"""Issue 20 item 4: IAI read-only records.  The work and tool coordinate system
-definitions (2A0H, p.65) and the global string variables (210H, p.26) are stored
-in records.yaml when robot.yaml gives their ranges, and diffed; no message on the
-allow-list writes them, so a push that would change one refuses with one line.
-The simulator serves them.  Every check of the controller reads its own state."""
+"""Issue 20 item 4: IAI records.  The work and tool coordinate system definitions
+(2A0H, p.65) and the global string variables (210H, p.26) are stored in
+records.yaml when robot.yaml gives their ranges, and diffed; no message on the
+allow-list writes a coordinate system, so a push that would change one refuses
+with one line; the string variables are written back with 24EH (p.51, issue 34
+item 18).  The simulator serves them.  Every check of the controller reads its
+own state."""
 
 from __future__ import annotations
 
@@ -12,11 +14,13 @@ import pytest
 from conftest import git
 
 from harlsync import cli
+from harlsync.families.iai import profile
 from harlsync.families.iai.protocol import (
     Frame,
     FrameDecoder,
     read_coordinate_systems,
     read_strings,
+    write_strings,
 )
 from harlsync.families.iai.sim import SimState, Simulator
 from harlsync.project import load_project
@@ -123,7 +127,9 @@ def test_a_record_changed_on_the_controller_is_diffed_and_a_push_refuses_it(
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1, err
     assert "work coordinate system 1: differs on the robot, and no message harlsync sends" in err
-    assert "string variables from column 1: differs on the robot" in err
+    # issue 34 item 18: string variables are written back with 24EH; only the coordinate
+    # systems, which no message writes, refuse the push (changed on purpose)
+    assert "string variables" not in err
     assert not sim.writes_received() and not sim.off_list()
 
 
@@ -151,3 +157,56 @@ def test_a_project_without_record_ranges_reads_none(served, repo) -> None:
     )
     assert not (project / "records.yaml").exists()
     assert not [r for r in sim.received if r.command in ("2A0", "210")]
+
+
+def test_issue_34_item_18_a_string_variable_row_is_written_back_with_24eh(
+    served, repo, capsys
+) -> None:
+    """The string variables are backed up, and 24EH (p.51) writes them: a push
+    brings back a row changed on the controller, one 24EH a changed row, the
+    interlock read just before it; an unchanged row is not written."""
+    sim, url = served
+    project = pulled(repo, url)
+    state = sim.stations[STATION]
+    state.strings[2] = ord("b")
+    state.strings[40] = ord("?")
+    capsys.readouterr()
+    assert cli.main(["plan", str(project), "-v"]) == 0
+    out = capsys.readouterr().out
+    assert "# string variables from column 1: 24EH 00 001 20 | 41425C4322015A" + "00" * 25 in out
+    assert "# string variables from column 33: 24EH 00 021 08 | " + "00" * 8 in out
+    before = len(sim.received)
+    assert cli.main(["push", str(project), "--yes"]) == 0, capsys.readouterr().err
+    writes = [r for r in sim.received[before:] if r.is_write]
+    assert [r.payload[:12] for r in writes] == ["24E000012041", "24E000210800"]
+    sent = [r.command for r in sim.received[before:]]
+    for at in (i for i, command in enumerate(sent) if command == "24E"):
+        assert sent[at - 2 : at] == ["212", "215"]  # the interlock, just before
+    assert state.strings[2] == ord("B") and state.strings[40] == 0
+    assert cli.main(["diff", str(project)]) == 0
+    assert not sim.writes_while_busy() and not sim.off_list()
+
+
+def test_issue_34_item_18_no_string_variable_is_written_to_a_robot_that_is_not_idle(
+    served, repo, capsys
+) -> None:
+    sim, url = served
+    project = pulled(repo, url)
+    state = sim.stations[STATION]
+    state.strings[2] = ord("b")
+    sim.control("run", state, ())
+    capsys.readouterr()
+    assert cli.main(["push", str(project), "--yes"]) == 3
+    assert "program running" in capsys.readouterr().err
+    assert not sim.writes_received()
+
+
+def test_issue_34_item_18_the_24eh_frame_is_the_manuals() -> None:
+    """p.51: program 'XX', start 'XXX', count 'XX', then each character's code as
+    'XX'; the normal reply is 10 bytes with no data.  Frames written by hand."""
+    request = write_strings(1, [0x48, 0x45, 0x4C, 0x4C, 0x4F])
+    assert request.encode(STATION) == b"!9924E000010548454C4C4FD1\r\n"
+    assert request.is_write and request.message_id in profile.WRITE_MESSAGE_IDS
+    assert request.decode(Frame("#", STATION, 0x24E, "")) is None
+    with pytest.raises(ValueError, match="string variable column 2"):
+        write_strings(1, [0x41, 0x100])

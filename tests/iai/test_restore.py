@@ -2,9 +2,10 @@
 socket and a real pty against the simulator, as docs/restore.md tells it.
 
 Back the robot up (positions, flags and variables, coordinate systems and string
-variables); bring the controller up blank, its memory lost; enter the read-only
-records on the controller (no message writes them); push the backup; ``diff``
-exits 0, and the simulator's own state equals the original."""
+variables); bring the controller up blank, its memory lost; enter the coordinate
+systems on the controller (no message writes them); push the backup (the string
+variables too, with 24EH); ``diff`` exits 0, and the simulator's own state equals
+the original."""
 
 from __future__ import annotations
 
@@ -53,7 +54,7 @@ def memory(state: SimState) -> dict[str, object]:
         "reals": {n: v for n, v in state.reals.items() if 300 <= n <= 399 and v},
         "work": state.work_coordinates,
         "tool": state.tool_coordinates,
-        "strings": state.strings,
+        "strings": {n: code for n, code in state.strings.items() if code},
     }
 
 
@@ -89,19 +90,14 @@ def test_issue_20_a_dead_iai_controller_is_restored_from_its_backup(
     server = server_of(sim)
     try:
         url = server.start()
-        # 3. The read-only records are entered on the controller (pendant or PC
-        # software) from records.yaml: no message harlsync sends writes them.
+        # 3. The coordinate systems are entered on the controller (pendant or PC
+        # software) from records.yaml: no message harlsync sends writes them.  The
+        # string variables come back with the push (24EH, issue 34 item 18).
         data = load_project(project).data
         # (a definition of all zeros is what a blank controller holds already)
         entered = {n: v for n, v in data.work_coordinates.items() if set(v) != {"0.000"}}
         dead.work_coordinates = entered  # type: ignore[assignment]
         dead.tool_coordinates = dict(data.tool_coordinates)  # type: ignore[arg-type]
-        dead.strings = {
-            start + i: int(row[2 * i : 2 * i + 2], 16)
-            for start, row in data.strings.items()
-            for i in range(len(row) // 2)
-            if row[2 * i : 2 * i + 2] != "00"
-        }
         # 4. Push the backup, flags and variables too; 5. diff says it matches.
         assert cli.main(["push", str(project), "--yes", "--registers", "--port", url]) == 0
         assert cli.main(["diff", str(project), "--registers", "--port", url]) == 0

@@ -1,8 +1,9 @@
 """Review finding 3: the probe past the kept flags and variables looked at one
 query's window and took any ``&`` for "the table ends here", yet recorded the
 section as checked.  It now reads up to the last number the message can name,
-narrows a refused query instead of stopping, and records ``checked_to`` as the
-last number it actually read."""
+or to where the controller's table ends (issue 29: the number past it refused
+twice, not walked past one by one), narrows a refused query to find that end,
+and records ``checked_to`` as the last number it actually read."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from harlsync.families.iai import profile
-from harlsync.families.iai.controller import Controller, TableBeyondRange
+from harlsync.families.iai.controller import Controller
 from harlsync.families.iai.layout import Coverage
 from harlsync.families.iai.protocol import Frame
 from harlsync.families.iai.sim import SimState, Simulator, codes
@@ -46,14 +47,17 @@ class Numbered(Simulator):
 
 
 @pytest.fixture
-def numbered(request: pytest.FixtureRequest, lock_dir: object) -> Iterator[Controller]:
+def numbered(
+    request: pytest.FixtureRequest, lock_dir: object
+) -> Iterator[tuple[Controller, Numbered]]:
     has, integers = request.param
     state = controller([1, 2])
     state.integers = integers
-    url = register(Numbered(state, has))
+    sim = Numbered(state, has)
+    url = register(sim)
     c = Controller.from_url(url, STATION, QUICK, first=1, last=1000)
     try:
-        yield c
+        yield c, sim
     finally:
         c.close()
         unregister(url)
@@ -91,9 +95,15 @@ def test_review_3_nothing_set_past_the_ranges_records_each_checked_to_the_wire_e
     finally:
         server.stop()
     covered = load_project(repo / "cell").data.covered
-    assert covered["integers"] == Coverage(200, 299, INTEGERS)
-    assert covered["reals"] == Coverage(300, 399, profile.VARIABLE_NUMBER_END["reals"])
-    assert covered["flags"] == Coverage(600, 899, profile.VARIABLE_NUMBER_END["flags"])
+    # issue 29: below the range too, down to the lowest number (integers and reals from
+    # 1, flags from 0: profile.NUMBER_FIRST)
+    assert covered["integers"] == Coverage(200, 299, INTEGERS, checked_from=1)
+    assert covered["reals"] == Coverage(
+        300, 399, profile.VARIABLE_NUMBER_END["reals"], checked_from=1
+    )
+    assert covered["flags"] == Coverage(
+        600, 899, profile.VARIABLE_NUMBER_END["flags"], checked_from=0
+    )
 
 
 class EndsAt310(Simulator):
@@ -126,9 +136,10 @@ def test_review_3_a_refused_probe_is_narrowed_and_finds_what_it_straddled(
 
 @pytest.mark.parametrize("numbered", [([range(311)], {250: 5})], indirect=True)
 def test_review_3_a_controller_that_has_no_numbers_past_one_records_the_last_read(
-    numbered: Controller,
+    numbered: tuple[Controller, Numbered],
 ) -> None:
-    assert numbered.probe_variables("integers") == Coverage(200, 299, 310)
+    _, covered = numbered[0].read_section("integers")
+    assert covered == Coverage(200, 299, 310, checked_from=1, end=310, past="error 0B4H")
 
 
 @pytest.mark.parametrize(
@@ -137,15 +148,19 @@ def test_review_3_a_controller_that_has_no_numbers_past_one_records_the_last_rea
     ids=["x-sel gaps"],
     indirect=True,
 )
-def test_review_3_a_gap_of_refused_numbers_is_crossed_and_what_lies_beyond_found(
-    numbered: Controller,
+def test_issue_29_a_gap_of_refused_numbers_ends_the_table_in_a_few_queries(
+    numbered: tuple[Controller, Numbered],
 ) -> None:
-    with pytest.raises(TableBeyondRange, match="integer variable 1250 is set past"):
-        numbered.probe_variables("integers")
-
-
-@pytest.mark.parametrize("numbered", [([range(400), range(1000, 1400)], {250: 5})], indirect=True)
-def test_review_3_after_a_gap_nothing_set_records_the_last_number_read(
-    numbered: Controller,
-) -> None:
-    assert numbered.probe_variables("integers") == Coverage(200, 299, 1399)
+    """Changed on purpose (issue 29): a gap the controller refuses twice is the
+    table's end, recorded with its reply; the probe no longer walks through it one
+    number at a time (15,642 queries to 65535), so what lies past a gap is not
+    looked for.  The review's walk past the gap found 1250 here."""
+    c, sim = numbered
+    before = len(sim.received)
+    values, covered = c.read_section("integers")
+    assert covered == Coverage(200, 299, 399, checked_from=1, end=399, past="error 0B4H")
+    assert values[250] == 5
+    asked = len(sim.received) - before
+    # the range (one query), 300-552 refused, then 552 alone and about log2(253) halvings
+    # to 399, 300-399 read, 400 asked again; below it 1-199 (one query)
+    assert asked <= 16, asked

@@ -120,11 +120,6 @@ class HarlU2Family(Family["Key", "RobotData"]):
 
         return layout.render_robot(robot)
 
-    def quick_robot(self, data: Mapping[str, Any]) -> Robot | None:
-        from .robotfile import quick_robot
-
-        return quick_robot(data)
-
     def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
         from ...project.robot import Robot
 

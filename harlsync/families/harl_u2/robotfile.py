@@ -1,21 +1,15 @@
-"""robot.yaml's data as a :class:`~harlsync.project.robot.Robot`: what the layout's
-full reading and the quick one before a pull's first request
-(:mod:`harlsync.project.quick`) share.  Neither PyYAML nor the project store."""
+"""robot.yaml's data, once read and checked by the layout, as a
+:class:`~harlsync.project.robot.Robot`."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
-from ...project import quick
 from ...project.robot import Robot, build_serial, build_windows
 from ...settings import SerialSettings
 
-__all__ = ["SCHEMA", "build_robot", "quick_robot"]
-
-#: robot.yaml's schema, the same file the layout's :data:`~.layout.SCHEMAS` reads.
-SCHEMA = Path(__file__).with_name("schemas") / "robot.schema.json"
+__all__ = ["build_robot"]
 
 
 def build_robot(data: Mapping[str, Any]) -> Robot:
@@ -42,9 +36,3 @@ def _options(data: Mapping[str, Any]) -> dict[str, Any]:
     if "no_such_table" in data:
         options["no_such_table"] = str(data["no_such_table"])
     return options
-
-
-def quick_robot(data: Mapping[str, Any]) -> Robot | None:
-    """The robot of robot.yaml's ``data`` as :func:`harlsync.project.quick.parse`
-    gives it, when it passes the schema for sure; None: read the file the whole way."""
-    return build_robot(data) if quick.valid(quick.schema(SCHEMA), data) else None

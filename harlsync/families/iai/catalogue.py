@@ -10,29 +10,35 @@ project keeps them; their keys, names and how a plan writes them.
     Run("positions", 12, 4)              positions 12-15 written by one 291H (plans only)
     Run("integers", 200, 3)              integer variables 200-202 by one 24CH (plans only)
     Run("reals", 300, 2)                 real variables 300-301 by one 24DH (plans only)
+    RecordKey("string", 1)               string variable columns 1-32 (diff, and one 24EH)
+    RecordKey("work", 1)                 work coordinate system 1 (diff only: read only)
 
 A diff compares items one by one; flags and variables only when asked
-(``registers``: runtime data, like the HARL-U2's registers).  A plan writes each
-run of consecutive changed positions, integer or real variables with one
-command, as long as the controller's receive buffer takes it, each changed flag
-with its own 24BH, and never an item that did not change.  Push order:
-positions, integer variables, real variables, then flags (a flag is often the
-signal that the data beside it is ready).  A position the robot has and the
-project lacks cannot be written: no message of protocol B clears a position, so
-such a plan is refused with what to do; so is a plan with flags and variables
-for a project that does not keep them.
+(``registers``: runtime data, like the HARL-U2's registers), the records when
+robot.yaml keeps them.  A plan writes each run of consecutive changed positions,
+integer or real variables with one command, as long as the controller's receive
+buffer takes it, each changed row of string variable columns with one 24EH, each
+changed flag with its own 24BH, and never an item that did not change.  Push
+order: positions, integer variables, real variables, string variables, then
+flags (a flag is often the signal that the data beside it is ready).  A position
+the robot has and the project lacks cannot be written: no message of protocol B
+clears a position, so such a plan is refused with what to do; so is a plan with
+flags and variables for a project that does not keep them, and one that would
+change a coordinate system (no message harlsync sends writes one).
 """
 
 from __future__ import annotations
 
 import copy
 from collections.abc import Iterable, Mapping
+from itertools import zip_longest
 from typing import Any, NamedTuple
 
 from ..base import Catalogue, PlanShape
 from .layout import IaiData
 from .model import ARM_NAMES, VARIABLE_SECTIONS, Position, Version
 from .protocol import max_positions_per_write, max_variables_per_write
+from .tables import replies_differ
 
 __all__ = [
     "CATALOGUE",
@@ -89,15 +95,21 @@ _KINDS = {
     "integer": ("integers", "integer variable", "integer variables"),
     "real": ("reals", "real variable", "real variables"),
     "flag": ("flags", "flag", "flags"),
-    # read-only records: stored and diffed, never written
+    # records: stored and diffed; coordinate systems never written, strings with 24EH
     "work": ("work_coordinates", "work coordinate system", "work coordinate systems"),
     "tool": ("tool_coordinates", "tool coordinate system", "tool coordinate systems"),
     "string": ("strings", "string variable row", "string variable rows"),
 }
-#: The read-only record kinds, and the message that reads each.
+#: The record kinds, and the message that reads each.
 _RECORD_KINDS = {"work": "2A0H", "tool": "2A0H", "string": "210H"}
-#: The safe push order, by item kind; a run sorts with its items.
-_ORDER = {kind: i for i, kind in enumerate(_KINDS)}
+#: The records no message harlsync sends writes (string variables it writes: 24EH, p.51).
+_READ_ONLY_KINDS = {"work", "tool"}
+#: The safe push order, by item kind (a flag last of what is written: it is often
+#: the signal that the data beside it is ready); a run sorts with its items.
+_ORDER = {
+    kind: i
+    for i, kind in enumerate(("position", "integer", "real", "string", "flag", "work", "tool"))
+}
 #: A run's kind -> its items' kind.
 _ITEM_OF_RUN = {section: kind for kind, (section, _, _) in _KINDS.items()}
 
@@ -237,6 +249,8 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         return str(key.start if isinstance(key, Run) else key.number)
 
     def fields(self, key: Key, old: Any, new: Any) -> list[tuple[str, str | None, str | None]]:
+        """An item's value as one field; a run's values (a tuple each, as one command
+        writes them) compared one by one, a value one side lacks as none."""
         kind = _item_kind(key)
         show = (
             position_text
@@ -247,8 +261,11 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
             if kind in _RECORD_KINDS
             else value_text
         )
-        a, b = show(old), show(new)
-        return [] if a == b else [("", a, b)]
+        if not isinstance(key, Run):
+            old, new = (old,), (new,)
+        pairs = zip_longest(*(v if isinstance(v, tuple) else () for v in (old, new)))
+        texts = [(show(a), show(b)) for a, b in pairs]
+        return [("", a, b) for a, b in texts if a != b]
 
     def identity(self, key: Key) -> dict[str, Any]:
         ident: dict[str, Any] = key._asdict()
@@ -277,7 +294,9 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
     def contents(self, data: IaiData, *, registers: bool) -> str:
         """Positions, and the flags and variables read with them, each with the
         range it covered when the read probed it: ``42 positions in 1-1000 (none
-        defined outside it)``."""
+        defined outside it)``; a controller's table smaller than the range is said:
+        ``42 positions in 1-600 (the controller's table ends at 600, inside
+        robot.yaml's 1-1000; none defined outside it)``."""
         kept = data.variables() if registers else {}
         held = {"positions": data.positions, **kept}
         parts = []
@@ -287,11 +306,39 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
             text = f"{len(held[section])} {one if len(held[section]) == 1 else several}"
             covered = data.covered.get(section)
             if covered is not None:
-                text += f" in {covered.first}-{covered.last}"
+                text += f" in {covered.read_first}-{covered.read_last}"
+                said = []
+                if (covered.read_first, covered.read_last) != (covered.first, covered.last):
+                    ends = (
+                        [f"starts at {covered.start}"] if covered.read_first > covered.first else []
+                    )
+                    if covered.read_last < covered.last:
+                        ends.append(f"ends at {covered.end}")
+                    said.append(
+                        f"the controller's table {' and '.join(ends)}, inside robot.yaml's "
+                        f"{covered.first}-{covered.last}"
+                    )
                 if section == "positions":
-                    text += " (none defined outside it)"
+                    said.append("none defined outside it")
+                if said:
+                    text += f" ({'; '.join(said)})"
             parts.append(text)
         return ", ".join(parts)
+
+    def other_robot(self, live: IaiData, project: IaiData) -> str | None:
+        """A controller whose "not there" reply before or past a table differs from
+        the one the project's pull recorded (controller.yaml ``covered``), for the
+        same range: another controller, or one that now answers otherwise."""
+        for section, now in live.covered.items():
+            was = project.covered.get(section)
+            if was is not None:
+                why = replies_differ(section, was, now)
+                if why is not None:
+                    return (
+                        f"{why}; if it is this robot (its firmware or parameters changed), "
+                        "a pull with --new-robot takes it as it answers now"
+                    )
+        return None
 
     def version(self, data: IaiData) -> str:
         v = data.version
@@ -314,7 +361,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 "in robot.yaml and pull, or push without --registers"
             )
         for key, _, new in changes:
-            if key.kind in _RECORD_KINDS:
+            if key.kind in _READ_ONLY_KINDS:
                 section = _KINDS[key.kind][0]
                 unwritable.append(
                     f"{self.describe(key)}: differs on the robot, and no message harlsync "
@@ -325,6 +372,11 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 continue
             if new is not None:
                 continue
+            if key.kind == "string":
+                unwritable.append(
+                    f"{self.describe(key)}: on the robot but not in records.yaml; pull to take "
+                    "it in, or narrow robot.yaml controller.strings"
+                )
             if key.kind == "position":
                 unwritable.append(
                     f"{self.describe(key)}: defined on the robot but not in the project, and no "
@@ -341,6 +393,9 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         for key, _, new in changes:
             if new is not None and key.kind not in _RECORD_KINDS:
                 changed[_KINDS[key.kind][0]].append(key.number)
+        rows = [
+            (key, old, new) for key, old, new in changes if key.kind == "string" and new is not None
+        ]
         wanted: list[tuple[Any, Any, Any]] = []
         wanted += runs(
             "positions",
@@ -358,6 +413,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 live.variables().get(section, {}),
                 kept.get(section, {}),
             )
+        wanted += rows  # each changed row of string variable columns with its own 24EH
         wanted += [
             (key, old, new) for key, old, new in changes if key.kind == "flag" and new is not None
         ]

@@ -1,6 +1,7 @@
 """An IAI controller as the engine's :class:`~harlsync.families.base.Driver`: read
 everything, read or write an item or a run (291H positions, 24BH a flag, 24CH/24DH
-integer and real variables), status (212H then 215H)."""
+integer and real variables, 24EH a row of string variable columns), status (212H
+then 215H)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,14 @@ from .controller import Controller, IaiStatus
 from .layout import IaiData
 from .model import Version, real_value
 from .profile import STRING_ROW
-from .protocol import position_fields, write_flag, write_integers, write_positions, write_reals
+from .protocol import (
+    position_fields,
+    write_flag,
+    write_integers,
+    write_positions,
+    write_reals,
+    write_strings,
+)
 
 __all__ = ["IaiDriver"]
 
@@ -76,6 +84,8 @@ class IaiDriver(Driver[Key, IaiData]):
             c.write_integers(key.start, value, old)
         elif isinstance(key, Run) and key.kind == "reals":
             c.write_reals(key.start, value, old)
+        elif isinstance(key, RecordKey) and key.kind == "string":
+            c.write_strings(key.number, value, old)
         else:
             raise TypeError(f"no write for item {key}: positions and variables are written in runs")
 
@@ -96,11 +106,16 @@ class IaiDriver(Driver[Key, IaiData]):
             return " | ".join(
                 [head, *(" ".join(position_fields(p, numbered=False)) for p in value)]
             )
+        if isinstance(key, RecordKey) and key.kind == "string":
+            codes = [int(value[i : i + 2], 16) for i in range(0, len(value), 2)]
+            data = write_strings(key.number, codes).data  # program, start, count, codes
+            return f"24EH {data[:2]} {data[2:5]} {data[5:7]} | {data[7:]}"
         if isinstance(key, Run) and key.kind == "integers":
             request, width = write_integers(key.start, value), 8
         elif isinstance(key, Run) and key.kind == "reals":
-            order = self.controller.real_word_order
-            request = write_reals(key.start, [real_value(v) for v in value], order=order)
+            doubles = [real_value(v) for v in value]
+            order = self.controller.writing_order(key.start, doubles)
+            request = write_reals(key.start, doubles, order=order)
             width = 16
         else:
             raise TypeError(f"no write for item {key}: positions and variables are written in runs")

@@ -172,9 +172,8 @@ class IaiFamily(Family["Key", "IaiData"]):
             variables=layout.variable_ranges(robot),
             records=layout.record_ranges(robot),
             known_axes=robot.options.get(layout.REPORTED_AXES, ()),
-            real_word_order=str(
-                robot.options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
-            ),
+            real_word_order=robot.options.get("real_word_order"),
+            recorded_word_order=robot.options.get(layout.RECORDED_WORD_ORDER),
         )
         return IaiDriver(controller)
 

@@ -6,20 +6,23 @@
                        axes, position range and the flag and variable ranges,
                        maintenance windows, keep_registers (user-edited)
     controller.yaml    what 201H reports (model and unit codes, version, build date),
-                       the axes 212H reported (when robot.yaml names none),
-                       and the range of each table the pull covered:
+                       the axes 212H reported (when robot.yaml names none), the
+                       real variables' word order their values showed, and the
+                       range of each table the pull covered, with the controller's
+                       "not there" replies around it (tables.py):
 
         covered:
-          positions: {first: 1, last: 1000, checked_to: 65535}
+          positions: {first: 1, last: 1000, checked_from: 1, checked_to: 1000, end: 1000, past: "error 0A3H"}
     positions.yaml     the position table, one defined position per line:
 
         positions:
           1: {axes: [1, 2, 3], coords: [100.000, -1.000, 0.000], acc: 0.30, dec: 0.30, speed: 100}
           7: {axes: [1, 2], coords: [0.000, 25.500], acc: 0.00, dec: 0.00, speed: 0, arm1: right}
 
-    records.yaml       only when robot.yaml gives their ranges: read-only records,
-                       the work and tool coordinate systems (2A0H) and string
-                       variables (210H, a row of 32 columns a line, as hex codes)
+    records.yaml       only when robot.yaml gives their ranges: records, the work
+                       and tool coordinate systems (2A0H, read only) and string
+                       variables (210H, written back with 24EH; a row of 32
+                       columns a line, as hex codes)
 
         work_coordinates:
           1: [100.000, 50.000, 0.000, 90.000]
@@ -49,7 +52,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any
 
 from ...project import yamlio as y
 from ...project.files import (
@@ -83,10 +86,12 @@ from .model import (
     coord_in_one_form,
     g_in_one_form,
 )
+from .tables import Coverage
 
 __all__ = [
     "FILES",
     "FORMAT",
+    "RECORDED_WORD_ORDER",
     "RECORDS_FILE",
     "RECORD_SECTIONS",
     "REPORTED_AXES",
@@ -128,19 +133,12 @@ _ARMS = {name: n for n, name in ARM_NAMES.items()}
 #: The robot option that carries controller.yaml's ``axes`` (every axis an earlier
 #: 212H reported) to the connection; never written to robot.yaml.
 REPORTED_AXES = "reported_axes"
+#: The robot option that carries controller.yaml's ``real_word_order`` (the order
+#: the last pull saw the real variables' values in) to the connection.
+RECORDED_WORD_ORDER = "recorded_real_word_order"
 
 #: A station as robot.yaml and --station write it (profile.STATION_ALLOWED).
 STATION = re.compile(r"[0-9A-Fa-f]{2}")
-
-
-class Coverage(NamedTuple):
-    """The range of a table a backup read (``first`` .. ``last``), and how far past
-    it the pull made sure nothing is defined: positions from 1 to ``checked_to``
-    outside the range; flags and variables from ``last + 1`` to ``checked_to``."""
-
-    first: int
-    last: int
-    checked_to: int
 
 
 @dataclass
@@ -171,6 +169,9 @@ class IaiData:
     work_coordinates: dict[int, tuple[str, ...]] | None = None
     tool_coordinates: dict[int, tuple[str, ...]] | None = None
     strings: dict[int, str] | None = None
+    #: the word order the real variables' values showed at this read (p.24;
+    #: controller.yaml), None when they did not tell
+    real_word_order: str | None = None
 
     def records(self) -> dict[str, dict[int, Any]]:
         """The kept read-only records by section; empty when none is kept."""
@@ -208,9 +209,8 @@ def render_robot(robot: Robot) -> str:
         ("first_position", y.num(str(first))),
         ("last_position", y.num(str(last))),
     ]
-    order = options.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)
-    if order != profile.DEFAULT_REAL_WORD_ORDER:  # absent at the default: robot.yaml as before
-        controller.append(("real_word_order", y.text(str(order))))
+    if "real_word_order" in options:  # absent: read from the values at each pull
+        controller.append(("real_word_order", y.text(str(options["real_word_order"]))))
     controller += [
         (
             section,
@@ -231,30 +231,41 @@ def render_robot(robot: Robot) -> str:
     return FILES.document("robot", "robot.yaml", items)
 
 
+#: controller.yaml's order of a table's covered fields (those that are None left out).
+_COVERED_FIELDS = ("first", "last", "checked_from", "checked_to", "start", "end", "before", "past")
+
+
+def _covered_node(covered: Coverage) -> Any:
+    fields = covered._asdict()
+    return y.mapping(
+        [
+            (
+                name,
+                y.quoted(fields[name]) if name in ("before", "past") else y.num(str(fields[name])),
+            )
+            for name in _COVERED_FIELDS
+            if fields[name] is not None
+        ],
+        flow=True,
+    )
+
+
 def render_controller(
     version: Version,
     covered: Mapping[str, Coverage] | None = None,
     axes: tuple[int, ...] = (),
+    real_word_order: str | None = None,
 ) -> str:
     items = [("version", _version_node(version))]
     if axes:
         items.append(("axes", y.sequence([y.num(str(a)) for a in axes], flow=True)))
+    if real_word_order is not None:
+        items.append(("real_word_order", y.text(real_word_order)))
     if covered:
         items.append(
             (
                 "covered",
-                y.mapping(
-                    [
-                        (
-                            section,
-                            y.mapping(
-                                [(name, y.num(str(n))) for name, n in c._asdict().items()],
-                                flow=True,
-                            ),
-                        )
-                        for section, c in covered.items()
-                    ]
-                ),
+                y.mapping([(section, _covered_node(c)) for section, c in covered.items()]),
             )
         )
     return FILES.document("controller", "controller.yaml", items)
@@ -340,7 +351,9 @@ def render_files(robot: Robot, data: IaiData) -> dict[str, str]:
     """
     out = {
         "robot.yaml": render_robot(robot),
-        "controller.yaml": render_controller(data.version, data.covered, data.axes),
+        "controller.yaml": render_controller(
+            data.version, data.covered, data.axes, data.real_word_order
+        ),
         "positions.yaml": render_positions(data.positions),
     }
     if robot.keep_registers and data.variables():
@@ -432,13 +445,16 @@ def analyse(files: Mapping[str, bytes]) -> Analysis:
             positions=_build_positions(docs["positions.yaml"].data["positions"]),
             model=str(result.robot.options.get("model", profile.DEFAULT_MODEL)),
             covered={
-                section: Coverage(int(c["first"]), int(c["last"]), int(c["checked_to"]))
+                section: _build_coverage(c)
                 for section, c in docs["controller.yaml"].data.get("covered", {}).items()
             },
             axes=tuple(sorted(int(a) for a in docs["controller.yaml"].data.get("axes", []))),
+            real_word_order=docs["controller.yaml"].data.get("real_word_order"),
         )
         if result.data.axes:  # the connection's interlock wants them from its first 212H
             result.robot.options[REPORTED_AXES] = result.data.axes
+        if result.data.real_word_order is not None:  # for a push to a blank controller
+            result.robot.options[RECORDED_WORD_ORDER] = result.data.real_word_order
         if VARIABLES_FILE in docs:
             _build_variables(docs[VARIABLES_FILE].data, result.data)
         if RECORDS_FILE in docs:
@@ -651,6 +667,25 @@ def _build_records(doc: Mapping[str, Any], data: IaiData) -> None:
             )
     if (strings := doc.get("strings")) is not None:
         data.strings = {int(n): str(v) for n, v in sorted(strings.items(), key=_by_number)}
+
+
+def _build_coverage(data: Mapping[str, Any]) -> Coverage:
+    def number(name: str) -> int | None:
+        return None if name not in data else int(data[name])
+
+    def reply(name: str) -> str | None:
+        return None if name not in data else text_of(data[name])
+
+    return Coverage(
+        int(data["first"]),
+        int(data["last"]),
+        int(data["checked_to"]),
+        number("checked_from"),
+        number("start"),
+        number("end"),
+        reply("before"),
+        reply("past"),
+    )
 
 
 def _build_version(data: Mapping[str, Any]) -> Version:

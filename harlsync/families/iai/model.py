@@ -26,7 +26,9 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 import sys
+from collections.abc import Iterable
 from dataclasses import dataclass
 from types import MappingProxyType
 
@@ -42,6 +44,7 @@ __all__ = [
     "INTEGER_MIN",
     "MODE_NAMES",
     "NO_CRITICAL_ERROR",
+    "PLAUSIBLE_REAL",
     "POSITION_NUMBER_MAX",
     "READ_AGAIN_ADVICE",
     "REAL_MAX",
@@ -55,6 +58,7 @@ __all__ = [
     "S3_POSITIONER_MODE",
     "S3_SYSTEM_READY",
     "SPEED_MAX",
+    "TELLING",
     "VARIABLE_SECTIONS",
     "AxisStatus",
     "Position",
@@ -78,6 +82,7 @@ __all__ = [
     "pattern_from_axes",
     "real_text",
     "real_value",
+    "real_word_order_of",
     "speed_from_wire",
     "speed_to_wire",
     "variable_problem",
@@ -336,6 +341,46 @@ def real_value(text: str) -> float:
     """The double of real variable text.  Raises :class:`ValueError` as
     :func:`canonical_real` does."""
     return float(canonical_real(text))
+
+
+#: The magnitudes a real variable a SEL program keeps plausibly has (besides 0): a
+#: double read in the wrong word order (p.24) has its exponent from the other word,
+#: nearly always far outside (a denormal, 1e-180, 1e+250, or NaN).
+PLAUSIBLE_REAL = (1e-15, 1e15)
+#: How many values (besides zeros) must all read as plausible in one word order
+#: only before harlsync says robot.yaml's order is wrong: a value in the wrong order
+#: reads plausible about one time in twenty.
+TELLING = 3
+
+
+def _swapped(words: str) -> str:
+    return words[8:] + words[:8]
+
+
+def _plausible(words: str) -> bool:
+    """Whether 16 big-endian hex digits are a double a program plausibly keeps."""
+    value: float = struct.unpack(">d", bytes.fromhex(words))[0]
+    low, high = PLAUSIBLE_REAL
+    return value == 0.0 or (math.isfinite(value) and low <= abs(value) < high)
+
+
+def real_word_order_of(words: Iterable[str], *, every: bool = False) -> str | None:
+    """The word order (``upper-first`` or ``lower-first``, p.24) the values ``words``
+    (16 hex digits each, as 20FH sent them) show: the one in which more of them are
+    plausible values, and at least half of them; with ``every``, the one in which
+    every one of at least :data:`TELLING` is and not every one in the other.  None
+    when they do not tell (all zero, or words alike, or as many either way)."""
+    telling = [w.upper() for w in words if w[:8] != w[8:]]
+    if not telling or (every and len(telling) < TELLING):
+        return None
+    upper = sum(_plausible(w) for w in telling)
+    lower = sum(_plausible(_swapped(w)) for w in telling)
+    if every:
+        fits = [o for o, n in (("upper-first", upper), ("lower-first", lower)) if n == len(telling)]
+        return fits[0] if len(fits) == 1 else None
+    if upper != lower and 2 * max(upper, lower) >= len(telling):
+        return "upper-first" if upper > lower else "lower-first"
+    return None
 
 
 def variable_problem(section: str, value: object) -> str | None:

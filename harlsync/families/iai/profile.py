@@ -1,10 +1,14 @@
 """Every choice the IAI protocol B manual leaves open, in one place.
 
 These are the *(profile)* decisions of ``shared/spec/iai-protocol-b-profile.md``
-(and the few fixed facts the codec needs beside them, each with its manual page).
-A site whose controller differs changes the constant here and nothing else: the
-codec, the link settings, the simulator and the sync engine read them from this
-module.
+(and the few fixed facts the codec needs beside them, each with its manual page):
+the codec, the link settings, the simulator and the sync engine read them from
+this module.  Each is a default.  Where a controller may answer otherwise, either
+its own replies decide at each read (where a table ends, what a number it lacks
+answers, the real variables' word order: :mod:`.tables`), or robot.yaml has the
+setting, named beside the default and in every message that mentions it; a site
+never edits this module.  docs/profile.md lists every one, with the simulator
+variant that answers the other way.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ __all__ = [
     "FLAG_QUERY_ALIGNMENT",
     "INTER_COMMAND_GAP",
     "MAX_FRAME",
+    "NUMBER_FIRST",
     "OPT_IN_MESSAGE_IDS",
     "PARITY",
     "PERSISTENCE_NOTICE",
@@ -151,13 +156,12 @@ DEFAULT_POSITION_RANGE = (1, 1000)
 
 #: The highest position number 22DH can name (4 hex digits).
 POSITION_NUMBER_END = 0xFFFF
-#: The probe past the table (issue 20): a pull asks, with one 22DH each, for every
-#: number below the robot's first position and above its last (to FFFFh).  The
-#: reply carries the first defined records that fit the send buffer, and one is
-#: enough to know the table goes on.  The manual does not say what a controller
-#: does with a count that does not fit (digest 1.5): one that answers ``&`` to it is
-#: probed instead in queries sized as the table's reads, up to this number, the
-#: most position records 22DH carries (p.36) **(profile)**.
+#: Where a probe past the position table stops reading when a controller will not
+#: answer a 22DH for every number past it at once (it refuses so wide a query, or
+#: is seen to scan fewer numbers than asked) and does not show where its table
+#: ends (it answers a number past it with an empty reply, not ``&``): the most
+#: position records 22DH carries (p.36, "Max 20000 records").  Such a probe reads
+#: that far in queries of the table's read size (tables.py).
 POSITION_PROBE_FALLBACK_END = 20000
 
 #: 291H records carry no position number: pattern, acc, dec, speed, up to 8
@@ -186,19 +190,42 @@ DEFAULT_VARIABLE_RANGES: Mapping[str, tuple[int, int]] = MappingProxyType(
 FLAG_QUERY_ALIGNMENT = 8
 
 #: The last flag (20DH: 4 hex digits) and variable (20EH, 20FH: 3 hex digits)
-#: number the messages can name: the probe past a kept range stops there.
+#: number the messages can name: a probe past a kept range stops there when the
+#: controller's table goes on that far.
 VARIABLE_NUMBER_END: Mapping[str, int] = MappingProxyType(
     {"flags": 0xFFFF, "integers": 0xFFF, "reals": 0xFFF}
 )
+#: The lowest number of each table a probe below a range goes down to: positions
+#: and variables from 1, as the X-SEL numbers them (no page says); flags from 0,
+#: the multiple of 8 below (20DH starts at one, p.22); coordinate systems from 0
+#: (2A0H: "0~", p.65).  Where a controller's table starts above it, its own
+#: "not there" reply says so (tables.py).
+NUMBER_FIRST: Mapping[str, int] = MappingProxyType(
+    {
+        "positions": 1,
+        "flags": 0,
+        "integers": 1,
+        "reals": 1,
+        "strings": 1,
+        "work_coordinates": 0,
+        "tool_coordinates": 0,
+    }
+)
 
-#: How 20FH (and, **(profile)**, 24DH) carry a real variable's IEEE double, by
-#: robot.yaml's ``controller.real_word_order`` (p.24): ``upper-first``, plain big
-#: endian (``0123456789ABCDEF``); ``lower-first``, the lower 4 bytes then the upper
-#: 4 (``89ABCDEF01234567``), on X-SEL-J/K main application V0.41 or earlier, or
-#: with Other parameter No. 46 bits 0-3 at 0.  p.50 prints only the big-endian form
-#: for 24DH and does not say whether the parameter swaps writes too: the profile
-#: writes in the order it reads, so that a value written reads back the same.
+#: How 20FH (and, **(profile)**, 24DH) carry a real variable's IEEE double (p.24):
+#: ``upper-first``, plain big endian (``0123456789ABCDEF``); ``lower-first``, the
+#: lower 4 bytes then the upper 4 (``89ABCDEF01234567``), on X-SEL-J/K main
+#: application V0.41 or earlier, or with Other parameter No. 46 bits 0-3 at 0.
+#: Which one a controller uses is read from the values themselves at each read
+#: (:func:`~.model.real_word_order_of`) unless robot.yaml's
+#: ``controller.real_word_order`` says it; a pull records what it saw in
+#: controller.yaml.  p.50 prints only the big-endian form for 24DH and does not say
+#: whether the parameter swaps writes too: the profile writes in the order it
+#: reads, so that a value written reads back the same.
 REAL_WORD_ORDERS = ("upper-first", "lower-first")
+#: The order values are read in when neither robot.yaml nor any value read (now or
+#: at the last pull) tells: all-zero reals read the same either way; a push that
+#: would write a value that differs between the orders is then refused.
 DEFAULT_REAL_WORD_ORDER = "upper-first"
 
 # --- messages -----------------------------------------------------------------------
@@ -209,14 +236,14 @@ CORE_MESSAGE_IDS = frozenset({0x201, 0x215, 0x212, 0x22D, 0x291})
 #: Global flags and variables, when the project opts in: read flags, integer and
 #: real variables; write a flag, integer variables, real variables.
 OPT_IN_MESSAGE_IDS = frozenset({0x20D, 0x20E, 0x20F, 0x24B, 0x24C, 0x24D})
-#: Read-only records, when robot.yaml gives their ranges (issue 20): coordinate
-#: system definitions (2A0H, p.65) and string variables (210H, p.26).  Reads only:
-#: no message on the allow-list writes them.
-RECORD_MESSAGE_IDS = frozenset({0x2A0, 0x210})
+#: Records, when robot.yaml gives their ranges (issue 20): coordinate system
+#: definitions (2A0H, p.65), read only (no message we have writes them), and string
+#: variables, read (210H, p.26) and written back (24EH, p.51, issue 34 item 18).
+RECORD_MESSAGE_IDS = frozenset({0x2A0, 0x210, 0x24E})
 #: The only message ids the encoder will put on the wire.
 ALLOWED_MESSAGE_IDS = CORE_MESSAGE_IDS | OPT_IN_MESSAGE_IDS | RECORD_MESSAGE_IDS
 #: The allowed ids that change the controller's data.
-WRITE_MESSAGE_IDS = frozenset({0x291, 0x24B, 0x24C, 0x24D})
+WRITE_MESSAGE_IDS = frozenset({0x291, 0x24B, 0x24C, 0x24D, 0x24E})
 #: The allowed reads whose answer changes without any write from us: status, and
 #: the flags and variables running programs change.
 VOLATILE_MESSAGE_IDS = frozenset({0x215, 0x212, 0x20D, 0x20E, 0x20F, 0x210})

@@ -37,6 +37,7 @@ Request builders, one per message of the allow-list::
     opt-in:  20DH read_flags      20EH read_integers      20FH read_reals
              24BH write_flag      24CH write_integers     24DH write_reals
     records: 2A0H read_coordinate_systems                 210H read_strings
+             24EH write_strings
 
 The package, a module a job: :mod:`.frame` (frames and SC), :mod:`.request`
 (requests and the decoding of replies), and the requests by what they read or
@@ -62,12 +63,14 @@ from .records import (
     max_string_columns_per_read,
     read_coordinate_systems,
     read_strings,
+    write_strings,
 )
 from .request import ErrorReply, Request
 from .status import axis_status, system_status, version
 from .variables import (
     read_flags,
     read_integers,
+    read_real_words,
     read_reals,
     real_from_wire,
     real_to_wire,
@@ -99,6 +102,7 @@ __all__ = [
     "read_flags",
     "read_integers",
     "read_positions",
+    "read_real_words",
     "read_reals",
     "read_strings",
     "real_from_wire",
@@ -110,4 +114,5 @@ __all__ = [
     "write_integers",
     "write_positions",
     "write_reals",
+    "write_strings",
 ]

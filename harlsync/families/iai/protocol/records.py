@@ -1,13 +1,15 @@
-"""Requests for the read-only records: coordinate systems and string variables
-(2A0H, 210H)."""
+"""Requests for the records: coordinate systems (2A0H, read only) and string
+variables (210H, and 24EH to write them back)."""
+
+from collections.abc import Sequence
 
 from ..model import (
     coord_from_wire,
 )
 from .frame import _FRAME_OVERHEAD, _HEX_RE, _VARIABLES_MAX, _VARIABLES_OVERHEAD
 from .positions import _buffers
-from .request import Request, _check, _Fields
-from .variables import _read_variables
+from .request import Request, _check, _Fields, _no_data
+from .variables import _at_most, _read_variables, _variable_args
 
 # --- read-only records: coordinate systems and string variables ---------------------
 
@@ -33,7 +35,8 @@ def read_coordinate_systems(
     kind: int, head: int, count: int
 ) -> Request[tuple[tuple[str, str, str, str], ...]]:
     """2A0H (p.65): ``count`` coordinate system definitions from number ``head``,
-    work (``kind`` 0) or tool (1); each the X, Y, Z offsets and R, as coordinate text."""
+    work (``kind`` 0) or tool (1); each the X, Y, Z offsets and R, as coordinate text
+    (fewer when the reply's count says so: the controller's table ends among them)."""
     _check(kind, 0, 1, "coordinate system type")
     _check(head, 0, 0xFF, "head definition number")
     _check(count, 1, 0xFF - head + 1, "number of records")
@@ -42,9 +45,9 @@ def read_coordinate_systems(
         f = _Fields(data)
         f.expect(1, kind, "coordinate system type")
         f.expect(2, head, "start number")
-        f.expect(2, count, "number of records")
+        got = _at_most(f.hex(2, "number of records"), count, "records")
         out = []
-        for n in range(head, head + count):
+        for n in range(head, head + got):
             x, y, z, r = (coord_from_wire(f.take(8, f"definition {n} {a}")) for a in "XYZR")
             out.append((x, y, z, r))
         f.end()
@@ -64,3 +67,16 @@ def _code_from_wire(wire: str) -> int:
     if not (len(wire) == 2 and _HEX_RE.fullmatch(wire)):
         raise ValueError("a character code is not 2 hex digits")
     return int(wire, 16)
+
+
+def write_strings(start: int, codes: Sequence[int], program: int = 0) -> Request[None]:
+    """24EH (p.51): string variable columns from ``start`` (program 0: global), each
+    one character's code; the normal reply has no data (10 bytes).
+
+    Raises :class:`ValueError` for no code, more than 255, or one outside 00-FF.
+    Check :attr:`Request.frame_size` against the model's receive buffer.
+    """
+    for i, code in enumerate(codes):
+        _check(code, 0, 0xFF, f"string variable column {start + i}")
+    data = _variable_args(program, start, len(codes)) + "".join(f"{c:02X}" for c in codes)
+    return Request(0x24E, data, True, False, _no_data, _FRAME_OVERHEAD)

@@ -17,7 +17,9 @@ from .request import Request, T, _check, _Fields, _no_data
 def read_flags(start: int, count: int, program: int = 0) -> Request[tuple[bool, ...]]:
     """20DH: ``count`` flags from ``start`` (program 0: global), bit 0 first.
 
-    ``start`` must be a category's head flag plus a multiple of 8 (p.22).
+    ``start`` must be a category's head flag plus a multiple of 8 (p.22).  A reply
+    may carry fewer flags than asked (its count says how many): a controller whose
+    table ends among them; the value is then that many flags.
     """
     _check(program, 0, 0xFF, "program number")
     _check(start, 0, 0xFFFF, "start flag")
@@ -27,13 +29,21 @@ def read_flags(start: int, count: int, program: int = 0) -> Request[tuple[bool, 
         f = _Fields(data)
         f.expect(2, program, "program number")
         f.expect(4, start, "start flag")
-        f.expect(4, count, "number of flags")
-        octets = [f.hex(2, "flag data") for _ in range((count + 7) // 8)]
+        got = _at_most(f.hex(4, "number of flags"), count, "flags")
+        octets = [f.hex(2, "flag data") for _ in range((got + 7) // 8)]
         f.end()
-        return tuple(bool(octets[i // 8] >> (i % 8) & 1) for i in range(count))
+        return tuple(bool(octets[i // 8] >> (i % 8) & 1) for i in range(got))
 
     reply = _FLAGS_OVERHEAD + 2 * ((count + 7) // 8)
     return Request(0x20D, f"{program:02X}{start:04X}{count:04X}", False, True, parse, reply)
+
+
+def _at_most(got: int, count: int, what: str) -> int:
+    """A reply's count of ``what``: at most the ``count`` asked for (fewer when the
+    controller's table ends among them: the reader decides what that means)."""
+    if got > count:
+        raise ValueError(f"{got} {what}, asked for {count}")
+    return got
 
 
 def _variable_args(program: int, start: int, count: int) -> str:
@@ -52,8 +62,8 @@ def _read_variables(
         f = _Fields(reply)
         f.expect(2, program, "program number")
         f.expect(3, start, "start variable")
-        f.expect(2, count, "number of variables")
-        values = tuple(convert(f.take(width, f"variable {start + i}")) for i in range(count))
+        got = _at_most(f.hex(2, "number of variables"), count, "variables")
+        values = tuple(convert(f.take(width, f"variable {start + i}")) for i in range(got))
         f.end()
         return values
 
@@ -113,6 +123,19 @@ def read_reals(
     return _read_variables(
         0x20F, 16, lambda wire: real_from_wire(wire, order), program, start, count
     )
+
+
+def read_real_words(start: int, count: int, program: int = 0) -> Request[tuple[str, ...]]:
+    """20FH as its words: ``count`` real variables from ``start``, each the 16 hex
+    digits the controller sent (upper case), in whatever order it keeps them: the
+    reader decides the order (:func:`real_from_wire` then reads them)."""
+    return _read_variables(0x20F, 16, _real_digits, program, start, count)
+
+
+def _real_digits(wire: str) -> str:
+    if not (len(wire) == 16 and _HEX_RE.fullmatch(wire)):
+        raise ValueError("a real is not 16 hex digits")
+    return wire.upper()
 
 
 def write_flag(number: int, on: bool, program: int = 0) -> Request[None]:

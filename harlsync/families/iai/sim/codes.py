@@ -2,8 +2,10 @@
 
 PLACEHOLDERS, all of them: the manual's error-code list is not in the pages we
 have (digest section 6), so these codes are the simulator's own, plausible and
-distinct.  harlsync never interprets an ``&`` code (it shows it raw), so nothing
-but tests reads them; a site that learns the real codes changes them here.
+distinct.  harlsync never interprets an ``&`` code (it shows it raw, and records
+the one a table's "not there" reply carries), so nothing but the simulator and the
+tests read them.  The simulator's ``past_table`` variant varies the code a number
+past a table answers.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ the placeholder codes of :mod:`~harlsync.families.iai.sim.codes`:
 
 - any message off the allow-list (motion, servo, program control, resets ...):
   refused and recorded, so a test can assert it was never sent (:meth:`Simulator.off_list`);
-- a write (291H, 24BH-24DH) while the controller is not idle by the profile's
+- a write (291H, 24BH-24EH) while the controller is not idle by the profile's
   interlock: refused before its data is looked at;
 - 291H with a record of axis pattern 00, a coordinate for an axis the robot does
   not have, extended bits 0-3 set, or a number outside the position range:
@@ -30,7 +30,28 @@ the placeholder codes of :mod:`~harlsync.families.iai.sim.codes`:
 with a command (p.7 says the protocol runs in AUTO).  This simulator answers
 reads in MANUAL mode, reporting mode 2 in 215H, and refuses writes; a real
 controller that stays silent instead looks to the client like one that does not
-answer, which its interlock also treats as not idle.
+answer, which its interlock also treats as not idle (``manual_mode=silent``).
+
+Where the manual is silent, :data:`VARIANTS` (issue 29) are the other ways a
+controller may answer, each read where it answers (:attr:`Simulator.variant`):
+
+- ``past_table``: a query naming a number its table lacks (22DH: a head past or
+  before the table; 20DH-20FH, 210H, 2A0H: any number outside) is refused with
+  ``&`` and that code, or answered normally with nothing for it: no records, a
+  count that stops at the table's end (``empty``).  A 22DH whose head is in the
+  table scans to its end either way;
+- ``wide_query``: a 22DH asking for more numbers than a read of 8-axis records
+  carries scans every one (its reply cut to the whole records that fit), scans
+  only that many (``scans-less``: zero records when none is defined there), or is
+  refused (``refused``, code 0A3);
+- ``count_means``: 22DH's count is the numbers scanned, or the defined records
+  returned (``records``: positions past the count's numbers come too);
+- ``tables``: the tables' sizes (:func:`resize`): each controller's own
+  (``ranges``: positions its range, flags and variables every number their
+  message names), exactly the profile's default ranges, smaller or larger;
+- ``real_word_order``: how 20FH and 24DH carry a real (p.24);
+- ``reply_case``: its replies' hex digits in upper or lower case;
+- ``manual_mode``: in MANUAL mode, answer (reads, refusing writes) or stay silent.
 """
 
 from __future__ import annotations
@@ -39,7 +60,7 @@ import json
 import logging
 import os
 import struct
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from ....errors import ProjectError, ProjectFormatError
@@ -49,13 +70,57 @@ from ....sim.family import Verb
 from ....sim.variants import Variant
 from .. import profile
 from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes, real_value
-from ..protocol import Frame, FrameDecoder, parse_write_positions, position_record
-from ..protocol.frame import _FRAME_OVERHEAD
+from ..protocol import (
+    Frame,
+    FrameDecoder,
+    max_positions_per_read,
+    parse_write_positions,
+    position_record,
+)
+from ..protocol.frame import _FRAME_OVERHEAD, sc
 from ..protocol.request import _Fields
 from . import codes
 from .state import DEFAULT_AXES, MANUAL, SimState
 
-__all__ = ["SIM_FAMILY", "IaiSimFamily", "Simulator"]
+__all__ = ["SIM_FAMILY", "VARIANTS", "IaiSimFamily", "Simulator", "resize"]
+
+#: How a controller may fill the manual's silences, the profile's own way first
+#: (:mod:`harlsync.sim.variants`; docs/profile.md lists them).
+VARIANTS = (
+    Variant(
+        "past_table",
+        ("refused-0A3", "empty", "refused-0B4"),
+        "a query for a number a table lacks: refused with & and that code, or answered empty",
+    ),
+    Variant(
+        "wide_query",
+        ("scans-all", "scans-less", "refused"),
+        "a 22DH for more numbers than a read of 8-axis records carries: scans them all, "
+        "scans only that many, or is refused (& 0A3)",
+    ),
+    Variant(
+        "count_means",
+        ("numbers", "records"),
+        "22DH's count: the numbers it scans, or the defined records it returns",
+    ),
+    Variant(
+        "tables",
+        ("ranges", "exact", "smaller", "larger"),
+        "the tables' sizes: the robot's position range and every flag and variable "
+        "number, exactly the profile's ranges, smaller than them, or larger",
+    ),
+    Variant(
+        "real_word_order",
+        ("upper-first", "lower-first"),
+        "how 20FH and 24DH carry a real variable's double (p.24)",
+    ),
+    Variant("reply_case", ("upper", "lower"), "the case of the hex digits of its replies"),
+    Variant(
+        "manual_mode",
+        ("answers", "silent"),
+        "in MANUAL mode: answers reads and refuses writes, or answers nothing",
+    ),
+)
 
 log = logging.getLogger(__name__)
 
@@ -83,7 +148,7 @@ class IaiSimFamily:
     busy_verb = "run"
     default_station = profile.DEFAULT_STATION
     #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
-    variants: tuple[Variant, ...] = ()
+    variants: tuple[Variant, ...] = VARIANTS
 
     def decoder(self) -> FrameDecoder:
         return FrameDecoder()
@@ -161,11 +226,44 @@ class Simulator(device.Simulator[SimState, Frame]):
     def respond(self, station: int, state: SimState, frame: Frame) -> bytes | None:
         if frame.kind != "!":
             return None  # a reply or an error is no command: a bad header (p.9)
+        if state.mode == MANUAL and self.variant["manual_mode"] == "silent":
+            return None
         try:
             reply = Frame("#", station, frame.message_id, self.handle(state, frame))
         except Refused as refusal:
             reply = Frame("&", station, None, refusal.code)
-        return reply.encode()
+        encoded = reply.encode()
+        return _lower_case(encoded) if self.variant["reply_case"] == "lower" else encoded
+
+    def vary(self, chosen: Mapping[str, str]) -> None:
+        """As :meth:`~harlsync.sim.device.Device.vary`; a ``tables`` or
+        ``real_word_order`` chosen reshapes every station's state now (their tables,
+        and what lies outside them dropped; the order its reals are kept in)."""
+        super().vary(chosen)
+        given = {name.strip().replace("-", "_") for name in chosen}
+        for state in self.stations.values():
+            if "tables" in given:
+                resize(state, self.variant["tables"])
+            if "real_word_order" in given:
+                state.real_word_order = self.variant["real_word_order"]
+
+    def _not_there(self) -> str | None:
+        """The code of the ``&`` a number a table lacks answers, None: an empty reply."""
+        chosen = self.variant["past_table"]
+        return chosen.split("-", 1)[1] if chosen.startswith("refused-") else None
+
+    def _within(self, state: SimState, section: str, start: int, count: int) -> int:
+        """How many of ``count`` numbers from ``start`` the reply answers for: all,
+        or those up to the table's end (an empty reply past it); raises Refused when
+        the controller refuses numbers its table lacks."""
+        low, high = state.tables[section]
+        code = self._not_there()
+        inside = low <= start <= high
+        if inside and start + count - 1 <= high:
+            return count
+        if code is not None:
+            raise Refused(code)
+        return high - start + 1 if inside else 0
 
     def command(self, frame: Frame) -> str:
         return frame.payload[:3]
@@ -296,9 +394,27 @@ class Simulator(device.Simulator[SimState, Frame]):
         f.expect(2, 0, "reserved field")
         head, count = f.hex(4, "head position"), f.hex(4, "position count")
         f.end()
+        if not count:
+            raise ValueError("no position")
+        low, high = state.position_range
+        if not low <= head <= high:
+            code = self._not_there()
+            if code is not None:
+                raise Refused(code)
+            return "000000"
+        limit = max_positions_per_read(state.model)
+        if count > limit and self.variant["wide_query"] == "refused":
+            raise Refused(codes.TOO_LONG)
+        if count > limit and self.variant["wide_query"] == "scans-less":
+            count = limit
+        defined = sorted(n for n in state.positions if head <= n <= high)
+        if self.variant["count_means"] == "records":
+            wanted = defined[:count]
+        else:
+            wanted = [n for n in defined if n < head + count]
         room = state.buffers.send - _FRAME_OVERHEAD - len("00") - len("0000")
         records = []
-        for number in sorted(n for n in state.positions if head <= n < head + count):
+        for number in wanted:
             record = position_record(state.positions[number], numbered=True)
             if len(record) > room:
                 break  # only whole records that fit: the count says how many
@@ -337,6 +453,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         _global(program, count)
         if start % profile.FLAG_QUERY_ALIGNMENT:
             raise ValueError("20DH starts at a category's head flag + a multiple of 8 (p.22)")
+        count = self._within(state, "flags", start, count)
         octets = (
             sum(1 << i for i in range(8) if k + i < count and start + k + i in state.flags)
             for k in range(0, count, 8)
@@ -345,11 +462,13 @@ class Simulator(device.Simulator[SimState, Frame]):
 
     def _read_integers(self, state: SimState, data: str) -> str:
         program, start, count = _variables(_Fields(data), end=True)
+        count = self._within(state, "integers", start, count)
         values = (state.integers.get(n, 0) & 0xFFFFFFFF for n in range(start, start + count))
         return f"{program:02X}{start:03X}{count:02X}" + "".join(f"{v:08X}" for v in values)
 
     def _read_reals(self, state: SimState, data: str) -> str:
         program, start, count = _variables(_Fields(data), end=True)
+        count = self._within(state, "reals", start, count)
         values = (state.reals.get(n, 0.0) for n in range(start, start + count))
         return f"{program:02X}{start:03X}{count:02X}" + "".join(
             _real_wire(v, state.real_word_order) for v in values
@@ -361,6 +480,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         f.end()
         if kind not in (0, 1) or not count or head + count > 0x100:
             raise ValueError("type 0 (work) or 1 (tool), at least one, numbers 00-FF")
+        count = self._within(state, ("work_coordinates", "tool_coordinates")[kind], head, count)
         table = state.work_coordinates if kind == 0 else state.tool_coordinates
         records = "".join(
             "".join(coord_to_wire(c) for c in table.get(n, ("0.000",) * 4))
@@ -370,6 +490,7 @@ class Simulator(device.Simulator[SimState, Frame]):
 
     def _read_strings(self, state: SimState, data: str) -> str:
         program, start, count = _variables(_Fields(data), end=True)
+        count = self._within(state, "strings", start, count)
         codes = "".join(f"{state.strings.get(n, 0):02X}" for n in range(start, start + count))
         return f"{program:02X}{start:03X}{count:02X}{codes}"
 
@@ -380,10 +501,21 @@ class Simulator(device.Simulator[SimState, Frame]):
         _global(program, 1)
         if change & 0x0E:
             raise ValueError("change type bits 1-3 are reserved")
+        _inside(state, "flags", number, 1)
         if change & 1:
             state.flags.add(number)
         else:
             state.flags.discard(number)
+        self.wrote(state)
+        return ""
+
+    def _write_strings(self, state: SimState, data: str) -> str:
+        f = _Fields(data)
+        _, start, count = _variables(f)
+        values = [f.hex(2, f"column {start + i}") for i in range(count)]
+        f.end()
+        _inside(state, "strings", start, count)
+        state.strings.update((start + i, code) for i, code in enumerate(values))
         self.wrote(state)
         return ""
 
@@ -392,6 +524,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         program, start, count = _variables(f)
         values = [f.hex(8, f"variable {start + i}") for i in range(count)]
         f.end()
+        _inside(state, "integers", start, count)
         state.integers.update(
             (start + i, v - (1 << 32) if v & 0x80000000 else v) for i, v in enumerate(values)
         )
@@ -406,6 +539,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             for i in range(count)
         ]
         f.end()
+        _inside(state, "reals", start, count)
         state.reals.update((start + i, v) for i, v in enumerate(values))
         self.wrote(state)
         return f"{program:02X}{start:03X}{count:02X}"
@@ -437,6 +571,56 @@ def _real_value(wire: str, order: str) -> float:
     return value
 
 
+def _lower_case(frame: bytes) -> bytes:
+    """A reply frame with its hex digits in lower case, and its SC summed over them."""
+    body = frame[:-4].lower()
+    return body + f"{sc(body):02x}".encode("ascii") + b"\r\n"
+
+
+def _inside(state: SimState, section: str, start: int, count: int) -> None:
+    """A write to numbers the table lacks is refused (nothing of it written)."""
+    low, high = state.tables[section]
+    if not low <= start <= start + count - 1 <= high:
+        raise Refused(codes.OUT_OF_RANGE)
+
+
+#: The flag and variable tables of ``tables=smaller`` and ``tables=larger``.
+_SMALLER = {"flags": (600, 799), "integers": (200, 265), "reals": (300, 365)}
+_LARGER = {"flags": (0, 1199), "integers": (1, 1299), "reals": (1, 1399)}
+
+
+def resize(state: SimState, size: str) -> None:
+    """Give ``state`` the tables of the ``tables`` variant ``size`` and drop what
+    lies outside them: ``ranges`` leaves it as it is; ``exact`` makes flags and
+    integer and real variables the profile's default ranges; ``smaller`` makes
+    each table smaller than the profile's (its position range three fifths as
+    long); ``larger`` larger (twice as long).  Raises ValueError for another size."""
+    first, last = state.position_range
+    length = last - first + 1
+    if size == "ranges":
+        return
+    if size == "exact":
+        state.tables.update(profile.DEFAULT_VARIABLE_RANGES)
+    elif size == "smaller":
+        state.tables.update(_SMALLER)
+        state.position_range = (first, first + max(1, length * 3 // 5) - 1)
+    elif size == "larger":
+        state.tables.update(_LARGER)
+        state.position_range = (first, min(0xFFFF, first + 2 * length - 1))
+    else:
+        raise ValueError(f"tables {size}: one of ranges, exact, smaller, larger")
+    low, high = state.position_range
+    state.positions = {n: p for n, p in state.positions.items() if low <= n <= high}
+
+    def inside(section: str, n: int) -> bool:
+        low, high = state.tables[section]
+        return low <= n <= high
+
+    state.flags = {n for n in state.flags if inside("flags", n)}
+    state.integers = {n: v for n, v in state.integers.items() if inside("integers", n)}
+    state.reals = {n: v for n, v in state.reals.items() if inside("reals", n)}
+
+
 def _global(program: int, count: int) -> None:
     """Only the global flags and variables (program 00), at least one of them."""
     if program or not count:
@@ -466,4 +650,5 @@ _HANDLERS: dict[int, Handler] = {
     0x24D: Simulator._write_reals,
     0x2A0: Simulator._read_coordinate_systems,
     0x210: Simulator._read_strings,
+    0x24E: Simulator._write_strings,
 }

@@ -34,6 +34,17 @@ DEFAULT_AXES = (1, 2, 3)
 DEFAULT_VERSION = Version(0, 0, "21", "01", "0106", "2019-03-05 14:07:09")
 
 
+#: Every number each message names: a controller whose tables have no end of their own.
+WIRE_TABLES = {
+    "flags": (0, 0xFFFF),
+    "integers": (0, 0xFFF),
+    "reals": (0, 0xFFF),
+    "strings": (0, 0xFFF),
+    "work_coordinates": (0, 0xFF),
+    "tool_coordinates": (0, 0xFF),
+}
+
+
 def _coordinate(units: int) -> str:
     """0.001 units as coordinate text: ``-1000`` -> ``"-1.000"``."""
     sign = "-" if units < 0 else ""
@@ -82,12 +93,16 @@ class SimState:
     reals: dict[int, float] = field(default_factory=dict)
     #: how 20FH and 24DH carry a real's double (robot.yaml's controller.real_word_order)
     real_word_order: str = profile.DEFAULT_REAL_WORD_ORDER
-    # --- read-only records (2A0H, 210H): set on the controller, never by the protocol --
+    # --- records (2A0H, 210H): coordinate systems set on the controller only; strings 24EH
     #: coordinate system definitions by number: X, Y, Z, R as coordinate text (0 when absent)
     work_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
     tool_coordinates: dict[int, tuple[str, str, str, str]] = field(default_factory=dict)
     #: global string variable columns: column -> character code (0 when absent)
     strings: dict[int, int] = field(default_factory=dict)
+    #: the numbers the controller has of each table but positions (whose table is
+    #: :attr:`position_range`), first and last: a query naming one outside answers
+    #: as the ``past_table`` variant says.  By default every number its message names.
+    tables: dict[str, tuple[int, int]] = field(default_factory=lambda: dict(WIRE_TABLES))
 
     def __post_init__(self) -> None:
         problems = []
@@ -291,6 +306,7 @@ class SimState:
             "work_coordinates": {str(n): list(v) for n, v in sorted(self.work_coordinates.items())},
             "tool_coordinates": {str(n): list(v) for n, v in sorted(self.tool_coordinates.items())},
             "strings": {str(n): c for n, c in sorted(self.strings.items())},
+            "tables": {name: list(bounds) for name, bounds in sorted(self.tables.items())},
         }
 
     @classmethod
@@ -350,6 +366,12 @@ class SimState:
         if not isinstance(strings, dict):
             raise TypeError("strings is not a mapping")
         state.strings = {int(n): int(str(c)) for n, c in strings.items()}
+        tables = doc.get("tables", {})
+        if not isinstance(tables, dict):
+            raise TypeError("tables is not a mapping")
+        for name, bounds in tables.items():
+            low, high = (int(str(n)) for n in bounds)
+            state.tables[str(name)] = (low, high)
         state.flags = {int(str(n)) for n in listed("flags")}
         state.integers = {int(n): int(str(v)) for n, v in mapped("integers").items()}
         state.reals = {
