@@ -29,6 +29,10 @@ class IaiFamily(Family["Key", "IaiData"]):
     deploy_notes = (profile.PERSISTENCE_NOTICE,)
     words = Words(state="the task states")
     default_station = profile.DEFAULT_STATION
+    #: the default station, then 01-0F (the axis numbers a line of several takes)
+    probe_stations = (profile.DEFAULT_STATION, *range(1, 16))
+    #: the speeds the controller offers (p.7), the profile's first
+    probe_bauds = profile.BAUDRATES
     help = Help(
         stations=f"two hex digits, {profile.DEFAULT_STATION:02X} by default",
         pull="the position table",
