@@ -859,7 +859,7 @@ def _add_probe(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     where.add_argument(
         "--stations",
         metavar="LIST",
-        help="the stations to try, in order, as the family writes them: 1-4, or 99,1-F "
+        help="the stations to try, in order, as each family writes them: 1-4, or 99,1-F "
         "(default: the stations each family's manual gives as defaults)",
     )
     p.add_argument(
@@ -881,7 +881,7 @@ def _add_probe(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "--capture",
         metavar="FILE",
         help="record the survey's traffic in FILE as a spy:// hex dump; harlsync probe "
-        "--port replay://FILE --family F --station N plays it back",
+        "--port 'replay://FILE?family=F' --family F --station N plays it back",
     )
     p.add_argument(
         "--lock-timeout",
@@ -925,15 +925,18 @@ def _cmd_probe(args: argparse.Namespace) -> int:
         if not (baud.isascii() and baud.isdigit() and int(baud) > 0):
             raise ProjectError(f"--baud {baud}: give auto or a rate such as 9600")
         baud = int(baud)
-    stations: list[int] | None = None
+    stations: dict[str, list[int]] | None = None
     text = args.station or args.stations
-    if text is not None:
-        if len(candidates) != 1:
-            raise ProjectError(
-                f"--station{'s' * bool(args.stations)} {text}: stations are written as a "
-                "family writes them: give --family too"
-            )
-        stations = _station_list(candidates[0], text)
+    if text is not None:  # as each family writes its stations; one that cannot is not tried
+        stations, refused = {}, None
+        for family in candidates:
+            try:
+                stations[family.name] = _station_list(family, text)
+            except ProjectError as exc:
+                refused = exc
+        if not stations and refused is not None:
+            raise refused
+        candidates = [f for f in candidates if f.name in stations]
     write = Path(args.write) if args.write else None
     if write is not None and write.exists() and (not write.is_dir() or any(write.iterdir())):
         raise ProjectError(  # before the line is opened

@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
@@ -108,7 +108,7 @@ def probe(
     port: str,
     candidates: Sequence[AnyFamily],
     *,
-    stations: Sequence[int] | None = None,
+    stations: Mapping[str, Sequence[int]] | None = None,
     baud: int | str | None = None,
     lock_timeout: float = 10.0,
     capture: Path | None = None,
@@ -117,7 +117,7 @@ def probe(
     only.  The command line resolves them: the family given, or the one whose own URL
     scheme the port has, or every family without a scheme of its own (the serial ones).
 
-    ``stations`` are tried in order (default: each family's
+    ``stations`` (by family name) are tried in order (default: each family's
     :attr:`~harlsync.families.base.Family.probe_stations`); ``baud`` is a rate,
     ``"auto"`` (the rates the family's manual lists, on a local port) or None (the
     profile's).  ``capture``: the survey's traffic recorded there as a ``spy://``
@@ -128,7 +128,13 @@ def probe(
     """
     tried: list[str] = []
     for fam in candidates:
-        numbers = list(stations or fam.probe_stations or (fam.default_station,))
+        if capture is not None and fam.schemes:
+            raise ProjectError(
+                f"--capture records a serial line's bytes, and {port} is the {fam.title}'s "
+                "own network protocol: leave --capture out"
+            )
+        given = None if stations is None else stations.get(fam.name)
+        numbers = list(given or fam.probe_stations or (fam.default_station,))
         for station in numbers:
             for rate in _bauds(fam, port, baud):
                 settings = _serial(fam, port, station, rate)

@@ -7,6 +7,7 @@ controller fills its manual's silences; and ``probe --write DIR`` followed by
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -71,3 +72,21 @@ def test_issue_31_probe_write_then_pull_backs_up_every_variant_with_no_setting_t
         assert writes_since(device, 0) == []
     loaded = load_project(project)
     assert loaded.robot.family in (family, "")
+
+
+@pytest.mark.parametrize("family", [n for n in families.names() if not families.get(n).schemes])
+def test_issue_31_a_probe_capture_of_every_serial_family_replays(
+    family: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    join(family, monkeypatch)
+    capture = tmp_path / "probe.txt"
+    with served(family, 21) as (_device, station, url):
+        assert _probe(family, url, station, "--json", "--capture", str(capture)) == 0
+        live = json.loads(capsys.readouterr().out)
+    replay = f"replay://{capture}?timing=0&family={family}"
+    assert _probe(family, replay, station, "--json") == 0, capsys.readouterr().err
+    replayed = json.loads(capsys.readouterr().out)
+    timing = ("turnaround_seconds", "pull_seconds", "held_seconds", "port")
+    assert {k: v for k, v in replayed.items() if k not in timing} == {
+        k: v for k, v in live.items() if k not in timing
+    }
