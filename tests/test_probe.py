@@ -18,6 +18,7 @@ from simline import SMALL, ScriptedSim
 from harlsync.cli import main
 from harlsync.families.harl_u2.controller import Controller
 from harlsync.families.harl_u2.sim import SimState
+from harlsync.link.lock import LineLock, lock_path
 from harlsync.link.readonly import WriteForbidden, reads_only
 from harlsync.sim.protocol_sim import register, unregister
 
@@ -151,3 +152,37 @@ def test_issue_31_a_first_pull_that_gets_no_answer_points_to_harlsync_probe(
     assert len(err) == 1, err
     assert f"harlsync probe --port {url} tells which controller answers there" in err[0]
     assert not (tmp_path / "cell" / "robot.yaml").exists()
+
+
+def test_issue_31_probe_waits_for_the_line_lock_and_says_who_holds_the_line(
+    served: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    sim, url = served
+    held = LineLock(url, lock_path(url))
+    held.acquire(1.0)
+    try:
+        assert main(["probe", "--port", url, "--lock-timeout", "0.2"]) == 2
+    finally:
+        held.release()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0]
+    assert not sim.received  # nothing went on a line another harlsync holds
+
+
+def test_issue_31_probe_without_family_finds_an_iai_controller(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The other families' identity reads get no answer (one try each, at the
+    station given, read as each family writes it), then IAI's does."""
+    from conformance.harness import join
+    from conformance.harness import served as family_served
+
+    join("iai", monkeypatch)
+    with family_served("iai", 21) as (device, _station, url):
+        found = probed_json(
+            capsys, "--port", url, "--stations", "99", "--write", str(tmp_path / "c")
+        )
+        assert not device.writes_received()
+    assert found["family"] == "iai" and found["station"] == "99"
+    assert found["tried"] == ["Hirata HARL-U2 station 99 at 9600 baud: no answer"]
+    assert "family: iai" in (tmp_path / "c" / "robot.yaml").read_text()
