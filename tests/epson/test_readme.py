@@ -1,5 +1,5 @@
-"""The README's Epson "Try it" runs as written (issue 34 item 12): the commands are
-read from the README itself, so the test fails when the README and the simulator's
+"""The Epson "Try it" (docs/families/epson.md) runs as written (issue 34 item 12): the commands are
+read from the page itself, so the test fails when the page and the simulator's
 default robot part ways."""
 
 from __future__ import annotations
@@ -14,14 +14,17 @@ from harlsync import cli
 from harlsync.families.epson.sim import SimState
 from harlsync.project import load_project
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+#: The Epson page: the "Try it", the signals a write needs (was the README's section).
+EPSON = DOCS / "families" / "epson.md"
+#: What a backup holds, per family (was the README's section).
+COVERAGE = DOCS / "coverage.md"
 
 
 def try_it() -> tuple[list[str], list[str]]:
     """The ``harlsync sim`` and ``harlsync pull`` commands of the README's Epson
     "Try it", as argument lists (without ``harlsync``)."""
-    text = README.read_text(encoding="utf-8")
-    section = text[text.index("## Epson controllers") :]
+    section = EPSON.read_text(encoding="utf-8")
     bullet = section[section.index("- **Try it**") :]
     bullet = " ".join(bullet[: bullet.index("\n\n")].split())
     commands = [c.split()[1:] for c in re.findall(r"`(harlsync [^`]+)`", bullet)]
@@ -52,10 +55,11 @@ def test_issue_34_the_readme_epson_try_it_pulls_the_simulators_default_robot(
 
 
 def epson_coverage() -> str:
-    """The README's "What a backup holds" section for Epson."""
-    text = README.read_text(encoding="utf-8")
-    start = text.index("### Epson\n")
-    return text[start : text.index("\n## ", start)]
+    """The "What a backup holds" section for Epson (docs/coverage.md)."""
+    text = COVERAGE.read_text(encoding="utf-8")
+    start = text.index("## Epson\n")
+    end = text.find("\n## ", start + 1)
+    return text[start : end if end >= 0 else None]
 
 
 def numbers_in(text: str) -> set[int]:
@@ -98,7 +102,7 @@ def test_issue_34_the_readme_names_every_signal_an_epson_write_needs() -> None:
     without which a robot is never written."""
     from harlsync.families.epson import profile
 
-    text = " ".join(README.read_text(encoding="utf-8").split())
+    text = " ".join(EPSON.read_text(encoding="utf-8").split())
     found = re.search(r"A robot whose map lacks ([A-Za-z, ]+?) is backed up and compared", text)
     assert found is not None
     named = set(re.split(r", | or ", found.group(1)))
