@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from harlsync import cli, families
+from harlsync.errors import ProtocolError
 from harlsync.project import load_project
 
 from .harness import HARNESSES, join, served, variant_cases
@@ -90,3 +91,70 @@ def test_issue_31_a_probe_capture_of_every_serial_family_replays(
     assert {k: v for k, v in replayed.items() if k not in timing} == {
         k: v for k, v in live.items() if k not in timing
     }
+
+
+def _at_another_rate(data: bytes, sent: int, heard: int, phase: float) -> bytes:
+    """The bytes a UART at ``heard`` baud makes of ``data`` sent at ``sent`` baud, 8N1:
+    it waits for a start bit (a falling edge), samples each bit's middle at its own
+    rate, and takes the character whatever its stop bit (a framing error is still a
+    byte on most ports).  ``phase`` (0-1 of a bit) shifts where its clock starts."""
+    bits = [1] * 3
+    for byte in data:
+        bits += [0, *((byte >> i) & 1 for i in range(8)), 1]
+    bits += [1] * 12
+    length = len(bits) / sent
+
+    def level(t: float) -> int:
+        i = int(t * sent)
+        return bits[i] if 0 <= i < len(bits) else 1
+
+    out, t, step = bytearray(), phase / heard, 1 / heard
+    while t < length:
+        if level(t) == 1 or level(t - step) == 0:  # no falling edge here
+            t += step / 4
+            continue
+        value = sum(level(t + (1.5 + i) * step) << i for i in range(8))
+        out.append(value)
+        t += 9.5 * step
+    return bytes(out)
+
+
+RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)
+
+
+@pytest.mark.parametrize("family", [n for n in families.names() if not families.get(n).schemes])
+def test_issue_31_the_probe_s_reads_at_a_wrong_baud_rate_never_decode_as_a_write(
+    family: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At a wrong baud rate the controller hears the probe's bytes as noise: every
+    request the probe sent (its own capture), heard at every other rate the manuals
+    list and at several clock phases, is fed to the family's request decoder, and no
+    frame it makes of them is a write (from the simulator's own judgement)."""
+    from harlsync.sim import sim_family
+    from harlsync.sim.replay import load_spy_log
+
+    join(family, monkeypatch)
+    capture = tmp_path / "probe.txt"
+    with served(family, 21) as (device, station, url):
+        assert _probe(family, url, station, "--capture", str(capture)) == 0
+    # the identity reads, which are what a probe sends at a rate it is trying
+    sent = [c.data for c in load_spy_log(capture) if c.direction == "TX"][:3]
+    assert sent
+    side = sim_family(family)
+    for rate in RATES:  # the model of the line: at the same rate, the reads themselves
+        assert [_at_another_rate(f, rate, rate, 0.5) for f in sent] == sent
+    for rate in RATES:
+        for heard in RATES:
+            if heard == rate:
+                continue
+            for phase in (0.0, 0.5):
+                decoder = side.decoder()  # type: ignore[attr-defined]
+                decoder.feed(b"".join(_at_another_rate(f, rate, heard, phase) for f in sent))
+                for _ in range(1000):  # each call takes a frame or fails on one
+                    try:
+                        frame = decoder.next_frame()
+                    except ProtocolError:
+                        continue
+                    if frame is None:
+                        break
+                    assert not device.is_write(frame), (rate, heard, frame.payload)
