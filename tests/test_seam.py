@@ -128,8 +128,8 @@ def test_issue_32_no_module_of_harlsync_imports_one_that_imports_it_back() -> No
         for name, path in modules.items()
     }
     cycles = []
-    for start in graph:  # a path from start's imports back to start
-        seen, todo = set(), list(graph[start])
+    for start, imported in graph.items():  # a path from its imports back to start
+        seen, todo = set(), list(imported)
         while todo:
             here = todo.pop()
             if here == start:
