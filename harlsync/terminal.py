@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
 if TYPE_CHECKING:
-    from .sync.backup import RobotOutcome
+    from .sync.robotbackup import RobotOutcome
 
 __all__ = ["UNIT", "BackupDisplay", "Feedback", "LogHandler", "above", "is_terminal"]
 

@@ -91,3 +91,51 @@ def test_issue_32_an_installed_distribution_adds_a_family_through_its_entry_poin
     with pytest.raises(SystemExit):
         cli.main(["pull", "--help"])
     assert "toy" in capsys.readouterr().out
+
+
+def _imports_of(path: Path, module: str, modules: set[str]) -> set[str]:
+    """The harlsync modules ``module`` (at ``path``) imports, anywhere in it: at the
+    top, under TYPE_CHECKING, or inside a function (``from . import x`` imports the
+    module ``x``, not its package's ``__init__``)."""
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            base = package.split(".")
+            if node.level:
+                base = base[: len(base) - node.level + 1]
+            target = ".".join([*base, node.module] if node.module else base)
+            if not node.level:
+                target = node.module or ""
+            for alias in node.names:
+                named = f"{target}.{alias.name}"
+                found.add(named if named in modules else target)
+        elif isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+    return found
+
+
+def test_issue_32_no_module_of_harlsync_imports_one_that_imports_it_back() -> None:
+    """Issue 32 item 4: no import cycle, not even a type-only or a lazy one (audit and
+    auditindex, backup and fleet, deploy and writes, sim/device and sim/family were)."""
+    modules = {}
+    for path in sorted(ROOT.rglob("*.py")):
+        parts = path.relative_to(ROOT.parent).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        modules[name] = path
+    graph = {
+        name: {m for m in _imports_of(path, name, set(modules)) if m in modules and m != name}
+        for name, path in modules.items()
+    }
+    cycles = []
+    for start, imported in graph.items():  # a path from its imports back to start
+        seen, todo = set(), list(imported)
+        while todo:
+            here = todo.pop()
+            if here == start:
+                cycles.append(start)
+                break
+            if here not in seen:
+                seen.add(here)
+                todo.extend(graph[here])
+    assert cycles == []

@@ -58,7 +58,7 @@ from typing import IO, Any
 from ..errors import SyncError
 from ..robotlog import about, current
 from . import history
-from .backup import (
+from .robotbackup import (
     BackupWatch,
     RobotOutcome,
     Stopped,
