@@ -79,7 +79,7 @@ def test_issue_31_probe_finds_the_station_when_none_is_given_and_says_the_interl
     interlock = found["interlock"]
     assert isinstance(interlock, dict) and interlock["idle"] is False
     assert interlock["status"].startswith("task 0 in execution")
-    assert found["robot_yaml"] == {"no_such_table": "E21"}
+    assert found["robot_options"] == {"no_such_table": "E21"}
     assert not sim.writes_received()
 
 
@@ -186,3 +186,20 @@ def test_issue_31_probe_without_family_finds_an_iai_controller(
     assert found["family"] == "iai" and found["station"] == "99"
     assert found["tried"] == ["Hirata HARL-U2 station 99 at 9600 baud: no answer"]
     assert "family: iai" in (tmp_path / "c" / "robot.yaml").read_text()
+
+
+def test_issue_31_nothing_answering_is_one_line_naming_each_attempt(
+    served: tuple[ScriptedSim, str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    sim, url = served
+    assert main(["probe", "--port", url, "--family", "harl-u2", "--stations", "5-6"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        (
+            f"harlsync: error: port {url}: nothing answered a read of any family tried "
+            "(Hirata HARL-U2 station 5 at 9600 baud: no answer; Hirata HARL-U2 station 6 at 9600 "
+            "baud: no answer); check the cable and that the controller is on, give --family and "
+            "--station if you know them, or --baud auto on a local serial port"
+        )
+    ]
+    assert not sim.writes_received()

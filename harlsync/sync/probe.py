@@ -246,7 +246,7 @@ def to_json(found: Probed) -> dict[str, Any]:
             }
             for g in s.guesses
         ],
-        "robot_yaml": {k: v for k, v in s.options.items()},
+        "robot_options": dict(s.options),
         "pull_exchanges": s.pull_exchanges,
         "pull_seconds": found.pull_seconds,
         "held_seconds": found.held,
