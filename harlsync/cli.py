@@ -972,7 +972,8 @@ def _add_pull(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         + _per_family("pull")
         + "; runtime data if the project keeps it) and write the project atomically: a pull that fails leaves the "
         "previous files as they were. DIR is created if missing; a first pull needs "
-        "--port. A controller that does not look like the robot backed up in DIR "
+        "--port (or the robot.yaml harlsync probe --write DIR makes), and one that gets no "
+        "answer points to harlsync probe. A controller that does not look like the robot backed up in DIR "
         "(another version or program configuration, or most of the backup would "
         "change) is refused (exit 3) until --new-robot; so is a pull that would overwrite "
         "changes the project's branch approved and no push deployed yet (pending) until "
