@@ -237,7 +237,7 @@ def test_issue_24_a_command_line_that_names_no_command_plainly_gets_the_whole_pa
 def test_issue_24_help_is_as_wide_as_shutil_measures_the_terminal(monkeypatch) -> None:
     import shutil
 
-    from harlsync.cli import _columns
+    from harlsync.cli.common import _columns
 
     for columns in ("100", "0", "abc", None):
         if columns is None:
