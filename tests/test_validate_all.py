@@ -187,6 +187,8 @@ def test_harl_a_schema_error_in_robot_yaml_keeps_its_offset_tables(harl) -> None
     replace(robot, "keep_registers: false", "keep_registers: false\noffset_tables: 101\nbogus: 1")
     table = "{x: 0.00, y: 0.00, z: 0.00, w: 0.00, r: 0.00, c: 0.00, m: 0, f: 0}"
     replace(harl / "offsets.yaml", "  7: ", f"  100: {table}\n  7: ")
+    # a project pulled before issue 29 recorded where the tables end: no record here
+    replace(harl / "controller.yaml", "offset_tables: {count: 100, no_such_table: E21}\n", "")
     # robot.yaml's count is sound: table 100 is the robot's, not a problem
     assert said(harl) == [
         (
