@@ -189,6 +189,26 @@ def _run(
         watch=watch or Unwatched(),
         watched=watch is not None,
     )
+    _name_outcomes(outcomes, projects, now, stale_after)
+
+    report = BackupReport(outcomes, started=now.isoformat(timespec="seconds"))
+    if fetched:
+        report.said.append(fetched)
+    legacy = [Path(o.path) for o in outcomes if o.ok and o.changed and o.kept is None]
+    kept = [o for o in outcomes if o.ok and o.kept is not None]
+    if commit:
+        _commit_run(report, projects, legacy, kept, push=push)
+    _record_states(kept)
+    report.duration = time.monotonic() - started
+    return report
+
+
+def _name_outcomes(
+    outcomes: list[RobotOutcome], projects: list[Path], now: datetime, stale_after: timedelta
+) -> None:
+    """Give each outcome its project label and the name a person reads, sort them by
+    it, and flag the robots never backed up or whose last good backup is stale at
+    ``now``."""
     labels = project_labels(projects)
     for outcome in outcomes:
         outcome.project = labels.get(Path(outcome.path), outcome.name)
@@ -200,34 +220,37 @@ def _run(
         outcome.never_backed_up = outcome.last_success is None
         outcome.stale = history.stale(outcome.last_success, now, stale_after)
 
-    report = BackupReport(outcomes, started=now.isoformat(timespec="seconds"))
-    if fetched:
-        report.said.append(fetched)
-    legacy = [Path(o.path) for o in outcomes if o.ok and o.changed and o.kept is None]
-    kept = [o for o in outcomes if o.ok and o.kept is not None]
-    if commit:
-        if legacy:  # pulled into their directories: committed on their branch, as before
-            try:
-                report.commit = git.commit(legacy, report.commit_message())
-            except HarlsyncError as exc:  # the night's report, metrics and hooks still come
-                report.commit_error = str(exc)
-            if report.commit:
-                _record_commit(legacy, report.commit)
-        if kept:
-            _commit_kept(report, kept)
-        if push:
-            # Push even when nothing changed tonight: it catches up a failed push.
-            try:
-                # The robots' own states; the branch only for what was committed on it
-                # (robots pulled into their directories), or in a plant without them.
-                if not nightly.push_refs(projects[0]) or legacy:
-                    git.push(projects[0])
-                report.pushed = True
-            except HarlsyncError as exc:
-                report.pushed, report.push_error = False, str(exc)
-    _record_states(kept)
-    report.duration = time.monotonic() - started
-    return report
+
+def _commit_run(
+    report: BackupReport,
+    projects: list[Path],
+    legacy: list[Path],
+    kept: list[RobotOutcome],
+    *,
+    push: bool,
+) -> None:
+    """Commit the night's backups (``legacy``: pulled into their directories, on
+    their branch; ``kept``: on the backup branch) and, with ``push``, push; what
+    failed is told in ``report``, never raised."""
+    if legacy:  # pulled into their directories: committed on their branch, as before
+        try:
+            report.commit = git.commit(legacy, report.commit_message())
+        except HarlsyncError as exc:  # the night's report, metrics and hooks still come
+            report.commit_error = str(exc)
+        if report.commit:
+            _record_commit(legacy, report.commit)
+    if kept:
+        _commit_kept(report, kept)
+    if push:
+        # Push even when nothing changed tonight: it catches up a failed push.
+        try:
+            # The robots' own states; the branch only for what was committed on it
+            # (robots pulled into their directories), or in a plant without them.
+            if not nightly.push_refs(projects[0]) or legacy:
+                git.push(projects[0])
+            report.pushed = True
+        except HarlsyncError as exc:
+            report.pushed, report.push_error = False, str(exc)
 
 
 def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
