@@ -20,7 +20,15 @@ from fsfaults import disk_full, read_only
 
 from harlsync.errors import ProjectError
 from harlsync.families.harl_u2.model import ProgramArea, ProgramType, Step
-from harlsync.project import Project, load_project, new_robot, save_project, store, validate_project
+from harlsync.project import (
+    Project,
+    atomic,
+    load_project,
+    new_robot,
+    save_project,
+    store,
+    validate_project,
+)
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
 
@@ -127,7 +135,7 @@ def test_a_save_that_fails_while_writing_temporary_files_touches_nothing(
     save_fails_and_changes_nothing(
         root,
         lambda patch: patch.setattr(
-            store, "_write_temp", fail_on_call(store._write_temp, failing_call)
+            atomic, "_write_temp", fail_on_call(atomic._write_temp, failing_call)
         ),
         "No space left",
     )
@@ -215,7 +223,7 @@ def saved_in_a_child_killed_at(root: Path, project: Project, kill_at: int) -> bo
 
         for name in ("link", "fsync", "replace", "unlink"):
             setattr(os, name, deadly(getattr(os, name)))
-        store._syncfs = deadly(store._syncfs)  # type: ignore[method-assign]
+        atomic._syncfs = deadly(atomic._syncfs)  # type: ignore[method-assign]
         try:
             save_project(root, project)
         finally:
@@ -314,11 +322,11 @@ def test_issue_11_a_save_that_changes_nothing_writes_nothing(
 def test_issue_24_a_save_syncs_every_file_at_once_before_the_first_rename_then_the_names(
     root: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    if store._load_syncfs() is None:
+    if atomic._load_syncfs() is None:
         pytest.skip("no syncfs(2) here: each file is fsynced (the next test)")
     project = changed_project(root)
     steps: list[tuple[str, str]] = []
-    real_fsync, real_replace, real_syncfs = os.fsync, os.replace, store._syncfs
+    real_fsync, real_replace, real_syncfs = os.fsync, os.replace, atomic._syncfs
 
     def fsync(fd: int) -> None:
         steps.append(("fsync dir" if stat.S_ISDIR(os.fstat(fd).st_mode) else "fsync file", ""))
@@ -334,7 +342,7 @@ def test_issue_24_a_save_syncs_every_file_at_once_before_the_first_rename_then_t
 
     monkeypatch.setattr(os, "fsync", fsync)
     monkeypatch.setattr(os, "replace", replace_)
-    monkeypatch.setattr(store, "_syncfs", syncfs)
+    monkeypatch.setattr(atomic, "_syncfs", syncfs)
     written = save_project(root, project)
 
     kinds = [kind for kind, _ in steps]
@@ -355,7 +363,7 @@ def test_issue_24_a_save_syncs_every_file_at_once_before_the_first_rename_then_t
 def test_issue_24_without_syncfs_each_file_is_fsynced_as_before(
     root: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(store, "_load_syncfs", lambda: None)
+    monkeypatch.setattr(atomic, "_load_syncfs", lambda: None)
     project = changed_project(root)
     files = 0
     real_fsync = os.fsync
@@ -366,14 +374,14 @@ def test_issue_24_without_syncfs_each_file_is_fsynced_as_before(
         real_fsync(fd)
 
     temps: list[Path] = []
-    real_write = store._write_temp
+    real_write = atomic._write_temp
 
     def write_temp(target: Path, data: bytes, *, fsync: bool = True) -> Path:
         temps.append(target)
         return real_write(target, data, fsync=fsync)
 
     monkeypatch.setattr(os, "fsync", fsync)
-    monkeypatch.setattr(store, "_write_temp", write_temp)
+    monkeypatch.setattr(atomic, "_write_temp", write_temp)
     save_project(root, project)
     # Every file written (the local record too), and the journal, each on its own.
     assert root / store.JOURNAL in temps and root / "timers.yaml" in temps
@@ -388,7 +396,7 @@ def test_issue_24_a_sync_that_fails_leaves_the_previous_project_and_no_temporary
         raise OSError(5, "Input/output error")
 
     def fault(patch: pytest.MonkeyPatch) -> None:
-        patch.setattr(store, "_syncfs", failing)
-        patch.setattr(store, "_load_syncfs", lambda: failing)
+        patch.setattr(atomic, "_syncfs", failing)
+        patch.setattr(atomic, "_load_syncfs", lambda: failing)
 
     save_fails_and_changes_nothing(root, fault, "Input/output error")

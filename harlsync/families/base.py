@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeAlias, TypeVar, cast
 
 from ..alignment import text_of
+from .declare import Help, Option, Scheme, Words
 
 if TYPE_CHECKING:
     from ..project.robot import Robot
@@ -387,68 +388,6 @@ class Analysis:
     #: what ``validate`` tells of a valid project without failing it (Epson: a
     #: register map without Ready), one sentence each
     notes: list[str] = field(default_factory=list)
-
-
-@dataclass(frozen=True)
-class Option:
-    """A command-line option of the family's connection: ``--reset-function``.
-
-    Every command that opens a line offers it; :meth:`Family.connect` gets it as
-    the keyword ``name`` (given only when set), and a robot of another family
-    refuses it before anything is opened.
-    """
-
-    #: as :meth:`Family.connect` takes it: ``reset_function``
-    name: str
-    #: the ``--help`` text, which says which family it is for
-    help: str
-
-    @property
-    def flag(self) -> str:
-        return "--" + self.name.replace("_", "-")
-
-
-@dataclass(frozen=True)
-class Scheme:
-    """A URL scheme of the family's own (``modbus://HOST[:PORT]``): the line lock
-    takes such a URL as the TCP endpoint it names, with ``default_port`` when it
-    names none, so one controller is one line whatever speaks to it."""
-
-    name: str
-    default_port: int
-    #: how ``--port`` help shows it: ``an Epson controller's Modbus TCP slave: modbus://HOST[:PORT]``
-    help: str
-
-
-@dataclass(frozen=True)
-class Help:
-    """What ``harlsync --help`` says of the family, a phrase per place (empty: nothing
-    to add there).  The command line shows each as ``<name>: <phrase>``."""
-
-    #: ``--station``: ``1-99, as set on the pendant``
-    stations: str = ""
-    #: what a pull reads: ``the position table``
-    pull: str = ""
-    #: the items a diff compares: ``position``
-    items: str = ""
-    #: runtime data (``--registers``): ``registers``, ``flags and variables``
-    runtime: str = ""
-    #: the commands a plan prints: ``SN commands``
-    commands: str = ""
-    #: the safe order of a push: ``configuration, parameters, tables, timers, programs``
-    order: str = ""
-    #: what stops a push: ``a program running, MANUAL, emergency stop``
-    busy: str = ""
-    #: what ``--allow-live-tuning`` writes while the robot runs
-    live_tuning: str = ""
-
-
-@dataclass(frozen=True)
-class Words:
-    """The family's words for its interlock, in the engine's messages."""
-
-    #: what the interlock reads: ``the task states``, ``the Remote Control status``
-    state: str = "the robot's state"
 
 
 class Family(ABC, Generic[K, D]):

@@ -36,15 +36,8 @@ attempts, and a late "idle" must never pass for the retry's "in execution".
 Before re-sending a volatile read the link therefore waits out owed replies too,
 as before a new request.
 
-Replies nobody asked for.  A frame for our station that answers nothing we sent
-(not the reply, not one still owed, not one past its late window) means the
-line delivers replies twice (two devices answering, a device server that
-retransmits, a reflection), and a repeated reply that fits would pass for the
-answer to the next request: a wrong value, no error.  Replies echo too little
-to be bound to their request (IAI: station and message id; HARL-U2: the step
-number at most), so the link counts these frames, and from the second in one
-session (:data:`UNREQUESTED_LIMIT`) it fails every read and sends nothing more:
-a :class:`LinkError` that names the port and station and says to fix the line.
+Replies nobody asked for: see :mod:`harlsync.link.received`, which sorts what
+comes.
 
 Waiting.  The link reads a reply as it comes: it waits until bytes arrive or the
 reply's deadline passes, never at intervals, and never for a time it works out
@@ -101,8 +94,7 @@ import os
 import select
 import threading
 import time
-from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from types import TracebackType
 from typing import Generic, TypeVar
 
@@ -114,68 +106,22 @@ from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
 from .port import SerialPort, describe, direct_fd, fileno, gone_hint, open_port
 from .readonly import refuse_write
+from .received import Failure, LinkStats, Received, hex_line
 
 __all__ = ["Link", "LinkStats"]
 
 log = logging.getLogger(__name__)
 
-#: Retry reasons kept in :attr:`LinkStats.reasons` (the oldest are dropped).
-MAX_REASONS = 500
-#: Frames nobody asked for, in one session, that make the link refuse the line.  One
-#: is tolerated (the last reply to a program killed mid-request); a second says the
-#: line repeats replies, and a repeated reply may pass for the answer to the next
-#: request.
-UNREQUESTED_LIMIT = 2
 #: How much one read takes from a descriptor the link reads itself: more than any
 #: reply of any family, so that a reply waiting whole is one read.
 READ_SIZE = 65536
-
-
-@dataclass
-class LinkStats:
-    """What the link went through, for pull/backup reports.  Counts since creation."""
-
-    exchanges: int = 0
-    retries: int = 0
-    #: attempts whose deadline passed without a fitting reply
-    timeouts: int = 0
-    #: frames with a bad LRC or malformed
-    bad_frames: int = 0
-    #: bytes discarded as line noise (outside any frame)
-    noise_bytes: int = 0
-    #: frames for another station, ignored
-    other_station: int = 0
-    #: well-formed frames for our station that did not answer the request
-    unfitting: int = 0
-    #: replies to earlier attempts that arrived after their deadline, discarded
-    late_replies: int = 0
-    #: well-formed frames for our station that no request of ours can explain, discarded
-    unrequested: int = 0
-    #: frames byte for byte the request we sent last (a line that echoes), skipped
-    echoes: int = 0
-    #: writes whose reply was lost (WriteUnconfirmed)
-    unconfirmed_writes: int = 0
-    #: one line per retry or unconfirmed write: "port, station, command: reason"
-    reasons: list[str] = field(default_factory=list)
-
-    def note(self, reason: str) -> None:
-        self.reasons.append(reason)
-        del self.reasons[:-MAX_REASONS]
-
-
-@dataclass(frozen=True)
-class _Failure:
-    """Why one attempt got no reply."""
-
-    reason: str
-    cause: ProtocolError | None = None
 
 
 F = TypeVar("F", bound=Frame)
 T = TypeVar("T")
 
 
-class Link(Generic[F]):
+class Link(Received[F]):
     """One port (and the default station on it), opened by pyserial URL, speaking
     the frames of ``codec``.
 
@@ -323,7 +269,7 @@ class Link(Generic[F]):
             self._settle(port, st, command, wait=True)
             self._check_line(st)
             attempts = 1 if request.is_write else 1 + max(0, self.settings.retries)
-            failure = _Failure("not sent")
+            failure = Failure("not sent")
             for attempt in range(attempts):
                 if attempt:
                     self.stats.retries += 1
@@ -343,7 +289,7 @@ class Link(Generic[F]):
                     count, due = self._owed[st]
                     self._owed[st] = (count, max(due, due_by))
                 result = self._await(port, request, st, timeout)
-                if not isinstance(result, _Failure):
+                if not isinstance(result, Failure):
                     if not request.is_write:  # a write's ack stands: it was sent, it took
                         self._check_line(st)
                     return result.value
@@ -371,14 +317,6 @@ class Link(Generic[F]):
                 command=command,
             ) from failure.cause
 
-    def _note(self, level: int, station: int, command: str, reason: str) -> None:
-        line = (
-            f"port {self.url}, station {self.codec.station_text(station)}, command {command}: "
-            f"{reason}"
-        )
-        self.stats.note(line)
-        log.log(level, "%s", line)
-
     @property
     def _write_timeout(self) -> float:
         return max(self.settings.timeout, 1.0)
@@ -389,7 +327,7 @@ class Link(Generic[F]):
         if gap > 0:  # the controller is not ready for the next command yet
             time.sleep(gap)
         if log.isEnabledFor(logging.DEBUG):
-            log.debug("%s -> %s", self.url, _hex(frame))
+            log.debug("%s -> %s", self.url, hex_line(frame))
         self._sent = frame
         # No flush(): tcdrain waits, without any timeout, until the UART has sent the
         # frame (for ever if flow control holds it), and the reply deadline is far
@@ -486,26 +424,6 @@ class Link(Generic[F]):
             command=command,
         )
 
-    def _log_rx(self) -> bytes:
-        """Log, as one hex line, the received bytes the decoder is done with; return them.
-
-        Called after each frame (or bad frame, or noise) is taken from the
-        decoder, so a reply that came in single bytes is still one line, and
-        what it returns ends with that frame's bytes.
-        """
-        done = len(self._rx) - self._decoder.pending
-        if done <= 0:
-            return b""
-        consumed = bytes(self._rx[:done])
-        if log.isEnabledFor(logging.DEBUG):
-            log.debug("%s <- %s", self.url, _hex(consumed))
-        del self._rx[:done]
-        return consumed
-
-    def _count_noise(self) -> None:
-        self.stats.noise_bytes += self._decoder.dropped - self._dropped_seen
-        self._dropped_seen = self._decoder.dropped
-
     def _settle(self, port: SerialPort, station: int, command: str, *, wait: bool) -> None:
         """Discard pending input; with ``wait``, first let replies owed by ``station`` come."""
         while True:
@@ -531,118 +449,27 @@ class Link(Generic[F]):
         self._log_rx()
         self._count_noise()
 
-    def _frames(self, station: int) -> Iterator[F | ProtocolError]:
-        """What the buffered bytes hold for ``station``: its frames, and each bad frame
-        as the error it raised (counted).  Frames for other stations are counted and
-        skipped."""
-        while True:
-            try:
-                frame = self._decoder.next_frame()
-            except ProtocolError as exc:
-                self._log_rx()
-                self.stats.bad_frames += 1
-                yield exc
-                continue
-            consumed = self._log_rx()
-            if frame is None:
-                return
-            if self._sent and consumed.endswith(self._sent):
-                self._echo(frame)
-                continue
-            if frame.station != station:
-                self.stats.other_station += 1
-                log.debug(
-                    "%s: ignored a frame for station %s",
-                    self.url,
-                    self.codec.station_text(frame.station),
-                )
-                continue
-            yield frame
-
-    def _echo(self, frame: F) -> None:
-        """Count and skip a frame byte for byte what we sent last: the line echoes us."""
-        self.stats.echoes += 1
-        level = logging.INFO if self.stats.echoes == 1 else logging.DEBUG
-        log.log(
-            level,
-            "%s station %s: skipped the echo of our own request %s (the line echoes what "
-            "we send, as 2-wire RS-485 adapters do)",
-            self.url,
-            self.codec.station_text(frame.station),
-            frame.payload,
-        )
-
-    def _discard_frames(self, station: int) -> None:
-        for item in self._frames(station):
-            if isinstance(item, ProtocolError):
-                log.info("%s: discarded bad frame: %s", self.url, item)
-            else:
-                self._stray(station, item.payload)
-
-    def _stray(self, station: int, payload: str) -> None:
-        """Discard a frame for ``station`` that answers no request now: a reply still
-        owed, or one past its late window, else a frame nobody asked for."""
-        if station in self._owed:
-            self._late_reply(station, payload)
-        elif self._overdue.get(station):
-            self._overdue[station] -= 1
-            self.stats.late_replies += 1
-            self._discarded(station, "a reply later than its window", payload)
-        else:
-            self._unrequested += 1
-            self.stats.unrequested += 1
-            self._discarded(station, "a frame nobody asked for", payload)
-
-    def _discarded(self, station: int, what: str, payload: str) -> None:
-        log.info(
-            "%s station %s: discarded %s %r",
-            self.url,
-            self.codec.station_text(station),
-            what,
-            payload,
-        )
-
-    def _check_line(self, station: int) -> None:
-        """Raise LinkError once the line has delivered too many frames nobody asked for."""
-        if self._unrequested >= UNREQUESTED_LIMIT:
-            raise LinkError(
-                f"the line delivers replies nobody asked for ({self._unrequested} unrequested "
-                "frames): two devices answering, or a device server retransmitting; fix the line",
-                port=self.url,
-                station=station,
-                station_text=self.codec.station_text(station),
-            )
-
-    def _late_reply(self, station: int, payload: str) -> None:
-        count, due = self._owed.get(station, (0, 0.0))
-        self.stats.late_replies += 1
-        self._discarded(station, "late reply", payload)
-        if count > 1:
-            self._owed[station] = (count - 1, due)
-        else:
-            self._owed.pop(station, None)
-
     def _await(
         self, port: SerialPort, request: Request[F, T], station: int, timeout: float
-    ) -> _Reply[T] | _Failure:
-        """The decoded reply, read as it comes, or a :class:`_Failure` once ``timeout``
+    ) -> _Reply[T] | Failure:
+        """The decoded reply, read as it comes, or a :class:`Failure` once ``timeout``
         has passed."""
         deadline = time.monotonic() + timeout
-        failure = _Failure(f"no reply within {_within(timeout, self.settings.timeout)}")
+        failure = Failure(f"no reply within {_within(timeout, self.settings.timeout)}")
         command = request.payload
         shown = self.codec.station_text(station)
         while True:
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
                     log.info("%s station %s %s: bad frame: %s", self.url, shown, command, frame)
-                    failure = _Failure(f"bad frame: {frame}", frame)
+                    failure = Failure(f"bad frame: {frame}", frame)
                     continue
                 try:
                     value = request.decode(frame)
                 except ReplyError as exc:
                     self.stats.unfitting += 1
                     log.info("%s station %s %s: discarded: %s", self.url, shown, command, exc)
-                    failure = _Failure(f"reply does not fit: {exc}", exc)
+                    failure = Failure(f"reply does not fit: {exc}", exc)
                     self._stray(station, frame.payload)
                     continue
                 self._count_noise()
@@ -668,7 +495,3 @@ def _within(timeout: float, configured: float) -> str:
     return f"{seconds(configured)} s" + (
         f" (+{extra:.3f} s for its time on the wire)" if extra >= 0.0005 else ""
     )
-
-
-def _hex(data: bytes) -> str:
-    return data.hex(" ").upper()

@@ -21,6 +21,7 @@ from .robot import Robot, build_serial, build_windows
 from .schema import Issue, SchemaSet, show
 
 __all__ = [
+    "LOCAL_DIR",
     "SCHEMAS_DIR",
     "FileSet",
     "Flaws",
@@ -40,6 +41,8 @@ __all__ = [
 ]
 
 SCHEMAS_DIR = ".schemas"
+#: harlsync's local state in a project (snapshots, backup times), not versioned.
+LOCAL_DIR = ".harlsync"
 
 #: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind ``kind``
 #: into a format-``n+1`` one (data as :func:`yamlio.parse` gives it), or raises

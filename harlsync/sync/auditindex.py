@@ -43,14 +43,12 @@ write in only costs it the whole log on every read.
 
 from __future__ import annotations
 
-import bisect
-import hashlib
 import json
 import logging
 import os
 import re
 import secrets
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -59,6 +57,17 @@ from ..link import lock_key
 from ..project import statefile
 from . import audit
 from .audit import AuditRecord, OpenPush
+from .auditindexfile import (
+    CHECK,
+    RECENT,
+    VERSION,
+    KeyEntry,
+    OpenEntry,
+    Stale,
+    marks,
+    read_saved,
+    take_up,
+)
 
 __all__ = [
     "RECENT",
@@ -73,11 +82,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-VERSION = 1
-#: How many of a key's latest records the index keeps (``harlsync status`` shows 8).
-RECENT = 32
-#: How much of the log's start, and of its end as last read, identifies it.
-CHECK = 4096
 #: A line and its end: ``\n``, ``\r\n`` or ``\r``, as ``bytes.splitlines`` counts them.
 _LINE = re.compile(rb"[^\r\n]*(?:\r\n|\r|\n)")
 #: The key of every line no other process can share (``loop://``): all one.
@@ -110,52 +114,6 @@ class RobotRecords:
     complete: bool
 
 
-@dataclass
-class _Key:
-    recent: list[list[int]] = field(default_factory=list)
-    count: int = 0
-    settled: int = -1
-    unsettled: list[list[int]] = field(default_factory=list)
-
-    def add(self, seq: int, offset: int) -> None:
-        bisect.insort(self.recent, [seq, offset])
-        del self.recent[:-RECENT]
-        self.count += 1
-
-    def drop(self, seq: int) -> None:
-        self.recent = [e for e in self.recent if e[0] != seq]
-        self.unsettled = [e for e in self.unsettled if e[0] != seq]
-        self.count -= 1
-
-    def ended(self, seq: int, offset: int, result: str | None) -> None:
-        for entry in self.recent:
-            if entry[0] == seq:
-                entry[1] = offset
-        self.unsettled = [e for e in self.unsettled if e[0] != seq]
-        self.result(seq, offset, result)
-
-    def result(self, seq: int, offset: int, result: str | None) -> None:
-        if result == "unfinished":
-            bisect.insort(self.unsettled, [seq, offset])
-        elif result in audit.SETTLED:
-            self.settled = max(self.settled, seq)
-            self.unsettled = [e for e in self.unsettled if e[0] > self.settled]
-
-
-@dataclass
-class _Open:
-    """A push started and not ended: the offsets of its start and write records, and
-    the keys its start record is found under."""
-
-    start: int
-    writes: list[int] = field(default_factory=list)
-    keys: list[str] = field(default_factory=list)
-
-
-class _Stale(Exception):
-    """The index does not match the log."""
-
-
 class AuditIndex:
     """The log at ``path`` as the index knows it, read up to its end (:func:`load`).
 
@@ -166,9 +124,9 @@ class AuditIndex:
         self.size = 0
         self.lines = 0
         self.seq = 0
-        self.open: dict[int, _Open] = {}
+        self.open: dict[int, OpenEntry] = {}
         self.ids: dict[str, int] = {}
-        self.keys: dict[str, _Key] = {}
+        self.keys: dict[str, KeyEntry] = {}
         self.problems: list[tuple[int, str]] = []
         self.problem_count = 0
         self.bytes_read = 0
@@ -189,9 +147,9 @@ class AuditIndex:
             keys.add(_project_key(record.project))
         return keys
 
-    def _key(self, name: str) -> _Key:
+    def _key(self, name: str) -> KeyEntry:
         if name not in self.keys:
-            self.keys[name] = _Key()
+            self.keys[name] = KeyEntry()
         return self.keys[name]
 
     def fold(self, data: bytes, offset: int, *, partial: bool = False) -> None:
@@ -221,7 +179,7 @@ class AuditIndex:
         if event == "start" and rid:
             seq = self._next()
             keys = self._keys_of(record)
-            self.open[seq] = _Open(offset, [], sorted(keys))
+            self.open[seq] = OpenEntry(offset, [], sorted(keys))
             self.ids[rid] = seq
             for name in keys:
                 self._key(name).add(seq, offset)
@@ -255,12 +213,12 @@ class AuditIndex:
         (as :func:`audit.of_robot` chooses them).  Raises OSError."""
         try:
             return self._robot(port, station, project)
-        except _Stale as why:  # the log was changed under the index: read it all again
+        except Stale as why:  # the log was changed under the index: read it all again
             log.debug("%s: %s; reading the whole audit log", self.path, why)
             self.__dict__.update(_rebuilt(self.path).__dict__)
         try:
             return self._robot(port, station, project)
-        except _Stale as why:
+        except Stale as why:
             raise OSError(f"{self.path} changed while it was read ({why})") from None
 
     def _robot(self, port: str, station: int, project: Path | None) -> RobotRecords:
@@ -297,7 +255,7 @@ class AuditIndex:
         self.bytes_read += len(raw)
         record, _ = audit.parse_line(raw)
         if record is None:
-            raise _Stale(f"no record at byte {offset}")
+            raise Stale(f"no record at byte {offset}")
         return record
 
     def report(self, problems: list[str] | None) -> None:
@@ -333,117 +291,12 @@ class AuditIndex:
 
     def restore(self, state: dict[str, Any]) -> None:
         """Take up ``state`` (:meth:`state`'s), each of its entries of the shape
-        :meth:`state` writes.  Raises _Stale for anything else: a cache that cannot be
+        :meth:`state` writes.  Raises Stale for anything else: a cache that cannot be
         trusted is built again from the log, whatever is wrong with it."""
-        if state.get("version") != VERSION:
-            raise _Stale("another version")
-        try:
-            self.size, self.lines = _count(state["size"]), _count(state["lines"])
-            self.seq = _count(state["seq"])
-            self.open = {
-                _seq(seq): _open(entry, self.size) for seq, entry in _object(state["open"])
-            }
-            self.ids = {rid: _count(seq) for rid, seq in _object(state["ids"])}
-            self.keys = {name: _key(entry, self.size) for name, entry in _object(state["keys"])}
-            self.problems = [_problem(entry) for entry in _array(state["problems"])]
-            self.problem_count = _count(state["problem_count"])
-        except KeyError as exc:
-            raise _Stale(f"not an index (no {exc})") from None
-        if not all(seq in self.open for seq in self.ids.values()):
-            raise _Stale("not an index (an id of no open push)")
-
-
-# --- the index file's entries, checked as they are taken up --------------------------------
-
-
-def _count(value: Any) -> int:
-    """A count, a sequence number or a byte offset: an integer, not negative."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise _Stale(f"not an index ({statefile.kind_of(value)} where a count belongs)")
-    return value
-
-
-def _offset(value: Any, size: int) -> int:
-    """A line's offset in the part of the log the index has read."""
-    offset = _count(value)
-    if offset >= size:
-        raise _Stale(f"not an index (offset {offset} past the {size} bytes read)")
-    return offset
-
-
-def _seq(text: str) -> int:
-    if not (text.isascii() and text.isdigit()):
-        raise _Stale("not an index (an open push's number is not a number)")
-    return int(text)
-
-
-def _array(value: Any, size: int | None = None) -> list[Any]:
-    """A JSON array (of ``size`` values, when given)."""
-    if not isinstance(value, list) or (size is not None and len(value) != size):
-        wanted = "an array" if size is None else f"an array of {size}"
-        raise _Stale(f"not an index ({statefile.kind_of(value)} where {wanted} belongs)")
-    return value
-
-
-def _object(value: Any) -> list[tuple[str, Any]]:
-    """A JSON object's members."""
-    if not isinstance(value, dict):
-        raise _Stale(f"not an index ({statefile.kind_of(value)} where an object belongs)")
-    return list(value.items())
-
-
-def _pairs(value: Any, size: int) -> list[list[int]]:
-    """``[[seq, offset], ...]``: a key's latest or unsettled pushes.  (One test a pair,
-    not a call a value: a plant's index holds thousands of them.)"""
-    pairs = _array(value)
-    if not all(
-        type(pair) is list  # JSON's types exactly: true is no count
-        and len(pair) == 2
-        and type(pair[0]) is int
-        and type(pair[1]) is int
-        and pair[0] >= 0
-        and 0 <= pair[1] < size
-        for pair in pairs
-    ):
-        raise _Stale("not an index (a [seq, offset] pair of another shape)")
-    return pairs
-
-
-def _open(value: Any, size: int) -> _Open:
-    entry = dict(_object(value))
-    names = _array(entry.get("keys"))
-    if not all(isinstance(name, str) for name in names):
-        raise _Stale("not an index (an open push's key is not text)")
-    return _Open(
-        _offset(entry.get("start"), size),
-        [_offset(write, size) for write in _array(entry.get("writes"))],
-        names,
-    )
-
-
-def _key(value: Any, size: int) -> _Key:
-    recent, count, settled, unsettled = _array(value, 4)
-    if isinstance(settled, bool) or not isinstance(settled, int) or settled < -1:
-        raise _Stale(
-            f"not an index ({statefile.kind_of(settled)} where the last settled push belongs)"
-        )
-    return _Key(_pairs(recent, size), _count(count), settled, _pairs(unsettled, size))
-
-
-def _problem(value: Any) -> tuple[int, str]:
-    line, text = _array(value, 2)
-    if not isinstance(text, str):
-        raise _Stale(f"not an index ({statefile.kind_of(text)} where a problem's words belong)")
-    return _count(line), text
-
-
-def _digest(f: BinaryIO, start: int, end: int) -> str:
-    f.seek(start)
-    return hashlib.sha256(f.read(end - start)).hexdigest()
-
-
-def _marks(f: BinaryIO, size: int) -> tuple[str, str]:
-    return _digest(f, 0, min(size, CHECK)), _digest(f, max(0, size - CHECK), size)
+        taken = take_up(state)
+        self.size, self.lines, self.seq = taken.size, taken.lines, taken.seq
+        self.open, self.ids, self.keys = taken.open, taken.ids, taken.keys
+        self.problems, self.problem_count = taken.problems, taken.problem_count
 
 
 def load(path: Path | None = None) -> AuditIndex:
@@ -455,16 +308,16 @@ def load(path: Path | None = None) -> AuditIndex:
         return index
     with open(path, "rb") as f:
         ino = os.fstat(f.fileno()).st_ino
-        saved = _saved(index_path(path))
+        saved = read_saved(index_path(path))
         try:
             if saved is None:
-                raise _Stale("none")
+                raise Stale("none")
             index.restore(saved)
             if saved.get("ino") != ino or os.fstat(f.fileno()).st_size < index.size:
-                raise _Stale("another file")
-            if [saved.get("head"), saved.get("tail")] != list(_marks(f, index.size)):
-                raise _Stale("changed")
-        except _Stale as why:
+                raise Stale("another file")
+            if [saved.get("head"), saved.get("tail")] != list(marks(f, index.size)):
+                raise Stale("changed")
+        except Stale as why:
             log.debug("%s: reading the whole audit log (%s)", index_path(path), why)
             index = AuditIndex(path)
         start = index.size
@@ -474,18 +327,10 @@ def load(path: Path | None = None) -> AuditIndex:
         whole = data[: data.rfind(b"\n") + 1] if b"\n" in data else b""
         index.fold(whole, start)
         if whole:
-            _save(index, ino, *_marks(f, index.size))
+            _save(index, ino, *marks(f, index.size))
         if len(whole) < len(data):  # a line not ended yet: read, not kept
             index.fold(data[len(whole) :], index.size, partial=True)
     return index
-
-
-def _saved(where: Path) -> dict[str, Any] | None:
-    try:
-        state = json.loads(where.read_bytes())
-    except (OSError, ValueError):
-        return None
-    return state if isinstance(state, dict) else None
 
 
 def _save(index: AuditIndex, ino: int, head: str, tail: str) -> None:

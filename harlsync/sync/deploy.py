@@ -76,19 +76,20 @@ def run(
     port: str | None,
     station: Station,
 ) -> PushResult:
+    """Deploy ``target`` (the project's data for a push, a snapshot's for a
+    rollback: ``action`` says which) to the robot, with every interlock: confirmed,
+    inside its window, idle, the same controller; then read, plan, snapshot and
+    write, each write journalled in the audit log.
+
+    Returns the result (its plan, what was written, the snapshot taken).  Raises
+    :class:`PushFailed` carrying the result when refused or stopped part way.
+    """
     robot = project.robot
     family = project.family
     station = station_number(family, station)
     _check_audit_log()
     result = PushResult()
-    record = audit.base_record(action)
-    record.robot = audit.RecordedRobot(
-        robot.name, port or robot.port, station if station is not None else robot.station
-    )
-    record.project = str(project.path.resolve())
-    record.commit = git.head(project.path)
-    record.reason = opts.reason
-    record.outside_window = opts.outside_window
+    record = _start_record(action, project, opts, port, station)
     driver: Driver[Any, Any] | None = None
     try:
         if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
@@ -108,24 +109,7 @@ def run(
             command=action,
         )
         result.warnings = unfinished_pushes(robot, port, station)
-        if not opts.allow_live_tuning:
-            interlock(driver, robot, family.words, "reading the robot")
-        # A swapped controller is refused at its first reads, not after the long read
-        # (the interlock's status comes first: a robot that is not idle is told so).
-        now = driver.identity()
-        other = None if now is None else family.catalogue.other_identity(now, target)
-        if other is not None:
-            raise PolicyError(f"cannot deploy: {other}")
-        driver.hold_to(target)  # what the deployed state recorded of the robot
-        live = driver.read_all(registers=opts.registers, progress=opts.progress)
-        result.plan = the_plan = make_plan(
-            family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
-        )
-        mark_reverts(project.path, live, the_plan)
-        record.plan = list(the_plan.commands)
-        if the_plan.reverts:
-            record.reverts = [f"{name}: {said}" for name, said in the_plan.reverts.items()]
-        _check_plan(the_plan, opts)
+        live, the_plan = _read_and_plan(project, target, opts, driver, record, result)
         if the_plan.empty:
             record.result = "nothing to write"
             return result
@@ -138,75 +122,156 @@ def run(
         result.snapshot = save_snapshot(project.path, robot, live, action)
         record.snapshot = str(result.snapshot)
         _journal(replace(record, event="start"))
-        write_all(
-            family,
-            driver,
-            robot,
-            the_plan,
-            opts,
-            result,
-            lambda w: _journal(
-                audit.AuditRecord(
-                    event="write",
-                    id=record.id,
-                    time=audit.now(),
-                    item=w.name,
-                    command=w.command,
-                    changes=audit.change_entries(w.items),
-                )
-            ),
-        )
+        _write_journaled(project, the_plan, opts, driver, record, result)
         record.result = "ok"
         return result
     except (HarlsyncError, KeyboardInterrupt) as exc:
-        stopped: HarlsyncError = (
-            exc if isinstance(exc, HarlsyncError) else SyncError(f"{action} interrupted (Ctrl-C)")
-        )
-        result.error = str(stopped)
-        if isinstance(stopped, PartlyWritten):  # refused or failed as its cause says
-            stopped = stopped.cause
-        refused = isinstance(stopped, InterlockError | PolicyError | StalePlanError)
-        record.result = (
-            "refused"
-            if refused
-            else "interrupted"
-            if isinstance(exc, KeyboardInterrupt)
-            else "failed"
-        )
-        record.error = result.error
-        if result.plan is not None:
-            done = {id(w) for w in result.written}
-            result.not_written = [w for w in result.plan.writes if id(w) not in done]
-        raise PushFailed(stopped, result) from exc
+        raise PushFailed(_stopped(exc, action, record, result), result) from exc
     except BaseException as exc:  # a bug: still record what was written
         result.error = f"{type(exc).__name__}: {exc}"
         record.result = "failed"
         record.error = result.error
         raise
     finally:
-        record.written = [audit.written_entry(w) for w in result.written]
-        if result.failed is not None:
-            record.failed_item = result.failed.name
-            if result.partly_written is not None:
-                record.partly_written = _partly(result.failed, result.partly_written)
-        if result.warnings:
-            record.warnings = result.warnings
-        if result.written or result.failed is not None:
-            planned = result.plan.notes if result.plan is not None else []
-            result.notes = [*planned, *family.deploy_notes]
-            if result.notes:
-                record.notes = result.notes
-        if driver is not None:
-            driver.close()
-        try:
-            result.audit_log = audit.append(record)
-        except OSError as exc:
-            # Never hide what happened on the robot behind the log's own failure.
-            log.error("cannot write the audit log's end record for this %s: %s", action, exc)
-            result.warnings.append(
-                f"the audit log {audit.audit_path()} could not record the end of this {action} "
-                f"({exc}); what it wrote is listed here"
+        _finish(action, project, driver, record, result)
+
+
+def _start_record(
+    action: str, project: Project, opts: PushOptions, port: str | None, station: int | None
+) -> audit.AuditRecord:
+    """The audit record of this push or rollback, as its start and end records share it."""
+    robot = project.robot
+    record = audit.base_record(action)
+    record.robot = audit.RecordedRobot(
+        robot.name, port or robot.port, station if station is not None else robot.station
+    )
+    record.project = str(project.path.resolve())
+    record.commit = git.head(project.path)
+    record.reason = opts.reason
+    record.outside_window = opts.outside_window
+    return record
+
+
+def _read_and_plan(
+    project: Project,
+    target: Any,
+    opts: PushOptions,
+    driver: Driver[Any, Any],
+    record: audit.AuditRecord,
+    result: PushResult,
+) -> tuple[Any, Plan[Any]]:
+    """Check the robot (interlock, identity), read it all and plan the writes that
+    turn it into ``target``; the live data and the plan, which it records in
+    ``result`` and ``record``.  Raises InterlockError or PolicyError to refuse."""
+    robot, family = project.robot, project.family
+    if not opts.allow_live_tuning:
+        interlock(driver, robot, family.words, "reading the robot")
+    # A swapped controller is refused at its first reads, not after the long read
+    # (the interlock's status comes first: a robot that is not idle is told so).
+    now = driver.identity()
+    other = None if now is None else family.catalogue.other_identity(now, target)
+    if other is not None:
+        raise PolicyError(f"cannot deploy: {other}")
+    driver.hold_to(target)  # what the deployed state recorded of the robot
+    live = driver.read_all(registers=opts.registers, progress=opts.progress)
+    result.plan = the_plan = make_plan(
+        family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
+    )
+    mark_reverts(project.path, live, the_plan)
+    record.plan = list(the_plan.commands)
+    if the_plan.reverts:
+        record.reverts = [f"{name}: {said}" for name, said in the_plan.reverts.items()]
+    _check_plan(the_plan, opts)
+    return live, the_plan
+
+
+def _write_journaled(
+    project: Project,
+    the_plan: Plan[Any],
+    opts: PushOptions,
+    driver: Driver[Any, Any],
+    record: audit.AuditRecord,
+    result: PushResult,
+) -> None:
+    """Write the plan, journalling each write in the audit log as it is made."""
+    write_all(
+        project.family,
+        driver,
+        project.robot,
+        the_plan,
+        opts,
+        result,
+        lambda w: _journal(
+            audit.AuditRecord(
+                event="write",
+                id=record.id,
+                time=audit.now(),
+                item=w.name,
+                command=w.command,
+                changes=audit.change_entries(w.items),
             )
+        ),
+    )
+
+
+def _stopped(
+    exc: HarlsyncError | KeyboardInterrupt,
+    action: str,
+    record: audit.AuditRecord,
+    result: PushResult,
+) -> HarlsyncError:
+    """Record why the push or rollback stopped (refused, interrupted or failed) and
+    what was not written; the error to raise, as its cause says."""
+    stopped: HarlsyncError = (
+        exc if isinstance(exc, HarlsyncError) else SyncError(f"{action} interrupted (Ctrl-C)")
+    )
+    result.error = str(stopped)
+    if isinstance(stopped, PartlyWritten):  # refused or failed as its cause says
+        stopped = stopped.cause
+    refused = isinstance(stopped, InterlockError | PolicyError | StalePlanError)
+    record.result = (
+        "refused" if refused else "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+    )
+    record.error = result.error
+    if result.plan is not None:
+        done = {id(w) for w in result.written}
+        result.not_written = [w for w in result.plan.writes if id(w) not in done]
+    return stopped
+
+
+def _finish(
+    action: str,
+    project: Project,
+    driver: Driver[Any, Any] | None,
+    record: audit.AuditRecord,
+    result: PushResult,
+) -> None:
+    """Complete the end record with what was written, close the line and append the
+    record to the audit log (a log that fails is told in ``result``, never raised)."""
+    family = project.family
+    record.written = [audit.written_entry(w) for w in result.written]
+    if result.failed is not None:
+        record.failed_item = result.failed.name
+        if result.partly_written is not None:
+            record.partly_written = _partly(result.failed, result.partly_written)
+    if result.warnings:
+        record.warnings = result.warnings
+    if result.written or result.failed is not None:
+        planned = result.plan.notes if result.plan is not None else []
+        result.notes = [*planned, *family.deploy_notes]
+        if result.notes:
+            record.notes = result.notes
+    if driver is not None:
+        driver.close()
+    try:
+        result.audit_log = audit.append(record)
+    except OSError as exc:
+        # Never hide what happened on the robot behind the log's own failure.
+        log.error("cannot write the audit log's end record for this %s: %s", action, exc)
+        result.warnings.append(
+            f"the audit log {audit.audit_path()} could not record the end of this {action} "
+            f"({exc}); what it wrote is listed here"
+        )
 
 
 def _partly(write: PlannedWrite[Any], partly: PartlyWritten) -> audit.PartlyRecorded:

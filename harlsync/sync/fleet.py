@@ -4,7 +4,7 @@ A line spends nearly all its time waiting for the wire, so one process reads man
 lines, a thread each; but threads share one interpreter, and at a hundred lines
 and more one process needs its whole core (docs/BENCHMARKS.md, issue 15).  So
 :func:`read_lines` gives the lines to ``workers`` worker processes started for the
-run (``python -c 'from harlsync.sync.fleet import worker; worker()'``), a thread a
+run (``python -c 'from harlsync.sync.fleetworker import worker; worker()'``), a thread a
 line there too, and this process coordinates: it serves their events, the display
 and, at the end, the report and the commit.  One worker is no process at all: this
 one reads every line.  Every robot of a line is in one share, read one after the
@@ -47,38 +47,45 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import nullcontext
-from dataclasses import asdict
-from datetime import datetime, timedelta, timezone
+from datetime import datetime, timezone
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from ..errors import SyncError
-from ..robotlog import about, current
+from ..robotlog import about
 from . import history
+from .fleettask import START_HOLD, STARTING, Starts, Task
 from .robotbackup import (
     BackupWatch,
     RobotOutcome,
-    Stopped,
-    backup_one,
     in_process,
     lines_of,
     record_not_backed_up,
 )
 
-__all__ = ["default_workers", "in_process", "plan", "read_lines", "weights", "worker"]
+__all__ = [
+    "STARTING",
+    "START_HOLD",
+    "Task",
+    "default_workers",
+    "in_process",
+    "plan",
+    "read_lines",
+    "weights",
+]
 
 log = logging.getLogger(__name__)
 
+#: The starting places of one process, by the name the tests use.
+_Starts = Starts
+
 #: What a worker process runs.
-_WORKER = "from harlsync.sync.fleet import worker; worker()"
+_WORKER = "from harlsync.sync.fleetworker import worker; worker()"
 #: Whether a run can have worker processes (see :func:`default_workers`).
 _SPREADS = os.name == "posix"
-#: A worker tells a robot's progress at most this often (a live display redraws
-#: about as often; a night's 100,000 exchanges need not cross the pipe).
-_PROGRESS_EVERY = 0.1
 
 
 def default_workers() -> int:
@@ -139,106 +146,6 @@ def plan(
         shares[least].append(line)
         load[least] += cost.get(line, 1.0)
     return [[k for k in lines if k in pinned], *(share for share in shares if share)]
-
-
-#: How many robots of one process start at once: from its line's thread beginning
-#: (project lock, robot.yaml, git, the line's lock, the port) to its first progress
-#: (its identity read).  All of a share's robots starting together (64 in a 128-line
-#: night) made their lines' first exchanges wait for each other's start-up, and a line
-#: whose first replies of a kind were read late kept sleeping that long for the rest
-#: of its read (the link times each kind's replies by the quickest of them it has
-#: seen: docs/BENCHMARKS.md, issue 24); four at a time start one after the other as
-#: quickly, and read as if alone.
-STARTING = 4
-#: A robot starting for longer than this no longer keeps another from starting: one
-#: that does not answer (its retries take seconds) or waits for a line another
-#: harlsync holds (up to --lock-timeout) holds up no one for long.
-START_HOLD = 0.5
-
-
-class _Starts:
-    """The starting places of one process (see :data:`STARTING`)."""
-
-    def __init__(self, places: int = STARTING, hold: float = START_HOLD) -> None:
-        self.places = places
-        self.hold = hold
-        self._since: dict[object, float] = {}  # each robot starting: since when
-        self._changed = threading.Condition()
-
-    def enter(self, stop: threading.Event) -> object | None:
-        """A place (a token for :meth:`leave`), once one is free; None once ``stop``
-        is set."""
-        token = object()
-        with self._changed:
-            while not stop.is_set():
-                now = time.monotonic()
-                held = sorted(t for t in self._since.values() if now - t < self.hold)
-                if len(held) < self.places:
-                    self._since[token] = now
-                    return token
-                self._changed.wait(held[0] + self.hold - now)  # the oldest's time is up
-        return None
-
-    def leave(self, token: object) -> None:
-        with self._changed:
-            if self._since.pop(token, None) is not None:
-                self._changed.notify()
-
-    def held(self) -> int:
-        """How many places are taken (their holders' time up or not)."""
-        with self._changed:
-            return len(self._since)
-
-
-class Task:
-    """What every robot's backup of one run needs, here or in a worker."""
-
-    def __init__(self, attempts: int, lock_timeout: float, clock: Callable[[], datetime]) -> None:
-        self.attempts = attempts
-        self.lock_timeout = lock_timeout
-        self.clock = clock
-        self.starts = _Starts()
-
-    def line(self, paths: list[Path], watch: BackupWatch, stop: threading.Event) -> None:
-        """Back up the robots of one line in turn (each tells ``watch`` its outcome),
-        each starting when a starting place of this process is free (:data:`STARTING`)."""
-        for path in paths:
-            token = self.starts.enter(stop)
-            if token is None:  # stopped (before it started, or while it waited)
-                return
-            start = _Start(watch, self.starts, token)
-            try:
-                backup_one(path, self.attempts, self.lock_timeout, self.clock, start, stop)
-            finally:
-                start.done()
-
-
-class _Start:
-    """A robot's watch that gives its starting place back at the robot's first
-    progress (or its end, whichever comes first)."""
-
-    def __init__(self, watch: BackupWatch, starts: _Starts, token: object) -> None:
-        self.watch = watch
-        self.starts = starts
-        self.token = token
-
-    def done(self) -> None:
-        self.starts.leave(self.token)
-
-    def started(self, path: Path, name: str) -> None:
-        self.watch.started(path, name)
-
-    def progress(self, path: Path, done: int, total: int) -> None:
-        try:  # the watch hears of it before the next robot starts
-            self.watch.progress(path, done, total)
-        finally:
-            self.done()
-
-    def finished(self, outcome: RobotOutcome) -> None:
-        try:
-            self.watch.finished(outcome)
-        finally:
-            self.done()
 
 
 def _threads(jobs: int | None, shares: list[list[str]]) -> list[int]:
@@ -545,107 +452,3 @@ def _emit(event: dict[str, Any]) -> None:
     )
     with about(event["robot"]) if event["robot"] else nullcontext():
         logger.handle(record)
-
-
-# --- in the worker process ----------------------------------------------------------
-
-
-class _Sender:
-    """A worker's watch and log handler: each event one JSON line on the pipe."""
-
-    def __init__(self, stream: IO[bytes], watched: bool) -> None:
-        self.stream = stream
-        self.watched = watched
-        self._lock = threading.Lock()
-        self._told: dict[Path, tuple[float, int]] = {}
-
-    def send(self, **event: Any) -> None:
-        data = json.dumps(event, default=str).encode() + b"\n"
-        with self._lock:
-            self.stream.write(data)
-            self.stream.flush()
-
-    def started(self, path: Path, name: str) -> None:
-        self.send(event="started", path=str(path), name=name)
-
-    def progress(self, path: Path, done: int, total: int) -> None:
-        if not self.watched:
-            return
-        now = time.monotonic()
-        when, last = self._told.get(path, (0.0, -1))
-        if done == total or done < last or now - when >= _PROGRESS_EVERY:
-            self._told[path] = (now, done)
-            self.send(event="progress", path=str(path), done=done, total=total)
-
-    def finished(self, outcome: RobotOutcome) -> None:
-        self.send(event="finished", outcome=asdict(outcome))
-
-
-class _Forward(logging.Handler):
-    def __init__(self, sender: _Sender) -> None:
-        super().__init__()
-        self.sender = sender
-
-    def emit(self, record: logging.LogRecord) -> None:
-        try:
-            exc_text = record.exc_text
-            if record.exc_info and not exc_text:
-                exc_text = logging.Formatter().formatException(record.exc_info)
-            self.sender.send(
-                event="log",
-                name=record.name,
-                levelno=record.levelno,
-                levelname=record.levelname,
-                msg=record.getMessage(),
-                exc_text=exc_text,
-                robot=current(),
-            )
-        except Exception:  # noqa: BLE001  a log line must never cost a robot
-            self.handleError(record)
-
-
-def worker() -> None:
-    """A worker process's main: read the share its standard input names, tell what
-    happens on its events pipe, stop when its standard input ends (before its
-    share comes: this process had none for it, or is gone)."""
-    ready = time.monotonic()  # imports done: a worker is started before its share is known
-    given = sys.stdin.buffer.readline()
-    if not given:
-        return
-    job = json.loads(given)
-    told = time.monotonic()
-    sender = _Sender(os.fdopen(job["events"], "wb"), job["watched"])
-    root = logging.getLogger()
-    for name, level in job["levels"].items():
-        logging.getLogger(name or None).setLevel(level)
-    root.addHandler(_Forward(sender))
-    stop = threading.Event()
-
-    def watch_input() -> None:
-        # Nothing more is sent: the end is the word to stop.  Unbuffered: a daemon
-        # thread must hold no lock of sys.stdin's when the interpreter exits.
-        while os.read(0, 4096):
-            pass
-        stop.set()
-
-    threading.Thread(target=watch_input, name="stop", daemon=True).start()
-    offset = timedelta(seconds=job["offset"])
-    task = Task(job["attempts"], job["lock_timeout"], lambda: datetime.now(timezone.utc) + offset)
-    try:
-        with ThreadPoolExecutor(max_workers=job["threads"]) as pool:
-            for done in [
-                pool.submit(task.line, [Path(p) for p in paths], sender, stop)
-                for paths in job["lines"]
-            ]:
-                done.result()
-    except Stopped:
-        sys.exit(0)
-    except Exception as exc:  # a bug: the robots not finished fail, naming it
-        log.debug("worker failed", exc_info=True)
-        sender.send(event="fatal", error=f"unexpected {type(exc).__name__}: {exc}")
-        sys.exit(1)
-    finally:  # its own figures, for the debug log (bench/fleet.py)
-        try:
-            sender.send(event="ended", ready=ready, job=told, cpu=_cpu())
-        except OSError:  # this process is gone
-            pass

@@ -290,7 +290,6 @@ def _pull(
     )
     settle()  # a family that cannot tell its identity first: after the read
     from ..project.store import Project, save_project
-    from . import audit, auditindex, history
     from .items import diff
 
     things = family.catalogue
@@ -300,16 +299,7 @@ def _pull(
     if previous is not None and not new_robot:
         compared = _same_robot(path, things, previous, live, read.driver.label)
     if not discard_pending:
-        from .policy import listed
-        from .states import check_pending
-
-        pending = check_pending(path, things, live)
-        if pending:
-            raise PolicyError(
-                f"{path}: approved changes not yet on the robot that a pull would overwrite "
-                f"({listed(pending)}); push them, or overwrite them with "
-                f"'harlsync pull {path} --discard-pending'"
-            )
+        _refuse_pending(path, things, live)
     written = save_project(path, Project(path, robot, live, family))
     if previous is None:
         changes = None
@@ -326,6 +316,31 @@ def _pull(
         written=written,
     )
     _migrated(result, read_from, family.format)
+    _record_pull(path, robot, result, commit=commit)
+    return result
+
+
+def _refuse_pending(path: Path, things: Catalogue[Any, Any], live: Any) -> None:
+    """Raise PolicyError when the project holds approved changes not yet on the
+    robot, which the pull would overwrite."""
+    from .policy import listed
+    from .states import check_pending
+
+    pending = check_pending(path, things, live)
+    if pending:
+        raise PolicyError(
+            f"{path}: approved changes not yet on the robot that a pull would overwrite "
+            f"({listed(pending)}); push them, or overwrite them with "
+            f"'harlsync pull {path} --discard-pending'"
+        )
+
+
+def _record_pull(path: Path, robot: Robot, result: PullResult, *, commit: bool) -> None:
+    """Record the pull in the robot's history and, with ``commit``, commit what it
+    changed (naming the pushes since the last backup), noting the commit in
+    ``result``."""
+    from . import audit, auditindex, history
+
     since = history.read(path).get("last_success")
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if commit and result.changed:
@@ -338,7 +353,6 @@ def _pull(
         result.commit = git.commit([path], message)
         if result.commit:
             history.committed(path, result.commit)
-    return result
 
 
 def _migrated(result: PullResult, was: Mapping[str, bytes], current: int) -> None:

@@ -1,0 +1,355 @@
+"""The fast check of a project file against its schema: the schema compiled once
+into plain Python checks that say only whether a document is valid.
+
+It passes a valid file in a fraction of jsonschema's time; a file it does not
+pass, or a schema it cannot compile (:func:`compile_check` returns None), goes to
+jsonschema, which finds and words the errors (:class:`~harlsync.project.schema.SchemaSet`).
+A compiled check returns True only when jsonschema would find no error.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Mapping
+from decimal import Decimal
+from typing import Any
+
+from .yamlio import Number
+
+__all__ = ["Check", "compile_check"]
+
+
+#: A compiled schema: True only when jsonschema would find no error in the instance.
+Check = Callable[[Any], bool]
+
+#: Keywords that say nothing about validity.
+_ANNOTATIONS = frozenset(
+    {
+        "$schema",
+        "$defs",
+        "$comment",
+        "title",
+        "description",
+        "default",
+        "examples",
+        "x-allowed",
+        "x-volatility",
+    }
+)
+_TYPES: dict[str, Callable[[Any], bool]] = {
+    "object": lambda v: isinstance(v, dict),
+    "array": lambda v: isinstance(v, list),
+    "string": lambda v: isinstance(v, str),
+    "boolean": lambda v: isinstance(v, bool),
+    "null": lambda v: v is None,
+    # Numbers come from yamlio.parse as Number only: anything else is left to jsonschema.
+    "number": lambda v: isinstance(v, Number),
+    "integer": lambda v: isinstance(v, Number) and v.integral,
+}
+
+
+def _other_number(value: Any) -> bool:
+    """A number that is not a :class:`Number` (never from parse): left to jsonschema."""
+    return isinstance(value, (int, float, Decimal)) and not isinstance(value, bool)
+
+
+def compile_check(
+    schema: Any, root: dict[str, Any], formats: Mapping[str, re.Pattern[str]], depth: int = 0
+) -> Check | None:
+    """A check of ``schema`` (``root`` resolves ``$ref``) that passes an instance only
+    when jsonschema, with harlsync's types and formats, would find no error in it: it
+    may refuse a valid one (jsonschema then has the last word), never pass an invalid
+    one.  None when the schema uses a keyword this does not know.
+
+    The keywords are those of the project schemas, with jsonschema's meaning: a
+    keyword about one type ignores instances of another; ``pattern`` searches,
+    ``format`` is the family's exact text of a number; ``enum`` and ``const`` compare
+    text with text and numbers with numbers (refusing anything else).
+    """
+    if schema is True:
+        return lambda v: True
+    if schema is False or not isinstance(schema, dict) or depth > 32:
+        return None
+    rules = {k: v for k, v in schema.items() if k not in _ANNOTATIONS}
+    leaf = _text_leaf(rules) or _number_leaf(rules, formats)
+    if leaf is not None:  # the commonest leaves, in one test each
+        return leaf
+    if rules.get("type") in ("array", "object") and rules.keys() <= _COLLECTION:
+        return _collection(rules, schema, root, formats, depth)
+    if rules.keys() == {"pattern"}:  # a property name, always text
+        name = re.compile(rules["pattern"])
+        return lambda v: not isinstance(v, str) or name.search(v) is not None
+    checks: list[Check] = []
+    for keyword, value in schema.items():
+        if keyword in _ANNOTATIONS:
+            continue
+        check = _keyword(keyword, value, schema, root, formats, depth)
+        if check is None:
+            return None
+        checks.append(check)
+    return _every(checks)
+
+
+def _every(checks: list[Check]) -> Check:
+    """A check that passes what every one of ``checks`` passes."""
+    if not checks:
+        return lambda v: True
+    if len(checks) == 1:
+        return checks[0]
+    if len(checks) == 2:
+        first, second = checks
+        return lambda v: first(v) and second(v)
+    chain = tuple(checks)
+
+    def every(v: Any) -> bool:
+        for check in chain:  # a loop, not all() of a generator: checked per value
+            if not check(v):
+                return False
+        return True
+
+    return every
+
+
+def _text_leaf(rules: Mapping[str, Any]) -> Check | None:
+    """``type`` (text, or text or other scalar types) with a ``pattern``, in one test:
+    a step (text or null), a token (text or a number).  None for any other rules."""
+    if rules.keys() != {"type", "pattern"} or not isinstance(rules["pattern"], str):
+        return None
+    kinds = [rules["type"]] if isinstance(rules["type"], str) else rules["type"]
+    if not isinstance(kinds, list) or "string" not in kinds:
+        return None
+    if not all(kind in _TYPES for kind in kinds):
+        return None
+    text = re.compile(rules["pattern"])
+    others = [_TYPES[kind] for kind in kinds if kind != "string"]
+    if not others:
+        return lambda v: isinstance(v, str) and text.search(v) is not None
+    if others == [_TYPES["null"]]:
+        return lambda v: v is None or (isinstance(v, str) and text.search(v) is not None)
+    # pattern says nothing of a value that is not text: the other types pass as they are
+    return lambda v: (
+        text.search(v) is not None if isinstance(v, str) else any(test(v) for test in others)
+    )
+
+
+def _number_leaf(rules: Mapping[str, Any], formats: Mapping[str, re.Pattern[str]]) -> Check | None:
+    """``type`` number or integer with any of ``format`` and the four limits, in one
+    test (a coordinate, an offset, a timer: most values of a file): once the value is
+    a :class:`Number`, each keyword's test of another type falls away.  None for any
+    other rules."""
+    kind = rules.get("type")
+    if kind not in ("number", "integer") or not rules.keys() <= _NUMBER_LEAF:
+        return None
+    limits = {k: v for k, v in rules.items() if k in _LIMITS}
+    if any(isinstance(v, bool) or not isinstance(v, (int, Decimal)) for v in limits.values()):
+        return None
+    integral = kind == "integer"
+    exact = formats.get(rules["format"]) if "format" in rules else None
+    low, high = limits.get("minimum"), limits.get("maximum")
+    above, below = limits.get("exclusiveMinimum"), limits.get("exclusiveMaximum")
+
+    def number(v: Any) -> bool:
+        return (
+            isinstance(v, Number)
+            and (not integral or v.integral)
+            and (exact is None or exact.fullmatch(v.text) is not None)
+            and (low is None or v >= low)
+            and (high is None or v <= high)
+            and (above is None or v > above)
+            and (below is None or v < below)
+        )
+
+    return number
+
+
+#: What :func:`_collection` takes of a list's or a mapping's rules.
+_COLLECTION = frozenset(
+    {"type", "minItems", "maxItems", "uniqueItems", "items"}
+    | {"required", "properties", "additionalProperties"}
+)
+
+
+def _collection(
+    rules: Mapping[str, Any],
+    schema: dict[str, Any],
+    root: dict[str, Any],
+    formats: Mapping[str, re.Pattern[str]],
+    depth: int,
+) -> Check | None:
+    """``type`` array or object with its own keywords, in one function: the type
+    tested once, the sizes and the required names there, each other keyword's own
+    check after (a position, its axes and coordinates: thousands in a file)."""
+    kind = rules["type"]
+    wanted = {"array": ("minItems", "maxItems", "uniqueItems", "items")}.get(
+        kind, ("required", "properties", "additionalProperties")
+    )
+    if not rules.keys() - {"type"} <= set(wanted):
+        return None
+    sizes = [rules.get("minItems"), rules.get("maxItems")]
+    if any(n is not None and (isinstance(n, bool) or not isinstance(n, int)) for n in sizes):
+        return None
+    fewest, most = sizes
+    required = rules.get("required")
+    names = frozenset(required) if required is not None else None
+    checks = []
+    for keyword in ("uniqueItems", "items", "properties", "additionalProperties"):
+        if keyword in rules:
+            check = _keyword(keyword, rules[keyword], schema, root, formats, depth)
+            if check is None:
+                return None
+            checks.append(check)
+    rest = tuple(checks)
+    if kind == "array":
+
+        def array(v: Any) -> bool:
+            if not isinstance(v, list):
+                return False
+            if (fewest is not None and len(v) < fewest) or (most is not None and len(v) > most):
+                return False
+            for check in rest:
+                if not check(v):
+                    return False
+            return True
+
+        return array
+
+    def mapping(v: Any) -> bool:
+        if not isinstance(v, dict) or (names is not None and not v.keys() >= names):
+            return False
+        for check in rest:
+            if not check(v):
+                return False
+        return True
+
+    return mapping
+
+
+_LIMITS = frozenset({"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"})
+_NUMBER_LEAF = _LIMITS | {"type", "format"}
+
+
+def _keyword(
+    keyword: str,
+    value: Any,
+    schema: dict[str, Any],
+    root: dict[str, Any],
+    formats: Mapping[str, re.Pattern[str]],
+    depth: int,
+) -> Check | None:
+    def sub(subschema: Any) -> Check | None:
+        return compile_check(subschema, root, formats, depth + 1)
+
+    if keyword == "type":
+        kinds = [value] if isinstance(value, str) else value
+        if not all(kind in _TYPES for kind in kinds):
+            return None
+        tests = [_TYPES[kind] for kind in kinds]
+        if len(tests) == 1:
+            return tests[0]
+        return lambda v: any(test(v) for test in tests)
+    if keyword in ("enum", "const"):
+        members = value if keyword == "enum" else [value]
+        texts = {m for m in members if isinstance(m, str)}
+        numbers = [m for m in members if isinstance(m, (int, Decimal)) and not isinstance(m, bool)]
+        return lambda v: (
+            v in texts
+            if isinstance(v, str)
+            else isinstance(v, Number) and any(v == n for n in numbers)
+        )
+    if keyword == "pattern":
+        pattern = re.compile(value)
+        return lambda v: not isinstance(v, str) or pattern.search(v) is not None
+    if keyword == "format":
+        exact = formats.get(value)
+        if exact is None:
+            return lambda v: True  # a format the checker does not know passes there too
+        return lambda v: not isinstance(v, Number) or exact.fullmatch(v.text) is not None
+    if keyword in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
+        if isinstance(value, bool) or not isinstance(value, (int, Decimal)):
+            return None
+        limit = value
+        compare: Callable[[Any], bool] = {
+            "minimum": lambda v: v >= limit,
+            "maximum": lambda v: v <= limit,
+            "exclusiveMinimum": lambda v: v > limit,
+            "exclusiveMaximum": lambda v: v < limit,
+        }[keyword]
+        return lambda v: compare(v) if isinstance(v, Number) else not _other_number(v)
+    if keyword in ("minLength", "maxLength", "minItems", "maxItems"):
+        if isinstance(value, bool) or not isinstance(value, int):
+            return None
+        size = value
+        fits: Callable[[int], bool] = (
+            (lambda n: n >= size) if keyword.startswith("min") else (lambda n: n <= size)
+        )
+        if keyword.endswith("Length"):
+            return lambda v: not isinstance(v, str) or fits(len(v))
+        return lambda v: not isinstance(v, list) or fits(len(v))
+    if keyword == "uniqueItems":
+        if value is not True:
+            return (lambda v: True) if value is False else None
+        # Items all text, or all numbers (compared by value, as jsonschema does: 1 and
+        # 1.0 are the same item); anything else is left to jsonschema.
+        return lambda v: (
+            not isinstance(v, list)
+            or (
+                (
+                    all(isinstance(item, str) for item in v)
+                    or all(isinstance(item, Number) for item in v)
+                )
+                and len(set(v)) == len(v)
+            )
+        )
+    if keyword == "items":
+        item = sub(value)
+        if item is None:
+            return None
+        return lambda v: not isinstance(v, list) or all(map(item, v))
+    if keyword == "required":
+        names = frozenset(value)
+        return lambda v: not isinstance(v, dict) or v.keys() >= names
+    if keyword == "properties":
+        props = {name: sub(subschema) for name, subschema in value.items()}
+        if any(check is None for check in props.values()):
+            return None
+        pairs = tuple((name, check) for name, check in props.items() if check is not None)
+
+        def properties(v: Any) -> bool:
+            if isinstance(v, dict):
+                for name, check in pairs:
+                    if name in v and not check(v[name]):
+                        return False
+            return True
+
+        return properties
+    if keyword == "additionalProperties":
+        if "patternProperties" in schema:
+            return None
+        known = frozenset(schema.get("properties", ()))
+        if value is False:
+            return lambda v: not isinstance(v, dict) or all(name in known for name in v)
+        extra = sub(value)
+        if extra is None:
+            return None
+        if not known:  # every value is an additional one (a program's steps)
+            return lambda v: not isinstance(v, dict) or all(map(extra, v.values()))
+
+        def additional(v: Any) -> bool:
+            if isinstance(v, dict):
+                for name, each in v.items():
+                    if name not in known and not extra(each):
+                        return False
+            return True
+
+        return additional
+    if keyword == "propertyNames":
+        name_check = sub(value)
+        if name_check is None:
+            return None
+        return lambda v: not isinstance(v, dict) or all(map(name_check, v))
+    if keyword == "$ref":
+        if not isinstance(value, str) or not value.startswith("#/$defs/"):
+            return None
+        target = root.get("$defs", {}).get(value[len("#/$defs/") :])
+        return None if target is None else sub(target)
+    return None
