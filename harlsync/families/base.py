@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeAlias, TypeVar, ca
 
 from ..alignment import text_of
 from .declare import Help, Option, Scheme, Words
+from .survey import Survey
 
 if TYPE_CHECKING:
     from ..project.robot import Robot
@@ -48,9 +49,7 @@ __all__ = [
     "Change3",
     "D",
     "Driver",
-    "Extent",
     "Family",
-    "Guess",
     "Help",
     "ItemKey",
     "K",
@@ -59,7 +58,6 @@ __all__ = [
     "Progress",
     "Scheme",
     "Status",
-    "Survey",
     "Words",
 ]
 
@@ -94,63 +92,6 @@ class Status(Protocol):
     def describe(self) -> str:
         """``"idle"``, or what forbids a write (``task 0 in execution``, ``MANUAL mode``)."""
         ...
-
-
-@dataclass(frozen=True)
-class Extent:
-    """Where one of the controller's tables really ends, as a probe found it:
-    ``Extent("offset tables", 100, "E21", ("offset_tables", "no_such_table"))``."""
-
-    #: the table, in the family's words
-    table: str
-    #: how many items it holds (or the last number, as :attr:`counted` says)
-    count: int
-    #: what the controller answered past its end (its "not there" reply), as read
-    reply: str
-    #: the robot.yaml settings that cover this table's extent and reply
-    settings: tuple[str, ...] = ()
-    #: what :attr:`count` counts: ``tables`` (0 to count - 1), ``last position``
-    counted: str = "items"
-
-
-@dataclass(frozen=True)
-class Guess:
-    """One choice the family's profile made where its manual is silent, and what
-    this controller showed of it (docs/profile.md lists every one)."""
-
-    #: the guess, in a few words: ``the reply to a missing offset table``
-    what: str
-    #: what the profile guessed, as robot.yaml would write it
-    guessed: str
-    #: what this controller did
-    found: str
-    #: the robot.yaml setting that covers it
-    setting: str
-
-    @property
-    def confirmed(self) -> bool:
-        return self.guessed == self.found
-
-
-@dataclass
-class Survey:
-    """What a probe learns of a controller with reads only (:meth:`Driver.survey`)."""
-
-    #: what the robot says it is, by :meth:`Catalogue.robot_identity`'s names
-    identity: Mapping[str, str]
-    #: the interlock now: ``idle``, or what forbids a write
-    status: str
-    idle: bool
-    extents: list[Extent] = field(default_factory=list)
-    guesses: list[Guess] = field(default_factory=list)
-    #: robot.yaml's family settings (:attr:`Robot.options <harlsync.project.robot.Robot>`)
-    #: that make a pull read this controller as it is, each with its comment
-    options: dict[str, object] = field(default_factory=dict)
-    #: the reply turnaround measured: seconds from a request's first byte sent to its
-    #: reply's last received, on average over the probe's exchanges (None: not measured)
-    turnaround: float | None = None
-    #: how many exchanges a full pull of this controller takes (None: not known)
-    pull_exchanges: int | None = None
 
 
 class Driver(ABC, Generic[K, D]):

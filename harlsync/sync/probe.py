@@ -28,7 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ControllerError, LinkTimeout, ProjectError, ProtocolError
-from ..families.base import AnyFamily, Survey
+from ..families.base import AnyFamily
+from ..families.survey import Survey
 from ..link.capture import recording
 from ..link.readonly import WriteForbidden, reads_only
 from ..project.robot import Robot

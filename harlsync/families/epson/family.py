@@ -11,7 +11,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..base import Analysis, Catalogue, Driver, Family, Help, Option, Scheme, Survey, Words
+from ..base import Analysis, Catalogue, Driver, Family, Help, Option, Scheme, Words
+from ..survey import Survey
 from . import declared
 
 if TYPE_CHECKING:

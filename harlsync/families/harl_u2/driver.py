@@ -3,12 +3,12 @@ everything, read or write one item (keys from :mod:`.catalogue`), status (LNR)."
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from typing import Any
 
-from ..base import Driver, Extent, Guess, Progress, Survey
+from ..base import Driver, Progress
 from ..base import Status as AnyStatus
+from ..survey import Extent, Findings, Guess, Survey, surveyed
 from .catalogue import Key, NumberKey, StepKey, identity_of
 from .controller import Controller, NoSuchTable
 from .model import (
@@ -79,53 +79,47 @@ class HarlU2Driver(Driver[Key, RobotData]):
         """LNX and LNV (the identity), the offset tables to where the controller says
         they end (:meth:`Controller.read_offsets`, taking whatever reply it gives
         twice), and LNR twice (the interlock): reads only."""
-        stats = self.controller.link.stats
-        before, started = stats.exchanges, time.perf_counter()
-        identity = self.identity()
-        config = self._known[0] if self._known is not None else self.controller.config()
-        _, end = self.controller.read_offsets(
-            max(PROBE_TABLES, self.offset_tables), expect=self._expected_end()
-        )
-        status = self.status()
-        exchanges = stats.exchanges - before
-        turnaround = (time.perf_counter() - started) / exchanges if exchanges else None
-        guessed_reply = profile.ERROR_PREFIX + profile.NO_SUCH_TABLE
-        options: dict[str, object] = {"no_such_table": end.reply}
-        if end.count > OFFSET_TABLE_COUNT:
-            options["offset_tables"] = end.count
-        return Survey(
-            identity=identity,
-            status=status.describe(),
-            idle=status.idle,
-            extents=[
-                Extent(
-                    "offset tables",
-                    end.count,
-                    end.reply,
-                    ("offset_tables", "no_such_table"),
-                    counted="tables, 0 to count - 1",
-                )
-            ],
-            guesses=[
-                Guess(
-                    "how many offset tables the controller has (at most)",
-                    str(OFFSET_TABLE_COUNT),
-                    str(end.count),
-                    "offset_tables",
-                ),
-                Guess(
-                    "the reply to an offset table the controller does not have",
-                    guessed_reply,
-                    end.reply,
-                    "no_such_table",
-                ),
-            ],
-            options=options,
-            turnaround=turnaround,
-            # what a pull reads (Controller.read_all): LNX, LNV, LNE, every step, the
-            # tables and the three exchanges of their end, the timers
-            pull_exchanges=6 + config.step_count + end.count + config.timers,
-        )
+
+        def explore() -> Findings:
+            config = self._known[0] if self._known is not None else self.controller.config()
+            _, end = self.controller.read_offsets(
+                max(PROBE_TABLES, self.offset_tables), expect=self._expected_end()
+            )
+            guessed_reply = profile.ERROR_PREFIX + profile.NO_SUCH_TABLE
+            options: dict[str, object] = {"no_such_table": end.reply}
+            if end.count > OFFSET_TABLE_COUNT:
+                options["offset_tables"] = end.count
+            return Findings(
+                extents=[
+                    Extent(
+                        "offset tables",
+                        end.count,
+                        end.reply,
+                        ("offset_tables", "no_such_table"),
+                        counted="tables, 0 to count - 1",
+                    )
+                ],
+                guesses=[
+                    Guess(
+                        "how many offset tables the controller has (at most)",
+                        str(OFFSET_TABLE_COUNT),
+                        str(end.count),
+                        "offset_tables",
+                    ),
+                    Guess(
+                        "the reply to an offset table the controller does not have",
+                        guessed_reply,
+                        end.reply,
+                        "no_such_table",
+                    ),
+                ],
+                options=options,
+                # what a pull reads (Controller.read_all): LNX, LNV, LNE, every step, the
+                # tables and the three exchanges of their end, the timers
+                pull_exchanges=6 + config.step_count + end.count + config.timers,
+            )
+
+        return surveyed(self.controller.link.stats, self.identity, explore, self.status)
 
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False

@@ -5,10 +5,10 @@ then 215H)."""
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
-from ..base import Driver, Extent, Guess, Progress, Status, Survey
+from ..base import Driver, Progress, Status
+from ..survey import Extent, Findings, Guess, Survey, surveyed
 from .catalogue import Key, PositionKey, RecordKey, Run, VariableKey, identity_of
 from .controller import Controller, IaiStatus
 from .layout import IaiData
@@ -44,47 +44,41 @@ class IaiDriver(Driver[Key, IaiData]):
         """201H (the identity), the position table read to where the controller's
         replies say it ends (:meth:`Controller.read_position_table`), and the
         status (212H, 215H): reads only."""
-        stats = self.controller.link.stats
-        before, started = stats.exchanges, time.perf_counter()
-        identity = self.identity()
-        positions, covered = self.controller.read_position_table()
-        status = self.status()
-        exchanges = stats.exchanges - before
-        turnaround = (time.perf_counter() - started) / exchanges if exchanges else None
-        guessed = DEFAULT_POSITION_RANGE[1]
-        last = covered.end if covered.end is not None else covered.last
-        reply = covered.past or "nothing past it up to the last number a query may name"
-        options: dict[str, object] = {}
-        if covered.end is not None and covered.end != guessed:
-            options["last"] = covered.end
-        return Survey(
-            identity=identity,
-            status=status.describe(),
-            idle=status.idle,
-            extents=[
-                Extent(
-                    "positions",
-                    last,
-                    reply,
-                    ("controller.first_position", "controller.last_position"),
-                    counted=f"the last position number; {len(positions)} defined",
-                )
-            ],
-            guesses=[
-                Guess(
-                    "the position table's last number",
-                    str(guessed),
-                    str(last),
-                    "controller.last_position",
-                )
-            ],
-            options=options,
-            turnaround=turnaround,
-            # as many exchanges as this read of the positions, and the identity and
-            # status around them, for a pull of the positions (variables are kept
-            # only with keep_registers)
-            pull_exchanges=exchanges,
-        )
+
+        def explore() -> Findings:
+            positions, covered = self.controller.read_position_table()
+            guessed = DEFAULT_POSITION_RANGE[1]
+            last = covered.end if covered.end is not None else covered.last
+            reply = covered.past or "nothing past it up to the last number a query may name"
+            options: dict[str, object] = {}
+            if covered.end is not None and covered.end != guessed:
+                options["last"] = covered.end
+            return Findings(
+                extents=[
+                    Extent(
+                        "positions",
+                        last,
+                        reply,
+                        ("controller.first_position", "controller.last_position"),
+                        counted=f"the last position number; {len(positions)} defined",
+                    )
+                ],
+                guesses=[
+                    Guess(
+                        "the position table's last number",
+                        str(guessed),
+                        str(last),
+                        "controller.last_position",
+                    )
+                ],
+                options=options,
+                # None: as many exchanges as this read of the positions, and the identity
+                # and status around them, for a pull of the positions (variables are kept
+                # only with keep_registers)
+                pull_exchanges=None,
+            )
+
+        return surveyed(self.controller.link.stats, self.identity, explore, self.status)
 
     def read_all(
         self, *, registers: bool, progress: Progress | None = None, whole: bool = False
