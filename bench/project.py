@@ -36,7 +36,7 @@ from typing import Any
 from machine import ROBOTS, describe, peak_rss_mib, process_env, run_child
 
 from harlsync import families
-from harlsync.families.harl_u2 import layout
+from harlsync.families.harl_u2 import checks, layout
 from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.families.harl_u2.model import RobotData, Step
 from harlsync.project import (
@@ -48,6 +48,7 @@ from harlsync.project import (
     validate_project,
     yamlio,
 )
+from harlsync.project.files import Flaws
 from harlsync.sync.engine import change_summary
 from harlsync.sync.items import diff, render_text, to_json
 
@@ -107,12 +108,12 @@ def _check_all(docs: dict[str, tuple[str, yamlio.Parsed]]) -> None:
     issues = [
         i for name, (kind, doc) in docs.items() for i in layout.SCHEMAS.check(kind, name, doc)
     ]
-    config = layout._build_config(docs["controller.yaml"][1].data)
     programs = {
         layout.program_key(name): doc for name, (kind, doc) in docs.items() if kind == "program"
     }
     plain = {name: doc for name, (_, doc) in docs.items()}
-    layout._check_against_config(config, plain, programs, issues)  # type: ignore[arg-type]
+    limits = checks.Limits.of(plain["controller.yaml"], Flaws())
+    checks.check_against_config(limits, plain, programs, issues)  # type: ignore[arg-type]
     assert not issues, issues
 
 

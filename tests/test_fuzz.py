@@ -33,7 +33,8 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from harlsync.errors import ProjectError, ProtocolError, ReplyError
-from harlsync.families.harl_u2.layout import analyse, render_files
+from harlsync.families.harl_u2.analysis import analyse
+from harlsync.families.harl_u2.layout import render_files
 from harlsync.families.harl_u2.model import (
     MAX_STEP_DATA,
     TOKEN_RE,
@@ -47,6 +48,7 @@ from harlsync.families.harl_u2.model import (
 from harlsync.families.harl_u2.protocol import FrameDecoder, decode_reply, encode_frame
 from harlsync.families.harl_u2.protocol import commands as c
 from harlsync.families.harl_u2.protocol.frame import off_allow_list
+from harlsync.families.harl_u2.protocol.readback import read_back
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.project import (
     Project,
@@ -278,7 +280,7 @@ def test_issue_11_the_codec_refuses_exactly_the_writes_the_wire_cannot_give_back
         back = _given_back(write) == written
     except ProtocolError:  # a frame over the limit, or a reply that does not fit
         back = False
-    found = c.read_back(write)
+    found = read_back(write)
     assert (found.excess == 0 and found.misread is None) == back
 
 

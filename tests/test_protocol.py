@@ -27,6 +27,7 @@ from harlsync.families.harl_u2.protocol import (
 from harlsync.families.harl_u2.protocol import commands as c
 from harlsync.families.harl_u2.protocol.commands import Ack, ErrorReply
 from harlsync.families.harl_u2.protocol.frame import off_allow_list
+from harlsync.families.harl_u2.protocol.readback import read_back
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.families.harl_u2.sim.state import DEFAULT_PARAMETERS
 
@@ -306,7 +307,7 @@ def test_issue_19_requests_and_replies_with_single_spaces_still_encode(payload: 
 def test_issue_19_a_parameter_reply_that_would_read_as_a_command_is_refused_by_validate() -> None:
     # The simulator's LNE reply is the 13 values: one beginning "SN" cannot be framed.
     values = ["SNOB1", *DEFAULT_PARAMETERS.values[1:]]
-    back = c.read_back(c.write_parameters(Parameters.from_values(values)))
+    back = read_back(c.write_parameters(Parameters.from_values(values)))
     assert back.misread is not None and "'SNOB1'" in back.misread
 
 

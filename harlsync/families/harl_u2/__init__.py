@@ -7,7 +7,9 @@
     controller.py what the controller can do, over the shared serial link
     catalogue.py  its items, their keys, names and safe push order
     driver.py     the engine's Driver over the controller
-    layout.py     the project files and their JSON Schemas (schemas/)
+    layout.py     the project files: names, format, JSON Schemas (schemas/), their text
+    analysis.py   reading the files back into a robot and its data
+    checks.py     what the schemas cannot say: against the configuration, the wire
     sim/          the simulated controller
     family.py     all of it as the engine sees it (FAMILY, for the registry)
 """

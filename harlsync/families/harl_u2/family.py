@@ -60,9 +60,9 @@ class HarlU2Family(Family["Key", "RobotData"]):
         return FORMAT
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
-        from . import layout
+        from . import analysis
 
-        return layout.analyse(files)
+        return analysis.analyse(files)
 
     def render_files(self, robot: Robot, data: RobotData) -> dict[str, str]:
         from . import layout

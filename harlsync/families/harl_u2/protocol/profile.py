@@ -81,7 +81,7 @@ REPLY_TIMEOUT = 1.0
 #: Longest frame the decoder accepts before dropping it as noise: its ETX must
 #: come within this many bytes of its STX.  Typical frames are well under 200
 #: bytes; validate refuses a step or parameters whose write, or its read-back,
-#: would not fit (``commands.read_back``), since such an item could never be read.
+#: would not fit (``readback.read_back``), since such an item could never be read.
 MAX_FRAME = 512
 
 #: Default station numbers 1-4 (set on the pendant: SYSTEM GENERATION >
