@@ -33,9 +33,9 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable
-from typing import Any, NamedTuple, TypeVar
+from typing import Any, TypeVar
 
-from ...errors import ControllerError, SyncError, WriteUnconfirmed
+from ...errors import ControllerError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
 from ...link import Link as SharedLink
 from ...link.confirm import confirmed_write, refuse_unless_idle
@@ -56,8 +56,9 @@ from .model import (
 )
 from .protocol import Ack, ErrorReply, Frame, Request, profile
 from .protocol import commands as cmd
+from .tableend import NoSuchTable, TableReader
 
-__all__ = ["Controller", "NoSuchTable", "Progress", "TableBeyondRange"]
+__all__ = ["Controller", "Progress"]
 
 log = logging.getLogger(__name__)
 
@@ -325,126 +326,34 @@ class Controller(OnLink):
         tick: Callable[[], None] | None = None,
     ) -> tuple[dict[int, OffsetTable], OffsetEnd]:
         """The offset tables from 0 to where the controller's answers say they end,
-        at most ``limit`` (robot.yaml's ``offset_tables``), and that end.
+        at most ``limit`` (robot.yaml's ``offset_tables``), and that end, found as
+        :mod:`.tableend` tells: three exchanges beyond the tables' own reads.
+        ``expect`` is the reply robot.yaml pins or the project recorded; None:
+        whatever the controller answers twice.  ``tick`` is called after each
+        table read.
 
-        LNX does not report how many tables there are, and which status a missing
-        one answers is not in the manual, so the end is the controller's own:
-        table ``n`` answers an error reply, table ``n`` - 1 reads normally once
-        more, and table ``n`` answers the same reply again.  That is table
-        ``limit`` (the probe past the range) or an earlier one (a controller with
-        fewer tables: read to its end, not failed).  Three exchanges beyond the
-        tables' own reads; a table that answers an error once and then reads is
-        taken as read.  ``expect`` is the reply robot.yaml pins or the project
-        recorded; None: whatever the controller answers twice.  ``tick`` is
-        called after each table read.
-
-        Raises :class:`TableBeyondRange` naming robot.yaml's ``offset_tables`` when
-        table ``limit`` answers data, and :class:`ControllerError` in one line when
-        the answers do not show an end (two different replies, table ``n`` - 1 not
-        reading again, table 0 missing) or show one with a reply other than
-        ``expect``: the tables read could be short.
+        Raises :class:`~.tableend.TableBeyondRange` naming robot.yaml's
+        ``offset_tables`` when table ``limit`` answers data, and
+        :class:`ControllerError` in one line when the answers do not show an end
+        (two different replies, table ``n`` - 1 not reading again, table 0
+        missing) or show one with a reply other than ``expect``: the tables read
+        could be short.
         """
-        offsets: dict[int, OffsetTable] = {}
-        n = 0
-        while True:
-            answer = self._table_or_reply(n)
-            if isinstance(answer, str):
-                answer = self._asked_again(n, answer)
-            if isinstance(answer, OffsetTable):
-                if n >= limit:
-                    raise TableBeyondRange(
-                        f"port {self.port}, station {self.station}: offset table {n} answers "
-                        f"({' '.join(answer.values)}): the controller has more than the {n} "
-                        f"offset tables a read goes to (0-{n - 1}), so the backup would be "
-                        "short; set offset_tables in robot.yaml to the controller's count "
-                        "and pull again"
-                    )
-                offsets[n] = answer
-                if tick is not None:
-                    tick()
-                n += 1
-                continue
-            if expect is not None and answer != expect.reply:
-                raise self._unreadable_end(
-                    n,
-                    answer,
-                    f"offset table {n} answered {answer} twice, not {expect.reply} "
-                    f"({expect.source}): the controller now answers a missing table "
-                    "otherwise, or cannot answer normally (an abnormal condition)",
-                    advice=(
-                        f"; if {answer} is what this controller answers for a table it "
-                        f"does not have, set no_such_table: {answer} in robot.yaml"
-                    ),
-                )
-            end = OffsetEnd(n, answer, asked=limit)
-            if n < limit:
-                log.info(
-                    "port %s, station %s: %d offset tables, fewer than the %d a read goes "
-                    "to (robot.yaml offset_tables): table %d answered %s twice",
-                    self.port,
-                    self.station,
-                    n,
-                    limit,
-                    n,
-                    answer,
-                )
-            return offsets, end
-
-    def _table_or_reply(self, table: int) -> OffsetTable | str:
-        """LNL ``table``: the table, or the error reply (``E`` + status) it answered."""
-        try:
-            return self.read_offset(table)
-        except ControllerError as exc:
-            return profile.ERROR_PREFIX + exc.status
-
-    def _asked_again(self, table: int, first: str) -> OffsetTable | str:
-        """Table ``table`` answered the error reply ``first``: read the table before it
-        again (the robot still answers normally), then ``table`` again.  Returns the
-        table when it reads now, or ``first`` when it answers that again.
-
-        Raises :class:`ControllerError` when the answers show no end.
-        """
-        if table > 0:
-            before = self._table_or_reply(table - 1)
-            if isinstance(before, str):
-                raise self._unreadable_end(
-                    table,
-                    first,
-                    f"offset table {table} answered {first}, and table {table - 1}, which "
-                    f"read normally, answers {before} now: the robot does not answer "
-                    "normally",
-                )
-        second = self._table_or_reply(table)
-        if isinstance(second, OffsetTable) or (second == first and table > 0):
-            return second
-        if second == first:
-            raise self._unreadable_end(
-                table,
-                first,
-                f"offset table 0 answered {first} twice: no offset table reads normally, "
-                "so the robot either has none or cannot answer now",
+        offsets, end = TableReader(self.read_offset, self.port, self.station).read(
+            limit, expect=expect, tick=tick
+        )
+        if end.count < limit:
+            log.info(
+                "port %s, station %s: %d offset tables, fewer than the %d a read goes "
+                "to (robot.yaml offset_tables): table %d answered %s twice",
+                self.port,
+                self.station,
+                end.count,
+                limit,
+                end.count,
+                end.reply,
             )
-        raise self._unreadable_end(
-            table,
-            second,
-            f"offset table {table} answered {first}, then {second}: not the same reply twice",
-        )
-
-    def _unreadable_end(
-        self, table: int, reply: str, why: str, advice: str = ""
-    ) -> ControllerError:
-        """The one-line error of a read whose offset tables show no end it can trust."""
-        return ControllerError(
-            reply[len(profile.ERROR_PREFIX) :],
-            port=self.port,
-            station=self.station,
-            command=cmd.read_offset(table).payload,
-            message=(
-                f"{why}; harlsync cannot tell where the offset tables end, so it saves "
-                f"nothing and writes nothing: pull again when the robot answers "
-                f"normally{advice}"
-            ),
-        )
+        return offsets, end
 
     # --- everything ---------------------------------------------------------------------
 
@@ -471,40 +380,31 @@ class Controller(OnLink):
         ``known`` is the configuration and version just read (the robot's identity,
         :meth:`HarlU2Driver.identity`): not asked for again.
 
-        Raises :class:`TableBeyondRange` when the controller has more offset tables,
+        Raises :class:`~.tableend.TableBeyondRange` when the controller has more offset tables,
         and :class:`ControllerError` when their end cannot be trusted.
         """
         config = self.config() if known is None else known[0]
         registers = config.registers if include_registers else 0
         # LNX, LNV, LNE, the steps, the tables and the three exchanges of their end
         # (:meth:`read_offsets`), the timers and the registers
-        total = 6 + config.step_count + offset_tables + config.timers + registers
-        done = 0
-
-        def tick(value: T) -> T:
-            nonlocal done
-            done += 1
-            if progress is not None:
-                progress(done, total)
-            return value
-
-        tick(config)
-        version = tick(self.version() if known is None else known[1])
-        parameters = tick(self.read_parameters())
+        count = _Count(progress, 6 + config.step_count + offset_tables + config.timers + registers)
+        count.tick(config)
+        version = count.tick(self.version() if known is None else known[1])
+        parameters = count.tick(self.read_parameters())
         programs: dict[ProgramKey, dict[int, Step]] = {
             (ptype, number): self.read_program(
-                ptype, number, config.area(ptype).steps, progress=lambda *_: tick(None)
+                ptype, number, config.area(ptype).steps, progress=lambda *_: count.tick(None)
             )
             for ptype, number in config.programs()
         }
         offsets, end = self.read_offsets(
-            offset_tables, expect=no_such_table, tick=lambda: tick(None)
+            offset_tables, expect=no_such_table, tick=lambda: count.tick(None)
         )
-        done += offset_tables - end.count  # the tables a smaller controller does not have
+        count.done += offset_tables - end.count  # the tables a smaller controller does not have
         for _ in range(3):  # the end: table N, table N - 1 again, table N again
-            tick(None)
-        timers = {n: tick(self.read_timer(n)) for n in range(config.timers)}
-        regs = {n: tick(self.read_register(n)) for n in range(registers)}
+            count.tick(None)
+        timers = {n: count.tick(self.read_timer(n)) for n in range(config.timers)}
+        regs = {n: count.tick(self.read_register(n)) for n in range(registers)}
         return RobotData(
             version=version,
             config=config,
@@ -517,16 +417,20 @@ class Controller(OnLink):
         )
 
 
-class NoSuchTable(NamedTuple):
-    """The reply a read takes for "no such table" past the last offset table, and
-    what says so, for its message: ``NoSuchTable("E21", "robot.yaml's no_such_table")``."""
+class _Count:
+    """The items a read of everything has read, told to ``progress(done, total)``."""
 
-    reply: str
-    source: str
+    def __init__(self, progress: Progress | None, total: int) -> None:
+        self.progress = progress
+        self.total = total
+        self.done = 0
 
-
-class TableBeyondRange(SyncError):
-    """The controller has more of a table than the pull reads: a backup would be short."""
+    def tick(self, value: T) -> T:
+        """One more item read (``value``, handed back)."""
+        self.done += 1
+        if self.progress is not None:
+            self.progress(self.done, self.total)
+        return value
 
 
 def _show(value: object) -> str:

@@ -10,7 +10,7 @@ from ..base import Driver, Progress
 from ..base import Status as AnyStatus
 from ..survey import Extent, Findings, Guess, Survey, surveyed
 from .catalogue import Key, NumberKey, StepKey, identity_of
-from .controller import Controller, NoSuchTable
+from .controller import Controller
 from .model import (
     OFFSET_TABLE_COUNT,
     TASK_STATUS_NAMES,
@@ -22,6 +22,7 @@ from .model import (
 )
 from .protocol import Request, profile
 from .protocol import commands as cmd
+from .tableend import NoSuchTable
 
 __all__ = ["HarlU2Driver"]
 
