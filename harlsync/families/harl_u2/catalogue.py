@@ -20,7 +20,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
 from ...alignment import align, spans
-from ..base import Catalogue, PlanShape
+from ..base import Catalogue, Change3, PlanShape
 from .model import (
     OFFSET_FIELDS,
     Config,
@@ -268,26 +268,11 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
         *,
         registers: bool,
     ) -> PlanShape[Key]:
-        unwritable = [
-            f"{name}: the robot has {getattr(live.config, name)}, the project "
-            f"{getattr(project.config, name)}; the configuration write (SNX) cannot change it"
-            for name in ("timers", "memory_bits", "registers")
-            if getattr(live.config, name) != getattr(project.config, name)
-        ]
-        if registers and project.registers is None:
-            unwritable.append(
-                "registers: the project does not keep them; set keep_registers in robot.yaml "
-                "and pull, or push without registers"
-            )
-        explained = {
-            kind
-            for kind, count in (("timer", "timers"), ("register", "registers"))
-            if getattr(live.config, count) != getattr(project.config, count)
-        } | ({"register"} if project.registers is None else set())
         # Only a step can be written as "nothing" (cleared); any other item the
         # project lacks cannot be written at all.
         missing = [c for c in changes if c[2] is None and c[0].kind != "step"]
-        unwritable += [
+        explained = _explained(live.config, project)
+        unwritable = _unwritable(live.config, project, registers) + [
             f"{self.describe(key)}: the project has none"
             for key, _, _ in missing
             if key.kind not in explained
@@ -305,32 +290,56 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
                 for key, value in self.items(project).items()
                 if isinstance(key, StepKey)
             ]
+            return _reconfiguring(wanted, unwritable)
         # An insertion or deletion rewrites every step it moves along (each step whose
         # content changed is one SN write, as ever): say so in the program's terms.
-        notes = (
-            [
-                f"{shift.group}: {shift.what}: rewrites {_steps(shift.rewrites)}"
-                for shift in align(self, [c for c in wanted if isinstance(c[0], StepKey)])
-            ]
-            if not reconfigure
-            else []
+        notes = [
+            f"{shift.group}: {shift.what}: rewrites {_steps(shift.rewrites)}"
+            for shift in align(self, [c for c in wanted if isinstance(c[0], StepKey)])
+        ]
+        return PlanShape(notes=notes, wanted=wanted, unwritable=unwritable)
+
+
+def _unwritable(live: Config, project: RobotData, registers: bool) -> list[str]:
+    """What differs that no write changes: the configuration's read-only counts
+    (SNX writes only the program areas), and registers the project does not keep."""
+    unwritable = [
+        f"{name}: the robot has {getattr(live, name)}, the project "
+        f"{getattr(project.config, name)}; the configuration write (SNX) cannot change it"
+        for name in ("timers", "memory_bits", "registers")
+        if getattr(live, name) != getattr(project.config, name)
+    ]
+    if registers and project.registers is None:
+        unwritable.append(
+            "registers: the project does not keep them; set keep_registers in robot.yaml "
+            "and pull, or push without registers"
         )
-        return PlanShape(
-            notes=notes,
-            wanted=wanted,
-            unwritable=unwritable,
-            reconfigure=(
-                "the project changes the program configuration (SNX), which destroys every "
-                "program on the robot; give --allow-reconfigure to do it and rewrite them all"
-                if reconfigure
-                else None
-            ),
-            reconfigure_note=(
-                "SNX changes the program configuration: every program is rewritten after it"
-                if reconfigure
-                else None
-            ),
-        )
+    return unwritable
+
+
+def _explained(live: Config, project: RobotData) -> set[str]:
+    """The item kinds whose missing items :func:`_unwritable` already explains."""
+    return {
+        kind
+        for kind, count in (("timer", "timers"), ("register", "registers"))
+        if getattr(live, count) != getattr(project.config, count)
+    } | ({"register"} if project.registers is None else set())
+
+
+def _reconfiguring(wanted: list[Change3[Key]], unwritable: list[str]) -> PlanShape[Key]:
+    """The plan of a push that changes the program configuration (SNX)."""
+    return PlanShape(
+        notes=[],
+        wanted=wanted,
+        unwritable=unwritable,
+        reconfigure=(
+            "the project changes the program configuration (SNX), which destroys every "
+            "program on the robot; give --allow-reconfigure to do it and rewrite them all"
+        ),
+        reconfigure_note=(
+            "SNX changes the program configuration: every program is rewritten after it"
+        ),
+    )
 
 
 CATALOGUE = HarlU2Catalogue()
