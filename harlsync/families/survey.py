@@ -15,9 +15,10 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
-from ..link.received import LinkStats
+if TYPE_CHECKING:  # the link is not imported for --help (base.py imports this module)
+    from ..link.received import LinkStats
 
 __all__ = ["Extent", "Findings", "Guess", "Survey", "surveyed"]
 
