@@ -28,9 +28,9 @@ from harlsync.sync import audit as audit_log
 from harlsync.sync.plan import PlannedWrite
 
 PER_CHUNK = 100
-#: How many chunks the default run pushes (200 seeded cases a family); the slow run
-#: (``pytest -m slow``) pushes the other eight, for the full 1,000.
-FAST_CHUNKS = 2
+#: How many chunks the default run pushes (100 seeded cases a family); the slow run
+#: (``pytest -m slow``) pushes the other nine, for the full 1,000.
+FAST_CHUNKS = 1
 #: The chunk parameters of a family's property test: ``parametrize("chunk", CHUNKS)``.
 #: Each chunk checks its own coverage, so the fast ones meet every kind of case too.
 CHUNKS = [

@@ -415,7 +415,7 @@ def _check_loads_or_says_where(root: Path, name: str) -> None:
 
 
 @given(data=st.data())
-@settings(FUZZ, max_examples=examples(100))
+@settings(FUZZ, max_examples=examples(40))
 def test_a_mutated_project_loads_or_raises_a_project_error_naming_the_file(
     valid: Path, data: st.DataObject
 ) -> None:

@@ -1,6 +1,6 @@
 """Property test of the push interlock (issue 6, "Prove the promises").
 
-Over 1,000 random pushes (200 in every run, the rest in ``pytest -m slow``; plus 40
+Over 1,000 random pushes (100 in every run, the rest in ``pytest -m slow``; plus 40
 more through the CLI, on disk),
 each case drawn from one seed, it proves, from the simulator's own record of
 what arrived and of the task states when it arrived (``Simulator.received``),

@@ -158,7 +158,7 @@ document = st.builds(
 )
 
 
-@settings(max_examples=examples(300))
+@settings(max_examples=examples(100))
 @given(document, st.sampled_from(["", "# a comment\n", "# one\n# two\n"]))
 def test_any_document_is_written_as_the_emitter_writes_it(node: MappingNode, header: str) -> None:
     _same_as_emitter(node, header)

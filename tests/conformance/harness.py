@@ -34,6 +34,8 @@ class Harness:
     quick: Callable[[pytest.MonkeyPatch], None] = lambda monkeypatch: None
     #: how many seeds of the property run (a family whose every read is slow runs fewer)
     property_seeds: int = 4
+    #: make a served simulator answer at once (what its controller would take time for)
+    prompt: Callable[[Any], None] = lambda device: None
 
 
 def _toy_edit(state: Any, rng: random.Random) -> str:
@@ -106,6 +108,13 @@ def _epson_quick(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(SimState, "generate", classmethod(ten_points))
 
 
+def _epson_prompt(device: Any) -> None:
+    """Commands run in no time: the handshake's first poll finds each one done.  What
+    a command's run time does to a push is the ``write_time`` variant's and the
+    property run's (tests/epson/test_interlock_property.py) to show."""
+    device.execution_time = 0.0
+
+
 def _epson_blank(state: Any) -> Any:
     from harlsync.families.epson.sim.state import SimState
 
@@ -117,7 +126,9 @@ HARNESSES: dict[str, Harness] = {
     "harl-u2": Harness(_harl_u2_edit, _harl_u2_blank),
     "iai": Harness(_iai_edit, _iai_blank),
     # A whole Epson read is some thousand Modbus exchanges: one property seed.
-    "epson": Harness(_epson_edit, _epson_blank, _epson_quick, property_seeds=1),
+    "epson": Harness(
+        _epson_edit, _epson_blank, _epson_quick, property_seeds=1, prompt=_epson_prompt
+    ),
 }
 
 
@@ -160,6 +171,7 @@ def served(
     side = sim_family(name)
     device = side.generate(seed, [side.default_station])
     device.vary(variant or {})
+    HARNESSES[name].prompt(device)
     station = side.default_station
     if isinstance(side, ServedFamily):
         server = side.serve(device, "127.0.0.1", 0)

@@ -1,7 +1,7 @@
 """Property test of the Epson push interlock (issue 13, "the interlock property test
 extended to Epson").
 
-Over 1,000 random pushes (200 in every run, the rest in ``pytest -m slow``), each
+Over 1,000 random pushes (100 in every run, the rest in ``pytest -m slow``), each
 case drawn from one seed, it proves,
 from the simulated controller's own record (``Simulator.commands()``, and for each
 command the client's last status read before its command words,

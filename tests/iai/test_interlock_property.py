@@ -1,7 +1,7 @@
 """Property test of the IAI push interlock (issue 12, "the interlock property test
 extended to IAI").
 
-Over 1,000 random pushes (200 in every run, the rest in ``pytest -m slow``; plus 20
+Over 1,000 random pushes (100 in every run, the rest in ``pytest -m slow``; plus 20
 more through ``harlsync push``
 on a project on disk), each case drawn from one seed, it proves, from the
 simulated controller's own record of what arrived and of what the controller was
