@@ -10,7 +10,8 @@ from typing import Any
 
 from ..base import Driver, Extent, Guess, Progress, Status, Survey
 from .catalogue import Key, PositionKey, RecordKey, Run, VariableKey, identity_of
-from .controller import Controller, IaiStatus
+from .controller import Controller
+from .interlock import IaiStatus
 from .layout import IaiData
 from .model import Version, real_value
 from .profile import DEFAULT_POSITION_RANGE, STRING_ROW
