@@ -56,9 +56,9 @@ class IaiFamily(Family["Key", "IaiData"]):
         return FORMAT
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
-        from . import layout
+        from .analysis import analyse
 
-        return layout.analyse(files)
+        return analyse(files)
 
     def render_files(self, robot: Robot, data: IaiData) -> dict[str, str]:
         from . import layout
