@@ -102,7 +102,7 @@ class IaiDriver(Driver[Key, IaiData]):
             return status.advice
         return super().advice(status)
 
-    def read(self, key: Key) -> Any:
+    def read(self, key: Key) -> object:
         c = self.controller
         if isinstance(key, PositionKey):
             return c.read_run(key.number, 1)[0]
