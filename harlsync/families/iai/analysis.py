@@ -154,23 +154,24 @@ def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
         )
         return None
     controller = data.get("controller", {})
-    options: dict[str, Any] = {"model": str(controller.get("model", profile.DEFAULT_MODEL))}
+    options: dict[str, object] = {"model": str(controller.get("model", profile.DEFAULT_MODEL))}
     if "axes" in controller:
         axes = sorted(int(a) for a in controller["axes"])
         options["axes"] = tuple(axes)
     if "real_word_order" in controller:
         options["real_word_order"] = str(controller["real_word_order"])
-    first, last = profile.DEFAULT_POSITION_RANGE
-    options["first"] = int(controller.get("first_position", first))
-    options["last"] = int(controller.get("last_position", last))
-    ranges = [
-        (("controller", "last_position"), options["first"], options["last"], "first_position")
+    default_first, default_last = profile.DEFAULT_POSITION_RANGE
+    first = int(controller.get("first_position", default_first))
+    last = int(controller.get("last_position", default_last))
+    options["first"], options["last"] = first, last
+    ranges: list[tuple[tuple[str, ...], int, int, str]] = [
+        (("controller", "last_position"), first, last, "first_position")
     ]
     for section in (*VARIABLE_SECTIONS, *RECORD_SECTIONS):
         if section in controller:
             bounds = controller[section]
-            options[section] = (int(bounds["first"]), int(bounds["last"]))
-            ranges.append((("controller", section, "last"), *options[section], "first"))
+            options[section] = kept = (int(bounds["first"]), int(bounds["last"]))
+            ranges.append((("controller", section, "last"), *kept, "first"))
     backwards = [
         Issue(
             "robot.yaml",
