@@ -262,10 +262,11 @@ class BackupRead(Station):
         return True
 
     def _wide_query_tail(self, step: int, known: Mapping[int, Position]) -> tuple[list[int], int]:
-        """The fewest of the last positions read whose first lies more than a read's
-        numbers (``step``) before the last (so that a short scan shows), if they fit
-        a reply; and the number the wide 22DH asks from: the one after the position
-        before them (none: the one after ``last``)."""
+        """What a wide 22DH must carry back from inside the range: the fewest of the
+        last positions read whose first lies more than a read's numbers (``step``)
+        before the last, so that a short scan shows, if they fit one reply (none
+        when they cannot show it); and the number it asks from, the one after the
+        position before them (``first`` when none is), else the one after ``last``."""
         send = profile.BUFFERS[self.model].send
         room = send - _READ_OVERHEAD - profile.READ_RECORD_MAX  # room for one more
         numbers = sorted(known)

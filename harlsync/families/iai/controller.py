@@ -8,12 +8,13 @@ can encode (the profile's allow-list).  Every failure names the port, the
 station (in hex) and the message: an ``&`` reply raises
 :class:`~harlsync.errors.ControllerError` with its 3-hex code.
 
-The controller is built in layers, each a module: :mod:`.station` sends the
-requests and reads by number and the status, :mod:`.backup_read` reads a whole
-backup and how far each table goes, and this module writes.  Writes (291H, 24BH, 24CH, 24DH, 24EH) are
-confirmed, never blindly repeated (:func:`~harlsync.link.confirm.confirmed_write`):
-after a lost reply what was written is read back, and a second send first
-checks that the robot is still idle.
+The controller is built in layers, a module each: :mod:`.station` sends the
+requests, reads by number and reads the status; :mod:`.backup_read` reads a
+whole backup and how far each table goes; this module writes.  Writes (291H,
+24BH, 24CH, 24DH, 24EH) are confirmed, never blindly repeated
+(:func:`~harlsync.link.confirm.confirmed_write`): after a lost reply what was
+written is read back, and a second send first checks that the robot is still
+idle.
 
 The interlock (:meth:`Controller.status`) is 212H then 215H, back to back (215H
 last, so MANUAL mode and an emergency stop are the freshest read): AUTO mode, no
@@ -27,9 +28,9 @@ uses: an axis reported once and then left out of a reply is not idle.
 
 from __future__ import annotations
 
-import logging
 import os
 from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 from ...errors import (
     ControllerError,
@@ -57,11 +58,11 @@ from .protocol import (
     write_reals,
     write_strings,
 )
-from .station import ERROR_CODE_NOTE, T
+from .station import ERROR_CODE_NOTE
 
 __all__ = ["Controller"]
 
-log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 
 def _numbers(one: str, several: str, start: int, count: int) -> str:

@@ -47,7 +47,7 @@ from .protocol import (
 from .protocol import axis_status as axis_status_request
 from .tables import TableUnclear
 
-__all__ = ["ALL_AXES", "ERROR_CODE_NOTE", "Station"]
+__all__ = ["ALL_AXES", "ERROR_CODE_NOTE", "Station", "chunks"]
 
 log = logging.getLogger(__name__)
 
