@@ -57,7 +57,7 @@ from machine import (
     timed_process,
 )
 
-from harlsync.families.iai import layout, profile
+from harlsync.families.iai import analysis, profile
 from harlsync.families.iai.family import FAMILY
 from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.protocol import max_positions_per_read
@@ -160,7 +160,7 @@ def save_parts(table: str, repeat: int = 3) -> tuple[float, float]:
         start = time.perf_counter()
         texts = FAMILY.render_files(robot, data)
         middle = time.perf_counter()
-        found = layout.analyse({name: text.encode() for name, text in texts.items()})
+        found = analysis.analyse({name: text.encode() for name, text in texts.items()})
         end = time.perf_counter()
         assert not found.issues, found.issues
         render, check = min(render, middle - start), min(check, end - middle)

@@ -13,7 +13,8 @@ from harlsync.errors import LinkError, LinkTimeout, ProtocolError
 from harlsync.families.iai import profile
 from harlsync.families.iai import protocol as p
 from harlsync.families.iai.codec import CODEC, SETTINGS
-from harlsync.families.iai.model import SystemStatus, Version
+from harlsync.families.iai.interlock import SystemStatus
+from harlsync.families.iai.model import Version
 from harlsync.link import Link, SerialSettings
 from harlsync.sim.serve import PtyServer
 

@@ -15,7 +15,8 @@ from harlsync.errors import FrameError, ProtocolError, ReplyError
 from harlsync.families.iai import model as m
 from harlsync.families.iai import profile
 from harlsync.families.iai import protocol as p
-from harlsync.families.iai.model import AxisStatus, Position, SystemStatus, Version
+from harlsync.families.iai.interlock import AxisStatus, SystemStatus, axes_refusal
+from harlsync.families.iai.model import Position, Version
 from harlsync.families.iai.protocol import ChecksumError, ErrorReply, Frame, FrameDecoder
 from harlsync.families.iai.protocol import positions as positions_module
 
@@ -625,9 +626,9 @@ def test_an_axis_in_use_or_missing_refuses_a_write() -> None:
     idle = AxisStatus(2, 0x1C, 0, "000", 0, "10.005")
     assert busy.in_use
     assert busy.refusal == "axis 1 servo axis in use (212H axis status bit 0)"
-    assert m.axes_refusal((1, 2), (busy, idle)) == busy.refusal
-    assert m.axes_refusal((2,), (busy, idle)) is None
-    assert m.axes_refusal((2, 3), (idle,)) == (
+    assert axes_refusal((1, 2), (busy, idle)) == busy.refusal
+    assert axes_refusal((2,), (busy, idle)) is None
+    assert axes_refusal((2, 3), (idle,)) == (
         "axis 3 not reported by 212H (its reply lists axis 2): an axis it does not report "
         "cannot be seen to be idle"
     )
@@ -637,12 +638,12 @@ def test_issue_19_a_212h_reply_that_lists_no_axis_is_not_idle() -> None:
     # A checksum-valid reply with pattern 00 once read as "no axis in use".
     none = reply(p.axis_status(0xFF), b"#99212008A" + CRLF)  # SC by hand
     assert none == ()
-    assert m.axes_refusal((1, 2, 3), none) == (
+    assert axes_refusal((1, 2, 3), none) == (
         "axis 1 not reported by 212H (its reply lists no axis): an axis it does not report "
         "cannot be seen to be idle"
     )
     # Not even the robot's axes known (no robot.yaml axes, no position): still not idle.
-    assert m.axes_refusal((), none) == (
+    assert axes_refusal((), none) == (
         "212H reports no axis: an axis it does not report cannot be seen to be idle"
     )
 

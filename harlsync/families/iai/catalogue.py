@@ -32,9 +32,9 @@ from __future__ import annotations
 import copy
 from collections.abc import Iterable, Mapping
 from itertools import zip_longest
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
-from ..base import Catalogue, PlanShape
+from ..base import Catalogue, Change3, PlanShape
 from .layout import IaiData
 from .model import ARM_NAMES, VARIABLE_SECTIONS, Position, Version
 from .protocol import max_positions_per_write, max_variables_per_write
@@ -122,9 +122,9 @@ def runs(
     kind: str,
     numbers: Iterable[int],
     limit: int,
-    live: Mapping[int, Any],
-    project: Mapping[int, Any],
-) -> list[tuple[Run, tuple[Any, ...], tuple[Any, ...]]]:
+    live: Mapping[int, object],
+    project: Mapping[int, object],
+) -> list[tuple[Run, tuple[object, ...], tuple[object, ...]]]:
     """The writes of ``numbers`` (changed items of run kind ``kind``): one per run
     of consecutive numbers of at most ``limit``, as (run, old values, new values)."""
     found: list[list[int]] = []
@@ -199,8 +199,8 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
     #: No IAI write is allowed while a program runs.
     live_tuning: frozenset[str] = frozenset()
 
-    def items(self, data: IaiData, *, registers: bool = False) -> dict[Key, Any]:
-        out: dict[Key, Any] = {PositionKey("position", n): p for n, p in data.positions.items()}
+    def items(self, data: IaiData, *, registers: bool = False) -> dict[Key, object]:
+        out: dict[Key, object] = {PositionKey("position", n): p for n, p in data.positions.items()}
         if registers:
             kept = data.variables()
             for kind, (section, _, _) in _KINDS.items():
@@ -212,7 +212,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 out[RecordKey(kind, n)] = value
         return out
 
-    def with_items(self, data: IaiData, values: Mapping[Key, Any]) -> IaiData:
+    def with_items(self, data: IaiData, values: Mapping[Key, object]) -> IaiData:
         new = copy.deepcopy(data)
         for key, value in values.items():
             if isinstance(key, Run):  # a plan's, never an item of a diff
@@ -228,7 +228,7 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                 table[key.number] = value
         return new
 
-    def order(self, key: Key) -> tuple[Any, ...]:
+    def order(self, key: Key) -> tuple[int, int]:
         number = key.start if isinstance(key, Run) else key.number
         return (_ORDER[_item_kind(key)], number)
 
@@ -248,7 +248,9 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
     def label(self, key: Key, field: str) -> str:
         return str(key.start if isinstance(key, Run) else key.number)
 
-    def fields(self, key: Key, old: Any, new: Any) -> list[tuple[str, str | None, str | None]]:
+    def fields(
+        self, key: Key, old: object, new: object
+    ) -> list[tuple[str, str | None, str | None]]:
         """An item's value as one field; a run's values (a tuple each, as one command
         writes them) compared one by one, a value one side lacks as none."""
         kind = _item_kind(key)
@@ -267,18 +269,18 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         texts = [(show(a), show(b)) for a, b in pairs]
         return [("", a, b) for a, b in texts if a != b]
 
-    def identity(self, key: Key) -> dict[str, Any]:
-        ident: dict[str, Any] = key._asdict()
+    def identity(self, key: Key) -> dict[str, object]:
+        ident: dict[str, object] = key._asdict()
         return ident
 
-    def counts(self, changes: Iterable[tuple[Any, Any, Any]]) -> dict[str, int]:
+    def counts(self, changes: Iterable[Change3[Key]]) -> dict[str, int]:
         """Positions always; flags, integers and reals when any changed."""
         count = {section: 0 for section, _, _ in _KINDS.values()}
         for key, _, _ in changes:
             count[_KINDS[_item_kind(key)][0]] += 1
         return {name: n for name, n in count.items() if n or name == "positions"}
 
-    def summary(self, changes: Iterable[tuple[Any, Any, Any]]) -> str:
+    def summary(self, changes: Iterable[Change3[Key]]) -> str:
         count = self.counts(changes)
         parts = [
             f"{count[section]} {one if count[section] == 1 else several}"
@@ -348,10 +350,19 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
         self,
         live: IaiData,
         project: IaiData,
-        changes: list[tuple[Any, Any, Any]],
+        changes: list[Change3[Key]],
         *,
         registers: bool,
     ) -> PlanShape[Key]:
+        return PlanShape(
+            wanted=_writes(live, project, changes),
+            unwritable=self._unwritable(project, changes, registers=registers),
+        )
+
+    def _unwritable(
+        self, project: IaiData, changes: list[Change3[Key]], *, registers: bool
+    ) -> list[str]:
+        """Why each difference no write can fix cannot be written, one sentence each."""
         kept = project.variables()
         unwritable = []
         lacking = [section for section in VARIABLE_SECTIONS if section not in kept]
@@ -389,35 +400,45 @@ class IaiCatalogue(Catalogue[Key, IaiData]):
                     f"{self.describe(key)}: on the robot but not in variables.yaml; pull to take "
                     f"it in, or narrow robot.yaml controller.{section}"
                 )
-        changed: dict[str, list[int]] = {section: [] for section, _, _ in _KINDS.values()}
-        for key, _, new in changes:
-            if new is not None and key.kind not in _RECORD_KINDS:
-                changed[_KINDS[key.kind][0]].append(key.number)
-        rows = [
-            (key, old, new) for key, old, new in changes if key.kind == "string" and new is not None
-        ]
-        wanted: list[tuple[Any, Any, Any]] = []
+        return unwritable
+
+
+def _writes(live: IaiData, project: IaiData, changes: list[Change3[Key]]) -> list[Change3[Key]]:
+    """The writes of a plan, unsorted: each run of consecutive changed positions,
+    integer or real variables as long as the receive buffer takes it, each changed
+    row of string variable columns, each changed flag."""
+    kept = project.variables()
+    changed: dict[str, list[int]] = {section: [] for section, _, _ in _KINDS.values()}
+    for key, _, new in changes:
+        if new is not None and key.kind not in _RECORD_KINDS:
+            if isinstance(key, Run):  # a plan's, never an item of a diff
+                raise NotImplementedError
+            changed[_KINDS[key.kind][0]].append(key.number)
+    rows = [
+        (key, old, new) for key, old, new in changes if key.kind == "string" and new is not None
+    ]
+    wanted: list[Change3[Key]] = []
+    wanted += runs(
+        "positions",
+        changed["positions"],
+        max_positions_per_write(project.model),
+        live.positions,
+        project.positions,
+    )
+    for section in ("integers", "reals"):
+        limit = max_variables_per_write(project.model, section)
         wanted += runs(
-            "positions",
-            changed["positions"],
-            max_positions_per_write(project.model),
-            live.positions,
-            project.positions,
+            section,
+            changed[section],
+            limit,
+            live.variables().get(section, {}),
+            kept.get(section, {}),
         )
-        for section in ("integers", "reals"):
-            limit = max_variables_per_write(project.model, section)
-            wanted += runs(
-                section,
-                changed[section],
-                limit,
-                live.variables().get(section, {}),
-                kept.get(section, {}),
-            )
-        wanted += rows  # each changed row of string variable columns with its own 24EH
-        wanted += [
-            (key, old, new) for key, old, new in changes if key.kind == "flag" and new is not None
-        ]
-        return PlanShape(wanted=wanted, unwritable=unwritable)
+    wanted += rows  # each changed row of string variable columns with its own 24EH
+    wanted += [
+        (key, old, new) for key, old, new in changes if key.kind == "flag" and new is not None
+    ]
+    return wanted
 
 
 CATALOGUE = IaiCatalogue()

@@ -10,7 +10,8 @@ from typing import Any
 from ..base import Driver, Progress, Status
 from ..survey import Extent, Findings, Guess, Survey, surveyed
 from .catalogue import Key, PositionKey, RecordKey, Run, VariableKey, identity_of
-from .controller import Controller, IaiStatus
+from .controller import Controller
+from .interlock import IaiStatus
 from .layout import IaiData
 from .model import Version, real_value
 from .profile import DEFAULT_POSITION_RANGE, STRING_ROW
@@ -95,7 +96,7 @@ class IaiDriver(Driver[Key, IaiData]):
             return status.advice
         return super().advice(status)
 
-    def read(self, key: Key) -> Any:
+    def read(self, key: Key) -> object:
         c = self.controller
         if isinstance(key, PositionKey):
             return c.read_run(key.number, 1)[0]

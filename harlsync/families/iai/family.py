@@ -56,9 +56,9 @@ class IaiFamily(Family["Key", "IaiData"]):
         return FORMAT
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
-        from . import layout
+        from .analysis import analyse
 
-        return layout.analyse(files)
+        return analyse(files)
 
     def render_files(self, robot: Robot, data: IaiData) -> dict[str, str]:
         from . import layout
@@ -115,7 +115,7 @@ class IaiFamily(Family["Key", "IaiData"]):
 
         return layout.SCHEMAS.files()
 
-    def new_robot(self, name: str, port: str, station: int | None, **options: Any) -> Robot:
+    def new_robot(self, name: str, port: str, station: int | None, **options: object) -> Robot:
         """``options`` are :class:`Robot` fields (``serial``, ``windows``, ``description``,
         ``keep_registers``, ``options``: model, axes, first, last), over the profile's."""
         from ...project.robot import Robot

@@ -1,4 +1,5 @@
-"""An IAI robot's project files: their names, their text, and checking a set of them.
+"""An IAI robot's project files: their names and their text (read and checked by
+:mod:`.analysis`).
 
 ::
 
@@ -50,41 +51,26 @@ the message, so a push always converges.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from ...project import yamlio as y
 from ...project.files import (
-    HUGE,
     FileSet,
-    Flaws,
-    build_serial,
-    build_windows,
-    check_canonical,
     numbered,
-    numbers,
     robot_items,
     serial_items,
-    text_of,
-    unique,
 )
 from ...project.robot import Robot
-from ...project.schema import Issue, SchemaSet, show
-from ..base import Analysis
+from ...project.schema import SchemaSet
 from . import profile
-from .codec import SETTINGS
 from .model import (
     ARM_NAMES,
     VARIABLE_SECTIONS,
     Position,
     Version,
-    canonical_coord,
-    canonical_g,
-    canonical_integer,
-    canonical_real,
-    coord_in_one_form,
-    g_in_one_form,
 )
 from .tables import Coverage
 
@@ -100,7 +86,6 @@ __all__ = [
     "VARIABLES_FILE",
     "Coverage",
     "IaiData",
-    "analyse",
     "record_ranges",
     "render_files",
     "variable_ranges",
@@ -129,7 +114,6 @@ SCHEMAS = SchemaSet(
 )
 FILES = FileSet(SCHEMAS, FORMAT)
 
-_ARMS = {name: n for n, name in ARM_NAMES.items()}
 #: The robot option that carries controller.yaml's ``axes`` (every axis an earlier
 #: 212H reported) to the connection; never written to robot.yaml.
 REPORTED_AXES = "reported_axes"
@@ -173,7 +157,7 @@ class IaiData:
     #: controller.yaml), None when they did not tell
     real_word_order: str | None = None
 
-    def records(self) -> dict[str, dict[int, Any]]:
+    def records(self) -> dict[str, Mapping[int, object]]:
         """The kept read-only records by section; empty when none is kept."""
         sections = {
             "work_coordinates": self.work_coordinates,
@@ -182,7 +166,7 @@ class IaiData:
         }
         return {name: values for name, values in sections.items() if values is not None}
 
-    def variables(self) -> dict[str, dict[int, Any]]:
+    def variables(self) -> dict[str, Mapping[int, object]]:
         """The kept sections of runtime data by name (``flags``, ``integers``,
         ``reals``); empty when none is kept."""
         sections = {"flags": self.flags, "integers": self.integers, "reals": self.reals}
@@ -199,7 +183,7 @@ def render_robot(robot: Robot) -> str:
         ("station", y.quoted(f"{robot.station:02X}")),
         *serial_items(robot.serial),
     ]
-    controller: list[tuple[str, Any]] = [
+    controller: list[tuple[str, Node]] = [
         ("model", y.text(str(options.get("model", profile.DEFAULT_MODEL))))
     ]
     if options.get("axes"):
@@ -235,7 +219,7 @@ def render_robot(robot: Robot) -> str:
 _COVERED_FIELDS = ("first", "last", "checked_from", "checked_to", "start", "end", "before", "past")
 
 
-def _covered_node(covered: Coverage) -> Any:
+def _covered_node(covered: Coverage) -> MappingNode:
     fields = covered._asdict()
     return y.mapping(
         [
@@ -256,7 +240,7 @@ def render_controller(
     axes: tuple[int, ...] = (),
     real_word_order: str | None = None,
 ) -> str:
-    items = [("version", _version_node(version))]
+    items: list[tuple[str, Node]] = [("version", _version_node(version))]
     if axes:
         items.append(("axes", y.sequence([y.num(str(a)) for a in axes], flow=True)))
     if real_word_order is not None:
@@ -271,7 +255,7 @@ def render_controller(
     return FILES.document("controller", "controller.yaml", items)
 
 
-def _version_node(version: Version) -> Any:
+def _version_node(version: Version) -> MappingNode:
     return y.mapping(
         [
             ("unit_type", y.num(str(version.unit_type))),
@@ -284,7 +268,7 @@ def _version_node(version: Version) -> Any:
     )
 
 
-def position_node(position: Position) -> Any:
+def position_node(position: Position) -> MappingNode:
     """A position's line: a row of numbers (:func:`yamlio.row`, a thousand a table)."""
     items: list[tuple[str, y.RowValue]] = [
         ("axes", [str(a) for a in position.axes]),
@@ -324,11 +308,11 @@ def render_variables(data: IaiData) -> str:
     )
 
 
-def _string_row(value: Any) -> Any:
+def _string_row(value: object) -> ScalarNode:
     return y.quoted(str(value))  # hex digits could read as a number
 
 
-def _coordinate_system(value: Any) -> Any:
+def _coordinate_system(value: Iterable[str]) -> SequenceNode:
     return y.sequence([y.num(c) for c in value], flow=True)
 
 
@@ -386,344 +370,3 @@ def variable_ranges(robot: Robot) -> dict[str, tuple[int, int]]:
         first, last = robot.options.get(section, default)
         out[section] = (int(first), int(last))
     return out
-
-
-# -- reading and checking ---------------------------------------------------------------
-
-
-def analyse(files: Mapping[str, bytes]) -> Analysis:
-    """Read and check an IAI project's files (path relative to the project -> content).
-
-    Every file is checked even when others are broken; the positions are checked
-    against the robot's axes and position range, and the flags and variables
-    against its ranges, when robot.yaml is valid.  variables.yaml is read only
-    when the robot keeps registers (or robot.yaml is too broken to say); a
-    project that keeps them without a variables.yaml yet is valid.  ``data`` is
-    set only when there is no issue at all.
-    """
-    issues: list[Issue] = []
-    docs: dict[str, y.Parsed] = {}
-    valid: set[str] = set()
-    flaws: dict[str, Flaws] = {}
-
-    def read(name: str, kind: str) -> None:
-        before = len(issues)
-        doc, ok = FILES.read(name, kind, files[name], issues)
-        if doc is not None:
-            docs[name] = doc
-            flaws[name] = Flaws.of(issues[before:], name)
-        if ok:
-            valid.add(name)
-
-    for name, kind in ROOT_FILES.items():
-        if name not in files:
-            issues.append(Issue(name, None, None, "missing", fatal=True))
-            continue
-        read(name, kind)
-
-    result = Analysis(issues=issues)
-    if "robot.yaml" in valid:
-        result.robot = _build_robot(docs["robot.yaml"], issues)
-    keep = result.robot is None or result.robot.keep_registers
-    if keep and VARIABLES_FILE in files:
-        read(VARIABLES_FILE, "variables")
-    keeps_records = result.robot is None or bool(record_ranges(result.robot))
-    if keeps_records and RECORDS_FILE in files:
-        read(RECORDS_FILE, "records")
-    if "positions.yaml" in valid:
-        _check_positions(docs["positions.yaml"], result.robot, issues)
-    elif "positions.yaml" in docs:  # a schema error must not hide the other positions' checks
-        _check_positions(docs["positions.yaml"], result.robot, issues, partly=True)
-    # each record and variable the schema passed, whatever the others hold
-    if RECORDS_FILE in docs:
-        _check_records(docs[RECORDS_FILE], flaws[RECORDS_FILE], result.robot, issues)
-    if VARIABLES_FILE in docs:
-        _check_variables(docs[VARIABLES_FILE], flaws[VARIABLES_FILE], result.robot, issues)
-    if not issues and result.robot is not None:
-        result.data = IaiData(
-            version=_build_version(docs["controller.yaml"].data["version"]),
-            positions=_build_positions(docs["positions.yaml"].data["positions"]),
-            model=str(result.robot.options.get("model", profile.DEFAULT_MODEL)),
-            covered={
-                section: _build_coverage(c)
-                for section, c in docs["controller.yaml"].data.get("covered", {}).items()
-            },
-            axes=tuple(sorted(int(a) for a in docs["controller.yaml"].data.get("axes", []))),
-            real_word_order=docs["controller.yaml"].data.get("real_word_order"),
-        )
-        if result.data.axes:  # the connection's interlock wants them from its first 212H
-            result.robot.options[REPORTED_AXES] = result.data.axes
-        if result.data.real_word_order is not None:  # for a push to a blank controller
-            result.robot.options[RECORDED_WORD_ORDER] = result.data.real_word_order
-        if VARIABLES_FILE in docs:
-            _build_variables(docs[VARIABLES_FILE].data, result.data)
-        if RECORDS_FILE in docs:
-            _build_records(docs[RECORDS_FILE].data, result.data)
-    result.issues = unique(issues, [*ROOT_FILES, VARIABLES_FILE, RECORDS_FILE])
-    return result
-
-
-def _build_robot(doc: y.Parsed, issues: list[Issue]) -> Robot | None:
-    data = doc.data
-    connection = data["connection"]
-    station = text_of(connection.get("station", f"{profile.DEFAULT_STATION:02X}"))
-    if not STATION.fullmatch(station):
-        issues.append(
-            Issue(
-                "robot.yaml",
-                doc.line(("connection", "station")),
-                "connection.station",
-                f"{show(connection['station'])} is not a station (allowed: {profile.STATION_ALLOWED})",
-            )
-        )
-        return None
-    controller = data.get("controller", {})
-    options: dict[str, Any] = {"model": str(controller.get("model", profile.DEFAULT_MODEL))}
-    if "axes" in controller:
-        axes = sorted(int(a) for a in controller["axes"])
-        options["axes"] = tuple(axes)
-    if "real_word_order" in controller:
-        options["real_word_order"] = str(controller["real_word_order"])
-    first, last = profile.DEFAULT_POSITION_RANGE
-    options["first"] = int(controller.get("first_position", first))
-    options["last"] = int(controller.get("last_position", last))
-    ranges = [
-        (("controller", "last_position"), options["first"], options["last"], "first_position")
-    ]
-    for section in (*VARIABLE_SECTIONS, *RECORD_SECTIONS):
-        if section in controller:
-            bounds = controller[section]
-            options[section] = (int(bounds["first"]), int(bounds["last"]))
-            ranges.append((("controller", section, "last"), *options[section], "first"))
-    backwards = [
-        Issue(
-            "robot.yaml",
-            doc.line(path),
-            ".".join(path),
-            f"{last} is before {before} {first} (allowed: a number at or after {before})",
-        )
-        for path, first, last, before in ranges
-        if first > last
-    ]
-    if backwards:
-        issues += backwards
-        return None
-    return Robot(
-        family="iai",
-        name=data["name"],
-        port=connection["port"],
-        station=int(station, 16),
-        serial=build_serial(connection, SETTINGS),
-        windows=build_windows(data),
-        keep_registers=bool(data.get("keep_registers", False)),
-        description=data.get("description"),
-        options=options,
-    )
-
-
-#: What checking a position the schema refused can raise: that one is skipped (the
-#: schema's issue names it), the others are still checked.
-_UNCHECKABLE = (KeyError, IndexError, TypeError, ValueError, AttributeError, ArithmeticError)
-
-
-def _check_positions(
-    doc: y.Parsed, robot: Robot | None, issues: list[Issue], *, partly: bool = False
-) -> None:
-    """What the schema cannot say: the coordinates against the axes, canonical
-    numbers, and the robot's axes and range.  ``partly``: the file has schema
-    errors; a position that cannot be checked is skipped, and the others are."""
-    try:
-        table = doc.data["positions"]
-        found = numbers(table)
-    except _UNCHECKABLE:
-        if not partly:
-            raise
-        return
-    first, last = position_range(robot) if robot is not None else (1, 0xFFFF)
-    axes_allowed = robot.options.get("axes") if robot is not None else None
-    for key, n in found:
-        try:
-            _check_position(doc, (first, last, axes_allowed), issues, table, key, n)
-        except _UNCHECKABLE:
-            if not partly:
-                raise
-
-
-def _check_position(
-    doc: y.Parsed,
-    robot: tuple[int, int, Any],
-    issues: list[Issue],
-    table: Any,
-    key: Any,
-    n: int,
-) -> None:
-    """One position; ``robot``: its table's first and last number and its axes."""
-    first, last, axes_allowed = robot
-    entry = table[key]
-    at = ("positions", key)
-
-    def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
-        path = at + where
-        name = ".".join(str(p) for p in path)
-        issues.append(Issue("positions.yaml", doc.line(path), name, message))
-
-    if not first <= n <= last:
-        issue(
-            f"position {show(y.Number(key))} is outside the robot's table "
-            f"(allowed: {first}-{last}, robot.yaml controller.first_position/"
-            "last_position)"
-        )
-    axes = [int(a) for a in entry["axes"]]
-    if axes != sorted(axes):
-        issue(f"{axes} are not in ascending order (allowed: ascending, {sorted(axes)})", "axes")
-    if axes_allowed is not None and not set(axes) <= set(axes_allowed):
-        extra = sorted(set(axes) - set(axes_allowed))
-        issue(
-            f"axis {', '.join(map(str, extra))} is not one of the robot's "
-            f"(allowed: {', '.join(map(str, axes_allowed))}, robot.yaml "
-            "controller.axes)",
-            "axes",
-        )
-    coords = entry["coords"]
-    if len(coords) != len(axes):
-        issue(
-            f"{len(coords)} coordinate(s) for {len(axes)} axis/axes "
-            "(allowed: one coordinate per axis in axes)",
-            "coords",
-        )
-    for i, value in enumerate(coords):
-        text = text_of(value)
-        if not coord_in_one_form(text):  # the common case at once; else worked out
-            check_canonical(issue, text, canonical_coord, "coords", i)
-    for name in ("acc", "dec"):
-        text = text_of(entry[name])
-        if not g_in_one_form(text):
-            check_canonical(issue, text, canonical_g, name)
-
-
-def _check_variables(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: list[Issue]) -> None:
-    """What the schema cannot say of each variable it passed: its number within the
-    robot's range for it, and integers and reals in their one form."""
-    ranges = variable_ranges(robot) if robot is not None else {}
-    canonical = {"integers": canonical_integer, "reals": canonical_real}
-    for section, called in VARIABLE_SECTIONS.items():
-        table: Any = doc.data.get(section) if isinstance(doc.data, dict) else None
-        first, last = ranges.get(section, (0, HUGE))
-        for key, n in numbers(table):
-            at = (section, key)
-            if not flaws.sound(*at):
-                continue
-
-            def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
-                issues.append(Issue(VARIABLES_FILE, doc.line(at), ".".join(at), message))
-
-            if not first <= n <= last:
-                issue(
-                    f"{called} {show(y.Number(key))} is outside the robot's range "
-                    f"(allowed: {first}-{last}, robot.yaml controller.{section})"
-                )
-            if section in canonical:
-                check_canonical(issue, text_of(table[key]), canonical[section])
-
-
-def _check_records(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: list[Issue]) -> None:
-    """What the schema cannot say of each record it passed: its number within
-    robot.yaml's range for its section, and coordinates in their one form."""
-    ranges = record_ranges(robot) if robot is not None else {}
-    for section in RECORD_SECTIONS:
-        table: Any = doc.data.get(section) if isinstance(doc.data, dict) else None
-        first, last = ranges.get(section, (0, HUGE))
-        for key, n in numbers(table):
-            at = (section, key)
-            if not flaws.sound(*at):
-                continue
-
-            def issue(message: str, *where: Any, at: tuple[str, str] = at) -> None:
-                path = at + where
-                issues.append(
-                    Issue(RECORDS_FILE, doc.line(path), ".".join(map(str, path)), message)
-                )
-
-            if not first <= n <= last:
-                issue(
-                    f"{show(y.Number(key))} is outside the robot's range "
-                    f"(allowed: {first}-{last}, robot.yaml controller.{section})"
-                )
-            if section != "strings":
-                for i, value in enumerate(table[key]):
-                    check_canonical(issue, text_of(value), canonical_coord, i)
-
-
-def _build_records(doc: Mapping[str, Any], data: IaiData) -> None:
-    for section in ("work_coordinates", "tool_coordinates"):
-        if (table := doc.get(section)) is not None:
-            setattr(
-                data,
-                section,
-                {
-                    int(n): tuple(text_of(c) for c in v)
-                    for n, v in sorted(table.items(), key=_by_number)
-                },
-            )
-    if (strings := doc.get("strings")) is not None:
-        data.strings = {int(n): str(v) for n, v in sorted(strings.items(), key=_by_number)}
-
-
-def _build_coverage(data: Mapping[str, Any]) -> Coverage:
-    def number(name: str) -> int | None:
-        return None if name not in data else int(data[name])
-
-    def reply(name: str) -> str | None:
-        return None if name not in data else text_of(data[name])
-
-    return Coverage(
-        int(data["first"]),
-        int(data["last"]),
-        int(data["checked_to"]),
-        number("checked_from"),
-        number("start"),
-        number("end"),
-        reply("before"),
-        reply("past"),
-    )
-
-
-def _build_version(data: Mapping[str, Any]) -> Version:
-    return Version(
-        unit_type=int(data["unit_type"]),
-        device=int(data["device"]),
-        model_code=str(data["model_code"]),
-        unit_code=str(data["unit_code"]),
-        version=str(data["version"]),
-        built=str(data["built"]),
-    )
-
-
-def _build_positions(table: Mapping[str, Any]) -> dict[int, Position]:
-    out: dict[int, Position] = {}
-    for key in sorted(table, key=int):
-        entry = table[key]
-        out[int(key)] = Position(
-            number=int(key),
-            axes=tuple(int(a) for a in entry["axes"]),
-            acc=text_of(entry["acc"]),
-            dec=text_of(entry["dec"]),
-            speed=int(entry["speed"]),
-            coords=tuple(text_of(c) for c in entry["coords"]),
-            arm1=_ARMS[entry.get("arm1", "none")],
-            arm2=_ARMS[entry.get("arm2", "none")],
-        )
-    return out
-
-
-def _build_variables(doc: Mapping[str, Any], data: IaiData) -> None:
-    if (flags := doc.get("flags")) is not None:
-        data.flags = {int(n): bool(v) for n, v in sorted(flags.items(), key=_by_number)}
-    if (integers := doc.get("integers")) is not None:
-        data.integers = {int(n): int(v) for n, v in sorted(integers.items(), key=_by_number)}
-    if (reals := doc.get("reals")) is not None:
-        data.reals = {int(n): text_of(v) for n, v in sorted(reals.items(), key=_by_number)}
-
-
-def _by_number(item: tuple[str, Any]) -> int:
-    return int(item[0])

@@ -26,7 +26,7 @@ echoes commands shows them, and the link recognises its own.
 
 A :class:`Request` is a message id and its data, and knows how to decode its reply
 into a typed value: :class:`~harlsync.families.iai.model.Version`,
-:class:`~harlsync.families.iai.model.SystemStatus`, axis statuses, positions,
+:class:`~harlsync.families.iai.interlock.SystemStatus`, axis statuses, positions,
 counts.  An ``&`` reply decodes to an :class:`ErrorReply` value; a reply that
 does not answer the request raises :class:`~harlsync.errors.ReplyError`.
 

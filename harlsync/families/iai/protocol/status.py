@@ -1,8 +1,7 @@
 """Requests for the version and the system and axis statuses (201H, 215H, 212H)."""
 
+from ..interlock import AxisStatus, SystemStatus
 from ..model import (
-    AxisStatus,
-    SystemStatus,
     Version,
     axes_from_pattern,
     coord_from_wire,
@@ -53,7 +52,7 @@ def axis_status(pattern: int) -> Request[tuple[AxisStatus, ...]]:
     """212H: the status of the axes in ``pattern`` (bit n = axis n+1).
 
     The reply lists the axes it reports, lowest first; an axis left out is not
-    connected (see :func:`~harlsync.families.iai.model.axes_refusal`).
+    connected (see :func:`~harlsync.families.iai.interlock.axes_refusal`).
     """
     _check(pattern, 1, 0xFF, "axis pattern")
 

@@ -11,7 +11,8 @@ How this works::
 The line does the decoding: a bad SC, a foreign station, a bad header or a
 missing LF never reach :meth:`Simulator.handle`, and get no reply (p.9).  A
 well-formed command that cannot be carried out gets an ``&`` reply with one of
-the placeholder codes of :mod:`~harlsync.families.iai.sim.codes`:
+the placeholder codes of :mod:`~harlsync.families.iai.sim.codes` (each message's
+answer is in :mod:`~harlsync.families.iai.sim.messages`):
 
 - any message off the allow-list (motion, servo, program control, resets ...):
   refused and recorded, so a test can assert it was never sent (:meth:`Simulator.off_list`);
@@ -59,8 +60,7 @@ from __future__ import annotations
 import json
 import logging
 import os
-import struct
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from ....errors import ProjectError, ProjectFormatError
@@ -69,17 +69,11 @@ from ....sim.device import Refused
 from ....sim.family import Verb
 from ....sim.variants import Variant
 from .. import profile
-from ..model import axes_from_pattern, coord_to_wire, pattern_from_axes, real_value
-from ..protocol import (
-    Frame,
-    FrameDecoder,
-    max_positions_per_read,
-    parse_write_positions,
-    position_record,
-)
+from ..model import real_value
+from ..protocol import Frame, FrameDecoder
 from ..protocol.frame import _FRAME_OVERHEAD, sc
-from ..protocol.request import _Fields
 from . import codes
+from .messages import HANDLERS
 from .state import DEFAULT_AXES, MANUAL, SimState
 
 __all__ = ["SIM_FAMILY", "VARIANTS", "IaiSimFamily", "Simulator", "resize"]
@@ -196,8 +190,6 @@ class IaiSimFamily:
 
 SIM_FAMILY = IaiSimFamily()
 
-Handler = Callable[["Simulator", SimState, str], str]
-
 #: The control verbs that switch one condition of the controller on, and its field.
 _SWITCHES = {
     "estop": "emergency_stop",
@@ -246,24 +238,6 @@ class Simulator(device.Simulator[SimState, Frame]):
                 resize(state, self.variant["tables"])
             if "real_word_order" in given:
                 state.real_word_order = self.variant["real_word_order"]
-
-    def _not_there(self) -> str | None:
-        """The code of the ``&`` a number a table lacks answers, None: an empty reply."""
-        chosen = self.variant["past_table"]
-        return chosen.split("-", 1)[1] if chosen.startswith("refused-") else None
-
-    def _within(self, state: SimState, section: str, start: int, count: int) -> int:
-        """How many of ``count`` numbers from ``start`` the reply answers for: all,
-        or those up to the table's end (an empty reply past it); raises Refused when
-        the controller refuses numbers its table lacks."""
-        low, high = state.tables[section]
-        code = self._not_there()
-        inside = low <= start <= high
-        if inside and start + count - 1 <= high:
-            return count
-        if code is not None:
-            raise Refused(code)
-        return high - start + 1 if inside else 0
 
     def command(self, frame: Frame) -> str:
         return frame.payload[:3]
@@ -331,7 +305,7 @@ class Simulator(device.Simulator[SimState, Frame]):
     def handle(self, state: SimState, frame: Frame) -> str:
         """The reply data to one command for one controller.  Raises :class:`~harlsync.sim.Refused`."""
         assert frame.message_id is not None  # a '!' frame always has one
-        handler = _HANDLERS.get(frame.message_id)
+        handler = HANDLERS.get(frame.message_id)
         if handler is None or frame.message_id not in profile.ALLOWED_MESSAGE_IDS:
             log.warning(
                 "sim: station %02X got message %03XH, which is off the allow-list",
@@ -351,199 +325,6 @@ class Simulator(device.Simulator[SimState, Frame]):
             raise Refused(codes.TOO_LONG)
         return reply
 
-    def _version(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        unit, number = f.hex(2, "unit type"), f.hex(1, "device number")
-        f.end()
-        found = state.versions.get((unit, number))
-        if found is None:
-            raise Refused(codes.BAD_DATA)
-        day, clock = found.built.split(" ")
-        year, month, mday = (int(x) for x in day.split("-"))
-        hour, minute, second = (int(x) for x in clock.split(":"))
-        built = f"{year:04X}" + "".join(f"{n:02X}" for n in (month, mday, hour, minute, second))
-        return f"{unit:02X}{number:X}{found.model_code}{found.unit_code}{found.version}{built}"
-
-    def _system_status(self, state: SimState, data: str) -> str:
-        _Fields(data).end()
-        status = "".join(f"{b:02X}" for b in state.status_bytes())
-        return f"{state.mode:X}{state.critical_error}{state.latest_error}{status}"
-
-    def _axis_status(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        pattern = f.hex(2, "axis pattern")
-        f.end()
-        if not pattern:
-            raise Refused(codes.PATTERN_ZERO)
-        # An axis the robot does not have is left out: "driver not connected" (p.27);
-        # so is one unplugged (the ``unplug`` verb).
-        reported = tuple(
-            a
-            for a in axes_from_pattern(pattern)
-            if a in state.axes and a not in state.unreported_axes
-        )
-        sensors, error, encoder = 0, "000", 0
-        return f"{pattern_from_axes(reported):02X}" + "".join(
-            f"{state.axis_status(a):02X}{sensors:X}{error}{encoder:02X}"
-            f"{coord_to_wire(state.current[a])}"
-            for a in reported
-        )
-
-    def _read_positions(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        f.expect(2, 0, "reserved field")
-        head, count = f.hex(4, "head position"), f.hex(4, "position count")
-        f.end()
-        if not count:
-            raise ValueError("no position")
-        low, high = state.position_range
-        if not low <= head <= high:
-            code = self._not_there()
-            if code is not None:
-                raise Refused(code)
-            return "000000"
-        limit = max_positions_per_read(state.model)
-        if count > limit and self.variant["wide_query"] == "refused":
-            raise Refused(codes.TOO_LONG)
-        if count > limit and self.variant["wide_query"] == "scans-less":
-            count = limit
-        defined = sorted(n for n in state.positions if head <= n <= high)
-        if self.variant["count_means"] == "records":
-            wanted = defined[:count]
-        else:
-            wanted = [n for n in defined if n < head + count]
-        room = state.buffers.send - _FRAME_OVERHEAD - len("00") - len("0000")
-        records = []
-        for number in wanted:
-            record = position_record(state.positions[number], numbered=True)
-            if len(record) > room:
-                break  # only whole records that fit: the count says how many
-            room -= len(record)
-            records.append(record)
-        return f"00{len(records):04X}" + "".join(records)
-
-    def _write_positions(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        f.expect(2, 0, "reserved field")
-        f.hex(4, "start position")
-        count = f.hex(4, "position count")
-        if not count:
-            raise ValueError("no position")
-        for i in range(count):  # each record checked before any is written
-            axes = axes_from_pattern(f.hex(2, f"record {i} axis pattern"))
-            if not axes:
-                raise Refused(codes.PATTERN_ZERO)
-            if not set(axes) <= set(state.axes):
-                raise Refused(codes.NO_AXIS)
-            f.take(12 + 8 * len(axes), f"record {i} values")
-            if f.hex(2, f"record {i} extended data") & 0x0F:
-                raise Refused(codes.EXTENDED_BITS)
-        _, positions = parse_write_positions(data)
-        first, last = state.position_range
-        if not all(first <= p.number <= last for p in positions):
-            raise Refused(codes.OUT_OF_RANGE)
-        state.positions.update((p.number, p) for p in positions)
-        self.wrote(state)
-        return f"00{len(positions):04X}"
-
-    def _read_flags(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        program, start, count = f.hex(2, "program"), f.hex(4, "start flag"), f.hex(4, "count")
-        f.end()
-        _global(program, count)
-        if start % profile.FLAG_QUERY_ALIGNMENT:
-            raise ValueError("20DH starts at a category's head flag + a multiple of 8 (p.22)")
-        count = self._within(state, "flags", start, count)
-        octets = (
-            sum(1 << i for i in range(8) if k + i < count and start + k + i in state.flags)
-            for k in range(0, count, 8)
-        )
-        return f"{program:02X}{start:04X}{count:04X}" + "".join(f"{o:02X}" for o in octets)
-
-    def _read_integers(self, state: SimState, data: str) -> str:
-        program, start, count = _variables(_Fields(data), end=True)
-        count = self._within(state, "integers", start, count)
-        values = (state.integers.get(n, 0) & 0xFFFFFFFF for n in range(start, start + count))
-        return f"{program:02X}{start:03X}{count:02X}" + "".join(f"{v:08X}" for v in values)
-
-    def _read_reals(self, state: SimState, data: str) -> str:
-        program, start, count = _variables(_Fields(data), end=True)
-        count = self._within(state, "reals", start, count)
-        values = (state.reals.get(n, 0.0) for n in range(start, start + count))
-        return f"{program:02X}{start:03X}{count:02X}" + "".join(
-            _real_wire(v, state.real_word_order) for v in values
-        )
-
-    def _read_coordinate_systems(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        kind, head, count = f.hex(1, "type"), f.hex(2, "head number"), f.hex(2, "count")
-        f.end()
-        if kind not in (0, 1) or not count or head + count > 0x100:
-            raise ValueError("type 0 (work) or 1 (tool), at least one, numbers 00-FF")
-        count = self._within(state, ("work_coordinates", "tool_coordinates")[kind], head, count)
-        table = state.work_coordinates if kind == 0 else state.tool_coordinates
-        records = "".join(
-            "".join(coord_to_wire(c) for c in table.get(n, ("0.000",) * 4))
-            for n in range(head, head + count)
-        )
-        return f"{kind:X}{head:02X}{count:02X}{records}"
-
-    def _read_strings(self, state: SimState, data: str) -> str:
-        program, start, count = _variables(_Fields(data), end=True)
-        count = self._within(state, "strings", start, count)
-        codes = "".join(f"{state.strings.get(n, 0):02X}" for n in range(start, start + count))
-        return f"{program:02X}{start:03X}{count:02X}{codes}"
-
-    def _write_flag(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        program, number, change = f.hex(2, "program"), f.hex(4, "flag"), f.hex(1, "change")
-        f.end()
-        _global(program, 1)
-        if change & 0x0E:
-            raise ValueError("change type bits 1-3 are reserved")
-        _inside(state, "flags", number, 1)
-        if change & 1:
-            state.flags.add(number)
-        else:
-            state.flags.discard(number)
-        self.wrote(state)
-        return ""
-
-    def _write_strings(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        _, start, count = _variables(f)
-        values = [f.hex(2, f"column {start + i}") for i in range(count)]
-        f.end()
-        _inside(state, "strings", start, count)
-        state.strings.update((start + i, code) for i, code in enumerate(values))
-        self.wrote(state)
-        return ""
-
-    def _write_integers(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        program, start, count = _variables(f)
-        values = [f.hex(8, f"variable {start + i}") for i in range(count)]
-        f.end()
-        _inside(state, "integers", start, count)
-        state.integers.update(
-            (start + i, v - (1 << 32) if v & 0x80000000 else v) for i, v in enumerate(values)
-        )
-        self.wrote(state)
-        return f"{program:02X}{start:03X}{count:02X}"
-
-    def _write_reals(self, state: SimState, data: str) -> str:
-        f = _Fields(data)
-        program, start, count = _variables(f)
-        values = [
-            _real_value(f.take(16, f"variable {start + i}"), state.real_word_order)
-            for i in range(count)
-        ]
-        f.end()
-        _inside(state, "reals", start, count)
-        state.reals.update((start + i, v) for i, v in enumerate(values))
-        self.wrote(state)
-        return f"{program:02X}{start:03X}{count:02X}"
-
     # --- for tests -----------------------------------------------------------------------------
 
     def off_list(self) -> list[device.Received]:
@@ -558,30 +339,10 @@ class Simulator(device.Simulator[SimState, Frame]):
         return [r for r in self.writes_received() if r.busy]
 
 
-def _real_wire(value: float, order: str) -> str:
-    """A double as 20FH sends it (p.24), written here from the manual's words, not
-    with the client's codec: big endian, or its lower 4 bytes first."""
-    digits = struct.pack(">d", value).hex().upper()
-    return digits[8:] + digits[:8] if order == "lower-first" else digits
-
-
-def _real_value(wire: str, order: str) -> float:
-    digits = wire[8:] + wire[:8] if order == "lower-first" else wire
-    value: float = struct.unpack(">d", bytes.fromhex(digits))[0]
-    return value
-
-
 def _lower_case(frame: bytes) -> bytes:
     """A reply frame with its hex digits in lower case, and its SC summed over them."""
     body = frame[:-4].lower()
     return body + f"{sc(body):02x}".encode("ascii") + b"\r\n"
-
-
-def _inside(state: SimState, section: str, start: int, count: int) -> None:
-    """A write to numbers the table lacks is refused (nothing of it written)."""
-    low, high = state.tables[section]
-    if not low <= start <= start + count - 1 <= high:
-        raise Refused(codes.OUT_OF_RANGE)
 
 
 #: The flag and variable tables of ``tables=smaller`` and ``tables=larger``.
@@ -619,36 +380,3 @@ def resize(state: SimState, size: str) -> None:
     state.flags = {n for n in state.flags if inside("flags", n)}
     state.integers = {n: v for n, v in state.integers.items() if inside("integers", n)}
     state.reals = {n: v for n, v in state.reals.items() if inside("reals", n)}
-
-
-def _global(program: int, count: int) -> None:
-    """Only the global flags and variables (program 00), at least one of them."""
-    if program or not count:
-        raise ValueError(f"program {program:02X}, count {count}: global and at least one")
-
-
-def _variables(f: _Fields, *, end: bool = False) -> tuple[int, int, int]:
-    """Program, start and count of a variable query or change (20EH, 20FH, 24CH, 24DH)."""
-    program, start, count = f.hex(2, "program"), f.hex(3, "start"), f.hex(2, "count")
-    if end:
-        f.end()
-    _global(program, count)
-    return program, start, count
-
-
-_HANDLERS: dict[int, Handler] = {
-    0x201: Simulator._version,
-    0x215: Simulator._system_status,
-    0x212: Simulator._axis_status,
-    0x22D: Simulator._read_positions,
-    0x291: Simulator._write_positions,
-    0x20D: Simulator._read_flags,
-    0x20E: Simulator._read_integers,
-    0x20F: Simulator._read_reals,
-    0x24B: Simulator._write_flag,
-    0x24C: Simulator._write_integers,
-    0x24D: Simulator._write_reals,
-    0x2A0: Simulator._read_coordinate_systems,
-    0x210: Simulator._read_strings,
-    0x24E: Simulator._write_strings,
-}

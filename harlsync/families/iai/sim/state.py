@@ -315,70 +315,83 @@ class SimState:
     ) -> SimState:
         """The controller :meth:`memory` kept, idle.  Raises ValueError, KeyError or
         TypeError for a document that is not one."""
-
-        def listed(key: str) -> list[object]:
-            value = doc[key]
-            if not isinstance(value, list):
-                raise TypeError(f"{key} is not a list")
-            return value
-
-        def mapped(key: str) -> dict[str, object]:
-            value = doc[key]
-            if not isinstance(value, dict):
-                raise TypeError(f"{key} is not a mapping")
-            return value
-
-        positions = []
-        for item in listed("positions"):
-            if not isinstance(item, dict):
-                raise TypeError("a position is not a mapping")
-            positions.append(
-                Position(
-                    int(item["number"]),
-                    tuple(int(a) for a in item["axes"]),
-                    str(item["acc"]),
-                    str(item["dec"]),
-                    int(item["speed"]),
-                    tuple(str(c) for c in item["coords"]),
-                    int(item["arm1"]),
-                    int(item["arm2"]),
-                )
-            )
-        first, last = (int(str(n)) for n in listed("position_range"))
+        positions = _memory_positions(_listed(doc, "positions"))
+        first, last = (int(str(n)) for n in _listed(doc, "position_range"))
         state = cls(
             {p.number: p for p in positions},
-            axes=tuple(int(str(a)) for a in listed("axes")),
+            axes=tuple(int(str(a)) for a in _listed(doc, "axes")),
             model=str(doc["model"]),
             position_range=(first, last),
             versions=dict(versions),
             real_word_order=str(doc.get("real_word_order", profile.DEFAULT_REAL_WORD_ORDER)),
         )
-        for section in ("work_coordinates", "tool_coordinates"):
-            table = doc.get(section, {})
-            if not isinstance(table, dict):
-                raise TypeError(f"{section} is not a mapping")
-            setattr(
-                state,
-                section,
-                {int(n): tuple(str(c) for c in v) for n, v in table.items()},
-            )
-        strings = doc.get("strings", {})
-        if not isinstance(strings, dict):
-            raise TypeError("strings is not a mapping")
-        state.strings = {int(n): int(str(c)) for n, c in strings.items()}
-        tables = doc.get("tables", {})
-        if not isinstance(tables, dict):
-            raise TypeError("tables is not a mapping")
-        for name, bounds in tables.items():
-            low, high = (int(str(n)) for n in bounds)
-            state.tables[str(name)] = (low, high)
-        state.flags = {int(str(n)) for n in listed("flags")}
-        state.integers = {int(n): int(str(v)) for n, v in mapped("integers").items()}
+        _memory_records(state, doc)
+        state.flags = {int(str(n)) for n in _listed(doc, "flags")}
+        state.integers = {int(n): int(str(v)) for n, v in _mapped(doc, "integers").items()}
         state.reals = {
             int(n): struct.unpack(">d", bytes.fromhex(str(v)))[0]
-            for n, v in mapped("reals").items()
+            for n, v in _mapped(doc, "reals").items()
         }
         return state
+
+
+def _listed(doc: Mapping[str, object], key: str) -> list[object]:
+    value = doc[key]
+    if not isinstance(value, list):
+        raise TypeError(f"{key} is not a list")
+    return value
+
+
+def _mapped(doc: Mapping[str, object], key: str) -> dict[str, object]:
+    value = doc[key]
+    if not isinstance(value, dict):
+        raise TypeError(f"{key} is not a mapping")
+    return value
+
+
+def _memory_positions(items: list[object]) -> list[Position]:
+    """The positions :meth:`SimState.memory` kept."""
+    positions = []
+    for item in items:
+        if not isinstance(item, dict):
+            raise TypeError("a position is not a mapping")
+        positions.append(
+            Position(
+                int(item["number"]),
+                tuple(int(a) for a in item["axes"]),
+                str(item["acc"]),
+                str(item["dec"]),
+                int(item["speed"]),
+                tuple(str(c) for c in item["coords"]),
+                int(item["arm1"]),
+                int(item["arm2"]),
+            )
+        )
+    return positions
+
+
+def _memory_records(state: SimState, doc: Mapping[str, object]) -> None:
+    """The coordinate systems, string variables and table sizes :meth:`SimState.memory`
+    kept, into ``state``."""
+    for section in ("work_coordinates", "tool_coordinates"):
+        table = doc.get(section, {})
+        if not isinstance(table, dict):
+            raise TypeError(f"{section} is not a mapping")
+        setattr(
+            state,
+            section,
+            {int(n): tuple(str(c) for c in v) for n, v in table.items()},
+        )
+    strings = doc.get("strings", {})
+    if not isinstance(strings, dict):
+        raise TypeError("strings is not a mapping")
+    state.strings = {int(n): int(str(c)) for n, c in strings.items()}
+    tables = doc.get("tables", {})
+    if not isinstance(tables, dict):
+        raise TypeError("tables is not a mapping")
+    for name, bounds in tables.items():
+        low, high = (int(str(n)) for n in bounds)
+        state.tables[str(name)] = (low, high)
 
 
 def _generate_position(
