@@ -4,9 +4,10 @@ command set on a simulated robot, on the shared simulator framework."""
 
 from . import commands
 from .device import DEFAULT_EXECUTION_TIME, SIM_FAMILY, CommandReceived, Simulator
+from .point import Point
 from .remote import Event, FunctionFault, Phase, RemoteIO
 from .server import ModbusServer, RegisterBank
-from .state import SCARA, SIX_AXIS, Point, SimState
+from .state import SCARA, SIX_AXIS, SimState
 
 __all__ = [
     "DEFAULT_EXECUTION_TIME",
