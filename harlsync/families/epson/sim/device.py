@@ -5,8 +5,8 @@ How this works::
 
     client --Modbus TCP--> pymodbus server (server.py) --a unit's registers-->
         RemoteIO (remote.py): the §6 handshake, the controller's side
-            a command taken --> Session (commands.py): carried out on the SimState
-                                (state.py), the response words back
+            a command taken --> commands.py: carried out on the SimState (state.py)
+                                in the station's Session, the response words back
         every command taken is recorded (Simulator.received): a CommandReceived
 
 One :class:`Simulator` holds one or more controllers (stations: Modbus unit
@@ -30,38 +30,27 @@ whole and Modbus TCP has no checksum.
 
 from __future__ import annotations
 
-import json
 import logging
-import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from ....errors import ProjectError, ProjectFormatError
 from ....sim import device
 from ....sim.device import Faults, Received
-from ....sim.family import Verb
-from ....sim.variants import Variant
 from .. import profile
 from ..profile import RegisterMap
+from . import memory
 from . import state as _state
-from .commands import (
-    COMMAND_SET,
-    EXECUTION,
-    MESSAGE_FAILURE,
-    PARAMETER,
-    PRINT_ERROR,
-    READS,
-    REQUEST_WHILE_EXECUTING,
-    Outcome,
-    PointAnswers,
-    Session,
-)
+from . import variants as _variants
+from .codes import Outcome, PointAnswers
+from .commands import COMMAND_SET, READS, execute
 from .remote import FunctionFault, RemoteIO, Words
 from .server import ModbusServer
+from .session import Session
 from .state import SimState
+from .verbs import VERBS, act, function_error_detail
 
 __all__ = [
     "DEFAULT_EXECUTION_TIME",
@@ -76,32 +65,6 @@ log = logging.getLogger(__name__)
 #: Seconds a command runs, from ExtCmdGet to ExtRespSet **(simulator)**: the
 #: manual gives no time; a controller carries a setting command out in a few ms.
 DEFAULT_EXECUTION_TIME = 0.002
-#: The commands that write the controller's memory card (digest §2: Weight,
-#: Inertia, Tool, Box, Plane, XYLim, JRange, Base): the ``write_time`` variant
-#: makes them slow.
-CARD_WRITES = frozenset(
-    {300, 301, 350, 351, 352, 500, 502, 600, 601, 602, 650, 750, 751, 752, 800, 801, 802, 850}
-)
-#: Command execution error 200A's Response 2 for a point not defined, in the
-#: ``undefined_point=200A`` variant: a controller error code (the manual sends the
-#: reader to its separate error list); this one is made up, as a real one would be.
-UNDEFINED_POINT_DETAIL = 7103
-#: The variants' answers: value -> (Response 1, Response 2).
-_UNDEFINED_POINT = {
-    "2004": (PARAMETER, 0),
-    "200A": (0x200A, UNDEFINED_POINT_DETAIL),
-    "2000": (EXECUTION, 0),
-}
-_PAST_POINTS = {"2004": (PARAMETER, 0), "2005": (0x2005, 0)}
-_WRITE_TIMES = {"2ms": None, "300ms": 0.3}
-#: What 2155 answers after the ``error`` verb **(simulator)**: a controller error
-#: code (the manual sends the reader to the controller's own error list).
-ERROR_CODE = 4001
-#: The control device the ``teach`` verb makes (2156: 21, PC / TP4).
-TEACHING = 21
-#: The file a station's battery-backed memory is kept in, in its state directory.
-MEMORY_FILE = "memory.json"
-_FUNCTION_ERRORS = (REQUEST_WHILE_EXECUTING, MESSAGE_FAILURE, PRINT_ERROR)
 
 
 class EpsonSimFamily:
@@ -109,53 +72,11 @@ class EpsonSimFamily:
     :class:`~harlsync.sim.ServedFamily`: it serves its controllers over Modbus TCP)."""
 
     name = "epson"
-    verbs = (
-        Verb("run", "[STATION]", "a task running (Running 1)"),
-        Verb("pause", "[STATION]", "a task paused (Paused 1)"),
-        Verb("estop", "[STATION]", "emergency stop (EStopOn 1), tasks stopped"),
-        Verb("error", "[STATION]", "the controller in error (Error 1), tasks stopped"),
-        Verb("safeguard", "[STATION]", "the safeguard open (SafeguardOn 1), a task paused"),
-        Verb(
-            "teach", "[STATION]", "the control device a PC or TP4 (2156 answers 21), not Remote I/O"
-        ),
-        Verb("stop", "[STATION]", "idle: no task, no stop, no error"),
-        Verb("power-cycle", "[STATION]", "off and on: tables and LimZ cleared, function off"),
-        Verb(
-            "function-error",
-            "[STATION [DETAIL]]",
-            "halt the Remote Control function: 9999/DETAIL (hex: 0001, 9901, 9902; default 9901)",
-        ),
-    )
+    verbs = VERBS
     busy_verb = "run"
     default_station = profile.DEFAULT_UNIT
     #: how it may fill its manual's silences (harlsync.sim.variants); the profile's first
-    variants: tuple[Variant, ...] = (
-        Variant(
-            "undefined_point",
-            tuple(_UNDEFINED_POINT),
-            "what a point not defined answers (1222, 1215-1220): 2004 parameter error, "
-            f"200A command execution error with a controller error code ({UNDEFINED_POINT_DETAIL}), "
-            "or 2000 execution error",
-        ),
-        Variant(
-            "past_points",
-            tuple(_PAST_POINTS),
-            "what a point number past the controller's point table (P1000) answers: 2004 "
-            "parameter error or 2005 out of range",
-        ),
-        Variant(
-            "write_time",
-            tuple(_WRITE_TIMES),
-            "how long a command that writes the memory card runs (Weight, Tool, Box ...): "
-            "2 ms as every other, or 300 ms",
-        ),
-        Variant(
-            "modbus_writes",
-            ("whole", "per-register"),
-            "whether the Modbus slave hands a write of several registers to the Remote "
-            "inputs whole, or a register at a time in address order",
-        ),
-    )
+    variants = _variants.VARIANTS
 
     def generate(self, seed: int, stations: Sequence[int]) -> Simulator:
         return Simulator({n: SimState.generate(seed + i) for i, n in enumerate(stations)})
@@ -181,7 +102,7 @@ class EpsonSimFamily:
             {n: state.copy() for n in stations or [robot.station]}, register_map=register_map
         )
 
-    def serve(self, sim: device.Device[Any], host: str, port: int) -> ModbusServer:
+    def serve(self, sim: device.Device[SimState], host: str, port: int) -> ModbusServer:
         """Serve ``sim`` (an Epson :class:`Simulator`) over Modbus TCP.  Raises
         ValueError for faults Modbus TCP cannot have, OSError when it cannot listen."""
         if not isinstance(sim, Simulator):
@@ -260,8 +181,8 @@ class _Station:
         if faults.chance(faults.slow):
             log.info("sim: slow execution fault: command %d runs %g s", words[0], faults.slow_delay)
             return faults.slow_delay
-        card = _WRITE_TIMES[self.sim.variant["write_time"]]
-        if card is not None and words[:1] and words[0] in CARD_WRITES:
+        card = _variants.card_write_time(self.sim.variant, words[0]) if words[:1] else None
+        if card is not None:
             return card
         return self.sim.execution_time
 
@@ -269,8 +190,12 @@ class _Station:
         m = self.sim.register_map
         self.session.points = self.sim.point_answers()
         self.session.lacks = self.sim.lacks
-        outcome = self.session.execute(
-            self.state, words, command_words=m.command_words, response_words=m.response_words
+        outcome = execute(
+            self.session,
+            self.state,
+            words,
+            command_words=m.command_words,
+            response_words=m.response_words,
         )
         at, busy = self._taken
         self.sim.record_command(self.number, words, at, busy, outcome)
@@ -345,7 +270,7 @@ class Simulator(device.Device[SimState]):
     @property
     def whole_writes(self) -> bool:
         """Whether its Modbus slave hands a write of several registers over whole."""
-        return self._whole_writes and self.variant["modbus_writes"] == "whole"
+        return self._whole_writes and _variants.whole_writes(self.variant)
 
     def vary(self, chosen: Mapping[str, str]) -> None:
         super().vary(chosen)
@@ -354,11 +279,7 @@ class Simulator(device.Device[SimState]):
 
     def point_answers(self) -> PointAnswers:
         """How its points not there are answered, as its variants say."""
-        return PointAnswers(
-            _UNDEFINED_POINT[self.variant["undefined_point"]],
-            _PAST_POINTS[self.variant["past_points"]],
-            self.point_end,
-        )
+        return _variants.point_answers(self.variant, self.point_end)
 
     # --- serving ---------------------------------------------------------------------------
 
@@ -510,37 +431,11 @@ class Simulator(device.Device[SimState]):
     def control(self, verb: str, state: SimState, args: Sequence[str]) -> None:
         controller = self._controller(state)
         if verb == "function-error":
-            detail = int(args[0], 16) if args else MESSAGE_FAILURE
-            if detail not in _FUNCTION_ERRORS or len(args) > 1:
-                raise ValueError(
-                    f"function-error [DETAIL]: DETAIL is one of "
-                    f"{', '.join(f'{d:04X}' for d in _FUNCTION_ERRORS)}"
-                )
-            controller.remote.halt(detail, "on demand")
-        elif args:
-            raise ValueError(f"{verb} takes only a station")
-        elif verb == "run":
-            state.running, state.paused = True, False
-        elif verb == "pause":
-            state.running, state.paused = False, True
-        elif verb in ("estop", "error"):
-            state.running = state.paused = False
-            if verb == "estop":
-                state.estop = True
-            else:
-                state.error, state.error_code = True, ERROR_CODE
-        elif verb == "teach":
-            state.control_device = TEACHING
-        elif verb == "safeguard":
-            state.safeguard = True
-            if state.running:
-                state.running, state.paused = False, True
-        elif verb == "stop":
-            state.stop()
-        elif verb == "power-cycle":
+            controller.remote.halt(function_error_detail(args), "on demand")
+        elif verb == "power-cycle" and not args:
             self.power_cycle(controller.number)
         else:
-            raise ValueError(f"unknown command {verb!r}")
+            act(verb, state, args)
 
     def describe(self, state: SimState) -> str:
         remote = self._controller(state).remote
@@ -550,19 +445,16 @@ class Simulator(device.Device[SimState]):
     def save_station(self, station: int, directory: Path) -> None:
         """Write what the station keeps over a power cycle to ``directory/memory.json``
         (a new file renamed over the old one: a kill never leaves half of it)."""
-        directory.mkdir(parents=True, exist_ok=True)
-        temp = directory / f".{MEMORY_FILE}.{os.getpid()}"
-        temp.write_text(json.dumps(self.stations[station].memory(), indent=1) + "\n")
-        os.replace(temp, directory / MEMORY_FILE)
+        memory.save(self.stations[station], directory)
 
     def load_station(self, station: int, directory: Path) -> bool:
         """The station as it comes up after a power cycle with ``directory``'s memory:
         its tables and LimZ cleared, as a restarted controller has them."""
-        path = directory / MEMORY_FILE
+        path = directory / memory.MEMORY_FILE
         if not path.exists():
             return False
         try:
-            state = SimState.from_memory(json.loads(path.read_text(encoding="utf-8")))
+            state = memory.load(path)
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise ProjectFormatError(f"{path}: not a simulator memory: {exc}") from exc
         with self.lock:

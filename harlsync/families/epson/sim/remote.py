@@ -46,7 +46,7 @@ from typing import Literal, Protocol
 
 from .. import profile
 from ..profile import HANDSHAKE_OUTPUTS, STATUS_SIGNALS, Bit, RegisterMap
-from .commands import FUNCTION_ERROR, REQUEST_WHILE_EXECUTING
+from .codes import FUNCTION_ERROR, REQUEST_WHILE_EXECUTING
 
 __all__ = ["Access", "Event", "FunctionFault", "Phase", "RemoteIO", "Robot"]
 

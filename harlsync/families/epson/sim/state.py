@@ -5,8 +5,9 @@ Values are kept as the controller carries them on the wire, not as text:
 real values in thousandths (``100.123`` is ``100123``), JRange limits in
 encoder pulses, percentages and attributes as integers.  The state is a plain
 dataclass: a test builds one field by field, :meth:`SimState.generate` draws a
-realistic robot from a seed, and :meth:`SimState.from_memory` restores what
-:meth:`SimState.memory` kept.
+realistic robot from a seed (:mod:`.random_robot`), :meth:`SimState.from_data`
+takes a backup's, and :mod:`.memory` keeps what survives a power cycle.  A point
+is a :class:`~.point.Point`.
 
 Volatility, as the manual says (digest §2): the six speed/accel tables
 (§9.1) and LimZ (§10.26) are cleared when the controller is turned off or
@@ -18,12 +19,14 @@ memory card, or nothing stated).  What the robot is doing (Running, Paused
 from __future__ import annotations
 
 import random
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 from .. import profile
 from ..model import EpsonData
 from ..protocol import real_units
+from .point import Point, fits_int32
+from .random_robot import Draw
 
 __all__ = [
     "DEFAULT_ARCH",
@@ -31,8 +34,8 @@ __all__ = [
     "SCARA",
     "SIX_AXIS",
     "Limits",
-    "Point",
     "SimState",
+    "three_axes",
 ]
 
 #: 2153 manipulator types the simulator builds robots of (the manual's codes).
@@ -57,46 +60,6 @@ _SIX_AXIS_MODELS = ("C4-A601S", "C8-A1401S", "VT6-A901S", "C12-A1401S", "C4-A901
 #: (lower, upper) of one axis: a Box area's or XYLim's in thousandths, a JRange
 #: joint's in pulses.
 Limits = tuple[int, int]
-
-
-@dataclass
-class Point:
-    """One point: a coordinate a robot axis (thousandths; X, Y, Z, U, then V, W on
-    a six-axis robot) and its attributes as 1215-1220 read them."""
-
-    coords: tuple[int, ...]
-    hand: int = 1  # 0 Lefty, 1 Righty
-    elbow: int = 0  # 0 Above, 1 Below
-    wrist: int = 0  # 0 NoFlip, 1 Flip
-    j4flag: int = 0
-    j6flag: int = 0
-    local: int = 0  # 0: none
-    #: 6-axis robots (1223-1226): Joint 1 and 2 ranges, 0 or 1
-    j1flag: int = 0
-    j2flag: int = 0
-    #: RS robots (1227/1228): Joint 1's angle at the singularity, thousandths of a degree
-    j1angle: int = 0
-
-    def problems(self, axes: int) -> list[str]:
-        out = []
-        if len(self.coords) != axes:
-            out.append(f"{len(self.coords)} coordinates on a {axes}-axis robot")
-        for name, value, high in (
-            ("hand", self.hand, 1),
-            ("elbow", self.elbow, 1),
-            ("wrist", self.wrist, 1),
-            ("j4flag", self.j4flag, 1),
-            ("j6flag", self.j6flag, 127),
-            ("local", self.local, 15),
-            ("j1flag", self.j1flag, 1),
-            ("j2flag", self.j2flag, 1),
-        ):
-            if not 0 <= value <= high:
-                out.append(f"{name} {value} out of range (0 to {high})")
-        out += [f"coordinate {c} does not fit 32 bits" for c in self.coords if not _fits(c)]
-        if not _fits(self.j1angle):
-            out.append(f"j1angle {self.j1angle} does not fit 32 bits")
-        return out
 
 
 @dataclass
@@ -201,7 +164,7 @@ class SimState:
             out += [
                 f"{name} table {t}: {v} (each more than 0)"
                 for t, v in table2.items()
-                if min(v) <= 0 or not all(_fits(x) for x in v)
+                if min(v) <= 0 or not all(fits_int32(x) for x in v)
             ]
         out += [
             f"speed_r table {t}: {v} (more than 0)"
@@ -279,93 +242,6 @@ class SimState:
         self.limz = 0
         self.stop()
 
-    # --- battery-backed memory -------------------------------------------------------------
-
-    def memory(self) -> dict[str, object]:
-        """What survives a power cycle, as JSON data (the tables and LimZ do not)."""
-        return {
-            "robot_type": self.robot_type,
-            "model": self.model,
-            "arch": {str(n): list(v) for n, v in sorted(self.arch.items())},
-            "fine": list(self.fine),
-            "weight": list(self.weight),
-            "inertia": list(self.inertia),
-            "tool": self.tool,
-            "boxes": {str(n): [list(a) for a in v] for n, v in sorted(self.boxes.items())},
-            "planes": {str(n): list(v) for n, v in sorted(self.planes.items())},
-            "locals": {str(n): list(v) for n, v in sorted(self.locals.items())},
-            "xylim": [list(a) for a in self.xylim],
-            "jrange": [list(a) for a in self.jrange],
-            "base": list(self.base),
-            "points": {
-                str(n): {
-                    "coords": list(p.coords),
-                    "hand": p.hand,
-                    "elbow": p.elbow,
-                    "wrist": p.wrist,
-                    "j4flag": p.j4flag,
-                    "j6flag": p.j6flag,
-                    "local": p.local,
-                    "j1flag": p.j1flag,
-                    "j2flag": p.j2flag,
-                    "j1angle": p.j1angle,
-                }
-                for n, p in sorted(self.points.items())
-            },
-        }
-
-    @classmethod
-    def from_memory(cls, doc: Mapping[str, object]) -> SimState:
-        """The controller :meth:`memory` kept, as it comes up after a power cycle:
-        tables empty, LimZ 0, idle.  Raises ValueError, KeyError or TypeError for
-        a document that is not one."""
-
-        def mapping(key: str) -> Mapping[str, object]:
-            value = doc[key]
-            if not isinstance(value, Mapping):
-                raise TypeError(f"{key} is not a mapping")
-            return value
-
-        def ints(value: object) -> tuple[int, ...]:
-            if not isinstance(value, list):
-                raise TypeError(f"{value!r} is not a list")
-            return tuple(_integer(v) for v in value)
-
-        def pairs(value: object) -> tuple[Limits, ...]:
-            if not isinstance(value, list):
-                raise TypeError(f"{value!r} is not a list")
-            return tuple(_pair(ints(v)) for v in value)
-
-        points = {}
-        for number, item in mapping("points").items():
-            if not isinstance(item, Mapping):
-                raise TypeError(f"point {number} is not a mapping")
-            points[int(number)] = Point(
-                ints(item["coords"]),
-                *(
-                    _integer(item[k])
-                    for k in ("hand", "elbow", "wrist", "j4flag", "j6flag", "local")
-                ),
-                # kept by a simulator since issue 20; an older memory file has none
-                *(_integer(item.get(k, 0)) for k in ("j1flag", "j2flag", "j1angle")),
-            )
-        return cls(
-            robot_type=_integer(doc["robot_type"]),
-            model=str(doc["model"]),
-            arch={int(n): _pair(ints(v)) for n, v in mapping("arch").items()},
-            fine=ints(doc["fine"]),
-            weight=_pair(ints(doc["weight"])),
-            inertia=_pair(ints(doc["inertia"])),
-            tool=_integer(doc["tool"]),
-            boxes={int(n): _triple(pairs(v)) for n, v in mapping("boxes").items()},
-            planes={int(n): ints(v) for n, v in mapping("planes").items()},
-            locals={int(n): ints(v) for n, v in mapping("locals").items()},
-            xylim=_triple(pairs(doc["xylim"])),
-            jrange=pairs(doc["jrange"]),
-            base=ints(doc["base"]),
-            points=points,
-        )
-
     @classmethod
     def from_data(cls, data: EpsonData) -> SimState:
         """The controller a backup describes (a project's settings and points, or a
@@ -379,18 +255,7 @@ class SimState:
         for key, value in data.items.items():
             kind, number = key.kind, key.number or 0
             if kind == "point":
-                state.points[number] = Point(
-                    tuple(u(c) for c in value.coords),
-                    value.hand,
-                    value.elbow,
-                    value.wrist,
-                    value.j4flag,
-                    value.j6flag,
-                    value.local,
-                    value.j1flag or 0,
-                    value.j2flag or 0,
-                    0 if value.j1angle is None else u(value.j1angle),
-                )
+                state.points[number] = Point.from_data(value)
             elif kind == "accel":
                 state.accel[number] = (int(value.accel), int(value.decel))
             elif kind in ("accel_s", "accel_r"):
@@ -414,7 +279,7 @@ class SimState:
             elif kind == "tool":
                 state.tool = int(value)
             elif kind in ("box", "xylim"):
-                limits = _triple(tuple((u(a.lower), u(a.upper)) for a in value))
+                limits = three_axes(tuple((u(a.lower), u(a.upper)) for a in value))
                 if kind == "xylim":
                     state.xylim = limits
                 elif any(v for axis in limits for v in axis):
@@ -468,62 +333,30 @@ class SimState:
         rng = random.Random(seed)
         kind = robot_type if robot_type is not None else rng.choice((SCARA, SIX_AXIS))
         axes = profile.ROBOT_AXES[kind]
-        scara = axes == 4
-
-        def real(low: float, high: float) -> int:
-            return rng.randint(round(low * 1000), round(high * 1000))
-
-        def some(count: tuple[int, int], numbers: Iterable[int]) -> list[int]:
-            pool = list(numbers)
-            return sorted(rng.sample(pool, rng.randint(*count)))
-
+        draw = Draw(rng)  # each setting drawn in turn, in this order
         state = cls(
             robot_type=kind,
-            model=rng.choice(_SCARA_MODELS if scara else _SIX_AXIS_MODELS),
-            accel={
-                t: (rng.randint(10, 120), rng.randint(10, 120)) for t in some((2, 8), range(16))
-            },
-            accel_s={t: (real(100, 25000), real(100, 25000)) for t in some((1, 6), range(16))},
-            accel_r={t: (real(100, 5000), real(100, 5000)) for t in some((0, 4), range(16))},
-            speed={
-                t: (rng.randint(1, 100), rng.randint(1, 100), rng.randint(1, 100))
-                for t in some((2, 8), range(16))
-            },
-            speed_s={
-                t: (real(10, 2000), real(10, 2000), real(10, 2000)) for t in some((1, 6), range(16))
-            },
-            speed_r={t: real(10, 1000) for t in some((0, 4), range(16))},
-            limz=0 if rng.random() < 0.5 else -real(0, 80),
-            arch={
-                **DEFAULT_ARCH,
-                **{a: (real(0, 100), real(0, 100)) for a in some((0, 3), range(7))},
-            },
-            fine=tuple(rng.choice((10, 10, 10, 20, 50, 100, 1000)) for _ in range(axes)),
-            weight=(real(0.5, 6), real(0, 150) if scara else 0),
-            inertia=(real(0.001, 0.1), real(0, 150)),
+            model=rng.choice(_SCARA_MODELS if axes == 4 else _SIX_AXIS_MODELS),
+            accel=draw.percent_pairs((2, 8)),
+            accel_s=draw.real_pairs((1, 6), 100, 25000),
+            accel_r=draw.real_pairs((0, 4), 100, 5000),
+            speed=draw.percent_triples((2, 8)),
+            speed_s=draw.real_triples((1, 6), 10, 2000),
+            speed_r=draw.reals((0, 4), 10, 1000),
+            limz=draw.limz(),
+            arch={**DEFAULT_ARCH, **draw.arches()},
+            fine=draw.fine(axes),
+            weight=draw.weight(axes == 4),
+            inertia=draw.inertia(),
             tool=rng.choice((0, 0, 1, 2, 3)),
-            boxes={n: _box(rng) for n in some((0, 3), range(1, 16))},
-            planes={n: _frame(rng, axes) for n in some((0, 2), range(1, 16))},
-            locals={n: _frame(rng, axes) for n in some((0, 4), range(1, 16))},
-            xylim=((0, 0), (0, 0), (0, 0))
-            if rng.random() < 0.6
-            else (
-                (-real(100, 600), real(100, 600)),
-                (-real(100, 600), real(100, 600)),
-                (-real(0, 300), real(0, 100)),
-            ),
-            jrange=tuple(
-                (-rng.randint(500_000, 4_000_000), rng.randint(500_000, 7_000_000))
-                for _ in range(axes)
-            ),
-            base=(0,) * axes if rng.random() < 0.7 else _frame(rng, axes),
+            boxes={n: draw.box() for n in draw.some((0, 3), range(1, 16))},
+            planes=draw.frames((0, 2), axes),
+            locals=draw.frames((0, 4), axes),
+            xylim=draw.xylim(),
+            jrange=draw.jrange(axes),
+            base=draw.base(axes),
         )
-        first, last = point_range
-        number = first + rng.randrange(3)
-        while number <= last:
-            for n in range(number, min(number + rng.randint(2, 20), last + 1)):
-                state.points[n] = _point(rng, axes, sorted(state.locals))
-            number = max(state.points) + 1 + rng.randint(1, 15)
+        state.points = draw.points(axes, point_range, sorted(state.locals))
         # the type's own attributes from a stream of their own (the rest stays as
         # each seed always drew it)
         extra = random.Random(seed ^ 0x1223)
@@ -536,23 +369,8 @@ class SimState:
         return state
 
 
-def _fits(value: int) -> bool:
-    return -(2**31) <= value < 2**31
-
-
-def _integer(value: object) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise TypeError(f"{value!r} is not a whole number")
-    return value
-
-
-def _pair(values: tuple[int, ...]) -> tuple[int, int]:
-    if len(values) != 2:
-        raise ValueError(f"{list(values)} is not a pair")
-    return values[0], values[1]
-
-
-def _triple(values: tuple[Limits, ...]) -> tuple[Limits, Limits, Limits]:
+def three_axes(values: tuple[Limits, ...]) -> tuple[Limits, Limits, Limits]:
+    """X, Y and Z limits (a Box area's, XYLim's).  Raises ValueError for another count."""
     if len(values) != 3:
         raise ValueError(f"{len(values)} axes, X, Y and Z needed")
     return values[0], values[1], values[2]
@@ -560,43 +378,3 @@ def _triple(values: tuple[Limits, ...]) -> tuple[Limits, Limits, Limits]:
 
 def _default_jrange(axes: int) -> tuple[Limits, ...]:
     return tuple((-2_000_000, 2_000_000) for _ in range(axes))
-
-
-def _box(rng: random.Random) -> tuple[Limits, Limits, Limits]:
-    def axis() -> Limits:
-        low = rng.randint(-400_000, 300_000)
-        return low, low + rng.randint(10_000, 300_000)
-
-    return axis(), axis(), axis()
-
-
-def _frame(rng: random.Random, axes: int) -> tuple[int, ...]:
-    """X, Y, Z in thousandths of a mm, then U (V, W) in thousandths of a degree."""
-    xyz = tuple(rng.randint(-300_000, 300_000) for _ in range(3))
-    return xyz + tuple(rng.choice((0, 0, rng.randint(-180_000, 180_000))) for _ in range(axes - 3))
-
-
-def _point(rng: random.Random, axes: int, locals_defined: list[int]) -> Point:
-    if axes == 4:
-        coords: tuple[int, ...] = (
-            rng.randint(-500_000, 500_000),
-            rng.randint(100_000, 600_000),
-            rng.randint(-200_000, 0),
-            rng.randint(-180_000, 180_000),
-        )
-        return Point(coords, hand=rng.randint(0, 1), local=rng.choice([0, 0, 0, *locals_defined]))
-    coords = (
-        rng.randint(-700_000, 700_000),
-        rng.randint(-700_000, 700_000),
-        rng.randint(-100_000, 900_000),
-        *(rng.randint(-180_000, 180_000) for _ in range(3)),
-    )
-    return Point(
-        coords,
-        hand=rng.randint(0, 1),
-        elbow=rng.randint(0, 1),
-        wrist=rng.randint(0, 1),
-        j4flag=rng.choice((0, 0, 1)),
-        j6flag=rng.choice((0, 0, 0, 1, 2)),
-        local=rng.choice([0, 0, 0, *locals_defined]),
-    )
