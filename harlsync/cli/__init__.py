@@ -22,18 +22,17 @@ from ..errors import (
     StalePlanError,
 )
 from ..robotlog import RobotFilter
-from .common import EXIT_ERROR, EXIT_REFUSED, _families, _Parser, log
-from .deploy import _add_adopt, _add_plan, _add_push, _add_rollback
+from .common import EXIT_ERROR, EXIT_REFUSED, Sub, _families, _Parser, log
 from .plant import _add_backup, _add_log, _add_snapshots, _add_status, _add_validate
 from .probe import _add_probe
-from .robot import _add_diff, _add_pull
+from .robot import _add_adopt, _add_diff, _add_plan, _add_pull, _add_push, _add_rollback
 from .sim import _add_sim
 
 __all__ = ["main"]
 
 
 #: Each command (in ``--help`` order) -> what adds its parser.
-_COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParser]], None]] = {
+_COMMANDS: dict[str, Callable[[Sub], None]] = {
     "probe": _add_probe,
     "pull": _add_pull,
     "diff": _add_diff,
