@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import logging
 import sys
 from collections.abc import Callable, Sequence
 from typing import cast
@@ -21,7 +20,7 @@ from ..errors import (
     PolicyError,
     StalePlanError,
 )
-from ..robotlog import RobotFilter
+from ..terminal import log_to_terminal
 from .common import EXIT_ERROR, EXIT_REFUSED, Sub, _families, _Parser, log
 from .plant import _add_backup, _add_log, _add_snapshots, _add_status, _add_validate
 from .probe import _add_probe
@@ -105,31 +104,6 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def _setup_logging(verbose: int) -> None:
-    from ..terminal import LogHandler
-
-    if verbose >= 2:
-        level = logging.DEBUG
-    elif verbose == 1:
-        level = logging.INFO
-    else:
-        # Quiet under cron: only errors when nobody is watching.
-        level = logging.WARNING if sys.stderr.isatty() else logging.ERROR
-    logging.basicConfig(  # each line above a progress bar drawn meanwhile
-        level=level,
-        format="harlsync: %(levelname)s: %(robot)s%(message)s",
-        handlers=[LogHandler()],
-    )
-    for handler in logging.getLogger().handlers:  # %(robot)s: which robot, under backup
-        if not any(isinstance(f, RobotFilter) for f in handler.filters):
-            handler.addFilter(RobotFilter())
-    # The libraries a family uses may log their own ERROR lines above the one line
-    # harlsync says of the same failure: -vv shows their warnings.
-    for family in _families():
-        for name in family.loggers:
-            logging.getLogger(name).setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
-
-
 def _command_of(argv: Sequence[str]) -> str | None:
     """The command ``argv`` runs, when it says so plainly: its first word that is not
     ``-v`` (``-vv``, ``--verbose``).  None for anything else first (``--help``,
@@ -146,7 +120,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _whole_process()
     parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
-    _setup_logging(args.verbose)
+    log_to_terminal(args.verbose, (name for f in _families() for name in f.loggers))
     hint = families.port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
     if hint is not None:
         print(f"harlsync: error: {hint}", file=sys.stderr)

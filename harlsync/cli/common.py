@@ -7,8 +7,8 @@ import argparse
 import logging
 import os
 import sys
-from collections.abc import Callable, Collection, Iterable
-from typing import Any, TypeAlias
+from collections.abc import Callable, Collection, Iterable, Mapping
+from typing import Any, TypeAlias, TypedDict
 
 from ..families.base import AnyFamily, Option
 
@@ -85,8 +85,17 @@ def _command(
     return p
 
 
-def _flag(p: argparse.ArgumentParser | argparse._ActionsContainer, flag: str, help: str) -> None:
-    p.add_argument(flag, action="store_true", help=help)
+def _add(p: argparse._ActionsContainer, table: Mapping[str, str], *only: str) -> None:
+    """The options of ``table`` (or only those named), in its order: ``"--flag
+    METAVAR"`` (an option that takes a value) or ``"--flag"`` (a switch) -> its help."""
+    for spec, text in table.items():
+        flag, _, metavar = spec.partition(" ")
+        if only and spec not in only:
+            continue
+        if metavar:
+            p.add_argument(flag, metavar=metavar, help=text)
+        else:
+            p.add_argument(flag, action="store_true", help=text)
 
 
 def _dir_arg(p: argparse.ArgumentParser) -> None:
@@ -132,7 +141,7 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
         "--station", metavar="N", help=f"station number instead of the robot file's ({stations})"
     )
     _lock_arg(p, 10.0, "how long to wait for another harlsync using the same line or project")
-    for option in _options():
+    for option in _family_options():
         p.add_argument(option.flag, dest=option.name, action="store_true", help=option.help)
 
 
@@ -150,7 +159,7 @@ def _per_family(place: str) -> str:
     )
 
 
-def _options() -> list[Option]:
+def _family_options() -> list[Option]:
     """Every family's connection options, each name once."""
     found: dict[str, Option] = {}
     for family in _families():
@@ -161,7 +170,25 @@ def _options() -> list[Option]:
 
 def _connect_options(args: argparse.Namespace) -> dict[str, bool]:
     """The family options of the connection, as the engine takes them."""
-    return {option.name: bool(getattr(args, option.name)) for option in _options()}
+    return {option.name: bool(getattr(args, option.name)) for option in _family_options()}
+
+
+class _Line(TypedDict):
+    """The connection's options (:func:`_connection_args`), as the engine takes them."""
+
+    port: str | None
+    station: str | None
+    lock_timeout: float
+    connect_options: dict[str, bool]
+
+
+def _line(args: argparse.Namespace) -> _Line:
+    return _Line(
+        port=args.port,
+        station=args.station,
+        lock_timeout=args.lock_timeout,
+        connect_options=_connect_options(args),
+    )
 
 
 def _family_names() -> Collection[str]:

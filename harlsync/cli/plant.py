@@ -13,9 +13,9 @@ from .common import (
     EXIT_NO,
     EXIT_OK,
     Sub,
+    _add,
     _command,
     _dir_arg,
-    _flag,
     _format_arg,
     _lines,
     _lock_arg,
@@ -70,64 +70,35 @@ def _add_backup(sub: Sub) -> None:
         "2 on an error before any robot ran, 130 interrupted.",
     )
     _plant_args(p)
-    _backup_run_args(p)
+    p.add_argument("--jobs", type=int, metavar="N", help=_BACKUP["--jobs N"])
+    p.add_argument("--workers", type=int, metavar="N", help=_BACKUP["--workers N"])
+    _add(p, _BACKUP, "--commit", "--push")
     _format_arg(p)
-    _flag(p, "--quiet", "print the summary only when a robot failed (for cron mail)")
-    p.add_argument(
-        "--attempts",
-        type=int,
-        default=2,
-        metavar="N",
-        help="tries per robot when the line fails (default 2)",
-    )
+    _add(p, _BACKUP, "--quiet")
+    p.add_argument("--attempts", type=int, default=2, metavar="N", help=_BACKUP["--attempts N"])
     _lock_arg(p, 60.0, "wait this long for a line or a project another harlsync is using")
-    _backup_output_args(p)
+    _add(p, _BACKUP, *_BACKUP_OUTPUTS)
 
 
-def _backup_run_args(p: argparse.ArgumentParser) -> None:
-    """How the run reads the lines, and what it does in git."""
-    p.add_argument(
-        "--jobs", type=int, metavar="N", help="lines read at once (default: every line at once)"
-    )
-    p.add_argument(
-        "--workers",
-        type=int,
-        metavar="N",
-        help="processes the lines are spread over, a thread a line in each (default: one per "
-        "core; 1: all in this process)",
-    )
-    _flag(
-        p,
-        "--commit",
-        "one git commit for the run on the branch harlsync/backup, listing which robots changed "
-        "and how much, and what is pending or drifted",
-    )
-    _flag(
-        p,
-        "--push",
-        "git push the backup branch and the robots' deployed refs after committing (needs "
-        "--commit)",
-    )
-
-
-def _backup_output_args(p: argparse.ArgumentParser) -> None:
-    """What the run leaves besides its report (:class:`~harlsync.sync.backupoutputs.BackupOutputs`)."""
-    for event in ("change", "failure"):
-        adjective = "changed" if event == "change" else "failed"
-        p.add_argument(
-            f"--on-{event}",
-            metavar="CMD",
-            help=f"run CMD (through the shell, summary on stdin) when a robot {adjective}",
-        )
-    p.add_argument(
-        "--metrics", metavar="FILE", help="write a Prometheus textfile with per-robot results"
-    )
-    p.add_argument(
-        "--html",
-        metavar="FILE",
-        help="write the fleet report page (as 'harlsync status --html') at the end of the run, "
-        "atomically",
-    )
+#: backup's own options: "--flag [METAVAR]" -> help (see :func:`_add`).
+_BACKUP = {
+    "--jobs N": "lines read at once (default: every line at once)",
+    "--workers N": "processes the lines are spread over, a thread a line in each (default: one "
+    "per core; 1: all in this process)",
+    "--commit": "one git commit for the run on the branch harlsync/backup, listing which robots "
+    "changed and how much, and what is pending or drifted",
+    "--push": "git push the backup branch and the robots' deployed refs after committing (needs "
+    "--commit)",
+    "--quiet": "print the summary only when a robot failed (for cron mail)",
+    "--attempts N": "tries per robot when the line fails (default 2)",
+    "--on-change CMD": "run CMD (through the shell, summary on stdin) when a robot changed",
+    "--on-failure CMD": "run CMD (through the shell, summary on stdin) when a robot failed",
+    "--metrics FILE": "write a Prometheus textfile with per-robot results",
+    "--html FILE": "write the fleet report page (as 'harlsync status --html') at the end of the "
+    "run, atomically",
+}
+#: What the run leaves besides its report (:class:`~harlsync.sync.backupoutputs.BackupOutputs`).
+_BACKUP_OUTPUTS = ("--on-change CMD", "--on-failure CMD", "--metrics FILE", "--html FILE")
 
 
 def _cmd_backup(args: argparse.Namespace) -> int:
@@ -188,11 +159,7 @@ def _add_status(sub: Sub) -> None:
     )
     _plant_args(p)
     _format_arg(p)
-    p.add_argument(
-        "--html",
-        metavar="FILE",
-        help="also write the fleet report page: one self-contained HTML file",
-    )
+    _add(p, {"--html FILE": "also write the fleet report page: one self-contained HTML file"})
 
 
 def _cmd_status(args: argparse.Namespace) -> int:

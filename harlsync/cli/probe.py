@@ -8,6 +8,7 @@ import json
 from .common import (
     EXIT_OK,
     Sub,
+    _add,
     _command,
     _family_arg,
     _lines,
@@ -42,35 +43,29 @@ def _add_probe(sub: Sub) -> None:
         "try only this family (default: the family whose own URL scheme --port has, else every "
         "serial family)",
     )
-    where = p.add_mutually_exclusive_group()
     stations = _per_family("stations")
-    where.add_argument("--station", metavar="N", help=f"try only this station ({stations})")
-    where.add_argument(
-        "--stations",
-        metavar="LIST",
-        help="the stations to try, in order, as each family writes them: 1-4, or 99,1-F "
-        "(default: the stations each family's manual gives as defaults)",
+    _add(
+        p.add_mutually_exclusive_group(),
+        {
+            "--station N": f"try only this station ({stations})",
+            "--stations LIST": "the stations to try, in order, as each family writes them: 1-4, "
+            "or 99,1-F (default: the stations each family's manual gives as defaults)",
+        },
     )
-    p.add_argument(
-        "--baud",
-        metavar="auto|N",
-        help="the baud rate to try (default: the family's profile's); auto: every rate the "
-        "family's manual lists, on a local serial port only (a device server sets its own)",
-    )
-    p.add_argument("--json", action="store_true", help="print the findings as JSON")
-    p.add_argument(
-        "--write",
-        metavar="DIR",
-        help="create the project DIR with the robot.yaml of what was found (commented); "
-        "refuses a directory that exists and is not empty",
-    )
-    p.add_argument(
-        "--capture",
-        metavar="FILE",
-        help="record the survey's traffic in FILE as a spy:// hex dump; harlsync probe --port "
-        "'replay://FILE?family=F' --family F --station N plays it back",
-    )
+    _add(p, _PROBE)
     _lock_arg(p, 10.0, "how long to wait for another harlsync using the same line")
+
+
+#: probe's options after --port, --family and the stations.
+_PROBE = {
+    "--baud auto|N": "the baud rate to try (default: the family's profile's); auto: every rate "
+    "the family's manual lists, on a local serial port only (a device server sets its own)",
+    "--json": "print the findings as JSON",
+    "--write DIR": "create the project DIR with the robot.yaml of what was found (commented); "
+    "refuses a directory that exists and is not empty",
+    "--capture FILE": "record the survey's traffic in FILE as a spy:// hex dump; harlsync probe "
+    "--port 'replay://FILE?family=F' --family F --station N plays it back",
+}
 
 
 def _cmd_probe(args: argparse.Namespace) -> int:

@@ -16,13 +16,14 @@ from .common import (
     EXIT_NO,
     EXIT_OK,
     Sub,
+    _add,
     _command,
     _connect_options,
     _connection_args,
     _dir_arg,
     _family_arg,
-    _flag,
     _format_arg,
+    _line,
     _lines,
     _per_family,
     _print,
@@ -31,6 +32,7 @@ from .common import (
 )
 
 if TYPE_CHECKING:
+    from ..sync.comparison import Comparison
     from ..sync.deploy import PushOptions, PushResult
     from ..sync.items import Differences
     from ..sync.plan import Plan
@@ -59,21 +61,19 @@ def _add_pull(sub: Sub) -> None:
         f"the controller family of a first pull (default {DEFAULT}, or the family whose own URL "
         "scheme --port has); later commands read it from robot.yaml",
     )
-    _flag(p, "--commit", "commit the change to git, with a message that says what changed")
-    _flag(p, "--allow-dirty", "pull even over uncommitted edits in DIR (they are overwritten)")
-    _flag(
-        p,
-        "--discard-pending",
-        "pull even over changes the project's branch approved and no push has deployed yet "
-        "(pending: they are overwritten in the working tree)",
-    )
-    _flag(
-        p,
-        "--new-robot",
-        "accept a controller that does not look like the robot backed up in DIR (another "
-        "version or program configuration, or most of the backup changed): a replaced, "
-        "reconfigured or updated robot",
-    )
+    _add(p, _PULL)
+
+
+#: pull's options after the connection's and --family.
+_PULL = {
+    "--commit": "commit the change to git, with a message that says what changed",
+    "--allow-dirty": "pull even over uncommitted edits in DIR (they are overwritten)",
+    "--discard-pending": "pull even over changes the project's branch approved and no push has "
+    "deployed yet (pending: they are overwritten in the working tree)",
+    "--new-robot": "accept a controller that does not look like the robot backed up in DIR "
+    "(another version or program configuration, or most of the backup changed): a replaced, "
+    "reconfigured or updated robot",
+}
 
 
 def _cmd_pull(args: argparse.Namespace) -> int:
@@ -83,16 +83,13 @@ def _cmd_pull(args: argparse.Namespace) -> int:
     try:
         result = pulling.pull(
             args.dir,
-            port=args.port,
-            station=args.station,
             commit=args.commit,
             progress=progress,
-            lock_timeout=args.lock_timeout,
             allow_dirty=args.allow_dirty,
             family=families.get(args.family) if args.family else None,
             new_robot=args.new_robot,
-            connect_options=_connect_options(args),
             discard_pending=args.discard_pending,
+            **_line(args),
         )
     finally:
         progress.close()
@@ -118,7 +115,7 @@ def _add_diff(sub: Sub) -> None:
     _dir_arg(p)
     _connection_args(p)
     _format_arg(p)
-    _flag(p, "--registers", "compare runtime data too (" + _per_family("runtime") + ")")
+    _add(p, {"--registers": f"compare runtime data too ({_per_family('runtime')})"})
     p.add_argument(
         "--rev",
         action="append",
@@ -152,25 +149,32 @@ def _versions(args: argparse.Namespace) -> Differences:
 
 
 def _live(args: argparse.Namespace) -> Differences:
-    from ..sync import comparison
     from ..sync.items import differ_words
 
-    progress = Feedback("diff")
+    found, progress = _compare(args, "diff")
+    progress.summary(found.project.robot.name, found.contents, differ_words(found.changes))
+    return found.differences()
+
+
+def _compare(args: argparse.Namespace, command: str) -> tuple[Comparison, Feedback]:
+    """The live robot against the project, for ``diff`` or ``plan`` (which also asks
+    whether the robot is idle); the warnings said."""
+    from ..sync import comparison
+
+    progress = Feedback(command)
     try:
-        result = comparison.compare(
+        found = comparison.compare(
             args.dir,
-            port=args.port,
-            station=args.station,
             progress=progress,
             registers=args.registers,
-            lock_timeout=args.lock_timeout,
-            connect_options=_connect_options(args),
+            idle_check=command == "plan",
+            command=command,
+            **_line(args),
         )
     finally:
         progress.close()
-    _warn(result.warnings)
-    progress.summary(result.project.robot.name, result.contents, differ_words(result.changes))
-    return result.differences()
+    _warn(found.warnings)
+    return found, progress
 
 
 def _add_plan(sub: Sub) -> None:
@@ -190,30 +194,20 @@ def _add_plan(sub: Sub) -> None:
     )
     _dir_arg(p)
     _connection_args(p)
-    p.add_argument("--out", metavar="PLANFILE", help="save the plan to this file")
-    _flag(p, "--registers", "include runtime data (" + _per_family("runtime") + ")")
+    runtime = _per_family("runtime")
+    _add(
+        p,
+        {
+            "--out PLANFILE": "save the plan to this file",
+            "--registers": f"include runtime data ({runtime})",
+        },
+    )
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from ..sync import comparison
     from ..sync.items import differ_words
 
-    progress = Feedback("plan")
-    try:
-        found = comparison.compare(
-            args.dir,
-            port=args.port,
-            station=args.station,
-            progress=progress,
-            registers=args.registers,
-            lock_timeout=args.lock_timeout,
-            idle_check=True,
-            connect_options=_connect_options(args),
-            command="plan",
-        )
-    finally:
-        progress.close()
-    _warn(found.warnings)
+    found, progress = _compare(args, "plan")
     the_plan = found.plan()
     _lines(the_plan.lines(args.verbose))
     if args.out:
@@ -225,31 +219,22 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _push_args(p: argparse.ArgumentParser) -> None:
+    """What push and rollback are told, after the connection's options."""
     _connection_args(p)
-    _flag(p, "--yes", "do not ask before writing")
-    p.add_argument("--reason", metavar="TEXT", help="why, for the audit log")
-    p.add_argument(
-        "--outside-window",
-        metavar="REASON",
-        help="allow a write outside the robot's maintenance windows, saying why",
-    )
-    _flag(
+    live, runtime = _per_family("live_tuning"), _per_family("runtime")
+    _add(
         p,
-        "--allow-reconfigure",
-        "allow a program configuration change (SNX), which destroys every program; all of "
-        "them are rewritten after it",
-    )
-    _flag(
-        p,
-        "--allow-live-tuning",
-        "write what the family allows while the robot runs ("
-        + _per_family("live_tuning")
-        + "); nothing else",
-    )
-    _flag(
-        p,
-        "--registers",
-        "write runtime data too (" + _per_family("runtime") + "; the project must keep it)",
+        {
+            "--yes": "do not ask before writing",
+            "--reason TEXT": "why, for the audit log",
+            "--outside-window REASON": "allow a write outside the robot's maintenance windows, "
+            "saying why",
+            "--allow-reconfigure": "allow a program configuration change (SNX), which destroys "
+            "every program; all of them are rewritten after it",
+            "--allow-live-tuning": f"write what the family allows while the robot runs ({live}); "
+            "nothing else",
+            "--registers": f"write runtime data too ({runtime}; the project must keep it)",
+        },
     )
 
 
@@ -279,12 +264,14 @@ def _add_push(sub: Sub) -> None:
     )
     _dir_arg(p)
     _push_args(p)
-    _flag(p, "--allow-dirty", "push a project with uncommitted changes")
-    p.add_argument(
-        "--plan",
-        metavar="PLANFILE",
-        help="push only if the robot and project are as when this plan was made",
-    )
+    _add(p, _PUSH)
+
+
+#: push's options after those it shares with rollback.
+_PUSH = {
+    "--allow-dirty": "push a project with uncommitted changes",
+    "--plan PLANFILE": "push only if the robot and project are as when this plan was made",
+}
 
 
 def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
@@ -352,12 +339,14 @@ def _add_rollback(sub: Sub) -> None:
     )
     _dir_arg(p)
     _push_args(p)
-    p.add_argument(
-        "--snapshot",
-        metavar="N",
-        help="the snapshot to restore: its number as 'harlsync snapshots DIR' shows it, or its "
-        "directory (default: the one taken before the last push)",
-    )
+    _add(p, _ROLLBACK)
+
+
+#: rollback's options after those it shares with push.
+_ROLLBACK = {
+    "--snapshot N": "the snapshot to restore: its number as 'harlsync snapshots DIR' shows it, "
+    "or its directory (default: the one taken before the last push)",
+}
 
 
 def _cmd_rollback(args: argparse.Namespace) -> int:
@@ -391,7 +380,7 @@ def _add_adopt(sub: Sub) -> None:
     )
     _dir_arg(p)
     p.add_argument("items", nargs="*", metavar="ITEM", help="an item to adopt (default: the drift)")
-    _flag(p, "--allow-dirty", "adopt even over uncommitted edits in DIR (they are overwritten)")
+    _add(p, {"--allow-dirty": "adopt even over uncommitted edits in DIR (they are overwritten)"})
 
 
 def _cmd_adopt(args: argparse.Namespace) -> int:

@@ -4,18 +4,18 @@ print where it serves and serve it, reading its control commands."""
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import sys
 import threading
 
 from ..families import DEFAULT
+from ..terminal import in_background
 from .common import (
     EXIT_OK,
     Sub,
+    _add,
     _command,
     _family_arg,
-    _flag,
     _Help,
     _lines,
     _per_family,
@@ -70,68 +70,18 @@ def _add_sim(sub: Sub) -> None:
         "names)",
     )
     src = p.add_mutually_exclusive_group()
-    src.add_argument("--project", metavar="DIR", help="serve the robot of this project directory")
-    src.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        help="generate a realistic robot (programs, positions) from SEED",
-    )
-    p.add_argument(
-        "--stations",
-        metavar="N[,N...]",
-        help="stations on the line, in the family's notation ("
-        + _per_family("stations")
-        + "; default: the project's station, or the family's default)",
-    )
-    p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
-    _flag(p, "--no-pty", "do not open a pty (needs --listen)")
-    _flag(
-        p,
-        "--no-input",
-        "read no commands: serve until SIGTERM or Ctrl-C, to run in the background or under a "
-        "service manager (the mode then changes only through --auto and --auto-after-writes)",
-    )
-    _sim_line_args(p)
-    _sim_mode_args(p)
-
-
-def _sim_line_args(p: argparse.ArgumentParser) -> None:
-    """How the simulated line answers: its speed, its faults, its variants."""
-    p.add_argument(
-        "--baud",
-        type=int,
-        default=9600,
-        help="delay each reply by its time on the wire at this speed; 0 turns it off (default 9600)",
-    )
-    p.add_argument(
-        "--turnaround",
-        type=float,
-        default=0.0,
-        metavar="SECONDS",
-        help="extra delay before each reply",
-    )
-    p.add_argument(
-        "--faults",
-        default="",
-        metavar="NAME=RATE,...",
-        help="fault injection: noise, drop, bad_checksum, fragment, slow (rates 0-1), "
-        "slow_delay (seconds), seed",
-    )
-    p.add_argument(
-        "--variant",
-        default="",
-        metavar="NAME=VALUE,...",
-        help="answer as a controller that fills a silence of its manual another way than the "
-        f"profile's choice, the first value of each (docs/profile.md): {_SimHelp.VARIANTS}",
-    )
-
-
-def _sim_mode_args(p: argparse.ArgumentParser) -> None:
-    """The simulator's mode (busy at start, after writes), its record and its memory."""
-    p.add_argument(
-        "--auto", "--run", dest="busy", action="store_true", help=f"start busy ({_SimHelp.BUSY})"
-    )
+    _add(src, _SIM, "--project DIR")
+    src.add_argument("--seed", type=int, default=0, help=_SIM["--seed"])
+    stations = _per_family("stations")
+    _add(p, {"--stations N[,N...]": _SIM["--stations N[,N...]"].format(stations)})
+    _add(p, _SIM, "--listen HOST:PORT", "--no-pty", "--no-input")
+    p.add_argument("--baud", type=int, default=9600, help=_SIM["--baud"])
+    seconds = "--turnaround SECONDS"
+    p.add_argument("--turnaround", type=float, default=0.0, metavar="SECONDS", help=_SIM[seconds])
+    for spec in ("--faults NAME=RATE,...", "--variant NAME=VALUE,..."):
+        flag, metavar = spec.split(" ")
+        p.add_argument(flag, default="", metavar=metavar, help=_SIM[spec])
+    p.add_argument("--auto", "--run", dest="busy", action="store_true", help=_SIM["--auto"])
     p.add_argument(
         "--auto-after-writes",
         "--run-after-writes",
@@ -139,20 +89,36 @@ def _sim_mode_args(p: argparse.ArgumentParser) -> None:
         type=int,
         default=0,
         metavar="N",
-        help="become busy after N writes, once (see --auto); 'stop' disarms it",
+        help=_SIM["--auto-after-writes N"],
     )
-    p.add_argument(
-        "--record",
-        metavar="FILE",
-        help="append every request received to FILE as JSON lines (station, payload, busy: "
-        "whether the station was not idle, client: 'pty' or the TCP peer)",
-    )
-    p.add_argument(
-        "--state",
-        metavar="DIR",
-        help="battery-backed memory: keep each station in DIR/station-N, saved after every "
-        "write and loaded again when the simulator restarts",
-    )
+    _add(p, _SIM, "--record FILE", "--state DIR")
+
+
+#: sim's options after --family: "--flag [METAVAR]" -> help (see :func:`_add`).
+_SIM = {
+    "--project DIR": "serve the robot of this project directory",
+    "--seed": "generate a realistic robot (programs, positions) from SEED",
+    "--stations N[,N...]": "stations on the line, in the family's notation ({}; default: the "
+    "project's station, or the family's default)",
+    "--listen HOST:PORT": "also serve over TCP (socket://HOST:PORT)",
+    "--no-pty": "do not open a pty (needs --listen)",
+    "--no-input": "read no commands: serve until SIGTERM or Ctrl-C, to run in the background or "
+    "under a service manager (the mode then changes only through --auto and --auto-after-writes)",
+    "--baud": "delay each reply by its time on the wire at this speed; 0 turns it off (default "
+    "9600)",
+    "--turnaround SECONDS": "extra delay before each reply",
+    "--faults NAME=RATE,...": "fault injection: noise, drop, bad_checksum, fragment, slow (rates "
+    "0-1), slow_delay (seconds), seed",
+    "--variant NAME=VALUE,...": "answer as a controller that fills a silence of its manual "
+    "another way than the profile's choice, the first value of each (docs/profile.md): "
+    + _SimHelp.VARIANTS,
+    "--auto": f"start busy ({_SimHelp.BUSY})",
+    "--auto-after-writes N": "become busy after N writes, once (see --auto); 'stop' disarms it",
+    "--record FILE": "append every request received to FILE as JSON lines (station, payload, "
+    "busy: whether the station was not idle, client: 'pty' or the TCP peer)",
+    "--state DIR": "battery-backed memory: keep each station in DIR/station-N, saved after "
+    "every write and loaded again when the simulator restarts",
+}
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
@@ -194,15 +160,11 @@ def _say(text: str) -> None:
 
 
 def _reads_input(args: argparse.Namespace) -> bool:
-    """Whether ``harlsync sim`` reads control commands on its standard input: not
-    with --no-input, nor when started in the background of a terminal (``&``), where
-    a read would stop it (SIGTTIN)."""
+    """Whether ``harlsync sim`` reads control commands on its standard input: not with
+    --no-input, nor when started in the background of a terminal."""
     if args.no_input:
         return False
-    try:
-        background = os.isatty(0) and os.tcgetpgrp(0) != os.getpgrp()
-    except OSError:  # no controlling terminal: stdin is what it is
-        background = False
-    if background:
+    if in_background():
         _say("started in the background: not reading commands; stop it with kill (SIGTERM)")
-    return not background
+        return False
+    return True
