@@ -4,6 +4,7 @@ formatter, the options several commands take and the families' help phrases."""
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import sys
@@ -22,6 +23,11 @@ log = logging.getLogger("harlsync")
 
 def _print(*args: object) -> None:
     print(*args, flush=True)
+
+
+def _json(data: object, default: Callable[[object], object] | None = None) -> None:
+    """``data`` as ``--format json`` prints it."""
+    _print(json.dumps(data, indent=2, default=default))
 
 
 def _lines(lines: Iterable[object]) -> None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from pathlib import Path
@@ -17,6 +16,7 @@ from .common import (
     _command,
     _dir_arg,
     _format_arg,
+    _json,
     _lines,
     _lock_arg,
     _print,
@@ -134,7 +134,7 @@ def _cmd_backup(args: argparse.Namespace) -> int:
     finally:  # Ctrl-C too: no bar left on the screen
         display.close()
     if args.format == "json":
-        _print(json.dumps(report.to_json(), indent=2))
+        _json(report.to_json())
     elif not args.quiet or not report.ok:
         sys.stdout.write(report.render())
     outputs.deliver(report, args.paths, stale_after)
@@ -175,7 +175,7 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
         report.write_html(args.html, plant)
     if args.format == "json":
-        _print(json.dumps(plant.to_json(), indent=2))
+        _json(plant.to_json())
     else:  # colour on a terminal, unless NO_COLOR is set (https://no-color.org)
         sys.stdout.write(plant.render(color=sys.stdout.isatty() and not os.environ.get("NO_COLOR")))
     return EXIT_OK if plant.ok else EXIT_NO
@@ -211,7 +211,7 @@ def _cmd_log(args: argparse.Namespace) -> int:
     finally:
         _warn(problems)
     if args.format == "json":
-        _print(json.dumps([r.to_json() for r in records], indent=2, default=str))
+        _json([r.to_json() for r in records], default=str)
         return EXIT_OK
     if not records:
         _print(f"no push or rollback recorded in {audit.audit_path()}")
@@ -239,7 +239,7 @@ def _cmd_snapshots(args: argparse.Namespace) -> int:
 
     found = snapshots.listing(args.dir)
     if args.format == "json":
-        _print(json.dumps(found.to_json(), indent=2))
+        _json(found.to_json())
     else:
         _lines(found.lines())
     return EXIT_OK

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 from .common import (
     EXIT_OK,
@@ -11,11 +10,11 @@ from .common import (
     _add,
     _command,
     _family_arg,
+    _json,
     _lines,
     _lock_arg,
     _per_family,
     _ports,
-    _print,
 )
 
 __all__ = ["_add_probe"]
@@ -81,7 +80,7 @@ def _cmd_probe(args: argparse.Namespace) -> int:
         capture=args.capture,
     )
     if args.json:
-        _print(json.dumps(found.to_json(), indent=2))
+        _json(found.to_json())
     else:
         _lines(found.lines())
     return EXIT_OK

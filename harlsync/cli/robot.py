@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 from collections.abc import Callable
@@ -23,6 +22,7 @@ from .common import (
     _dir_arg,
     _family_arg,
     _format_arg,
+    _json,
     _line,
     _lines,
     _per_family,
@@ -134,7 +134,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
         return _usage("diff: --rev compares versions of the project: no --port or --station")
     found = _versions(args) if args.rev else _live(args)
     if args.format == "json":
-        _print(json.dumps(found.to_json(), indent=2))
+        _json(found.to_json())
     else:
         sys.stdout.write(found.render())
     return EXIT_NO if found.changes else EXIT_OK
@@ -274,10 +274,12 @@ _PUSH = {
 }
 
 
-def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
-    from ..sync.deploy import PushOptions
+def _write(args: argparse.Namespace, action: str, run: Callable[[PushOptions], PushResult]) -> int:
+    """Run a push or rollback with the options given, and say what it did."""
+    from ..sync.deploy import PushFailed, PushOptions
 
-    return PushOptions(
+    progress = Feedback("read")
+    opts = PushOptions(
         yes=args.yes,
         confirm=(lambda plan: _confirm(plan, args.verbose)) if sys.stdin.isatty() else None,
         reason=args.reason,
@@ -292,13 +294,8 @@ def _push_options(args: argparse.Namespace, progress: Feedback) -> PushOptions:
         connect_options=_connect_options(args),
         told=lambda line: print(f"harlsync: {line}", file=sys.stderr),
     )
-
-
-def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> int:
-    from ..sync.deploy import PushFailed
-
     try:
-        result = run()
+        result = run(opts)
     except PushFailed as failed:
         progress.close()
         _warn(failed.result.warnings)
@@ -319,11 +316,8 @@ def _report(action: str, run: Callable[[], PushResult], progress: Feedback) -> i
 def _cmd_push(args: argparse.Namespace) -> int:
     from ..sync import deploy
 
-    progress = Feedback("read")
-    opts = _push_options(args, progress)
-    return _report(
-        "push", lambda: deploy.push(args.dir, opts, port=args.port, station=args.station), progress
-    )
+    where = {"port": args.port, "station": args.station}
+    return _write(args, "push", lambda opts: deploy.push(args.dir, opts, **where))
 
 
 def _add_rollback(sub: Sub) -> None:
@@ -354,14 +348,9 @@ def _cmd_rollback(args: argparse.Namespace) -> int:
     from ..sync.revisions import snapshot_path
 
     chosen = snapshot_path(args.dir, args.snapshot) if args.snapshot else None
-    progress = Feedback("read")
-    opts = _push_options(args, progress)
-    return _report(
-        "rollback",
-        lambda: deploy.rollback(
-            args.dir, opts, snapshot=chosen, port=args.port, station=args.station
-        ),
-        progress,
+    where = {"port": args.port, "station": args.station}
+    return _write(
+        args, "rollback", lambda opts: deploy.rollback(args.dir, opts, snapshot=chosen, **where)
     )
 
 
