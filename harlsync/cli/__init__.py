@@ -85,10 +85,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         default=0,
         help="more output: -v what it does, -vv raw traffic on a robot's line as hex",
     )
-    sub = cast(
-        "argparse._SubParsersAction[argparse.ArgumentParser]",
-        parser.add_subparsers(dest="command", required=True, metavar="COMMAND"),
-    )
+    sub = cast(Sub, parser.add_subparsers(dest="command", required=True, metavar="COMMAND"))
     for name, add in _COMMANDS.items():
         if only in (None, name):
             add(sub)
