@@ -27,15 +27,26 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
+from .robotlog import RobotFilter
+
 if TYPE_CHECKING:
     from .sync.robotbackup import RobotOutcome
 
-__all__ = ["UNIT", "BackupDisplay", "Feedback", "LogHandler", "above", "is_terminal"]
+__all__ = [
+    "UNIT",
+    "BackupDisplay",
+    "Feedback",
+    "LogHandler",
+    "above",
+    "in_background",
+    "is_terminal",
+    "log_to_terminal",
+]
 
 #: The progress unit, as every bar and summary says it.
 UNIT = "exchanges with the controller"
@@ -86,6 +97,40 @@ class LogHandler(logging.StreamHandler):  # type: ignore[type-arg]
     def emit(self, record: logging.LogRecord) -> None:
         with above():
             super().emit(record)
+
+
+def log_to_terminal(verbose: int, quieted: Iterable[str] = ()) -> None:
+    """harlsync's log on stderr, each line above what is drawn live and naming its
+    robot (under backup): -v what it does, -vv the raw traffic; without either, only
+    warnings on a terminal and errors under cron (nobody is watching).  The
+    ``quieted`` loggers (the libraries a family uses, which may log their own ERROR
+    lines above the one harlsync says of the same failure) show warnings with -vv,
+    else nothing."""
+    if verbose >= 2:
+        level = logging.DEBUG
+    elif verbose == 1:
+        level = logging.INFO
+    else:
+        level = logging.WARNING if sys.stderr.isatty() else logging.ERROR
+    logging.basicConfig(
+        level=level,
+        format="harlsync: %(levelname)s: %(robot)s%(message)s",
+        handlers=[LogHandler()],
+    )
+    for handler in logging.getLogger().handlers:  # %(robot)s: which robot, under backup
+        if not any(isinstance(f, RobotFilter) for f in handler.filters):
+            handler.addFilter(RobotFilter())
+    for name in quieted:
+        logging.getLogger(name).setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
+
+
+def in_background() -> bool:
+    """Whether this process was started in the background of a terminal (``&``),
+    where a read of standard input would stop it (SIGTTIN)."""
+    try:
+        return os.isatty(0) and os.tcgetpgrp(0) != os.getpgrp()
+    except OSError:  # no controlling terminal: stdin is what it is
+        return False
 
 
 def seconds(elapsed: float) -> str:

@@ -17,7 +17,7 @@ from conftest import git
 from plantsim import SMALL
 
 from harlsync import cli
-from harlsync.cli import deploy as cli_deploy
+from harlsync.cli import robot as cli_robot
 from harlsync.families.epson.sim import SimState as EpsonState
 from harlsync.families.epson.sim import Simulator as EpsonSimulator
 from harlsync.families.harl_u2.sim import SimState as HarlState
@@ -199,7 +199,7 @@ def test_plan_and_the_push_prompt_show_the_diff_of_what_is_written_and_the_wire_
     asked: list[str] = []
     monkeypatch.setattr("builtins.input", lambda prompt: asked.append(prompt) or "n")
     the_plan = engine.compare(project, lock_timeout=5).plan()
-    assert cli_deploy._confirm(the_plan) is False
+    assert cli_robot._confirm(the_plan) is False
     out = capsys.readouterr().out
     readable(out)
     assert out.splitlines()[:-1] == shown

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import logging
 import sys
 from collections.abc import Callable, Sequence
 from typing import cast
@@ -21,19 +20,18 @@ from ..errors import (
     PolicyError,
     StalePlanError,
 )
-from ..robotlog import RobotFilter
-from .common import EXIT_ERROR, EXIT_REFUSED, _families, _Parser, log
-from .deploy import _add_adopt, _add_plan, _add_push, _add_rollback
+from ..terminal import log_to_terminal
+from .common import EXIT_ERROR, EXIT_REFUSED, Sub, _families, _Parser, log
 from .plant import _add_backup, _add_log, _add_snapshots, _add_status, _add_validate
 from .probe import _add_probe
-from .robot import _add_diff, _add_pull
+from .robot import _add_adopt, _add_diff, _add_plan, _add_pull, _add_push, _add_rollback
 from .sim import _add_sim
 
 __all__ = ["main"]
 
 
 #: Each command (in ``--help`` order) -> what adds its parser.
-_COMMANDS: dict[str, Callable[[argparse._SubParsersAction[argparse.ArgumentParser]], None]] = {
+_COMMANDS: dict[str, Callable[[Sub], None]] = {
     "probe": _add_probe,
     "pull": _add_pull,
     "diff": _add_diff,
@@ -87,10 +85,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         default=0,
         help="more output: -v what it does, -vv raw traffic on a robot's line as hex",
     )
-    sub = cast(
-        "argparse._SubParsersAction[argparse.ArgumentParser]",
-        parser.add_subparsers(dest="command", required=True, metavar="COMMAND"),
-    )
+    sub = cast(Sub, parser.add_subparsers(dest="command", required=True, metavar="COMMAND"))
     for name, add in _COMMANDS.items():
         if only in (None, name):
             add(sub)
@@ -104,31 +99,6 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
             help=f"more output: -v what it does{traffic}",
         )
     return parser
-
-
-def _setup_logging(verbose: int) -> None:
-    from ..terminal import LogHandler
-
-    if verbose >= 2:
-        level = logging.DEBUG
-    elif verbose == 1:
-        level = logging.INFO
-    else:
-        # Quiet under cron: only errors when nobody is watching.
-        level = logging.WARNING if sys.stderr.isatty() else logging.ERROR
-    logging.basicConfig(  # each line above a progress bar drawn meanwhile
-        level=level,
-        format="harlsync: %(levelname)s: %(robot)s%(message)s",
-        handlers=[LogHandler()],
-    )
-    for handler in logging.getLogger().handlers:  # %(robot)s: which robot, under backup
-        if not any(isinstance(f, RobotFilter) for f in handler.filters):
-            handler.addFilter(RobotFilter())
-    # The libraries a family uses may log their own ERROR lines above the one line
-    # harlsync says of the same failure: -vv shows their warnings.
-    for family in _families():
-        for name in family.loggers:
-            logging.getLogger(name).setLevel(logging.WARNING if verbose >= 2 else logging.CRITICAL)
 
 
 def _command_of(argv: Sequence[str]) -> str | None:
@@ -147,7 +117,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _whole_process()
     parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
-    _setup_logging(args.verbose)
+    log_to_terminal(args.verbose, (name for f in _families() for name in f.loggers))
     hint = families.port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
     if hint is not None:
         print(f"harlsync: error: {hint}", file=sys.stderr)

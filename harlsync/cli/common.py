@@ -1,25 +1,38 @@
 """What every command's parser and printing share: output, usage errors, the help
-formatter, the connection options and the families' help phrases."""
+formatter, the options several commands take and the families' help phrases."""
 
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import sys
-from collections.abc import Collection
-from pathlib import Path
-from typing import Any
+from collections.abc import Callable, Collection, Iterable, Mapping
+from typing import Any, TypeAlias, TypedDict
 
 from ..families.base import AnyFamily, Option
 
 EXIT_OK, EXIT_NO, EXIT_ERROR, EXIT_REFUSED = 0, 1, 2, 3
+
+#: What adds the commands' parsers.
+Sub: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 log = logging.getLogger("harlsync")
 
 
 def _print(*args: object) -> None:
     print(*args, flush=True)
+
+
+def _json(data: object, default: Callable[[object], object] | None = None) -> None:
+    """``data`` as ``--format json`` prints it."""
+    _print(json.dumps(data, indent=2, default=default))
+
+
+def _lines(lines: Iterable[object]) -> None:
+    for line in lines:
+        _print(line)
 
 
 def _warn(warnings: list[str]) -> None:
@@ -69,6 +82,32 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(**kwargs)
 
 
+def _command(
+    sub: Sub, name: str, run: Callable[[argparse.Namespace], int], **kwargs: Any
+) -> argparse.ArgumentParser:
+    """The parser of the command ``name`` (``help``, ``description``), which ``run`` runs."""
+    p = sub.add_parser(name, **kwargs)
+    p.set_defaults(func=run)
+    return p
+
+
+def _add(p: argparse._ActionsContainer, table: Mapping[str, str], *only: str) -> None:
+    """The options of ``table`` (or only those named), in its order: ``"--flag
+    METAVAR"`` (an option that takes a value) or ``"--flag"`` (a switch) -> its help."""
+    for spec, text in table.items():
+        flag, _, metavar = spec.partition(" ")
+        if only and spec not in only:
+            continue
+        if metavar:
+            p.add_argument(flag, metavar=metavar, help=text)
+        else:
+            p.add_argument(flag, action="store_true", help=text)
+
+
+def _dir_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("dir", metavar="DIR", help="robot project directory")
+
+
 def _format_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--format",
@@ -78,35 +117,37 @@ def _format_arg(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _project_dir(path: str) -> Path:
-    """``path``, which must hold a robot project.  Raises ProjectError naming it."""
-    from ..project.store import require_project
+def _family_arg(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--family", choices=_family_names(), default=None, help=help)
 
-    require_project(Path(path))
-    return Path(path)
+
+def _ports() -> str:
+    """The kinds of port, for --port's help."""
+    return "/dev/ttyUSB0, COM3, socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR" + (
+        "".join(f"; {scheme.help}" for f in _families() for scheme in f.schemes)
+    )
+
+
+def _lock_arg(p: argparse.ArgumentParser, default: float, what: str) -> None:
+    p.add_argument(
+        "--lock-timeout",
+        type=float,
+        default=default,
+        metavar="SECONDS",
+        help=f"{what} (default {default:g})",
+    )
 
 
 def _connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--port",
-        metavar="URL",
-        help="port to use instead of the robot file's: /dev/ttyUSB0, COM3, "
-        "socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR"
-        + "".join(f"; {scheme.help}" for f in _families() for scheme in f.schemes),
+        "--port", metavar="URL", help=f"port to use instead of the robot file's: {_ports()}"
     )
+    stations = _per_family("stations")
     p.add_argument(
-        "--station",
-        metavar="N",
-        help="station number instead of the robot file's (" + _per_family("stations") + ")",
+        "--station", metavar="N", help=f"station number instead of the robot file's ({stations})"
     )
-    p.add_argument(
-        "--lock-timeout",
-        type=float,
-        default=10.0,
-        metavar="SECONDS",
-        help="how long to wait for another harlsync using the same line or project (default 10)",
-    )
-    for option in _options():
+    _lock_arg(p, 10.0, "how long to wait for another harlsync using the same line or project")
+    for option in _family_options():
         p.add_argument(option.flag, dest=option.name, action="store_true", help=option.help)
 
 
@@ -124,7 +165,7 @@ def _per_family(place: str) -> str:
     )
 
 
-def _options() -> list[Option]:
+def _family_options() -> list[Option]:
     """Every family's connection options, each name once."""
     found: dict[str, Option] = {}
     for family in _families():
@@ -135,7 +176,25 @@ def _options() -> list[Option]:
 
 def _connect_options(args: argparse.Namespace) -> dict[str, bool]:
     """The family options of the connection, as the engine takes them."""
-    return {option.name: bool(getattr(args, option.name)) for option in _options()}
+    return {option.name: bool(getattr(args, option.name)) for option in _family_options()}
+
+
+class _Line(TypedDict):
+    """The connection's options (:func:`_connection_args`), as the engine takes them."""
+
+    port: str | None
+    station: str | None
+    lock_timeout: float
+    connect_options: dict[str, bool]
+
+
+def _line(args: argparse.Namespace) -> _Line:
+    return _Line(
+        port=args.port,
+        station=args.station,
+        lock_timeout=args.lock_timeout,
+        connect_options=_connect_options(args),
+    )
 
 
 def _family_names() -> Collection[str]:

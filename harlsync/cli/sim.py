@@ -1,68 +1,32 @@
 """``harlsync sim``: parse its options, start the simulator (:mod:`harlsync.sim.run`),
-print where it serves and read its control commands."""
+print where it serves and serve it, reading its control commands."""
 
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import sys
 import threading
-from collections.abc import Callable
-from typing import TYPE_CHECKING
 
 from ..families import DEFAULT
-
-if TYPE_CHECKING:
-    from ..sim.run import Running
-
-
-from .common import EXIT_OK, _family_names, _Help, _per_family, _print, _usage
-
-
-def _sim_verbs() -> str:
-    """The control commands of ``harlsync sim``, per family, for its help."""
-    from ..families import names
-    from ..sim import sim_family
-    from ..sim.control import after_writes_verb
-
-    lines = []
-    for name in names():
-        family = sim_family(name)
-        verbs = [str(v) for v in family.verbs]
-        verbs.append(f"{after_writes_verb(family.busy_verb)} N")
-        lines.append(f"{name}: {', '.join(verbs)}, status")
-    return "; ".join(lines)
-
-
-def _sim_busy() -> str:
-    """What each family's simulator does when it is made busy, for its help."""
-    from ..families import names
-    from ..sim import sim_family
-
-    parts = []
-    for name in names():
-        family = sim_family(name)
-        does = [v.does for v in family.verbs if v.name == family.busy_verb]
-        parts.append(f"{name}: {does[0] if does else family.busy_verb}")
-    return "; ".join(parts)
-
-
-def _sim_variants() -> str:
-    """Each family's simulator variants (the guesses it can make otherwise), for its help."""
-    from ..families import names
-    from ..sim import sim_family
-
-    parts = []
-    for name in names():
-        declared = sim_family(name).variants
-        parts.append(f"{name}: {', '.join(str(v) for v in declared) or 'none'}")
-    return "; ".join(parts)
+from ..terminal import in_background
+from .common import (
+    EXIT_OK,
+    Sub,
+    _add,
+    _command,
+    _family_arg,
+    _Help,
+    _lines,
+    _per_family,
+    _print,
+    _usage,
+)
 
 
 class _SimHelp(_Help):
-    """Fills in :func:`_sim_verbs` when the help is shown: only then are the
-    families' simulators imported."""
+    """Fills in each family's simulator's words (:mod:`harlsync.sim.helptext`) when
+    the help is shown: only then are the families' simulators imported."""
 
     VERBS = "<verbs>"
     BUSY = "<busy>"
@@ -70,102 +34,54 @@ class _SimHelp(_Help):
 
     def add_text(self, text: str | None) -> None:
         if text and self.VERBS in text:
-            text = text.replace(self.VERBS, _sim_verbs())
+            from ..sim.helptext import verbs_words
+
+            text = text.replace(self.VERBS, verbs_words())
         super().add_text(text)
 
     def _expand_help(self, action: argparse.Action) -> str:
+        from ..sim.helptext import busy_words, variants_words
+
         text = super()._expand_help(action)
-        if self.BUSY in text:
-            text = text.replace(self.BUSY, _sim_busy())
-        if self.VARIANTS in text:
-            text = text.replace(self.VARIANTS, _sim_variants())
+        for mark, words in ((self.BUSY, busy_words), (self.VARIANTS, variants_words)):
+            if mark in text:
+                text = text.replace(mark, words())
         return text
 
 
-def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-
-    p = sub.add_parser(
+def _add_sim(sub: Sub) -> None:
+    p = _command(
+        sub,
         "sim",
-        help="run a simulated controller of any family (on a pty and/or a TCP port, or "
-        "over the family's own protocol)",
-        description=(
-            "Serve a simulated controller of one family. It prints the pty device path and the "
-            "socket:// URL to connect to (a family with a server of its own: its URL, "
-            "--listen only), then reads control commands on standard input "
-            f"(STATION as the family writes it, default the lowest): {_SimHelp.VERBS}. "
-            "Stop it with Ctrl-C, SIGTERM or end of input. In the background (&, a service) "
-            "give --no-input: it then serves until SIGTERM; started with & from a terminal it "
-            "reads no commands either."
-        ),
+        _cmd_sim,
+        help="run a simulated controller of any family (on a pty and/or a TCP port, or over the "
+        "family's own protocol)",
+        description="Serve a simulated controller of one family. It prints the pty device path "
+        "and the socket:// URL to connect to (a family with a server of its own: its URL, "
+        "--listen only), then reads control commands on standard input (STATION as the family "
+        f"writes it, default the lowest): {_SimHelp.VERBS}. Stop it with Ctrl-C, SIGTERM or end "
+        "of input. In the background (&, a service) give --no-input: it then serves until "
+        "SIGTERM; started with & from a terminal it reads no commands either.",
         formatter_class=_SimHelp,
     )
-    p.add_argument(
-        "--family",
-        default=None,
-        choices=_family_names(),
-        help=f"the controller family (default: {DEFAULT}, or with --project the one "
-        "its robot.yaml names)",
+    _family_arg(
+        p,
+        f"the controller family (default: {DEFAULT}, or with --project the one its robot.yaml "
+        "names)",
     )
     src = p.add_mutually_exclusive_group()
-    src.add_argument("--project", metavar="DIR", help="serve the robot of this project directory")
-    src.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        help="generate a realistic robot (programs, positions) from SEED",
-    )
-    p.add_argument(
-        "--stations",
-        default=None,
-        metavar="N[,N...]",
-        help="stations on the line, in the family's notation ("
-        + _per_family("stations")
-        + "; default: the project's station, or the family's default)",
-    )
-    p.add_argument("--listen", metavar="HOST:PORT", help="also serve over TCP (socket://HOST:PORT)")
-    p.add_argument("--no-pty", action="store_true", help="do not open a pty (needs --listen)")
-    p.add_argument(
-        "--no-input",
-        action="store_true",
-        help="read no commands: serve until SIGTERM or Ctrl-C, to run in the "
-        "background or under a service manager (the mode then changes only "
-        "through --auto and --auto-after-writes)",
-    )
-    p.add_argument(
-        "--baud",
-        type=int,
-        default=9600,
-        help="delay each reply by its time on the wire at this speed; 0 turns it off (default 9600)",
-    )
-    p.add_argument(
-        "--turnaround",
-        type=float,
-        default=0.0,
-        metavar="SECONDS",
-        help="extra delay before each reply",
-    )
-    p.add_argument(
-        "--faults",
-        default="",
-        metavar="NAME=RATE,...",
-        help="fault injection: noise, drop, bad_checksum, fragment, slow (rates 0-1), "
-        "slow_delay (seconds), seed",
-    )
-    p.add_argument(
-        "--variant",
-        default="",
-        metavar="NAME=VALUE,...",
-        help="answer as a controller that fills a silence of its manual another way than "
-        "the profile's choice, the first value of each (docs/profile.md): "
-        f"{_SimHelp.VARIANTS}",
-    )
-    p.add_argument(
-        "--auto",
-        "--run",
-        dest="busy",
-        action="store_true",
-        help=f"start busy ({_SimHelp.BUSY})",
-    )
+    _add(src, _SIM, "--project DIR")
+    src.add_argument("--seed", type=int, default=0, help=_SIM["--seed"])
+    stations = _per_family("stations")
+    _add(p, {"--stations N[,N...]": _SIM["--stations N[,N...]"].format(stations)})
+    _add(p, _SIM, "--listen HOST:PORT", "--no-pty", "--no-input")
+    p.add_argument("--baud", type=int, default=9600, help=_SIM["--baud"])
+    seconds = "--turnaround SECONDS"
+    p.add_argument("--turnaround", type=float, default=0.0, metavar="SECONDS", help=_SIM[seconds])
+    for spec in ("--faults NAME=RATE,...", "--variant NAME=VALUE,..."):
+        flag, metavar = spec.split(" ")
+        p.add_argument(flag, default="", metavar=metavar, help=_SIM[spec])
+    p.add_argument("--auto", "--run", dest="busy", action="store_true", help=_SIM["--auto"])
     p.add_argument(
         "--auto-after-writes",
         "--run-after-writes",
@@ -173,26 +89,39 @@ def _add_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         type=int,
         default=0,
         metavar="N",
-        help="become busy after N writes, once (see --auto); 'stop' disarms it",
+        help=_SIM["--auto-after-writes N"],
     )
-    p.add_argument(
-        "--record",
-        metavar="FILE",
-        help="append every request received to FILE as JSON lines (station, "
-        "payload, busy: whether the station was not idle, client: 'pty' or "
-        "the TCP peer)",
-    )
-    p.add_argument(
-        "--state",
-        metavar="DIR",
-        help="battery-backed memory: keep each station in DIR/station-N, "
-        "saved after every write and loaded again when the simulator restarts",
-    )
-    p.set_defaults(func=_cmd_sim)
+    _add(p, _SIM, "--record FILE", "--state DIR")
+
+
+#: sim's options after --family: "--flag [METAVAR]" -> help (see :func:`_add`).
+_SIM = {
+    "--project DIR": "serve the robot of this project directory",
+    "--seed": "generate a realistic robot (programs, positions) from SEED",
+    "--stations N[,N...]": "stations on the line, in the family's notation ({}; default: the "
+    "project's station, or the family's default)",
+    "--listen HOST:PORT": "also serve over TCP (socket://HOST:PORT)",
+    "--no-pty": "do not open a pty (needs --listen)",
+    "--no-input": "read no commands: serve until SIGTERM or Ctrl-C, to run in the background or "
+    "under a service manager (the mode then changes only through --auto and --auto-after-writes)",
+    "--baud": "delay each reply by its time on the wire at this speed; 0 turns it off (default "
+    "9600)",
+    "--turnaround SECONDS": "extra delay before each reply",
+    "--faults NAME=RATE,...": "fault injection: noise, drop, bad_checksum, fragment, slow (rates "
+    "0-1), slow_delay (seconds), seed",
+    "--variant NAME=VALUE,...": "answer as a controller that fills a silence of its manual "
+    "another way than the profile's choice, the first value of each (docs/profile.md): "
+    + _SimHelp.VARIANTS,
+    "--auto": f"start busy ({_SimHelp.BUSY})",
+    "--auto-after-writes N": "become busy after N writes, once (see --auto); 'stop' disarms it",
+    "--record FILE": "append every request received to FILE as JSON lines (station, payload, "
+    "busy: whether the station was not idle, client: 'pty' or the TCP peer)",
+    "--state DIR": "battery-backed memory: keep each station in DIR/station-N, saved after "
+    "every write and loaded again when the simulator restarts",
+}
 
 
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from ..sim.control import apply_command
     from ..sim.run import SimOptions, start
 
     opts = SimOptions(
@@ -217,57 +146,25 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         running = start(opts)
     except ValueError as exc:
         return _usage(f"sim: {exc}")
-    for line in running.said:
-        _print(line)
-    control = (lambda line: apply_command(running.sim, line)) if _reads_input(args) else None
-    _serve(running, stopped, control)
+    _lines(running.said)
+    running.serve(stopped, sys.stdin if _reads_input(args) else None, _print, _end_of_input)
     return EXIT_OK
 
 
+def _end_of_input() -> None:
+    _say("end of input: stopping (--no-input serves until SIGTERM)")
+
+
+def _say(text: str) -> None:
+    print(f"harlsync sim: {text}", file=sys.stderr, flush=True)
+
+
 def _reads_input(args: argparse.Namespace) -> bool:
-    """Whether ``harlsync sim`` reads control commands on its standard input: not
-    with --no-input, nor when started in the background of a terminal (``&``), where
-    a read would stop it (SIGTTIN)."""
+    """Whether ``harlsync sim`` reads control commands on its standard input: not with
+    --no-input, nor when started in the background of a terminal."""
     if args.no_input:
         return False
-    try:
-        background = os.isatty(0) and os.tcgetpgrp(0) != os.getpgrp()
-    except OSError:  # no controlling terminal: stdin is what it is
-        background = False
-    if background:
-        print(
-            "harlsync sim: started in the background: not reading commands; stop it with "
-            "kill (SIGTERM)",
-            file=sys.stderr,
-            flush=True,
-        )
-    return not background
-
-
-def _serve(running: Running, done: threading.Event, control: Callable[[str], str] | None) -> None:
-    """Serve until ``done`` is set (SIGTERM), Ctrl-C, or the end of the input
-    ``control`` takes its commands from (every line, its answer printed); without
-    ``control``, until one of the first two."""
-
-    def read_commands(run: Callable[[str], str]) -> None:
-        for line in sys.stdin:
-            try:
-                answer = run(line)
-            except (ValueError, IndexError) as exc:
-                answer = f"error: {exc}"
-            if answer:
-                _print(answer)
-        print(
-            "harlsync sim: end of input: stopping (--no-input serves until SIGTERM)",
-            file=sys.stderr,
-            flush=True,
-        )
-        done.set()
-
-    if control is not None:
-        threading.Thread(target=read_commands, args=(control,), daemon=True).start()
-    try:
-        done.wait()
-    except KeyboardInterrupt:
-        pass
-    running.stop()
+    if in_background():
+        _say("started in the background: not reading commands; stop it with kill (SIGTERM)")
+        return False
+    return True

@@ -4,18 +4,20 @@ variants, schedule, record, battery-backed memory) and its servers (a pty and TC
 or the family's own server).
 
 :func:`start` raises ValueError, naming the option, for anything it cannot do;
-the servers are listening when it returns.  Reading control commands and waiting
-for the end are the caller's.
+the servers are listening when it returns; :meth:`Running.serve` then takes control
+commands and waits for the end.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 from .. import families
+from .control import apply_command
 from .device import Device, Faults, Received, Simulator
 from .family import ServedFamily, SimServer, project_family
 from .protocol_sim import build_simulator
@@ -58,6 +60,37 @@ class Running:
     #: what a client connects to, one line each: ``pty: /dev/pts/4``, ``tcp: socket://...``
     said: list[str] = field(default_factory=list)
     _record: TextIO | None = None
+
+    def serve(
+        self,
+        done: threading.Event,
+        commands: Iterable[str] | None = None,
+        answer: Callable[[str], None] = print,
+        ended: Callable[[], None] | None = None,
+    ) -> None:
+        """Serve until ``done`` is set (SIGTERM), Ctrl-C, or the end of ``commands``
+        (each a control command, :func:`~.control.apply_command`, its answer given to
+        ``answer``; ``ended`` is told of their end), then :meth:`stop`."""
+
+        def read_commands(lines: Iterable[str]) -> None:
+            for line in lines:
+                try:
+                    said = apply_command(self.sim, line)
+                except (ValueError, IndexError) as exc:
+                    said = f"error: {exc}"
+                if said:
+                    answer(said)
+            if ended is not None:
+                ended()
+            done.set()
+
+        if commands is not None:
+            threading.Thread(target=read_commands, args=(commands,), daemon=True).start()
+        try:
+            done.wait()
+        except KeyboardInterrupt:
+            pass
+        self.stop()
 
     def stop(self) -> None:
         for server in self.servers:

@@ -425,3 +425,19 @@ def changed_names(changes: Iterable[items.Change[Any]]) -> list[str]:
         ]
         names.append(f"{change.name} {', '.join(parts)}" if parts else change.name)
     return names
+
+
+def pushes(
+    project: Path | None = None, most: int | None = None, problems: list[str] | None = None
+) -> list[AuditRecord]:
+    """The pushes and rollbacks ``harlsync log`` lists, the latest first, at most
+    ``most``: every robot's, or (``project``) those of that project's robot, whatever
+    project pushed to it.  What could not be read is added to ``problems``; then
+    ProjectFormatError is raised for a ``project`` that holds none."""
+    records = results(problems=problems)
+    if project is not None:
+        from ..project.store import load_robot
+
+        robot = load_robot(project)
+        records = of_robot(records, robot.port, robot.station, project)
+    return records[::-1][:most]

@@ -340,6 +340,31 @@ class AuditRecord:
         150 → 200``), at most ``most`` then ``and 40 more``."""
         return written_lines(self.done, most)
 
+    def log_lines(self, verbose: int = 0) -> list[str]:
+        """Its entry in ``harlsync log``: when, which robot, what, how it ended, who;
+        why; what it wrote (every item with ``verbose``, and each wire command); what
+        it may have written; its error."""
+        head = (
+            f"{local_time(self.time)}  {self.robot_name or '?'}  {self.shown_action} "
+            f"{self.shown_result}  by {self.user}@{self.host}"
+        )
+        lines = [head + (f"  commit {self.commit[:10]}" if self.commit else "")]
+        if self.reason:
+            lines.append(f"    reason: {self.reason}")
+        wrote = self.written_lines(None)
+        shown = wrote if verbose or len(wrote) <= SHOWN else wrote[: SHOWN - 1]
+        lines += [f"    wrote {line}" for line in shown]
+        if len(shown) < len(wrote):
+            lines.append(f"    and {len(wrote) - len(shown)} more (-v shows them)")
+        lines += [f"    command {w.item}: {w.command}" for w in self.done if verbose]
+        if self.partly_written:
+            lines.append(f"    partly written: {self.partly_text()}")
+        elif self.failed_item:
+            lines.append(f"    unknown: {self.failed_item} (may or may not have been written)")
+        if self.error and self.result != "ok":
+            lines.append(f"    error: {shorten(self.error, verbose)}")
+        return lines
+
 
 #: The fields harlsync knows: the rest are kept as read (:attr:`AuditRecord.extra`).
 _KNOWN = frozenset(f.name for f in fields(AuditRecord)) - {"extra"}

@@ -32,7 +32,7 @@ from ..errors import HarlsyncError, ProjectError, SyncError
 from ..link.lock import LockTimeout
 from ..project.lock import holder, lock_path, project_lock
 from . import backupref, git, history, nightly, states
-from .backupreport import BackupReport, output_problems, run_hook, write_metrics
+from .backupreport import BackupReport
 from .robotbackup import (
     BackupWatch,
     RobotOutcome,
@@ -52,10 +52,7 @@ __all__ = [
     "in_process",
     "line_of",
     "lines_of",
-    "output_problems",
     "record_not_backed_up",
-    "run_hook",
-    "write_metrics",
 ]
 
 log = logging.getLogger(__name__)

@@ -11,9 +11,9 @@ from typing import Any
 from ..errors import ProjectError
 from ..families.base import Driver, Progress
 from ..project import Project, load_project
-from .items import Change, diff
+from .items import Change, Differences, diff
 from .live import Station, read_live, station_number
-from .plan import Plan, make_plan
+from .plan import Plan, make_plan, policy_refusals
 
 __all__ = ["Comparison", "compare", "plan"]
 
@@ -39,6 +39,26 @@ class Comparison:
     @property
     def target(self) -> str:
         return self.driver.label
+
+    def differences(self) -> Differences:
+        """What ``diff`` prints of it: ``-`` the robot, ``+`` the project."""
+        about = {"robot": self.project.robot.name, "target": self.target}
+        return Differences(
+            self.changes,
+            f"robot {self.target}",
+            f"project {self.project.path}",
+            {**about, "project": str(self.project.path)},
+        )
+
+    def refusals(self) -> list[str]:
+        """Every reason a push would be refused now, not only the first it would meet:
+        the project's policy (:func:`policy_refusals`) and, with ``idle_check``, a
+        robot that is not idle (a push reads its state before anything else)."""
+        reasons = policy_refusals(self.project.path, self.project.robot)
+        if self.busy is not None:
+            robot = self.project.robot.name
+            reasons.append(f"robot {robot} ({self.target}) is not idle: {self.busy}")
+        return reasons
 
     def plan(self) -> Plan[Any]:
         """The plan a push would carry out, from this comparison, each write that

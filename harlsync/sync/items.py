@@ -22,7 +22,7 @@ from typing import Any, Generic
 from ..alignment import Shift, align
 from ..families.base import Catalogue, Change3, D, K
 
-__all__ = ["Change", "diff", "diff_items", "render_text", "summarize", "to_json"]
+__all__ = ["Change", "Differences", "diff", "diff_items", "render_text", "summarize", "to_json"]
 
 
 @dataclass(frozen=True)
@@ -95,15 +95,29 @@ def differ_words(changes: list[Change[Any]]) -> str:
     return f"; {n} item{'s' * (n != 1)} differ{'s' * (n == 1)} ({change_summary(changes)})"
 
 
-def changes_json(changes: list[Change[Any]], **about: object) -> dict[str, object]:
-    """What ``diff --format json`` prints: ``about`` (the robot, what was compared),
-    whether the two sides are identical, the summary, and each change."""
-    return {
-        **about,
-        "identical": not changes,
-        "summary": change_summary(changes),
-        "changes": [to_json(c) for c in changes],
-    }
+@dataclass
+class Differences:
+    """Two sides compared item by item, as ``diff`` prints them: :meth:`render` the
+    text (``-`` lines the ``old`` side), :meth:`to_json` its ``--format json``."""
+
+    changes: list[Change[Any]]
+    old: str
+    new: str
+    #: what the JSON says first: the robot, and what was compared
+    about: dict[str, object] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, object]:
+        """``about``, whether the two sides are identical, the summary, each change."""
+        return {
+            **self.about,
+            "identical": not self.changes,
+            "summary": change_summary(self.changes),
+            "changes": [to_json(c) for c in self.changes],
+        }
+
+    def render(self) -> str:
+        """The changes as :func:`render_text` shows them; nothing when there are none."""
+        return render_text(self.changes, self.old, self.new) if self.changes else ""
 
 
 def to_json(change: Change[K]) -> dict[str, object]:

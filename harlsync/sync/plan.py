@@ -24,7 +24,7 @@ from ..errors import ProjectFormatError
 from ..families.base import Catalogue, D, Driver, K
 from ..project import statefile
 from . import git
-from .items import Change, diff
+from .items import Change, diff, render_text
 
 __all__ = [
     "PLAN_FORMAT",
@@ -97,6 +97,27 @@ class Plan(Generic[K]):
     @property
     def commands(self) -> list[str]:
         return [w.command for w in self.writes]
+
+    @property
+    def counted(self) -> str:
+        """``5 item(s) in 2 write(s)``: the items as diff counts them, and the writes."""
+        items, writes = len(self.items), len(self.writes)
+        return f"{items} item(s) in {writes} write(s)" if items != writes else f"{items} item(s)"
+
+    def lines(self, verbose: int = 0) -> list[str]:
+        """What a push of this plan writes, as ``diff`` shows it, item by item, as
+        ``plan`` prints it; with ``verbose`` each write's wire command too."""
+        lines = [f"# cannot write: {line}" for line in self.unwritable]
+        if self.reconfiguration_note:
+            lines.append(f"# {self.reconfiguration_note}")
+        lines += [f"# note: {note}" for note in self.notes]
+        if self.items:
+            lines += render_text(self.items, "", "").splitlines()[2:]
+        lines += [f"# {name}: {said}" for name, said in self.reverts.items()]
+        for write in self.writes if verbose else ():
+            flag = "  # unsafe in automatic operation" if write.unsafe else ""
+            lines.append(f"# {write.name}: {write.command}{flag}")
+        return [*lines, f"# {self.counted} to {self.robot} ({self.target})"]
 
     def to_json(self) -> dict[str, Any]:
         return {

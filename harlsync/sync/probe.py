@@ -262,11 +262,7 @@ def write_project(found: Probed, directory: Path) -> Path:
     Raises ProjectError for a directory that exists and is not empty (a project is
     never overwritten), or a family that cannot write a robot.yaml on its own.
     """
-    if directory.exists() and (not directory.is_dir() or any(directory.iterdir())):
-        raise ProjectError(
-            f"{directory}: exists and is not empty; --write creates a new project: give "
-            "a new directory (harlsync pull updates an existing one)"
-        )
+    refuse_existing(directory)
     fam = found.family
     robot = fam.new_robot(directory.resolve().name, found.port, found.station, serial=found.serial)
     robot = replace(robot, options={**robot.options, **found.survey.options})
@@ -287,3 +283,13 @@ def write_project(found: Probed, directory: Path) -> Path:
     partial.write_text("\n".join(header) + "\n" + text, encoding="utf-8")
     os.replace(partial, target)
     return target
+
+
+def refuse_existing(directory: Path) -> None:
+    """Raises ProjectError for a ``directory`` that exists and is not empty: a probe
+    writes a new project, never over one."""
+    if directory.exists() and (not directory.is_dir() or any(directory.iterdir())):
+        raise ProjectError(
+            f"{directory}: exists and is not empty; --write creates a new project: give "
+            "a new directory (harlsync pull updates an existing one)"
+        )

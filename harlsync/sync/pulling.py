@@ -12,7 +12,7 @@ from operator import attrgetter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .. import lookup
+from .. import families, lookup
 from ..errors import LinkTimeout, PolicyError, ProjectError
 from ..families.base import AnyFamily, Catalogue, Progress
 from ..project.lock import holding_project
@@ -78,14 +78,16 @@ def _robot_for(
     path: Path, port: str | None, station: Station, family: AnyFamily | None
 ) -> tuple[AnyFamily, Robot]:
     """The project's family and robot: robot.yaml's (:func:`_read_robot`), or a first
-    pull's (``family``, by default the default family)."""
+    pull's (``family``, by default the one whose own URL scheme ``port`` has, else
+    the default family)."""
     if (path / "robot.yaml").exists():
         return _read_robot(path, family)
     if not port:
         raise ProjectError(
             f"{path}: no robot.yaml here; give --port (and --station) for a first pull"
         )
-    family = family or lookup.family(None)  # no robot.yaml: the default
+    # no robot.yaml: the family whose own URL scheme the port has, else the default
+    family = family or lookup.family(families.of_port(port))
     return (
         family,
         family.new_robot(
@@ -152,7 +154,7 @@ def pull(
     (pending, :mod:`.states`), unless ``discard_pending``.  Files an
     earlier pull saved, untouched since, are not edits: this pull takes them over
     (:attr:`PullResult.earlier`) and commits them with its own.  ``family``
-    is the controller family of a first pull (default: the registry's default);
+    is the controller family of a first pull (default: its port's scheme's, or the default);
     ``connect_options`` are the connection's (see :func:`connect`).  What the
     connection recovered on its own goes to the audit log and to ``noted``, one
     note a call, even when the pull then fails.

@@ -10,7 +10,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from ..errors import HarlsyncError, PartlyWritten, SyncError
+from ..errors import HarlsyncError, PartlyWritten, SyncError, partly_words
 from ..families.base import Progress
 from .plan import Plan, PlannedWrite
 
@@ -67,6 +67,42 @@ class PushResult:
     @property
     def ok(self) -> bool:
         return self.error is None
+
+    def summary(self, action: str) -> str:
+        """The line that says what a push (``action``) that finished did."""
+        if self.plan is None or self.plan.empty:
+            return f"{action}: robot already matches; nothing written"
+        return (
+            f"{action}: wrote and verified {len(self.written)} item(s); "
+            f"snapshot {self.snapshot}; audit {self.audit_log}"
+        )
+
+    def stopped(self, action: str, verbose: bool = False) -> list[str]:
+        """What a person is told of a push (``action``) that stopped, line by line:
+        each item written, partly written, perhaps written and not written (with
+        ``verbose`` each write's wire command), then the family's notes."""
+        lines = []
+        if self.plan is not None and (self.written or self.failed):
+            lines.append(
+                f"harlsync: {action} stopped: wrote {len(self.written)} of "
+                f"{len(self.plan.writes)} item(s)"
+            )
+
+            def said(w: PlannedWrite[Any]) -> str:
+                return f"{w.name} ({w.command})" if verbose else w.name
+
+            lines += [f"  written:     {said(w)}" for w in self.written]
+            if self.failed is not None and self.partly_written is not None:
+                p = self.partly_written
+                words = partly_words(p.sent, p.unknown, p.left)
+                lines.append(f"  partly written: {self.failed.name}: {words}")
+            elif self.failed is not None:
+                lines.append(
+                    f"  unknown:     {said(self.failed)} (may or may not have been written)"
+                )
+            lines += [f"  not written: {said(w)}" for w in self.not_written if w is not self.failed]
+            lines.append(f"harlsync: run the same {action} again to finish")
+        return lines + [f"harlsync: note: {note}" for note in self.notes]
 
 
 class PushFailed(SyncError):

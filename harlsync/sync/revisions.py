@@ -19,8 +19,9 @@ from typing import Any
 
 from ..errors import HarlsyncError, ProjectError
 from ..project import Project, load_project
+from ..project.store import require_project
 from . import git
-from .items import Change, diff
+from .items import Differences, diff
 from .snapshots import all_snapshots, load_snapshot
 
 __all__ = ["Version", "compare_versions", "snapshot_path", "version_of"]
@@ -94,9 +95,11 @@ def version_of(path: str | Path, rev: str | None) -> Version:
 
 def compare_versions(
     path: str | Path, old: str, new: str | None, *, registers: bool = False
-) -> tuple[Version, Version, list[Change[Any]]]:
+) -> Differences:
     """The differences between the project at ``old`` and at ``new`` (None: as on
-    disk), item by item: ``-`` is ``old``, ``+`` is ``new``."""
+    disk), item by item: ``-`` is ``old``, ``+`` is ``new``.  Raises
+    ProjectFormatError for a ``path`` that holds no project."""
+    require_project(Path(path))
     a, b = version_of(path, old), version_of(path, new)
     if a.project.family.name != b.project.family.name:
         raise ProjectError(
@@ -104,12 +107,17 @@ def compare_versions(
             f"{b.project.family.name} one: nothing to compare item by item"
         )
     found: Any = b.project.family.catalogue
-    return a, b, diff(found, a.project.data, b.project.data, registers=registers)
+    changes = diff(found, a.project.data, b.project.data, registers=registers)
+    about: dict[str, object] = {"robot": b.project.robot.name, "old": a.label, "new": b.label}
+    return Differences(changes, a.label, b.label, about)
 
 
 def snapshot_path(path: str | Path, given: str) -> Path:
     """The snapshot ``rollback --snapshot`` names: the number ``harlsync snapshots``
-    shows, or a snapshot directory.  Raises ProjectError for a number it does not list."""
+    shows, or a snapshot directory.  Raises ProjectError for a number it does not list,
+    or a ``path`` that holds no project."""
+    path = Path(path)
+    require_project(path)
     if given.isdigit():
         for taken in all_snapshots(path):
             if taken.number == int(given):

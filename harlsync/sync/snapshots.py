@@ -6,22 +6,27 @@ from __future__ import annotations
 import os
 import re
 import shutil
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+from ..columns import ljust, rjust, width
 from ..errors import HarlsyncError, ProjectError
 from ..project import Project, Robot, load_project, save_project
-from ..project.store import disk_error
+from ..project.store import disk_error, require_project
 from . import history
+from .auditrecord import local_time
 
 if TYPE_CHECKING:
     from ..families.base import AnyFamily
 
 __all__ = [
     "SNAPSHOT_DIR",
+    "Listing",
     "Snapshot",
     "all_snapshots",
+    "listing",
     "load_snapshot",
     "save_snapshot",
     "snapshots",
@@ -83,6 +88,63 @@ def snapshots(path: str | Path, action: str = "push") -> list[Path]:
     """The snapshots taken before each ``action`` (push or rollback), oldest first:
     rollback restores the last of the pushes'."""
     return [s.path for s in all_snapshots(path) if s.action == action]
+
+
+@dataclass
+class Listing:
+    """What ``harlsync snapshots`` shows of a project: its snapshots, the latest
+    first, and the one a rollback restores (the last taken before a push)."""
+
+    #: the project, as it was given
+    where: str
+    taken: list[Snapshot]
+    restores: Path | None
+
+    def to_json(self) -> list[dict[str, object]]:
+        return [
+            {
+                "number": s.number,
+                "time": s.time.isoformat() if s.time else None,
+                "action": s.action,
+                "path": str(s.path),
+                "rollback_restores": s.path == self.restores,
+            }
+            for s in self.taken
+        ]
+
+    def lines(self) -> list[str]:
+        """A table: number, time, action and path, the one a rollback restores marked."""
+        if not self.taken:
+            return [f"no snapshot in {self.where}: a push takes one before its first write"]
+        rows = [("number", "time", "action", "path")] + [
+            (
+                str(s.number),
+                local_time(s.time.isoformat() if s.time else None),
+                s.action,
+                str(s.path) + ("  <- rollback restores this" if s.path == self.restores else ""),
+            )
+            for s in self.taken
+        ]
+        widths = [max(width(row[i]) for row in rows) for i in range(3)]
+        return [
+            "  ".join(
+                [
+                    rjust(row[0], widths[0]),
+                    *(ljust(c, w) for c, w in zip(row[1:3], widths[1:])),
+                    row[3],
+                ]
+            )
+            for row in rows
+        ]
+
+
+def listing(path: str | Path) -> Listing:
+    """The snapshots of the project at ``path``.  Raises ProjectFormatError for a
+    directory that holds no project."""
+    require_project(Path(path))
+    taken = all_snapshots(path)
+    pushes = [s.path for s in taken if s.action == "push"]
+    return Listing(str(path), taken[::-1], pushes[-1] if pushes else None)
 
 
 def load_snapshot(project: str | Path, snapshot: Path, family: AnyFamily | None = None) -> Project:
