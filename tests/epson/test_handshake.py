@@ -11,15 +11,10 @@ import pytest
 
 from harlsync.errors import InterlockError, ReplyError
 from harlsync.families.epson import protocol as p
-from harlsync.families.epson.handshake import (
-    FunctionBusy,
-    FunctionError,
-    Handshake,
-    HandshakeTimeout,
-    Step,
-)
+from harlsync.families.epson.handshake import Handshake
 from harlsync.families.epson.map_form import map_from_dict
 from harlsync.families.epson.protocol import AccelReal, ErrorReply
+from harlsync.families.epson.steps import FunctionBusy, FunctionError, HandshakeTimeout, Step
 
 from .fakebank import Delays, FakeController
 

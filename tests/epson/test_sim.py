@@ -22,7 +22,7 @@ from simprocess import harlsync_sim
 
 from harlsync.errors import InterlockError, LinkTimeout, ReplyError
 from harlsync.families.epson import protocol as p
-from harlsync.families.epson.handshake import FunctionError, Handshake, HandshakeTimeout, Step
+from harlsync.families.epson.handshake import Handshake
 from harlsync.families.epson.map_form import map_from_dict
 from harlsync.families.epson.profile import RegisterMap
 from harlsync.families.epson.protocol import (
@@ -46,6 +46,7 @@ from harlsync.families.epson.sim import (
     Simulator,
     commands,
 )
+from harlsync.families.epson.steps import FunctionError, HandshakeTimeout, Step
 from harlsync.families.epson.transport import ModbusLink
 from harlsync.sim import ServedFamily, sim_family
 from harlsync.sim.control import apply_command

@@ -48,7 +48,7 @@ from ...link.confirm import confirmed_write, refuse_unless_idle
 from ..base import Progress
 from . import profile
 from . import protocol as p
-from .handshake import FunctionBusy, Handshake, RemoteStatus
+from .handshake import Handshake
 from .layout import Connection
 from .model import (
     ATTRIBUTE_OF,
@@ -67,6 +67,8 @@ from .model import (
     type_attributes,
 )
 from .protocol import ErrorReply, Limits, Request, WriteSequence
+from .remote_status import RemoteStatus
+from .steps import FunctionBusy
 from .transport import ModbusLink
 
 __all__ = ["Controller", "WriteStep", "item_keys"]

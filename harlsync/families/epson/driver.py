@@ -10,9 +10,9 @@ from ...errors import ProjectError
 from ..base import Driver, Progress, Status
 from .catalogue import CATALOGUE, Key, PointWrite
 from .controller import Controller, WriteStep
-from .handshake import RemoteStatus
 from .model import EpsonData, PointKey
 from .protocol import REMOTE_IO
+from .remote_status import RemoteStatus
 
 __all__ = ["EpsonDriver"]
 
