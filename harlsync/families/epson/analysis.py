@@ -137,7 +137,7 @@ def _covered(text: bytes) -> tuple[tuple[int, int] | None, int | None]:
     return (int(found.group(1)), last), max([last, *ends]) if ends else None
 
 
-def _plain(value: Any) -> Any:
+def _plain(value: object) -> object:
     """YAML data as plain Python: whole numbers as int (the register map's form)."""
     if isinstance(value, y.Number):
         return int(value) if value.integral else value

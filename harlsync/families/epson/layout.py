@@ -44,7 +44,6 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Any
 
 from ...project.files import FileSet
 from ...project.robot import Robot
@@ -113,7 +112,7 @@ class Connection:
     writes_whole: bool = profile.BLOCK_WRITE_WHOLE
 
 
-def new_options() -> dict[str, Any]:
+def new_options() -> dict[str, object]:
     """A first pull's robot options: the profile's map, line settings and points."""
     first, last = profile.DEFAULT_POINT_RANGE
     return {
