@@ -424,7 +424,7 @@ class Controller(CommandChannel):
         found = self._points.first_coord(number, axis)
         return None if isinstance(found, End) else found
 
-    def write(self, steps: list[WriteStep], value: Any, old: Any) -> None:
+    def write(self, steps: list[WriteStep], value: object, old: object) -> None:
         """Send each step and confirm it (:func:`~.writes.write_confirmed`, the
         interlock read again before a command is sent once more)."""
         write_confirmed(self, steps, value, old, self.status)

@@ -180,8 +180,8 @@ def command_text(steps: list[WriteStep]) -> str:
 def write_confirmed(
     channel: CommandChannel,
     steps: list[WriteStep],
-    value: Any,
-    old: Any,
+    value: object,
+    old: object,
     status: Callable[[], RemoteStatus],
 ) -> None:
     """Send each step and confirm it; ``status`` is the interlock read before a
