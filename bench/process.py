@@ -32,7 +32,6 @@ import argparse
 import shutil
 import tempfile
 import time
-from importlib import import_module
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +47,7 @@ from machine import (
     timed_process,
 )
 
-from harlsync.families import FAMILIES
+from harlsync import families
 
 TARGET = 1.03
 
@@ -56,8 +55,8 @@ TARGET = 1.03
 def robot_yaml(robot: str, port: str, baud: int) -> str:
     """robot.yaml for ``robot`` on ``port`` at ``baud``, as its family writes it."""
     bot = bench_robot(robot, port, baud)
-    layout: Any = import_module(f"{FAMILIES[bot.family]}.layout")
-    text: str = layout.render_robot(bot)
+    text = families.get(bot.family).robot_text(bot)
+    assert text is not None
     return text
 
 

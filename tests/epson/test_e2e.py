@@ -869,6 +869,7 @@ def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_an
     sees the function ready fails the connection itself, before any driver holds a
     note.  The error carries the note, so the record still says the robot was reset."""
     from harlsync.families.epson import handshake as hs
+    from harlsync.families.epson.steps import HandshakeTimeout, Step
 
     sim, url = robot
     pulled(repo, url)
@@ -877,11 +878,11 @@ def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_an
 
     def not_ready_after(self: hs.Handshake, **kwargs: bool) -> None:
         real(self, **kwargs)  # ExtCmdReset dropped and raised again, on the simulator
-        raise hs.HandshakeTimeout(
+        raise HandshakeTimeout(
             "the function is not ready after its reset",
             port=self.label,
             command="function reset",
-            step=hs.Step.FUNCTION_READY,
+            step=Step.FUNCTION_READY,
             acquired=False,
         )
 

@@ -11,15 +11,10 @@ import pytest
 
 from harlsync.errors import InterlockError, ReplyError
 from harlsync.families.epson import protocol as p
-from harlsync.families.epson.handshake import (
-    FunctionBusy,
-    FunctionError,
-    Handshake,
-    HandshakeTimeout,
-    Step,
-)
-from harlsync.families.epson.profile import RegisterMap
+from harlsync.families.epson.handshake import Handshake
+from harlsync.families.epson.map_form import map_from_dict
 from harlsync.families.epson.protocol import AccelReal, ErrorReply
+from harlsync.families.epson.steps import FunctionBusy, FunctionError, HandshakeTimeout, Step
 
 from .fakebank import Delays, FakeController
 
@@ -116,7 +111,7 @@ def test_issue_24_a_slave_that_hands_over_a_register_at_a_time_gets_the_words_fi
 
 
 def test_issue_24_extcmdset_after_the_words_is_one_write_on_any_slave() -> None:
-    after = RegisterMap.from_dict({"in_base": 8, "command_base": 0})
+    after = map_from_dict({"in_base": 8, "command_base": 0})
     assert after.command_block(whole=False) == 0
     fake = controller(map=after, whole_writes=False)
     hs = Handshake(fake, after, clock=fake.clock, block_write_whole=False)
@@ -275,7 +270,7 @@ def test_the_function_reset_is_refused_on_a_running_robot_and_changes_nothing() 
     with pytest.raises(InterlockError, match="Running 1 .* would abort motion"):
         handshake(fake).reset_function()
     assert fake.writes() == []
-    blind = controller(map=RegisterMap.from_dict({"signals": {"Running": None}}))
+    blind = controller(map=map_from_dict({"signals": {"Running": None}}))
     blind.preset("ExtCmdReset", True)
     with pytest.raises(InterlockError, match="no Running signal"):
         handshake(blind).reset_function()
@@ -294,7 +289,7 @@ def test_the_function_reset_is_refused_on_a_running_robot_and_changes_nothing() 
 def test_issue_22_a_reset_no_person_asked_for_needs_the_robot_at_rest(signal, map_, said) -> None:
     """Review finding 1: the unattended reset checks the read just before the drop
     for every interlock signal, Ready 1 and a right map, not only Running."""
-    fake = controller() if map_ is None else controller(map=RegisterMap.from_dict(map_))
+    fake = controller() if map_ is None else controller(map=map_from_dict(map_))
     fake.preset("ExtCmdReset", True)
     if signal is not None:
         fake.set_signal(signal, True)
@@ -439,7 +434,7 @@ def test_a_controller_that_never_shows_ready_is_not_started() -> None:
 
 
 def test_a_robot_whose_map_lacks_paused_is_read_but_never_written() -> None:
-    fake = controller(map=RegisterMap.from_dict({"signals": {"Paused": None}}))
+    fake = controller(map=map_from_dict({"signals": {"Paused": None}}))
     hs = handshake(fake)
     assert hs.execute(p.read_accel_s(15)) == VALUES
     writes = len(fake.writes())
@@ -461,7 +456,7 @@ def test_an_error_response_is_returned_with_its_meaning_and_the_handshake_comple
 
 
 def test_a_split_write_goes_out_back_to_back_and_stops_at_an_error() -> None:
-    small = RegisterMap.from_dict({"command_words": 4, "response_words": 3})
+    small = map_from_dict({"command_words": 4, "response_words": 3})
     fake = controller(map=small)
     hs = handshake(fake)
     sequence = p.register_accel_s(15, VALUES, command_words=small.command_words)
@@ -474,7 +469,7 @@ def test_a_split_write_goes_out_back_to_back_and_stops_at_an_error() -> None:
 
 
 def test_a_request_bigger_than_the_map_is_refused_before_anything_is_sent() -> None:
-    fake = controller(map=RegisterMap.from_dict({"response_words": 4, "command_words": 5}))
+    fake = controller(map=map_from_dict({"response_words": 4, "command_words": 5}))
     with pytest.raises(ValueError, match="needs 6 response words, the register map has 4"):
         handshake(fake).execute(p.read_accel_s(15))
     with pytest.raises(ValueError, match="needs 6 command words, the register map has 5"):
@@ -493,7 +488,7 @@ def test_a_response_that_does_not_echo_is_an_error_after_the_handshake_completes
 
 
 def test_the_handshake_works_wherever_the_site_put_the_signals() -> None:
-    moved = RegisterMap.from_dict(
+    moved = map_from_dict(
         {
             "in_base": 40,
             "out_base": 60,

@@ -22,7 +22,8 @@ from simprocess import harlsync_sim
 
 from harlsync.errors import InterlockError, LinkTimeout, ReplyError
 from harlsync.families.epson import protocol as p
-from harlsync.families.epson.handshake import FunctionError, Handshake, HandshakeTimeout, Step
+from harlsync.families.epson.handshake import Handshake
+from harlsync.families.epson.map_form import map_from_dict
 from harlsync.families.epson.profile import RegisterMap
 from harlsync.families.epson.protocol import (
     AccelPercent,
@@ -45,6 +46,7 @@ from harlsync.families.epson.sim import (
     Simulator,
     commands,
 )
+from harlsync.families.epson.steps import FunctionError, HandshakeTimeout, Step
 from harlsync.families.epson.transport import ModbusLink
 from harlsync.sim import ServedFamily, sim_family
 from harlsync.sim.control import apply_command
@@ -539,7 +541,7 @@ def test_a_response_longer_than_the_maps_response_words_is_refused_2003() -> Non
 
 
 def test_a_moved_register_map_is_served_where_it_says() -> None:
-    moved = RegisterMap.from_dict(
+    moved = map_from_dict(
         {
             "in_base": 100,
             "out_base": 200,

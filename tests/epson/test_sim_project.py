@@ -13,6 +13,7 @@ from harlsync import families
 from harlsync.errors import ProjectError
 from harlsync.families.epson.controller import Controller
 from harlsync.families.epson.handshake import Handshake
+from harlsync.families.epson.map_form import map_to_dict
 from harlsync.families.epson.profile import RegisterMap
 from harlsync.families.epson.sim import SIM_FAMILY, SimState
 from harlsync.families.epson.transport import ModbusLink
@@ -30,7 +31,7 @@ def project_of(
 ) -> Path:
     robot = families.get("epson").new_robot("cell-3", "modbus://10.0.0.5", unit)
     if register_map is not None:
-        robot.options["map"] = register_map.to_dict()
+        robot.options["map"] = map_to_dict(register_map)
     path = tmp_path / "cell-3"
     save_project(path, Project(path, robot, sample_data(axes)))
     return path

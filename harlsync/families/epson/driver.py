@@ -9,10 +9,11 @@ from typing import Any
 from ...errors import ProjectError
 from ..base import Driver, Progress, Status
 from .catalogue import CATALOGUE, Key, PointWrite
-from .controller import Controller, WriteStep
-from .handshake import RemoteStatus
+from .controller import Controller
 from .model import EpsonData, PointKey
 from .protocol import REMOTE_IO
+from .remote_status import RemoteStatus
+from .writes import WriteStep, command_text
 
 __all__ = ["EpsonDriver"]
 
@@ -160,8 +161,8 @@ class EpsonDriver(Driver[Key, EpsonData]):
     def command(self, key: Key, value: Any) -> str:
         """The commands a write sends, by number and name, with each one's words in
         hex: ``53 register AccelS table entry: 0035 0003 0001 871B 0003 0D40``
-        (see :meth:`Controller.command_text`)."""
-        return Controller.command_text(self._steps(key, value))
+        (see :func:`~.writes.command_text`)."""
+        return command_text(self._steps(key, value))
 
     def unsafe(self, key: Key) -> bool:
         return True  # every Epson write needs an idle robot

@@ -77,14 +77,14 @@ class EpsonFamily(Family["Key", "EpsonData"]):
         return FORMAT
 
     def analyse(self, files: Mapping[str, bytes]) -> Analysis:
-        from . import layout
+        from .analysis import analyse
 
-        return layout.analyse(files)
+        return analyse(files)
 
     def render_files(self, robot: Robot, data: EpsonData) -> dict[str, str]:
-        from . import layout
+        from .render import render_files
 
-        return layout.render_files(robot, data)
+        return render_files(robot, data)
 
     def data_problems(self, data: EpsonData) -> list[str]:
         """A setting the data lacks (a controller never leaves one out)."""
@@ -142,9 +142,9 @@ class EpsonFamily(Family["Key", "EpsonData"]):
         )
 
     def robot_text(self, robot: Robot) -> str:
-        from . import layout
+        from .render import render_robot
 
-        return layout.render_robot(robot)
+        return render_robot(robot)
 
     def schemas(self) -> dict[str, str]:
         from . import layout

@@ -5,7 +5,8 @@ The manual defines the command words and the handshake; it does not say where
 the Remote I/O signals and words sit on a fieldbus (the site assigns them in
 RC+, [Setup]-[System Configuration]-[Controller]-[Remote Control]).  The
 default map is here, and every register and bit of it can be moved per robot
-(:class:`RegisterMap`, built from the plain dict robot.yaml gives)::
+(:class:`RegisterMap`, built from the plain dict robot.yaml gives:
+:mod:`.map_form`)::
 
     holding registers (harlsync writes the controller's Remote inputs)
       in_base        bit 0 ExtCmdSet   bit 1 ExtRespGet   bit 2 ExtCmdReset
@@ -18,21 +19,6 @@ default map is here, and every register and bit of it can be moved per robot
       out_base+1..+8 ExtResp word 0..7 (word 0 = the command number echoed)
 
     16 Remote I/O bits a register, bit 0 = the register's lowest bit.
-
-The dict form (every key optional; a signal is a bit of its base register, a
-``{register, bit}`` pair anywhere, or ``null`` for a status signal the site did
-not map)::
-
-    in_base: 0
-    out_base: 0
-    command_base: 1          # default in_base + 1
-    command_words: 8         # 3 to 8, as assigned in RC+
-    response_base: 1         # default out_base + 1
-    response_words: 8        # 3 to 8
-    signals:
-      ExtCmdSet: 0
-      Running: {register: 20, bit: 3}
-      SafeguardOn: null
 """
 
 from __future__ import annotations
@@ -41,13 +27,14 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from types import MappingProxyType
-from typing import Any, NamedTuple, TypeGuard
+from typing import NamedTuple
 
 from .declared import DEFAULT_PORT, DEFAULT_UNIT
 
 __all__ = [
     "BLOCK_WRITE_WHOLE",
     "COMMAND_DEADLINE",
+    "DEFAULT_BITS",
     "DEFAULT_POINT_RANGE",
     "DEFAULT_PORT",
     "DEFAULT_UNIT",
@@ -63,6 +50,7 @@ __all__ = [
     "READY",
     "REQUIRED_FOR_WRITES",
     "ROBOT_AXES",
+    "SIGNAL_FIELDS",
     "SIGNAL_NAMES",
     "STATUS_SIGNALS",
     "TABLE_NOT_REGISTERED",
@@ -176,7 +164,8 @@ UNMAPPED_RISK: Mapping[str, str] = MappingProxyType(
 #: so Ready 0 on an otherwise idle robot says the map is wrong (or it is starting).
 READY = "Ready"
 SIGNAL_NAMES = (*HANDSHAKE_INPUTS, *HANDSHAKE_OUTPUTS, *STATUS_SIGNALS)
-_DEFAULT_BITS = {**HANDSHAKE_INPUTS, **HANDSHAKE_OUTPUTS, **STATUS_SIGNALS}
+#: Every signal's default bit of its base register.
+DEFAULT_BITS: Mapping[str, int] = {**HANDSHAKE_INPUTS, **HANDSHAKE_OUTPUTS, **STATUS_SIGNALS}
 
 IN_BASE = 0
 OUT_BASE = 0
@@ -186,15 +175,6 @@ RESPONSE_WORDS = 8
 #: words (§5.3.2), and the smallest read harlsync sends is 3 command words.
 WORDS_RANGE = (3, 8)
 _REGISTER_MAX = 0xFFFF
-_KEYS = (
-    "in_base",
-    "out_base",
-    "command_base",
-    "command_words",
-    "response_base",
-    "response_words",
-    "signals",
-)
 
 
 class Bit(NamedTuple):
@@ -211,7 +191,7 @@ class Bit(NamedTuple):
 _DEFAULT_MAP: Mapping[str, Bit] = MappingProxyType(
     {
         name: Bit(IN_BASE if name in HANDSHAKE_INPUTS else OUT_BASE, bit)
-        for name, bit in _DEFAULT_BITS.items()
+        for name, bit in DEFAULT_BITS.items()
     }
 )
 
@@ -242,7 +222,8 @@ _FIELD_SIGNALS: Mapping[str, str] = MappingProxyType(
         "safeguard_on": "SafeguardOn",
     }
 )
-_SIGNAL_FIELDS = {signal: name for name, signal in _FIELD_SIGNALS.items()}
+#: The signal's name as the manual writes it -> its :class:`RegisterMap` field.
+SIGNAL_FIELDS: Mapping[str, str] = {signal: name for name, signal in _FIELD_SIGNALS.items()}
 
 
 @dataclass(frozen=True)
@@ -282,78 +263,6 @@ class RegisterMap:
         if issues:
             raise RegisterMapInvalid(issues)
 
-    # --- from and to robot.yaml ----------------------------------------------------
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, object] | None) -> RegisterMap:
-        """The map a robot file's dict describes (``None`` or ``{}``: the default).
-
-        Raises :class:`RegisterMapInvalid` naming every problem: an unknown key
-        or signal, a value of the wrong type or out of range, a handshake signal
-        left unmapped, two signals on one bit, command words over the input
-        signals, a map the handshake cannot read in one request.
-        """
-        data = data or {}
-        issues: list[str] = []
-        for key in data:
-            if key not in _KEYS:
-                issues.append(f"unknown key {key!r} (known: {', '.join(_KEYS)})")
-
-        def number(key: str, default: int) -> int:
-            value = data.get(key, default)
-            if not _whole(value):
-                issues.append(f"{key}: {value!r} is not a whole number")
-                return default
-            return value
-
-        in_base = number("in_base", IN_BASE)
-        out_base = number("out_base", OUT_BASE)
-        values: dict[str, Any] = {
-            "command_base": number("command_base", in_base + 1),
-            "command_words": number("command_words", COMMAND_WORDS),
-            "response_base": number("response_base", out_base + 1),
-            "response_words": number("response_words", RESPONSE_WORDS),
-        }
-        given = data.get("signals", {})
-        if not isinstance(given, Mapping):
-            issues.append(f"signals: {given!r} is not a mapping of signal names")
-            given = {}
-        for name in given:
-            if name not in _SIGNAL_FIELDS:
-                issues.append(
-                    f"signals: unknown signal {name!r} (known: {', '.join(SIGNAL_NAMES)})"
-                )
-        for signal, field_name in _SIGNAL_FIELDS.items():
-            is_input = signal in HANDSHAKE_INPUTS
-            base = in_base if is_input else out_base
-            if signal not in given:
-                values[field_name] = Bit(base, _DEFAULT_BITS[signal])
-                continue
-            values[field_name] = _signal(
-                signal, given[signal], base, issues, Bit(base, _DEFAULT_BITS[signal])
-            )
-        try:
-            built = cls(**values)
-        except RegisterMapInvalid as exc:
-            raise RegisterMapInvalid(issues + exc.issues) from None
-        if issues:
-            raise RegisterMapInvalid(issues)
-        return built
-
-    def to_dict(self) -> dict[str, object]:
-        """The map in its robot-file form, every register and bit spelt out
-        (``from_dict(m.to_dict()) == m``)."""
-        signals: dict[str, object] = {}
-        for signal, bit in self.signals():
-            signals[signal] = None if bit is None else {"register": bit.register, "bit": bit.bit}
-        return {
-            "command_base": self.command_base,
-            "command_words": self.command_words,
-            "response_base": self.response_base,
-            "response_words": self.response_words,
-            "signals": signals,
-        }
-
     # --- what the handshake and the interlock need ---------------------------------
 
     def signals(self) -> Iterator[tuple[str, Bit | None]]:
@@ -370,7 +279,7 @@ class RegisterMap:
 
         Raises :class:`KeyError` for a name that is no signal.
         """
-        bit: Bit | None = getattr(self, _SIGNAL_FIELDS[name])
+        bit: Bit | None = getattr(self, SIGNAL_FIELDS[name])
         return bit
 
     @property
@@ -512,24 +421,3 @@ class RegisterMap:
                     f"({MODBUS_MAX_READ})"
                 )
         return issues
-
-
-def _whole(value: object) -> TypeGuard[int]:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _signal(name: str, value: object, base: int, issues: list[str], default: Bit) -> Bit | None:
-    """One signal of the dict form: a bit of ``base``, ``{register, bit}`` or None
-    (``default`` after an issue, so that the map's own checks can still run)."""
-    if value is None:
-        return None  # a handshake signal left out is reported by the map's own check
-    if _whole(value):
-        return Bit(base, value)
-    if isinstance(value, Mapping) and set(value) <= {"register", "bit"}:
-        register, bit = value.get("register", base), value.get("bit")
-        if _whole(register) and _whole(bit):
-            return Bit(register, bit)
-    issues.append(
-        f"signals: {name}: {value!r} is not a bit number, {{register: N, bit: B}} or null"
-    )
-    return default

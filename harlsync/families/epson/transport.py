@@ -102,7 +102,7 @@ def parse_url(url: str) -> tuple[str, int]:
 
 class ModbusLink:
     """The registers of one controller over Modbus TCP (a
-    :class:`~harlsync.families.epson.handshake.RegisterAccess`).
+    :class:`~harlsync.families.epson.remote_io.RegisterAccess`).
 
     Opening connects and takes the line lock; :meth:`close` (or the ``with``
     block) gives both back.  ``timeout`` is the seconds one transaction may
