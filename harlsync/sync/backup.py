@@ -190,7 +190,22 @@ def _run(
         watched=watch is not None,
     )
     _name_outcomes(outcomes, projects, now, stale_after)
+    report = _report(outcomes, projects, now, fetched, commit=commit, push=push)
+    report.duration = time.monotonic() - started
+    return report
 
+
+def _report(
+    outcomes: list[RobotOutcome],
+    projects: list[Path],
+    now: datetime,
+    fetched: str | None,
+    *,
+    commit: bool,
+    push: bool,
+) -> BackupReport:
+    """The run's report once every robot was read: what it committed (and pushed)
+    when asked, each robot's three states recorded."""
     report = BackupReport(outcomes, started=now.isoformat(timespec="seconds"))
     if fetched:
         report.said.append(fetched)
@@ -199,7 +214,6 @@ def _run(
     if commit:
         _commit_run(report, projects, legacy, kept, push=push)
     _record_states(kept)
-    report.duration = time.monotonic() - started
     return report
 
 

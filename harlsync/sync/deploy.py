@@ -92,12 +92,7 @@ def run(
     record = _start_record(action, project, opts, port, station)
     driver: Driver[Any, Any] | None = None
     try:
-        if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
-            review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
-            raise PolicyError(
-                f"nobody to confirm the {action} (no terminal to ask on) and no "
-                f"--yes: nothing was read or written; {review}give --yes"
-            )
+        _someone_confirms(action, project, opts)  # before minutes of reading the robot
         check_window(robot, opts)
         driver = connect(
             family,
@@ -115,10 +110,7 @@ def run(
             return result
         if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
             raise PolicyError("push not confirmed: nothing was written")
-        for name, said in the_plan.reverts.items():  # said before the first write
-            log.warning("%s: %s: %s", robot.name, name, said)
-            if opts.yes and opts.told is not None:
-                opts.told(f"{name}: {said}")
+        _tell_reverts(robot.name, the_plan, opts)  # said before the first write
         result.snapshot = save_snapshot(project.path, robot, live, action)
         record.snapshot = str(result.snapshot)
         _journal(replace(record, event="start"))
@@ -134,6 +126,25 @@ def run(
         raise
     finally:
         _finish(action, project, driver, record, result)
+
+
+def _someone_confirms(action: str, project: Project, opts: PushOptions) -> None:
+    """Refuse a push or rollback nobody can confirm: no terminal to ask on and no ``yes``."""
+    if not opts.yes and opts.confirm is None:
+        review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
+        raise PolicyError(
+            f"nobody to confirm the {action} (no terminal to ask on) and no "
+            f"--yes: nothing was read or written; {review}give --yes"
+        )
+
+
+def _tell_reverts(name: str, the_plan: Plan[Any], opts: PushOptions) -> None:
+    """Say each write of ``the_plan`` that takes back a change made on the robot: in
+    the log, and to ``opts.told`` when nobody was asked."""
+    for item, said in the_plan.reverts.items():
+        log.warning("%s: %s: %s", name, item, said)
+        if opts.yes and opts.told is not None:
+            opts.told(f"{item}: {said}")
 
 
 def _start_record(

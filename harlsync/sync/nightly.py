@@ -32,13 +32,14 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarlsyncError, PolicyError, ProjectError, ProjectInvalid, SyncError
-from ..families.base import AnyFamily, Progress
+from ..families.base import AnyFamily, Catalogue, Progress
 from ..project import load_robot
+from ..project.robot import Robot
 from ..project.store import SCHEMAS_DIR
 from . import backupref, git, history, states
 from .backupref import Entry, RefUpdate
-from .items import diff, diff_items
-from .live import read_live
+from .items import Change, diff, diff_items
+from .live import LiveRead, read_live
 from .pulling import PullResult, pull
 
 __all__ = ["Observed", "commit_observed", "fetch_deployed", "push_refs", "read_robot"]
@@ -98,65 +99,18 @@ def _observe(
     connect_options: Mapping[str, bool] | None = None,
     noted: Callable[[str], None] | None = None,
 ) -> Observed:
-    from .pulling import _migrated, _not_this_robot, _record_notes, _same_robot
+    """Read the robot of ``path`` held to what was observed before (or approved), and
+    store its files as git objects: what changed since, and its three states."""
+    from .pulling import _same_robot
 
     robot = load_robot(path, family)
     things = family.catalogue
     tip = backupref.commit_of(root, backupref.BACKUP_REF)
-    previous_commit = _last_observed(root, path, where, tip, head)
-    loaded: dict[str, Any] = {}
-
-    def data_at(commit: str) -> Any:
-        """The project at ``commit`` (None: it does not load), read once a tree."""
-        tree = backupref.project_tree(root, commit, where) or commit
-        if tree not in loaded:
-            try:
-                loaded[tree] = states.project_at(path, commit)
-            except ProjectError as exc:
-                log.warning("%s", exc)
-                loaded[tree] = None
-        return loaded[tree]
-
-    def accepted(check: Callable[[Any], object]) -> None:
-        """``check`` against the robot last observed; failing, against the approved
-        one: a robot an engineer accepted (``pull --new-robot``, committed) is it."""
-        try:
-            previous = data_at(previous_commit)
-            if previous is not None:
-                check(previous)
-        except PolicyError:
-            approved = data_at(head)
-            if previous_commit == head or approved is None:
-                raise
-            check(approved)
-
-    def same_identity(now: Mapping[str, str], where_read: str) -> None:
-        from .pulling import _identity_differs
-
-        def check(data: Any) -> None:
-            differ = _identity_differs(things.robot_identity(data), now)
-            if differ:
-                raise _not_this_robot(path, where_read, differ)
-
-        accepted(check)
-
-    read = read_live(
-        family,
-        robot,
-        None,
-        None,
-        registers=robot.keep_registers,
-        progress=progress,
-        lock_timeout=lock_timeout,
-        options=connect_options,
-        whole=True,
-        noted=partial(_record_notes, path, robot, None, None, noted),
-        identified=same_identity,
-        recorded=lambda: data_at(previous_commit),  # what the last backup found (issue 29)
-    )
+    seen = _Observing(path, root, where, head, _last_observed(root, path, where, tip, head))
+    read = seen.read(family, robot, progress, lock_timeout, connect_options, noted)
     live = read.live
-    accepted(lambda data: _same_robot(path, things, data, live, read.driver.label))
-    previous = data_at(previous_commit)
+    seen.accepted(lambda data: _same_robot(path, things, data, live, read.driver.label))
+    previous = seen.data_at(seen.last)
     changes = (
         None if previous is None else diff(things, previous, live, registers=robot.keep_registers)
     )
@@ -171,26 +125,104 @@ def _observe(
         files={name: [e.mode, e.oid] for name, e in stored.items()},
     )
     if previous is not None:  # files rewritten with no item changed: a migration, said
-        before = backupref.entries(root, previous_commit, where)
-        result.written = sorted(
-            name
-            for name, entry in stored.items()
-            if name != "robot.yaml" and before.get(name) != entry  # robot.yaml: a person's
-        )
-        was = git.read_blobs(root, [before[n].oid for n in result.written if n in before])
-        _migrated(
-            result,
-            {n: was[before[n].oid] for n in result.written if n in before},
-            family.format,
-        )
+        _note_rewritten(result, root, seen.last, where, stored, family.format)
     now = datetime.now(timezone.utc).isoformat(timespec="seconds")
     result.standing, result.setup = _standing(
-        path, root, where, head, tip, things, live, data_at, now
+        path, root, where, head, tip, things, live, seen.data_at, now
     )
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if not result.changed:
-        history.committed(path, previous_commit)  # it holds what was read
+        history.committed(path, seen.last)  # it holds what was read
     return result
+
+
+@dataclass
+class _Observing:
+    """One robot's read in a nightly backup: the projects it is held to, at the commit
+    last observed (``last``) and the approved one (``head``), each loaded once a tree."""
+
+    path: Path
+    root: Path
+    where: str
+    head: str
+    last: str
+    loaded: dict[str, Any] = field(default_factory=dict)
+
+    def data_at(self, commit: str) -> Any:
+        """The project at ``commit`` (None: it does not load), read once a tree."""
+        tree = backupref.project_tree(self.root, commit, self.where) or commit
+        if tree not in self.loaded:
+            try:
+                self.loaded[tree] = states.project_at(self.path, commit)
+            except ProjectError as exc:
+                log.warning("%s", exc)
+                self.loaded[tree] = None
+        return self.loaded[tree]
+
+    def accepted(self, check: Callable[[Any], object]) -> None:
+        """``check`` against the robot last observed; failing, against the approved
+        one: a robot an engineer accepted (``pull --new-robot``, committed) is it."""
+        try:
+            previous = self.data_at(self.last)
+            if previous is not None:
+                check(previous)
+        except PolicyError:
+            approved = self.data_at(self.head)
+            if self.last == self.head or approved is None:
+                raise
+            check(approved)
+
+    def read(
+        self,
+        family: AnyFamily,
+        robot: Robot,
+        progress: Progress | None,
+        lock_timeout: float,
+        connect_options: Mapping[str, bool] | None,
+        noted: Callable[[str], None] | None,
+    ) -> LiveRead[Any, Any]:
+        """Everything the robot holds, its identity checked first where the family
+        tells it, held to what the last backup found (issue 29)."""
+        from .pulling import _identity_differs, _not_this_robot, _record_notes
+
+        def same_identity(now: Mapping[str, str], where_read: str) -> None:
+            def check(data: Any) -> None:
+                differ = _identity_differs(family.catalogue.robot_identity(data), now)
+                if differ:
+                    raise _not_this_robot(self.path, where_read, differ)
+
+            self.accepted(check)
+
+        return read_live(
+            family,
+            robot,
+            None,
+            None,
+            registers=robot.keep_registers,
+            progress=progress,
+            lock_timeout=lock_timeout,
+            options=connect_options,
+            whole=True,
+            noted=partial(_record_notes, self.path, robot, None, None, noted),
+            identified=same_identity,
+            recorded=lambda: self.data_at(self.last),  # what the last backup found (issue 29)
+        )
+
+
+def _note_rewritten(
+    result: Observed, root: Path, last: str, where: str, stored: Mapping[str, Entry], current: int
+) -> None:
+    """Note in ``result`` the files stored otherwise than the last observed commit
+    held them (robot.yaml aside: a person's file), and which of them a migration from
+    an older format rewrote."""
+    from .pulling import _migrated
+
+    before = backupref.entries(root, last, where)
+    result.written = sorted(
+        name for name, entry in stored.items() if name != "robot.yaml" and before.get(name) != entry
+    )
+    was = git.read_blobs(root, [before[n].oid for n in result.written if n in before])
+    _migrated(result, {n: was[before[n].oid] for n in result.written if n in before}, current)
 
 
 def _last_observed(root: Path, path: Path, where: str, tip: str | None, head: str) -> str:
@@ -227,7 +259,7 @@ def _standing(
     where: str,
     head: str,
     tip: str | None,
-    things: Any,
+    things: Catalogue[Any, Any],
     live: Any,
     data_at: Callable[[str], Any],
     now: str,
@@ -243,26 +275,10 @@ def _standing(
         )
         return standing, None
     deployed_commit, how = states.deployed_commit(root, path, where)
+    deployed = data_at(deployed_commit) if deployed_commit is not None else None
     setup: str | None = None
-    deployed: Any = None
-    if deployed_commit is not None:
-        deployed = data_at(deployed_commit)
     if deployed_commit is None or deployed is None:
-        if not diff_items(
-            things, things.items(live, registers=False), things.items(approved, registers=False)
-        ):
-            setup, deployed = head, approved
-            standing.notes.append(
-                f"set up {backupref.deployed_ref(where)}: no deployed state was known; the "
-                f"robot matches the approved commit {head[:10]}, taken as deployed"
-            )
-        else:
-            setup, deployed = "", live
-            standing.notes.append(
-                f"set up {backupref.deployed_ref(where)}: no deployed state was known; what "
-                "the robot holds now is taken as deployed, so each difference from approved "
-                "is reported as pending"
-            )
+        setup, deployed = _take_as_deployed(standing, where, head, things, live, approved)
     elif how != backupref.deployed_ref(where):
         setup = deployed_commit
         standing.notes.append(
@@ -272,6 +288,50 @@ def _standing(
         )
     standing.deployed = deployed_commit if setup is None else (setup or None)
     pending, drift = states.classify(things, approved, deployed, live)
+    _first_seen(standing, path, head, tip, things, pending, drift)
+    return standing, setup
+
+
+def _take_as_deployed(
+    standing: states.Standing,
+    where: str,
+    head: str,
+    things: Catalogue[Any, Any],
+    live: Any,
+    approved: Any,
+) -> tuple[str, Any]:
+    """What a robot with no deployed state known is taken to hold from its last push:
+    the approved commit when it matches it, else what it holds now (``""``); said in
+    ``standing``'s notes."""
+    if not diff_items(
+        things, things.items(live, registers=False), things.items(approved, registers=False)
+    ):
+        standing.notes.append(
+            f"set up {backupref.deployed_ref(where)}: no deployed state was known; the "
+            f"robot matches the approved commit {head[:10]}, taken as deployed"
+        )
+        return head, approved
+    standing.notes.append(
+        f"set up {backupref.deployed_ref(where)}: no deployed state was known; what "
+        "the robot holds now is taken as deployed, so each difference from approved "
+        "is reported as pending"
+    )
+    return "", live
+
+
+def _first_seen(
+    standing: states.Standing,
+    path: Path,
+    head: str,
+    tip: str | None,
+    things: Catalogue[Any, Any],
+    pending: list[Change[Any]],
+    drift: list[Change[Any]],
+) -> None:
+    """Each pending and drifted item in ``standing``, with when it was first seen (the
+    last standing's, else the backup commit that brought it, else now) and, pending,
+    who approved it."""
+    now = standing.checked  # when this backup read the robot
     earlier = states.read(path)
     before = (
         {
@@ -305,7 +365,6 @@ def _standing(
             else None
         )
         standing.pending.append(states.Seen(change.name, kept.first_seen if kept else now, by))
-    return standing, setup
 
 
 def commit_observed(

@@ -316,6 +316,7 @@ def _robot_status(
     stale_after: timedelta,
     warnings: list[str],
 ) -> RobotStatus:
+    """One robot's line of the status: its last backup, its three states, its pushes."""
     try:
         family = family_of(path)
         robot = load_robot(path, family)
@@ -360,7 +361,13 @@ def _robot_status(
         status.drift = [asdict(s) for s in standing.drift]
     status.never_backed_up = status.last_success is None
     status.stale = history.stale(status.last_success, now, stale_after)
-    mine = _pushes(log, robot.port, robot.station, path, warnings)
+    _note_pushes(status, _pushes(log, robot.port, robot.station, path, warnings))
+    status.state = _state(status)
+    return status
+
+
+def _note_pushes(status: RobotStatus, mine: RobotRecords) -> None:
+    """The robot's latest pushes in ``status``, and each one left unfinished."""
     status.pushes = list(mine.recent)
     status.last_push = status.pushes[-1] if status.pushes else None
     status.unfinished = [audit.describe_unfinished(r) for r in mine.unsettled]
@@ -372,8 +379,6 @@ def _robot_status(
             f"the last {last.action} ({local_time(last.time)}) stopped part way through "
             f"{last.partly_text()}; run it again (or roll back) to complete it"
         )
-    status.state = _state(status)
-    return status
 
 
 def _state(r: RobotStatus) -> str:

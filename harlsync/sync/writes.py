@@ -88,6 +88,10 @@ def write_all(
     result: PushResult,
     announce: Callable[[PlannedWrite[Any]], None],
 ) -> None:
+    """Make each write of ``the_plan`` in turn, each checked against the window, the
+    robot's state and what the robot holds, and read back; ``result`` says what was
+    written (and which write failed).  ``announce`` is told each write before it
+    is made."""
     tunable = family.catalogue.live_tuning
 
     def live(write: PlannedWrite[Any]) -> bool:
@@ -98,54 +102,80 @@ def write_all(
         # other write needs an idle robot before its first write of any kind.
         interlock(driver, robot, family.words, f"the first write ({the_plan.writes[0].name})")
     for write in the_plan.writes:
-        now = driver.read(write.key)
-        if now != write.old:
-            raise StalePlanError(
-                f"{write.name} changed on the robot since it was read "
-                f"({audit.difference(family.catalogue, write.key, write.old, now)}); not "
-                "overwriting it. Pull or diff to see the change, then run again"
-            )
-        check_window(robot, opts, f"writing {write.name}")
-        announce(write)  # before the interlock: nothing between the status read and the write
-        if not live(write):
-            try:
-                interlock(driver, robot, family.words, f"writing {write.name}")
-            except InterlockError as exc:
-                raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
-        result.failed = write
-        # A re-send after a lost reply is a write too: the same interlock applies.
-        try:
-            driver.write(write.key, write.new, write.old, needs_idle=not live(write))
-        except NotWritten:
-            result.failed = None  # refused, not lost: the item is not written
-            raise
-        except PartlyWritten as exc:
-            result.partly_written = exc
-            raise
-        got = driver.read(write.key)
-        if got != write.new:
-            raise VerifyError(
-                f"{write.name} does not read back as written "
-                f"({audit.difference(family.catalogue, write.key, write.new, got)}, written → "
-                "read back)"
-            )
-        result.failed = None
-        result.written.append(write)
-        log.info("wrote %s: %s", write.name, write.command)
+        _write_one(family, driver, robot, write, opts, result, live, announce)
     if _last_guarded(result, live) is not None:
-        # The last write that needed an idle robot had no status read after it: one more
-        # tells whether the robot was started between the read before it and its arrival (no
-        # client can prevent that).
+        _idle_at_end(family, driver, robot, result, live)
+
+
+def _write_one(
+    family: AnyFamily,
+    driver: Driver[Any, Any],
+    robot: Robot,
+    write: PlannedWrite[Any],
+    opts: PushOptions,
+    result: PushResult,
+    live: Callable[[PlannedWrite[Any]], bool],
+    announce: Callable[[PlannedWrite[Any]], None],
+) -> None:
+    """One write: refused when the robot no longer holds what the plan was made
+    from, outside the window, or (unless ``live``) when the robot is not idle;
+    verified by reading it back."""
+    now = driver.read(write.key)
+    if now != write.old:
+        raise StalePlanError(
+            f"{write.name} changed on the robot since it was read "
+            f"({audit.difference(family.catalogue, write.key, write.old, now)}); not "
+            "overwriting it. Pull or diff to see the change, then run again"
+        )
+    check_window(robot, opts, f"writing {write.name}")
+    announce(write)  # before the interlock: nothing between the status read and the write
+    if not live(write):
         try:
-            status = driver.status()
-        except HarlsyncError as exc:
-            result.warnings.append(f"cannot read {family.words.state} after the last write ({exc})")
-            return
-        if not status.idle:
-            result.warnings.append(
-                f"robot {robot.name} ({driver.label}) is not idle at the end of the push: "
-                f"{status.describe()}{_maybe_hit(result, live)}"
-            )
+            interlock(driver, robot, family.words, f"writing {write.name}")
+        except InterlockError as exc:
+            raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
+    result.failed = write
+    # A re-send after a lost reply is a write too: the same interlock applies.
+    try:
+        driver.write(write.key, write.new, write.old, needs_idle=not live(write))
+    except NotWritten:
+        result.failed = None  # refused, not lost: the item is not written
+        raise
+    except PartlyWritten as exc:
+        result.partly_written = exc
+        raise
+    got = driver.read(write.key)
+    if got != write.new:
+        raise VerifyError(
+            f"{write.name} does not read back as written "
+            f"({audit.difference(family.catalogue, write.key, write.new, got)}, written → "
+            "read back)"
+        )
+    result.failed = None
+    result.written.append(write)
+    log.info("wrote %s: %s", write.name, write.command)
+
+
+def _idle_at_end(
+    family: AnyFamily,
+    driver: Driver[Any, Any],
+    robot: Robot,
+    result: PushResult,
+    live: Callable[[PlannedWrite[Any]], bool],
+) -> None:
+    """The last write that needed an idle robot had no status read after it: one more
+    tells whether the robot was started between the read before it and its arrival (no
+    client can prevent that); a warning in ``result`` when it was."""
+    try:
+        status = driver.status()
+    except HarlsyncError as exc:
+        result.warnings.append(f"cannot read {family.words.state} after the last write ({exc})")
+        return
+    if not status.idle:
+        result.warnings.append(
+            f"robot {robot.name} ({driver.label}) is not idle at the end of the push: "
+            f"{status.describe()}{_maybe_hit(result, live)}"
+        )
 
 
 def _last_guarded(
