@@ -272,7 +272,8 @@ def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
     approved branch and working tree untouched), and record where it is."""
     try:
         new, said = nightly.commit_observed(
-            [(Path(o.path), o.kept or {}, o.compared) for o in kept], report.commit_message()
+            [(Path(o.path), o.kept, o.compared) for o in kept if o.kept is not None],
+            report.commit_message(),
         )
     except HarlsyncError as exc:
         report.commit_error = str(exc)
@@ -282,8 +283,8 @@ def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
         report.commit = report.commit or new
         _record_commit([Path(o.path) for o in kept if o.changed], new)
     for o in kept:
-        standing, where = o.compared, (o.kept or {})
-        if standing is None:
+        standing, where = o.compared, o.kept
+        if standing is None or where is None:
             continue
         root = Path(where["root"])
         standing.observed = backupref.commit_of(root, backupref.BACKUP_REF)

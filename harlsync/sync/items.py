@@ -80,14 +80,14 @@ def summarize(catalogue: Catalogue[K, Any], changes: Iterable[Change[K]]) -> dic
     return catalogue.counts(_triples(changes))
 
 
-def change_summary(changes: list[Change[Any]]) -> str:
+def change_summary(changes: list[Change[K]]) -> str:
     """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
     if not changes:
         return "no change"
     return changes[0].catalogue.summary(_triples(changes))
 
 
-def differ_words(changes: list[Change[Any]]) -> str:
+def differ_words(changes: list[Change[K]]) -> str:
     """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
     if not changes:
         return "; no differences"
@@ -95,7 +95,7 @@ def differ_words(changes: list[Change[Any]]) -> str:
     return f"; {n} item{'s' * (n != 1)} differ{'s' * (n == 1)} ({change_summary(changes)})"
 
 
-def changes_json(changes: list[Change[Any]], **about: object) -> dict[str, object]:
+def changes_json(changes: list[Change[K]], **about: object) -> dict[str, object]:
     """What ``diff --format json`` prints: ``about`` (the robot, what was compared),
     whether the two sides are identical, the summary, and each change."""
     return {

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from ..errors import HarlsyncError, PolicyError, ProjectError, ProjectInvalid, SyncError
 from ..families.base import AnyFamily, Catalogue, Progress
@@ -42,9 +42,20 @@ from .items import Change, diff, diff_items
 from .live import LiveRead, read_live
 from .pulling import PullResult, pull
 
-__all__ = ["Observed", "commit_observed", "fetch_deployed", "push_refs", "read_robot"]
+__all__ = ["Kept", "Observed", "commit_observed", "fetch_deployed", "push_refs", "read_robot"]
 
 log = logging.getLogger(__name__)
+
+
+class Kept(TypedDict):
+    """What the run commits of one robot's read, as JSON (it crosses from a worker
+    process): its repository, its project's place there, its files as
+    ``{path: [mode, blob]}`` and what to set up as deployed (None: nothing)."""
+
+    root: str
+    where: str
+    files: dict[str, list[str]]
+    setup: str | None
 
 
 @dataclass
@@ -60,7 +71,7 @@ class Observed(PullResult):
     #: no deployed ref yet: the commit taken as deployed ("" : what was read tonight)
     setup: str | None = None
 
-    def kept(self) -> dict[str, Any]:
+    def kept(self) -> Kept:
         """What the run's commit needs, as JSON (it crosses from a worker process)."""
         return {"root": self.root, "where": self.where, "files": self.files, "setup": self.setup}
 
@@ -368,7 +379,7 @@ def _first_seen(
 
 
 def commit_observed(
-    observed: list[tuple[Path, dict[str, Any], states.Standing | None]],
+    observed: list[tuple[Path, Kept, states.Standing | None]],
     message: str,
 ) -> tuple[str | None, list[str]]:
     """Commit what each robot's backup read (``(project, kept, standing)``, as
@@ -418,7 +429,7 @@ def commit_observed(
     return new, said
 
 
-def _set_up_deployed(root: Path, path: Path, kept: dict[str, Any], observed: str | None) -> None:
+def _set_up_deployed(root: Path, path: Path, kept: Kept, observed: str | None) -> None:
     """Make the deployed ref of a robot that has none, holding what its backup took
     as deployed (its standing's note says what)."""
     where = kept["where"]

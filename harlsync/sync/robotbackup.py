@@ -13,7 +13,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 from ..errors import HarlsyncError, LinkError, ProjectError
 from ..families.base import AnyFamily, Progress
@@ -76,10 +76,10 @@ class RobotOutcome:
     pushed: list[str] = field(default_factory=list)
     #: Its three states compared (:class:`.states.Standing` as JSON): same as
     #: approved, pending or drift; None when not read into git's keeping.
-    standing: dict[str, Any] | None = None
+    standing: dict[str, object] | None = None
     #: What the run commits of its read on the backup branch (:meth:`.nightly.Observed.kept`);
     #: None when it was pulled into its directory (not in git, no approved version).
-    kept: dict[str, Any] | None = None
+    kept: nightly.Kept | None = None
 
     @property
     def compared(self) -> states.Standing | None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from datetime import datetime
-from typing import Any
 
 from ..errors import (
     HarlsyncError,
@@ -21,7 +20,7 @@ from ..errors import (
     StalePlanError,
     VerifyError,
 )
-from ..families.base import AnyFamily, Driver, Words
+from ..families.base import D, Driver, Family, K, Words
 from ..project import Robot
 from . import audit
 from .plan import Plan, PlannedWrite
@@ -54,7 +53,7 @@ def _no_answer(exc: HarlsyncError) -> bool:
     return isinstance(exc, PortError | PortBusyError)
 
 
-def interlock(driver: Driver[Any, Any], robot: Robot, words: Words, before: str) -> None:
+def interlock(driver: Driver[K, D], robot: Robot, words: Words, before: str) -> None:
     """Raise InterlockError unless the robot's status (``words.state``, in the
     family's words) shows it idle.
 
@@ -80,13 +79,13 @@ def interlock(driver: Driver[Any, Any], robot: Robot, words: Words, before: str)
 
 
 def write_all(
-    family: AnyFamily,
-    driver: Driver[Any, Any],
+    family: Family[K, D],
+    driver: Driver[K, D],
     robot: Robot,
-    the_plan: Plan[Any],
+    the_plan: Plan[K],
     opts: PushOptions,
     result: PushResult,
-    announce: Callable[[PlannedWrite[Any]], None],
+    announce: Callable[[PlannedWrite[K]], None],
 ) -> None:
     """Make each write of ``the_plan`` in turn, each checked against the window, the
     robot's state and what the robot holds, and read back; ``result`` says what was
@@ -94,7 +93,7 @@ def write_all(
     is made."""
     tunable = family.catalogue.live_tuning
 
-    def live(write: PlannedWrite[Any]) -> bool:
+    def live(write: PlannedWrite[K]) -> bool:
         return opts.allow_live_tuning and write.key.kind in tunable and not write.unsafe
 
     if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
@@ -108,14 +107,14 @@ def write_all(
 
 
 def _write_one(
-    family: AnyFamily,
-    driver: Driver[Any, Any],
+    family: Family[K, D],
+    driver: Driver[K, D],
     robot: Robot,
-    write: PlannedWrite[Any],
+    write: PlannedWrite[K],
     opts: PushOptions,
     result: PushResult,
-    live: Callable[[PlannedWrite[Any]], bool],
-    announce: Callable[[PlannedWrite[Any]], None],
+    live: Callable[[PlannedWrite[K]], bool],
+    announce: Callable[[PlannedWrite[K]], None],
 ) -> None:
     """One write: refused when the robot no longer holds what the plan was made
     from, outside the window, or (unless ``live``) when the robot is not idle;
@@ -157,11 +156,11 @@ def _write_one(
 
 
 def _idle_at_end(
-    family: AnyFamily,
-    driver: Driver[Any, Any],
+    family: Family[K, D],
+    driver: Driver[K, D],
     robot: Robot,
     result: PushResult,
-    live: Callable[[PlannedWrite[Any]], bool],
+    live: Callable[[PlannedWrite[K]], bool],
 ) -> None:
     """The last write that needed an idle robot had no status read after it: one more
     tells whether the robot was started between the read before it and its arrival (no
@@ -179,13 +178,13 @@ def _idle_at_end(
 
 
 def _last_guarded(
-    result: PushResult, live: Callable[[PlannedWrite[Any]], bool]
-) -> PlannedWrite[Any] | None:
+    result: PushResult, live: Callable[[PlannedWrite[K]], bool]
+) -> PlannedWrite[K] | None:
     """The last write made that needed an idle robot (the last one a status read cleared)."""
     return next((w for w in reversed(result.written) if not live(w)), None)
 
 
-def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite[Any]], bool]) -> str:
+def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite[K]], bool]) -> str:
     """What an operator must check when the robot turned out started mid-push."""
     last = _last_guarded(result, live)
     if last is None:
