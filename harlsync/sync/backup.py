@@ -31,7 +31,7 @@ from typing import Any
 from ..errors import HarlsyncError, ProjectError, SyncError
 from ..link.lock import LockTimeout
 from ..project.lock import holder, lock_path, project_lock
-from . import backupref, git, history, nightly, states
+from . import backupcommit, backupref, git, history, states
 from .backupreport import BackupReport, output_problems, run_hook, write_metrics
 from .robotbackup import (
     BackupWatch,
@@ -180,7 +180,7 @@ def _run(
     projects = find_projects(paths)
     # Pushes made from other clones moved their deployed refs there: fetched first,
     # so that tonight's comparison credits them.
-    fetched = nightly.fetch_deployed(projects[0]) if push and projects else None
+    fetched = backupcommit.fetch_deployed(projects[0]) if push and projects else None
     outcomes = fleet.read_lines(
         projects,
         fleet.Task(attempts, lock_timeout, clock),
@@ -260,7 +260,7 @@ def _commit_run(
         try:
             # The robots' own states; the branch only for what was committed on it
             # (robots pulled into their directories), or in a plant without them.
-            if not nightly.push_refs(projects[0]) or legacy:
+            if not backupcommit.push_refs(projects[0]) or legacy:
                 git.push(projects[0])
             report.pushed = True
         except HarlsyncError as exc:
@@ -271,7 +271,7 @@ def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
     """Commit what the robots in git were read to hold on the backup branch (the
     approved branch and working tree untouched), and record where it is."""
     try:
-        new, said = nightly.commit_observed(
+        new, said = backupcommit.commit_observed(
             [(Path(o.path), o.kept, o.compared) for o in kept if o.kept is not None],
             report.commit_message(),
         )

@@ -10,7 +10,7 @@ Per robot (in a worker process, :func:`read_robot`)::
          --> against the last observed (harlsync/backup): what changed tonight
          --> against approved (HEAD) and deployed (its ref): pending and drift
 
-Once for the run (in the process that started it, :func:`commit_observed`)::
+Once for the run (in the process that started it, :func:`.backupcommit.commit_observed`)::
 
     harlsync/backup's tree, each robot read replaced --> write-tree --> commit-tree
     --> update-ref refs/heads/harlsync/backup; a robot with no deployed ref yet gets
@@ -29,33 +29,23 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from functools import partial
 from pathlib import Path
-from typing import Any, TypedDict
+from typing import Any, Generic
 
-from ..errors import HarlsyncError, PolicyError, ProjectError, ProjectInvalid, SyncError
-from ..families.base import AnyFamily, Catalogue, Progress
+from ..errors import PolicyError, ProjectError, ProjectInvalid, SyncError
+from ..families.base import Catalogue, D, Family, K, Progress
 from ..project import load_robot
 from ..project.robot import Robot
 from ..project.store import SCHEMAS_DIR
 from . import backupref, git, history, states
-from .backupref import Entry, RefUpdate
+from .backupcommit import Kept
+from .backupref import Entry
 from .items import Change, diff, diff_items
 from .live import LiveRead, read_live
 from .pulling import PullResult, pull
 
-__all__ = ["Kept", "Observed", "commit_observed", "fetch_deployed", "push_refs", "read_robot"]
+__all__ = ["Observed", "read_robot"]
 
 log = logging.getLogger(__name__)
-
-
-class Kept(TypedDict):
-    """What the run commits of one robot's read, as JSON (it crosses from a worker
-    process): its repository, its project's place there, its files as
-    ``{path: [mode, blob]}`` and what to set up as deployed (None: nothing)."""
-
-    root: str
-    where: str
-    files: dict[str, list[str]]
-    setup: str | None
 
 
 @dataclass
@@ -106,7 +96,7 @@ def _observe(
     *,
     lock_timeout: float,
     progress: Progress | None = None,
-    family: AnyFamily,
+    family: Family[K, D],
     connect_options: Mapping[str, bool] | None = None,
     noted: Callable[[str], None] | None = None,
 ) -> Observed:
@@ -117,7 +107,9 @@ def _observe(
     robot = load_robot(path, family)
     things = family.catalogue
     tip = backupref.commit_of(root, backupref.BACKUP_REF)
-    seen = _Observing(path, root, where, head, _last_observed(root, path, where, tip, head))
+    seen: _Observing[D] = _Observing(
+        path, root, where, head, _last_observed(root, path, where, tip, head)
+    )
     read = seen.read(family, robot, progress, lock_timeout, connect_options, noted)
     live = read.live
     seen.accepted(lambda data: _same_robot(path, things, data, live, read.driver.label))
@@ -148,7 +140,7 @@ def _observe(
 
 
 @dataclass
-class _Observing:
+class _Observing(Generic[D]):
     """One robot's read in a nightly backup: the projects it is held to, at the commit
     last observed (``last``) and the approved one (``head``), each loaded once a tree."""
 
@@ -157,9 +149,9 @@ class _Observing:
     where: str
     head: str
     last: str
-    loaded: dict[str, Any] = field(default_factory=dict)
+    loaded: dict[str, D | None] = field(default_factory=dict)
 
-    def data_at(self, commit: str) -> Any:
+    def data_at(self, commit: str) -> D | None:
         """The project at ``commit`` (None: it does not load), read once a tree."""
         tree = backupref.project_tree(self.root, commit, self.where) or commit
         if tree not in self.loaded:
@@ -170,7 +162,7 @@ class _Observing:
                 self.loaded[tree] = None
         return self.loaded[tree]
 
-    def accepted(self, check: Callable[[Any], object]) -> None:
+    def accepted(self, check: Callable[[D], object]) -> None:
         """``check`` against the robot last observed; failing, against the approved
         one: a robot an engineer accepted (``pull --new-robot``, committed) is it."""
         try:
@@ -185,19 +177,19 @@ class _Observing:
 
     def read(
         self,
-        family: AnyFamily,
+        family: Family[K, D],
         robot: Robot,
         progress: Progress | None,
         lock_timeout: float,
         connect_options: Mapping[str, bool] | None,
         noted: Callable[[str], None] | None,
-    ) -> LiveRead[Any, Any]:
+    ) -> LiveRead[K, D]:
         """Everything the robot holds, its identity checked first where the family
         tells it, held to what the last backup found (issue 29)."""
         from .pulling import _identity_differs, _not_this_robot, _record_notes
 
         def same_identity(now: Mapping[str, str], where_read: str) -> None:
-            def check(data: Any) -> None:
+            def check(data: D) -> None:
                 differ = _identity_differs(family.catalogue.robot_identity(data), now)
                 if differ:
                     raise _not_this_robot(self.path, where_read, differ)
@@ -250,7 +242,7 @@ def _last_observed(root: Path, path: Path, where: str, tip: str | None, head: st
     return head
 
 
-def _files(path: Path, family: AnyFamily, robot: Any, live: Any) -> dict[str, bytes]:
+def _files(path: Path, family: Family[K, D], robot: Robot, live: D) -> dict[str, bytes]:
     """The project's files as a save would write them of ``live``, robot.yaml as the
     work tree has it (a person's file).  Raises ProjectInvalid as a save does."""
     texts = family.render_files(robot, live)
@@ -270,9 +262,9 @@ def _standing(
     where: str,
     head: str,
     tip: str | None,
-    things: Catalogue[Any, Any],
-    live: Any,
-    data_at: Callable[[str], Any],
+    things: Catalogue[K, D],
+    live: D,
+    data_at: Callable[[str], D | None],
     now: str,
 ) -> tuple[states.Standing, str | None]:
     """The robot's three states compared, and the deployed ref to set up (None: it
@@ -286,17 +278,20 @@ def _standing(
         )
         return standing, None
     deployed_commit, how = states.deployed_commit(root, path, where)
-    deployed = data_at(deployed_commit) if deployed_commit is not None else None
+    was = data_at(deployed_commit) if deployed_commit is not None else None
     setup: str | None = None
-    if deployed_commit is None or deployed is None:
+    if deployed_commit is None or was is None:
         setup, deployed = _take_as_deployed(standing, where, head, things, live, approved)
-    elif how != backupref.deployed_ref(where):
-        setup = deployed_commit
-        standing.notes.append(
-            f"set up {backupref.deployed_ref(where)}: the last backup commit {deployed_commit[:10]} "
-            f"({states.date_of(backupref.commit_time(root, deployed_commit))}, made before "
-            "backups were kept apart from the approved branch) is taken as deployed"
-        )
+    else:
+        deployed = was
+        if how != backupref.deployed_ref(where):
+            setup = deployed_commit
+            standing.notes.append(
+                f"set up {backupref.deployed_ref(where)}: the last backup commit "
+                f"{deployed_commit[:10]} "
+                f"({states.date_of(backupref.commit_time(root, deployed_commit))}, made before "
+                "backups were kept apart from the approved branch) is taken as deployed"
+            )
     standing.deployed = deployed_commit if setup is None else (setup or None)
     pending, drift = states.classify(things, approved, deployed, live)
     _first_seen(standing, path, head, tip, things, pending, drift)
@@ -307,10 +302,10 @@ def _take_as_deployed(
     standing: states.Standing,
     where: str,
     head: str,
-    things: Catalogue[Any, Any],
-    live: Any,
-    approved: Any,
-) -> tuple[str, Any]:
+    things: Catalogue[K, D],
+    live: D,
+    approved: D,
+) -> tuple[str, D]:
     """What a robot with no deployed state known is taken to hold from its last push:
     the approved commit when it matches it, else what it holds now (``""``); said in
     ``standing``'s notes."""
@@ -335,9 +330,9 @@ def _first_seen(
     path: Path,
     head: str,
     tip: str | None,
-    things: Catalogue[Any, Any],
-    pending: list[Change[Any]],
-    drift: list[Change[Any]],
+    things: Catalogue[K, D],
+    pending: list[Change[K]],
+    drift: list[Change[K]],
 ) -> None:
     """Each pending and drifted item in ``standing``, with when it was first seen (the
     last standing's, else the backup commit that brought it, else now) and, pending,
@@ -376,131 +371,3 @@ def _first_seen(
             else None
         )
         standing.pending.append(states.Seen(change.name, kept.first_seen if kept else now, by))
-
-
-def commit_observed(
-    observed: list[tuple[Path, Kept, states.Standing | None]],
-    message: str,
-) -> tuple[str | None, list[str]]:
-    """Commit what each robot's backup read (``(project, kept, standing)``, as
-    :meth:`Observed.kept` gives it) on the backup branch, and set up the deployed
-    ref of each robot that has none: the new commit (None: the branch already holds
-    all of it) and what was set up, a line each.  Raises SyncError: the projects
-    are not in one repository, or git fails (then no ref moved)."""
-    roots = {kept["root"] for _, kept, _ in observed}
-    if len(roots) != 1:
-        raise SyncError(
-            f"{', '.join(str(p) for p, _, _ in observed)}: not inside one git repository; "
-            "back each repository up on its own"
-        )
-    root = Path(roots.pop())
-    tip = backupref.commit_of(root, backupref.BACKUP_REF)
-    head = backupref.commit_of(root, "HEAD")
-    base = tip or head
-    files = backupref.entries(root, base)
-    for _, kept, _ in observed:
-        where = kept["where"]
-        prefix = f"{where}/" if where else ""
-        files = {n: e for n, e in files.items() if not n.startswith(prefix)}
-        files.update({prefix + n: Entry(*e) for n, e in kept["files"].items()})
-    tree = backupref.write_tree(root, files)
-    said: list[str] = []
-    new: str | None = None
-    if base is None or tree != backupref.project_tree(root, base, ""):
-        new = backupref.make_commit(root, tree, [base] if base else [], message)
-    moved = new or (head if tip is None else None)  # every robot as approved: from HEAD
-    if moved is not None:
-        backupref.update_refs(
-            root, [RefUpdate(backupref.BACKUP_REF, moved, tip)], "harlsync backup"
-        )
-        if tip is None:
-            said.append(
-                f"set up: the branch {backupref.BACKUP_BRANCH} keeps what each backup reads, "
-                f"from {moved[:10]} on; the approved branch and the working tree are left alone"
-            )
-    held = moved or tip
-    for path, kept, _ in observed:
-        if kept.get("setup") is None:
-            continue
-        try:
-            _set_up_deployed(root, path, kept, held)
-        except HarlsyncError as exc:
-            said.append(f"{path.name}: its deployed ref was not set up: {exc}")
-    return new, said
-
-
-def _set_up_deployed(root: Path, path: Path, kept: Kept, observed: str | None) -> None:
-    """Make the deployed ref of a robot that has none, holding what its backup took
-    as deployed (its standing's note says what)."""
-    where = kept["where"]
-    source = kept["setup"] or observed
-    if source is None:
-        raise SyncError("nothing holds what was read")
-    prefix = f"{where}/" if where else ""
-    tree = backupref.write_tree(
-        root, {prefix + n: e for n, e in backupref.entries(root, source, where).items()}
-    )
-    ref = backupref.deployed_ref(where)
-    name = load_robot_name(path)
-    commit = backupref.make_commit(
-        root,
-        tree,
-        [source],
-        f"deployed: {name}: set up by its first backup under the three-state model\n\n"
-        f"What the robot was taken to hold from its last push: commit {source[:10]}.\n",
-    )
-    backupref.update_refs(root, [RefUpdate(ref, commit, None)], "harlsync backup: set up")
-
-
-def load_robot_name(path: Path) -> str:
-    try:
-        return load_robot(path).name
-    except HarlsyncError:
-        return path.name
-
-
-def remote_of(root: Path) -> str | None:
-    """The remote of the branch checked out (its upstream's), else ``origin`` when
-    there is one, else None."""
-    branch = git.run(root, "symbolic-ref", "--quiet", "--short", "HEAD", ok=(0, 1)).strip()
-    if branch:
-        remote = git.run(root, "config", f"branch.{branch}.remote", ok=(0, 1)).strip()
-        if remote:
-            return remote
-    remotes = git.run(root, "remote").split()
-    return "origin" if "origin" in remotes else (remotes[0] if len(remotes) == 1 else None)
-
-
-def push_refs(path: Path) -> bool:
-    """Push the backup branch and every deployed ref to the remote; whether there was
-    any.  Raises SyncError with git's reason (the local commit is kept: the next run
-    pushes it)."""
-    root = git.repo_root(path)
-    if root is None:
-        raise SyncError(f"{path}: not inside a git repository")
-    specs = []
-    if backupref.commit_of(root, backupref.BACKUP_REF) is not None:
-        specs.append(f"{backupref.BACKUP_REF}:{backupref.BACKUP_REF}")
-    if git.run(root, "for-each-ref", "--count=1", backupref.DEPLOYED).strip():
-        specs.append(f"{backupref.DEPLOYED}*:{backupref.DEPLOYED}*")
-    if not specs:
-        return False
-    remote = remote_of(root)
-    if remote is None:
-        raise SyncError(f"{root}: no git remote to push to; add one (git remote add origin URL)")
-    git.run(root, "push", "--quiet", remote, *specs)
-    return True
-
-
-def fetch_deployed(path: Path) -> str | None:
-    """Fetch the deployed refs the remote has (pushes made from other clones), each
-    only where it moves forward; what went wrong, or None."""
-    root = git.repo_root(path)
-    remote = remote_of(root) if root is not None else None
-    if root is None or remote is None:
-        return None
-    try:
-        git.run(root, "fetch", "--quiet", remote, f"{backupref.DEPLOYED}*:{backupref.DEPLOYED}*")
-    except HarlsyncError as exc:
-        return f"the deployed refs were not fetched from {remote}: {exc}"
-    return None

@@ -21,7 +21,7 @@ from ..link import lock_key
 from ..project import family_of, load_robot
 from ..project.lock import project_lock
 from ..robotlog import about
-from . import audit, auditindex, history, nightly, states
+from . import audit, auditindex, backupcommit, history, nightly, states
 from .items import summarize
 
 __all__ = [
@@ -79,7 +79,7 @@ class RobotOutcome:
     standing: dict[str, object] | None = None
     #: What the run commits of its read on the backup branch (:meth:`.nightly.Observed.kept`);
     #: None when it was pulled into its directory (not in git, no approved version).
-    kept: nightly.Kept | None = None
+    kept: backupcommit.Kept | None = None
 
     @property
     def compared(self) -> states.Standing | None:
