@@ -10,11 +10,11 @@ from dataclasses import dataclass, field
 from functools import partial
 from operator import attrgetter
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Generic
 
 from .. import lookup
 from ..errors import LinkTimeout, PolicyError, ProjectError
-from ..families.base import AnyFamily, Catalogue, Progress
+from ..families.base import AnyFamily, Catalogue, D, Family, K, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
 from . import git
@@ -198,13 +198,13 @@ def _not_this_family(
 
 
 @dataclass
-class _Pulling:
+class _Pulling(Generic[K, D]):
     """One pull once robot.yaml is read and git asked (``asked``; None:
     ``allow_dirty``): the read, then the save, with what waits for the line to be
     open (git's answer, the backup loaded) done once, when first needed."""
 
     path: Path
-    family: AnyFamily
+    family: Family[K, D]
     robot: Robot
     asked: git.Asked | None
     port: str | None
@@ -212,7 +212,7 @@ class _Pulling:
     new_robot: bool
     earlier: list[str] = field(default_factory=list)
     settled: bool = False
-    loaded: list[Any] = field(default_factory=list)
+    loaded: list[D | None] = field(default_factory=list)
     #: the backup's files, as loaded
     read_from: dict[str, bytes] = field(default_factory=dict)
 
@@ -233,7 +233,7 @@ class _Pulling:
                     f"'harlsync pull {self.path} --allow-dirty'"
                 )
 
-    def backup(self) -> Any:
+    def backup(self) -> D | None:
         """The backup in ``path`` (None: none), loaded once the line is open: the
         first request need not wait for it (issue 15)."""
         if not self.loaded:
@@ -256,7 +256,7 @@ class _Pulling:
             if differ:
                 raise _not_this_robot(self.path, where, differ)
 
-    def recorded(self) -> Any:
+    def recorded(self) -> D | None:
         """What the backup recorded of the robot for the read to hold it to; nothing
         for a new robot, which may answer otherwise."""
         self.settle()
@@ -268,7 +268,7 @@ class _Pulling:
         lock_timeout: float,
         connect_options: Mapping[str, bool] | None,
         noted: Callable[[str], None] | None,
-    ) -> LiveRead[Any, Any]:
+    ) -> LiveRead[K, D]:
         """Everything the robot holds, a dirty project refused before anything is
         sent (or, for a family that cannot tell its identity first, after the read)."""
         if self.family.connect_writes:  # a dirty project refused before anything is sent
@@ -292,7 +292,7 @@ class _Pulling:
         self.settle()  # a family that cannot tell its identity first: after the read
         return read
 
-    def save(self, read: LiveRead[Any, Any], *, commit: bool, discard_pending: bool) -> PullResult:
+    def save(self, read: LiveRead[K, D], *, commit: bool, discard_pending: bool) -> PullResult:
         """Save what was read as the backup, once it looks like the robot backed up
         here, and record (and, with ``commit``, commit) the pull."""
         from ..project.store import Project, save_project
@@ -325,7 +325,7 @@ class _Pulling:
         return result
 
 
-def _refuse_pending(path: Path, things: Catalogue[Any, Any], live: Any) -> None:
+def _refuse_pending(path: Path, things: Catalogue[K, D], live: D) -> None:
     """Raise PolicyError when the project holds approved changes not yet on the
     robot, which the pull would overwrite."""
     from .policy import listed
@@ -414,8 +414,8 @@ FEW_ITEMS = 10
 
 
 def _same_robot(
-    path: Path, things: Catalogue[Any, Any], backup: Any, live: Any, where: str
-) -> list[Change[Any]]:
+    path: Path, things: Catalogue[K, D], backup: D, live: D, where: str
+) -> list[Change[K]]:
     """Raise PolicyError unless the controller read (``live``) looks like the robot
     backed up in ``path``: the same identity (the family's: version, configuration,
     model), nothing else the family tells from a whole read
@@ -434,7 +434,7 @@ def _same_robot(
     if not differ:  # what only a whole read tells (IAI: a table's "not there" reply)
         why = things.other_robot(live, backup)
         differ = [why] if why is not None else []
-    changes: list[Change[Any]] = []
+    changes: list[Change[K]] = []
     if not differ:
         was, now = things.items(backup, registers=False), things.items(live, registers=False)
         changes = diff_items(things, was, now)
