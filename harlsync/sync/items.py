@@ -75,7 +75,7 @@ def _triples(changes: Iterable[Change[K]]) -> list[Change3[K]]:
     return [(c.key, c.old, c.new) for c in changes]
 
 
-def summarize(catalogue: Catalogue[K, Any], changes: Iterable[Change[K]]) -> dict[str, int]:
+def summarize(catalogue: Catalogue[K, D], changes: Iterable[Change[K]]) -> dict[str, int]:
     """How much changed, in the family's units."""
     return catalogue.counts(_triples(changes))
 

@@ -25,7 +25,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
 
 from ..errors import ControllerError, LinkTimeout, ProjectError, ProtocolError
 from ..families.base import AnyFamily, Survey
@@ -226,7 +225,7 @@ def report(found: Probed) -> list[str]:
     return lines
 
 
-def to_json(found: Probed) -> dict[str, Any]:
+def to_json(found: Probed) -> dict[str, object]:
     """The findings as ``--json`` prints them."""
     s = found.survey
     return {

@@ -103,8 +103,8 @@ def compare_versions(
             f"{path}: {a.label} is a {a.project.family.name} robot and {b.label} a "
             f"{b.project.family.name} one: nothing to compare item by item"
         )
-    found: Any = b.project.family.catalogue
-    return a, b, diff(found, a.project.data, b.project.data, registers=registers)
+    things = b.project.family.catalogue
+    return a, b, diff(things, a.project.data, b.project.data, registers=registers)
 
 
 def snapshot_path(path: str | Path, given: str) -> Path:
