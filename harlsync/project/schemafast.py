@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from decimal import Decimal
-from typing import Any
 
 from .yamlio import Number
 
@@ -55,7 +53,10 @@ def _other_number(value: object) -> bool:
 
 
 def compile_check(
-    schema: object, root: Mapping[str, Any], formats: Mapping[str, re.Pattern[str]], depth: int = 0
+    schema: object,
+    root: Mapping[str, object],
+    formats: Mapping[str, re.Pattern[str]],
+    depth: int = 0,
 ) -> Check | None:
     """A check of ``schema`` (``root`` resolves ``$ref``) that passes an instance only
     when jsonschema, with harlsync's types and formats, would find no error in it: it
@@ -75,8 +76,9 @@ def compile_check(
     leaf = _text_leaf(rules) or _number_leaf(rules, formats)
     if leaf is not None:  # the commonest leaves, in one test each
         return leaf
+    scope = _Scope(schema, root, formats, depth)
     if rules.get("type") in ("array", "object") and rules.keys() <= _COLLECTION:
-        return _collection(rules, schema, root, formats, depth)
+        return _collection(rules, scope)
     if rules.keys() == {"pattern"}:  # a property name, always text
         name = re.compile(rules["pattern"])
         return lambda v: not isinstance(v, str) or name.search(v) is not None
@@ -84,7 +86,7 @@ def compile_check(
     for keyword, value in schema.items():
         if keyword in _ANNOTATIONS:
             continue
-        check = _keyword(keyword, value, schema, root, formats, depth)
+        check = _keyword(keyword, value, scope)
         if check is None:
             return None
         checks.append(check)
@@ -111,7 +113,7 @@ def _every(checks: list[Check]) -> Check:
     return every
 
 
-def _text_leaf(rules: Mapping[str, Any]) -> Check | None:
+def _text_leaf(rules: Mapping[str, object]) -> Check | None:
     """``type`` (text, or text or other scalar types) with a ``pattern``, in one test:
     a step (text or null), a token (text or a number).  None for any other rules."""
     if rules.keys() != {"type", "pattern"} or not isinstance(rules["pattern"], str):
@@ -133,7 +135,9 @@ def _text_leaf(rules: Mapping[str, Any]) -> Check | None:
     )
 
 
-def _number_leaf(rules: Mapping[str, Any], formats: Mapping[str, re.Pattern[str]]) -> Check | None:
+def _number_leaf(
+    rules: Mapping[str, object], formats: Mapping[str, re.Pattern[str]]
+) -> Check | None:
     """``type`` number or integer with any of ``format`` and the four limits, in one
     test (a coordinate, an offset, a timer: most values of a file): once the value is
     a :class:`Number`, each keyword's test of another type falls away.  None for any
@@ -141,11 +145,16 @@ def _number_leaf(rules: Mapping[str, Any], formats: Mapping[str, re.Pattern[str]
     kind = rules.get("type")
     if kind not in ("number", "integer") or not rules.keys() <= _NUMBER_LEAF:
         return None
-    limits = {k: v for k, v in rules.items() if k in _LIMITS}
-    if any(isinstance(v, bool) or not isinstance(v, (int, Decimal)) for v in limits.values()):
+    limits: dict[str, int | Decimal] = {
+        k: v
+        for k, v in rules.items()
+        if k in _LIMITS and isinstance(v, (int, Decimal)) and not isinstance(v, bool)
+    }
+    if len(limits) != len(rules.keys() & _LIMITS):  # a limit that is no number
         return None
     integral = kind == "integer"
-    exact = formats.get(rules["format"]) if "format" in rules else None
+    given = rules.get("format")
+    exact = formats.get(given) if isinstance(given, str) else None
     low, high = limits.get("minimum"), limits.get("maximum")
     above, below = limits.get("exclusiveMinimum"), limits.get("exclusiveMaximum")
 
@@ -170,32 +179,31 @@ _COLLECTION = frozenset(
 )
 
 
-def _collection(
-    rules: Mapping[str, Any],
-    schema: Mapping[str, Any],
-    root: Mapping[str, Any],
-    formats: Mapping[str, re.Pattern[str]],
-    depth: int,
-) -> Check | None:
+def _collection(rules: Mapping[str, object], scope: _Scope) -> Check | None:
     """``type`` array or object with its own keywords, in one function: the type
     tested once, the sizes and the required names there, each other keyword's own
     check after (a position, its axes and coordinates: thousands in a file)."""
     kind = rules["type"]
-    wanted = {"array": ("minItems", "maxItems", "uniqueItems", "items")}.get(
-        kind, ("required", "properties", "additionalProperties")
+    wanted = (
+        ("minItems", "maxItems", "uniqueItems", "items")
+        if kind == "array"
+        else ("required", "properties", "additionalProperties")
     )
     if not rules.keys() - {"type"} <= set(wanted):
         return None
-    sizes = [rules.get("minItems"), rules.get("maxItems")]
-    if any(n is not None and (isinstance(n, bool) or not isinstance(n, int)) for n in sizes):
+    given = [rules.get("minItems"), rules.get("maxItems")]
+    sizes = [n if isinstance(n, int) and not isinstance(n, bool) else None for n in given]
+    if sizes != given:  # a size that is no whole number
         return None
     fewest, most = sizes
     required = rules.get("required")
+    if required is not None and not isinstance(required, list):
+        return None
     names = frozenset(required) if required is not None else None
     checks = []
     for keyword in ("uniqueItems", "items", "properties", "additionalProperties"):
         if keyword in rules:
-            check = _keyword(keyword, rules[keyword], schema, root, formats, depth)
+            check = _keyword(keyword, rules[keyword], scope)
             if check is None:
                 return None
             checks.append(check)
@@ -229,35 +237,31 @@ _LIMITS = frozenset({"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum
 _NUMBER_LEAF = _LIMITS | {"type", "format"}
 
 
-@dataclass(frozen=True)
 class _Scope:
     """Where a keyword is compiled: its schema, the root ``$ref`` resolves in, the
     family's formats and the depth of nesting."""
 
-    schema: Mapping[str, Any]
-    root: Mapping[str, Any]
-    formats: Mapping[str, re.Pattern[str]]
-    depth: int
+    __slots__ = ("depth", "formats", "root", "schema")
+
+    def __init__(
+        self,
+        schema: Mapping[str, object],
+        root: Mapping[str, object],
+        formats: Mapping[str, re.Pattern[str]],
+        depth: int,
+    ) -> None:
+        self.schema, self.root, self.formats, self.depth = schema, root, formats, depth
 
     def sub(self, subschema: object) -> Check | None:
         """The check of a schema inside this one."""
         return compile_check(subschema, self.root, self.formats, self.depth + 1)
 
 
-def _keyword(
-    keyword: str,
-    value: object,
-    schema: Mapping[str, Any],
-    root: Mapping[str, Any],
-    formats: Mapping[str, re.Pattern[str]],
-    depth: int,
-) -> Check | None:
-    """The check of one keyword of ``schema``; None for a keyword (or a value of
-    it) this does not know."""
+def _keyword(keyword: str, value: object, scope: _Scope) -> Check | None:
+    """The check of one keyword of ``scope``'s schema; None for a keyword (or a value
+    of it) this does not know."""
     build = _KEYWORDS.get(keyword)
-    if build is None:
-        return None
-    return build(keyword, value, _Scope(schema, root, formats, depth))
+    return None if build is None else build(keyword, value, scope)
 
 
 def _type(keyword: str, value: object, scope: _Scope) -> Check | None:
@@ -375,7 +379,10 @@ def _properties(keyword: str, value: object, scope: _Scope) -> Check | None:
 def _additional(keyword: str, value: object, scope: _Scope) -> Check | None:
     if "patternProperties" in scope.schema:
         return None
-    known = frozenset(scope.schema.get("properties", ()))
+    properties = scope.schema.get("properties", {})
+    if not isinstance(properties, dict):
+        return None
+    known = frozenset(properties)
     if value is False:
         return lambda v: not isinstance(v, dict) or all(name in known for name in v)
     extra = scope.sub(value)
@@ -404,7 +411,8 @@ def _property_names(keyword: str, value: object, scope: _Scope) -> Check | None:
 def _ref(keyword: str, value: object, scope: _Scope) -> Check | None:
     if not isinstance(value, str) or not value.startswith("#/$defs/"):
         return None
-    target = scope.root.get("$defs", {}).get(value[len("#/$defs/") :])
+    defs = scope.root.get("$defs", {})
+    target = defs.get(value[len("#/$defs/") :]) if isinstance(defs, dict) else None
     return None if target is None else scope.sub(target)
 
 
