@@ -397,7 +397,7 @@ def audit_user() -> str:
     return f"{record.user}@{record.host}"
 
 
-def mark_reverts(path: Path, live: Any, plan: Plan[K]) -> Plan[K]:
+def mark_reverts(path: Path, live: object, plan: Plan[K]) -> Plan[K]:
     """``plan`` (made from the robot ``live``) with :attr:`Plan.reverts` filled in
     from :func:`reverts`; the same plan."""
     found = reverts(path, plan_catalogue(plan), live, plan.items) if plan.items else {}
