@@ -30,11 +30,13 @@ import time
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol, TextIO
+from typing import TYPE_CHECKING, NoReturn, Protocol, TextIO
 
 from .robotlog import RobotFilter
 
 if TYPE_CHECKING:
+    from tqdm import tqdm
+
     from .sync.robotbackup import RobotOutcome
 
 __all__ = [
@@ -153,7 +155,7 @@ class Feedback:
         self.what = what
         self.started = time.monotonic()
         self.exchanges = 0
-        self._bar: Any = None
+        self._bar: tqdm[NoReturn] | None = None
         self._drawn = False
         self._finished = False
         self._off_terminal = False  # stderr is no terminal: asked once, not per exchange

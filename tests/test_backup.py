@@ -328,16 +328,16 @@ def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(plant: Plant, caps
 
 
 def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeypatch) -> None:
-    from harlsync.sync import backup as backup_module
+    from harlsync.sync import nightly
 
-    real = backup_module.nightly.read_robot
+    real = nightly.read_robot
 
     def broken_for_the_loader(path: Path, **kwargs: object):  # type: ignore[no-untyped-def]
         if Path(path).name == "loader":
             raise RuntimeError("termios.error(5, 'Input/output error')")
         return real(path, **kwargs)
 
-    monkeypatch.setattr(backup_module.nightly, "read_robot", broken_for_the_loader)
+    monkeypatch.setattr(nightly, "read_robot", broken_for_the_loader)
     # The bug is patched into this process: a worker process would not have it.
     report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1, workers=1)
     outcome = {r.name: r for r in report.robots}

@@ -23,7 +23,7 @@ from serial.urlhandler.protocol_spy import FormatHexdump
 __all__ = ["Spied", "recording", "spied"]
 
 _lock = threading.Lock()
-_dump: list[Any] = []
+_dump: list[FormatHexdump] = []
 
 
 @contextmanager
@@ -45,7 +45,7 @@ def recording(path: Path) -> Iterator[None]:
 class Spied:
     """An open port whose reads and writes go to a hex dump as well."""
 
-    def __init__(self, port: Any, dump: Any) -> None:
+    def __init__(self, port: Any, dump: FormatHexdump) -> None:
         self._port = port
         self._dump = dump
 

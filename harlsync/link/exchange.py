@@ -106,7 +106,7 @@ from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
 from .port import SerialPort, describe, direct_fd, fileno, gone_hint, open_port
 from .readonly import refuse_write
-from .received import Failure, LinkStats, Received, hex_line
+from .received import Failure, LinkStats, Received, hex_line, missed
 
 __all__ = ["Link", "LinkStats"]
 
@@ -297,25 +297,32 @@ class Link(Received[F]):
                 self.stats.timeouts += 1
                 count, due = self._owed.get(st, (0, 0.0))
                 self._owed[st] = (count + 1, max(due, due_by))
-            if request.is_write:
-                self.stats.unconfirmed_writes += 1
-                self._note(logging.WARNING, st, command, f"write unconfirmed: {failure.reason}")
-                raise WriteUnconfirmed(
-                    f"no valid reply to this write ({failure.reason}); it may or may not have "
-                    "taken: read the item back before sending it again",
-                    port=self.url,
-                    station=st,
-                    station_text=self.codec.station_text(st),
-                    command=command,
-                ) from failure.cause
-            raise LinkTimeout(
-                f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
-                f"{self.codec.no_reply_hint(st)}",
+            raise self._gave_up(request.is_write, st, command, attempts, failure) from failure.cause
+
+    def _gave_up(
+        self, is_write: bool, st: int, command: str, attempts: int, failure: Failure
+    ) -> LinkError:
+        """The error of an exchange that got no valid reply after ``attempts``: a
+        write's (never re-sent, so it may or may not have taken), else a timeout."""
+        if is_write:
+            self.stats.unconfirmed_writes += 1
+            self._note(logging.WARNING, st, command, f"write unconfirmed: {failure.reason}")
+            return WriteUnconfirmed(
+                f"no valid reply to this write ({failure.reason}); it may or may not have "
+                "taken: read the item back before sending it again",
                 port=self.url,
                 station=st,
                 station_text=self.codec.station_text(st),
                 command=command,
-            ) from failure.cause
+            )
+        return LinkTimeout(
+            f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
+            f"{self.codec.no_reply_hint(st)}",
+            port=self.url,
+            station=st,
+            station_text=self.codec.station_text(st),
+            command=command,
+        )
 
     @property
     def _write_timeout(self) -> float:
@@ -455,7 +462,7 @@ class Link(Received[F]):
         """The decoded reply, read as it comes, or a :class:`Failure` once ``timeout``
         has passed."""
         deadline = time.monotonic() + timeout
-        failure = Failure(f"no reply within {_within(timeout, self.settings.timeout)}")
+        failure = Failure(f"no reply within {missed(timeout, self.settings.timeout)}")
         command = request.payload
         shown = self.codec.station_text(station)
         while True:
@@ -486,12 +493,3 @@ class _Reply(Generic[T]):
     """The value an attempt got (a reply may decode to None, so it is wrapped)."""
 
     value: T
-
-
-def _within(timeout: float, configured: float) -> str:
-    """The deadline a reply missed, as configured (``0.5 s``), and the time the
-    codec added for a reply long on the wire, if any."""
-    extra = timeout - configured
-    return f"{seconds(configured)} s" + (
-        f" (+{extra:.3f} s for its time on the wire)" if extra >= 0.0005 else ""
-    )

@@ -24,9 +24,18 @@ from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
 from ..errors import LinkError, ProtocolError
+from ..settings import seconds
 from .codec import Codec, Decoder, Frame
 
-__all__ = ["MAX_REASONS", "UNREQUESTED_LIMIT", "Failure", "LinkStats", "Received", "hex_line"]
+__all__ = [
+    "MAX_REASONS",
+    "UNREQUESTED_LIMIT",
+    "Failure",
+    "LinkStats",
+    "Received",
+    "hex_line",
+    "missed",
+]
 
 log = logging.getLogger(__name__)
 
@@ -77,6 +86,15 @@ class Failure:
 
     reason: str
     cause: ProtocolError | None = None
+
+
+def missed(timeout: float, configured: float) -> str:
+    """The deadline a reply missed, as configured (``0.5 s``), and the time the
+    codec added for a reply long on the wire, if any."""
+    extra = timeout - configured
+    return f"{seconds(configured)} s" + (
+        f" (+{extra:.3f} s for its time on the wire)" if extra >= 0.0005 else ""
+    )
 
 
 F = TypeVar("F", bound=Frame)

@@ -13,7 +13,9 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
+
+from yaml.nodes import MappingNode, Node, SequenceNode
 
 from ..settings import SerialSettings
 from . import yamlio as y
@@ -59,6 +61,8 @@ class MigrationError(ValueError):
         self.problems = list(problems)
 
 
+V = TypeVar("V")
+
 _DIGITS = re.compile(r"[0-9]+")
 _INTEGER = re.compile(r"[-+]?[0-9]+")
 #: Stands for a numbered key too long to be any item (and to convert with int()).
@@ -77,7 +81,7 @@ class FileSet:
         self,
         kind: str,
         path: str,
-        items: Iterable[tuple[str, Any]],
+        items: Iterable[tuple[str, Node]],
         comments: Mapping[str, str] | None = None,
     ) -> str:
         """A file's text: the schema comment, ``format:``, then ``items``; each
@@ -196,7 +200,7 @@ class Flaws:
             for field in self.fields
         )
 
-    def number(self, *path: str | int, data: Any) -> int | None:
+    def number(self, *path: str | int, data: object) -> int | None:
         """The whole number at ``path`` of ``data`` when it is sound, else None."""
         if not self.sound(*path):
             return None
@@ -281,12 +285,12 @@ def unique(issues: list[Issue], order: Sequence[str]) -> list[Issue]:
     return sorted(out, key=lambda i: (rank.get(i.file, len(rank)), i.file, i.line or 0))
 
 
-def numbered(values: Mapping[int, Any], node: Callable[[Any], Any]) -> Any:
+def numbered(values: Mapping[int, V], node: Callable[[V], Node]) -> MappingNode:
     """A mapping keyed by number, in number order."""
     return y.mapping([(y.num(str(n)), node(values[n])) for n in sorted(values)])
 
 
-def numbers(mapping: Any) -> list[tuple[str, int]]:
+def numbers(mapping: object) -> list[tuple[str, int]]:
     """The keys of a numbered mapping that are numbers, as (text, number); the schema
     reports the rest.  A key of more than 9 digits counts as :data:`HUGE`."""
     if not isinstance(mapping, dict):
@@ -303,7 +307,7 @@ def not_canonical(text: str, one: str) -> str:
 
 
 def check_canonical(
-    issue: Callable[..., None], text: str, canonical: Callable[[str], str], *where: Any
+    issue: Callable[..., None], text: str, canonical: Callable[[str], str], *where: object
 ) -> None:
     """Report ``text`` through ``issue(message, *where)`` unless it is in its one
     form: what ``canonical`` makes of it (a ValueError it raises is the message)."""
@@ -323,7 +327,7 @@ def canonical_integer(text: str) -> str:
     return str(int(text))
 
 
-def text_of(value: Any) -> str:
+def text_of(value: object) -> str:
     """A scalar as its exact text (a number as written)."""
     return value.text if isinstance(value, y.Number) else str(value)
 
@@ -336,7 +340,7 @@ def _whole(value: float) -> str:
     return str(int(value)) if float(value).is_integer() else repr(float(value))
 
 
-def serial_items(serial: SerialSettings) -> list[tuple[str, Any]]:
+def serial_items(serial: SerialSettings) -> list[tuple[str, Node]]:
     """The serial settings as robot.yaml's ``connection`` writes them."""
     return [
         ("baudrate", y.num(str(int(serial.baudrate)))),
@@ -350,12 +354,12 @@ def serial_items(serial: SerialSettings) -> list[tuple[str, Any]]:
 
 
 def robot_items(
-    robot: Robot, connection: list[tuple[str, Any]], controller: list[tuple[str, Any]]
-) -> list[tuple[str, Any]]:
+    robot: Robot, connection: Sequence[tuple[str, Node]], controller: Sequence[tuple[str, Node]]
+) -> list[tuple[str, Node]]:
     """robot.yaml's items for a family that names itself: ``family``, ``name``,
     ``description`` (when there is one), ``connection``, ``controller`` and
     ``maintenance_windows``, in that order."""
-    items: list[tuple[str, Any]] = [("family", y.text(robot.family)), ("name", y.text(robot.name))]
+    items: list[tuple[str, Node]] = [("family", y.text(robot.family)), ("name", y.text(robot.name))]
     if robot.description is not None:
         items.append(("description", y.text(robot.description)))
     return items + [
@@ -365,7 +369,7 @@ def robot_items(
     ]
 
 
-def window_nodes(robot: Robot) -> Any:
+def window_nodes(robot: Robot) -> SequenceNode:
     """``maintenance_windows`` as robot.yaml writes it."""
     windows = [
         y.mapping(

@@ -17,17 +17,17 @@ import json
 import os
 import re
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from decimal import Decimal
 from functools import cache
 from typing import TYPE_CHECKING, Any
 
 from .schemafast import Check, compile_check
-from .yamlio import Number, Parsed
+from .yamlio import KeyPath, Number, Parsed
 
 if TYPE_CHECKING:
-    from jsonschema import ValidationError
+    from jsonschema import FormatChecker, ValidationError
     from jsonschema.protocols import Validator
 
 __all__ = ["Issue", "SchemaSet", "show"]
@@ -78,7 +78,7 @@ def _cut(text: str) -> str:
     return text if len(text) <= MAX_SHOWN else text[: MAX_SHOWN - 3] + "..."
 
 
-def _text_matches(pattern: re.Pattern[str]) -> Any:
+def _text_matches(pattern: re.Pattern[str]) -> Callable[[object], bool]:
     def check(instance: object) -> bool:
         if isinstance(instance, Number):
             return pattern.fullmatch(instance.text) is not None
@@ -161,7 +161,7 @@ class SchemaSet:
         self.package = package
         self.kinds = tuple(kinds)
         self._patterns = dict(formats)
-        self._formats: Any = None  # jsonschema's FormatChecker, once needed
+        self._formats: FormatChecker | None = None  # once needed
         self._schemas: dict[str, dict[str, Any]] = {}
         self._validators: dict[str, Validator] = {}
         self._fast: dict[str, Check | None] = {}
@@ -183,9 +183,7 @@ class SchemaSet:
                 pass  # not unpacked: the resources API finds it, or says so
         from importlib.resources import files  # its readers: only for a package in a zip
 
-        folder: Any = files(self.package)
-        text: str = folder.joinpath(name).read_text(encoding="utf-8")
-        return text
+        return files(self.package).joinpath(name).read_text(encoding="utf-8")
 
     def schema(self, kind: str) -> dict[str, Any]:
         """The parsed schema, decimals as ``Decimal`` so limits compare exactly."""
@@ -205,7 +203,7 @@ class SchemaSet:
         fast = self._fast[kind]
         if fast is not None and fast(doc.data):
             return []
-        issues: dict[tuple[Any, ...], tuple[int, Issue]] = {}
+        issues: dict[KeyPath, tuple[int, Issue]] = {}
         for error in self._validator(kind).iter_errors(doc.data):
             for rank, path, issue in _issues(error, file, doc):
                 old = issues.get(path)
@@ -268,11 +266,11 @@ def show(value: object) -> str:
     return repr(value)
 
 
-def _dotted(path: Any) -> str:
+def _dotted(path: Iterable[object]) -> str:
     return ".".join(str(p) for p in path) or "(top)"
 
 
-def _issues(error: ValidationError, file: str, doc: Parsed) -> list[tuple[int, Any, Issue]]:
+def _issues(error: ValidationError, file: str, doc: Parsed) -> list[tuple[int, KeyPath, Issue]]:
     path = tuple(error.absolute_path)
     subschema: dict[str, Any] = error.schema if isinstance(error.schema, dict) else {}
     allowed: str | None = subschema.get("x-allowed")
@@ -280,7 +278,7 @@ def _issues(error: ValidationError, file: str, doc: Parsed) -> list[tuple[int, A
     value: Any = error.instance
     expected: Any = error.validator_value
 
-    def issue(at: tuple[Any, ...], message: str, hint: str | None = allowed) -> Issue:
+    def issue(at: KeyPath, message: str, hint: str | None = allowed) -> Issue:
         text = f"{message} (allowed: {hint})" if hint else message
         return Issue(file, doc.line(at), _dotted(at), text)
 

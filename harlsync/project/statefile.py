@@ -16,17 +16,19 @@ file costs one line naming it and what to do, never a traceback::
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 __all__ = ["MAX_DEPTH", "Fields", "fold", "kind_of", "load", "parse", "timestamp"]
 
 #: How deep a state file's JSON may nest; harlsync's own go 3 levels deep.
 MAX_DEPTH = 16
 
+T = TypeVar("T")
 
-def _depth(value: Any) -> int:
+
+def _depth(value: object) -> int:
     """How deep ``value`` nests, walked without recursion."""
     deepest, todo = 0, [(value, 1)]
     while todo:
@@ -66,7 +68,7 @@ def load(path: Path) -> Any:
     return parse(text)
 
 
-def kind_of(value: Any) -> str:
+def kind_of(value: object) -> str:
     """What a JSON value is, in words: ``a number``, ``null``, ``a list``."""
     if value is None:
         return "null"
@@ -103,36 +105,36 @@ class Fields:
     None too, and :attr:`problems` says which field held what.
     """
 
-    def __init__(self, record: dict[str, Any]) -> None:
+    def __init__(self, record: Mapping[str, object]) -> None:
         self.record = record
         self.problems: list[str] = []
 
-    def _get(self, name: str, ok: Callable[[Any], bool], expected: str) -> Any:
+    def _get(
+        self, name: str, kind: type[T], expected: str, ok: Callable[[T], bool] = lambda v: True
+    ) -> T | None:
         value = self.record.get(name)
-        if value is None or ok(value):
+        if value is None:
+            return None
+        if isinstance(value, kind) and ok(value):
             return value
         self.problems.append(f"{name} holds {kind_of(value)}, not {expected}")
         return None
 
     def text(self, name: str) -> str | None:
-        return self._get(name, lambda v: isinstance(v, str), "text")  # type: ignore[no-any-return]
+        return self._get(name, str, "text")
 
     def time(self, name: str) -> str | None:
-        return self._get(  # type: ignore[no-any-return]
-            name, lambda v: isinstance(v, str) and timestamp(v), "a time with its zone"
-        )
+        return self._get(name, str, "a time with its zone", timestamp)
 
     def integer(self, name: str) -> int | None:
-        return self._get(  # type: ignore[no-any-return]
-            name, lambda v: isinstance(v, int) and not isinstance(v, bool), "a whole number"
-        )
+        return self._get(name, int, "a whole number", lambda v: not isinstance(v, bool))
 
     def flag(self, name: str) -> bool | None:
-        return self._get(name, lambda v: isinstance(v, bool), "true or false")  # type: ignore[no-any-return]
+        return self._get(name, bool, "true or false")
 
-    def _list(self, name: str, kind: type, what: str) -> list[Any] | None:
+    def _list(self, name: str, kind: type[T], what: str) -> list[T] | None:
         """A list whose elements are ``kind``; an element of another type is left out."""
-        value = self._get(name, lambda v: isinstance(v, list), "a list")
+        value = self._get(name, list, "a list")
         if value is None:
             return None
         kept = [v for v in value if isinstance(v, kind)]
@@ -149,4 +151,4 @@ class Fields:
         return self._list(name, dict, "objects")
 
     def object(self, name: str) -> dict[str, Any] | None:
-        return self._get(name, lambda v: isinstance(v, dict), "an object")  # type: ignore[no-any-return]
+        return self._get(name, dict, "an object")

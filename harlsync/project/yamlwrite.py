@@ -8,7 +8,7 @@ from __future__ import annotations
 import io
 import re
 import threading
-from typing import Any
+from typing import TypeVar
 
 from yaml.emitter import Emitter
 from yaml.nodes import CollectionNode, MappingNode, Node, ScalarNode, SequenceNode
@@ -32,6 +32,9 @@ from .yamlread import (
     is_number_text,
 )
 
+KT = TypeVar("KT")
+VT = TypeVar("VT")
+
 
 class _IndentingEmitter(Emitter):
     """Indents block sequences under their key (PyYAML's default does not)."""
@@ -41,7 +44,7 @@ class _IndentingEmitter(Emitter):
 
 
 class _Dumper(_IndentingEmitter, Serializer, CoreResolver):
-    def __init__(self, stream: Any) -> None:
+    def __init__(self, stream: io.StringIO) -> None:
         _IndentingEmitter.__init__(
             self, stream, indent=2, width=1 << 30, allow_unicode=True, line_break="\n"
         )
@@ -145,11 +148,11 @@ class _Writer:
         self.out.append("")
         return self.header + "\n".join(self.out), self.parsed
 
-    def _block(self, node: MappingNode, indent: str, path: KeyPath) -> dict[str, Any]:
+    def _block(self, node: MappingNode, indent: str, path: KeyPath) -> dict[str, object]:
         self.nodes.append(id(node))
         lines = self.parsed.lines
         lines.setdefault(path, self.line)
-        result: dict[str, Any] = {}
+        result: dict[str, object] = {}
         for key_node, value in node.value:
             shown, key = self._key(key_node)
             if key in result:
@@ -190,7 +193,7 @@ class _Writer:
                 raise _Bail
         return result
 
-    def _block_sequence(self, node: SequenceNode, indent: str, path: KeyPath) -> list[Any]:
+    def _block_sequence(self, node: SequenceNode, indent: str, path: KeyPath) -> list[object]:
         """A block sequence of scalars, an item a line (a program's steps)."""
         self.nodes.append(id(node))
         lines, line, out, scalar = self.parsed.lines, self.line, self.out, self._scalar
@@ -208,7 +211,7 @@ class _Writer:
         self.line = line
         return result
 
-    def _flow_mapping(self, node: MappingNode, path: KeyPath) -> tuple[str, dict[str, Any]]:
+    def _flow_mapping(self, node: MappingNode, path: KeyPath) -> tuple[str, dict[str, object]]:
         self.nodes.append(id(node))
         lines, line, scalar, key_of = self.parsed.lines, self.line, self._scalar, self._key
         lines.setdefault(path, line)
@@ -226,7 +229,7 @@ class _Writer:
             parts.append(f"{shown}: {text}")
         return "{" + ", ".join(parts) + "}", result
 
-    def _flow_value(self, value: Node, at: KeyPath, result: dict[str, Any], key: str) -> str:
+    def _flow_value(self, value: Node, at: KeyPath, result: dict[str, object], key: str) -> str:
         """A value in a flow mapping, written; what it reads back as put in ``result``."""
         if isinstance(value, ScalarNode):
             text, result[key] = self._scalar(value)
@@ -240,12 +243,12 @@ class _Writer:
             raise _Bail
         return text
 
-    def _texts(self, node: _Texts, indent: str, path: KeyPath) -> list[Any]:
+    def _texts(self, node: _Texts, indent: str, path: KeyPath) -> list[object]:
         """A :func:`texts` as :meth:`_block_sequence` writes the sequence it stands for."""
         self.nodes.append(id(node))
         lines, line, out = self.parsed.lines, self.line, self.out
         lines.setdefault(path, line)
-        result: list[Any] = []
+        result: list[object] = []
         dash, null_line = f"{indent}- ", f"{indent}- null"
         known = _SCALARS.get
         for i, item in enumerate(node.items):
@@ -264,7 +267,7 @@ class _Writer:
         self.line = line
         return result
 
-    def _row(self, node: _Row, path: KeyPath) -> tuple[str, dict[str, Any]]:
+    def _row(self, node: _Row, path: KeyPath) -> tuple[str, dict[str, object]]:
         """A :func:`row` as :meth:`_flow_mapping` writes the mapping it stands for: a
         number is plain (what num() takes is), a key plain when it is plain text."""
         if node._nodes is not None:
@@ -272,7 +275,7 @@ class _Writer:
         lines, line = self.parsed.lines, self.line
         lines.setdefault(path, line)
         parts: list[str] = []
-        result: dict[str, Any] = {}
+        result: dict[str, object] = {}
         for key, value in node.items:
             if key not in _KEYS_PLAIN and not _plain_key(key):
                 # a key to look at: as the mapping's nodes are written (the lines set
@@ -295,7 +298,7 @@ class _Writer:
         self.nodes.append(id(node))
         return "{" + ", ".join(parts) + "}", result
 
-    def _flow_sequence(self, node: SequenceNode, path: KeyPath) -> tuple[str, list[Any]]:
+    def _flow_sequence(self, node: SequenceNode, path: KeyPath) -> tuple[str, list[object]]:
         self.nodes.append(id(node))
         lines, line = self.parsed.lines, self.line
         lines.setdefault(path, line)
@@ -333,7 +336,7 @@ class _Writer:
             known = _remembered(_KEYS, (node.tag, value), (value, _key(node)))
         return known
 
-    def _scalar(self, node: ScalarNode) -> tuple[str, Any]:
+    def _scalar(self, node: ScalarNode) -> tuple[str, object]:
         """How a scalar is written, and its value as parse gives it (the same in a
         block and in a flow: the plain scalars written hold no flow indicator)."""
         self.nodes.append(id(node))
@@ -348,7 +351,7 @@ class _Writer:
 #: reads back as, as :class:`_Writer` worked it out: a project repeats most of them (a
 #: table's keys, axes and speeds, a program's commands), and a value read back (text,
 #: a Number, true, null) is never changed.  Bounded: emptied when full.
-_SCALARS: dict[tuple[str, Any, str], tuple[str, Any]] = {}
+_SCALARS: dict[tuple[str, str | None, str], tuple[str, object]] = {}
 _KEYS: dict[tuple[str, str], tuple[str, str]] = {}
 _REMEMBERED_MAX = 8192
 
@@ -367,20 +370,20 @@ def _plain_key(key: str) -> bool:
 _KEYS_PLAIN: set[str] = set()
 
 
-def _remembered(memo: dict[Any, Any], key: Any, value: Any) -> Any:
+def _remembered(memo: dict[KT, VT], key: KT, value: VT) -> VT:
     if len(memo) >= _REMEMBERED_MAX:
         memo.clear()
     memo[key] = value
     return value
 
 
-def _write_scalar(node: ScalarNode) -> tuple[str, Any]:
+def _write_scalar(node: ScalarNode) -> tuple[str, object]:
     """How :class:`_Writer` writes a scalar, and its value as parse gives it; raises
     :class:`_Bail` for one it leaves to the emitter."""
     return _scalar_text(node.tag, node.style, node.value)
 
 
-def _scalar_text(tag: str, style: str | None, value: str) -> tuple[str, Any]:
+def _scalar_text(tag: str, style: str | None, value: str) -> tuple[str, object]:
     """:func:`_write_scalar` of a scalar node of ``tag``, ``style`` and ``value``."""
     if style == '"':
         if tag != STR or not _DOUBLE_QUOTABLE.fullmatch(value):

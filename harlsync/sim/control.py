@@ -16,9 +16,7 @@ HARL-U2 ``auto [STATION [TASK]]``, IAI ``manual [STATION]``.
 
 from __future__ import annotations
 
-from typing import Any
-
-from .device import Device
+from .device import Device, S
 
 __all__ = ["IDLE_VERB", "after_writes_verb", "apply_command", "describe"]
 
@@ -31,7 +29,7 @@ def after_writes_verb(busy_verb: str) -> str:
     return f"{busy_verb}-after-writes"
 
 
-def describe(sim: Device[Any]) -> str:
+def describe(sim: Device[S]) -> str:
     with sim.lock:
         armed = sim.armed
         schedule = "" if armed is None else f"; {sim.family.busy_verb} after {armed} more writes"
@@ -44,7 +42,7 @@ def describe(sim: Device[Any]) -> str:
         )
 
 
-def apply_command(sim: Device[Any], line: str) -> str:
+def apply_command(sim: Device[S], line: str) -> str:
     """Carry out one control command; return what to show.  Raises ValueError."""
     words = line.split()
     if not words:

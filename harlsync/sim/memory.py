@@ -13,16 +13,15 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
 
-from .device import Device, Received
+from .device import Device, Received, S
 
 __all__ = ["keep_state"]
 
 log = logging.getLogger(__name__)
 
 
-def keep_state(sim: Device[Any], directory: str | Path) -> None:
+def keep_state(sim: Device[S], directory: str | Path) -> None:
     """Load ``sim``'s stations from ``directory`` (those saved there) and save each
     after every write it receives.  Raises ProjectError for an unreadable state."""
     root = Path(directory)

@@ -14,17 +14,19 @@ import json
 import threading
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any, TextIO
+from typing import Any, TextIO, TypeVar
 
 from .. import families
 from .control import apply_command
-from .device import Device, Faults, Received, Simulator
+from .device import Device, Faults, Received, S, Simulator
 from .family import ServedFamily, SimServer, project_family
 from .protocol_sim import build_simulator
 from .serve import PtyServer, TcpServer
 from .variants import parse as parse_variants
 
 __all__ = ["Running", "SimOptions", "listen_address", "start"]
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -109,7 +111,7 @@ def listen_address(text: str) -> tuple[str, int]:
     return host or "127.0.0.1", int(port)
 
 
-def _option(name: str, parse: Callable[[], Any]) -> Any:
+def _option(name: str, parse: Callable[[], T]) -> T:
     try:
         return parse()
     except ValueError as exc:
@@ -126,7 +128,7 @@ def _build(opts: SimOptions) -> Device[Any]:
         )
         texts = opts.stations.split(",")
         stations = _option("--stations", lambda: [notation.parse_station(s) for s in texts])
-    return _option(  # type: ignore[no-any-return]
+    return _option(
         "--variant",  # the one ValueError building it raises: a variant the family lacks
         lambda: build_simulator(
             family=opts.family,
@@ -142,7 +144,7 @@ def _build(opts: SimOptions) -> Device[Any]:
     )
 
 
-def _recorder(sim: Device[Any], path: str) -> TextIO:
+def _recorder(sim: Device[S], path: str) -> TextIO:
     record = open(path, "a", encoding="utf-8")  # noqa: SIM115 - closed by Running.stop
 
     def log_request(r: Received) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..lazy import attributes
 
@@ -64,7 +64,7 @@ class _Package(ModuleType):
     ``plan`` is imported (the import system sets a submodule on its package as it
     loads it; the eager ``__init__`` this replaces bound the function after)."""
 
-    def __setattr__(self, name: str, value: Any) -> None:
+    def __setattr__(self, name: str, value: object) -> None:
         if name == "plan" and isinstance(value, ModuleType):
             return
         super().__setattr__(name, value)

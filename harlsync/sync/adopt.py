@@ -16,9 +16,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from ..errors import PolicyError, ProjectError, SyncError
+from ..families.base import Catalogue, D, K
 from ..project import Project, load_project, save_project
 from . import backupref, git, states
 from .items import Change, diff_items
@@ -94,12 +94,12 @@ def _chosen(
     path: Path,
     root: Path,
     where: str,
-    things: Any,
+    things: Catalogue[K, D],
     project: Project,
-    observed: Any,
-    differ: list[Change[Any]],
+    observed: D,
+    differ: list[Change[K]],
     names: Sequence[str],
-) -> list[Change[Any]]:
+) -> list[Change[K]]:
     """The differences to adopt: those ``names`` names, or every drifted one."""
     if names:
         by_name = {c.name.casefold(): c for c in differ}

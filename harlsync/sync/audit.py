@@ -54,7 +54,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..link import lock_key
 from ..project import statefile
@@ -73,7 +73,7 @@ from .auditrecord import (
 )
 
 if TYPE_CHECKING:
-    from ..families.base import Catalogue
+    from ..families.base import Catalogue, D, K
     from . import items
     from .plan import PlannedWrite
 
@@ -344,7 +344,7 @@ def describe_unfinished(record: AuditRecord) -> str:
 # --- the record in the family's words ------------------------------------------------
 
 
-def change_entries(changes: Iterable[items.Change[Any]]) -> list[Change]:
+def change_entries(changes: Iterable[items.Change[K]]) -> list[Change]:
     """The changes field by field, as ``diff`` shows them: ``position 3: speed 150 →
     200`` is ``Change("position 3", "speed", "150", "200")``."""
     found: list[Change] = []
@@ -355,7 +355,7 @@ def change_entries(changes: Iterable[items.Change[Any]]) -> list[Change]:
     return found
 
 
-def difference(catalogue: Catalogue[Any, Any], key: object, old: object, new: object) -> str:
+def difference(catalogue: Catalogue[K, D], key: K, old: object, new: object) -> str:
     """How ``new`` differs from ``old`` for the item (or run of items) ``key``, in the
     family's words: ``speed 150 → 200; acc 0.30 → 0.50`` (the family's
     :meth:`~harlsync.families.base.Catalogue.fields`, each field narrowed as diff
@@ -368,7 +368,7 @@ def difference(catalogue: Catalogue[Any, Any], key: object, old: object, new: ob
     return "; ".join(fold(texts, 4, "more")) or "its value differs"
 
 
-def written_entry(write: PlannedWrite[Any]) -> Written:
+def written_entry(write: PlannedWrite[K]) -> Written:
     """A write as the audit log keeps it: the item, the wire command (for the record;
     shown with -v only) and what it changes."""
     changes = change_entries(write.items)
@@ -412,7 +412,7 @@ def _narrow(
     return differ if 0 < len(differ) < len(a) else [(name, old, new)]
 
 
-def changed_names(changes: Iterable[items.Change[Any]]) -> list[str]:
+def changed_names(changes: Iterable[items.Change[K]]) -> list[str]:
     """What the changes touch, item by item, with the fields that differ where an item
     has several: ``MAIN program 0 step 4``, ``position 12 speed``, ``AccelS 3 decel``."""
     names = []

@@ -48,10 +48,11 @@ import logging
 import os
 import re
 import secrets
+from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import BinaryIO
 
 from ..link import lock_key
 from ..project import statefile
@@ -264,7 +265,7 @@ class AuditIndex:
 
     # --- the index file ---------------------------------------------------------------
 
-    def state(self, ino: int, head: str, tail: str) -> dict[str, Any]:
+    def state(self, ino: int, head: str, tail: str) -> dict[str, object]:
         referenced = {seq for key in self.keys.values() for seq, _ in key.recent + key.unsettled}
         kept = set(self.ids.values()) | referenced
         return {
@@ -289,7 +290,7 @@ class AuditIndex:
             "problem_count": self.problem_count,
         }
 
-    def restore(self, state: dict[str, Any]) -> None:
+    def restore(self, state: Mapping[str, object]) -> None:
         """Take up ``state`` (:meth:`state`'s), each of its entries of the shape
         :meth:`state` writes.  Raises Stale for anything else: a cache that cannot be
         trusted is built again from the log, whatever is wrong with it."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 import bisect
 import hashlib
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -103,7 +104,7 @@ class Entries:
     problem_count: int
 
 
-def take_up(state: dict[str, Any]) -> Entries:
+def take_up(state: Mapping[str, object]) -> Entries:
     """The entries of ``state`` (an index file, parsed), each of the shape
     :meth:`~harlsync.sync.auditindex.AuditIndex.state` writes.  Raises
     :class:`Stale` for anything else: a cache that cannot be trusted is built
@@ -128,14 +129,14 @@ def take_up(state: dict[str, Any]) -> Entries:
 # --- the index file's entries, checked as they are taken up --------------------------------
 
 
-def _count(value: Any) -> int:
+def _count(value: object) -> int:
     """A count, a sequence number or a byte offset: an integer, not negative."""
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         raise Stale(f"not an index ({statefile.kind_of(value)} where a count belongs)")
     return value
 
 
-def _offset(value: Any, size: int) -> int:
+def _offset(value: object, size: int) -> int:
     """A line's offset in the part of the log the index has read."""
     offset = _count(value)
     if offset >= size:
@@ -149,7 +150,7 @@ def _seq(text: str) -> int:
     return int(text)
 
 
-def _array(value: Any, size: int | None = None) -> list[Any]:
+def _array(value: object, size: int | None = None) -> list[Any]:
     """A JSON array (of ``size`` values, when given)."""
     if not isinstance(value, list) or (size is not None and len(value) != size):
         wanted = "an array" if size is None else f"an array of {size}"
@@ -157,14 +158,14 @@ def _array(value: Any, size: int | None = None) -> list[Any]:
     return value
 
 
-def _object(value: Any) -> list[tuple[str, Any]]:
+def _object(value: object) -> list[tuple[str, object]]:
     """A JSON object's members."""
     if not isinstance(value, dict):
         raise Stale(f"not an index ({statefile.kind_of(value)} where an object belongs)")
     return list(value.items())
 
 
-def _pairs(value: Any, size: int) -> list[list[int]]:
+def _pairs(value: object, size: int) -> list[list[int]]:
     """``[[seq, offset], ...]``: a key's latest or unsettled pushes.  (One test a pair,
     not a call a value: a plant's index holds thousands of them.)"""
     pairs = _array(value)
@@ -181,7 +182,7 @@ def _pairs(value: Any, size: int) -> list[list[int]]:
     return pairs
 
 
-def _open(value: Any, size: int) -> OpenEntry:
+def _open(value: object, size: int) -> OpenEntry:
     entry = dict(_object(value))
     names = _array(entry.get("keys"))
     if not all(isinstance(name, str) for name in names):
@@ -193,7 +194,7 @@ def _open(value: Any, size: int) -> OpenEntry:
     )
 
 
-def _key(value: Any, size: int) -> KeyEntry:
+def _key(value: object, size: int) -> KeyEntry:
     recent, count, settled, unsettled = _array(value, 4)
     if isinstance(settled, bool) or not isinstance(settled, int) or settled < -1:
         raise Stale(
@@ -202,7 +203,7 @@ def _key(value: Any, size: int) -> KeyEntry:
     return KeyEntry(_pairs(recent, size), _count(count), settled, _pairs(unsettled, size))
 
 
-def _problem(value: Any) -> tuple[int, str]:
+def _problem(value: object) -> tuple[int, str]:
     line, text = _array(value, 2)
     if not isinstance(text, str):
         raise Stale(f"not an index ({statefile.kind_of(text)} where a problem's words belong)")
@@ -220,7 +221,7 @@ def marks(f: BinaryIO, size: int) -> tuple[str, str]:
     return _digest(f, 0, min(size, CHECK)), _digest(f, max(0, size - CHECK), size)
 
 
-def read_saved(where: Path) -> dict[str, Any] | None:
+def read_saved(where: Path) -> dict[str, object] | None:
     """The index file at ``where``, parsed; None when it is missing or not a JSON object."""
     try:
         state = json.loads(where.read_bytes())

@@ -23,10 +23,10 @@ family's words, as its files and diffs write them: a change field by field
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from datetime import datetime
 from pathlib import Path
-from typing import Any
 
 from ..errors import partly_words
 from ..project.statefile import Fields, fold
@@ -63,7 +63,7 @@ class Change:
     new: str | None
 
     @classmethod
-    def from_json(cls, value: dict[str, Any], problems: list[str]) -> Change:
+    def from_json(cls, value: Mapping[str, object], problems: list[str]) -> Change:
         one = Fields(value)
         found = cls(one.text("item"), one.text("field"), one.text("old"), one.text("new"))
         problems += one.problems
@@ -86,7 +86,7 @@ class Written:
     changes: tuple[Change, ...] | None = None
 
     @classmethod
-    def from_json(cls, value: dict[str, Any], problems: list[str]) -> Written:
+    def from_json(cls, value: Mapping[str, object], problems: list[str]) -> Written:
         one = Fields(value)
         found = cls(
             one.text("item"),
@@ -98,8 +98,8 @@ class Written:
         problems += [f"written item's {p}" for p in one.problems]
         return found
 
-    def to_json(self) -> dict[str, Any]:
-        found: dict[str, Any] = {
+    def to_json(self) -> dict[str, object]:
+        found: dict[str, object] = {
             name: value
             for name, value in (
                 ("item", self.item),
@@ -122,7 +122,7 @@ class RecordedRobot:
     port: str | None
     station: int | None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         return {"name": self.name, "port": self.port, "station": self.station}
 
 
@@ -137,7 +137,7 @@ class PartlyRecorded:
     unknown: str | None = None
     not_sent: tuple[str, ...] = ()
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         return {
             "item": self.item,
             "command": self.command,
@@ -199,12 +199,12 @@ class AuditRecord:
     #: What a recovered connection found and did (event ``recover``).
     note: str | None = None
     #: Fields this harlsync does not know, as read (JSON).
-    extra: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
 
     # --- the log's JSON ----------------------------------------------------------------
 
     @classmethod
-    def from_json(cls, value: dict[str, Any]) -> tuple[AuditRecord, list[str]]:
+    def from_json(cls, value: Mapping[str, object]) -> tuple[AuditRecord, list[str]]:
         """The record a line's object holds, each field of the type it must have (one of
         another type read as missing), and what was wrong with it."""
         one = Fields(value)
@@ -259,9 +259,9 @@ class AuditRecord:
             one.problems += [f"partly written item's {p}" for p in of_partly.problems]
         return found, one.problems
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         """The record as a line of the log holds it (a field that is None left out)."""
-        found: dict[str, Any] = dict(self.extra)
+        found: dict[str, object] = dict(self.extra)
         for each in fields(self):
             value = getattr(self, each.name)
             if each.name == "extra" or value is None:

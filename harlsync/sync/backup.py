@@ -31,7 +31,7 @@ from typing import Any
 from ..errors import HarlsyncError, ProjectError, SyncError
 from ..link.lock import LockTimeout
 from ..project.lock import holder, lock_path, project_lock
-from . import backupref, git, history, nightly, states
+from . import backupcommit, backupref, git, history, states
 from .backupreport import BackupReport
 from .robotbackup import (
     BackupWatch,
@@ -177,7 +177,7 @@ def _run(
     projects = find_projects(paths)
     # Pushes made from other clones moved their deployed refs there: fetched first,
     # so that tonight's comparison credits them.
-    fetched = nightly.fetch_deployed(projects[0]) if push and projects else None
+    fetched = backupcommit.fetch_deployed(projects[0]) if push and projects else None
     outcomes = fleet.read_lines(
         projects,
         fleet.Task(attempts, lock_timeout, clock),
@@ -187,7 +187,22 @@ def _run(
         watched=watch is not None,
     )
     _name_outcomes(outcomes, projects, now, stale_after)
+    report = _report(outcomes, projects, now, fetched, commit=commit, push=push)
+    report.duration = time.monotonic() - started
+    return report
 
+
+def _report(
+    outcomes: list[RobotOutcome],
+    projects: list[Path],
+    now: datetime,
+    fetched: str | None,
+    *,
+    commit: bool,
+    push: bool,
+) -> BackupReport:
+    """The run's report once every robot was read: what it committed (and pushed)
+    when asked, each robot's three states recorded."""
     report = BackupReport(outcomes, started=now.isoformat(timespec="seconds"))
     if fetched:
         report.said.append(fetched)
@@ -196,7 +211,6 @@ def _run(
     if commit:
         _commit_run(report, projects, legacy, kept, push=push)
     _record_states(kept)
-    report.duration = time.monotonic() - started
     return report
 
 
@@ -243,7 +257,7 @@ def _commit_run(
         try:
             # The robots' own states; the branch only for what was committed on it
             # (robots pulled into their directories), or in a plant without them.
-            if not nightly.push_refs(projects[0]) or legacy:
+            if not backupcommit.push_refs(projects[0]) or legacy:
                 git.push(projects[0])
             report.pushed = True
         except HarlsyncError as exc:
@@ -254,8 +268,9 @@ def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
     """Commit what the robots in git were read to hold on the backup branch (the
     approved branch and working tree untouched), and record where it is."""
     try:
-        new, said = nightly.commit_observed(
-            [(Path(o.path), o.kept or {}, o.compared) for o in kept], report.commit_message()
+        new, said = backupcommit.commit_observed(
+            [(Path(o.path), o.kept, o.compared) for o in kept if o.kept is not None],
+            report.commit_message(),
         )
     except HarlsyncError as exc:
         report.commit_error = str(exc)
@@ -265,8 +280,8 @@ def _commit_kept(report: BackupReport, kept: list[RobotOutcome]) -> None:
         report.commit = report.commit or new
         _record_commit([Path(o.path) for o in kept if o.changed], new)
     for o in kept:
-        standing, where = o.compared, (o.kept or {})
-        if standing is None:
+        standing, where = o.compared, o.kept
+        if standing is None or where is None:
             continue
         root = Path(where["root"])
         standing.observed = backupref.commit_of(root, backupref.BACKUP_REF)

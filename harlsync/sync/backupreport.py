@@ -17,7 +17,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
 
 from .. import columns
 from ..errors import SyncError
@@ -59,7 +58,7 @@ class BackupReport:
     def changed(self) -> list[RobotOutcome]:
         return [r for r in self.robots if r.changed]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         return {
             "ok": self.ok,
             "started": self.started,

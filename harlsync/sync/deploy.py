@@ -50,7 +50,7 @@ from ..errors import (
     StalePlanError,
     SyncError,
 )
-from ..families.base import Driver
+from ..families.base import D, Driver, K
 from ..project import Project, load_project, load_robot
 from ..project.lock import holding_project
 from ..project.store import read_project
@@ -92,12 +92,7 @@ def run(
     record = _start_record(action, project, opts, port, station)
     driver: Driver[Any, Any] | None = None
     try:
-        if not opts.yes and opts.confirm is None:  # before minutes of reading the robot
-            review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
-            raise PolicyError(
-                f"nobody to confirm the {action} (no terminal to ask on) and no "
-                f"--yes: nothing was read or written; {review}give --yes"
-            )
+        _someone_confirms(action, project, opts)  # before minutes of reading the robot
         check_window(robot, opts)
         driver = connect(
             family,
@@ -115,10 +110,7 @@ def run(
             return result
         if not opts.yes and not (opts.confirm and opts.confirm(the_plan)):
             raise PolicyError("push not confirmed: nothing was written")
-        for name, said in the_plan.reverts.items():  # said before the first write
-            log.warning("%s: %s: %s", robot.name, name, said)
-            if opts.yes and opts.told is not None:
-                opts.told(f"{name}: {said}")
+        _tell_reverts(robot.name, the_plan, opts)  # said before the first write
         result.snapshot = save_snapshot(project.path, robot, live, action)
         record.snapshot = str(result.snapshot)
         _journal(replace(record, event="start"))
@@ -134,6 +126,25 @@ def run(
         raise
     finally:
         _finish(action, project, driver, record, result)
+
+
+def _someone_confirms(action: str, project: Project, opts: PushOptions) -> None:
+    """Refuse a push or rollback nobody can confirm: no terminal to ask on and no ``yes``."""
+    if not opts.yes and opts.confirm is None:
+        review = f"review it with 'harlsync plan {project.path}', then " * (action == "push")
+        raise PolicyError(
+            f"nobody to confirm the {action} (no terminal to ask on) and no "
+            f"--yes: nothing was read or written; {review}give --yes"
+        )
+
+
+def _tell_reverts(name: str, the_plan: Plan[K], opts: PushOptions) -> None:
+    """Say each write of ``the_plan`` that takes back a change made on the robot: in
+    the log, and to ``opts.told`` when nobody was asked."""
+    for item, said in the_plan.reverts.items():
+        log.warning("%s: %s: %s", name, item, said)
+        if opts.yes and opts.told is not None:
+            opts.told(f"{item}: {said}")
 
 
 def _start_record(
@@ -154,12 +165,12 @@ def _start_record(
 
 def _read_and_plan(
     project: Project,
-    target: Any,
+    target: D,
     opts: PushOptions,
-    driver: Driver[Any, Any],
+    driver: Driver[K, D],
     record: audit.AuditRecord,
     result: PushResult,
-) -> tuple[Any, Plan[Any]]:
+) -> tuple[D, Plan[K]]:
     """Check the robot (interlock, identity), read it all and plan the writes that
     turn it into ``target``; the live data and the plan, which it records in
     ``result`` and ``record``.  Raises InterlockError or PolicyError to refuse."""
@@ -187,9 +198,9 @@ def _read_and_plan(
 
 def _write_journaled(
     project: Project,
-    the_plan: Plan[Any],
+    the_plan: Plan[K],
     opts: PushOptions,
-    driver: Driver[Any, Any],
+    driver: Driver[K, D],
     record: audit.AuditRecord,
     result: PushResult,
 ) -> None:
@@ -242,7 +253,7 @@ def _stopped(
 def _finish(
     action: str,
     project: Project,
-    driver: Driver[Any, Any] | None,
+    driver: Driver[K, D] | None,
     record: audit.AuditRecord,
     result: PushResult,
 ) -> None:
@@ -274,7 +285,7 @@ def _finish(
         )
 
 
-def _partly(write: PlannedWrite[Any], partly: PartlyWritten) -> audit.PartlyRecorded:
+def _partly(write: PlannedWrite[K], partly: PartlyWritten) -> audit.PartlyRecorded:
     """The audit record's account of an item written part way."""
     return audit.PartlyRecorded(
         write.name, write.command, tuple(partly.sent), partly.unknown, tuple(partly.left)
@@ -318,7 +329,7 @@ def _check_plan_file(path: str | Path, plan_file: str | Path) -> None:
         )
 
 
-def _check_plan(the_plan: Plan[Any], opts: PushOptions) -> None:
+def _check_plan(the_plan: Plan[K], opts: PushOptions) -> None:
     if opts.plan_file is not None:
         saved = Plan.load_saved(opts.plan_file)
         if (saved.get("robot"), saved.get("target")) != (the_plan.robot, the_plan.target):

@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import IO, Any
+from typing import IO
 
 from ..robotlog import current
 from .fleettask import Task
@@ -40,7 +40,7 @@ class _Sender:
         self._lock = threading.Lock()
         self._told: dict[Path, tuple[float, int]] = {}
 
-    def send(self, **event: Any) -> None:
+    def send(self, **event: object) -> None:
         data = json.dumps(event, default=str).encode() + b"\n"
         with self._lock:
             self.stream.write(data)

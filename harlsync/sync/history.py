@@ -27,19 +27,34 @@ import json
 import logging
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 from ..project import statefile, store
 from ..project.store import disk_error, replace_file
 from . import git
 
-__all__ = ["LOCAL_DIR", "committed", "ensure_local_dir", "read", "record", "stale"]
+__all__ = ["LOCAL_DIR", "BackupState", "committed", "ensure_local_dir", "read", "record", "stale"]
 
 #: harlsync's local, unversioned state inside a project.
 LOCAL_DIR = Path(store.LOCAL_DIR)
 _FILE = LOCAL_DIR / "backup.json"
 
 log = logging.getLogger(__name__)
+
+
+class BackupState(TypedDict, total=False):
+    """What ``DIR/.harlsync/backup.json`` records of a robot's backups; a field
+    nobody recorded (or of the wrong type) is absent."""
+
+    last_attempt: str
+    last_success: str
+    last_result: str  # ok or failed
+    last_error: str | None
+    last_changed: bool
+    last_changes: str | None
+    #: None: the last good backup was not committed by harlsync
+    last_commit: str | None
+    last_exchanges: int
 
 
 def ensure_local_dir(project: Path) -> Path:
@@ -58,7 +73,7 @@ def ensure_local_dir(project: Path) -> Path:
     return local
 
 
-def read(project: Path, problems: list[str] | None = None) -> dict[str, Any]:
+def read(project: Path, problems: list[str] | None = None) -> BackupState:
     """What ``DIR/.harlsync/backup.json`` records, each field of its type.
 
     A file that is not such a record reads as empty (the next pull or backup
@@ -81,26 +96,37 @@ def read(project: Path, problems: list[str] | None = None) -> dict[str, Any]:
         )
         return {}
     fields = statefile.Fields(data)
-    state: dict[str, Any] = {
-        "last_attempt": fields.time("last_attempt"),
-        "last_success": fields.time("last_success"),
-        "last_result": fields.text("last_result"),
-        "last_error": fields.text("last_error"),
-        "last_changed": fields.flag("last_changed"),
-        "last_changes": fields.text("last_changes"),
-        "last_commit": fields.text("last_commit"),
-        "last_exchanges": fields.integer("last_exchanges"),
-    }
-    if state["last_result"] not in (None, "ok", "failed"):
-        fields.problems.append(f"last_result holds {state['last_result']!r}, not ok or failed")
-        state["last_result"] = None
+    attempt, success = fields.time("last_attempt"), fields.time("last_success")
+    result, error = fields.text("last_result"), fields.text("last_error")
+    changed, changes = fields.flag("last_changed"), fields.text("last_changes")
+    commit, exchanges = fields.text("last_commit"), fields.integer("last_exchanges")
+    if result not in (None, "ok", "failed"):
+        fields.problems.append(f"last_result holds {result!r}, not ok or failed")
+        result = None
     if fields.problems:
         _say(
             problems,
             f"{path}: {'; '.join(statefile.fold(fields.problems, 3))}: read as missing; {_REWRITTEN}",
         )
-    # last_commit: null means "not committed by harlsync", and is kept as such.
-    return {k: v for k, v in state.items() if v is not None or k == "last_commit" and k in data}
+    state = BackupState()
+    if attempt is not None:
+        state["last_attempt"] = attempt
+    if success is not None:
+        state["last_success"] = success
+    if result is not None:
+        state["last_result"] = result
+    if error is not None:
+        state["last_error"] = error
+    if changed is not None:
+        state["last_changed"] = changed
+    if changes is not None:
+        state["last_changes"] = changes
+    if commit is not None or "last_commit" in data:
+        # last_commit: null means "not committed by harlsync", and is kept as such.
+        state["last_commit"] = commit
+    if exchanges is not None:
+        state["last_exchanges"] = exchanges
+    return state
 
 
 _REWRITTEN = "the next pull or backup of this robot writes it anew"
@@ -128,7 +154,7 @@ def record(
     changed: bool | None = None,
     changes: str | None = None,
     exchanges: int | None = None,
-) -> dict[str, Any]:
+) -> BackupState:
     """Record one attempt; return the updated state.
 
     A good one that says what it ``changed`` (``changes``, in the family's words)
@@ -158,7 +184,7 @@ def record(
     return _write(project, state, "record the backup")
 
 
-def committed(project: Path, commit: str) -> dict[str, Any]:
+def committed(project: Path, commit: str) -> BackupState:
     """Record that ``commit`` holds the last good backup; the updated state.
     Raises ProjectError when the disk refuses."""
     state = read(project)
@@ -166,7 +192,7 @@ def committed(project: Path, commit: str) -> dict[str, Any]:
     return _write(project, state, "record the backup's commit")
 
 
-def _write(project: Path, state: dict[str, Any], what: str) -> dict[str, Any]:
+def _write(project: Path, state: BackupState, what: str) -> BackupState:
     target = ensure_local_dir(project) / _FILE.name
     try:
         replace_file(target, (json.dumps(state, indent=2, sort_keys=True) + "\n").encode())

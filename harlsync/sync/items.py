@@ -75,19 +75,19 @@ def _triples(changes: Iterable[Change[K]]) -> list[Change3[K]]:
     return [(c.key, c.old, c.new) for c in changes]
 
 
-def summarize(catalogue: Catalogue[K, Any], changes: Iterable[Change[K]]) -> dict[str, int]:
+def summarize(catalogue: Catalogue[K, D], changes: Iterable[Change[K]]) -> dict[str, int]:
     """How much changed, in the family's units."""
     return catalogue.counts(_triples(changes))
 
 
-def change_summary(changes: list[Change[Any]]) -> str:
+def change_summary(changes: list[Change[K]]) -> str:
     """``"2 programs (5 steps), 1 table, 3 timers"``, or ``"no change"``."""
     if not changes:
         return "no change"
     return changes[0].catalogue.summary(_triples(changes))
 
 
-def differ_words(changes: list[Change[Any]]) -> str:
+def differ_words(changes: list[Change[K]]) -> str:
     """``; 3 items differ (1 program (2 steps), 1 timer)``, or ``; no differences``."""
     if not changes:
         return "; no differences"

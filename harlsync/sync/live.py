@@ -114,20 +114,7 @@ def read_live(
     gives what the project recorded of the robot (None: nothing), for the read to
     hold the controller to (:meth:`Driver.hold_to`).  ``command`` is the harlsync
     command it serves (:attr:`Driver.serves`)."""
-    try:
-        driver = connect(
-            family,
-            robot,
-            port,
-            station,
-            lock_timeout=lock_timeout,
-            options=options,
-            command=command,
-        )
-    except HarlsyncError as exc:  # what was done to the robot before the line failed
-        if noted is not None and exc.notes:
-            noted(exc.notes)
-        raise
+    driver = _connect_noting(family, robot, port, station, lock_timeout, options, command, noted)
     try:
         if identified is not None:
             now = driver.identity()
@@ -148,6 +135,34 @@ def read_live(
                 noted(tuple(driver.notes))
         finally:
             driver.close()
+
+
+def _connect_noting(
+    family: Family[K, D],
+    robot: Robot,
+    port: str | None,
+    station: int | None,
+    lock_timeout: float,
+    options: Mapping[str, bool] | None,
+    command: str,
+    noted: Callable[[Sequence[str]], None] | None,
+) -> Driver[K, D]:
+    """The robot's line opened (:func:`connect`); failing, what was done to the robot
+    before the line failed given to ``noted``."""
+    try:
+        return connect(
+            family,
+            robot,
+            port,
+            station,
+            lock_timeout=lock_timeout,
+            options=options,
+            command=command,
+        )
+    except HarlsyncError as exc:
+        if noted is not None and exc.notes:
+            noted(exc.notes)
+        raise
 
 
 def _busy(driver: Driver[K, D]) -> str | None:

@@ -10,7 +10,7 @@ Per robot (in a worker process, :func:`read_robot`)::
          --> against the last observed (harlsync/backup): what changed tonight
          --> against approved (HEAD) and deployed (its ref): pending and drift
 
-Once for the run (in the process that started it, :func:`commit_observed`)::
+Once for the run (in the process that started it, :func:`.backupcommit.commit_observed`)::
 
     harlsync/backup's tree, each robot read replaced --> write-tree --> commit-tree
     --> update-ref refs/heads/harlsync/backup; a robot with no deployed ref yet gets
@@ -29,19 +29,21 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic
 
-from ..errors import HarlsyncError, PolicyError, ProjectError, ProjectInvalid, SyncError
-from ..families.base import AnyFamily, Progress
+from ..errors import PolicyError, ProjectError, ProjectInvalid, SyncError
+from ..families.base import Catalogue, D, Family, K, Progress
 from ..project import load_robot
+from ..project.robot import Robot
 from ..project.store import SCHEMAS_DIR
 from . import backupref, git, history, states
-from .backupref import Entry, RefUpdate
-from .items import diff, diff_items
-from .live import read_live
+from .backupcommit import Kept
+from .backupref import Entry
+from .items import Change, diff, diff_items
+from .live import LiveRead, read_live
 from .pulling import PullResult, pull
 
-__all__ = ["Observed", "commit_observed", "fetch_deployed", "push_refs", "read_robot"]
+__all__ = ["Observed", "read_robot"]
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +61,7 @@ class Observed(PullResult):
     #: no deployed ref yet: the commit taken as deployed ("" : what was read tonight)
     setup: str | None = None
 
-    def kept(self) -> dict[str, Any]:
+    def kept(self) -> Kept:
         """What the run's commit needs, as JSON (it crosses from a worker process)."""
         return {"root": self.root, "where": self.where, "files": self.files, "setup": self.setup}
 
@@ -94,69 +96,24 @@ def _observe(
     *,
     lock_timeout: float,
     progress: Progress | None = None,
-    family: AnyFamily,
+    family: Family[K, D],
     connect_options: Mapping[str, bool] | None = None,
     noted: Callable[[str], None] | None = None,
 ) -> Observed:
-    from .pulling import _migrated, _not_this_robot, _record_notes, _same_robot
+    """Read the robot of ``path`` held to what was observed before (or approved), and
+    store its files as git objects: what changed since, and its three states."""
+    from .pulling import _same_robot
 
     robot = load_robot(path, family)
     things = family.catalogue
     tip = backupref.commit_of(root, backupref.BACKUP_REF)
-    previous_commit = _last_observed(root, path, where, tip, head)
-    loaded: dict[str, Any] = {}
-
-    def data_at(commit: str) -> Any:
-        """The project at ``commit`` (None: it does not load), read once a tree."""
-        tree = backupref.project_tree(root, commit, where) or commit
-        if tree not in loaded:
-            try:
-                loaded[tree] = states.project_at(path, commit)
-            except ProjectError as exc:
-                log.warning("%s", exc)
-                loaded[tree] = None
-        return loaded[tree]
-
-    def accepted(check: Callable[[Any], object]) -> None:
-        """``check`` against the robot last observed; failing, against the approved
-        one: a robot an engineer accepted (``pull --new-robot``, committed) is it."""
-        try:
-            previous = data_at(previous_commit)
-            if previous is not None:
-                check(previous)
-        except PolicyError:
-            approved = data_at(head)
-            if previous_commit == head or approved is None:
-                raise
-            check(approved)
-
-    def same_identity(now: Mapping[str, str], where_read: str) -> None:
-        from .pulling import _identity_differs
-
-        def check(data: Any) -> None:
-            differ = _identity_differs(things.robot_identity(data), now)
-            if differ:
-                raise _not_this_robot(path, where_read, differ)
-
-        accepted(check)
-
-    read = read_live(
-        family,
-        robot,
-        None,
-        None,
-        registers=robot.keep_registers,
-        progress=progress,
-        lock_timeout=lock_timeout,
-        options=connect_options,
-        whole=True,
-        noted=partial(_record_notes, path, robot, None, None, noted),
-        identified=same_identity,
-        recorded=lambda: data_at(previous_commit),  # what the last backup found (issue 29)
+    seen: _Observing[D] = _Observing(
+        path, root, where, head, _last_observed(root, path, where, tip, head)
     )
+    read = seen.read(family, robot, progress, lock_timeout, connect_options, noted)
     live = read.live
-    accepted(lambda data: _same_robot(path, things, data, live, read.driver.label))
-    previous = data_at(previous_commit)
+    seen.accepted(lambda data: _same_robot(path, things, data, live, read.driver.label))
+    previous = seen.data_at(seen.last)
     changes = (
         None if previous is None else diff(things, previous, live, registers=robot.keep_registers)
     )
@@ -171,26 +128,104 @@ def _observe(
         files={name: [e.mode, e.oid] for name, e in stored.items()},
     )
     if previous is not None:  # files rewritten with no item changed: a migration, said
-        before = backupref.entries(root, previous_commit, where)
-        result.written = sorted(
-            name
-            for name, entry in stored.items()
-            if name != "robot.yaml" and before.get(name) != entry  # robot.yaml: a person's
-        )
-        was = git.read_blobs(root, [before[n].oid for n in result.written if n in before])
-        _migrated(
-            result,
-            {n: was[before[n].oid] for n in result.written if n in before},
-            family.format,
-        )
+        _note_rewritten(result, root, seen.last, where, stored, family.format)
     now = datetime.now(timezone.utc).isoformat(timespec="seconds")
     result.standing, result.setup = _standing(
-        path, root, where, head, tip, things, live, data_at, now
+        path, root, where, head, tip, things, live, seen.data_at, now
     )
     history.record(path, ok=True, changed=result.changed, changes=result.summary)
     if not result.changed:
-        history.committed(path, previous_commit)  # it holds what was read
+        history.committed(path, seen.last)  # it holds what was read
     return result
+
+
+@dataclass
+class _Observing(Generic[D]):
+    """One robot's read in a nightly backup: the projects it is held to, at the commit
+    last observed (``last``) and the approved one (``head``), each loaded once a tree."""
+
+    path: Path
+    root: Path
+    where: str
+    head: str
+    last: str
+    loaded: dict[str, D | None] = field(default_factory=dict)
+
+    def data_at(self, commit: str) -> D | None:
+        """The project at ``commit`` (None: it does not load), read once a tree."""
+        tree = backupref.project_tree(self.root, commit, self.where) or commit
+        if tree not in self.loaded:
+            try:
+                self.loaded[tree] = states.project_at(self.path, commit)
+            except ProjectError as exc:
+                log.warning("%s", exc)
+                self.loaded[tree] = None
+        return self.loaded[tree]
+
+    def accepted(self, check: Callable[[D], object]) -> None:
+        """``check`` against the robot last observed; failing, against the approved
+        one: a robot an engineer accepted (``pull --new-robot``, committed) is it."""
+        try:
+            previous = self.data_at(self.last)
+            if previous is not None:
+                check(previous)
+        except PolicyError:
+            approved = self.data_at(self.head)
+            if self.last == self.head or approved is None:
+                raise
+            check(approved)
+
+    def read(
+        self,
+        family: Family[K, D],
+        robot: Robot,
+        progress: Progress | None,
+        lock_timeout: float,
+        connect_options: Mapping[str, bool] | None,
+        noted: Callable[[str], None] | None,
+    ) -> LiveRead[K, D]:
+        """Everything the robot holds, its identity checked first where the family
+        tells it, held to what the last backup found (issue 29)."""
+        from .pulling import _identity_differs, _not_this_robot, _record_notes
+
+        def same_identity(now: Mapping[str, str], where_read: str) -> None:
+            def check(data: D) -> None:
+                differ = _identity_differs(family.catalogue.robot_identity(data), now)
+                if differ:
+                    raise _not_this_robot(self.path, where_read, differ)
+
+            self.accepted(check)
+
+        return read_live(
+            family,
+            robot,
+            None,
+            None,
+            registers=robot.keep_registers,
+            progress=progress,
+            lock_timeout=lock_timeout,
+            options=connect_options,
+            whole=True,
+            noted=partial(_record_notes, self.path, robot, None, None, noted),
+            identified=same_identity,
+            recorded=lambda: self.data_at(self.last),  # what the last backup found (issue 29)
+        )
+
+
+def _note_rewritten(
+    result: Observed, root: Path, last: str, where: str, stored: Mapping[str, Entry], current: int
+) -> None:
+    """Note in ``result`` the files stored otherwise than the last observed commit
+    held them (robot.yaml aside: a person's file), and which of them a migration from
+    an older format rewrote."""
+    from .pulling import _migrated
+
+    before = backupref.entries(root, last, where)
+    result.written = sorted(
+        name for name, entry in stored.items() if name != "robot.yaml" and before.get(name) != entry
+    )
+    was = git.read_blobs(root, [before[n].oid for n in result.written if n in before])
+    _migrated(result, {n: was[before[n].oid] for n in result.written if n in before}, current)
 
 
 def _last_observed(root: Path, path: Path, where: str, tip: str | None, head: str) -> str:
@@ -207,7 +242,7 @@ def _last_observed(root: Path, path: Path, where: str, tip: str | None, head: st
     return head
 
 
-def _files(path: Path, family: AnyFamily, robot: Any, live: Any) -> dict[str, bytes]:
+def _files(path: Path, family: Family[K, D], robot: Robot, live: D) -> dict[str, bytes]:
     """The project's files as a save would write them of ``live``, robot.yaml as the
     work tree has it (a person's file).  Raises ProjectInvalid as a save does."""
     texts = family.render_files(robot, live)
@@ -227,9 +262,9 @@ def _standing(
     where: str,
     head: str,
     tip: str | None,
-    things: Any,
-    live: Any,
-    data_at: Callable[[str], Any],
+    things: Catalogue[K, D],
+    live: D,
+    data_at: Callable[[str], D | None],
     now: str,
 ) -> tuple[states.Standing, str | None]:
     """The robot's three states compared, and the deployed ref to set up (None: it
@@ -243,35 +278,66 @@ def _standing(
         )
         return standing, None
     deployed_commit, how = states.deployed_commit(root, path, where)
+    was = data_at(deployed_commit) if deployed_commit is not None else None
     setup: str | None = None
-    deployed: Any = None
-    if deployed_commit is not None:
-        deployed = data_at(deployed_commit)
-    if deployed_commit is None or deployed is None:
-        if not diff_items(
-            things, things.items(live, registers=False), things.items(approved, registers=False)
-        ):
-            setup, deployed = head, approved
+    if deployed_commit is None or was is None:
+        setup, deployed = _take_as_deployed(standing, where, head, things, live, approved)
+    else:
+        deployed = was
+        if how != backupref.deployed_ref(where):
+            setup = deployed_commit
             standing.notes.append(
-                f"set up {backupref.deployed_ref(where)}: no deployed state was known; the "
-                f"robot matches the approved commit {head[:10]}, taken as deployed"
+                f"set up {backupref.deployed_ref(where)}: the last backup commit "
+                f"{deployed_commit[:10]} "
+                f"({states.date_of(backupref.commit_time(root, deployed_commit))}, made before "
+                "backups were kept apart from the approved branch) is taken as deployed"
             )
-        else:
-            setup, deployed = "", live
-            standing.notes.append(
-                f"set up {backupref.deployed_ref(where)}: no deployed state was known; what "
-                "the robot holds now is taken as deployed, so each difference from approved "
-                "is reported as pending"
-            )
-    elif how != backupref.deployed_ref(where):
-        setup = deployed_commit
-        standing.notes.append(
-            f"set up {backupref.deployed_ref(where)}: the last backup commit {deployed_commit[:10]} "
-            f"({states.date_of(backupref.commit_time(root, deployed_commit))}, made before "
-            "backups were kept apart from the approved branch) is taken as deployed"
-        )
     standing.deployed = deployed_commit if setup is None else (setup or None)
     pending, drift = states.classify(things, approved, deployed, live)
+    _first_seen(standing, path, head, tip, things, pending, drift)
+    return standing, setup
+
+
+def _take_as_deployed(
+    standing: states.Standing,
+    where: str,
+    head: str,
+    things: Catalogue[K, D],
+    live: D,
+    approved: D,
+) -> tuple[str, D]:
+    """What a robot with no deployed state known is taken to hold from its last push:
+    the approved commit when it matches it, else what it holds now (``""``); said in
+    ``standing``'s notes."""
+    if not diff_items(
+        things, things.items(live, registers=False), things.items(approved, registers=False)
+    ):
+        standing.notes.append(
+            f"set up {backupref.deployed_ref(where)}: no deployed state was known; the "
+            f"robot matches the approved commit {head[:10]}, taken as deployed"
+        )
+        return head, approved
+    standing.notes.append(
+        f"set up {backupref.deployed_ref(where)}: no deployed state was known; what "
+        "the robot holds now is taken as deployed, so each difference from approved "
+        "is reported as pending"
+    )
+    return "", live
+
+
+def _first_seen(
+    standing: states.Standing,
+    path: Path,
+    head: str,
+    tip: str | None,
+    things: Catalogue[K, D],
+    pending: list[Change[K]],
+    drift: list[Change[K]],
+) -> None:
+    """Each pending and drifted item in ``standing``, with when it was first seen (the
+    last standing's, else the backup commit that brought it, else now) and, pending,
+    who approved it."""
+    now = standing.checked  # when this backup read the robot
     earlier = states.read(path)
     before = (
         {
@@ -305,132 +371,3 @@ def _standing(
             else None
         )
         standing.pending.append(states.Seen(change.name, kept.first_seen if kept else now, by))
-    return standing, setup
-
-
-def commit_observed(
-    observed: list[tuple[Path, dict[str, Any], states.Standing | None]],
-    message: str,
-) -> tuple[str | None, list[str]]:
-    """Commit what each robot's backup read (``(project, kept, standing)``, as
-    :meth:`Observed.kept` gives it) on the backup branch, and set up the deployed
-    ref of each robot that has none: the new commit (None: the branch already holds
-    all of it) and what was set up, a line each.  Raises SyncError: the projects
-    are not in one repository, or git fails (then no ref moved)."""
-    roots = {kept["root"] for _, kept, _ in observed}
-    if len(roots) != 1:
-        raise SyncError(
-            f"{', '.join(str(p) for p, _, _ in observed)}: not inside one git repository; "
-            "back each repository up on its own"
-        )
-    root = Path(roots.pop())
-    tip = backupref.commit_of(root, backupref.BACKUP_REF)
-    head = backupref.commit_of(root, "HEAD")
-    base = tip or head
-    files = backupref.entries(root, base)
-    for _, kept, _ in observed:
-        where = kept["where"]
-        prefix = f"{where}/" if where else ""
-        files = {n: e for n, e in files.items() if not n.startswith(prefix)}
-        files.update({prefix + n: Entry(*e) for n, e in kept["files"].items()})
-    tree = backupref.write_tree(root, files)
-    said: list[str] = []
-    new: str | None = None
-    if base is None or tree != backupref.project_tree(root, base, ""):
-        new = backupref.make_commit(root, tree, [base] if base else [], message)
-    moved = new or (head if tip is None else None)  # every robot as approved: from HEAD
-    if moved is not None:
-        backupref.update_refs(
-            root, [RefUpdate(backupref.BACKUP_REF, moved, tip)], "harlsync backup"
-        )
-        if tip is None:
-            said.append(
-                f"set up: the branch {backupref.BACKUP_BRANCH} keeps what each backup reads, "
-                f"from {moved[:10]} on; the approved branch and the working tree are left alone"
-            )
-    held = moved or tip
-    for path, kept, _ in observed:
-        if kept.get("setup") is None:
-            continue
-        try:
-            _set_up_deployed(root, path, kept, held)
-        except HarlsyncError as exc:
-            said.append(f"{path.name}: its deployed ref was not set up: {exc}")
-    return new, said
-
-
-def _set_up_deployed(root: Path, path: Path, kept: dict[str, Any], observed: str | None) -> None:
-    """Make the deployed ref of a robot that has none, holding what its backup took
-    as deployed (its standing's note says what)."""
-    where = kept["where"]
-    source = kept["setup"] or observed
-    if source is None:
-        raise SyncError("nothing holds what was read")
-    prefix = f"{where}/" if where else ""
-    tree = backupref.write_tree(
-        root, {prefix + n: e for n, e in backupref.entries(root, source, where).items()}
-    )
-    ref = backupref.deployed_ref(where)
-    name = load_robot_name(path)
-    commit = backupref.make_commit(
-        root,
-        tree,
-        [source],
-        f"deployed: {name}: set up by its first backup under the three-state model\n\n"
-        f"What the robot was taken to hold from its last push: commit {source[:10]}.\n",
-    )
-    backupref.update_refs(root, [RefUpdate(ref, commit, None)], "harlsync backup: set up")
-
-
-def load_robot_name(path: Path) -> str:
-    try:
-        return load_robot(path).name
-    except HarlsyncError:
-        return path.name
-
-
-def remote_of(root: Path) -> str | None:
-    """The remote of the branch checked out (its upstream's), else ``origin`` when
-    there is one, else None."""
-    branch = git.run(root, "symbolic-ref", "--quiet", "--short", "HEAD", ok=(0, 1)).strip()
-    if branch:
-        remote = git.run(root, "config", f"branch.{branch}.remote", ok=(0, 1)).strip()
-        if remote:
-            return remote
-    remotes = git.run(root, "remote").split()
-    return "origin" if "origin" in remotes else (remotes[0] if len(remotes) == 1 else None)
-
-
-def push_refs(path: Path) -> bool:
-    """Push the backup branch and every deployed ref to the remote; whether there was
-    any.  Raises SyncError with git's reason (the local commit is kept: the next run
-    pushes it)."""
-    root = git.repo_root(path)
-    if root is None:
-        raise SyncError(f"{path}: not inside a git repository")
-    specs = []
-    if backupref.commit_of(root, backupref.BACKUP_REF) is not None:
-        specs.append(f"{backupref.BACKUP_REF}:{backupref.BACKUP_REF}")
-    if git.run(root, "for-each-ref", "--count=1", backupref.DEPLOYED).strip():
-        specs.append(f"{backupref.DEPLOYED}*:{backupref.DEPLOYED}*")
-    if not specs:
-        return False
-    remote = remote_of(root)
-    if remote is None:
-        raise SyncError(f"{root}: no git remote to push to; add one (git remote add origin URL)")
-    git.run(root, "push", "--quiet", remote, *specs)
-    return True
-
-
-def fetch_deployed(path: Path) -> str | None:
-    """Fetch the deployed refs the remote has (pushes made from other clones), each
-    only where it moves forward; what went wrong, or None."""
-    root = git.repo_root(path)
-    remote = remote_of(root) if root is not None else None
-    if root is None or remote is None:
-        return None
-    try:
-        git.run(root, "fetch", "--quiet", remote, f"{backupref.DEPLOYED}*:{backupref.DEPLOYED}*")
-    except HarlsyncError as exc:
-        return f"the deployed refs were not fetched from {remote}: {exc}"
-    return None

@@ -18,11 +18,12 @@ import json
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any, Generic
+from typing import Generic
 
 from ..errors import ProjectFormatError
-from ..families.base import Catalogue, D, Driver, K
+from ..families.base import Catalogue, Change3, D, Driver, K
 from ..project import statefile
+from ..project.robot import Robot
 from . import git
 from .items import Change, diff, render_text
 
@@ -53,7 +54,7 @@ class PlannedWrite(Generic[K]):
     #: the items of the diff this write changes (one, or a run of positions), as
     #: ``diff`` shows them; a write of an item that did not differ (a step rewritten
     #: after a reconfiguration) is its own change
-    items: tuple[Change[Any], ...] = ()
+    items: tuple[Change[K], ...] = ()
 
 
 @dataclass
@@ -89,7 +90,7 @@ class Plan(Generic[K]):
         return not self.writes
 
     @property
-    def items(self) -> list[Change[Any]]:
+    def items(self) -> list[Change[K]]:
         """The changes of the diff that the writes make, in push order: what a person
         confirms (an IAI 291H writes several positions, each one item)."""
         return [c for w in self.writes for c in w.items]
@@ -119,7 +120,7 @@ class Plan(Generic[K]):
             lines.append(f"# {write.name}: {write.command}{flag}")
         return [*lines, f"# {self.counted} to {self.robot} ({self.target})"]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         return {
             "format": PLAN_FORMAT,
             "robot": self.robot,
@@ -136,7 +137,7 @@ class Plan(Generic[K]):
         Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n", encoding="utf-8")
 
     @staticmethod
-    def load_saved(path: str | Path) -> dict[str, Any]:
+    def load_saved(path: str | Path) -> dict[str, object]:
         """A saved plan's data.  Raises ProjectFormatError when unreadable."""
         try:
             data = statefile.load(Path(path))
@@ -186,8 +187,8 @@ def fingerprint(catalogue: Catalogue[K, D], data: D, *, registers: bool = False)
 
 
 def covered(
-    catalogue: Catalogue[Any, Any], changes: list[Change[Any]], wanted: list[tuple[Any, Any, Any]]
-) -> list[tuple[Change[Any], ...]]:
+    catalogue: Catalogue[K, D], changes: list[Change[K]], wanted: list[Change3[K]]
+) -> list[tuple[Change[K], ...]]:
     """For each write (key, old, new) of ``wanted``, in order, the changes of the diff it
     makes.
 
@@ -198,13 +199,13 @@ def covered(
     """
     by_key = {c.key: c for c in changes}
     taken: set[int] = set()
-    found: list[tuple[Change[Any], ...]] = []
+    found: list[tuple[Change[K], ...]] = []
     for key, old, new in wanted:
         if key in by_key:
             found.append((by_key[key],))
             taken.add(id(by_key[key]))
             continue
-        mine: list[Change[Any]] = []
+        mine: list[Change[K]] = []
         if isinstance(new, tuple):
             group = catalogue.group(key)
             for value in new:
@@ -265,7 +266,7 @@ def make_plan(
     )
 
 
-def policy_refusals(path: Path, robot: Any, now: datetime | None = None) -> list[str]:
+def policy_refusals(path: Path, robot: Robot, now: datetime | None = None) -> list[str]:
     """Why a push of the project at ``path`` would be refused now besides the robot's
     state, each as a sentence: uncommitted changes, outside the maintenance windows.
     For ``plan`` to list every reason at once (the push stops at the first)."""

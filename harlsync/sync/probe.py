@@ -25,7 +25,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
 
 from ..errors import ControllerError, LinkTimeout, ProjectError, ProtocolError
 from ..families.base import AnyFamily
@@ -129,11 +128,7 @@ def probe(
     """
     tried: list[str] = []
     for fam in candidates:
-        if capture is not None and fam.schemes:
-            raise ProjectError(
-                f"--capture records a serial line's bytes, and {port} is the {fam.title}'s "
-                "own network protocol: leave --capture out"
-            )
+        _capturable(fam, port, capture)
         given = None if stations is None else stations.get(fam.name)
         numbers = list(given or fam.probe_stations or (fam.default_station,))
         for station in numbers:
@@ -154,20 +149,36 @@ def probe(
                             f"{settings.baudrate} baud: no answer"
                         )
                         continue
-                    started = time.monotonic()
-                    if capture is not None:
-                        with recording(capture):
-                            survey = fam.survey(robot, lock_timeout=lock_timeout)
-                    else:
-                        survey = fam.survey(robot, lock_timeout=lock_timeout)
-                return Probed(
-                    fam, port, station, settings, survey, time.monotonic() - started, tried
-                )
+                    survey, took = _surveyed(fam, robot, lock_timeout, capture)
+                return Probed(fam, port, station, settings, survey, took, tried)
     raise ProjectError(
         f"port {port}: nothing answered a read of any family tried ({'; '.join(tried)}); "
         "check the cable and that the controller is on, give --family and --station if "
         "you know them, or --baud auto on a local serial port"
     )
+
+
+def _capturable(fam: AnyFamily, port: str, capture: Path | None) -> None:
+    """Refuse a capture of a family's own network protocol: it records a serial line's bytes."""
+    if capture is not None and fam.schemes:
+        raise ProjectError(
+            f"--capture records a serial line's bytes, and {port} is the {fam.title}'s "
+            "own network protocol: leave --capture out"
+        )
+
+
+def _surveyed(
+    fam: AnyFamily, robot: Robot, lock_timeout: float, capture: Path | None
+) -> tuple[Survey, float]:
+    """The family's survey of ``robot`` (its traffic recorded to ``capture``, when
+    given) and the seconds it took."""
+    started = time.monotonic()
+    if capture is not None:
+        with recording(capture):
+            survey = fam.survey(robot, lock_timeout=lock_timeout)
+    else:
+        survey = fam.survey(robot, lock_timeout=lock_timeout)
+    return survey, time.monotonic() - started
 
 
 # --- what it reports ---------------------------------------------------------------------
@@ -215,7 +226,7 @@ def report(found: Probed) -> list[str]:
     return lines
 
 
-def to_json(found: Probed) -> dict[str, Any]:
+def to_json(found: Probed) -> dict[str, object]:
     """The findings as ``--json`` prints them."""
     s = found.survey
     return {

@@ -10,15 +10,15 @@ from dataclasses import dataclass, field
 from functools import partial
 from operator import attrgetter
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Generic
 
 from .. import families, lookup
 from ..errors import LinkTimeout, PolicyError, ProjectError
-from ..families.base import AnyFamily, Catalogue, Progress
+from ..families.base import AnyFamily, Catalogue, D, Family, K, Progress
 from ..project.lock import holding_project
 from ..project.robot import Robot
 from . import git
-from .live import Station, read_live, station_number
+from .live import LiveRead, Station, read_live, station_number
 
 if TYPE_CHECKING:
     from .items import Change
@@ -160,8 +160,7 @@ def pull(
     note a call, even when the pull then fails.
     """
     path = Path(path)
-    given = family
-    family, robot = _robot_for(path, port, station, given)
+    family, robot = _robot_for(path, port, station, family)
     station = station_number(family, station)
     # git's answer on uncommitted edits, asked now and taken before the family
     # connects, or, for a family whose connection only reads (Family.connect_writes
@@ -169,160 +168,166 @@ def pull(
     # way a dirty project is refused before anything is written or saved.
     asked = None if allow_dirty else git.Asked(path)
     first = not (path / "robot.yaml").exists()
+    pulling = _Pulling(path, family, robot, asked, port, station, new_robot)
     try:
-        return _pull(
-            path,
-            family,
-            robot,
-            asked=asked,
-            port=port,
-            station=station,
-            commit=commit,
-            progress=progress,
-            lock_timeout=lock_timeout,
-            new_robot=new_robot,
-            connect_options=connect_options,
-            noted=noted,
-            discard_pending=discard_pending,
-        )
+        read = pulling.read(progress, lock_timeout, connect_options, noted)
+        return pulling.save(read, commit=commit, discard_pending=discard_pending)
     except LinkTimeout as exc:
         if not first:
             raise
-        # A first pull guessed the family (or was told it) and its station: a line
-        # that does not answer so may hold another family's controller (issue 31).
-        raise LinkTimeout(
-            f"{exc.message}; or this is not a {family.title} at station "
-            f"{family.format_station(robot.station if station is None else station)}: harlsync probe --port {port} tells "
-            "which controller answers there, and writes its robot.yaml (--write)",
-            port=exc.port,
-            station=exc.station,
-            command=exc.command,
-            station_text=exc.station_text,
-        ) from exc
+        at = robot.station if station is None else station
+        raise _not_this_family(exc, family, at, port) from exc
     finally:
         if asked is not None:
             asked.close()
 
 
-def _pull(
-    path: Path,
-    family: AnyFamily,
-    robot: Robot,
-    *,
-    asked: git.Asked | None,
-    port: str | None,
-    station: int | None,
-    commit: bool,
-    progress: Progress | None,
-    lock_timeout: float,
-    new_robot: bool,
-    connect_options: Mapping[str, bool] | None,
-    noted: Callable[[str], None] | None,
-    discard_pending: bool = False,
-) -> PullResult:
-    """:func:`pull` once robot.yaml is read and git asked (``asked``; None:
-    ``allow_dirty``)."""
-    earlier: list[str] = []
-    settled: list[bool] = []
-    loaded: list[Any] = []
-    read_from: dict[str, bytes] = {}  # the backup's files, as loaded
+def _not_this_family(
+    exc: LinkTimeout, family: AnyFamily, station: int, port: str | None
+) -> LinkTimeout:
+    """A first pull's timeout, saying what else it may mean: it guessed the family (or
+    was told it) and its station, and a line that does not answer so may hold another
+    family's controller (issue 31)."""
+    return LinkTimeout(
+        f"{exc.message}; or this is not a {family.title} at station "
+        f"{family.format_station(station)}: harlsync probe --port {port} tells "
+        "which controller answers there, and writes its robot.yaml (--write)",
+        port=exc.port,
+        station=exc.station,
+        command=exc.command,
+        station_text=exc.station_text,
+    )
 
-    def settle() -> None:
+
+@dataclass
+class _Pulling(Generic[K, D]):
+    """One pull once robot.yaml is read and git asked (``asked``; None:
+    ``allow_dirty``): the read, then the save, with what waits for the line to be
+    open (git's answer, the backup loaded) done once, when first needed."""
+
+    path: Path
+    family: Family[K, D]
+    robot: Robot
+    asked: git.Asked | None
+    port: str | None
+    station: int | None
+    new_robot: bool
+    earlier: list[str] = field(default_factory=list)
+    settled: bool = False
+    loaded: list[D | None] = field(default_factory=list)
+    #: the backup's files, as loaded
+    read_from: dict[str, bytes] = field(default_factory=dict)
+
+    def settle(self) -> None:
         """What waits for the line to be open, done once, before anything else is
         read or saved: git's answer."""
-        nonlocal earlier
-        if settled:
+        if self.settled:
             return
-        settled.append(True)
-        if asked is not None:
+        self.settled = True
+        if self.asked is not None:
             from .policy import earlier_pull_and_edits
 
-            earlier, dirty = earlier_pull_and_edits(path, family, asked)
+            self.earlier, dirty = earlier_pull_and_edits(self.path, self.family, self.asked)
             if dirty:
                 raise PolicyError(
-                    f"{path}: uncommitted changes a pull would overwrite ({dirty}); commit "
-                    f"or stash them, or overwrite them with 'harlsync pull {path} --allow-dirty'"
+                    f"{self.path}: uncommitted changes a pull would overwrite ({dirty}); "
+                    "commit or stash them, or overwrite them with "
+                    f"'harlsync pull {self.path} --allow-dirty'"
                 )
 
-    def backup() -> Any:
+    def backup(self) -> D | None:
         """The backup in ``path`` (None: none), loaded once the line is open: the
         first request need not wait for it (issue 15)."""
-        if not loaded:
+        if not self.loaded:
             from ..project.store import read_project
 
             try:
-                project, files = read_project(path, family)
-                loaded.append(project.data)
-                read_from.update(files)
+                project, files = read_project(self.path, self.family)
+                self.loaded.append(project.data)
+                self.read_from.update(files)
             except ProjectError:
-                loaded.append(None)
-        return loaded[0]
+                self.loaded.append(None)
+        return self.loaded[0]
 
-    def same_identity(now: Mapping[str, str], where: str) -> None:
+    def same_identity(self, now: Mapping[str, str], where: str) -> None:
         """A swapped controller is refused at its first exchanges, not after a whole read."""
-        settle()
-        previous = backup()
-        if previous is not None and not new_robot:
-            differ = _identity_differs(family.catalogue.robot_identity(previous), now)
+        self.settle()
+        previous = self.backup()
+        if previous is not None and not self.new_robot:
+            differ = _identity_differs(self.family.catalogue.robot_identity(previous), now)
             if differ:
-                raise _not_this_robot(path, where, differ)
+                raise _not_this_robot(self.path, where, differ)
 
-    def recorded() -> Any:
+    def recorded(self) -> D | None:
         """What the backup recorded of the robot for the read to hold it to; nothing
         for a new robot, which may answer otherwise."""
-        settle()
-        return None if new_robot else backup()
+        self.settle()
+        return None if self.new_robot else self.backup()
 
-    if family.connect_writes:  # a dirty project refused before anything is sent
-        settle()
-    read = read_live(
-        family,
-        robot,
-        port,
-        station,
-        registers=robot.keep_registers,
-        progress=progress,
-        lock_timeout=lock_timeout,
-        options=connect_options,
-        whole=True,  # a backup finds out how far each table goes
-        noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
-        identified=same_identity,
-        recorded=recorded,
-        command="pull",
-    )
-    settle()  # a family that cannot tell its identity first: after the read
-    from ..project.store import Project, save_project
-    from .items import diff
+    def read(
+        self,
+        progress: Progress | None,
+        lock_timeout: float,
+        connect_options: Mapping[str, bool] | None,
+        noted: Callable[[str], None] | None,
+    ) -> LiveRead[K, D]:
+        """Everything the robot holds, a dirty project refused before anything is
+        sent (or, for a family that cannot tell its identity first, after the read)."""
+        if self.family.connect_writes:  # a dirty project refused before anything is sent
+            self.settle()
+        path, robot, port, station = self.path, self.robot, self.port, self.station
+        read = read_live(
+            self.family,
+            robot,
+            port,
+            station,
+            registers=robot.keep_registers,
+            progress=progress,
+            lock_timeout=lock_timeout,
+            options=connect_options,
+            whole=True,  # a backup finds out how far each table goes
+            noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
+            identified=self.same_identity,
+            recorded=self.recorded,
+            command="pull",
+        )
+        self.settle()  # a family that cannot tell its identity first: after the read
+        return read
 
-    things = family.catalogue
-    live = read.live
-    previous = backup()
-    compared = None  # the changes without runtime data, when _same_robot found them
-    if previous is not None and not new_robot:
-        compared = _same_robot(path, things, previous, live, read.driver.label)
-    if not discard_pending:
-        _refuse_pending(path, things, live)
-    written = save_project(path, Project(path, robot, live, family))
-    if previous is None:
-        changes = None
-    elif compared is not None and not robot.keep_registers:
-        changes = compared
-    else:
-        changes = diff(things, previous, live, registers=robot.keep_registers)
-    result = PullResult(
-        path,
-        robot,
-        changes,
-        earlier=earlier,
-        contents=things.contents(live, registers=robot.keep_registers),
-        written=written,
-    )
-    _migrated(result, read_from, family.format)
-    _record_pull(path, robot, result, commit=commit)
-    return result
+    def save(self, read: LiveRead[K, D], *, commit: bool, discard_pending: bool) -> PullResult:
+        """Save what was read as the backup, once it looks like the robot backed up
+        here, and record (and, with ``commit``, commit) the pull."""
+        from ..project.store import Project, save_project
+        from .items import diff
+
+        path, robot, things, live = self.path, self.robot, self.family.catalogue, read.live
+        previous = self.backup()
+        compared = None  # the changes without runtime data, when _same_robot found them
+        if previous is not None and not self.new_robot:
+            compared = _same_robot(path, things, previous, live, read.driver.label)
+        if not discard_pending:
+            _refuse_pending(path, things, live)
+        written = save_project(path, Project(path, robot, live, self.family))
+        if previous is None:
+            changes = None
+        elif compared is not None and not robot.keep_registers:
+            changes = compared
+        else:
+            changes = diff(things, previous, live, registers=robot.keep_registers)
+        result = PullResult(
+            path,
+            robot,
+            changes,
+            earlier=self.earlier,
+            contents=things.contents(live, registers=robot.keep_registers),
+            written=written,
+        )
+        _migrated(result, self.read_from, self.family.format)
+        _record_pull(path, robot, result, commit=commit)
+        return result
 
 
-def _refuse_pending(path: Path, things: Catalogue[Any, Any], live: Any) -> None:
+def _refuse_pending(path: Path, things: Catalogue[K, D], live: D) -> None:
     """Raise PolicyError when the project holds approved changes not yet on the
     robot, which the pull would overwrite."""
     from .policy import listed
@@ -411,8 +416,8 @@ FEW_ITEMS = 10
 
 
 def _same_robot(
-    path: Path, things: Catalogue[Any, Any], backup: Any, live: Any, where: str
-) -> list[Change[Any]]:
+    path: Path, things: Catalogue[K, D], backup: D, live: D, where: str
+) -> list[Change[K]]:
     """Raise PolicyError unless the controller read (``live``) looks like the robot
     backed up in ``path``: the same identity (the family's: version, configuration,
     model), nothing else the family tells from a whole read
@@ -431,7 +436,7 @@ def _same_robot(
     if not differ:  # what only a whole read tells (IAI: a table's "not there" reply)
         why = things.other_robot(live, backup)
         differ = [why] if why is not None else []
-    changes: list[Change[Any]] = []
+    changes: list[Change[K]] = []
     if not differ:
         was, now = things.items(backup, registers=False), things.items(live, registers=False)
         changes = diff_items(things, was, now)

@@ -15,7 +15,6 @@ from __future__ import annotations
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from ..errors import HarlsyncError, ProjectError
 from ..project import Project, load_project
@@ -106,8 +105,8 @@ def compare_versions(
             f"{path}: {a.label} is a {a.project.family.name} robot and {b.label} a "
             f"{b.project.family.name} one: nothing to compare item by item"
         )
-    found: Any = b.project.family.catalogue
-    changes = diff(found, a.project.data, b.project.data, registers=registers)
+    things = b.project.family.catalogue
+    changes = diff(things, a.project.data, b.project.data, registers=registers)
     about: dict[str, object] = {"robot": b.project.robot.name, "old": a.label, "new": b.label}
     return Differences(changes, a.label, b.label, about)
 

@@ -13,7 +13,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 from ..errors import HarlsyncError, LinkError, ProjectError
 from ..families.base import AnyFamily, Progress
@@ -21,7 +21,7 @@ from ..link import lock_key
 from ..project import family_of, load_robot
 from ..project.lock import project_lock
 from ..robotlog import about
-from . import audit, auditindex, history, nightly, states
+from . import audit, auditindex, backupcommit, history, nightly, states
 from .items import summarize
 
 __all__ = [
@@ -76,10 +76,10 @@ class RobotOutcome:
     pushed: list[str] = field(default_factory=list)
     #: Its three states compared (:class:`.states.Standing` as JSON): same as
     #: approved, pending or drift; None when not read into git's keeping.
-    standing: dict[str, Any] | None = None
+    standing: dict[str, object] | None = None
     #: What the run commits of its read on the backup branch (:meth:`.nightly.Observed.kept`);
     #: None when it was pulled into its directory (not in git, no approved version).
-    kept: dict[str, Any] | None = None
+    kept: backupcommit.Kept | None = None
 
     @property
     def compared(self) -> states.Standing | None:

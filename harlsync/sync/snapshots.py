@@ -9,7 +9,7 @@ import shutil
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from ..columns import ljust, rjust, width
 from ..errors import HarlsyncError, ProjectError
@@ -164,7 +164,7 @@ def load_snapshot(project: str | Path, snapshot: Path, family: AnyFamily | None 
         ) from exc
 
 
-def save_snapshot(path: Path, robot: Robot, live: Any, action: str) -> Path:
+def save_snapshot(path: Path, robot: Robot, live: object, action: str) -> Path:
     """Save the robot as a snapshot, whole or not at all: it is saved under a
     hidden name and renamed, so a process killed meanwhile leaves no half
     snapshot for rollback to pick (the next snapshot removes the leftover)."""

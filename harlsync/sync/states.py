@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from ..errors import HarlsyncError, ProjectError
-from ..families.base import Catalogue
+from ..families.base import Catalogue, D, K
 from ..project import statefile
 from ..project.store import disk_error, replace_file
 from . import backupref, git, history
@@ -119,11 +119,11 @@ class Standing:
             f"drift: {s.describe()}" for s in self.drift
         ]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         return asdict(self)
 
     @classmethod
-    def from_json(cls, data: Any) -> Standing | None:
+    def from_json(cls, data: object) -> Standing | None:
         """The record as :meth:`to_json` wrote it; None for anything else."""
         if not isinstance(data, dict):
             return None
@@ -181,8 +181,8 @@ def date_of(stamp: str) -> str:
 
 
 def classify(
-    catalogue: Catalogue[Any, Any], approved: Any, deployed: Any, observed: Any
-) -> tuple[list[Change[Any]], list[Change[Any]]]:
+    catalogue: Catalogue[K, D], approved: D, deployed: D, observed: D
+) -> tuple[list[Change[K]], list[Change[K]]]:
     """The pending and the drifted items, as changes from the robot (``old``, observed)
     to the project (``new``, approved): what a push would write.  An item changed on
     both sides since it was deployed is in both lists.  Runtime data never counts."""
@@ -216,12 +216,12 @@ class Origin(NamedTuple):
 
 def introduced(
     path: Path,
-    catalogue: Catalogue[Any, Any],
+    catalogue: Catalogue[K, D],
     start: str,
-    values: Mapping[Any, object],
+    values: Mapping[K, object],
     *,
     limit: int = LOOK_BACK,
-) -> dict[Any, Origin]:
+) -> dict[K, Origin]:
     """For each item of ``values`` (key -> value): the oldest commit of the unbroken
     run, back from ``start`` along first parents, whose project holds that value:
     the commit that made it (on the approved branch) or the night that first saw it
@@ -244,7 +244,7 @@ def introduced(
         ok=(0, 128),
     )
     left = dict(values)
-    found: dict[Any, Origin] = {}
+    found: dict[K, Origin] = {}
     newer: Origin | None = None
     for line in listing.splitlines():
         origin = Origin(*line.split("\x1f", 2))
@@ -282,8 +282,8 @@ def deployed_commit(root: Path, path: Path, where: str) -> tuple[str | None, str
 
 
 def reverts(
-    path: Path, catalogue: Catalogue[Any, Any], live: Any, items: list[Change[Any]]
-) -> dict[Any, str]:
+    path: Path, catalogue: Catalogue[K, D], live: D, items: list[Change[K]]
+) -> dict[K, str]:
     """Which of ``items`` (a plan's, from the robot ``live``) revert a change made on
     the robot since the last push or rollback: key -> ``reverts a change made on the
     robot on 2026-11-25`` (the night a backup first read it; when none has, since
@@ -318,7 +318,7 @@ def reverts(
     }
 
 
-def check_pending(path: Path, catalogue: Catalogue[Any, Any], live: Any) -> list[str]:
+def check_pending(path: Path, catalogue: Catalogue[K, D], live: D) -> list[str]:
     """The pending items a pull of ``live`` into ``path`` would overwrite: approved on
     the project's branch, not yet deployed, and not what the robot holds.  None
     outside git, or when nothing tells what was deployed."""
@@ -397,7 +397,7 @@ def audit_user() -> str:
     return f"{record.user}@{record.host}"
 
 
-def mark_reverts(path: Path, live: Any, plan: Plan[Any]) -> Plan[Any]:
+def mark_reverts(path: Path, live: object, plan: Plan[K]) -> Plan[K]:
     """``plan`` (made from the robot ``live``) with :attr:`Plan.reverts` filled in
     from :func:`reverts`; the same plan."""
     found = reverts(path, plan_catalogue(plan), live, plan.items) if plan.items else {}
@@ -405,5 +405,5 @@ def mark_reverts(path: Path, live: Any, plan: Plan[Any]) -> Plan[Any]:
     return plan
 
 
-def plan_catalogue(plan: Plan[Any]) -> Catalogue[Any, Any]:
+def plan_catalogue(plan: Plan[K]) -> Catalogue[K, Any]:
     return plan.items[0].catalogue

@@ -27,7 +27,6 @@ from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any
 
 from .. import columns
 from ..errors import HarlsyncError
@@ -64,7 +63,7 @@ STATES = (
 ATTENTION = frozenset(("unfinished push", "partial push", "never backed up", "failed", "stale"))
 
 
-def _items(found: list[dict[str, Any]]) -> str:
+def _items(found: list[Seen]) -> str:
     return f"{len(found)} item{'s' * (len(found) != 1)}" if found else "0"
 
 
@@ -102,10 +101,10 @@ class RobotStatus:
     #: another robot of the plant has that name.
     label: str = ""
     #: What its last backup found against the approved version (:mod:`.states`):
-    #: ``{"item", "first_seen", "by"}`` for each pending item (approved, not yet on
-    #: the robot) and each drifted one (changed on the robot, not by a push).
-    pending: list[dict[str, Any]] = field(default_factory=list)
-    drift: list[dict[str, Any]] = field(default_factory=list)
+    #: each pending item (approved, not yet on the robot) and each drifted one
+    #: (changed on the robot, not by a push); ``{"item", "first_seen", "by"}`` in JSON.
+    pending: list[Seen] = field(default_factory=list)
+    drift: list[Seen] = field(default_factory=list)
     #: When that backup read it (None: no backup under the three-state model yet).
     compared: str | None = None
 
@@ -137,19 +136,19 @@ class RobotStatus:
     def seen(self) -> list[str]:
         """A line per pending and drifted item: ``drift: timer 3 (first seen 2026-11-25)``."""
         return [
-            f"{what}: {Seen(s['item'], s['first_seen'], s.get('by')).describe()}"
+            f"{what}: {s.describe()}"
             for what, found in (("pending", self.pending), ("drift", self.drift))
             for s in found
         ]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         data = asdict(self)
         del data["pushes"]
         data["last_push"] = None if self.last_push is None else _push_json(self.last_push)
         return data
 
 
-def _push_json(push: AuditRecord) -> dict[str, Any]:
+def _push_json(push: AuditRecord) -> dict[str, object]:
     """The last push as ``status --format json`` gives it: who, when, what it wrote."""
     return {
         "action": push.shown_action,
@@ -192,7 +191,7 @@ class PlantStatus:
         parts = [f"{n} {state}" for state, n in self.counts().items()]
         return f"{len(self.robots)} robot(s): {', '.join(parts) or 'none'}"
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         return {
             "ok": self.ok,
             "generated": self.generated,
@@ -316,6 +315,7 @@ def _robot_status(
     stale_after: timedelta,
     warnings: list[str],
 ) -> RobotStatus:
+    """One robot's line of the status: its last backup, its three states, its pushes."""
     try:
         family = family_of(path)
         robot = load_robot(path, family)
@@ -356,11 +356,17 @@ def _robot_status(
     standing = states.read(path)
     if standing is not None:
         status.compared = standing.checked
-        status.pending = [asdict(s) for s in standing.pending]
-        status.drift = [asdict(s) for s in standing.drift]
+        status.pending = list(standing.pending)
+        status.drift = list(standing.drift)
     status.never_backed_up = status.last_success is None
     status.stale = history.stale(status.last_success, now, stale_after)
-    mine = _pushes(log, robot.port, robot.station, path, warnings)
+    _note_pushes(status, _pushes(log, robot.port, robot.station, path, warnings))
+    status.state = _state(status)
+    return status
+
+
+def _note_pushes(status: RobotStatus, mine: RobotRecords) -> None:
+    """The robot's latest pushes in ``status``, and each one left unfinished."""
     status.pushes = list(mine.recent)
     status.last_push = status.pushes[-1] if status.pushes else None
     status.unfinished = [audit.describe_unfinished(r) for r in mine.unsettled]
@@ -372,8 +378,6 @@ def _robot_status(
             f"the last {last.action} ({local_time(last.time)}) stopped part way through "
             f"{last.partly_text()}; run it again (or roll back) to complete it"
         )
-    status.state = _state(status)
-    return status
 
 
 def _state(r: RobotStatus) -> str:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from datetime import datetime
-from typing import Any
 
 from ..errors import (
     HarlsyncError,
@@ -21,7 +20,7 @@ from ..errors import (
     StalePlanError,
     VerifyError,
 )
-from ..families.base import AnyFamily, Driver, Words
+from ..families.base import D, Driver, Family, K, Words
 from ..project import Robot
 from . import audit
 from .plan import Plan, PlannedWrite
@@ -54,7 +53,7 @@ def _no_answer(exc: HarlsyncError) -> bool:
     return isinstance(exc, PortError | PortBusyError)
 
 
-def interlock(driver: Driver[Any, Any], robot: Robot, words: Words, before: str) -> None:
+def interlock(driver: Driver[K, D], robot: Robot, words: Words, before: str) -> None:
     """Raise InterlockError unless the robot's status (``words.state``, in the
     family's words) shows it idle.
 
@@ -80,17 +79,21 @@ def interlock(driver: Driver[Any, Any], robot: Robot, words: Words, before: str)
 
 
 def write_all(
-    family: AnyFamily,
-    driver: Driver[Any, Any],
+    family: Family[K, D],
+    driver: Driver[K, D],
     robot: Robot,
-    the_plan: Plan[Any],
+    the_plan: Plan[K],
     opts: PushOptions,
     result: PushResult,
-    announce: Callable[[PlannedWrite[Any]], None],
+    announce: Callable[[PlannedWrite[K]], None],
 ) -> None:
+    """Make each write of ``the_plan`` in turn, each checked against the window, the
+    robot's state and what the robot holds, and read back; ``result`` says what was
+    written (and which write failed).  ``announce`` is told each write before it
+    is made."""
     tunable = family.catalogue.live_tuning
 
-    def live(write: PlannedWrite[Any]) -> bool:
+    def live(write: PlannedWrite[K]) -> bool:
         return opts.allow_live_tuning and write.key.kind in tunable and not write.unsafe
 
     if opts.allow_live_tuning and not all(live(w) for w in the_plan.writes):
@@ -98,64 +101,90 @@ def write_all(
         # other write needs an idle robot before its first write of any kind.
         interlock(driver, robot, family.words, f"the first write ({the_plan.writes[0].name})")
     for write in the_plan.writes:
-        now = driver.read(write.key)
-        if now != write.old:
-            raise StalePlanError(
-                f"{write.name} changed on the robot since it was read "
-                f"({audit.difference(family.catalogue, write.key, write.old, now)}); not "
-                "overwriting it. Pull or diff to see the change, then run again"
-            )
-        check_window(robot, opts, f"writing {write.name}")
-        announce(write)  # before the interlock: nothing between the status read and the write
-        if not live(write):
-            try:
-                interlock(driver, robot, family.words, f"writing {write.name}")
-            except InterlockError as exc:
-                raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
-        result.failed = write
-        # A re-send after a lost reply is a write too: the same interlock applies.
-        try:
-            driver.write(write.key, write.new, write.old, needs_idle=not live(write))
-        except NotWritten:
-            result.failed = None  # refused, not lost: the item is not written
-            raise
-        except PartlyWritten as exc:
-            result.partly_written = exc
-            raise
-        got = driver.read(write.key)
-        if got != write.new:
-            raise VerifyError(
-                f"{write.name} does not read back as written "
-                f"({audit.difference(family.catalogue, write.key, write.new, got)}, written → "
-                "read back)"
-            )
-        result.failed = None
-        result.written.append(write)
-        log.info("wrote %s: %s", write.name, write.command)
+        _write_one(family, driver, robot, write, opts, result, live, announce)
     if _last_guarded(result, live) is not None:
-        # The last write that needed an idle robot had no status read after it: one more
-        # tells whether the robot was started between the read before it and its arrival (no
-        # client can prevent that).
+        _idle_at_end(family, driver, robot, result, live)
+
+
+def _write_one(
+    family: Family[K, D],
+    driver: Driver[K, D],
+    robot: Robot,
+    write: PlannedWrite[K],
+    opts: PushOptions,
+    result: PushResult,
+    live: Callable[[PlannedWrite[K]], bool],
+    announce: Callable[[PlannedWrite[K]], None],
+) -> None:
+    """One write: refused when the robot no longer holds what the plan was made
+    from, outside the window, or (unless ``live``) when the robot is not idle;
+    verified by reading it back."""
+    now = driver.read(write.key)
+    if now != write.old:
+        raise StalePlanError(
+            f"{write.name} changed on the robot since it was read "
+            f"({audit.difference(family.catalogue, write.key, write.old, now)}); not "
+            "overwriting it. Pull or diff to see the change, then run again"
+        )
+    check_window(robot, opts, f"writing {write.name}")
+    announce(write)  # before the interlock: nothing between the status read and the write
+    if not live(write):
         try:
-            status = driver.status()
-        except HarlsyncError as exc:
-            result.warnings.append(f"cannot read {family.words.state} after the last write ({exc})")
-            return
-        if not status.idle:
-            result.warnings.append(
-                f"robot {robot.name} ({driver.label}) is not idle at the end of the push: "
-                f"{status.describe()}{_maybe_hit(result, live)}"
-            )
+            interlock(driver, robot, family.words, f"writing {write.name}")
+        except InterlockError as exc:
+            raise InterlockError(f"{exc}{_maybe_hit(result, live)}") from exc
+    result.failed = write
+    # A re-send after a lost reply is a write too: the same interlock applies.
+    try:
+        driver.write(write.key, write.new, write.old, needs_idle=not live(write))
+    except NotWritten:
+        result.failed = None  # refused, not lost: the item is not written
+        raise
+    except PartlyWritten as exc:
+        result.partly_written = exc
+        raise
+    got = driver.read(write.key)
+    if got != write.new:
+        raise VerifyError(
+            f"{write.name} does not read back as written "
+            f"({audit.difference(family.catalogue, write.key, write.new, got)}, written → "
+            "read back)"
+        )
+    result.failed = None
+    result.written.append(write)
+    log.info("wrote %s: %s", write.name, write.command)
+
+
+def _idle_at_end(
+    family: Family[K, D],
+    driver: Driver[K, D],
+    robot: Robot,
+    result: PushResult,
+    live: Callable[[PlannedWrite[K]], bool],
+) -> None:
+    """The last write that needed an idle robot had no status read after it: one more
+    tells whether the robot was started between the read before it and its arrival (no
+    client can prevent that); a warning in ``result`` when it was."""
+    try:
+        status = driver.status()
+    except HarlsyncError as exc:
+        result.warnings.append(f"cannot read {family.words.state} after the last write ({exc})")
+        return
+    if not status.idle:
+        result.warnings.append(
+            f"robot {robot.name} ({driver.label}) is not idle at the end of the push: "
+            f"{status.describe()}{_maybe_hit(result, live)}"
+        )
 
 
 def _last_guarded(
-    result: PushResult, live: Callable[[PlannedWrite[Any]], bool]
-) -> PlannedWrite[Any] | None:
+    result: PushResult, live: Callable[[PlannedWrite[K]], bool]
+) -> PlannedWrite[K] | None:
     """The last write made that needed an idle robot (the last one a status read cleared)."""
     return next((w for w in reversed(result.written) if not live(w)), None)
 
 
-def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite[Any]], bool]) -> str:
+def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite[K]], bool]) -> str:
     """What an operator must check when the robot turned out started mid-push."""
     last = _last_guarded(result, live)
     if last is None:

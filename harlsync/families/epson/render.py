@@ -202,7 +202,7 @@ def render_settings(data: EpsonData) -> str:
                 and k.kind == kind.key
                 and k.number is not None
             }
-            node = numbered(values, partial(value_node, kind))
+            node: Node = numbered(values, partial(value_node, kind))
         else:
             node = value_node(kind, data.items[SettingKey(kind.key)])
         items.append((kind.key, node))

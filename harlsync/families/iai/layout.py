@@ -312,7 +312,8 @@ def _string_row(value: object) -> ScalarNode:
     return y.quoted(str(value))  # hex digits could read as a number
 
 
-def _coordinate_system(value: Iterable[str]) -> SequenceNode:
+def _coordinate_system(value: object) -> SequenceNode:
+    assert isinstance(value, tuple)  # a coordinate system's values, as read
     return y.sequence([y.num(c) for c in value], flow=True)
 
 
