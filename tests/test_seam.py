@@ -146,7 +146,8 @@ def test_issue_32_the_registry_looks_up_what_the_command_line_says_of_every_fami
 ) -> None:
     """Issue 32 item 2: each family's ``--help`` phrases, its connection options and
     its URL schemes are looked up in the registry, in its order (an option two
-    families offer, once); the command line only adds them to its parsers."""
+    families offer, once); the command line only adds them to its parsers.  Item 5:
+    what a family calls its reconfiguration is its own phrase, not the CLI's."""
     import sys
     from types import ModuleType
 
@@ -159,7 +160,7 @@ def test_issue_32_the_registry_looks_up_what_the_command_line_says_of_every_fami
         name = "other"
         options = (Option("reset", "reset it (other)"), Option("slow", "go slow (other)"))
         schemes = (Scheme("other", 7, "an Other controller: other://HOST[:PORT]"),)
-        help = Help(stations="A-F", runtime="counters")
+        help = Help(stations="A-F", runtime="counters", reconfigure="RCF")
 
     class Third(ToyFamily):
         name = "third"
@@ -194,3 +195,6 @@ def test_issue_32_the_registry_looks_up_what_the_command_line_says_of_every_fami
     assert "(toy: 0-99; other: A-F)" in shown
     assert "sim://PROJECT_DIR; an Other controller: other://HOST[:PORT]" in shown
     assert "--reset" in shown and "go slow (other)" in shown
+    with pytest.raises(SystemExit):
+        cli.main(["push", "--help"])
+    assert "allow a program configuration change (other: RCF), which" in capsys.readouterr().out

@@ -223,6 +223,8 @@ def _push_args(p: argparse.ArgumentParser) -> None:
     """What push and rollback are told, after the connection's options."""
     _connection_args(p)
     live, runtime = families.help_phrases("live_tuning"), families.help_phrases("runtime")
+    reconfigure = families.help_phrases("reconfigure")
+    reconfigure = f" ({reconfigure})" if reconfigure else ""
     _add(
         p,
         {
@@ -230,8 +232,8 @@ def _push_args(p: argparse.ArgumentParser) -> None:
             "--reason TEXT": "why, for the audit log",
             "--outside-window REASON": "allow a write outside the robot's maintenance windows, "
             "saying why",
-            "--allow-reconfigure": "allow a program configuration change (SNX), which destroys "
-            "every program; all of them are rewritten after it",
+            "--allow-reconfigure": f"allow a program configuration change{reconfigure}, which "
+            "destroys every program; all of them are rewritten after it",
             "--allow-live-tuning": f"write what the family allows while the robot runs ({live}); "
             "nothing else",
             "--registers": f"write runtime data too ({runtime}; the project must keep it)",
