@@ -139,3 +139,62 @@ def test_issue_32_no_module_of_harlsync_imports_one_that_imports_it_back() -> No
                 seen.add(here)
                 todo.extend(graph[here])
     assert cycles == []
+
+
+def test_issue_32_the_registry_looks_up_what_the_command_line_says_of_every_family(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 32 item 2: each family's ``--help`` phrases, its connection options and
+    its URL schemes are looked up in the registry, in its order (an option two
+    families offer, once); the command line only adds them to its parsers.  Item 5:
+    what a family calls its reconfiguration is its own phrase, not the CLI's."""
+    import sys
+    from types import ModuleType
+
+    from toyfamily.family import ToyFamily
+
+    from harlsync import cli, families
+    from harlsync.families.base import Help, Option, Scheme
+
+    class Other(ToyFamily):
+        name = "other"
+        options = (Option("reset", "reset it (other)"), Option("slow", "go slow (other)"))
+        schemes = (Scheme("other", 7, "an Other controller: other://HOST[:PORT]"),)
+        help = Help(stations="A-F", runtime="counters", reconfigure="RCF")
+
+    class Third(ToyFamily):
+        name = "third"
+        options = (Option("reset", "reset it (third)"),)
+        help = Help()
+
+    for package, family in (("otherfamily", Other()), ("thirdfamily", Third())):
+        module = ModuleType(f"{package}.family")
+        module.FAMILY = family  # type: ignore[attr-defined]
+        monkeypatch.setitem(sys.modules, package, ModuleType(package))
+        monkeypatch.setitem(sys.modules, module.__name__, module)
+    monkeypatch.setattr(
+        families, "FAMILIES", {"toy": "toyfamily", "other": "otherfamily", "third": "thirdfamily"}
+    )
+    monkeypatch.setattr(families, "_discovered", True)
+
+    assert families.help_phrases("stations") == "toy: 0-99; other: A-F"
+    assert families.help_phrases("runtime") == "other: counters"
+    assert families.help_phrases("busy") == ""
+    assert [(o.name, o.help) for o in families.options()] == [
+        ("reset", "reset it (other)"),
+        ("slow", "go slow (other)"),
+    ]
+    assert families.port_kinds() == (
+        "/dev/ttyUSB0, COM3, socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR; "
+        "an Other controller: other://HOST[:PORT]"
+    )
+    monkeypatch.setenv("COLUMNS", "1000")
+    with pytest.raises(SystemExit):
+        cli.main(["pull", "--help"])
+    shown = capsys.readouterr().out
+    assert "(toy: 0-99; other: A-F)" in shown
+    assert "sim://PROJECT_DIR; an Other controller: other://HOST[:PORT]" in shown
+    assert "--reset" in shown and "go slow (other)" in shown
+    with pytest.raises(SystemExit):
+        cli.main(["push", "--help"])
+    assert "allow a program configuration change (other: RCF), which" in capsys.readouterr().out

@@ -21,7 +21,7 @@ from ..errors import (
     StalePlanError,
 )
 from ..terminal import log_to_terminal
-from .common import EXIT_ERROR, EXIT_REFUSED, Sub, _families, _Parser, log
+from .common import EXIT_ERROR, EXIT_REFUSED, Sub, _Parser, log
 from .plant import _add_backup, _add_log, _add_snapshots, _add_status, _add_validate
 from .probe import _add_probe
 from .robot import _add_adopt, _add_diff, _add_plan, _add_pull, _add_push, _add_rollback
@@ -70,7 +70,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     parser = _Parser(
         prog="harlsync",
         description="Keep robot programs and settings under version control ("
-        + ", ".join(f.title for f in _families())
+        + ", ".join(f.title for f in families.every())
         + ").",
         epilog="Exit codes: 0 success, 1 a negative answer (diff: different, validate: "
         "invalid, backup: a robot failed, status: a robot needs looking at), 2 an "
@@ -117,7 +117,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _whole_process()
     parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
-    log_to_terminal(args.verbose, (name for f in _families() for name in f.loggers))
+    log_to_terminal(args.verbose, (name for f in families.every() for name in f.loggers))
     hint = families.port_hint(args.port) if isinstance(getattr(args, "port", None), str) else None
     if hint is not None:
         print(f"harlsync: error: {hint}", file=sys.stderr)

@@ -1,5 +1,6 @@
 """What every command's parser and printing share: output, usage errors, the help
-formatter, the options several commands take and the families' help phrases."""
+formatter and the options several commands take (what each family offers and says
+of them is looked up in :mod:`harlsync.families`)."""
 
 from __future__ import annotations
 
@@ -8,10 +9,10 @@ import json
 import logging
 import os
 import sys
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any, TypeAlias, TypedDict
 
-from ..families.base import AnyFamily, Option
+from .. import families
 
 EXIT_OK, EXIT_NO, EXIT_ERROR, EXIT_REFUSED = 0, 1, 2, 3
 
@@ -118,14 +119,7 @@ def _format_arg(p: argparse.ArgumentParser) -> None:
 
 
 def _family_arg(p: argparse.ArgumentParser, help: str) -> None:
-    p.add_argument("--family", choices=_family_names(), default=None, help=help)
-
-
-def _ports() -> str:
-    """The kinds of port, for --port's help."""
-    return "/dev/ttyUSB0, COM3, socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR" + (
-        "".join(f"; {scheme.help}" for f in _families() for scheme in f.schemes)
-    )
+    p.add_argument("--family", choices=families.KNOWN, default=None, help=help)
 
 
 def _lock_arg(p: argparse.ArgumentParser, default: float, what: str) -> None:
@@ -140,43 +134,22 @@ def _lock_arg(p: argparse.ArgumentParser, default: float, what: str) -> None:
 
 def _connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--port", metavar="URL", help=f"port to use instead of the robot file's: {_ports()}"
+        "--port",
+        metavar="URL",
+        help=f"port to use instead of the robot file's: {families.port_kinds()}",
     )
-    stations = _per_family("stations")
+    stations = families.help_phrases("stations")
     p.add_argument(
         "--station", metavar="N", help=f"station number instead of the robot file's ({stations})"
     )
     _lock_arg(p, 10.0, "how long to wait for another harlsync using the same line or project")
-    for option in _family_options():
+    for option in families.options():
         p.add_argument(option.flag, dest=option.name, action="store_true", help=option.help)
-
-
-def _families() -> tuple[AnyFamily, ...]:
-    from ..families import every
-
-    return every()
-
-
-def _per_family(place: str) -> str:
-    """``name: phrase; ...`` of what each family's help says at ``place`` (see
-    :class:`~harlsync.families.base.Help`)."""
-    return "; ".join(
-        f"{f.name}: {getattr(f.help, place)}" for f in _families() if getattr(f.help, place)
-    )
-
-
-def _family_options() -> list[Option]:
-    """Every family's connection options, each name once."""
-    found: dict[str, Option] = {}
-    for family in _families():
-        for option in family.options:
-            found.setdefault(option.name, option)
-    return list(found.values())
 
 
 def _connect_options(args: argparse.Namespace) -> dict[str, bool]:
     """The family options of the connection, as the engine takes them."""
-    return {option.name: bool(getattr(args, option.name)) for option in _family_options()}
+    return {option.name: bool(getattr(args, option.name)) for option in families.options()}
 
 
 class _Line(TypedDict):
@@ -195,9 +168,3 @@ def _line(args: argparse.Namespace) -> _Line:
         lock_timeout=args.lock_timeout,
         connect_options=_connect_options(args),
     )
-
-
-def _family_names() -> Collection[str]:
-    from ..families import KNOWN
-
-    return KNOWN

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from .. import families
 from .common import (
     EXIT_OK,
     Sub,
@@ -13,8 +14,6 @@ from .common import (
     _json,
     _lines,
     _lock_arg,
-    _per_family,
-    _ports,
 )
 
 __all__ = ["_add_probe"]
@@ -36,13 +35,15 @@ def _add_probe(sub: Sub) -> None:
         "--write DIR then creates the project's robot.yaml, ready for harlsync pull DIR. The "
         "line is held only while a read is under way.",
     )
-    p.add_argument("--port", metavar="URL", required=True, help=f"the port: {_ports()}")
+    p.add_argument(
+        "--port", metavar="URL", required=True, help=f"the port: {families.port_kinds()}"
+    )
     _family_arg(
         p,
         "try only this family (default: the family whose own URL scheme --port has, else every "
         "serial family)",
     )
-    stations = _per_family("stations")
+    stations = families.help_phrases("stations")
     _add(
         p.add_mutually_exclusive_group(),
         {

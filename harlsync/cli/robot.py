@@ -25,7 +25,6 @@ from .common import (
     _json,
     _line,
     _lines,
-    _per_family,
     _print,
     _usage,
     _warn,
@@ -45,7 +44,7 @@ def _add_pull(sub: Sub) -> None:
         _cmd_pull,
         help="read everything from the robot into a project directory",
         description="Read everything the robot holds that the project keeps ("
-        + _per_family("pull")
+        + families.help_phrases("pull")
         + "; runtime data if the project keeps it) and write the project atomically: a pull "
         "that fails leaves the previous files as they were. DIR is created if missing; a first "
         "pull needs --port (or the robot.yaml harlsync probe --write DIR makes), and one that "
@@ -107,7 +106,9 @@ def _add_diff(sub: Sub) -> None:
         _cmd_diff,
         help="compare the project with the live robot, or two versions of it (--rev)",
         description="Read the whole robot, as a pull does, and compare it with the project, "
-        "item by item (" + _per_family("items") + "). '-' lines are the robot, '+' lines the "
+        "item by item ("
+        + families.help_phrases("items")
+        + "). '-' lines are the robot, '+' lines the "
         "project. On a terminal it ends with what was read, how long it took and how many items "
         "differ. Warns when the audit log shows an earlier push to this robot that never "
         "finished (killed part way). Exit 0 identical, 1 different, 2 error.",
@@ -115,7 +116,7 @@ def _add_diff(sub: Sub) -> None:
     _dir_arg(p)
     _connection_args(p)
     _format_arg(p)
-    _add(p, {"--registers": f"compare runtime data too ({_per_family('runtime')})"})
+    _add(p, {"--registers": f"compare runtime data too ({families.help_phrases('runtime')})"})
     p.add_argument(
         "--rev",
         action="append",
@@ -186,7 +187,7 @@ def _add_plan(sub: Sub) -> None:
         description="Read the whole robot, compare it with the project and print, in push "
         "order, what a push would write, item by item as diff shows it, and how many items in "
         "how many writes; with -v also the exact command of each write ("
-        + _per_family("commands")
+        + families.help_phrases("commands")
         + "). Nothing is written. Warns when the robot is not idle: a push would be refused "
         "now. --out saves the plan with a fingerprint of the robot and the project; push --plan "
         "refuses it if either changed since. The plan file is not part of the project: delete "
@@ -194,7 +195,7 @@ def _add_plan(sub: Sub) -> None:
     )
     _dir_arg(p)
     _connection_args(p)
-    runtime = _per_family("runtime")
+    runtime = families.help_phrases("runtime")
     _add(
         p,
         {
@@ -221,7 +222,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 def _push_args(p: argparse.ArgumentParser) -> None:
     """What push and rollback are told, after the connection's options."""
     _connection_args(p)
-    live, runtime = _per_family("live_tuning"), _per_family("runtime")
+    live, runtime = families.help_phrases("live_tuning"), families.help_phrases("runtime")
+    reconfigure = families.help_phrases("reconfigure")
+    reconfigure = f" ({reconfigure})" if reconfigure else ""
     _add(
         p,
         {
@@ -229,8 +232,8 @@ def _push_args(p: argparse.ArgumentParser) -> None:
             "--reason TEXT": "why, for the audit log",
             "--outside-window REASON": "allow a write outside the robot's maintenance windows, "
             "saying why",
-            "--allow-reconfigure": "allow a program configuration change (SNX), which destroys "
-            "every program; all of them are rewritten after it",
+            "--allow-reconfigure": f"allow a program configuration change{reconfigure}, which "
+            "destroys every program; all of them are rewritten after it",
             "--allow-live-tuning": f"write what the family allows while the robot runs ({live}); "
             "nothing else",
             "--registers": f"write runtime data too ({runtime}; the project must keep it)",
@@ -252,9 +255,11 @@ def _add_push(sub: Sub) -> None:
         _cmd_push,
         help="write what differs to the robot, safely",
         description="Read the whole robot and write only what differs, in the family's safe "
-        "order (" + _per_family("order") + "). Refuses a project that is invalid, has "
+        "order (" + families.help_phrases("order") + "). Refuses a project that is invalid, has "
         "uncommitted changes, or is outside its maintenance window; stops before any write "
-        "while the robot runs (" + _per_family("busy") + "; read before every write and after "
+        "while the robot runs ("
+        + families.help_phrases("busy")
+        + "; read before every write and after "
         "the last: a robot started while a write was on the wire is named in a warning); "
         "verifies each write by reading it back; snapshots the robot first (see rollback) and "
         "records everything in the audit log, each write before it is sent, so the next push "

@@ -8,6 +8,7 @@ import signal
 import sys
 import threading
 
+from .. import families
 from ..families import DEFAULT
 from ..terminal import in_background
 from .common import (
@@ -18,7 +19,6 @@ from .common import (
     _family_arg,
     _Help,
     _lines,
-    _per_family,
     _print,
     _usage,
 )
@@ -72,7 +72,7 @@ def _add_sim(sub: Sub) -> None:
     src = p.add_mutually_exclusive_group()
     _add(src, _SIM, "--project DIR")
     src.add_argument("--seed", type=int, default=0, help=_SIM["--seed"])
-    stations = _per_family("stations")
+    stations = families.help_phrases("stations")
     _add(p, {"--stations N[,N...]": _SIM["--stations N[,N...]"].format(stations)})
     _add(p, _SIM, "--listen HOST:PORT", "--no-pty", "--no-input")
     p.add_argument("--baud", type=int, default=9600, help=_SIM["--baud"])

@@ -24,6 +24,10 @@ command line gives, :func:`of_project` for a project's robot.yaml), and the
 object is passed down.  The layers below (the project store, the line lock)
 reach the registry through :mod:`harlsync.lookup`, which it fills in when it is
 imported: they never import it.
+
+What the command line offers and says of every family is looked up here too:
+the connection options (:func:`options`), the kinds of port (:func:`port_kinds`)
+and the ``--help`` phrases each family declares (:func:`help_phrases`).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from ..errors import ProjectError
 
 if TYPE_CHECKING:
     from .base import AnyFamily
+    from .declare import Option
 
 __all__ = [
     "DEFAULT",
@@ -47,10 +52,13 @@ __all__ = [
     "KNOWN",
     "every",
     "get",
+    "help_phrases",
     "names",
     "of_port",
     "of_project",
+    "options",
     "port_hint",
+    "port_kinds",
     "refuse_options",
     "register",
     "simulator_module",
@@ -195,6 +203,36 @@ def port_hint(port: str) -> str | None:
     return (
         f"--port {port}: a network port is given as a URL: socket://{port} (a serial "
         f"device server){''.join(', or ' + text for text in own)}"
+    )
+
+
+def help_phrases(place: str) -> str:
+    """``name: phrase; ...`` of what each family's ``--help`` says at ``place`` (a
+    field of :class:`~harlsync.families.declare.Help`: ``stations``, ``busy``...),
+    in :data:`FAMILIES` order; a family with nothing to say there is left out."""
+    phrases = []
+    for family in every():
+        phrase: str = getattr(family.help, place)
+        if phrase:
+            phrases.append(f"{family.name}: {phrase}")
+    return "; ".join(phrases)
+
+
+def options() -> list[Option]:
+    """Every family's connection options (``Family.options``), each name once, in
+    :data:`FAMILIES` order: what every command that opens a line offers."""
+    found: dict[str, Option] = {}
+    for family in every():
+        for option in family.options:
+            found.setdefault(option.name, option)
+    return list(found.values())
+
+
+def port_kinds() -> str:
+    """The kinds of port a ``--port`` takes, for its help: a serial device, the URLs
+    the link opens itself, then each family's own URL schemes."""
+    return "/dev/ttyUSB0, COM3, socket://HOST:PORT, rfc2217://HOST:PORT, sim://PROJECT_DIR" + (
+        "".join(f"; {scheme.help}" for family in every() for scheme in family.schemes)
     )
 
 

@@ -65,6 +65,8 @@ class Help:
     busy: str = ""
     #: what ``--allow-live-tuning`` writes while the robot runs
     live_tuning: str = ""
+    #: the write of a program configuration change (``--allow-reconfigure``): ``SNX``
+    reconfigure: str = ""
 
 
 @dataclass(frozen=True)
