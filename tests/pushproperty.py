@@ -1,5 +1,5 @@
 """What the interlock property tests of every family share
-(tests/test_interlock_property.py for the HARL-U2, tests/iai/test_interlock_property.py
+(tests/families/harl_u2/test_interlock_property.py for the HARL-U2, tests/families/iai/test_interlock_property.py
 for IAI): the seeds, an operator's schedule and a line that goes bad, running a push
 through the command, and the checks whose logic is the same for every family.
 

@@ -191,9 +191,10 @@ def test_a_host_and_port_without_a_scheme_suggests_socket_and_modbus(tmp_path, c
 
 
 def test_a_modbus_port_implies_the_epson_family(repo, capsys) -> None:
+    from families.epson.sample import sample_data
+
     from harlsync.families.epson.sim import SimState as EpsonState
     from harlsync.families.epson.sim import Simulator as EpsonSimulator
-    from tests.epson.sample import sample_data
 
     sim = EpsonSimulator(EpsonState.from_data(sample_data()), execution_time=0.0)
     with sim.serve() as server:

@@ -91,7 +91,7 @@ def edited(request: pytest.FixtureRequest, repo: Path) -> Iterator[Pushed]:
         )
         unregister(url)
     else:
-        from tests.epson.sample import sample_data
+        from families.epson.sample import sample_data
 
         sim = EpsonSimulator(EpsonState.from_data(sample_data()), execution_time=0.0)
         with sim.serve() as server:

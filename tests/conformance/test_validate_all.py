@@ -12,10 +12,10 @@ from typing import Any
 
 import pytest
 from conftest import git
+from families.epson.sample import sample_data
 
 from harlsync import cli, families
 from harlsync.project import Project, save_project, validate_project
-from tests.epson.sample import sample_data
 
 
 @pytest.fixture
@@ -115,8 +115,8 @@ def test_an_iai_schema_error_does_not_hide_the_range_checks_of_the_other_positio
 
 # -- HARL-U2: a schema error skips its own item's deeper checks, and nothing else --------
 
-EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
-#: A step as long as no frame carries (tests/test_project_validation.py words the limit).
+EXAMPLE = Path(__file__).resolve().parents[2] / "projects" / "pick-and-place"
+#: A step as long as no frame carries (tests/families/harl_u2/test_project_validation.py words the limit).
 TOO_LONG = "MOVE P" + "1" * 600
 
 
@@ -245,7 +245,7 @@ def test_an_epson_point_the_schema_refuses_hides_not_the_checks_of_the_others(ep
 
 
 def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(tmp_path) -> None:
-    from tests.iai.test_variables import KEPT, data, robot
+    from families.iai.test_variables import KEPT, data, robot
 
     path = tmp_path / "cell-9"
     save_project(path, Project(path, robot(), data(**KEPT)))

@@ -237,7 +237,7 @@ def test_push_does_not_resend_a_step_to_a_robot_started_after_its_reply_was_lost
 def test_issue_6_a_late_idle_lnr_reply_is_never_taken_for_the_retry_that_found_the_robot_running(
     project: Path, sim: ScriptedSim
 ) -> None:
-    # Found by tests/test_interlock_property.py.  The LNR before the write is answered
+    # Found by tests/families/harl_u2/test_interlock_property.py.  The LNR before the write is answered
     # "idle" after its deadline; the operator starts the robot; the retry is answered
     # "running".  The late "idle" must not pass for the retry's answer.
     commit_step(project, 1, 3, "MOVE P999 S20")
@@ -277,7 +277,7 @@ def commit_register_1(project: Path, *, timer_2: bool = False) -> None:
 def test_issue_6_a_push_resends_no_write_to_a_robot_started_after_its_reply_was_lost(
     project: Path, sim: ScriptedSim, live_tuning: bool
 ) -> None:
-    # Found by tests/test_interlock_property.py.  The manual allows SNT and SND in
+    # Found by tests/families/harl_u2/test_interlock_property.py.  The manual allows SNT and SND in
     # automatic operation, so the controller re-sends them without reading LNR; but a
     # push without --allow-live-tuning promises an idle robot for every write, and a
     # register never goes to a running program.  The first send is lost on the way in;

@@ -51,7 +51,7 @@ Ready 0 must stop every write, the first push refused writing nothing.
 The push runs in memory: the engine and the Epson driver, controller and
 handshake as they are, over the simulator's register bank (its Remote I/O and
 command set) instead of Modbus TCP, on a fake clock shared by the handshake and
-the simulator; tests/epson/test_e2e.py covers the same promises over TCP.
+the simulator; tests/families/epson/test_e2e.py covers the same promises over TCP.
 
 To replay or explore: ``HARLSYNC_PROPERTY_SEEDS=7,8,9`` runs only those seeds (a
 failure names its seed); ``HARLSYNC_PROPERTY_BASE=N`` moves every chunk.

@@ -75,9 +75,10 @@ def test_a_reply_that_never_comes_names_the_configured_timeout(family, repo, cap
 
 
 def test_an_epson_transaction_that_never_answers_names_the_configured_timeout(repo, capsys) -> None:
+    from families.epson.projects import saved
+    from families.epson.sample import sample_data
+
     from harlsync.families.epson.sim import SimState, Simulator
-    from tests.epson.projects import saved
-    from tests.epson.sample import sample_data
 
     sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
     with sim.serve() as server:

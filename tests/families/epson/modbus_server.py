@@ -1,6 +1,6 @@
 """A real pymodbus TCP server on 127.0.0.1, on a free port, in a thread of its own
 (the simulator's, :class:`harlsync.families.epson.sim.ModbusServer`): a tiny
-datastore, or a :class:`~tests.epson.fakebank.FakeController` behind it so that
+datastore, or a :class:`~families.epson.fakebank.FakeController` behind it so that
 the handshake runs over a real socket.  And a server that never answers."""
 
 from __future__ import annotations

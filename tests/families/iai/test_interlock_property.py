@@ -694,7 +694,7 @@ def robot_for(case: Case, url: str, settings: SerialSettings) -> Robot:
         robot.options.update(case.keeps)
         # The real variables' word order is the simulator's (issue 29: read from the
         # values when robot.yaml gives none, and a push of reals refused while none
-        # tells; tests/iai/test_real_order.py): this test is about the interlock.
+        # tells; tests/families/iai/test_real_order.py): this test is about the interlock.
         robot.options["real_word_order"] = case.sim.state.real_word_order
     if case.strings is not None:
         robot.options["strings"] = case.strings

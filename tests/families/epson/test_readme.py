@@ -14,7 +14,7 @@ from harlsync import cli
 from harlsync.families.epson.sim import SimState
 from harlsync.project import load_project
 
-DOCS = Path(__file__).resolve().parents[2] / "docs"
+DOCS = Path(__file__).resolve().parents[3] / "docs"
 #: The Epson page: the "Try it", the signals a write needs (was the README's section).
 EPSON = DOCS / "families" / "epson.md"
 #: What a backup holds, per family (was the README's section).

@@ -1,5 +1,5 @@
 """Regression tests for what the IAI interlock property test
-(tests/iai/test_interlock_property.py) found, each asserted on the simulated
+(tests/families/iai/test_interlock_property.py) found, each asserted on the simulated
 controller's own record."""
 
 from __future__ import annotations

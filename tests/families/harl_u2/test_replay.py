@@ -1,11 +1,11 @@
 """Recorded traffic replayed as regression fixtures (the issue: "Recorded traffic from a
 real controller (pyserial's spy:// can capture it) can be replayed as a regression fixture").
 
-Every ``tests/fixtures/traffic/*.txt`` is a pyserial ``spy://`` capture.  Each one
+Every ``tests/families/harl_u2/fixtures/traffic/*.txt`` is a pyserial ``spy://`` capture.  Each one
 is replayed against the real Controller: every request of the capture must be
 sent as recorded and get its recorded outcome, and with ``NAME.expect.yaml`` the
 typed values must be the expected ones.  To add a real controller's capture, see
-the header of tests/fixtures/traffic/record.py.
+the header of tests/families/harl_u2/fixtures/traffic/record.py.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ import serial
 from hypothesis import given
 from hypothesis import strategies as st
 from serial.urlhandler.protocol_spy import FormatHexdump
-from traffic import TRAFFIC, captures, load_expectations, play
 
 from harlsync.errors import LinkTimeout, PortError, ProtocolError
 from harlsync.families.harl_u2.controller import Controller
@@ -38,6 +37,8 @@ from harlsync.link import SerialSettings
 from harlsync.sim.protocol_replay import register, replay_from_url, unregister
 from harlsync.sim.replay import Chunk, Replay, ReplayMismatch, load_spy_log, parse_spy_log
 from harlsync.sim.serve import PtyServer
+
+from .traffic import TRAFFIC, captures, load_expectations, play
 
 if "harlsync.sim" not in serial.protocol_handler_packages:
     serial.protocol_handler_packages.append("harlsync.sim")

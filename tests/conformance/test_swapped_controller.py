@@ -49,9 +49,10 @@ def iai(repo: Path) -> Iterator[tuple[object, Path]]:
 
 @pytest.fixture
 def epson(repo: Path) -> Iterator[tuple[object, Path]]:
+    from families.epson.projects import saved
+    from families.epson.sample import sample_data
+
     from harlsync.families.epson.sim import SimState, Simulator
-    from tests.epson.projects import saved
-    from tests.epson.sample import sample_data
 
     sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
     with sim.serve() as server:

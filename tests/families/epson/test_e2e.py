@@ -51,7 +51,7 @@ def clean(sim: Simulator) -> None:
 
 @pytest.fixture
 def robot() -> Iterator[tuple[Simulator, str]]:
-    """The sample robot (tests/epson/sample.py) on the simulator, served over TCP."""
+    """The sample robot (tests/families/epson/sample.py) on the simulator, served over TCP."""
     sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
     with sim.serve() as server:
         yield sim, server.url

@@ -370,7 +370,9 @@ def test_issue_29_the_harl_u2_offset_tables_variant_sets_how_many_tables_it_has(
     sim.stations[1].__post_init__()
     assert ask(sim, "LNL 119") == "0.00 0.00 0.00 0.00 0.00 0.00 0 0"
     with pytest.raises(ValueError, match="128 is not one of 100, 64"):
-        sim.vary({"offset_tables": "128"})  # more: tested apart (tests/test_offset_end.py)
+        sim.vary(
+            {"offset_tables": "128"}
+        )  # more: tested apart (tests/families/harl_u2/test_offset_end.py)
 
 
 def test_issue_29_a_harl_u2_simulator_of_a_project_has_the_tables_its_pull_found(

@@ -2,7 +2,7 @@
 frames written by hand.
 
 Every request here, and every short reply, is golden bytes: taken from the digest
-(through tests/iai/test_protocol.py) or written from its field tables with the SC
+(through tests/families/iai/test_protocol.py) or written from its field tables with the SC
 summed by hand, never made by our encoder.  Long replies (22DH pages) are checked
 field by field with the codec, whose own golden tests cover its decoding.
 """

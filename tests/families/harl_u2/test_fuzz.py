@@ -2,7 +2,7 @@
 its own typed errors, never another exception, a hang or a multi-line message.
 
 - the frame decoder gives the same frames and errors whether the bytes come whole
-  or in any chunks (tests/test_protocol.py already proves "frames or ProtocolError"
+  or in any chunks (tests/families/harl_u2/test_protocol.py already proves "frames or ProtocolError"
   for arbitrary chunks; this adds that the chunking never changes the outcome);
 - the payload parsers (decode_reply, parse_request) give a value or a ReplyError,
   and the model parsers (Step, Config, OffsetTable, Parameters) a value or the

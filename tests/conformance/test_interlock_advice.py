@@ -56,8 +56,9 @@ def iai(stack: ExitStack) -> Served:
 
 
 def epson(stack: ExitStack) -> Served:
+    from families.epson.sample import sample_data
+
     from harlsync.families.epson.sim import SimState, Simulator
-    from tests.epson.sample import sample_data
 
     sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
     server = stack.enter_context(sim.serve())
@@ -93,7 +94,7 @@ def served(request, repo: Path) -> Iterator[tuple[str, Served, Path]]:
         robot = FAMILIES[request.param](stack)
         project = repo / "cell"
         if request.param == "epson":  # the sample as its backup, points 0-29: a quick read
-            from tests.epson.projects import saved
+            from families.epson.projects import saved
 
             saved(repo, robot.url, "cell")
         else:

@@ -26,7 +26,7 @@ from harlsync.project import (
     validate_project,
 )
 
-EXAMPLE = Path(__file__).resolve().parent.parent / "projects" / "pick-and-place"
+EXAMPLE = Path(__file__).resolve().parents[3] / "projects" / "pick-and-place"
 
 
 @pytest.fixture
@@ -37,7 +37,7 @@ def root(tmp_path: Path) -> Path:
 
 
 #: The example project as format 1 wrote it (steps keyed by number).
-FORMAT_1 = Path(__file__).resolve().parent / "fixtures" / "format-1" / "pick-and-place"
+FORMAT_1 = Path(__file__).resolve().parents[2] / "fixtures" / "format-1" / "pick-and-place"
 
 
 @pytest.fixture
