@@ -88,7 +88,9 @@ def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plan
     assert line_of("spy:///dev/ttyS0?file=x.txt") == line_of("/dev/ttyS0")
 
 
-def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant, capsys) -> None:
+def test_a_backup_run_reports_changes_and_failures_and_commits_once(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
     plant.sims["loader"].stations[1].data.timers[1] = "6.66"
     shared = plant.sims["press-2"].stations[2].data
     shared.programs[(ProgramType.MAIN, 1)][7] = Step.parse("MOVE P123 S80")
@@ -159,7 +161,7 @@ def test_nothing_changed_means_no_commit_and_exit_0(plant: Plant) -> None:
 
 
 def test_the_json_report_records_attempts_staleness_and_never_backed_up(
-    plant: Plant, capsys
+    plant: Plant, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert (
         main(
@@ -193,7 +195,7 @@ def test_the_json_report_records_attempts_staleness_and_never_backed_up(
 def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run_began(
     plant: Plant,
     tmp_path: Path,
-    capsys,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     from datetime import datetime
 
@@ -320,14 +322,18 @@ def test_push_failure_is_reported_and_the_local_commit_kept(plant: Plant) -> Non
     assert not report.ok  # a backup that never left the server is not a success
 
 
-def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(plant: Plant, capsys) -> None:
+def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
     git(plant.root, "remote", "add", "origin", str(plant.root / "no-such-remote.git"))
     plant.sims["loader"].stations[1].data.timers[3] = "3.21"
     assert main(["backup", str(plant.root / "loader"), "--commit", "--push", "--quiet"]) == 1
     assert "git push FAILED" in capsys.readouterr().out
 
 
-def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeypatch) -> None:
+def test_an_unexpected_error_costs_one_robot_not_the_night(
+    plant: Plant, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from harlsync.sync import backup as backup_module
 
     real = backup_module.nightly.read_robot
@@ -380,7 +386,9 @@ def test_the_documented_cron_line_runs_against_simulated_robots(
     ]  # set up by the first backup of each robot that answered
 
 
-def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:
+def test_a_wrong_combination_of_options_exits_2_not_1(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["backup", str(tmp_path), "--push"]) == 2
     assert "--push needs --commit" in capsys.readouterr().err
 

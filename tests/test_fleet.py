@@ -529,7 +529,9 @@ def test_issue_34_item_2_robots_of_a_killed_worker_are_recorded_failed_and_statu
     assert sorted(name for name, state in states.items() if state == "failed") == failed
 
 
-def test_workers_below_one_is_one_line_and_exit_2(tmp_path: Path, capsys) -> None:
+def test_workers_below_one_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["backup", str(tmp_path), "--workers", "0"]) == 2
     err = capsys.readouterr().err
     assert err.splitlines() == [err.strip()] and "--workers 0: give 1 or more processes" in err

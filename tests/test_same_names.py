@@ -53,7 +53,7 @@ def check_metrics(text: str) -> dict[tuple[str, tuple[tuple[str, str], ...]], fl
 
 
 def test_two_robots_named_alike_stay_apart_in_metrics_report_and_status(
-    twins, repo, tmp_path, capsys
+    twins: list[Path], repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     metrics, page = tmp_path / "backup.prom", tmp_path / "page.html"
     assert main(["backup", str(repo), "--metrics", str(metrics), "--html", str(page)]) == 0
@@ -75,7 +75,9 @@ def test_two_robots_named_alike_stay_apart_in_metrics_report_and_status(
     assert "cell (lineA/cell)" in html and "cell (lineB/cell)" in html
 
 
-def test_a_robot_name_with_quotes_and_newlines_is_escaped_in_the_metrics(repo, tmp_path) -> None:
+def test_a_robot_name_with_quotes_and_newlines_is_escaped_in_the_metrics(
+    repo: Path, tmp_path: Path
+) -> None:
     url = register(Simulator({1: SimState.generate(3, SMALL)}))
     try:
         project = repo / "odd"

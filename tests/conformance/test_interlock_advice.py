@@ -89,7 +89,7 @@ CAUSES = [
 
 
 @pytest.fixture(params=sorted(FAMILIES))
-def served(request, repo: Path) -> Iterator[tuple[str, Served, Path]]:
+def served(request: pytest.FixtureRequest, repo: Path) -> Iterator[tuple[str, Served, Path]]:
     with ExitStack() as stack:
         robot = FAMILIES[request.param](stack)
         project = repo / "cell"
@@ -103,7 +103,9 @@ def served(request, repo: Path) -> Iterator[tuple[str, Served, Path]]:
         yield request.param, robot, project
 
 
-def refusal_of(robot: Served, project: Path, verb: str, capsys) -> tuple[str, str]:
+def refusal_of(
+    robot: Served, project: Path, verb: str, capsys: pytest.CaptureFixture[str]
+) -> tuple[str, str]:
     """The plan's warning and the push's refusal with the simulator set by ``verb``."""
     robot.drift()
     station = robot.sim.stations[min(robot.sim.stations)]
@@ -121,7 +123,9 @@ def refusal_of(robot: Served, project: Path, verb: str, capsys) -> tuple[str, st
     return warning, refused
 
 
-def test_each_cause_gets_its_own_advice_in_the_push_and_the_plan(served, capsys) -> None:
+def test_each_cause_gets_its_own_advice_in_the_push_and_the_plan(
+    served: tuple[str, Served, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     family, robot, project = served
     seen: dict[str, str] = {}
     for verb, advice in [(verb, advice) for f, verb, advice in CAUSES if f == family]:
@@ -135,7 +139,9 @@ def test_each_cause_gets_its_own_advice_in_the_push_and_the_plan(served, capsys)
     assert len(seen) >= 2
 
 
-def test_the_advice_names_no_other_familys_tools(served, capsys) -> None:
+def test_the_advice_names_no_other_familys_tools(
+    served: tuple[str, Served, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     family, robot, project = served
     verb = {"harl-u2": "auto", "iai": "estop", "epson": "estop"}[family]
     _, refused = refusal_of(robot, project, verb, capsys)

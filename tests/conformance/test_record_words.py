@@ -112,7 +112,7 @@ def readable(text: str) -> None:
 
 
 def test_log_status_and_the_report_page_show_each_field_old_to_new_in_the_family_words(
-    edited, repo, tmp_path, capsys
+    edited: Pushed, repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     project = edited.project
     assert cli.main(["push", str(project), "--yes", "--reason", "tuning"]) == 0
@@ -145,7 +145,9 @@ def test_log_status_and_the_report_page_show_each_field_old_to_new_in_the_family
         assert f'<span class="d-change">{line}</span>' in page
 
 
-def test_log_folds_long_lists_hides_frames_and_old_reprs_unless_asked(tmp_path, capsys) -> None:
+def test_log_folds_long_lists_hides_frames_and_old_reprs_unless_asked(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     frame = " ".join(f"{n:02X}" for n in range(40))
     record = audit.base_record("push")
     record.robot = audit.RecordedRobot("cell-9", "sim://x", 1)
@@ -175,7 +177,7 @@ def test_log_folds_long_lists_hides_frames_and_old_reprs_unless_asked(tmp_path, 
 
 
 def test_plan_and_the_push_prompt_show_the_diff_of_what_is_written_and_the_wire_only_with_v(
-    edited, capsys, monkeypatch
+    edited: Pushed, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     project = str(edited.project)
     assert cli.main(["diff", project]) == 1
@@ -207,7 +209,7 @@ def test_plan_and_the_push_prompt_show_the_diff_of_what_is_written_and_the_wire_
 
 
 def test_an_error_line_names_a_frame_by_its_size_and_shows_it_with_vv(
-    tmp_path, capsys, monkeypatch
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from harlsync.errors import ReplyError
     from harlsync.sync import comparison

@@ -12,7 +12,7 @@ from harlsync.sim.control import after_writes_verb, apply_command
 
 
 @pytest.fixture(params=sorted(names()))
-def sim(request):
+def sim(request: pytest.FixtureRequest):
     family = sim_family(request.param)
     return family.generate(3, [family.default_station])
 

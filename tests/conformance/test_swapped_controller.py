@@ -59,7 +59,9 @@ def epson(repo: Path) -> Iterator[tuple[object, Path]]:
         yield sim, saved(repo, server.url, "scara")
 
 
-def test_a_harl_u2_of_another_version_is_refused_after_lnx_and_lnv(harl_u2, capsys) -> None:
+def test_a_harl_u2_of_another_version_is_refused_after_lnx_and_lnv(
+    harl_u2: tuple[object, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, project = harl_u2
     before_files = {p: p.read_bytes() for p in project.rglob("*.yaml")}
     sim.stations[1].data.version = "9.99"  # another robot's controller on the port
@@ -73,7 +75,9 @@ def test_a_harl_u2_of_another_version_is_refused_after_lnx_and_lnv(harl_u2, caps
     assert {p: p.read_bytes() for p in project.rglob("*.yaml")} == before_files
 
 
-def test_an_iai_unit_of_another_model_is_refused_after_201h(iai, capsys) -> None:
+def test_an_iai_unit_of_another_model_is_refused_after_201h(
+    iai: tuple[object, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, project = iai
     versions = sim.stations[0x99].versions
     for key, version in versions.items():
@@ -87,7 +91,9 @@ def test_an_iai_unit_of_another_model_is_refused_after_201h(iai, capsys) -> None
 
 
 @pytest.mark.parametrize("command", ["pull", "diff", "plan", "push"])
-def test_an_epson_of_another_model_is_refused_after_2153_and_2154(epson, command, capsys) -> None:
+def test_an_epson_of_another_model_is_refused_after_2153_and_2154(
+    epson: tuple[object, Path], command, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, project = epson
     sim.stations[1].model = "G3-301S"
     before = len(sim.commands())
@@ -109,7 +115,7 @@ def test_an_epson_of_another_model_is_refused_after_2153_and_2154(epson, command
 
 @pytest.mark.parametrize("command", ["diff", "plan", "push"])
 def test_issue_34_item_17_a_harl_u2_of_another_version_is_refused_by_diff_plan_and_push(
-    harl_u2, command, capsys
+    harl_u2: tuple[object, Path], command, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # A pull refused a swapped controller, a push did not: it read the robot, planned
     # and wrote the project's items to another robot's controller.

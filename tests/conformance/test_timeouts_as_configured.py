@@ -46,7 +46,9 @@ def configure(project: Path, repo: Path, timeout: str) -> None:
 
 
 @pytest.mark.parametrize("family", ["harl-u2", "iai"])
-def test_a_reply_that_never_comes_names_the_configured_timeout(family, repo, capsys) -> None:
+def test_a_reply_that_never_comes_names_the_configured_timeout(
+    family, repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     if family == "iai":
         from harlsync.families.iai.sim import SimState, Simulator
 
@@ -74,7 +76,9 @@ def test_a_reply_that_never_comes_names_the_configured_timeout(family, repo, cap
         assert re.search(r"no reply within 0\.01234567 s \(\+\d\.\d{3} s for its time", err), err
 
 
-def test_an_epson_transaction_that_never_answers_names_the_configured_timeout(repo, capsys) -> None:
+def test_an_epson_transaction_that_never_answers_names_the_configured_timeout(
+    repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from families.epson.projects import saved
     from families.epson.sample import sample_data
 

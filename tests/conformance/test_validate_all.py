@@ -53,7 +53,7 @@ def replace(path: Path, old: str, new: str) -> None:
     ],
 )
 def test_epson_values_the_controller_refuses_are_refused_by_validate(
-    epson, capsys, old, new, said
+    epson: Path, capsys: pytest.CaptureFixture[str], old, new, said
 ) -> None:
     replace(epson / "settings.yaml", old, new)
     assert cli.main(["validate", str(epson)]) == 1
@@ -61,7 +61,7 @@ def test_epson_values_the_controller_refuses_are_refused_by_validate(
     assert f": {said}: " in out and "(allowed: " in out and ("above 0" in out or "0 or more" in out)
 
 
-def test_a_schema_error_does_not_hide_the_checks_of_the_other_items(epson) -> None:
+def test_a_schema_error_does_not_hide_the_checks_of_the_other_items(epson: Path) -> None:
     settings = epson / "settings.yaml"
     replace(settings, "3: {accel: 100.123, decel: 200.000}", "3: {accel: fast, decel: 200.000}")
     replace(
@@ -72,7 +72,9 @@ def test_a_schema_error_does_not_hide_the_checks_of_the_other_items(epson) -> No
     assert any("jrange.5: joint 5 of a 4-axis robot (allowed: 1-4)" in line for line in said), said
 
 
-def test_a_push_of_a_project_that_does_not_validate_writes_nothing(epson, capsys) -> None:
+def test_a_push_of_a_project_that_does_not_validate_writes_nothing(
+    epson: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     replace(epson / "settings.yaml", "  0: 720.000", "  0: 0.000")
     git(epson.parent, "commit", "-qam", "speed_r 0")
     # No controller is listening: a push that tried to connect would say so instead.
@@ -82,7 +84,7 @@ def test_a_push_of_a_project_that_does_not_validate_writes_nothing(epson, capsys
 
 
 def test_an_iai_schema_error_does_not_hide_the_range_checks_of_the_other_positions(
-    repo,
+    repo: Path,
 ) -> None:
     import re
 
@@ -133,7 +135,7 @@ def said(root: Path) -> list[str]:
     return [str(issue) for issue in validate_project(root)]
 
 
-def test_harl_a_bad_step_hides_neither_the_other_steps_nor_the_other_programs(harl) -> None:
+def test_harl_a_bad_step_hides_neither_the_other_steps_nor_the_other_programs(harl: Path) -> None:
     main = harl / "programs" / "main-00.yaml"
     replace(main, "  - OFFSET L00", "  - OFFSET  L00")  # a double space: the schema's
     replace(main, "  - MOVE P001 S80", f"  - {TOO_LONG}")  # same file, the frame's
@@ -153,7 +155,7 @@ def test_harl_a_bad_step_hides_neither_the_other_steps_nor_the_other_programs(ha
 
 
 def test_harl_a_schema_error_in_controller_yaml_keeps_the_checks_its_sound_parts_make(
-    harl,
+    harl: Path,
 ) -> None:
     replace(harl / "controller.yaml", "version: '5.00'", "version: '5 00'")
     replace(
@@ -182,7 +184,7 @@ def test_harl_a_schema_error_in_controller_yaml_keeps_the_checks_its_sound_parts
     ]
 
 
-def test_harl_a_schema_error_in_robot_yaml_keeps_its_offset_tables(harl) -> None:
+def test_harl_a_schema_error_in_robot_yaml_keeps_its_offset_tables(harl: Path) -> None:
     robot = harl / "robot.yaml"
     replace(robot, "keep_registers: false", "keep_registers: false\noffset_tables: 101\nbogus: 1")
     table = "{x: 0.00, y: 0.00, z: 0.00, w: 0.00, r: 0.00, c: 0.00, m: 0, f: 0}"
@@ -201,7 +203,7 @@ def test_harl_a_schema_error_in_robot_yaml_keeps_its_offset_tables(harl) -> None
     assert [line.split(": ")[1] for line in said(harl)] == ["offset_tables", "bogus"]
 
 
-def test_harl_a_bad_offset_table_hides_not_the_form_check_of_another(harl) -> None:
+def test_harl_a_bad_offset_table_hides_not_the_form_check_of_another(harl: Path) -> None:
     replace(harl / "offsets.yaml", "x: 120.50", "x: fast")  # table 7
     replace(harl / "offsets.yaml", "  0: {x: 0.00,", "  0: {x: 00.00,")
     lines = said(harl)
@@ -210,7 +212,7 @@ def test_harl_a_bad_offset_table_hides_not_the_form_check_of_another(harl) -> No
     assert len(lines) == 2, lines
 
 
-def test_harl_the_parameters_are_checked_when_each_of_them_passes_the_schema(harl) -> None:
+def test_harl_the_parameters_are_checked_when_each_of_them_passes_the_schema(harl: Path) -> None:
     params = harl / "parameters.yaml"
     replace(params, "pull_limit: 80", "pull_limit: E12")
     replace(params, "prg_count: 0", "prg_count: 0\nextra: 1")  # not a parameter
@@ -222,7 +224,7 @@ def test_harl_the_parameters_are_checked_when_each_of_them_passes_the_schema(har
     assert [line.split(": ")[1] for line in said(harl)] == ["pull_rate", "extra"]
 
 
-def test_an_epson_point_the_schema_refuses_hides_not_the_checks_of_the_others(epson) -> None:
+def test_an_epson_point_the_schema_refuses_hides_not_the_checks_of_the_others(epson: Path) -> None:
     points = epson / "points.yaml"
     replace(
         points,
@@ -244,7 +246,9 @@ def test_an_epson_point_the_schema_refuses_hides_not_the_checks_of_the_others(ep
     ]
 
 
-def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(tmp_path) -> None:
+def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(
+    tmp_path: Path,
+) -> None:
     from families.iai.test_variables import KEPT, data, robot
 
     path = tmp_path / "cell-9"
@@ -260,7 +264,7 @@ def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(t
 
 @pytest.mark.parametrize(("words", "refused"), [(3, True), (5, True), (6, False), (8, False)])
 def test_epson_response_words_fewer_than_the_reads_need_are_refused_by_validate(
-    epson, capsys, words, refused
+    epson: Path, capsys: pytest.CaptureFixture[str], words, refused
 ) -> None:
     replace(epson / "robot.yaml", "response_words: 8", f"response_words: {words}")
     assert cli.main(["validate", str(epson)]) == int(refused)
@@ -341,7 +345,7 @@ def _edit(path: Path, pattern: str, new: str) -> None:
 
 @pytest.mark.parametrize("name", list(PUSHES))
 def test_a_push_of_a_project_that_does_not_validate_writes_nothing_to_the_robot(
-    repo, capsys, name
+    repo: Path, capsys: pytest.CaptureFixture[str], name
 ) -> None:
     from harlsync.sim.serve import TcpServer
 

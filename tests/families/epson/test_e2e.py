@@ -68,7 +68,7 @@ def numbers(commands: list[CommandReceived]) -> list[int]:
 
 
 def test_a_pull_backs_up_every_setting_and_point_exactly_and_diff_finds_no_difference(
-    robot, repo
+    robot: tuple[Simulator, str], repo: Path
 ) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -91,7 +91,10 @@ def test_a_pull_backs_up_every_setting_and_point_exactly_and_diff_finds_no_diffe
 
 
 def test_points_past_the_range_fail_the_pull_and_the_backup_naming_the_setting(
-    robot, repo, capsys, monkeypatch
+    robot: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """Issue 20 item 1: points past P99 were never read, and the pull said nothing."""
     monkeypatch.setattr(profile, "POINT_PROBE_END", 450)
@@ -124,7 +127,10 @@ def test_points_past_the_range_fail_the_pull_and_the_backup_naming_the_setting(
 
 
 def test_issue_20_points_before_first_point_fail_the_pull_and_the_backup_naming_the_setting(
-    robot, repo, capsys, monkeypatch
+    robot: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """Review finding 4: the probe looked only past last_point, so with first_point
     20 the sample's P0, P12 and P13 dropped out of the backup and the pull said 0."""
@@ -156,7 +162,9 @@ def test_issue_20_points_before_first_point_fail_the_pull_and_the_backup_naming_
     assert (data.covered, data.probed_to) == ((10, 29), 450)  # kept by a load and a save
 
 
-def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsys) -> None:
+def test_diff_plan_push_and_rollback_of_a_changed_table_entry(
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = robot
     project = pulled(repo, url)
     edit(
@@ -200,7 +208,7 @@ def test_diff_plan_push_and_rollback_of_a_changed_table_entry(robot, repo, capsy
 
 
 def test_a_power_cycle_shows_the_tables_cleared_and_push_registers_them_again(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -244,7 +252,7 @@ def test_a_power_cycle_shows_the_tables_cleared_and_push_registers_them_again(
 
 
 def test_push_writes_only_what_differs_and_names_the_persistent_items(
-    robot, repo, capsys, tmp_path
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -281,7 +289,7 @@ def test_push_writes_only_what_differs_and_names_the_persistent_items(
     ],
 )
 def test_a_push_to_a_robot_that_is_not_idle_is_refused_naming_the_signal(
-    robot, repo, capsys, verb, named
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str], verb, named
 ) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -313,7 +321,7 @@ def writes_sent_again_unlooked(sim: Simulator) -> list[object]:
 
 
 def test_issue_34_a_lost_write_is_not_sent_again_to_a_robot_that_started(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Issue 34 item 0: the reply to a push's command words (Tool, 500) was lost,
     the robot started, and the Modbus client sent the same words again on its own,
@@ -347,7 +355,9 @@ def test_issue_34_a_lost_write_is_not_sent_again_to_a_robot_that_started(
     sim.stations[1].running = False
 
 
-def test_a_program_started_mid_push_gets_no_write_after_it(robot, repo, capsys) -> None:
+def test_a_program_started_mid_push_gets_no_write_after_it(
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = robot
     project = pulled(repo, url)
     edit(project, repo, "settings.yaml", "limz: -10.000", "limz: -12.000")
@@ -365,7 +375,7 @@ def test_a_program_started_mid_push_gets_no_write_after_it(robot, repo, capsys) 
 
 
 def test_a_point_interrupted_part_way_is_recorded_as_partly_written_and_completed_next(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Issue 19 item 3: a point is several writes; the robot started after the first
     stops the rest, and the result, the audit record and status name what went out
@@ -409,7 +419,7 @@ def test_a_point_interrupted_part_way_is_recorded_as_partly_written_and_complete
 
 
 def test_a_robot_whose_map_lacks_running_paused_or_estop_is_read_but_never_written(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -430,7 +440,9 @@ def test_a_robot_whose_map_lacks_running_paused_or_estop_is_read_but_never_writt
         edit(project, repo, "robot.yaml", f"{signal}: null", line)
 
 
-def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(robot, repo) -> None:
+def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(
+    robot: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = robot
     project = pulled(repo, url)
     edit(project, repo, "robot.yaml", "command_words: 8", "command_words: 5")
@@ -452,7 +464,9 @@ def test_split_writes_go_out_back_to_back_when_rc_plus_assigned_fewer_words(robo
     assert st.accel_s[3] == (1000, 2000) and st.boxes[5][0] == (-10000, 11000)
 
 
-def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(robot, repo) -> None:
+def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(
+    robot: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = robot
     project = pulled(repo, url)
     edit_p12(project, repo)
@@ -493,7 +507,9 @@ def test_push_writes_a_points_changed_fields_and_a_new_point_coordinates_first(r
     assert cli.main(["diff", str(project)]) == 0
 
 
-def test_an_item_on_the_robot_the_project_lacks_is_shown_and_refused(robot, repo, capsys) -> None:
+def test_an_item_on_the_robot_the_project_lacks_is_shown_and_refused(
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = robot
     project = pulled(repo, url)
     sim.stations[1].accel[7] = (10, 20)
@@ -506,7 +522,7 @@ def test_an_item_on_the_robot_the_project_lacks_is_shown_and_refused(robot, repo
 
 
 def test_a_function_halted_by_a_client_driving_it_wrongly_is_seen_and_reset_when_asked(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """On purpose: a second request while a command runs (§6.5.1) halts the function;
     the simulator records the function error, harlsync reports it and resets it only
@@ -540,7 +556,9 @@ def test_a_function_halted_by_a_client_driving_it_wrongly_is_seen_and_reset_when
     sim.remote().faults.clear()  # the teardown checks the correct client's run
 
 
-def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(robot, repo) -> None:
+def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(
+    robot: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = robot
     iai = IaiSimulator({0x99: IaiState.generate(9, position_range=(1, 60))})
     harl = HarlSimulator(HarlState.generate(3, SMALL))
@@ -591,7 +609,9 @@ def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(r
             server.stop()
 
 
-def test_a_robot_of_another_type_than_robot_yaml_says_is_refused(robot, repo, capsys) -> None:
+def test_a_robot_of_another_type_than_robot_yaml_says_is_refused(
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     _sim, url = robot
     project = pulled(repo, url)
     edit(project, repo, "robot.yaml", "type: SCARA", "type: RS")
@@ -604,7 +624,7 @@ def test_a_robot_of_another_type_than_robot_yaml_says_is_refused(robot, repo, ca
 
 
 def test_a_push_or_diff_to_a_controller_of_another_model_is_refused_in_one_line(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Issue 22 item 6: push and diff compare the controller's model (2154) with the
     project's, as pull does."""
@@ -627,7 +647,7 @@ def test_a_push_or_diff_to_a_controller_of_another_model_is_refused_in_one_line(
     assert err == [f"harlsync: error: {project}: not compared: {why}"], err
 
 
-def with_words(robot, repo, words: int) -> tuple[Simulator, Path, int]:
+def with_words(robot: tuple[Simulator, str], repo: Path, words: int) -> tuple[Simulator, Path, int]:
     """The robot pulled, its map given ``words`` response words; the commands so far."""
     sim, url = robot
     project = pulled(repo, url)
@@ -636,7 +656,7 @@ def with_words(robot, repo, words: int) -> tuple[Simulator, Path, int]:
 
 
 def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project, taken = with_words(robot, repo, 5)
     capsys.readouterr()
@@ -650,7 +670,7 @@ def test_a_map_with_too_few_words_is_refused_by_name_before_anything_is_sent(
 
 
 def test_a_map_of_the_fewest_words_the_reads_need_backs_the_robot_up_in_halves(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # fewest_response_words is what protocol/reads.py makes of the controller's reads:
     # a read added to the controller that needs more words fails this pull.
@@ -670,7 +690,7 @@ def test_a_map_of_the_fewest_words_the_reads_need_backs_the_robot_up_in_halves(
     ids=["6-axis J1Flag", "6-axis J2Flag", "RS J1Angle"],
 )
 def test_a_robot_types_own_point_attributes_are_backed_up_diffed_pushed_and_verified(
-    repo, capsys, data, field, old, new, command
+    repo: Path, capsys: pytest.CaptureFixture[str], data, field, old, new, command
 ) -> None:
     """Issue 20 item 2: J1Flag/J2Flag (6-axis, manual 10.25) and J1Angle (RS) were not
     kept, so a restore gave every point flag 0: another joint solution."""
@@ -696,7 +716,7 @@ def test_a_robot_types_own_point_attributes_are_backed_up_diffed_pushed_and_veri
     clean(sim)
 
 
-def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(repo) -> None:
+def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(repo: Path) -> None:
     sim = Simulator(SimState.from_data(sample_data(axes=6)), execution_time=0.0)
     with sim.serve() as server:
         project = pulled(repo, server.url)
@@ -711,7 +731,7 @@ def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(rep
     ), issues
 
 
-def edit_p12(project, repo) -> None:
+def edit_p12(project, repo: Path) -> None:
     """P12's z and hand changed in the project (two writes: 1204 then 1206)."""
     edit(
         project,
@@ -739,7 +759,7 @@ def _blank(state: SimState) -> SimState:
     ],
 )
 def test_disaster_recovery_drill_a_blank_controller_gets_its_backup_back(
-    repo, capsys, state
+    repo: Path, capsys: pytest.CaptureFixture[str], state
 ) -> None:
     """Issue 20 item 6, over real TCP: back up; the controller comes up blank; push
     the backup; diff is clean and the simulator holds what it held."""
@@ -784,7 +804,7 @@ def _left_in_use(sim: Simulator) -> None:
 
 
 def test_issue_34_a_function_left_in_use_is_reset_by_the_command_refused_never_by_a_pull(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Issue 34 item 5: a push killed in the middle of a point left the function in
     use, and the next push advised 'harlsync pull DIR --reset-function', which saves
@@ -809,7 +829,7 @@ def test_issue_34_a_function_left_in_use_is_reset_by_the_command_refused_never_b
 
 
 def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Issue 22 item 8: every later night failed that robot until a person ran
     pull --reset-function."""
@@ -839,7 +859,7 @@ def test_a_nightly_backup_recovers_a_function_left_in_use_by_a_dead_harlsync(
 
 
 def test_issue_22_a_function_reset_is_in_the_audit_log_and_the_report_when_the_pull_then_fails(
-    robot, repo
+    robot: tuple[Simulator, str], repo: Path
 ) -> None:
     """Review finding 5: the note was recorded only after the read succeeded, so a
     reset followed by a failed read (here a point taught past last_point since)
@@ -862,7 +882,7 @@ def test_issue_22_a_function_reset_is_in_the_audit_log_and_the_report_when_the_p
 
 
 def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_and_the_report(
-    robot, repo, monkeypatch
+    robot: tuple[Simulator, str], repo: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Review finding 5, its last gap: a reset that drops ExtCmdReset and then never
     sees the function ready fails the connection itself, before any driver holds a
@@ -900,7 +920,7 @@ def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_an
     ("verb", "signal"), [("pause", "Paused 1"), ("estop", "EStopOn 1"), ("error", "Error 1")]
 )
 def test_issue_22_a_nightly_backup_never_resets_the_function_of_a_robot_not_at_rest(
-    robot, repo, verb, signal
+    robot: tuple[Simulator, str], repo: Path, verb, signal
 ) -> None:
     """Review finding 1: Running 0 is not enough.  Dropping ExtCmdReset aborts a
     paused task, and a robot in an emergency stop or an error wants a person, so
@@ -921,7 +941,9 @@ def test_issue_22_a_nightly_backup_never_resets_the_function_of_a_robot_not_at_r
     assert report.robots[0].notes == []
 
 
-def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(robot, repo) -> None:
+def test_a_nightly_backup_leaves_a_function_in_use_on_a_running_robot_alone(
+    robot: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = robot
     project = pulled(repo, url)
     _left_in_use(sim)

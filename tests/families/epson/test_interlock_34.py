@@ -9,6 +9,7 @@ Each test asserts from the simulator's own record that nothing was written."""
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -50,7 +51,9 @@ def project(robot, repo):  # type: ignore[no-untyped-def]
     return path
 
 
-def test_issue_34_an_open_safeguard_refuses_a_push(robot, project, capsys) -> None:
+def test_issue_34_an_open_safeguard_refuses_a_push(
+    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, _ = robot
     apply_command(sim, "safeguard")
     err = refused(project, capsys)
@@ -62,7 +65,7 @@ def test_issue_34_an_open_safeguard_refuses_a_push(robot, project, capsys) -> No
 
 
 def test_issue_34_a_push_is_refused_while_a_pendant_or_pc_controls_the_robot(
-    robot, project, capsys
+    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """2156 says which device controls the robot; anything but Remote I/O (22) means
     someone else has it, though every status signal reads idle."""
@@ -78,7 +81,7 @@ def test_issue_34_a_push_is_refused_while_a_pendant_or_pc_controls_the_robot(
 
 
 def test_issue_34_a_controller_error_its_error_signal_does_not_show_refuses_a_push(
-    robot, project, capsys
+    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, _ = robot
     sim.stations[1].error_code = 4001  # Error on a bit the controller does not drive
@@ -91,7 +94,7 @@ def test_issue_34_a_controller_error_its_error_signal_does_not_show_refuses_a_pu
     ("lacking", "named"), [(2156, "control device"), (2155, "controller error")]
 )
 def test_issue_34_a_controller_whose_control_device_or_error_cannot_be_read_is_not_written(
-    robot, project, capsys, lacking, named
+    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str], lacking, named
 ) -> None:
     """Fail closed: a controller that answers 2156 or 2155 with an error response
     (an older firmware, say) is backed up and compared, never written."""
@@ -105,7 +108,7 @@ def test_issue_34_a_controller_whose_control_device_or_error_cannot_be_read_is_n
 
 
 def test_issue_34_a_map_without_ready_is_not_written_unless_robot_yaml_accepts_the_risk(
-    robot, repo, project, capsys
+    robot: tuple[Simulator, str], repo: Path, project, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """With Ready unmapped harlsync only warned and wrote.  Now it refuses, naming
     the risk and the robot.yaml setting that accepts it; with that setting it writes
@@ -132,7 +135,7 @@ def test_issue_34_a_map_without_ready_is_not_written_unless_robot_yaml_accepts_t
 
 
 def test_issue_34_a_map_without_safeguard_on_is_not_written_unless_accepted(
-    robot, repo, project, capsys
+    robot: tuple[Simulator, str], repo: Path, project, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, _ = robot
     edit(project, repo, "robot.yaml", "SafeguardOn: {register: 0, bit: 13}", "SafeguardOn: null")
@@ -143,7 +146,7 @@ def test_issue_34_a_map_without_safeguard_on_is_not_written_unless_accepted(
 
 
 def test_issue_34_status_bits_on_addresses_the_controller_does_not_drive_show_as_a_wrong_map(
-    robot, repo, project, capsys
+    robot: tuple[Simulator, str], repo: Path, project, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A status signal mapped to an address the controller does not drive reads 0
     and looked idle.  Ready, which reads 1 at rest, shows it: a map whose Ready and

@@ -53,7 +53,7 @@ def one_line(err: str) -> str:
 
 
 def test_issue_29_the_answers_past_the_table_and_of_a_point_not_defined_are_recorded(
-    robot, repo
+    robot: tuple[Simulator, str], repo: Path
 ) -> None:
     sim, url = robot
     sim.vary({"undefined_point": "200A", "past_points": "2005"})
@@ -67,7 +67,7 @@ def test_issue_29_the_answers_past_the_table_and_of_a_point_not_defined_are_reco
 
 
 def test_issue_29_an_answer_past_the_table_that_changes_fails_the_pull_in_one_line_naming_both(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A later pull (and diff, and push) whose controller answers a point past its
     point table otherwise than controller.yaml records is refused in one line naming
@@ -96,7 +96,7 @@ def test_issue_29_an_answer_past_the_table_that_changes_fails_the_pull_in_one_li
 
 
 def test_issue_29_a_point_table_smaller_than_robot_yaml_says_is_read_to_its_end_and_recorded(
-    robot, repo
+    robot: tuple[Simulator, str], repo: Path
 ) -> None:
     """The controller's table ends at P149, robot.yaml (the tests' profile) says
     P199: the pull reads to P149, finds P150 answering as the point past the table
@@ -134,7 +134,7 @@ def cli_pull(project: Path) -> str:
     ids=["profile", "200A-2005", "2000"],
 )
 def test_issue_29_finding_the_table_end_costs_a_few_exchanges_beyond_the_tables_own_reads(
-    robot, repo, variant
+    robot: tuple[Simulator, str], repo: Path, variant
 ) -> None:
     """A pull reads each point number of the table once (its X); the end probe and
     the second asking of what a point not defined answers add at most four."""
@@ -150,7 +150,7 @@ def test_issue_29_finding_the_table_end_costs_a_few_exchanges_beyond_the_tables_
 
 
 def test_issue_29_a_point_past_the_table_end_fails_the_pull_naming_the_setting(
-    robot, repo, capsys
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -201,7 +201,9 @@ def _epson():  # type: ignore[no-untyped-def]
     return families.get("epson")
 
 
-def test_issue_29_a_slave_that_applies_a_write_whole_is_a_robot_yaml_setting(robot, repo) -> None:
+def test_issue_29_a_slave_that_applies_a_write_whole_is_a_robot_yaml_setting(
+    robot: tuple[Simulator, str], repo: Path
+) -> None:
     """Issue 29 item 3: the README told a site to set profile.BLOCK_WRITE_WHOLE, an
     edit of harlsync's source.  robot.yaml ``connection.writes_whole: true`` sends a
     command's words and ExtCmdSet in one Modbus write (the default map), false (the

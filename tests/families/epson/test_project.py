@@ -405,7 +405,9 @@ def test_a_bad_file_names_file_line_field_and_what_is_allowed(
     assert all("\n" not in issue for issue in issues)
 
 
-def test_validate_prints_one_line_per_problem_and_exits_1(project: Path, capsys) -> None:
+def test_validate_prints_one_line_per_problem_and_exits_1(
+    project: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from harlsync import cli
 
     _edit(project, "points.yaml", "12: {x: 1.000,", "12: {x: 1.5,")

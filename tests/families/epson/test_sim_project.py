@@ -43,7 +43,7 @@ def pull(url: str, register_map: RegisterMap, unit: int = 1) -> dict[object, obj
 
 
 @pytest.mark.parametrize("axes", [4, 6])
-def test_a_simulator_from_a_project_holds_its_settings_and_points(tmp_path, axes) -> None:
+def test_a_simulator_from_a_project_holds_its_settings_and_points(tmp_path: Path, axes) -> None:
     sim = SIM_FAMILY.from_project(project_of(tmp_path, axes=axes), None)
     assert list(sim.stations) == [1]
     state = sim.stations[1]
@@ -58,7 +58,7 @@ def test_a_simulator_from_a_project_holds_its_settings_and_points(tmp_path, axes
     assert sim.function_errors == [] and sim.off_list() == []
 
 
-def test_a_simulator_from_a_project_sits_on_its_unit_with_its_register_map(tmp_path) -> None:
+def test_a_simulator_from_a_project_sits_on_its_unit_with_its_register_map(tmp_path: Path) -> None:
     moved = RegisterMap(command_words=6)
     sim = SIM_FAMILY.from_project(project_of(tmp_path, unit=7, register_map=moved), None)
     assert list(sim.stations) == [7] and sim.register_map == moved
@@ -70,12 +70,12 @@ def test_a_simulator_from_a_project_sits_on_its_unit_with_its_register_map(tmp_p
     assert again.stations[2] == again.stations[3] and again.stations[2] is not again.stations[3]
 
 
-def test_a_project_of_another_family_or_a_broken_one_is_refused(tmp_path) -> None:
+def test_a_project_of_another_family_or_a_broken_one_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ProjectError):
         SIM_FAMILY.from_project(tmp_path / "none", None)
 
 
-def test_harlsync_sim_serves_an_epson_project(tmp_path) -> None:
+def test_harlsync_sim_serves_an_epson_project(tmp_path: Path) -> None:
     project = project_of(tmp_path)
     with harlsync_sim(
         "--family", "epson", "--listen", "127.0.0.1:0", "--project", str(project), lines=2

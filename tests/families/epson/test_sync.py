@@ -9,6 +9,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -41,7 +42,7 @@ def writes(fake: FakeRobot) -> list[tuple[int, ...]]:
 
 
 def test_a_function_left_halted_is_reset_only_when_asked_and_only_on_an_idle_robot(
-    robot, repo, capsys
+    robot: tuple[FakeRobot, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     fake, url = robot
     project = pulled(repo, url)
@@ -63,7 +64,9 @@ def test_a_function_left_halted_is_reset_only_when_asked_and_only_on_an_idle_rob
     assert fake.bank.state == "idle"
 
 
-def test_reset_function_leaves_an_idle_function_alone(robot, repo) -> None:
+def test_reset_function_leaves_an_idle_function_alone(
+    robot: tuple[FakeRobot, str], repo: Path
+) -> None:
     fake, url = robot
     project = pulled(repo, url)
     resets = len([op for op in fake.bank.writes() if op.address == 0 and not op.values[0] & 4])
@@ -73,7 +76,7 @@ def test_reset_function_leaves_an_idle_function_alone(robot, repo) -> None:
     )
 
 
-def test_reset_function_is_refused_for_a_family_without_it(tmp_path) -> None:
+def test_reset_function_is_refused_for_a_family_without_it(tmp_path: Path) -> None:
     robot = families.get("iai").new_robot("cell-9", "socket://127.0.0.1:1", None)
     with pytest.raises(
         ProjectError,
@@ -86,7 +89,7 @@ def test_reset_function_is_refused_for_a_family_without_it(tmp_path) -> None:
         engine.connect(engine_robot, options={"reset_function": True})
 
 
-def test_a_refused_connection_is_one_line_without_pymodbus_s_own_log_lines(tmp_path) -> None:
+def test_a_refused_connection_is_one_line_without_pymodbus_s_own_log_lines(tmp_path: Path) -> None:
     port = free_port()
     result = subprocess.run(
         [
@@ -185,7 +188,9 @@ def test_the_read_of_a_point_stops_at_its_first_coordinate_when_it_is_not_define
     assert WRITES.isdisjoint(w[0] for w in fake.commands)
 
 
-def test_a_map_without_ready_is_named_by_validate_and_plan(robot, repo, capsys) -> None:
+def test_a_map_without_ready_is_named_by_validate_and_plan(
+    robot: tuple[FakeRobot, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """Issue 19 item 5: where a site's map has no Ready, plan and validate say so;
     issue 34 item 16: and the plan cannot write (robot.yaml may accept the risk)."""
     _, url = robot

@@ -93,7 +93,9 @@ def pulled(repo: Path, url: str) -> Path:
     return project
 
 
-def test_records_are_backed_up_exactly_and_diff_finds_no_difference(served, repo) -> None:
+def test_records_are_backed_up_exactly_and_diff_finds_no_difference(
+    served: object, repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     text = (project / "records.yaml").read_text()
@@ -109,7 +111,7 @@ def test_records_are_backed_up_exactly_and_diff_finds_no_difference(served, repo
 
 
 def test_a_record_changed_on_the_controller_is_diffed_and_a_push_refuses_it(
-    served, repo, capsys
+    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -134,7 +136,7 @@ def test_a_record_changed_on_the_controller_is_diffed_and_a_push_refuses_it(
 
 
 def test_a_record_edited_in_the_project_is_refused_and_nothing_written(
-    served, repo, capsys
+    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -149,7 +151,7 @@ def test_a_record_edited_in_the_project_is_refused_and_nothing_written(
     assert sim.stations[STATION].tool_coordinates[0][2] == "35.500"
 
 
-def test_a_project_without_record_ranges_reads_none(served, repo) -> None:
+def test_a_project_without_record_ranges_reads_none(served: object, repo: Path) -> None:
     sim, url = served
     project = repo / "plain"
     assert (
@@ -160,7 +162,7 @@ def test_a_project_without_record_ranges_reads_none(served, repo) -> None:
 
 
 def test_issue_34_item_18_a_string_variable_row_is_written_back_with_24eh(
-    served, repo, capsys
+    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The string variables are backed up, and 24EH (p.51) writes them: a push
     brings back a row changed on the controller, one 24EH a changed row, the
@@ -188,7 +190,7 @@ def test_issue_34_item_18_a_string_variable_row_is_written_back_with_24eh(
 
 
 def test_issue_34_item_18_no_string_variable_is_written_to_a_robot_that_is_not_idle(
-    served, repo, capsys
+    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)

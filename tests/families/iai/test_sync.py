@@ -117,7 +117,9 @@ def edited(repo: Path, url: str, registers: bool) -> Path:
     return project
 
 
-def test_a_pull_backs_up_every_position_exactly_and_diff_finds_no_difference(served, repo) -> None:
+def test_a_pull_backs_up_every_position_exactly_and_diff_finds_no_difference(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     loaded = load_project(project)
@@ -129,7 +131,7 @@ def test_a_pull_backs_up_every_position_exactly_and_diff_finds_no_difference(ser
 
 
 def test_push_writes_only_the_changed_positions_and_rollback_restores_them(
-    served, repo, capsys
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -154,7 +156,9 @@ def test_push_writes_only_the_changed_positions_and_rollback_restores_them(
     assert not sim.off_list() and not sim.writes_while_busy()
 
 
-def test_plan_prints_each_291h_field_by_field_and_sends_nothing(served, repo, capsys) -> None:
+def test_plan_prints_each_291h_field_by_field_and_sends_nothing(
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     n = min(load_project(project).data.positions)
@@ -185,7 +189,12 @@ def test_plan_prints_each_291h_field_by_field_and_sends_nothing(served, repo, ca
 )
 @pytest.mark.parametrize("registers", [False, True], ids=["positions", "variables"])
 def test_a_push_to_a_controller_that_is_not_idle_is_refused_naming_the_bit(
-    served, repo, capsys, verb, named, registers
+    served: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    verb,
+    named,
+    registers,
 ) -> None:
     sim, url = served
     project = edited(repo, url, registers)
@@ -198,7 +207,7 @@ def test_a_push_to_a_controller_that_is_not_idle_is_refused_naming_the_bit(
 
 
 def test_a_position_on_the_robot_the_project_lacks_is_shown_and_refused(
-    served, repo, capsys
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -222,7 +231,7 @@ def test_a_position_on_the_robot_the_project_lacks_is_shown_and_refused(
 
 
 @pytest.mark.parametrize("registers", [False, True], ids=["positions", "variables"])
-def test_a_program_started_mid_push_gets_no_write_after_it(repo, registers) -> None:
+def test_a_program_started_mid_push_gets_no_write_after_it(repo: Path, registers) -> None:
     sim = Simulator({STATION: SimState.generate(8, position_range=(1, 120))})
     server = TcpServer(sim)
     try:
@@ -243,7 +252,7 @@ def test_a_program_started_mid_push_gets_no_write_after_it(repo, registers) -> N
         server.stop()
 
 
-def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo) -> None:
+def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo: Path) -> None:
     iai = Simulator({STATION: SimState.generate(9, position_range=(1, 60))})
     harl = HarlSimulator(HarlState.generate(3, SMALL))
     servers = [TcpServer(iai), PtyServer(harl)]
@@ -274,7 +283,7 @@ def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo) -> None:
 
 
 def test_the_audit_record_of_an_iai_push_carries_the_flash_notice(
-    served, repo, tmp_path, monkeypatch
+    served: tuple[Simulator, str], repo: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     log = tmp_path / "audit.jsonl"
     monkeypatch.setenv("HARLSYNC_AUDIT_LOG", str(log))
@@ -298,7 +307,7 @@ BAD_EDITS = [
 
 @pytest.mark.parametrize(("old", "new", "said"), BAD_EDITS, ids=[b[2] for b in BAD_EDITS])
 def test_a_bad_positions_file_is_one_line_with_file_and_line_exit_2_and_nothing_sent(
-    served, repo, capsys, old, new, said
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str], old, new, said
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -317,7 +326,9 @@ def test_a_bad_positions_file_is_one_line_with_file_and_line_exit_2_and_nothing_
     assert {p: p.read_bytes() for p in project.rglob("*") if p.is_file()} == before
 
 
-def test_a_duplicate_position_is_one_line_exit_2_and_nothing_sent(served, repo, capsys) -> None:
+def test_a_duplicate_position_is_one_line_exit_2_and_nothing_sent(
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     path = project / "positions.yaml"
@@ -337,7 +348,9 @@ def test_a_duplicate_position_is_one_line_exit_2_and_nothing_sent(served, repo, 
 # --- global flags and variables: only when the project keeps them ---------------------------
 
 
-def test_a_pull_that_keeps_registers_backs_up_flags_and_variables_exactly(served, repo) -> None:
+def test_a_pull_that_keeps_registers_backs_up_flags_and_variables_exactly(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = keeping(repo, url)
     data = load_project(project).data
@@ -349,7 +362,9 @@ def test_a_pull_that_keeps_registers_backs_up_flags_and_variables_exactly(served
     assert not writes(sim) and not sim.off_list()
 
 
-def test_a_positions_only_pull_reads_no_flag_or_variable(served, repo) -> None:
+def test_a_positions_only_pull_reads_no_flag_or_variable(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     assert not (project / "variables.yaml").exists()
@@ -357,7 +372,7 @@ def test_a_positions_only_pull_reads_no_flag_or_variable(served, repo) -> None:
 
 
 def test_diff_shows_flags_and_variables_changed_on_the_robot_only_with_registers(
-    served, repo, capsys
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = keeping(repo, url)
@@ -377,7 +392,7 @@ def test_diff_shows_flags_and_variables_changed_on_the_robot_only_with_registers
 
 
 def test_push_registers_writes_only_the_changed_ones_in_runs_and_converges(
-    served, repo, capsys
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = keeping(repo, url)
@@ -426,7 +441,9 @@ def test_push_registers_writes_only_the_changed_ones_in_runs_and_converges(
     assert not sim.writes_while_busy() and not sim.off_list()
 
 
-def test_rollback_registers_restores_the_flags_and_variables(served, repo) -> None:
+def test_rollback_registers_restores_the_flags_and_variables(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = keeping(repo, url)
     before = held(sim.stations[STATION])
@@ -438,7 +455,7 @@ def test_rollback_registers_restores_the_flags_and_variables(served, repo) -> No
 
 
 def test_push_registers_for_a_project_that_does_not_keep_them_is_refused(
-    served, repo, capsys
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -452,7 +469,7 @@ def test_push_registers_for_a_project_that_does_not_keep_them_is_refused(
 
 
 def test_issue_22_a_291h_the_controller_refuses_is_not_written_in_words_with_no_hex(
-    served, repo, capsys
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # Position 150 is inside robot.yaml's range but outside the controller's table:
     # it answers the 291H with & (its code for a number out of range).
