@@ -12,17 +12,19 @@ drives the Remote I/O wrongly on purpose and does see a function error."""
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 from conftest import git
 
 from harlsync import cli
+from harlsync.cli.common import EXIT_REFUSED
 from harlsync.families.epson import profile
-from harlsync.families.epson.model import SettingKey, TableKey
+from harlsync.families.epson.model import EpsonData, SettingKey, TableKey
 from harlsync.families.epson.protocol import AccelReal, Limits, SpeedReal
 from harlsync.families.epson.sim import CommandReceived, SimState, Simulator
+from harlsync.families.epson.sim.remote import Access
 from harlsync.families.epson.transport import ModbusLink
 from harlsync.families.harl_u2.model import Config, ProgramArea
 from harlsync.families.harl_u2.sim import SimState as HarlState
@@ -289,7 +291,11 @@ def test_push_writes_only_what_differs_and_names_the_persistent_items(
     ],
 )
 def test_a_push_to_a_robot_that_is_not_idle_is_refused_naming_the_signal(
-    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str], verb, named
+    robot: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    verb: str,
+    named: str,
 ) -> None:
     sim, url = robot
     project = pulled(repo, url)
@@ -303,12 +309,12 @@ def test_a_push_to_a_robot_that_is_not_idle_is_refused_naming_the_signal(
     apply_command(sim, "stop")
 
 
-def writes_sent_again_unlooked(sim: Simulator) -> list[object]:
+def writes_sent_again_unlooked(sim: Simulator) -> list[Access]:
     """From the simulator's own record of register accesses: each write that
     arrived again, the same words at the same address, with no read of the
     controller's outputs (the status) since the first."""
     since_status: set[tuple[int, tuple[int, ...]]] = set()
-    again = []
+    again: list[Access] = []
     for access in sim.remote().log:
         if access.kind == "read_input":
             since_status.clear()
@@ -562,7 +568,7 @@ def test_a_mixed_plant_of_harl_u2_iai_and_epson_robots_is_backed_up_in_one_run(
     sim, url = robot
     iai = IaiSimulator({0x99: IaiState.generate(9, position_range=(1, 60))})
     harl = HarlSimulator(HarlState.generate(3, SMALL))
-    servers = [TcpServer(iai), PtyServer(harl)]
+    servers: list[TcpServer | PtyServer] = [TcpServer(iai), PtyServer(harl)]
     try:
         iai_url, harl_url = (s.start() for s in servers)
         pulled(repo, url, "epson-cell")
@@ -690,7 +696,13 @@ def test_a_map_of_the_fewest_words_the_reads_need_backs_the_robot_up_in_halves(
     ids=["6-axis J1Flag", "6-axis J2Flag", "RS J1Angle"],
 )
 def test_a_robot_types_own_point_attributes_are_backed_up_diffed_pushed_and_verified(
-    repo: Path, capsys: pytest.CaptureFixture[str], data, field, old, new, command
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    data: EpsonData,
+    field: str,
+    old: str,
+    new: str,
+    command: int,
 ) -> None:
     """Issue 20 item 2: J1Flag/J2Flag (6-axis, manual 10.25) and J1Angle (RS) were not
     kept, so a restore gave every point flag 0: another joint solution."""
@@ -731,7 +743,7 @@ def test_a_six_axis_project_without_j1flag_and_j2flag_is_refused_naming_them(rep
     ), issues
 
 
-def edit_p12(project, repo: Path) -> None:
+def edit_p12(project: Path, repo: Path) -> None:
     """P12's z and hand changed in the project (two writes: 1204 then 1206)."""
     edit(
         project,
@@ -759,7 +771,7 @@ def _blank(state: SimState) -> SimState:
     ],
 )
 def test_disaster_recovery_drill_a_blank_controller_gets_its_backup_back(
-    repo: Path, capsys: pytest.CaptureFixture[str], state
+    repo: Path, capsys: pytest.CaptureFixture[str], state: Callable[[], SimState]
 ) -> None:
     """Issue 20 item 6, over real TCP: back up; the controller comes up blank; push
     the backup; diff is clean and the simulator holds what it held."""
@@ -788,7 +800,7 @@ def test_disaster_recovery_drill_a_blank_controller_gets_its_backup_back(
         assert getattr(restored, table) == getattr(original, table), table
 
 
-def _port_of(project) -> str:
+def _port_of(project: Path) -> str:
     line = next(t for t in (project / "robot.yaml").read_text().splitlines() if "port:" in t)
     return line.split("port:", 1)[1].strip()
 
@@ -920,7 +932,7 @@ def test_issue_22_a_function_reset_begun_and_not_finished_is_in_the_audit_log_an
     ("verb", "signal"), [("pause", "Paused 1"), ("estop", "EStopOn 1"), ("error", "Error 1")]
 )
 def test_issue_22_a_nightly_backup_never_resets_the_function_of_a_robot_not_at_rest(
-    robot: tuple[Simulator, str], repo: Path, verb, signal
+    robot: tuple[Simulator, str], repo: Path, verb: str, signal: str
 ) -> None:
     """Review finding 1: Running 0 is not enough.  Dropping ExtCmdReset aborts a
     paused task, and a robot in an emergency stop or an error wants a person, so
@@ -968,5 +980,5 @@ def test_issue_24_review_a_dirty_project_is_refused_before_the_connection_drives
     points = next(p for p in sorted(project.rglob("*.yaml")) if p.name != "robot.yaml")
     points.write_text(points.read_text() + "# checked by hand\n")
     before = sim.accesses()
-    assert cli.main(["pull", str(project), "--reset-function"]) == cli.EXIT_REFUSED
+    assert cli.main(["pull", str(project), "--reset-function"]) == EXIT_REFUSED
     assert sim.accesses() == before  # not a register read, not a signal driven
