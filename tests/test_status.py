@@ -171,7 +171,7 @@ def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(
 
 @pytest.mark.parametrize("shape", ["offset as text", "pair as a bare number", "writes as text"])
 def test_issue_34_an_index_entry_of_the_wrong_shape_is_built_again_and_status_says_the_same(
-    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str], shape
+    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str], shape: str
 ) -> None:
     code = main(["status", str(plant.root)])
     before = capsys.readouterr()
@@ -403,7 +403,7 @@ def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(
 
 @pytest.mark.parametrize("command", ["snapshots", "log"])
 def test_snapshots_and_log_of_a_directory_that_is_not_a_project_is_one_line_exit_2(
-    command, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert main([command, str(tmp_path)]) == 2
     err = capsys.readouterr().err

@@ -7,7 +7,7 @@ import dataclasses
 import json
 import shutil
 from collections.abc import Iterator
-from datetime import datetime
+from datetime import datetime, tzinfo
 from decimal import Decimal
 from pathlib import Path
 
@@ -222,7 +222,7 @@ def test_push_to_a_robot_in_automatic_operation_sends_no_sn_command(
 
 @pytest.mark.parametrize("live_tuning", [False, True])
 def test_a_suspended_task_also_blocks_every_write(
-    served: tuple[Simulator, str], repo: Path, live_tuning
+    served: tuple[Simulator, str], repo: Path, live_tuning: bool
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -332,7 +332,12 @@ def every_file(project: Path) -> dict[Path, bytes]:
     ids=["out of range", "broken yaml", "bad offset"],
 )
 def test_an_invalid_project_is_refused_before_any_write(
-    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str], file, bad, expect
+    served: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    file: str,
+    bad: str | None,
+    expect: str,
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -469,7 +474,9 @@ def test_a_dirty_project_or_one_outside_git_is_refused(
 
 
 @pytest.mark.parametrize("object_format", ["sha1", "sha256"])
-def test_git_tells_which_files_a_commit_holds_byte_for_byte(tmp_path: Path, object_format) -> None:
+def test_git_tells_which_files_a_commit_holds_byte_for_byte(
+    tmp_path: Path, object_format: str
+) -> None:
     root = tmp_path / "plant"
     root.mkdir()
     git(root, "init", "-q", f"--object-format={object_format}")
@@ -676,7 +683,7 @@ def test_push_without_yes_and_without_a_terminal_refuses_before_reading_the_robo
     repo: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
-    command,
+    command: str,
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -778,7 +785,7 @@ class Clock(datetime):
     at = datetime(2026, 11, 24, 12, 0)
 
     @classmethod
-    def now(cls, tz=None):  # type: ignore[no-untyped-def, override]
+    def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain one
         return cls.at.replace(tzinfo=tz)
 
 
@@ -842,7 +849,7 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
 
     class WindowClosesAfterTwoWrites(datetime):
         @classmethod
-        def now(cls, tz=None):  # type: ignore[no-untyped-def, override]
+        def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain one
             inside, after = datetime(2026, 11, 28, 23, 0), datetime(2026, 11, 29, 4, 0)
             return (inside if len(sim.writes_received()) < 2 else after).replace(tzinfo=tz)
 

@@ -92,7 +92,7 @@ def test_an_iai_unit_of_another_model_is_refused_after_201h(
 
 @pytest.mark.parametrize("command", ["pull", "diff", "plan", "push"])
 def test_an_epson_of_another_model_is_refused_after_2153_and_2154(
-    epson: tuple[object, Path], command, capsys: pytest.CaptureFixture[str]
+    epson: tuple[object, Path], command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = epson
     sim.stations[1].model = "G3-301S"
@@ -115,7 +115,7 @@ def test_an_epson_of_another_model_is_refused_after_2153_and_2154(
 
 @pytest.mark.parametrize("command", ["diff", "plan", "push"])
 def test_issue_34_item_17_a_harl_u2_of_another_version_is_refused_by_diff_plan_and_push(
-    harl_u2: tuple[object, Path], command, capsys: pytest.CaptureFixture[str]
+    harl_u2: tuple[object, Path], command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # A pull refused a swapped controller, a push did not: it read the robot, planned
     # and wrote the project's items to another robot's controller.

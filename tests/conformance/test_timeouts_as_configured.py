@@ -47,7 +47,7 @@ def configure(project: Path, repo: Path, timeout: str) -> None:
 
 @pytest.mark.parametrize("family", ["harl-u2", "iai"])
 def test_a_reply_that_never_comes_names_the_configured_timeout(
-    family, repo: Path, capsys: pytest.CaptureFixture[str]
+    family: str, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     if family == "iai":
         from harlsync.families.iai.sim import SimState, Simulator

@@ -53,7 +53,7 @@ def replace(path: Path, old: str, new: str) -> None:
     ],
 )
 def test_epson_values_the_controller_refuses_are_refused_by_validate(
-    epson: Path, capsys: pytest.CaptureFixture[str], old, new, said
+    epson: Path, capsys: pytest.CaptureFixture[str], old: str, new: str, said: str
 ) -> None:
     replace(epson / "settings.yaml", old, new)
     assert cli.main(["validate", str(epson)]) == 1
@@ -264,7 +264,7 @@ def test_an_iai_variable_the_schema_refuses_hides_not_the_checks_of_the_others(
 
 @pytest.mark.parametrize(("words", "refused"), [(3, True), (5, True), (6, False), (8, False)])
 def test_epson_response_words_fewer_than_the_reads_need_are_refused_by_validate(
-    epson: Path, capsys: pytest.CaptureFixture[str], words, refused
+    epson: Path, capsys: pytest.CaptureFixture[str], words: int, refused: bool
 ) -> None:
     replace(epson / "robot.yaml", "response_words: 8", f"response_words: {words}")
     assert cli.main(["validate", str(epson)]) == int(refused)

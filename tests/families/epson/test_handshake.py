@@ -291,7 +291,9 @@ def test_the_function_reset_is_refused_on_a_running_robot_and_changes_nothing() 
         (None, {"signals": {"Ready": None}}, "no Ready signal"),
     ],
 )
-def test_issue_22_a_reset_no_person_asked_for_needs_the_robot_at_rest(signal, map_, said) -> None:
+def test_issue_22_a_reset_no_person_asked_for_needs_the_robot_at_rest(
+    signal: str | None, map_, said: str
+) -> None:
     """Review finding 1: the unattended reset checks the read just before the drop
     for every interlock signal, Ready 1 and a right map, not only Running."""
     fake = controller() if map_ is None else controller(map=RegisterMap.from_dict(map_))

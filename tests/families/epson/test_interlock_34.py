@@ -94,7 +94,11 @@ def test_issue_34_a_controller_error_its_error_signal_does_not_show_refuses_a_pu
     ("lacking", "named"), [(2156, "control device"), (2155, "controller error")]
 )
 def test_issue_34_a_controller_whose_control_device_or_error_cannot_be_read_is_not_written(
-    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str], lacking, named
+    robot: tuple[Simulator, str],
+    project,
+    capsys: pytest.CaptureFixture[str],
+    lacking: int,
+    named: str,
 ) -> None:
     """Fail closed: a controller that answers 2156 or 2155 with an error response
     (an older firmware, say) is backed up and compared, never written."""

@@ -43,7 +43,9 @@ def pull(url: str, register_map: RegisterMap, unit: int = 1) -> dict[object, obj
 
 
 @pytest.mark.parametrize("axes", [4, 6])
-def test_a_simulator_from_a_project_holds_its_settings_and_points(tmp_path: Path, axes) -> None:
+def test_a_simulator_from_a_project_holds_its_settings_and_points(
+    tmp_path: Path, axes: int
+) -> None:
     sim = SIM_FAMILY.from_project(project_of(tmp_path, axes=axes), None)
     assert list(sim.stations) == [1]
     state = sim.stations[1]

@@ -192,9 +192,9 @@ def test_a_push_to_a_controller_that_is_not_idle_is_refused_naming_the_bit(
     served: tuple[Simulator, str],
     repo: Path,
     capsys: pytest.CaptureFixture[str],
-    verb,
-    named,
-    registers,
+    verb: str,
+    named: str,
+    registers: bool,
 ) -> None:
     sim, url = served
     project = edited(repo, url, registers)
@@ -231,7 +231,7 @@ def test_a_position_on_the_robot_the_project_lacks_is_shown_and_refused(
 
 
 @pytest.mark.parametrize("registers", [False, True], ids=["positions", "variables"])
-def test_a_program_started_mid_push_gets_no_write_after_it(repo: Path, registers) -> None:
+def test_a_program_started_mid_push_gets_no_write_after_it(repo: Path, registers: bool) -> None:
     sim = Simulator({STATION: SimState.generate(8, position_range=(1, 120))})
     server = TcpServer(sim)
     try:
