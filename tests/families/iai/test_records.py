@@ -8,6 +8,7 @@ own state."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -77,7 +78,7 @@ RANGES = (
 
 
 @pytest.fixture
-def served() -> object:
+def served() -> Iterator[tuple[Simulator, str]]:
     sim = Simulator({STATION: controller()})
     server = TcpServer(sim)
     url = server.start()
@@ -94,7 +95,7 @@ def pulled(repo: Path, url: str) -> Path:
 
 
 def test_records_are_backed_up_exactly_and_diff_finds_no_difference(
-    served: object, repo: Path
+    served: tuple[Simulator, str], repo: Path
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -111,7 +112,7 @@ def test_records_are_backed_up_exactly_and_diff_finds_no_difference(
 
 
 def test_a_record_changed_on_the_controller_is_diffed_and_a_push_refuses_it(
-    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -136,7 +137,7 @@ def test_a_record_changed_on_the_controller_is_diffed_and_a_push_refuses_it(
 
 
 def test_a_record_edited_in_the_project_is_refused_and_nothing_written(
-    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -151,7 +152,9 @@ def test_a_record_edited_in_the_project_is_refused_and_nothing_written(
     assert sim.stations[STATION].tool_coordinates[0][2] == "35.500"
 
 
-def test_a_project_without_record_ranges_reads_none(served: object, repo: Path) -> None:
+def test_a_project_without_record_ranges_reads_none(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = repo / "plain"
     assert (
@@ -162,7 +165,7 @@ def test_a_project_without_record_ranges_reads_none(served: object, repo: Path) 
 
 
 def test_issue_34_item_18_a_string_variable_row_is_written_back_with_24eh(
-    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The string variables are backed up, and 24EH (p.51) writes them: a push
     brings back a row changed on the controller, one 24EH a changed row, the
@@ -190,7 +193,7 @@ def test_issue_34_item_18_a_string_variable_row_is_written_back_with_24eh(
 
 
 def test_issue_34_item_18_no_string_variable_is_written_to_a_robot_that_is_not_idle(
-    served: object, repo: Path, capsys: pytest.CaptureFixture[str]
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
