@@ -9,6 +9,7 @@ import dataclasses
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 from plantsim import SMALL
@@ -16,15 +17,20 @@ from plantsim import SMALL
 from harlsync.cli import main
 from harlsync.sim.protocol_sim import register, unregister
 
+if TYPE_CHECKING:
+    from harlsync.families.epson.sim import Simulator as EpsonSimulator
+    from harlsync.families.harl_u2.sim import Simulator as HarlSimulator
+    from harlsync.families.iai.sim import Simulator as IaiSimulator
 
-def since(sim, before: int) -> list[str]:
+
+def since(sim: HarlSimulator | IaiSimulator, before: int) -> list[str]:
     """The requests the simulator received after the first ``before``, by name."""
     with sim.lock:
         return [r.command for r in sim.received[before:]]
 
 
 @pytest.fixture
-def harl_u2(repo: Path) -> Iterator[tuple[object, Path]]:
+def harl_u2(repo: Path) -> Iterator[tuple[HarlSimulator, Path]]:
     from harlsync.families.harl_u2.sim import SimState, Simulator
 
     sim = Simulator({1: SimState.generate(7, SMALL)})
@@ -36,7 +42,7 @@ def harl_u2(repo: Path) -> Iterator[tuple[object, Path]]:
 
 
 @pytest.fixture
-def iai(repo: Path) -> Iterator[tuple[object, Path]]:
+def iai(repo: Path) -> Iterator[tuple[IaiSimulator, Path]]:
     from harlsync.families.iai.sim import SimState, Simulator
 
     sim = Simulator({0x99: SimState.generate(5, position_range=(1, 20))})
@@ -48,7 +54,7 @@ def iai(repo: Path) -> Iterator[tuple[object, Path]]:
 
 
 @pytest.fixture
-def epson(repo: Path) -> Iterator[tuple[object, Path]]:
+def epson(repo: Path) -> Iterator[tuple[EpsonSimulator, Path]]:
     from families.epson.projects import saved
     from families.epson.sample import sample_data
 
@@ -60,7 +66,7 @@ def epson(repo: Path) -> Iterator[tuple[object, Path]]:
 
 
 def test_a_harl_u2_of_another_version_is_refused_after_lnx_and_lnv(
-    harl_u2: tuple[object, Path], capsys: pytest.CaptureFixture[str]
+    harl_u2: tuple[HarlSimulator, Path], capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = harl_u2
     before_files = {p: p.read_bytes() for p in project.rglob("*.yaml")}
@@ -76,7 +82,7 @@ def test_a_harl_u2_of_another_version_is_refused_after_lnx_and_lnv(
 
 
 def test_an_iai_unit_of_another_model_is_refused_after_201h(
-    iai: tuple[object, Path], capsys: pytest.CaptureFixture[str]
+    iai: tuple[IaiSimulator, Path], capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = iai
     versions = sim.stations[0x99].versions
@@ -92,7 +98,7 @@ def test_an_iai_unit_of_another_model_is_refused_after_201h(
 
 @pytest.mark.parametrize("command", ["pull", "diff", "plan", "push"])
 def test_an_epson_of_another_model_is_refused_after_2153_and_2154(
-    epson: tuple[object, Path], command: str, capsys: pytest.CaptureFixture[str]
+    epson: tuple[EpsonSimulator, Path], command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = epson
     sim.stations[1].model = "G3-301S"
@@ -115,7 +121,7 @@ def test_an_epson_of_another_model_is_refused_after_2153_and_2154(
 
 @pytest.mark.parametrize("command", ["diff", "plan", "push"])
 def test_issue_34_item_17_a_harl_u2_of_another_version_is_refused_by_diff_plan_and_push(
-    harl_u2: tuple[object, Path], command: str, capsys: pytest.CaptureFixture[str]
+    harl_u2: tuple[HarlSimulator, Path], command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # A pull refused a swapped controller, a push did not: it read the robot, planned
     # and wrote the project's items to another robot's controller.

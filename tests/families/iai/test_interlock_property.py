@@ -74,7 +74,7 @@ import random
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
 from conftest import git
@@ -798,19 +798,21 @@ ISSUE_19 = {
 }
 
 
-def wire(write: PlannedWrite) -> str:
-    """The payload of the write a planned write sends, as the controller records it."""
+def wire(write: PlannedWrite[Key]) -> str:
+    """The payload of the write a planned write sends, as the controller records it.
+    (``write.new`` is an object to the plan; what it holds the key's kind says.)"""
     key = write.key
     if isinstance(key, RecordKey):  # a row of string variable columns
-        codes = [int(write.new[i : i + 2], 16) for i in range(0, len(write.new), 2)]
+        row = cast(str, write.new)
+        codes = [int(row[i : i + 2], 16) for i in range(0, len(row), 2)]
         return write_strings(key.number, codes).payload
     if not isinstance(key, Run):
-        return write_flag(key.number, write.new).payload
+        return write_flag(key.number, cast(bool, write.new)).payload
     if key.kind == "positions":
-        return write_positions(key.start, write.new).payload
+        return write_positions(key.start, cast(list[Position], write.new)).payload
     if key.kind == "integers":
-        return write_integers(key.start, write.new).payload
-    return write_reals(key.start, [real_value(v) for v in write.new]).payload
+        return write_integers(key.start, cast(list[int], write.new)).payload
+    return write_reals(key.start, [real_value(v) for v in cast(list[str], write.new)]).payload
 
 
 def reads_back(payload: str, between: list[Received]) -> bool:
@@ -900,14 +902,14 @@ def check_interlock(case: Case, got: Outcome, tally: IaiTally) -> None:
 ITEM_OF_RUN = {"positions": "position", "integers": "integer", "reals": "real"}
 
 
-def items(write: PlannedWrite) -> dict[Key, Any]:
+def items(write: PlannedWrite[Key]) -> dict[Key, Any]:
     """The items a planned write writes, each with its new value."""
     key = write.key
     if not isinstance(key, Run):
         return {key: write.new}  # a flag
     kind = ITEM_OF_RUN[key.kind]
     make = PositionKey if kind == "position" else VariableKey
-    return {make(kind, n): new for n, new in zip(key.numbers, write.new)}
+    return {make(kind, n): new for n, new in zip(key.numbers, cast(list[object], write.new))}
 
 
 def check_writes(case: Case, got: Outcome, final: IaiData) -> None:
