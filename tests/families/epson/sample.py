@@ -53,13 +53,21 @@ def sample_data(axes: int = 4, *, rs: bool = False) -> EpsonData:
     items[SettingKey("base")] = zeros
     items[SettingKey("limz")] = "-10.000"
     six = robot_type == 5
-    flags = {"j1flag": 0, "j2flag": 0} if six else {}
-    angle = {"j1angle": "0.000"} if rs else {}
+    flag = 0 if six else None  # J1Flag and J2Flag: a 6-axis robot's only
+    angle = "0.000" if rs else None  # J1Angle: an RS robot's only
     items[PointKey("point", 0)] = Point(
-        ("0.000", "400.000", *("0.000",) * (axes - 2)), hand=1, **flags, **angle
+        ("0.000", "400.000", *("0.000",) * (axes - 2)),
+        hand=1,
+        j1flag=flag,
+        j2flag=flag,
+        j1angle=angle,
     )
     items[PointKey("point", 12)] = Point(
-        ("1.000", "400.000", "-10.500", *("90.000",) * (axes - 3)), elbow=1, **flags, **angle
+        ("1.000", "400.000", "-10.500", *("90.000",) * (axes - 3)),
+        elbow=1,
+        j1flag=flag,
+        j2flag=flag,
+        j1angle=angle,
     )
     items[PointKey("point", 13)] = Point(
         ("-1.000", "300.000", *("0.000",) * (axes - 2)),
@@ -68,7 +76,8 @@ def sample_data(axes: int = 4, *, rs: bool = False) -> EpsonData:
         j4flag=1,
         j6flag=5,
         local=1,
-        **({"j1flag": 1, "j2flag": 1} if six else {}),
-        **({"j1angle": "-12.500"} if rs else {}),
+        j1flag=1 if six else None,
+        j2flag=1 if six else None,
+        j1angle="-12.500" if rs else None,
     )
     return data

@@ -38,6 +38,13 @@ def ask(sim: Simulator, payload: str, station: int = 1) -> str | None:
     return None if frame is None else frame.payload
 
 
+def answer(sim: Simulator, payload: str, station: int = 1) -> str:
+    """The reply payload of a request the simulator answers."""
+    reply = ask(sim, payload, station)
+    assert reply is not None, f"no reply to {payload}"
+    return reply
+
+
 @pytest.fixture
 def sim() -> Simulator:
     return Simulator(SimState.generate(7, SMALL))
@@ -114,7 +121,7 @@ def test_io_and_memory_bits_map_to_ports_as_the_manual_tables_say(sim: Simulator
 )
 def test_out_of_range_writes_are_refused_with_an_error_status(sim: Simulator, payload: str) -> None:
     before = ask(sim, "LNT 1")
-    assert ask(sim, payload).startswith("E")
+    assert answer(sim, payload).startswith("E")
     assert ask(sim, "LNT 1") == before
 
 
@@ -135,8 +142,8 @@ def test_another_station_or_a_bad_lrc_gets_silence(sim: Simulator) -> None:
 
 
 def test_an_unknown_command_gets_an_error(sim: Simulator) -> None:
-    assert ask(sim, "LNQ").startswith("E")
-    assert ask(sim, "LNR 1").startswith("E")
+    assert answer(sim, "LNQ").startswith("E")
+    assert answer(sim, "LNR 1").startswith("E")
 
 
 def test_several_stations_share_one_line() -> None:
@@ -151,14 +158,14 @@ def test_lnr_shows_tasks_started_suspended_and_stopped(sim: Simulator) -> None:
     assert ask(sim, "LNR") == " ".join(["0 START 0 0"] * 5)
     assert apply_command(sim, "status").startswith("station 1: idle;")
     apply_command(sim, "auto 1 2")
-    assert ask(sim, "LNR").split()[8:12] == ["1", "MAIN", "0", "0"]
+    assert answer(sim, "LNR").split()[8:12] == ["1", "MAIN", "0", "0"]
     assert "station 1: task 2 in execution: MAIN program 0 step 0;" in apply_command(sim, "status")
     apply_command(sim, "suspend 1 2")
-    assert ask(sim, "LNR").split()[8] == "2"
+    assert answer(sim, "LNR").split()[8] == "2"
     # Issue 14: a suspended task is called suspended, as LNR says it, never "automatic".
     assert "station 1: task 2 suspended: MAIN program 0 step 0;" in apply_command(sim, "status")
     apply_command(sim, "stop")
-    fields = ask(sim, "LNR").split()
+    fields = answer(sim, "LNR").split()
     assert fields[0::4] == ["0"] * 5  # every task stopped
     assert fields[8:12] == ["0", "MAIN", "0", "0"]  # task 2 still shows its program
 
@@ -239,7 +246,7 @@ def test_generated_robots_are_realistic_and_reproducible() -> None:
 # --- serving over real transports ---------------------------------------------------------
 
 
-def exchange(port: serial.SerialBase, payload: str, station: int = 1, deadline: float = 3.0) -> str:
+def exchange(port: serial.Serial, payload: str, station: int = 1, deadline: float = 3.0) -> str:
     port.write(encode_frame(station, payload))
     dec = FrameDecoder()
     end = time.monotonic() + deadline
@@ -251,7 +258,7 @@ def exchange(port: serial.SerialBase, payload: str, station: int = 1, deadline: 
     raise AssertionError(f"no reply to {payload}")
 
 
-def read_program_step_by_step(port: serial.SerialBase, number: int, steps: int) -> list[str]:
+def read_program_step_by_step(port: serial.Serial, number: int, steps: int) -> list[str]:
     return [exchange(port, f"LNM {number} {s}") for s in range(steps)]
 
 
@@ -320,6 +327,7 @@ def test_harlsync_sim_serves_pty_and_tcp_and_takes_control_commands(tmp_path: Pa
             assert exchange(port, "LNV", station=2) == "5.00"
         with serial.serial_for_url(lines["tcp"], timeout=0.05) as port:
             assert exchange(port, "LNR").startswith("0 START")
+            assert proc.stdin is not None and proc.stdout is not None
             proc.stdin.write("auto 1 0\n")
             proc.stdin.flush()
             assert proc.stdout.readline().startswith(

@@ -115,7 +115,7 @@ def controller() -> SimState:
 class Line:
     """A client's end of the served simulator."""
 
-    def __init__(self, sim: Simulator, port: serial.SerialBase) -> None:
+    def __init__(self, sim: Simulator, port: serial.Serial) -> None:
         self.sim = sim
         self.port = port
 
@@ -143,7 +143,7 @@ def line(request: pytest.FixtureRequest) -> Iterator[Line]:
         with PtyServer(sim) as server, serial.serial_for_url(server.device, timeout=0.05) as port:
             yield Line(sim, port)
     else:
-        with TcpServer(sim) as server, serial.serial_for_url(server.url, timeout=0.05) as port:
+        with TcpServer(sim) as tcp, serial.serial_for_url(tcp.url, timeout=0.05) as port:
             yield Line(sim, port)
 
 
@@ -419,6 +419,7 @@ def test_harlsync_sim_family_iai_serves_pty_and_tcp(tmp_path: Path) -> None:
             port.write(SYSTEM_STATUS_Q)
             assert read_line(port) == STATUS_IDLE
         with serial.serial_for_url(lines["tcp"], timeout=0.05) as port:
+            assert proc.stdin is not None and proc.stdout is not None
             proc.stdin.write("run 99\n")
             proc.stdin.flush()
             assert proc.stdout.readline().startswith("station 99: program running")
@@ -455,7 +456,7 @@ def frame_of(reply: bytes) -> p.Frame:
     return frame
 
 
-def read_line(port: serial.SerialBase, deadline: float = 3.0) -> bytes:
+def read_line(port: serial.Serial, deadline: float = 3.0) -> bytes:
     """The bytes read up to the first LF, or all that came before the deadline."""
     out = bytearray()
     end = time.monotonic() + deadline
