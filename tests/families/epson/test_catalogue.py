@@ -6,8 +6,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from harlsync.families.epson.catalogue import CATALOGUE, CLEARED, PointWrite, point_fields
-from harlsync.families.epson.model import Point, PointKey, SettingKey, TableKey
+from harlsync.families.base import PlanShape
+from harlsync.families.epson.catalogue import CATALOGUE, CLEARED, Key, PointWrite, point_fields
+from harlsync.families.epson.model import EpsonData, Point, PointKey, SettingKey, TableKey
 from harlsync.families.epson.protocol import AccelReal, Limits, Weight
 from harlsync.sync.items import diff, render_text
 
@@ -15,20 +16,18 @@ from .sample import sample_data
 
 
 def test_items_are_named_as_the_manual_writes_them() -> None:
-    names = {
-        key: CATALOGUE.describe(key)
-        for key in [
-            TableKey("accel_s", 3),
-            TableKey("speed_r", 0),
-            SettingKey("box", 5),
-            SettingKey("jrange", 2),
-            SettingKey("arch", 0),
-            SettingKey("weight"),
-            SettingKey("limz"),
-            PointKey("point", 12),
-            PointWrite("point", 12, ("x",)),
-        ]
-    }
+    keys: list[Key] = [
+        TableKey("accel_s", 3),
+        TableKey("speed_r", 0),
+        SettingKey("box", 5),
+        SettingKey("jrange", 2),
+        SettingKey("arch", 0),
+        SettingKey("weight"),
+        SettingKey("limz"),
+        PointKey("point", 12),
+        PointWrite("point", 12, ("x",)),
+    ]
+    names = {key: CATALOGUE.describe(key) for key in keys}
     assert list(names.values()) == [
         "AccelS 3",
         "SpeedR 0",
@@ -133,7 +132,7 @@ def test_diff_text_of_a_changed_entry_and_of_cleared_tables() -> None:
 
 
 def test_the_push_order_is_load_limits_frames_tool_motion_tables_then_points() -> None:
-    keys = [
+    keys: list[Key] = [
         PointKey("point", 1),
         TableKey("speed", 0),
         SettingKey("local", 1),
@@ -172,7 +171,7 @@ def test_counts_and_summary_are_in_table_entries_settings_and_points() -> None:
     assert CATALOGUE.summary([]) == "no change"
 
 
-def _plan(live, project):  # type: ignore[no-untyped-def]
+def _plan(live: EpsonData, project: EpsonData) -> PlanShape[Key]:
     changes = [(c.key, c.old, c.new) for c in diff(CATALOGUE, live, project)]
     return CATALOGUE.plan(live, project, changes, registers=False)
 

@@ -33,7 +33,7 @@ def written(sim: Simulator, since: int = 0) -> list[CommandReceived]:
     return [c for c in sim.commands()[since:] if c.is_write]
 
 
-def refused(project: object, capsys: pytest.CaptureFixture[str]) -> str:
+def refused(project: Path, capsys: pytest.CaptureFixture[str]) -> str:
     """``harlsync push`` refused (exit 3) in one line; that line."""
     capsys.readouterr()
     assert cli.main(["push", str(project), "--yes"]) == 3
@@ -43,7 +43,7 @@ def refused(project: object, capsys: pytest.CaptureFixture[str]) -> str:
 
 
 @pytest.fixture
-def project(robot, repo):  # type: ignore[no-untyped-def]
+def project(robot: tuple[Simulator, str], repo: Path) -> Path:
     """The sample robot pulled, LimZ edited in the project (one write to make)."""
     _, url = robot
     path = pulled(repo, url)
@@ -52,7 +52,7 @@ def project(robot, repo):  # type: ignore[no-untyped-def]
 
 
 def test_issue_34_an_open_safeguard_refuses_a_push(
-    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str]
+    robot: tuple[Simulator, str], project: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, _ = robot
     apply_command(sim, "safeguard")
@@ -65,7 +65,7 @@ def test_issue_34_an_open_safeguard_refuses_a_push(
 
 
 def test_issue_34_a_push_is_refused_while_a_pendant_or_pc_controls_the_robot(
-    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str]
+    robot: tuple[Simulator, str], project: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """2156 says which device controls the robot; anything but Remote I/O (22) means
     someone else has it, though every status signal reads idle."""
@@ -81,7 +81,7 @@ def test_issue_34_a_push_is_refused_while_a_pendant_or_pc_controls_the_robot(
 
 
 def test_issue_34_a_controller_error_its_error_signal_does_not_show_refuses_a_push(
-    robot: tuple[Simulator, str], project, capsys: pytest.CaptureFixture[str]
+    robot: tuple[Simulator, str], project: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, _ = robot
     sim.stations[1].error_code = 4001  # Error on a bit the controller does not drive
@@ -95,7 +95,7 @@ def test_issue_34_a_controller_error_its_error_signal_does_not_show_refuses_a_pu
 )
 def test_issue_34_a_controller_whose_control_device_or_error_cannot_be_read_is_not_written(
     robot: tuple[Simulator, str],
-    project,
+    project: Path,
     capsys: pytest.CaptureFixture[str],
     lacking: int,
     named: str,
@@ -112,7 +112,7 @@ def test_issue_34_a_controller_whose_control_device_or_error_cannot_be_read_is_n
 
 
 def test_issue_34_a_map_without_ready_is_not_written_unless_robot_yaml_accepts_the_risk(
-    robot: tuple[Simulator, str], repo: Path, project, capsys: pytest.CaptureFixture[str]
+    robot: tuple[Simulator, str], repo: Path, project: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """With Ready unmapped harlsync only warned and wrote.  Now it refuses, naming
     the risk and the robot.yaml setting that accepts it; with that setting it writes
@@ -139,7 +139,7 @@ def test_issue_34_a_map_without_ready_is_not_written_unless_robot_yaml_accepts_t
 
 
 def test_issue_34_a_map_without_safeguard_on_is_not_written_unless_accepted(
-    robot: tuple[Simulator, str], repo: Path, project, capsys: pytest.CaptureFixture[str]
+    robot: tuple[Simulator, str], repo: Path, project: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, _ = robot
     edit(project, repo, "robot.yaml", "SafeguardOn: {register: 0, bit: 13}", "SafeguardOn: null")
@@ -150,7 +150,7 @@ def test_issue_34_a_map_without_safeguard_on_is_not_written_unless_accepted(
 
 
 def test_issue_34_status_bits_on_addresses_the_controller_does_not_drive_show_as_a_wrong_map(
-    robot: tuple[Simulator, str], repo: Path, project, capsys: pytest.CaptureFixture[str]
+    robot: tuple[Simulator, str], repo: Path, project: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A status signal mapped to an address the controller does not drive reads 0
     and looked idle.  Ready, which reads 1 at rest, shows it: a map whose Ready and
