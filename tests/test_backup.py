@@ -23,6 +23,7 @@ from harlsync.sim import Faults
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 from harlsync.sync.backup import backup, find_projects, line_of
+from harlsync.sync.pulling import PullResult
 
 SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
 
@@ -77,8 +78,8 @@ def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
     sims["silent"].faults = Faults(drop=1.0)
     sims["garbage"].faults = Faults(bad_checksum=1.0, noise=1.0, seed=1)
     yield Plant(root, sims, servers)
-    for server in servers:
-        server.stop()
+    for started in servers:
+        started.stop()
 
 
 def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plant) -> None:
@@ -116,8 +117,8 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(
     assert rows["silent"].split()[1] == "FAILED" and "station 1" in rows["silent"]
     assert rows["garbage"].split()[1] == "FAILED"
     assert "3 of 5 robot(s) backed up, 2 changed" in out
-    for name, before in untouched.items():
-        assert files_of(plant.root / name) == before
+    for name, files in untouched.items():
+        assert files_of(plant.root / name) == files
     # Issue 30: committed on the backup branch; the approved one and its files stay.
     assert git(plant.root, "rev-parse", "HEAD") == head
     assert git(plant.root, "status", "--porcelain") == ""
@@ -308,7 +309,8 @@ def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
     robot.write_text(text.replace(port_line, "  port: /dev/does-not-exist-harlsync"))
     report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1)
     outcome = {r.name: r for r in report.robots}
-    assert not outcome["loader"].ok and "/dev/does-not-exist-harlsync" in outcome["loader"].error
+    assert not outcome["loader"].ok
+    assert "/dev/does-not-exist-harlsync" in (outcome["loader"].error or "")
     assert outcome["press-1"].ok
 
 
@@ -334,20 +336,20 @@ def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(
 def test_an_unexpected_error_costs_one_robot_not_the_night(
     plant: Plant, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from harlsync.sync import backup as backup_module
+    from harlsync.sync import nightly
 
-    real = backup_module.nightly.read_robot
+    real = nightly.read_robot
 
-    def broken_for_the_loader(path: Path, **kwargs: object):  # type: ignore[no-untyped-def]
+    def broken_for_the_loader(path: Path, **kwargs: object) -> PullResult:
         if Path(path).name == "loader":
             raise RuntimeError("termios.error(5, 'Input/output error')")
         return real(path, **kwargs)
 
-    monkeypatch.setattr(backup_module.nightly, "read_robot", broken_for_the_loader)
+    monkeypatch.setattr(nightly, "read_robot", broken_for_the_loader)
     # The bug is patched into this process: a worker process would not have it.
     report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1, workers=1)
     outcome = {r.name: r for r in report.robots}
-    assert not outcome["loader"].ok and "RuntimeError" in outcome["loader"].error
+    assert not outcome["loader"].ok and "RuntimeError" in (outcome["loader"].error or "")
     assert outcome["press-1"].ok
 
 

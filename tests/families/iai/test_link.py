@@ -71,6 +71,7 @@ class ScriptedIai:
             if frame.kind != "!" or frame.station != STATION:
                 continue
             self.received.append(frame.encode())
+            assert frame.message_id is not None  # a "!" frame names its message
             reply = self.reply or {0x215: STATUS_IDLE, 0x201: VERSION_REPLY}[frame.message_id]
             act = self.acts.pop(0) if self.acts else None
             out += act(reply) if act else [(0.0, reply)]
@@ -81,6 +82,12 @@ class ScriptedIai:
 @pytest.fixture
 def device() -> Iterator[ScriptedIai]:
     yield ScriptedIai()
+
+
+def serve(device: ScriptedIai) -> PtyServer:
+    """A pty the scripted controller answers on."""
+    # A stand-in, deliberately not a Simulator: it has of one only what the server uses.
+    return PtyServer(device)  # type: ignore[arg-type]
 
 
 def fast(retries: int = 3) -> SerialSettings:
@@ -94,7 +101,7 @@ def open_link(server: PtyServer, settings: SerialSettings) -> Link[p.Frame]:
 def test_a_215h_exchange_through_the_shared_link_returns_the_system_status(
     device: ScriptedIai,
 ) -> None:
-    with PtyServer(device) as server, open_link(server, fast()) as link:
+    with serve(device) as server, open_link(server, fast()) as link:
         status = link.exchange(p.system_status())
     assert status == SystemStatus(1, "000", "000", 0, 0, 4, 0)
     assert isinstance(status, SystemStatus) and status.refusals == ()
@@ -104,7 +111,7 @@ def test_a_215h_exchange_through_the_shared_link_returns_the_system_status(
 
 def test_an_error_reply_is_a_value(device: ScriptedIai) -> None:
     device.reply = ERROR_REPLY
-    with PtyServer(device) as server, open_link(server, fast()) as link:
+    with serve(device) as server, open_link(server, fast()) as link:
         assert link.exchange(p.system_status()) == p.ErrorReply("0A1")
 
 
@@ -113,7 +120,7 @@ def test_a_silent_controller_times_out_naming_what_to_check_on_an_iai(
 ) -> None:
     device.plan(drop, drop)
     with (
-        PtyServer(device) as server,
+        serve(device) as server,
         open_link(server, fast(retries=1)) as link,
         pytest.raises(LinkTimeout) as info,
     ):
@@ -134,7 +141,7 @@ def test_a_silent_controller_times_out_naming_what_to_check_on_an_iai(
 
 def test_a_reply_with_a_bad_sc_is_retried_and_the_good_one_taken(device: ScriptedIai) -> None:
     device.plan(bad_sc)
-    with PtyServer(device) as server, open_link(server, fast()) as link:
+    with serve(device) as server, open_link(server, fast()) as link:
         status = link.exchange(p.system_status())
     assert isinstance(status, SystemStatus) and status.mode == 1
     assert device.received == [SYSTEM_STATUS_Q] * 2
@@ -154,7 +161,7 @@ def test_the_reply_deadline_grows_with_the_longest_reply_a_request_can_get() -> 
 
 def test_issue_11_a_line_that_echoes_commands_is_recognised_not_taken_for_a_misfit() -> None:
     device = ScriptedIai(echo=True)
-    with PtyServer(device) as server, open_link(server, fast()) as link:
+    with serve(device) as server, open_link(server, fast()) as link:
         assert isinstance(link.exchange(p.system_status()), SystemStatus)
         assert isinstance(link.exchange(p.system_status()), SystemStatus)
     assert (link.stats.echoes, link.stats.unfitting, link.stats.retries) == (2, 0, 0)
@@ -165,7 +172,7 @@ def test_issue_11_a_line_that_repeats_replies_fails_the_read_on_the_iai_too() ->
     # never answers a status read; the frames it leaves over still fail the read.
     device = ScriptedIai(repeat=True)
     with (
-        PtyServer(device) as server,
+        serve(device) as server,
         open_link(server, fast()) as link,
         pytest.raises(LinkError) as info,
     ):
