@@ -64,7 +64,7 @@ import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
 from pushproperty import (
@@ -87,10 +87,12 @@ from harlsync import families
 from harlsync.errors import LinkTimeout, PolicyError
 from harlsync.families.epson import controller as controller_module
 from harlsync.families.epson.catalogue import CATALOGUE, PointWrite
+from harlsync.families.epson.catalogue import Key as PlanKey
 from harlsync.families.epson.controller import Controller
 from harlsync.families.epson.handshake import Handshake
 from harlsync.families.epson.model import (
     EpsonData,
+    Key,
     Point,
     PointKey,
     SettingKey,
@@ -450,7 +452,7 @@ def aimed_target(rng: random.Random, state: SimState, kind: str, story: list[str
     target = EpsonData(before.robot_type, before.axes, before.model, dict(before.items))
     if kind == "point":
         points = [k for k, v in other.items.items() if isinstance(k, PointKey)]
-        key = rng.choice(points)
+        key: Key = rng.choice(points)
         new = other.items[key]
         old = before.items.get(key)
         local = old.local if isinstance(old, Point) else 0
@@ -623,7 +625,7 @@ class EpsonTally(Tally):
 _PAYLOADS = Controller(Handshake(None, RegisterMap()))  # type: ignore[arg-type]
 
 
-def payloads(write: PlannedWrite) -> list[str]:
+def payloads(write: PlannedWrite[PlanKey]) -> list[str]:
     """The command words of every command a planned write sends, as the simulator
     records them (the map's 8 command words, in hex)."""
     key, value = write.key, write.new
@@ -669,11 +671,16 @@ def check_interlock(case: Case, got: Outcome, tally: EpsonTally) -> None:
         assert last < len(commands) and sim.last_read is not None, case.why("no read after")
 
 
+def commands_of(got: Outcome) -> list[CommandReceived]:
+    """What the simulated controller received: every request an Epson command."""
+    return [r for r in got.received if isinstance(r, CommandReceived)]
+
+
 def check_sent(case: Case, got: Outcome) -> None:
     """Every write command received belongs to a write the result names written or
     unknown; every write named written arrived whole."""
     result = got.result
-    sent = [r.payload for r in got.received if r.is_write and r.number in WRITES]
+    sent = [r.payload for r in commands_of(got) if r.is_write and r.number in WRITES]
     maybe: set[str] = set()
     for w in [*result.written, *([result.failed] if result.failed else [])]:
         maybe.update(payloads(w))
@@ -710,8 +717,9 @@ def check_stopped_item(case: Case, got: Outcome, tally: EpsonTally) -> None:
             assert held == w.old, case.why(f"{w.name} took effect though its sequence stopped")
         return
     fields = list(w.key.fields)
-    new_fields = dict(w.new.fields())
-    old_fields = dict(w.old.fields()) if w.old is not None else {}
+    # A point's write: its values are Points (the plan holds them as objects).
+    new_fields = dict(cast(Point, w.new).fields())
+    old_fields = dict(cast(Point, w.old).fields()) if w.old is not None else {}
     held_fields = dict(now.fields()) if now is not None else {}
     took = [f for f in fields if held_fields.get(f) == new_fields[f] != old_fields.get(f)]
     changed = [f for f in fields if new_fields[f] != old_fields.get(f)]
@@ -762,8 +770,8 @@ def check_case(case: Case, deploy: Deploy, tally: EpsonTally) -> None:
     got = deploy(case, DEADLINE)
     tally.cases += 1
     tally.dropped += case.sim.dropped
-    tally.sequences += any(r.continuation for r in got.received)
-    tally.points_written += any(r.is_write and 1204 <= r.number <= 1214 for r in got.received)
+    tally.sequences += any(r.continuation for r in commands_of(got))
+    tally.points_written += any(r.is_write and 1204 <= r.number <= 1214 for r in commands_of(got))
     check_interlock(case, got, tally)
     check_sent(case, got)
     tally.not_ready += got.failed is not None and "Ready" in str(got.failed)
