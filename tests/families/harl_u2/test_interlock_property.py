@@ -80,7 +80,7 @@ from pushproperty import (
 from pushproperty import Tally as BaseTally
 
 from harlsync.errors import PolicyError
-from harlsync.families.harl_u2.catalogue import CATALOGUE
+from harlsync.families.harl_u2.catalogue import CATALOGUE, Key
 from harlsync.families.harl_u2.model import (
     OFFSET_TABLE_COUNT,
     Config,
@@ -89,12 +89,13 @@ from harlsync.families.harl_u2.model import (
     RobotData,
     Step,
 )
-from harlsync.families.harl_u2.protocol import FrameDecoder, lrc
+from harlsync.families.harl_u2.protocol import Frame, lrc
 from harlsync.families.harl_u2.protocol.profile import IDLE_READS
 from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.link import SerialSettings
 from harlsync.project import Project, load_project, new_robot, save_project
 from harlsync.sim import Received
+from harlsync.sim.device import Decoder
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import PushFailed, PushOptions, engine
 from harlsync.sync import items as sync_items
@@ -141,10 +142,10 @@ class Operator(Scheduled, Simulator):
             state.stop_all()
 
     def receive(
-        self, data: bytes, decoder: FrameDecoder | None = None
+        self, data: bytes, decoder: Decoder[Frame] | None = None, client: str = ""
     ) -> list[tuple[float, bytes]]:
         # A bad LRC: the robot drops it.
-        return super().receive(self.on_the_way_in(data, b" SN" in data), decoder)
+        return super().receive(self.on_the_way_in(data, b" SN" in data), decoder, client)
 
     #: What happens to the next LNR reply: "idle" (bits flipped so that it reads
     #: idle and still passes the LRC: the next reply of a running robot), "malformed",
@@ -602,7 +603,7 @@ def check_interlock(case: Case, got: Outcome, tally: Tally) -> None:
             )
 
 
-def wire(write: PlannedWrite) -> str:
+def wire(write: PlannedWrite[Key]) -> str:
     """The payload a write arrives as: its command is the wire's."""
     return write.command
 
