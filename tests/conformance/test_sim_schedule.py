@@ -4,30 +4,33 @@ after it fired stays idle through the writes that follow."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 
 from harlsync.families import names
 from harlsync.sim import sim_family
 from harlsync.sim.control import after_writes_verb, apply_command
+from harlsync.sim.device import Device
 
 
 @pytest.fixture(params=sorted(names()))
-def sim(request: pytest.FixtureRequest):
+def sim(request: pytest.FixtureRequest) -> Device[Any]:
     family = sim_family(request.param)
     return family.generate(3, [family.default_station])
 
 
-def write(sim, times: int = 1) -> None:
+def write(sim: Device[Any], times: int = 1) -> None:
     """As the family does after each write it carries out."""
     for _ in range(times):
         sim.wrote(sim.stations[min(sim.stations)])
 
 
-def busy(sim) -> bool:
+def busy(sim: Device[Any]) -> bool:
     return sim.busy(sim.stations[min(sim.stations)])
 
 
-def test_stop_disarms_the_schedule_and_status_shows_it_while_armed(sim) -> None:
+def test_stop_disarms_the_schedule_and_status_shows_it_while_armed(sim: Device[Any]) -> None:
     verb = sim.family.busy_verb
     schedule = after_writes_verb(verb)
     assert f"{verb} after" not in apply_command(sim, "status")
@@ -41,7 +44,7 @@ def test_stop_disarms_the_schedule_and_status_shows_it_while_armed(sim) -> None:
     assert not busy(sim)  # disarmed: the writes that would have fired it did not
 
 
-def test_the_schedule_fires_once(sim) -> None:
+def test_the_schedule_fires_once(sim: Device[Any]) -> None:
     verb = sim.family.busy_verb
     apply_command(sim, f"{after_writes_verb(verb)} 1")
     write(sim)

@@ -11,7 +11,7 @@ import json
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
@@ -1086,7 +1086,7 @@ class LoseOneReply:
     def read_input(self, address: int, count: int) -> list[int]:
         return self.link.read_input(address, count)
 
-    def write_holding(self, address: int, values: list[int]) -> None:
+    def write_holding(self, address: int, values: Sequence[int]) -> None:
         self.link.write_holding(address, values)
         bit = self.map.ext_cmd_set
         if self.armed and address == bit.register and values[0] >> bit.bit & 1:

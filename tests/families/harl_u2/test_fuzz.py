@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import re
 import shutil
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -162,7 +162,9 @@ _PAYLOAD = st.one_of(
 
 @settings(FUZZ, max_examples=examples(150))
 @given(st.sampled_from(REQUESTS), _PAYLOAD)
-def test_a_reply_payload_gives_a_value_or_a_reply_error(request_: c.Request, payload: str) -> None:
+def test_a_reply_payload_gives_a_value_or_a_reply_error(
+    request_: c.Request[object], payload: str
+) -> None:
     try:
         decode_reply(request_, payload)
     except ReplyError:
@@ -202,9 +204,14 @@ def test_the_model_parsers_give_a_value_or_value_error(
     assert isinstance(step.problems(), list)
     if not step.problems():
         assert Step.parse(step.text) == step
-    for parse in (Config.from_numbers, OffsetTable.from_values, Parameters.from_values):
+    parsers: list[Callable[[], object]] = [
+        lambda: Config.from_numbers(numbers),
+        lambda: OffsetTable.from_values(values),
+        lambda: Parameters.from_values(values),
+    ]
+    for parse in parsers:
         try:
-            parse(numbers if parse is Config.from_numbers else values)  # type: ignore[operator]
+            parse()
         except ValueError as exc:
             assert "\n" not in str(exc)
 
