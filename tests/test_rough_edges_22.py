@@ -6,6 +6,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import pytest
 from conftest import git
@@ -16,6 +17,10 @@ from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import audit, engine, writes
 from harlsync.sync.engine import PushOptions
+
+if TYPE_CHECKING:
+    from harlsync.families.base import Driver, Words
+    from harlsync.project import Robot as ProjectRobot
 
 
 @dataclass
@@ -142,9 +147,11 @@ def test_a_push_refused_part_way_shows_in_status(
     robot.edit_timer(1, "0.80")
     robot.edit_timer(2, "0.90")
     real = writes.interlock
-    calls = []
+    calls: list[str] = []
 
-    def refuse_the_second_write(driver, robot_, words, before):  # the robot started meanwhile
+    def refuse_the_second_write(  # the robot started meanwhile
+        driver: Driver[Any, Any], robot_: ProjectRobot, words: Words, before: str
+    ) -> None:
         calls.append(before)
         if before.startswith("writing") and len([c for c in calls if c.startswith("writing")]) == 2:
             from harlsync.errors import InterlockError

@@ -137,7 +137,7 @@ def test_a_malformed_backup_json_is_named_by_status_and_never_crashes_it(
 
 @pytest.mark.parametrize("text", [DEEP, "null", json.dumps({"last_success": "2026-11-25"})])
 def test_a_malformed_backup_json_leaves_the_plant_backup_whole(
-    plant: Plant, repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], text
+    plant: Plant, repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str
 ) -> None:
     state = plant.project / ".harlsync" / "backup.json"
     state.write_text(text)
@@ -153,7 +153,7 @@ def test_a_malformed_backup_json_leaves_the_plant_backup_whole(
     "text", [DEEP, "null", "[]", "{", "\udcff", '{"files": null}', '{"files": {"robot.yaml": 5}}']
 )
 def test_a_malformed_save_record_counts_every_file_as_edited_and_never_crashes_a_pull(
-    plant: Plant, capsys: pytest.CaptureFixture[str], text
+    plant: Plant, capsys: pytest.CaptureFixture[str], text: str
 ) -> None:
     (plant.project / ".harlsync" / "saved.json").write_bytes(
         text.encode("utf-8", "surrogateescape")
@@ -166,7 +166,7 @@ def test_a_malformed_save_record_counts_every_file_as_edited_and_never_crashes_a
     "text", [DEEP, "null", "[]", "{", "\udcff", '{"pid": "x"}', '{"pid": 1, "files": [[1, 2, 3]]}']
 )
 def test_a_malformed_save_journal_is_named_in_one_line(
-    plant: Plant, capsys: pytest.CaptureFixture[str], text
+    plant: Plant, capsys: pytest.CaptureFixture[str], text: str
 ) -> None:
     (plant.project / ".harlsync-save.json").write_bytes(text.encode("utf-8", "surrogateescape"))
     assert run("pull", str(plant.project)) == 2
@@ -181,7 +181,7 @@ def test_a_malformed_save_journal_is_named_in_one_line(
     [DEEP, "null", "[]", "{", "\udcff", '{"format": 1}', '{"format": 1, "live_fingerprint": 5}'],
 )
 def test_a_malformed_plan_file_is_refused_in_one_line_before_anything_is_written(
-    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str], text
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str
 ) -> None:
     planned = tmp_path / "plan.json"
     planned.write_bytes(text.encode("utf-8", "surrogateescape"))

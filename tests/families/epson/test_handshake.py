@@ -292,7 +292,7 @@ def test_the_function_reset_is_refused_on_a_running_robot_and_changes_nothing() 
     ],
 )
 def test_issue_22_a_reset_no_person_asked_for_needs_the_robot_at_rest(
-    signal: str | None, map_, said: str
+    signal: str | None, map_: dict[str, object] | None, said: str
 ) -> None:
     """Review finding 1: the unattended reset checks the read just before the drop
     for every interlock signal, Ready 1 and a right map, not only Running."""

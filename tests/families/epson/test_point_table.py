@@ -14,6 +14,7 @@ import pytest
 from conftest import git
 
 from harlsync import cli
+from harlsync.families.base import AnyFamily
 from harlsync.families.epson.sim import SimState, Simulator
 from harlsync.project import load_project
 
@@ -134,7 +135,7 @@ def cli_pull(project: Path) -> str:
     ids=["profile", "200A-2005", "2000"],
 )
 def test_issue_29_finding_the_table_end_costs_a_few_exchanges_beyond_the_tables_own_reads(
-    robot: tuple[Simulator, str], repo: Path, variant
+    robot: tuple[Simulator, str], repo: Path, variant: dict[str, str]
 ) -> None:
     """A pull reads each point number of the table once (its X); the end probe and
     the second asking of what a point not defined answers add at most four."""
@@ -195,7 +196,7 @@ def test_issue_34_a_first_pull_takes_in_points_past_its_default_range_and_says_s
         assert f"last_point {top}" in result.contents
 
 
-def _epson():  # type: ignore[no-untyped-def]
+def _epson() -> AnyFamily:
     from harlsync import families
 
     return families.get("epson")
