@@ -61,6 +61,10 @@ class ModbusServer(server.ModbusServer):
         super().__init__({unit: bank if bank is not None else self.store}, size=size)
         self.bank = bank
 
+    def __enter__(self) -> ModbusServer:
+        super().__enter__()  # the simulator's server, started
+        return self
+
     def lose_replies(self, count: int) -> None:
         """Send no reply to the next ``count`` requests (each is still carried out)."""
         left = [count]

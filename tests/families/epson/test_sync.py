@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import pytest
@@ -155,7 +155,7 @@ def test_a_write_the_controller_never_took_is_sent_once_more_only_on_an_idle_rob
     pause = False
     write_holding = fake.bank.write_holding
 
-    def withdraw(address: int, values: tuple[int, ...]) -> None:
+    def withdraw(address: int, values: Sequence[int]) -> None:
         requested = fake.bank.state == "requested"
         write_holding(address, values)
         if requested and fake.bank.state == "idle":  # withdrawn at the deadline

@@ -96,8 +96,8 @@ def test_issue_20_a_dead_iai_controller_is_restored_from_its_backup(
         data = load_project(project).data
         # (a definition of all zeros is what a blank controller holds already)
         entered = {n: v for n, v in data.work_coordinates.items() if set(v) != {"0.000"}}
-        dead.work_coordinates = entered  # type: ignore[assignment]
-        dead.tool_coordinates = dict(data.tool_coordinates)  # type: ignore[arg-type]
+        dead.work_coordinates = entered
+        dead.tool_coordinates = dict(data.tool_coordinates)
         # 4. Push the backup, flags and variables too; 5. diff says it matches.
         assert cli.main(["push", str(project), "--yes", "--registers", "--port", url]) == 0
         assert cli.main(["diff", str(project), "--registers", "--port", url]) == 0
