@@ -122,7 +122,7 @@ def test_a_lock_whose_file_was_removed_as_it_was_locked_is_taken_again_on_the_ne
 ) -> None:
     path = tmp_path / "line.lock"
     real = line_lock._open_lock_file
-    stale = []
+    stale: list[int | None] = []
 
     def open_a_file_its_last_holder_removes(path_: Path) -> int | None:
         if not stale:  # as a holder that removed it and released it just now

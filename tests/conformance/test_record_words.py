@@ -11,6 +11,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 
 import pytest
 from conftest import git
@@ -199,7 +200,12 @@ def test_plan_and_the_push_prompt_show_the_diff_of_what_is_written_and_the_wire_
     from harlsync.sync import engine
 
     asked: list[str] = []
-    monkeypatch.setattr("builtins.input", lambda prompt: asked.append(prompt) or "n")
+
+    def answer(prompt: str) -> str:
+        asked.append(prompt)
+        return "n"
+
+    monkeypatch.setattr("builtins.input", answer)
     the_plan = engine.compare(project, lock_timeout=5).plan()
     assert cli_deploy._confirm(the_plan) is False
     out = capsys.readouterr().out
@@ -216,7 +222,7 @@ def test_an_error_line_names_a_frame_by_its_size_and_shows_it_with_vv(
 
     frame = " ".join(f"{n:02X}" for n in range(60))
 
-    def refused(*args, **kwargs):
+    def refused(*args: object, **kwargs: object) -> NoReturn:
         raise ReplyError(f"port sim://x station 99: the controller answered & to 291H: {frame}")
 
     monkeypatch.setattr(comparison, "compare", refused)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import git
@@ -14,6 +15,7 @@ from plantsim import SMALL
 from harlsync.cli import main
 from harlsync.settings import SerialSettings, seconds
 from harlsync.sim import Faults
+from harlsync.sim.device import Simulator
 from harlsync.sim.protocol_sim import register, unregister
 
 
@@ -49,15 +51,18 @@ def configure(project: Path, repo: Path, timeout: str) -> None:
 def test_a_reply_that_never_comes_names_the_configured_timeout(
     family: str, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    sim: Simulator[Any, Any]
     if family == "iai":
-        from harlsync.families.iai.sim import SimState, Simulator
+        from harlsync.families.iai.sim import SimState as IaiState
+        from harlsync.families.iai.sim import Simulator as IaiSimulator
 
-        sim = Simulator({0x99: SimState.generate(5, position_range=(1, 20))})
+        sim = IaiSimulator({0x99: IaiState.generate(5, position_range=(1, 20))})
         options = ["--family", "iai"]
     else:
-        from harlsync.families.harl_u2.sim import SimState, Simulator
+        from harlsync.families.harl_u2.sim import SimState as HarlState
+        from harlsync.families.harl_u2.sim import Simulator as HarlSimulator
 
-        sim = Simulator({1: SimState.generate(7, SMALL)})
+        sim = HarlSimulator({1: HarlState.generate(7, SMALL)})
         options = []
     url = register(sim)
     try:

@@ -345,7 +345,7 @@ def _edit(path: Path, pattern: str, new: str) -> None:
 
 @pytest.mark.parametrize("name", list(PUSHES))
 def test_a_push_of_a_project_that_does_not_validate_writes_nothing_to_the_robot(
-    repo: Path, capsys: pytest.CaptureFixture[str], name
+    repo: Path, capsys: pytest.CaptureFixture[str], name: str
 ) -> None:
     from harlsync.sim.serve import TcpServer
 

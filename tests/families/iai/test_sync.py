@@ -255,7 +255,7 @@ def test_a_program_started_mid_push_gets_no_write_after_it(repo: Path, registers
 def test_a_mixed_plant_is_backed_up_in_one_run_and_committed(repo: Path) -> None:
     iai = Simulator({STATION: SimState.generate(9, position_range=(1, 60))})
     harl = HarlSimulator(HarlState.generate(3, SMALL))
-    servers = [TcpServer(iai), PtyServer(harl)]
+    servers: list[TcpServer | PtyServer] = [TcpServer(iai), PtyServer(harl)]
     try:
         iai_url, harl_url = (s.start() for s in servers)
         pulled(repo, iai_url, "iai-cell")
@@ -307,7 +307,12 @@ BAD_EDITS = [
 
 @pytest.mark.parametrize(("old", "new", "said"), BAD_EDITS, ids=[b[2] for b in BAD_EDITS])
 def test_a_bad_positions_file_is_one_line_with_file_and_line_exit_2_and_nothing_sent(
-    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str], old, new, said
+    served: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    old: str,
+    new: str,
+    said: str,
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
