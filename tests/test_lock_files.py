@@ -135,7 +135,8 @@ def test_a_lock_whose_file_was_removed_as_it_was_locked_is_taken_again_on_the_ne
     monkeypatch.setattr(line_lock, "_open_lock_file", open_a_file_its_last_holder_removes)
     lock = LockFile.take(path, 5)
     try:
-        assert os.path.samestat(os.stat(path), os.fstat(lock._fd))  # type: ignore[arg-type]
+        assert lock._fd is not None
+        assert os.path.samestat(os.stat(path), os.fstat(lock._fd))
         with pytest.raises(LockTimeout):  # the lock at the path is held: by this one
             LockFile.take(path, 0)
     finally:

@@ -594,7 +594,7 @@ def test_an_older_format_is_migrated_on_load_and_written_as_current_on_save(
 ) -> None:
     from harlsync.families.harl_u2 import layout
 
-    def tables_were_called_offsets(kind: str, data: dict) -> dict:  # type: ignore[type-arg]
+    def tables_were_called_offsets(kind: str, data: dict[str, object]) -> dict[str, object]:
         if kind == "offsets":
             data["tables"] = data.pop("offsets")
         return data

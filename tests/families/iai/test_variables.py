@@ -20,7 +20,7 @@ from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.model import Position, Version, canonical_integer, canonical_real
 from harlsync.families.iai.protocol import max_variables_per_write
 from harlsync.families.iai.sim import SIM_FAMILY
-from harlsync.project import Project, load_project, save_project, validate_project
+from harlsync.project import Project, Robot, load_project, save_project, validate_project
 from harlsync.sync.items import diff
 
 from .test_project import assert_issue_after_edit
@@ -32,7 +32,7 @@ INTEGERS = {200: 0, 201: -1000, 202: 2147483647, 203: -2147483648}
 REALS = {300: "0.0", 301: "0.1", 302: "-2.5", 303: "1e+300", 304: "5e-324", 305: "-0.0"}
 
 
-def robot(keep: bool = True):  # type: ignore[no-untyped-def]
+def robot(keep: bool = True) -> Robot:
     robot = families.get("iai").new_robot("cell-9", "sim://nowhere", None)
     robot.options["axes"] = (1, 2, 3)
     if keep:
