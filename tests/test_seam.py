@@ -168,7 +168,6 @@ FAMILY_USERS = {
     "test_robot_yaml.py",
     "test_rough_edges.py",
     "test_rough_edges_22.py",
-    "test_same_names.py",
     "test_schema_fast.py",
     "test_settings.py",
     "test_startup.py",
