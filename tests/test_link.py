@@ -791,7 +791,8 @@ def test_the_lock_directory_is_chosen_from_argument_env_and_the_machine_never_th
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "env"))
-    assert lock_path("COM3", tmp_path / "arg").parent == tmp_path / "arg"  # type: ignore[union-attr]
+    chosen = lock_path("COM3", tmp_path / "arg")
+    assert chosen is not None and chosen.parent == tmp_path / "arg"
     assert default_lock_dir() == tmp_path / "env"
     # /run/lock that every user may write (Debian, Ubuntu: 1777): harlsync's directory there.
     run_lock = machine(tmp_path, monkeypatch, run_lock=0o1777)

@@ -785,7 +785,7 @@ class Clock(datetime):
     at = datetime(2026, 11, 24, 12, 0)
 
     @classmethod
-    def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain one
+    def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain datetime
         return cls.at.replace(tzinfo=tz)
 
 
@@ -849,7 +849,7 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
 
     class WindowClosesAfterTwoWrites(datetime):
         @classmethod
-        def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain one
+        def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain datetime
             inside, after = datetime(2026, 11, 28, 23, 0), datetime(2026, 11, 29, 4, 0)
             return (inside if len(sim.writes_received()) < 2 else after).replace(tzinfo=tz)
 

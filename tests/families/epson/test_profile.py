@@ -66,7 +66,8 @@ def test_every_register_and_bit_can_be_given_and_the_dict_form_round_trips() -> 
     assert m.control_registers == (0, 7)
     assert m.input_span == (0, 31)
     assert RegisterMap.from_dict(m.to_dict()) == m
-    assert m.to_dict()["signals"]["SafeguardOn"] is None  # type: ignore[index]
+    signals = m.to_dict()["signals"]
+    assert isinstance(signals, dict) and signals["SafeguardOn"] is None
 
 
 @pytest.mark.parametrize("missing", ["Running", "Paused", "EStopOn", "Error"])
