@@ -22,9 +22,9 @@ from hypothesis import HealthCheck, settings
 # "long" explores: random examples, ten times as many, a failure kept in .hypothesis/
 # to be tried first next time (print_blob says how to replay it). The README's long
 # run selects it: ``pytest -m "slow or hypothesis" --hypothesis-profile=long``.
-_SETTLED = {"deadline": None, "print_blob": True, "suppress_health_check": [HealthCheck.too_slow]}
-settings.register_profile("ci", derandomize=True, database=None, **_SETTLED)
-settings.register_profile("long", max_examples=1000, **_SETTLED)
+_SETTLED = settings(deadline=None, print_blob=True, suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("ci", _SETTLED, derandomize=True, database=None)
+settings.register_profile("long", _SETTLED, max_examples=1000)
 settings.load_profile("ci" if os.environ.get("CI") else os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
@@ -32,13 +32,20 @@ def examples(n: int) -> int:
     """A test's example count: ``n`` in the default run, as many times more as the
     profile runs more than hypothesis's 100 (ten times in "long"). Use it for
     ``@settings(max_examples=...)``: a bare number would override the profile."""
-    return max(1, n * settings.default.max_examples // 100)
+    return max(1, n * _profile().max_examples // 100)
+
+
+def _profile() -> settings:
+    """The profile loaded above."""
+    loaded = settings.default
+    assert loaded is not None
+    return loaded
 
 
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """The long profile's property runs take many times the 600 s a test may take."""
-    if settings.default.max_examples > 100:
+    if _profile().max_examples > 100:
         for item in items:
             if item.get_closest_marker("hypothesis"):
                 item.add_marker(pytest.mark.timeout(3600))

@@ -1,5 +1,5 @@
 """What the interlock property tests of every family share
-(tests/test_interlock_property.py for the HARL-U2, tests/iai/test_interlock_property.py
+(tests/families/harl_u2/test_interlock_property.py for the HARL-U2, tests/families/iai/test_interlock_property.py
 for IAI): the seeds, an operator's schedule and a line that goes bad, running a push
 through the command, and the checks whose logic is the same for every family.
 
@@ -25,6 +25,7 @@ from harlsync.link import exchange
 from harlsync.sim import Faults, Received, protocol_sim
 from harlsync.sync import PushFailed, PushResult, deploy
 from harlsync.sync import audit as audit_log
+from harlsync.sync import git as sync_git
 from harlsync.sync.plan import PlannedWrite
 
 PER_CHUNK = 100
@@ -303,7 +304,7 @@ def off_the_disk(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     which the checks read back) and git asked for the commit of a project that is
     not in a repository.  Returns the snapshots taken."""
     taken = keep_snapshots(monkeypatch)
-    monkeypatch.setattr(deploy.git, "head", lambda path: None)
+    monkeypatch.setattr(sync_git, "head", lambda path: None)  # deploy asks it
     monkeypatch.setattr(audit_log, "os", WithoutFsync())
     return taken
 
@@ -378,7 +379,7 @@ class Tally:
 def check_sent(
     why: Why,
     got: Outcome,
-    wire: Callable[[PlannedWrite], str],
+    wire: Callable[[PlannedWrite[Any]], str],
     reads_back: Callable[[str, list[Received]], bool],
     *,
     refused: Callable[[list[Received]], bool] | None = None,

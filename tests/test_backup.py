@@ -23,6 +23,7 @@ from harlsync.sim import Faults
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 from harlsync.sync.backup import backup, find_projects, line_of
+from harlsync.sync.pulling import PullResult
 
 SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
 
@@ -77,8 +78,8 @@ def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
     sims["silent"].faults = Faults(drop=1.0)
     sims["garbage"].faults = Faults(bad_checksum=1.0, noise=1.0, seed=1)
     yield Plant(root, sims, servers)
-    for server in servers:
-        server.stop()
+    for started in servers:
+        started.stop()
 
 
 def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plant) -> None:
@@ -88,7 +89,9 @@ def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plan
     assert line_of("spy:///dev/ttyS0?file=x.txt") == line_of("/dev/ttyS0")
 
 
-def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant, capsys) -> None:
+def test_a_backup_run_reports_changes_and_failures_and_commits_once(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
     plant.sims["loader"].stations[1].data.timers[1] = "6.66"
     shared = plant.sims["press-2"].stations[2].data
     shared.programs[(ProgramType.MAIN, 1)][7] = Step.parse("MOVE P123 S80")
@@ -114,8 +117,8 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(plant: Plant
     assert rows["silent"].split()[1] == "FAILED" and "station 1" in rows["silent"]
     assert rows["garbage"].split()[1] == "FAILED"
     assert "3 of 5 robot(s) backed up, 2 changed" in out
-    for name, before in untouched.items():
-        assert files_of(plant.root / name) == before
+    for name, files in untouched.items():
+        assert files_of(plant.root / name) == files
     # Issue 30: committed on the backup branch; the approved one and its files stay.
     assert git(plant.root, "rev-parse", "HEAD") == head
     assert git(plant.root, "status", "--porcelain") == ""
@@ -159,7 +162,7 @@ def test_nothing_changed_means_no_commit_and_exit_0(plant: Plant) -> None:
 
 
 def test_the_json_report_records_attempts_staleness_and_never_backed_up(
-    plant: Plant, capsys
+    plant: Plant, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert (
         main(
@@ -193,7 +196,7 @@ def test_the_json_report_records_attempts_staleness_and_never_backed_up(
 def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run_began(
     plant: Plant,
     tmp_path: Path,
-    capsys,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     from datetime import datetime
 
@@ -306,7 +309,8 @@ def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
     robot.write_text(text.replace(port_line, "  port: /dev/does-not-exist-harlsync"))
     report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1)
     outcome = {r.name: r for r in report.robots}
-    assert not outcome["loader"].ok and "/dev/does-not-exist-harlsync" in outcome["loader"].error
+    assert not outcome["loader"].ok
+    assert "/dev/does-not-exist-harlsync" in (outcome["loader"].error or "")
     assert outcome["press-1"].ok
 
 
@@ -320,19 +324,23 @@ def test_push_failure_is_reported_and_the_local_commit_kept(plant: Plant) -> Non
     assert not report.ok  # a backup that never left the server is not a success
 
 
-def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(plant: Plant, capsys) -> None:
+def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(
+    plant: Plant, capsys: pytest.CaptureFixture[str]
+) -> None:
     git(plant.root, "remote", "add", "origin", str(plant.root / "no-such-remote.git"))
     plant.sims["loader"].stations[1].data.timers[3] = "3.21"
     assert main(["backup", str(plant.root / "loader"), "--commit", "--push", "--quiet"]) == 1
     assert "git push FAILED" in capsys.readouterr().out
 
 
-def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeypatch) -> None:
+def test_an_unexpected_error_costs_one_robot_not_the_night(
+    plant: Plant, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from harlsync.sync import nightly
 
     real = nightly.read_robot
 
-    def broken_for_the_loader(path: Path, **kwargs: object):  # type: ignore[no-untyped-def]
+    def broken_for_the_loader(path: Path, **kwargs: object) -> PullResult:
         if Path(path).name == "loader":
             raise RuntimeError("termios.error(5, 'Input/output error')")
         return real(path, **kwargs)
@@ -341,7 +349,7 @@ def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeyp
     # The bug is patched into this process: a worker process would not have it.
     report = backup([plant.root / "loader", plant.root / "press-1"], attempts=1, workers=1)
     outcome = {r.name: r for r in report.robots}
-    assert not outcome["loader"].ok and "RuntimeError" in outcome["loader"].error
+    assert not outcome["loader"].ok and "RuntimeError" in (outcome["loader"].error or "")
     assert outcome["press-1"].ok
 
 
@@ -380,7 +388,9 @@ def test_the_documented_cron_line_runs_against_simulated_robots(
     ]  # set up by the first backup of each robot that answered
 
 
-def test_a_wrong_combination_of_options_exits_2_not_1(tmp_path: Path, capsys) -> None:
+def test_a_wrong_combination_of_options_exits_2_not_1(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["backup", str(tmp_path), "--push"]) == 2
     assert "--push needs --commit" in capsys.readouterr().err
 

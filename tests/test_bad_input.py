@@ -20,7 +20,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -456,7 +456,7 @@ def link_in_repository(project: Path) -> str:
 
 
 #: how the project hides an edit from git status -> (set it up: the message, the file edited)
-HIDDEN = {
+HIDDEN: dict[str, tuple[Callable[[Path], str], str]] = {
     "programs/ linked out of the repository": (
         lambda p: link_out(p, "programs"),
         "programs/main-00.yaml",

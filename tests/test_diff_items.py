@@ -11,12 +11,13 @@ from typing import Any
 from conftest import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from toyfamily.family import CATALOGUE, SlotKey
 
-from harlsync.families.harl_u2.catalogue import CATALOGUE, NumberKey
 from harlsync.sync.items import diff_items
 
-keys = st.builds(NumberKey, st.sampled_from(["timer", "offset", "register"]), st.integers(0, 20))
-values = st.one_of(st.none(), st.sampled_from(["0.30", "0.50", "1.00"]))
+# The toy family's catalogue: the rule is the engine's, whatever family's keys it sorts.
+keys = st.builds(SlotKey, st.just("slot"), st.integers(0, 60))
+values = st.one_of(st.none(), st.sampled_from([0, 30, 50, 100]))
 side = st.dictionaries(keys, values, max_size=15)
 
 

@@ -7,6 +7,7 @@ import json
 import re
 from pathlib import Path
 
+import pytest
 from conftest import git
 from plantsim import SMALL
 
@@ -17,7 +18,9 @@ from harlsync.sync import engine
 from harlsync.sync.engine import PushOptions
 
 
-def test_diff_between_two_backups_and_a_snapshot_needs_no_robot(repo: Path, capsys) -> None:
+def test_diff_between_two_backups_and_a_snapshot_needs_no_robot(
+    repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim = Simulator({1: SimState.generate(7, SMALL)})
     url = register(sim)
     project = repo / "press"
@@ -55,7 +58,7 @@ def test_diff_between_two_backups_and_a_snapshot_needs_no_robot(repo: Path, caps
 
 
 def test_issue_34_item_8_a_damaged_snapshot_is_named_not_the_projects_own_file(
-    repo: Path, capsys
+    repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim = Simulator({1: SimState.generate(8, SMALL)})
     url = register(sim)

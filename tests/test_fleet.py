@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import git
@@ -222,7 +223,9 @@ def test_workers_left_without_a_share_end_and_one_line_is_read_here(
     report = backup([plant.root / "st-1", plant.root / "st-2"], workers=4, watch=watch)
     assert report.ok, report.render()
     assert watch.of == {"st-1": "here", "st-2": "here"}
-    [this] = [r.fleet for r in caplog.records if getattr(r, "fleet", {}).get("process") == "this"]
+    [this] = [
+        vars(r)["fleet"] for r in caplog.records if getattr(r, "fleet", {}).get("process") == "this"
+    ]
     assert this["workers"] == 2 and this["lines"] == 1 and not shares_read(caplog)
     assert _children() == []  # every worker ended, and was waited for
 
@@ -316,13 +319,19 @@ def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) 
     twin = plant.root.parent / "twin"
     shutil.copytree(plant.root, twin)
 
-    def result(root: Path, workers: int) -> tuple[object, ...]:
+    #: where each robot was read, the report's robots (JSON), the commit's message and
+    #: files, and the files kept
+    Result = tuple[dict[str, str], list[dict[str, Any]], str, list[str], dict[str, bytes]]
+
+    def result(root: Path, workers: int) -> Result:
         watch = Where()
         report = backup([root], workers=workers, commit=True, attempts=1, watch=watch)
+        listed = report.to_json()["robots"]
+        assert isinstance(listed, list)
         robots = [
             {k: v for k, v in r.items() if k not in ("duration", "last_success", "path")}
             | {"standing": r["standing"] and r["standing"]["drift"]}  # its commits differ
-            for r in report.to_json()["robots"]
+            for r in listed
         ]
         # Issue 30: committed on the backup branch, not over the approved one.
         message = git(root, "log", "-1", "--format=%B", "harlsync/backup")
@@ -334,13 +343,13 @@ def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) 
         }
         return watch.of, robots, message, names, kept
 
-    alone, *one = result(plant.root, 1)
-    spread, *two = result(twin, 2)
+    one, two = result(plant.root, 1), result(twin, 2)
+    alone, spread = one[0], two[0]
     assert set(alone.values()) == {"here"}
     assert set(spread.values()) == {"here", "worker"}, spread
     assert spread["local"] == "here"  # its port is this process's
-    assert one == two
-    robots = {r["name"]: r for r in one[0]}
+    assert one[1:] == two[1:]
+    robots = {r["name"]: r for r in one[1]}
     assert [n for n, r in robots.items() if not r["ok"]] == ["d"]
     assert robots["a"]["changed"] and robots["st-2"]["changed"] and robots["local"]["changed"]
 
@@ -522,14 +531,16 @@ def test_issue_34_item_2_robots_of_a_killed_worker_are_recorded_failed_and_statu
         assert record["last_result"] == ("failed" if name in failed else "ok"), name
         if name in failed:
             said = "the backup's worker process ended before this robot was backed up"
-            assert said in record["last_error"]
+            assert said in (record["last_error"] or "")
     capsys.readouterr()
     assert main(["status", str(plant.root), "--format", "json"]) == 1
     states = {r["name"]: r["state"] for r in json.loads(capsys.readouterr().out)["robots"]}
     assert sorted(name for name, state in states.items() if state == "failed") == failed
 
 
-def test_workers_below_one_is_one_line_and_exit_2(tmp_path: Path, capsys) -> None:
+def test_workers_below_one_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["backup", str(tmp_path), "--workers", "0"]) == 2
     err = capsys.readouterr().err
     assert err.splitlines() == [err.strip()] and "--workers 0: give 1 or more processes" in err

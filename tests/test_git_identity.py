@@ -51,7 +51,9 @@ def run(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
-def test_pull_and_backup_commit_with_no_git_identity(served, repo, tmp_path) -> None:
+def test_pull_and_backup_commit_with_no_git_identity(
+    served: tuple[Simulator, str], repo: Path, tmp_path: Path
+) -> None:
     sim, url = served
     env = cron_env(tmp_path)
     project = repo / "press"
@@ -71,7 +73,9 @@ def test_pull_and_backup_commit_with_no_git_identity(served, repo, tmp_path) -> 
     assert re.fullmatch(r"harlsync \((\S+)@(\S+)\) <\1@\2>\|harlsync \(\1@\2\) <\1@\2>", author)
 
 
-def test_a_configured_identity_wins(served, repo, tmp_path) -> None:
+def test_a_configured_identity_wins(
+    served: tuple[Simulator, str], repo: Path, tmp_path: Path
+) -> None:
     _, url = served
     env = cron_env(tmp_path) | {"GIT_AUTHOR_NAME": "Plant Backup", "GIT_AUTHOR_EMAIL": "b@plant"}
     git(repo, "config", "user.name", "Repo Owner")
@@ -84,7 +88,7 @@ def test_a_configured_identity_wins(served, repo, tmp_path) -> None:
 
 
 def test_commit_messages_name_the_items_and_who_pushed_since_the_last_backup(
-    served, repo, tmp_path
+    served: tuple[Simulator, str], repo: Path, tmp_path: Path
 ) -> None:
     sim, url = served
     git(repo, "config", "user.name", "t")

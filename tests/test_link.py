@@ -47,7 +47,7 @@ from harlsync.errors import (
     WriteUnconfirmed,
 )
 from harlsync.families.harl_u2.link import Link
-from harlsync.families.harl_u2.model import ProgramType, Step
+from harlsync.families.harl_u2.model import ProgramType, Status, Step
 from harlsync.families.harl_u2.protocol import Ack, ErrorReply, encode_frame
 from harlsync.families.harl_u2.protocol import commands as cmd
 from harlsync.families.harl_u2.sim import SimState
@@ -78,7 +78,8 @@ def device(sim: ScriptedSim) -> Iterator[str]:
 
 @pytest.fixture
 def link(device: str) -> Iterator[Link]:
-    with Link(device, 1, FAST) as link:
+    link = Link(device, 1, FAST)
+    with link:
         yield link
 
 
@@ -301,6 +302,7 @@ def test_issue_6_a_status_retry_is_answered_by_itself_never_by_the_late_first_re
 
     sim.plan("LNR", Act(wire=slow(FAST.timeout * 1.5)), Act(before=started))
     status = link.exchange(cmd.read_status())
+    assert isinstance(status, Status)
     assert not status.idle and "task 0 in execution" in status.describe()
     assert link.stats.retries == 1 and link.stats.late_replies == 1
 
@@ -511,7 +513,6 @@ def test_any_exception_from_port_io_becomes_port_error(
 def test_a_failed_read_of_the_descriptor_the_link_reads_itself_becomes_port_error(
     link: Link, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from harlsync.link import exchange
 
     gone = OSError(5, "Input/output error")
 
@@ -519,7 +520,7 @@ def test_a_failed_read_of_the_descriptor_the_link_reads_itself_becomes_port_erro
         raise gone
 
     assert link._direct is not None  # a pty: read with os.read, not through pyserial
-    monkeypatch.setattr(exchange.os, "read", read)
+    monkeypatch.setattr(os, "read", read)  # the os module the link's reads go through
     with pytest.raises(PortError) as info:
         link.exchange(cmd.read_version())
     assert str(info.value) == (
@@ -652,6 +653,7 @@ def test_a_port_that_fails_to_close_is_still_let_go(
 ) -> None:
     link = Link(device, 1, FAST).open()
     real = link._port
+    assert real is not None
     link._port = _Failing(real, "close", termios.error(5, "Input/output error"))
     with caplog.at_level(logging.WARNING, logger="harlsync.link"):
         link.close()  # a finished job must not fail, nor hide its own error, over this
@@ -721,7 +723,7 @@ def test_a_second_process_is_refused_and_told_who_holds_the_port(link: Link, dev
 
 def test_a_waiting_link_gets_the_port_when_the_holder_closes(device: str) -> None:
     holder = Link(device, 1, FAST).open()
-    got: list[str] = []
+    got: list[str | ErrorReply] = []
     waiting = threading.Event()
 
     def wait_for_port() -> None:
@@ -789,7 +791,8 @@ def test_the_lock_directory_is_chosen_from_argument_env_and_the_machine_never_th
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("HARLSYNC_LOCK_DIR", str(tmp_path / "env"))
-    assert lock_path("COM3", tmp_path / "arg").parent == tmp_path / "arg"  # type: ignore[union-attr]
+    chosen = lock_path("COM3", tmp_path / "arg")
+    assert chosen is not None and chosen.parent == tmp_path / "arg"
     assert default_lock_dir() == tmp_path / "env"
     # /run/lock that every user may write (Debian, Ubuntu: 1777): harlsync's directory there.
     run_lock = machine(tmp_path, monkeypatch, run_lock=0o1777)

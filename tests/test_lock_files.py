@@ -66,7 +66,9 @@ def holder(project: Path, line: str, how: str) -> subprocess.Popen[str]:
     return process
 
 
-def test_a_day_of_commands_leaves_no_lock_file_behind(robot, lock_dir, capsys) -> None:
+def test_a_day_of_commands_leaves_no_lock_file_behind(
+    robot: tuple[str, Path], lock_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     url, project = robot
     assert main(["pull", str(project), "--port", url, "--commit"]) == 0
     assert sorted(os.listdir(lock_dir)) == []
@@ -82,7 +84,9 @@ def test_a_day_of_commands_leaves_no_lock_file_behind(robot, lock_dir, capsys) -
     assert sorted(os.listdir(lock_dir)) == []
 
 
-def test_the_locks_of_a_killed_harlsync_are_reclaimed_by_the_next_one(robot, lock_dir) -> None:
+def test_the_locks_of_a_killed_harlsync_are_reclaimed_by_the_next_one(
+    robot: tuple[str, Path], lock_dir: Path
+) -> None:
     url, project = robot
     gone = project.parent / "a-project-never-used-again"
     process = holder(gone, "socket://192.0.2.7:4001", "die")
@@ -93,7 +97,9 @@ def test_the_locks_of_a_killed_harlsync_are_reclaimed_by_the_next_one(robot, loc
     assert sorted(os.listdir(lock_dir)) == []
 
 
-def test_a_live_holders_lock_is_left_alone_and_goes_when_it_ends(robot, lock_dir) -> None:
+def test_a_live_holders_lock_is_left_alone_and_goes_when_it_ends(
+    robot: tuple[str, Path], lock_dir: Path
+) -> None:
     url, project = robot
     other = project.parent / "other"
     process = holder(other, "socket://192.0.2.7:4001", "wait")
@@ -112,11 +118,11 @@ def test_a_live_holders_lock_is_left_alone_and_goes_when_it_ends(robot, lock_dir
 
 
 def test_a_lock_whose_file_was_removed_as_it_was_locked_is_taken_again_on_the_new_file(
-    tmp_path, monkeypatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     path = tmp_path / "line.lock"
     real = line_lock._open_lock_file
-    stale = []
+    stale: list[int | None] = []
 
     def open_a_file_its_last_holder_removes(path_: Path) -> int | None:
         if not stale:  # as a holder that removed it and released it just now
@@ -129,7 +135,8 @@ def test_a_lock_whose_file_was_removed_as_it_was_locked_is_taken_again_on_the_ne
     monkeypatch.setattr(line_lock, "_open_lock_file", open_a_file_its_last_holder_removes)
     lock = LockFile.take(path, 5)
     try:
-        assert os.path.samestat(os.stat(path), os.fstat(lock._fd))  # type: ignore[arg-type]
+        assert lock._fd is not None
+        assert os.path.samestat(os.stat(path), os.fstat(lock._fd))
         with pytest.raises(LockTimeout):  # the lock at the path is held: by this one
             LockFile.take(path, 0)
     finally:
@@ -137,7 +144,9 @@ def test_a_lock_whose_file_was_removed_as_it_was_locked_is_taken_again_on_the_ne
     assert not path.exists()
 
 
-def test_a_line_lock_and_a_project_lock_go_with_their_owner_files(tmp_path, lock_dir) -> None:
+def test_a_line_lock_and_a_project_lock_go_with_their_owner_files(
+    tmp_path: Path, lock_dir: Path
+) -> None:
     line = LineLock("socket://192.0.2.7:4001", lock_path("socket://192.0.2.7:4001"))
     line.acquire(0)
     with project_lock(tmp_path / "p", command="pull"):
@@ -166,7 +175,7 @@ class FakeMsvcrt:
 
 
 def test_issue_24_the_windows_lock_waits_times_out_and_removes_its_file(
-    tmp_path, monkeypatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setitem(sys.modules, "msvcrt", FakeMsvcrt())
     path = tmp_path / "COM3-0123456789ab.lock"
@@ -188,7 +197,7 @@ def test_issue_24_the_windows_lock_waits_times_out_and_removes_its_file(
 
 
 def test_issue_24_without_any_file_locking_a_line_lock_says_so_in_one_error(
-    tmp_path, monkeypatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setitem(sys.modules, "msvcrt", None)  # import msvcrt: ImportError
     monkeypatch.setattr(line_lock, "take_lock_file", WindowsLockFile.take)

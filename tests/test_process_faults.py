@@ -34,6 +34,7 @@ import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypedDict
 
 import pytest
 from conftest import git, until
@@ -221,7 +222,14 @@ def plant(tmp_path: Path) -> Iterator[Plant]:
     sim.stop()
 
 
-EIGHT_EDITS = {
+class Edits(TypedDict):
+    """What :meth:`Plant.edit` changes: timers by number, MAIN steps by (program, step)."""
+
+    timers: dict[int, str]
+    steps: dict[tuple[int, int], str]
+
+
+EIGHT_EDITS: Edits = {
     "timers": {0: "0.99", 1: "1.11", 2: "2.22", 3: "3.33"},
     "steps": {
         (0, 1): "MOVE P901 S20",

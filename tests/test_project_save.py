@@ -223,7 +223,7 @@ def saved_in_a_child_killed_at(root: Path, project: Project, kill_at: int) -> bo
 
         for name in ("link", "fsync", "replace", "unlink"):
             setattr(os, name, deadly(getattr(os, name)))
-        atomic._syncfs = deadly(atomic._syncfs)  # type: ignore[method-assign]
+        atomic._syncfs = deadly(atomic._syncfs)
         try:
             save_project(root, project)
         finally:

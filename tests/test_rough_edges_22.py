@@ -6,6 +6,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import pytest
 from conftest import git
@@ -16,6 +17,10 @@ from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import audit, engine, writes
 from harlsync.sync.engine import PushOptions
+
+if TYPE_CHECKING:
+    from harlsync.families.base import Driver, Words
+    from harlsync.project import Robot as ProjectRobot
 
 
 @dataclass
@@ -45,7 +50,9 @@ def robot(repo: Path) -> Iterator[Robot]:
     unregister(url)
 
 
-def test_rollback_snapshot_takes_the_number_that_snapshots_shows(robot, capsys) -> None:
+def test_rollback_snapshot_takes_the_number_that_snapshots_shows(
+    robot: Robot, capsys: pytest.CaptureFixture[str]
+) -> None:
     first = robot.timer(1)
     robot.edit_timer(1, "0.80")
     engine.push(robot.project, PushOptions(yes=True))  # snapshot 1: timer 1 as it was
@@ -60,7 +67,9 @@ def test_rollback_snapshot_takes_the_number_that_snapshots_shows(robot, capsys) 
     assert err.count("\n") == 1 and "no snapshot 7 (taken: 1, 2, 3)" in err
 
 
-def test_a_mistyped_plan_path_is_one_line_and_no_failed_push(robot, capsys) -> None:
+def test_a_mistyped_plan_path_is_one_line_and_no_failed_push(
+    robot: Robot, capsys: pytest.CaptureFixture[str]
+) -> None:
     robot.edit_timer(1, "0.80")
     missing = robot.project.parent / "plan-typo.json"
     assert main(["push", str(robot.project), "--yes", "--plan", str(missing)]) == 2
@@ -69,7 +78,9 @@ def test_a_mistyped_plan_path_is_one_line_and_no_failed_push(robot, capsys) -> N
     assert audit.read() == []  # no push was tried: none is recorded
 
 
-def test_a_plan_of_another_robot_says_so_and_a_stale_plan_exits_3(robot, tmp_path, capsys) -> None:
+def test_a_plan_of_another_robot_says_so_and_a_stale_plan_exits_3(
+    robot: Robot, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     robot.edit_timer(1, "0.80")
     saved = tmp_path / "plan.json"
     assert main(["plan", str(robot.project), "--out", str(saved)]) == 0
@@ -85,7 +96,7 @@ def test_a_plan_of_another_robot_says_so_and_a_stale_plan_exits_3(robot, tmp_pat
 
 
 def test_issue_32_a_push_called_from_python_refuses_another_robots_plan_before_reading(
-    robot, tmp_path
+    robot: Robot, tmp_path: Path
 ) -> None:
     """The plan file's check lived in the command line: a push called from Python
     read the robot before the plan's own check refused it."""
@@ -104,7 +115,9 @@ def test_issue_32_a_push_called_from_python_refuses_another_robots_plan_before_r
     assert audit.read() == []
 
 
-def test_plan_lists_every_reason_a_push_would_be_refused(robot, capsys) -> None:
+def test_plan_lists_every_reason_a_push_would_be_refused(
+    robot: Robot, capsys: pytest.CaptureFixture[str]
+) -> None:
     from datetime import datetime
 
     from harlsync.project.robot import DAYS
@@ -128,13 +141,17 @@ def test_plan_lists_every_reason_a_push_would_be_refused(robot, capsys) -> None:
     assert "is not idle: " in err[2]
 
 
-def test_a_push_refused_part_way_shows_in_status(robot, capsys) -> None:
+def test_a_push_refused_part_way_shows_in_status(
+    robot: Robot, capsys: pytest.CaptureFixture[str]
+) -> None:
     robot.edit_timer(1, "0.80")
     robot.edit_timer(2, "0.90")
     real = writes.interlock
-    calls = []
+    calls: list[str] = []
 
-    def refuse_the_second_write(driver, robot_, words, before):  # the robot started meanwhile
+    def refuse_the_second_write(  # the robot started meanwhile
+        driver: Driver[Any, Any], robot_: ProjectRobot, words: Words, before: str
+    ) -> None:
         calls.append(before)
         if before.startswith("writing") and len([c for c in calls if c.startswith("writing")]) == 2:
             from harlsync.errors import InterlockError
@@ -152,7 +169,9 @@ def test_a_push_refused_part_way_shows_in_status(robot, capsys) -> None:
     assert "press: last push refused" in out and "wrote 1 of 2 item(s)" in out
 
 
-def test_a_second_backup_while_one_runs_says_so_and_backs_up_nothing(robot, capsys) -> None:
+def test_a_second_backup_while_one_runs_says_so_and_backs_up_nothing(
+    robot: Robot, capsys: pytest.CaptureFixture[str]
+) -> None:
     import threading
 
     from harlsync.project.lock import project_lock
@@ -182,7 +201,9 @@ def test_a_second_backup_while_one_runs_says_so_and_backs_up_nothing(robot, caps
     assert main(["backup", str(robot.repo)]) == 0  # once it ended
 
 
-def test_a_host_and_port_without_a_scheme_suggests_socket_and_modbus(tmp_path, capsys) -> None:
+def test_a_host_and_port_without_a_scheme_suggests_socket_and_modbus(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["pull", str(tmp_path / "new"), "--port", "127.0.0.1:25020"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
@@ -190,10 +211,13 @@ def test_a_host_and_port_without_a_scheme_suggests_socket_and_modbus(tmp_path, c
     assert not (tmp_path / "new").exists()
 
 
-def test_a_modbus_port_implies_the_epson_family(repo, capsys) -> None:
+def test_a_modbus_port_implies_the_epson_family(
+    repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from families.epson.sample import sample_data
+
     from harlsync.families.epson.sim import SimState as EpsonState
     from harlsync.families.epson.sim import Simulator as EpsonSimulator
-    from tests.epson.sample import sample_data
 
     sim = EpsonSimulator(EpsonState.from_data(sample_data()), execution_time=0.0)
     with sim.serve() as server:
@@ -202,7 +226,9 @@ def test_a_modbus_port_implies_the_epson_family(repo, capsys) -> None:
     assert "family: epson" in (repo / "cell-3" / "robot.yaml").read_text()
 
 
-def test_status_and_backup_tables_stay_aligned_whatever_a_cell_holds(robot, capsys) -> None:
+def test_status_and_backup_tables_stay_aligned_whatever_a_cell_holds(
+    robot: Robot, capsys: pytest.CaptureFixture[str]
+) -> None:
     from harlsync.sync.backup import BackupReport, RobotOutcome
 
     long_port = "socket://" + "a-very-long-serial-device-server-name.plant.example" + ":4001"
@@ -228,7 +254,9 @@ def test_status_and_backup_tables_stay_aligned_whatever_a_cell_holds(robot, caps
     assert rows[1].index("1.0s") + 4 == rows[2].index("12.5s") + 5  # durations aligned right
 
 
-def test_tables_align_by_terminal_columns_with_wide_characters(robot, capsys) -> None:
+def test_tables_align_by_terminal_columns_with_wide_characters(
+    robot: Robot, capsys: pytest.CaptureFixture[str]
+) -> None:
     from harlsync.columns import fit, width
     from harlsync.sync.backup import BackupReport, RobotOutcome
 

@@ -11,22 +11,31 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+import toyfamily
 from conftest import git
-from plantsim import SMALL
 from prometheus_client.parser import text_string_to_metric_families
+from toyfamily.sim import SimState, Simulator
 
+from harlsync import families
 from harlsync.cli import main
-from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import engine
 
 
+@pytest.fixture(autouse=True)
+def toy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The robots are the toy family's: it joins a copy of the registry the test's end
+    throws away (what is said of names is the engine's, whatever the family)."""
+    monkeypatch.setattr(families, "FAMILIES", dict(families.FAMILIES))
+    toyfamily.register()
+
+
 @pytest.fixture
 def twins(repo: Path) -> Iterator[list[Path]]:
-    urls = [register(Simulator({1: SimState.generate(seed, SMALL)})) for seed in (1, 2)]
+    urls = [register(Simulator({1: SimState.generate(seed)})) for seed in (1, 2)]
     projects = [repo / "lineA" / "cell", repo / "lineB" / "cell"]
     for project, url in zip(projects, urls):
-        engine.pull(project, port=url, commit=True)
+        engine.pull(project, port=url, commit=True, family=toyfamily.NAME)
     yield projects
     for url in urls:
         unregister(url)
@@ -53,7 +62,7 @@ def check_metrics(text: str) -> dict[tuple[str, tuple[tuple[str, str], ...]], fl
 
 
 def test_two_robots_named_alike_stay_apart_in_metrics_report_and_status(
-    twins, repo, tmp_path, capsys
+    twins: list[Path], repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     metrics, page = tmp_path / "backup.prom", tmp_path / "page.html"
     assert main(["backup", str(repo), "--metrics", str(metrics), "--html", str(page)]) == 0
@@ -75,11 +84,13 @@ def test_two_robots_named_alike_stay_apart_in_metrics_report_and_status(
     assert "cell (lineA/cell)" in html and "cell (lineB/cell)" in html
 
 
-def test_a_robot_name_with_quotes_and_newlines_is_escaped_in_the_metrics(repo, tmp_path) -> None:
-    url = register(Simulator({1: SimState.generate(3, SMALL)}))
+def test_a_robot_name_with_quotes_and_newlines_is_escaped_in_the_metrics(
+    repo: Path, tmp_path: Path
+) -> None:
+    url = register(Simulator({1: SimState.generate(3)}))
     try:
         project = repo / "odd"
-        engine.pull(project, port=url, commit=True)
+        engine.pull(project, port=url, commit=True, family=toyfamily.NAME)
         robot = project / "robot.yaml"
         named = 'name: "a \\"b\\" \\\\ c"'  # YAML for: a "b" \ c
         robot.write_text(re.sub(r"(?m)^name: .*$", lambda _: named, robot.read_text()))

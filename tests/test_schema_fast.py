@@ -20,7 +20,7 @@ from typing import Any
 
 import pytest
 from conftest import examples
-from epson.sample import sample_data
+from families.epson.sample import sample_data
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_project_roundtrip import TRICKY, projects

@@ -18,6 +18,7 @@ import pytest
 import harlsync
 
 ROOT = Path(harlsync.__file__).parent
+TESTS = Path(__file__).parent
 FAMILY_WORDS = re.compile(r"harl.?u2|\biai\b|epson|modbus", re.IGNORECASE)
 
 
@@ -198,3 +199,77 @@ def test_issue_32_the_registry_looks_up_what_the_command_line_says_of_every_fami
     with pytest.raises(SystemExit):
         cli.main(["push", "--help"])
     assert "allow a program configuration change (other: RCF), which" in capsys.readouterr().out
+
+
+#: The engine's tests (and helpers) that still import a family: each drives a HARL-U2
+#: (or an IAI or Epson) simulator, or reads or writes one family's files, as the robot
+#: of an engine test. They are the ones where the toy family (tests/toyfamily/) does not
+#: yet serve: a subprocess that cannot register it, a family's own files edited on
+#: disk, a family's line timing or frames. A test converted to the toy leaves this list;
+#: a family's own tests live in tests/families/<family>/, and what every family does in
+#: tests/conformance/.
+FAMILY_USERS = {
+    "plantsim.py",
+    "simline.py",
+    "test_backup.py",
+    "test_bad_input.py",
+    "test_diff_revisions.py",
+    "test_feedback.py",
+    "test_fleet.py",
+    "test_git_identity.py",
+    "test_link.py",
+    "test_link_pacing.py",
+    "test_lock_files.py",
+    "test_probe.py",
+    "test_process_faults.py",
+    "test_project_roundtrip.py",
+    "test_project_save.py",
+    "test_robot_yaml.py",
+    "test_rough_edges.py",
+    "test_rough_edges_22.py",
+    "test_schema_fast.py",
+    "test_settings.py",
+    "test_startup.py",
+    "test_state_files.py",
+    "test_status.py",
+    "test_sync.py",
+    "test_three_states.py",
+    "test_yaml_writer.py",
+}
+
+
+def _is_family(module: str) -> bool:
+    """``module`` is (in) a family package: harlsync's own (harlsync.families.<name>),
+    or one family's test package (tests/families/<name>/, imported as families.<name>)."""
+    parts = module.split(".")
+    if parts[:2] == ["harlsync", "families"] and len(parts) > 2:
+        return (ROOT / "families" / parts[2] / "__init__.py").is_file()
+    return parts[0] == "families" and len(parts) > 1
+
+
+def _family_imports(path: Path) -> list[str]:
+    """The family packages ``path`` imports, anywhere in it, as ``line: module``."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            named = [node.module, *(f"{node.module}.{alias.name}" for alias in node.names)]
+            if any(_is_family(module) for module in named):
+                found.append(f"{node.lineno}: {node.module}")
+        elif isinstance(node, ast.Import):
+            found += [f"{node.lineno}: {a.name}" for a in node.names if _is_family(a.name)]
+    return found
+
+
+def test_issue_32_no_engine_test_imports_a_family_but_the_listed_ones() -> None:
+    """Issue 32 item 6: tests are laid out as the code is. Outside tests/families/ and
+    tests/conformance/ a test imports no family package, unless FAMILY_USERS lists it
+    (and a listed one that no longer does leaves the list)."""
+    users = {}
+    for path in sorted(TESTS.rglob("*.py")):
+        relative = path.relative_to(TESTS)
+        if relative.parts[0] not in ("families", "conformance", "toyfamily"):
+            imports = _family_imports(path)
+            if imports:
+                users[relative.as_posix()] = imports
+    assert {name: found for name, found in users.items() if name not in FAMILY_USERS} == {}
+    assert sorted(FAMILY_USERS - set(users)) == []

@@ -234,7 +234,9 @@ def test_issue_24_a_command_line_that_names_no_command_plainly_gets_the_whole_pa
         assert _command_of(argv) is None, argv
 
 
-def test_issue_24_help_is_as_wide_as_shutil_measures_the_terminal(monkeypatch) -> None:
+def test_issue_24_help_is_as_wide_as_shutil_measures_the_terminal(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     import shutil
 
     from harlsync.cli.common import _columns
@@ -263,7 +265,9 @@ def _files(project: Path) -> dict[str, bytes]:
     return {str(p.relative_to(project)): p.read_bytes() for p in project.rglob("*") if p.is_file()}
 
 
-def test_issue_24_a_dirty_project_is_refused_once_the_read_began_with_nothing_saved(repo) -> None:
+def test_issue_24_a_dirty_project_is_refused_once_the_read_began_with_nothing_saved(
+    repo: Path,
+) -> None:
     from harlsync.errors import PolicyError
     from harlsync.families.harl_u2.sim import SimState, Simulator
     from harlsync.sim.protocol_sim import register, unregister
@@ -294,7 +298,7 @@ def test_issue_24_a_dirty_project_is_refused_once_the_read_began_with_nothing_sa
 
 
 def test_issue_24_without_git_a_pull_is_refused_in_one_line_and_saves_nothing(
-    repo, monkeypatch
+    repo: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from harlsync.errors import SyncError
     from harlsync.families.harl_u2.sim import SimState, Simulator
@@ -314,7 +318,7 @@ def test_issue_24_without_git_a_pull_is_refused_in_one_line_and_saves_nothing(
 
 
 def test_issue_24_review_a_git_that_cannot_be_started_is_one_line_not_a_traceback(
-    repo, tmp_path, monkeypatch
+    repo: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A git on PATH that is not executable (or no process left to start it) is a
     SyncError in words, as a missing git is, not a thread's traceback and an

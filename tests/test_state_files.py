@@ -77,7 +77,7 @@ def run(*args: str) -> int:
 
 
 def test_a_malformed_audit_log_never_crashes_pull_log_status_diff_or_backup(
-    plant, repo, tmp_path, capsys
+    plant: Plant, repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     plant.audit.write_bytes(
         ("\n".join(audit_records(plant)) + "\n")
@@ -120,7 +120,7 @@ BAD_HISTORIES = [DEEP, "null", "[]", '"x"', "{", "\udcff", *(
 
 
 def test_a_malformed_backup_json_is_named_by_status_and_never_crashes_it(
-    plant, repo, tmp_path, capsys
+    plant: Plant, repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     state = plant.project / ".harlsync" / "backup.json"
     page = tmp_path / "p.html"
@@ -137,7 +137,7 @@ def test_a_malformed_backup_json_is_named_by_status_and_never_crashes_it(
 
 @pytest.mark.parametrize("text", [DEEP, "null", json.dumps({"last_success": "2026-11-25"})])
 def test_a_malformed_backup_json_leaves_the_plant_backup_whole(
-    plant, repo, tmp_path, capsys, text
+    plant: Plant, repo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str
 ) -> None:
     state = plant.project / ".harlsync" / "backup.json"
     state.write_text(text)
@@ -153,7 +153,7 @@ def test_a_malformed_backup_json_leaves_the_plant_backup_whole(
     "text", [DEEP, "null", "[]", "{", "\udcff", '{"files": null}', '{"files": {"robot.yaml": 5}}']
 )
 def test_a_malformed_save_record_counts_every_file_as_edited_and_never_crashes_a_pull(
-    plant, capsys, text
+    plant: Plant, capsys: pytest.CaptureFixture[str], text: str
 ) -> None:
     (plant.project / ".harlsync" / "saved.json").write_bytes(
         text.encode("utf-8", "surrogateescape")
@@ -165,7 +165,9 @@ def test_a_malformed_save_record_counts_every_file_as_edited_and_never_crashes_a
 @pytest.mark.parametrize(
     "text", [DEEP, "null", "[]", "{", "\udcff", '{"pid": "x"}', '{"pid": 1, "files": [[1, 2, 3]]}']
 )
-def test_a_malformed_save_journal_is_named_in_one_line(plant, capsys, text) -> None:
+def test_a_malformed_save_journal_is_named_in_one_line(
+    plant: Plant, capsys: pytest.CaptureFixture[str], text: str
+) -> None:
     (plant.project / ".harlsync-save.json").write_bytes(text.encode("utf-8", "surrogateescape"))
     assert run("pull", str(plant.project)) == 2
     err = capsys.readouterr().err
@@ -179,7 +181,7 @@ def test_a_malformed_save_journal_is_named_in_one_line(plant, capsys, text) -> N
     [DEEP, "null", "[]", "{", "\udcff", '{"format": 1}', '{"format": 1, "live_fingerprint": 5}'],
 )
 def test_a_malformed_plan_file_is_refused_in_one_line_before_anything_is_written(
-    plant, tmp_path, capsys, text
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str
 ) -> None:
     planned = tmp_path / "plan.json"
     planned.write_bytes(text.encode("utf-8", "surrogateescape"))
@@ -192,7 +194,7 @@ def test_a_malformed_plan_file_is_refused_in_one_line_before_anything_is_written
     assert plant.sim.stations[1].data.timers == before
 
 
-def test_a_lock_owner_file_that_is_not_text_still_gives_the_busy_message(plant) -> None:
+def test_a_lock_owner_file_that_is_not_text_still_gives_the_busy_message(plant: Plant) -> None:
     from harlsync.project import lock
 
     path = lock.lock_path(plant.project)

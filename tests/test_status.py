@@ -96,7 +96,9 @@ def head(repo: Path) -> str:
     return git(repo, "rev-parse", "HEAD").strip()
 
 
-def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(robot, repo) -> None:
+def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(
+    robot: Robot, repo: Path
+) -> None:
     sim, project = robot.sim, robot.project
     history = project / ".harlsync" / "backup.json"
     first = json.loads(history.read_text())
@@ -127,7 +129,7 @@ def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(robot,
 
 
 def test_a_backup_nobody_committed_is_uncommitted_until_someone_commits_it(
-    robot, repo, capsys
+    robot: Robot, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = robot.sim, robot.project
     sim.stations[1].data.timers[2] = "2.22"
@@ -144,7 +146,7 @@ def test_a_backup_nobody_committed_is_uncommitted_until_someone_commits_it(
 
 
 def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(
-    plant, records, capsys
+    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     code = main(["status", str(plant.root)])
     out = capsys.readouterr().out
@@ -169,7 +171,7 @@ def test_status_shows_every_state_of_a_mixed_plant_and_opens_no_port(
 
 @pytest.mark.parametrize("shape", ["offset as text", "pair as a bare number", "writes as text"])
 def test_issue_34_an_index_entry_of_the_wrong_shape_is_built_again_and_status_says_the_same(
-    plant, records, capsys, shape
+    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str], shape: str
 ) -> None:
     code = main(["status", str(plant.root)])
     before = capsys.readouterr()
@@ -190,7 +192,9 @@ def test_issue_34_an_index_entry_of_the_wrong_shape_is_built_again_and_status_sa
     assert json.loads(index.read_text()) != saved  # built again, and saved
 
 
-def test_status_json_carries_the_last_push_and_the_unfinished_one(plant, records, capsys) -> None:
+def test_status_json_carries_the_last_push_and_the_unfinished_one(
+    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     code, seen = status_json(capsys, str(plant.root))
     robots = {r["name"]: r for r in seen["robots"]}
     assert code == 1 and seen["ok"] is False
@@ -216,7 +220,9 @@ def test_status_json_carries_the_last_push_and_the_unfinished_one(plant, records
     assert robots["loader"]["snapshots"] == 1
 
 
-def test_status_exits_0_when_every_robot_is_ok_or_changed(plant, records, capsys) -> None:
+def test_status_exits_0_when_every_robot_is_ok_or_changed(
+    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     code, seen = status_json(capsys, str(plant.root / "loader"), str(plant.root / "press"))
     assert code == 0 and seen["counts"] == {"changed": 1, "ok": 1}
     # A robot is stale by the hours the caller gives, as backup's --stale-after.
@@ -243,7 +249,9 @@ def run_on_a_terminal(args: list[str], env: dict[str, str]) -> str:
     return out.decode()
 
 
-def test_status_colours_the_states_on_a_terminal_unless_no_color(plant, records) -> None:
+def test_status_colours_the_states_on_a_terminal_unless_no_color(
+    plant: SimPlant, records: Path
+) -> None:
     env = {k: v for k, v in os.environ.items() if k != "NO_COLOR"}
     coloured = run_on_a_terminal(["status", str(plant.root)], env)
     assert "\x1b[1;31mfailed" in coloured and "\x1b[32mok" in coloured
@@ -252,7 +260,7 @@ def test_status_colours_the_states_on_a_terminal_unless_no_color(plant, records)
 
 
 def test_a_project_that_cannot_be_read_is_failed_and_the_others_are_still_shown(
-    robot, repo, capsys
+    robot: Robot, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     broken = repo / "broken"
     broken.mkdir()
@@ -266,7 +274,9 @@ def test_a_project_that_cannot_be_read_is_failed_and_the_others_are_still_shown(
     assert "robot.yaml" in said
 
 
-def test_a_path_without_a_project_is_one_line_exit_2(tmp_path, capsys) -> None:
+def test_a_path_without_a_project_is_one_line_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["status", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no robot project here" in err
@@ -276,7 +286,7 @@ def test_a_path_without_a_project_is_one_line_exit_2(tmp_path, capsys) -> None:
 
 
 def test_the_page_is_self_contained_and_shows_markup_as_text(
-    plant, records, tmp_path, capsys
+    plant: SimPlant, records: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     page = tmp_path / "status.html"
     assert main(["status", str(plant.root), "--html", str(page)]) == 1
@@ -292,7 +302,9 @@ def test_the_page_is_self_contained_and_shows_markup_as_text(
 
 
 @pytest.mark.skipif(BROWSER is None, reason="no headless browser (apt-get install chromium)")
-def test_a_browser_shows_every_robot_in_its_state(plant, records, tmp_path) -> None:
+def test_a_browser_shows_every_robot_in_its_state(
+    plant: SimPlant, records: Path, tmp_path: Path
+) -> None:
     page = tmp_path / "status.html"
     assert main(["status", str(plant.root), "--html", str(page)]) == 1
     dom = Table(dump_dom(page), "robots")
@@ -309,7 +321,7 @@ def test_a_browser_shows_every_robot_in_its_state(plant, records, tmp_path) -> N
     assert f"- MOVE {MARKUP}" in text and f"faster pick {MARKUP}" in text
 
 
-def test_backup_writes_the_page_at_the_end_of_its_run(robot, tmp_path) -> None:
+def test_backup_writes_the_page_at_the_end_of_its_run(robot: Robot, tmp_path: Path) -> None:
     sim, project = robot.sim, robot.project
     sim.stations[1].data.timers[3] = "3.33"
     page = tmp_path / "share" / "plant.html"
@@ -320,7 +332,9 @@ def test_backup_writes_the_page_at_the_end_of_its_run(robot, tmp_path) -> None:
     assert [p.name for p in page.parent.iterdir()] == ["plant.html"]  # no temporary left
 
 
-def test_a_page_that_cannot_be_written_is_one_line_exit_2(plant, records, tmp_path, capsys) -> None:
+def test_a_page_that_cannot_be_written_is_one_line_exit_2(
+    plant: SimPlant, records: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     target = tmp_path / "no-such-dir" / "status.html"
     assert main(["status", str(plant.root), "--html", str(target)]) == 2
     err = capsys.readouterr().err
@@ -330,7 +344,9 @@ def test_a_page_that_cannot_be_written_is_one_line_exit_2(plant, records, tmp_pa
 # --- log and snapshots ----------------------------------------------------------------
 
 
-def test_log_prints_a_robots_pushes_the_latest_first(plant, records, capsys) -> None:
+def test_log_prints_a_robots_pushes_the_latest_first(
+    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["log", str(plant.root / "loader")]) == 0
     out = capsys.readouterr().out.splitlines()
     commit = git(plant.root, "log", "-1", "--format=%H", "--", "loader").strip()
@@ -340,7 +356,9 @@ def test_log_prints_a_robots_pushes_the_latest_first(plant, records, capsys) -> 
     assert len(out) == 3  # the other robots' pushes are not this robot's
 
 
-def test_log_of_every_robot_and_as_json(plant, records, capsys) -> None:
+def test_log_of_every_robot_and_as_json(
+    plant: SimPlant, records: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["log"]) == 0
     out = capsys.readouterr().out
     assert out.index("gripper  push unfinished") < out.index("loader  push ok")
@@ -351,13 +369,13 @@ def test_log_of_every_robot_and_as_json(plant, records, capsys) -> None:
     assert latest["reason"] == "new tool" and latest["user"] and latest["host"]
 
 
-def test_log_without_records_says_so(tmp_path, capsys) -> None:
+def test_log_without_records_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["log"]) == 0
     assert capsys.readouterr().out.startswith("no push or rollback recorded in ")
 
 
 def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(
-    robot, repo, capsys
+    robot: Robot, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = robot.sim, robot.project
     for value in ("1.11", "2.22"):
@@ -385,7 +403,7 @@ def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(
 
 @pytest.mark.parametrize("command", ["snapshots", "log"])
 def test_snapshots_and_log_of_a_directory_that_is_not_a_project_is_one_line_exit_2(
-    command, tmp_path, capsys
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert main([command, str(tmp_path)]) == 2
     err = capsys.readouterr().err

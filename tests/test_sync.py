@@ -7,7 +7,7 @@ import dataclasses
 import json
 import shutil
 from collections.abc import Iterator
-from datetime import datetime
+from datetime import datetime, tzinfo
 from decimal import Decimal
 from pathlib import Path
 
@@ -114,7 +114,9 @@ def set_step(
 YES = PushOptions(yes=True)
 
 
-def test_pull_then_push_to_a_blank_controller_gives_identical_state(served, repo) -> None:
+def test_pull_then_push_to_a_blank_controller_gives_identical_state(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     blank = blank_like(sim)
@@ -127,7 +129,9 @@ def test_pull_then_push_to_a_blank_controller_gives_identical_state(served, repo
     assert not letters & {"SNOB", "SNOD", "SNBB", "SNBD", "SND", "SNX"}
 
 
-def test_push_writes_only_what_differs_in_the_safe_order(served, repo) -> None:
+def test_push_writes_only_what_differs_in_the_safe_order(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 2, "7.25", repo)
@@ -139,7 +143,9 @@ def test_push_writes_only_what_differs_in_the_safe_order(served, repo) -> None:
     assert sim.stations[1].data.timers[2] == "7.25"
 
 
-def test_diff_exit_codes_are_0_identical_1_different_2_error(served, repo, capsys) -> None:
+def test_diff_exit_codes_are_0_identical_1_different_2_error(
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     assert main(["diff", str(project), "--port", url]) == 0
@@ -154,7 +160,9 @@ def test_diff_exit_codes_are_0_identical_1_different_2_error(served, repo, capsy
     assert "station 3" in capsys.readouterr().err
 
 
-def test_diff_json_matches_items_by_identity(served, repo, capsys) -> None:
+def test_diff_json_matches_items_by_identity(
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     in_project = load_project(project).data.programs[(ProgramType.SUB, 1)][0].text
@@ -185,7 +193,9 @@ def test_diff_json_matches_items_by_identity(served, repo, capsys) -> None:
     ]
 
 
-def test_plan_prints_the_commands_and_sends_none(served, repo, capsys) -> None:
+def test_plan_prints_the_commands_and_sends_none(
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "0.50")
@@ -197,7 +207,9 @@ def test_plan_prints_the_commands_and_sends_none(served, repo, capsys) -> None:
     assert not [r for r in sim.received[before:] if r.is_write]
 
 
-def test_push_to_a_robot_in_automatic_operation_sends_no_sn_command(served, repo, capsys) -> None:
+def test_push_to_a_robot_in_automatic_operation_sends_no_sn_command(
+    served: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "0.50", repo)
@@ -209,7 +221,9 @@ def test_push_to_a_robot_in_automatic_operation_sends_no_sn_command(served, repo
 
 
 @pytest.mark.parametrize("live_tuning", [False, True])
-def test_a_suspended_task_also_blocks_every_write(served, repo, live_tuning) -> None:
+def test_a_suspended_task_also_blocks_every_write(
+    served: tuple[Simulator, str], repo: Path, live_tuning: bool
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     set_step(project, ProgramType.MAIN, 0, 11, "MOVE P999 S20", repo)
@@ -221,7 +235,7 @@ def test_a_suspended_task_also_blocks_every_write(served, repo, live_tuning) -> 
     assert sim.writes_received() == []
 
 
-def test_a_robot_that_goes_automatic_mid_push_gets_no_unsafe_write_after(repo) -> None:
+def test_a_robot_that_goes_automatic_mid_push_gets_no_unsafe_write_after(repo: Path) -> None:
     source = Simulator(SimState.generate(5, SMALL))
     with serve(source) as server:
         project = pulled(repo, server.url)
@@ -236,7 +250,7 @@ def test_a_robot_that_goes_automatic_mid_push_gets_no_unsafe_write_after(repo) -
     assert len(failed.value.result.written) == 4
 
 
-def test_live_tuning_writes_timers_and_offsets_while_running_but_never_programs(repo) -> None:
+def test_live_tuning_writes_timers_and_offsets_while_running_but_never_programs(repo: Path) -> None:
     source = Simulator(SimState.generate(5, SMALL))
     with serve(source) as server:
         project = pulled(repo, server.url)
@@ -250,7 +264,7 @@ def test_live_tuning_writes_timers_and_offsets_while_running_but_never_programs(
     assert [r.payload for r in source.writes_received()] == ["SNT 1 4.44"]
 
 
-def test_faults_during_pull_still_give_an_exact_backup(tmp_path) -> None:
+def test_faults_during_pull_still_give_an_exact_backup(tmp_path: Path) -> None:
     sim = Simulator(SimState.generate(3, SMALL))
     project = tmp_path / "noisy"
     with serve(sim) as server:
@@ -270,7 +284,7 @@ def test_faults_during_pull_still_give_an_exact_backup(tmp_path) -> None:
     assert clean.parameters == state.parameters and clean.config == state.config
 
 
-def test_a_pull_that_fails_leaves_the_previous_backup_untouched(tmp_path) -> None:
+def test_a_pull_that_fails_leaves_the_previous_backup_untouched(tmp_path: Path) -> None:
     sim = Simulator(SimState.generate(3, SMALL))
     project = tmp_path / "cell"
     with serve(sim) as server:
@@ -285,7 +299,7 @@ def test_a_pull_that_fails_leaves_the_previous_backup_untouched(tmp_path) -> Non
 
 
 def test_issue_11_a_pull_over_a_line_that_repeats_replies_fails_and_the_backup_stays(
-    tmp_path, capsys
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim = Simulator(SimState.generate(3, SMALL))
     project = tmp_path / "cell"
@@ -318,7 +332,12 @@ def every_file(project: Path) -> dict[Path, bytes]:
     ids=["out of range", "broken yaml", "bad offset"],
 )
 def test_an_invalid_project_is_refused_before_any_write(
-    served, repo, capsys, file, bad, expect
+    served: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    file: str,
+    bad: str | None,
+    expect: str,
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -335,7 +354,7 @@ def test_an_invalid_project_is_refused_before_any_write(
 
 
 def test_a_configuration_change_is_refused_unless_allowed_and_then_rewrites_every_program(
-    repo,
+    repo: Path,
 ) -> None:
     source = Simulator(SimState.generate(8, SMALL))
     with serve(source) as server:
@@ -356,7 +375,7 @@ def test_a_configuration_change_is_refused_unless_allowed_and_then_rewrites_ever
     assert same_robot(target.stations[1], source.stations[1])
 
 
-def test_a_stale_plan_is_refused(served, repo, tmp_path) -> None:
+def test_a_stale_plan_is_refused(served: tuple[Simulator, str], repo: Path, tmp_path: Path) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "0.50", repo)
@@ -369,7 +388,7 @@ def test_a_stale_plan_is_refused(served, repo, tmp_path) -> None:
     assert sim.writes_received() == []
 
 
-def test_a_fresh_plan_is_pushed(served, repo, tmp_path) -> None:
+def test_a_fresh_plan_is_pushed(served: tuple[Simulator, str], repo: Path, tmp_path: Path) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "0.50", repo)
@@ -379,7 +398,7 @@ def test_a_fresh_plan_is_pushed(served, repo, tmp_path) -> None:
     assert [r.payload for r in sim.writes_received()] == ["SNT 0 0.50"]
 
 
-def test_rollback_restores_the_snapshot(served, repo) -> None:
+def test_rollback_restores_the_snapshot(served: tuple[Simulator, str], repo: Path) -> None:
     sim, url = served
     project = pulled(repo, url)
     original = SimState.from_robot_data(sim.stations[1].data)
@@ -391,7 +410,7 @@ def test_rollback_restores_the_snapshot(served, repo) -> None:
     assert same_robot(sim.stations[1], original)
 
 
-def test_rollback_is_interlocked_too(served, repo) -> None:
+def test_rollback_is_interlocked_too(served: tuple[Simulator, str], repo: Path) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 3, "3.33", repo)
@@ -404,7 +423,9 @@ def test_rollback_is_interlocked_too(served, repo) -> None:
     assert len(sim.writes_received()) == writes
 
 
-def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path) -> None:
+def test_the_audit_log_records_every_push_with_its_items(
+    served: tuple[Simulator, str], repo: Path, tmp_path: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     old = sim.stations[1].data.timers[2]
@@ -436,7 +457,9 @@ def test_the_audit_log_records_every_push_with_its_items(served, repo, tmp_path)
     assert records[1].written == []
 
 
-def test_a_dirty_project_or_one_outside_git_is_refused(served, repo, tmp_path) -> None:
+def test_a_dirty_project_or_one_outside_git_is_refused(
+    served: tuple[Simulator, str], repo: Path, tmp_path: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "0.50")  # not committed
@@ -451,7 +474,9 @@ def test_a_dirty_project_or_one_outside_git_is_refused(served, repo, tmp_path) -
 
 
 @pytest.mark.parametrize("object_format", ["sha1", "sha256"])
-def test_git_tells_which_files_a_commit_holds_byte_for_byte(tmp_path, object_format) -> None:
+def test_git_tells_which_files_a_commit_holds_byte_for_byte(
+    tmp_path: Path, object_format: str
+) -> None:
     root = tmp_path / "plant"
     root.mkdir()
     git(root, "init", "-q", f"--object-format={object_format}")
@@ -565,7 +590,9 @@ def test_issue_11_a_push_of_a_validated_project_converges_on_a_controller_that_k
             assert sim.writes_received() == []
 
 
-def test_a_push_outside_the_maintenance_window_is_refused_unless_explained(served, repo) -> None:
+def test_a_push_outside_the_maintenance_window_is_refused_unless_explained(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     robot_yaml = project / "robot.yaml"
@@ -592,7 +619,7 @@ def test_a_push_outside_the_maintenance_window_is_refused_unless_explained(serve
 
 
 def test_a_write_that_does_not_read_back_fails_the_push_and_names_the_item(
-    repo, monkeypatch
+    repo: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     source = Simulator(SimState.generate(4, SMALL))
     with serve(source) as server:
@@ -610,7 +637,9 @@ def test_a_write_that_does_not_read_back_fails_the_push_and_names_the_item(
     assert "timer 1" in str(failed.value)
 
 
-def test_a_link_lost_mid_push_reports_what_was_written_and_a_rerun_converges(repo, capsys) -> None:
+def test_a_link_lost_mid_push_reports_what_was_written_and_a_rerun_converges(
+    repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     source = Simulator(SimState.generate(6, SMALL))
     with serve(source) as server:
         project = pulled(repo, server.url)
@@ -631,7 +660,9 @@ def test_a_link_lost_mid_push_reports_what_was_written_and_a_rerun_converges(rep
     assert same_robot(target.stations[1], source.stations[1])
 
 
-def test_the_lock_holds_a_second_harlsync_off_the_line(served, repo) -> None:
+def test_the_lock_holds_a_second_harlsync_off_the_line(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "0.50", repo)
@@ -648,11 +679,11 @@ def test_the_lock_holds_a_second_harlsync_off_the_line(served, repo) -> None:
 
 @pytest.mark.parametrize("command", ["push", "rollback"])
 def test_push_without_yes_and_without_a_terminal_refuses_before_reading_the_robot(
-    served,
-    repo,
-    capsys,
-    monkeypatch,
-    command,
+    served: tuple[Simulator, str],
+    repo: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    command: str,
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -671,7 +702,9 @@ def test_push_without_yes_and_without_a_terminal_refuses_before_reading_the_robo
     assert sim.received == []  # issue 14: not minutes of reading the robot first
 
 
-def test_pull_commit_says_what_changed_and_skips_an_empty_commit(served, repo) -> None:
+def test_pull_commit_says_what_changed_and_skips_an_empty_commit(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     sim, url = served
     project = pulled(repo, url)
     sim.stations[1].data.timers[1] = "8.88"
@@ -687,12 +720,14 @@ def test_pull_commit_says_what_changed_and_skips_an_empty_commit(served, repo) -
     assert git(repo, "rev-parse", "HEAD") == head
 
 
-def test_a_first_pull_without_a_port_is_a_clear_error(tmp_path) -> None:
+def test_a_first_pull_without_a_port_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(ProjectError, match="give --port"):
         engine.pull(tmp_path / "new")
 
 
-def test_pull_refuses_to_overwrite_uncommitted_edits_but_not_robot_yaml(served, repo) -> None:
+def test_pull_refuses_to_overwrite_uncommitted_edits_but_not_robot_yaml(
+    served: tuple[Simulator, str], repo: Path
+) -> None:
     _, url = served
     project = pulled(repo, url)
     robot = project / "robot.yaml"
@@ -706,7 +741,9 @@ def test_pull_refuses_to_overwrite_uncommitted_edits_but_not_robot_yaml(served, 
     assert "  1: 9.99" not in (project / "timers.yaml").read_text()
 
 
-def test_a_push_refused_before_the_port_is_audited_too(served, repo, tmp_path) -> None:
+def test_a_push_refused_before_the_port_is_audited_too(
+    served: tuple[Simulator, str], repo: Path, tmp_path: Path
+) -> None:
     _, url = served
     project = pulled(repo, url)
     edit_timer(project, 0, "12.5", repo)
@@ -717,7 +754,9 @@ def test_a_push_refused_before_the_port_is_audited_too(served, repo, tmp_path) -
     assert record.reason == "try" and record.written == []
 
 
-def test_a_first_pull_from_a_relative_sim_path_saves_it_absolute(tmp_path, monkeypatch) -> None:
+def test_a_first_pull_from_a_relative_sim_path_saves_it_absolute(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.chdir(Path(__file__).parents[1])
     engine.pull(tmp_path / "demo", port="sim://projects/pick-and-place")
     robot = (tmp_path / "demo" / "robot.yaml").read_text()
@@ -746,12 +785,12 @@ class Clock(datetime):
     at = datetime(2026, 11, 24, 12, 0)
 
     @classmethod
-    def now(cls, tz=None):  # type: ignore[no-untyped-def, override]
+    def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain datetime
         return cls.at.replace(tzinfo=tz)
 
 
 def test_issue_11_rollback_restores_the_state_before_the_last_push_whatever_the_clock_did(
-    served, repo, monkeypatch
+    served: tuple[Simulator, str], repo: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -769,7 +808,7 @@ def test_issue_11_rollback_restores_the_state_before_the_last_push_whatever_the_
 
 
 def test_issue_11_snapshots_named_by_an_older_harlsync_are_still_listed_and_come_first(
-    served, repo
+    served: tuple[Simulator, str], repo: Path
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -790,7 +829,10 @@ def test_issue_11_snapshots_named_by_an_older_harlsync_are_still_listed_and_come
 
 
 def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_window_closes(
-    served, repo, monkeypatch, capsys
+    served: tuple[Simulator, str],
+    repo: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     sim, url = served
     project = pulled(repo, url)
@@ -807,7 +849,7 @@ def test_issue_11_a_push_stops_before_the_first_write_after_its_maintenance_wind
 
     class WindowClosesAfterTwoWrites(datetime):
         @classmethod
-        def now(cls, tz=None):  # type: ignore[no-untyped-def, override]
+        def now(cls, tz: tzinfo | None = None) -> datetime:  # type: ignore[override]  # a plain datetime
             inside, after = datetime(2026, 11, 28, 23, 0), datetime(2026, 11, 29, 4, 0)
             return (inside if len(sim.writes_received()) < 2 else after).replace(tzinfo=tz)
 

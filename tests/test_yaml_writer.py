@@ -1,4 +1,4 @@
-"""The project files' own writer (yamlio._Writer) against PyYAML's emitter: the same
+"""The project files' own writer (yamlwrite._Writer) against PyYAML's emitter: the same
 bytes for every document it writes, and the same data, lines and duplicates as
 parsing them back.  Whatever the writer leaves to the emitter is written by the
 emitter, so a save is byte-identical to what the emitter alone wrote.
@@ -26,22 +26,22 @@ from harlsync import families
 from harlsync.families.iai.layout import IaiData
 from harlsync.families.iai.model import Position
 from harlsync.families.iai.sim import SimState as IaiState
-from harlsync.project import Project, load_project, save_project, yamlio
+from harlsync.project import Project, load_project, save_project, yamlio, yamlwrite
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "projects"
 
 
 def _parsed(text: str) -> yamlio.Parsed:
     """``text`` parsed for real (never the writer's own account of it)."""
-    yamlio._recall(text)
+    yamlwrite._recall(text)
     return yamlio.parse(text)
 
 
 def _same_as_emitter(node: Node, header: str = "") -> bool:
     """The writer writes ``node`` as the emitter does, and knows what parse reads back.
     Returns whether the writer wrote it (False: it left it to the emitter)."""
-    written = yamlio._Writer(header).document(node)
-    emitted = yamlio._emit(node, header)
+    written = yamlwrite._Writer(header).document(node)
+    emitted = yamlwrite._emit(node, header)
     if written is None:
         return False
     text, parsed = written
@@ -59,7 +59,7 @@ def _same_as_emitter(node: Node, header: str = "") -> bool:
 @contextmanager
 def _emitter_only() -> Iterator[None]:
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(yamlio._Writer, "document", lambda self, node: None)
+        patch.setattr(yamlwrite._Writer, "document", lambda self, node: None)
         yield
 
 
@@ -206,7 +206,7 @@ def test_the_writer_writes_the_layouts_it_is_for() -> None:
         ]
     )
     assert _same_as_emitter(node, "# yaml-language-server: $schema=x\n")
-    assert yamlio._Writer("").document(node) is not None
+    assert yamlwrite._Writer("").document(node) is not None
 
 
 # --- every file of any project, and the example ------------------------------------------
@@ -257,10 +257,10 @@ def _iai_project(axes: int) -> Project:
 @pytest.mark.parametrize("axes", [3, 4, 8])
 def test_iai_files_are_byte_identical_to_the_emitters(axes: int) -> None:
     project = _iai_project(axes)
-    yamlio._WRITTEN.clear()
+    yamlwrite._WRITTEN.clear()
     written = _rendered(project)
-    assert written["positions.yaml"] in yamlio._WRITTEN  # by the writer, not the emitter
-    yamlio._WRITTEN.clear()
+    assert written["positions.yaml"] in yamlwrite._WRITTEN  # by the writer, not the emitter
+    yamlwrite._WRITTEN.clear()
     with _emitter_only():
         emitted = _rendered(project)
     assert written == emitted
@@ -270,9 +270,9 @@ def test_a_save_checks_what_it_wrote_without_parsing_it_again(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     project = load_project(EXAMPLES / "pick-and-place")
-    yamlio._WRITTEN.clear()  # renderings of earlier tests that nothing parsed
+    yamlwrite._WRITTEN.clear()  # renderings of earlier tests that nothing parsed
     parsed: list[str] = []
-    real = yamlio._recall
+    real = yamlwrite._recall
 
     def recall(text: str) -> yamlio.Parsed | None:
         known = real(text)
@@ -286,13 +286,13 @@ def test_a_save_checks_what_it_wrote_without_parsing_it_again(
     # Only robot.yaml is parsed: its maintenance windows are a block sequence, which
     # the writer leaves to the emitter.
     assert parsed == ["# yaml-language-server: $schema=.schemas/robot.schema.json"]
-    assert not yamlio._WRITTEN  # every rendering was taken once
+    assert not yamlwrite._WRITTEN  # every rendering was taken once
 
 
 def test_a_document_the_writer_leaves_to_the_emitter_is_parsed_back_for_real() -> None:
     windows = yamlio.sequence([yamlio.mapping([("start", yamlio.quoted("22:00"))])])
     node = yamlio.mapping([("maintenance_windows", windows)])
-    assert yamlio._Writer("").document(node) is None
+    assert yamlwrite._Writer("").document(node) is None
     text = yamlio.dump(node)
     assert text == 'maintenance_windows:\n  - start: "22:00"\n'
     assert yamlio.parse(text).data == {"maintenance_windows": [{"start": "22:00"}]}
@@ -301,7 +301,7 @@ def test_a_document_the_writer_leaves_to_the_emitter_is_parsed_back_for_real() -
 def test_a_mapping_node_of_sequences_nested_is_left_to_the_emitter() -> None:
     inner = SequenceNode(yamlio.SEQ, [yamlio.text("a")], flow_style=True)
     node = yamlio.mapping([("x", yamlio.sequence([inner], flow=True))])
-    assert yamlio._Writer("").document(node) is None
+    assert yamlwrite._Writer("").document(node) is None
 
 
 # --- a row of numbers (issue 24: an IAI position's line without a node per number) ------
@@ -332,9 +332,9 @@ def test_issue_24_a_row_is_written_as_the_mapping_it_stands_for() -> None:
     )
     row = yamlio.mapping([(yamlio.num("7"), yamlio.row(items))])
     assert _same_as_emitter(row)
-    written = yamlio._Writer("").document(row)
+    written = yamlwrite._Writer("").document(row)
     assert written is not None
-    assert written[0] == yamlio._emit(yamlio.mapping([(yamlio.num("7"), as_nodes)]), "")
+    assert written[0] == yamlwrite._emit(yamlio.mapping([(yamlio.num("7"), as_nodes)]), "")
 
 
 @pytest.mark.parametrize("key", ["a: b", "5", "true", "", "x" * 130, "- a"])
@@ -380,7 +380,7 @@ def test_issue_24_texts_are_written_as_the_sequence_they_stand_for() -> None:
             ("none", yamlio.sequence([], flow=True)),
         ]
     )
-    assert yamlio.dump(node) == yamlio._emit(expected, "")
-    assert yamlio._emit(yamlio.mapping([("s", yamlio.texts(steps))]), "") == yamlio._emit(
+    assert yamlio.dump(node) == yamlwrite._emit(expected, "")
+    assert yamlwrite._emit(yamlio.mapping([("s", yamlio.texts(steps))]), "") == yamlwrite._emit(
         yamlio.mapping([("s", as_nodes)]), ""
     )

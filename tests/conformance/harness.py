@@ -102,7 +102,7 @@ def _epson_quick(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(state, "MAX_POINT", 19)
     generate = SimState.generate.__func__  # type: ignore[attr-defined]
 
-    def ten_points(cls: type[SimState], seed: int, **options: Any) -> SimState:
+    def ten_points(cls: type[SimState], /, seed: int, **options: Any) -> SimState:
         return generate(cls, seed, **{"point_range": (0, 9), **options})  # type: ignore[no-any-return]
 
     monkeypatch.setattr(SimState, "generate", classmethod(ten_points))

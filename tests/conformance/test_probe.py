@@ -15,6 +15,7 @@ import pytest
 from harlsync import cli, families
 from harlsync.errors import ProtocolError
 from harlsync.project import load_project
+from harlsync.sim.device import LineFamily, Simulator
 
 from .harness import HARNESSES, join, served, variant_cases
 from .test_conformance import writes_since
@@ -141,6 +142,7 @@ def test_issue_31_the_probe_s_reads_at_a_wrong_baud_rate_never_decode_as_a_write
     sent = [c.data for c in load_spy_log(capture) if c.direction == "TX"][:3]
     assert sent
     side = sim_family(family)
+    assert isinstance(side, LineFamily) and isinstance(device, Simulator)  # no schemes
     for rate in RATES:  # the model of the line: at the same rate, the reads themselves
         assert [_at_another_rate(f, rate, rate, 0.5) for f in sent] == sent
     for rate in RATES:
@@ -148,7 +150,7 @@ def test_issue_31_the_probe_s_reads_at_a_wrong_baud_rate_never_decode_as_a_write
             if heard == rate:
                 continue
             for phase in (0.0, 0.5):
-                decoder = side.decoder()  # type: ignore[attr-defined]
+                decoder = side.decoder()
                 decoder.feed(b"".join(_at_another_rate(f, rate, heard, phase) for f in sent))
                 for _ in range(1000):  # each call takes a frame or fails on one
                     try:

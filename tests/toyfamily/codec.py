@@ -112,7 +112,13 @@ class Request:
         verb = self.payload.split()[0]
         if reply.startswith("ERR "):
             return reply
-        expected = {"R": "= ", "W": "OK", "S": ("IDLE", "RUN"), "V": "TOY "}[verb]
+        starts: dict[str, str | tuple[str, ...]] = {
+            "R": "= ",
+            "W": "OK",
+            "S": ("IDLE", "RUN"),
+            "V": "TOY ",
+        }
+        expected = starts[verb]
         if not reply.startswith(expected):
             raise ReplyError(f"{reply!r} does not answer {self.payload!r}")
         if verb == "R" and reply.split()[1] != self.payload.split()[1]:
