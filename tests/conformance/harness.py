@@ -111,7 +111,7 @@ def _epson_quick(monkeypatch: pytest.MonkeyPatch) -> None:
 def _epson_prompt(device: Any) -> None:
     """Commands run in no time: the handshake's first poll finds each one done.  What
     a command's run time does to a push is the ``write_time`` variant's and the
-    property run's (tests/epson/test_interlock_property.py) to show."""
+    property run's (tests/families/epson/test_interlock_property.py) to show."""
     device.execution_time = 0.0
 
 

@@ -4,7 +4,7 @@ and so the fewest response words a register map must give for a backup to work.
 :class:`~harlsync.families.epson.controller.Controller` asks for the most a command
 answers within the map's words, and for the two halves of it (60 and 61 for 59) when
 RC+ assigned fewer: the halves are what a map of few words must still carry.  A read
-with no halves (Weight, 302) is its own smallest form.  tests/epson/test_e2e.py pulls
+with no halves (Weight, 302) is its own smallest form.  tests/families/epson/test_e2e.py pulls
 through a map of exactly :func:`fewest_response_words` words, so a read added to the
 controller and not here fails there.
 """

@@ -48,7 +48,7 @@ def read_back(write: Request[Ack], station: int = MAX_STATION) -> ReadBack:
     is read as ``E`` + status whatever follows (:meth:`Request.decode_payload`);
     any other reply to a read-back is the written fields, which the request
     builders have checked against what the reply parsers accept
-    (tests/test_fuzz.py proves it through the simulator and both frames).
+    (tests/families/harl_u2/test_fuzz.py proves it through the simulator and both frames).
 
     Raises :class:`ValueError` for a write no read gives back (SNX, SNO, SNB).
     """

@@ -130,7 +130,7 @@ def _positions_in(data: str, head: int, count: int) -> tuple[Position, ...] | No
     order as controllers send them, in one pass over the data (hex checked once for
     all of it); None for anything else, which :func:`read_positions`'s field-by-field
     reading then takes, and names what is wrong with.  The same positions either way
-    (tests/iai/test_protocol.py proves it on random replies)."""
+    (tests/families/iai/test_protocol.py proves it on random replies)."""
     if data[:2] != "00" or not _HEX_RE.fullmatch(data):
         return None
     records = int(data[2:6], 16)
