@@ -11,8 +11,8 @@ pyserial finds this module because :mod:`harlsync.link` adds ``harlsync.sim`` to
     sim://@name                            a Simulator registered with register()
 
 Query options: ``family``, ``seed``, ``stations`` (as the family writes them),
-``baud``, ``turnaround``, the family's schedule ``auto_after_writes`` (HARL-U2)
-or ``run_after_writes`` (IAI), and the faults ``noise``, ``drop``,
+``baud``, ``turnaround``, the family's schedule (``auto_after_writes``,
+``run_after_writes``: its busy verb's), and the faults ``noise``, ``drop``,
 ``bad_checksum``, ``fragment``, ``slow``, ``slow_delay``,
 ``fault_seed`` (rates 0-1), and the family's variants by name
 (``?missing_table=E2``, :mod:`harlsync.sim.variants`).
