@@ -34,7 +34,7 @@ class Option:
 
 @dataclass(frozen=True)
 class Scheme:
-    """A URL scheme of the family's own (``modbus://HOST[:PORT]``): the line lock
+    """A URL scheme of the family's own (``scheme://HOST[:PORT]``): the line lock
     takes such a URL as the TCP endpoint it names, with ``default_port`` when it
     names none, so one controller is one line whatever speaks to it."""
 

@@ -248,7 +248,8 @@ class Device(ABC, Generic[S]):
             listener(request)
 
     def parse_station(self, text: str) -> int:
-        """A station as the family's people write it (``99`` is 99h for IAI).  Raises ValueError."""
+        """A station as the family's people write it (``99`` is 99h for a family that
+        writes stations in hex).  Raises ValueError."""
         return families.get(self.family.name).parse_station(text)
 
     def show_station(self, number: int) -> str:

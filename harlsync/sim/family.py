@@ -40,7 +40,7 @@ class SimServer(Protocol):
 
     @property
     def url(self) -> str:
-        """Where clients connect (``modbus://127.0.0.1:5020``)."""
+        """Where clients connect (the family's own URL scheme, ``scheme://127.0.0.1:5020``)."""
         ...
 
     def stop(self) -> None: ...

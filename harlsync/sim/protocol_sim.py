@@ -6,8 +6,8 @@ pyserial finds this module because :mod:`harlsync.link` adds ``harlsync.sim`` to
     sim://projects/pick-and-place          the robot of that project directory (of the
                                            family its robot.yaml names)
     sim:///abs/path/to/project?baud=9600   absolute path, wire-time emulation at 9600
-    sim://?seed=7&stations=1,2             generated robots on stations 1 and 2 (HARL-U2)
-    sim://?seed=7&family=iai&stations=99   a generated IAI controller on station 99h
+    sim://?seed=7&stations=1,2             generated robots on stations 1 and 2 (default family)
+    sim://?seed=7&family=iai&stations=99   a generated controller of the family ``iai``, station 99
     sim://@name                            a Simulator registered with register()
 
 Query options: ``family``, ``seed``, ``stations`` (as the family writes them),
