@@ -12,10 +12,19 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
-__all__ = ["Sequences", "Shift", "align", "spans", "text_of"]
+__all__ = ["Kinded", "Sequences", "Shift", "align", "spans", "text_of"]
+
+
+class Kinded(Protocol):
+    """An item's key as aligning reads it: its ``kind`` is what the family calls an
+    item of the sequence (``step``), the word a :class:`Shift` says."""
+
+    @property
+    def kind(self) -> str: ...
+
 
 K_contra = TypeVar("K_contra", contravariant=True)
-K = TypeVar("K")
+K = TypeVar("K", bound=Kinded)
 
 
 class Sequences(Protocol[K_contra]):
@@ -79,23 +88,25 @@ def _tokens(texts: dict[int, str | None], lo: int, hi: int) -> list[tuple[str, o
     return out
 
 
-def align(
-    catalogue: Sequences[K], changes: Iterable[tuple[K, object, object]], word: str = "step"
-) -> list[Shift]:
+def align(catalogue: Sequences[K], changes: Iterable[tuple[K, object, object]]) -> list[Shift]:
     """The insertions, deletions and moves among ``changes`` in each of the family's
     sequences (``Catalogue.position``), one :class:`Shift` per stretch of items
     they move along: an alignment of the changed stretch (difflib), so that a step
-    inserted at 4 of 17 is one insertion, not 14 changed steps."""
+    inserted at 4 of 17 is one insertion, not 14 changed steps.  A shift names the
+    sequence's items by their keys' ``kind``, as the family does."""
     import difflib  # not at import: every command imports this module
 
     groups: dict[str, tuple[dict[int, str | None], dict[int, str | None]]] = {}
+    words: dict[str, str] = {}
     for key, old, new in changes:
         where = catalogue.position(key)
         if where is not None:
             olds, news = groups.setdefault(where[0], ({}, {}))
             olds[where[1]], news[where[1]] = text_of(old), text_of(new)
+            words.setdefault(where[0], key.kind)
     out: list[Shift] = []
     for group, (olds, news) in groups.items():
+        word = words[group]
         lo, hi = min(olds), max(olds)
         a, b = _tokens(olds, lo, hi), _tokens(news, lo, hi)
         ops = difflib.SequenceMatcher(None, a, b, autojunk=False).get_opcodes()

@@ -62,8 +62,8 @@ __all__ = [
 class HarlsyncError(Exception):
     """Root of every error harlsync raises on purpose.
 
-    ``notes`` are what harlsync did to the robot on its own before the error (an
-    Epson function reset begun and not finished), one sentence each: whoever
+    ``notes`` are what harlsync did to the robot on its own before the error (a
+    reset the driver began and did not finish), one sentence each: whoever
     records a failure records them too, so a record never denies an action.
     """
 
@@ -79,7 +79,7 @@ class FrameError(ProtocolError):
 
 
 class ChecksumError(FrameError):
-    """A frame whose checksum (the family's own: an LRC, a sum) does not match its bytes."""
+    """A frame whose checksum (the family's own) does not match its bytes."""
 
 
 class ReplyError(ProtocolError):
@@ -102,7 +102,7 @@ class _Located(HarlsyncError):
         self.port = port
         self.station = station
         self.command = command
-        #: the station as the family writes it (IAI: hex), for the message
+        #: the station as the family writes it (decimal, hex...), for the message
         self.station_text = (
             station_text
             if station_text is not None
@@ -209,7 +209,7 @@ class SyncError(HarlsyncError):
 
 
 class InterlockError(SyncError):
-    """A task is in execution or suspended: nothing may be written to this robot."""
+    """The robot is not idle (its status forbids writes): nothing may be written to it."""
 
 
 class PolicyError(SyncError):

@@ -105,6 +105,14 @@ def _add(p: argparse._ActionsContainer, table: Mapping[str, str], *only: str) ->
             p.add_argument(flag, action="store_true", help=text)
 
 
+def _phrases(place: str, template: str) -> str:
+    """``template`` with what the families' ``--help`` says at ``place``
+    (:func:`~harlsync.families.help_phrases`) in its ``{}``, or "" when no family
+    says anything there: a family that declares nothing adds nothing."""
+    said = families.help_phrases(place)
+    return template.format(said) if said else ""
+
+
 def _dir_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("dir", metavar="DIR", help="robot project directory")
 

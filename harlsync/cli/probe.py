@@ -14,6 +14,7 @@ from .common import (
     _json,
     _lines,
     _lock_arg,
+    _phrases,
 )
 
 __all__ = ["_add_probe"]
@@ -48,8 +49,9 @@ def _add_probe(sub: Sub) -> None:
         p.add_mutually_exclusive_group(),
         {
             "--station N": f"try only this station ({stations})",
-            "--stations LIST": "the stations to try, in order, as each family writes them: 1-4, "
-            "or 99,1-F (default: the stations each family's manual gives as defaults)",
+            "--stations LIST": "the stations to try, in order, as each family writes them ("
+            + _phrases("station_list", "{}; ")
+            + "default: the stations each family's manual gives as defaults)",
         },
     )
     _add(p, _PROBE)

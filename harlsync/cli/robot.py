@@ -25,6 +25,7 @@ from .common import (
     _json,
     _line,
     _lines,
+    _phrases,
     _print,
     _usage,
     _warn,
@@ -49,8 +50,9 @@ def _add_pull(sub: Sub) -> None:
         "that fails leaves the previous files as they were. DIR is created if missing; a first "
         "pull needs --port (or the robot.yaml harlsync probe --write DIR makes), and one that "
         "gets no answer points to harlsync probe. A controller that does not look like the robot "
-        "backed up in DIR (another version or program configuration, or most of the backup would "
-        "change) is refused (exit 3) until --new-robot; so is a pull that would overwrite changes "
+        "backed up in DIR (another identity"
+        + _phrases("identity", " ({})")
+        + ", or most of the backup would change) is refused (exit 3) until --new-robot; so is a pull that would overwrite changes "
         "the project's branch approved and no push deployed yet (pending) until --discard-pending.",
     )
     _dir_arg(p)
@@ -70,7 +72,7 @@ _PULL = {
     "--discard-pending": "pull even over changes the project's branch approved and no push has "
     "deployed yet (pending: they are overwritten in the working tree)",
     "--new-robot": "accept a controller that does not look like the robot backed up in DIR "
-    "(another version or program configuration, or most of the backup changed): a replaced, "
+    "(another identity, or most of the backup changed): a replaced, "
     "reconfigured or updated robot",
 }
 
@@ -223,8 +225,7 @@ def _push_args(p: argparse.ArgumentParser) -> None:
     """What push and rollback are told, after the connection's options."""
     _connection_args(p)
     live, runtime = families.help_phrases("live_tuning"), families.help_phrases("runtime")
-    reconfigure = families.help_phrases("reconfigure")
-    reconfigure = f" ({reconfigure})" if reconfigure else ""
+    reconfigure = _phrases("reconfigure", " ({})")
     _add(
         p,
         {
@@ -367,7 +368,8 @@ def _add_adopt(sub: Sub) -> None:
         help="write changes made on the robot, as the last backup kept them, into the project",
         description="Write into the project the items the last backup read (kept on the branch "
         "harlsync/backup) where the robot differs from the project: the ITEMs named (as status "
-        "and backup name them, e.g. 'MAIN program 0 step 2'), or every item the robot changed "
+        "and backup name them" + _phrases("item", ", e.g. {}") + "), or every item the robot "
+        "changed "
         "since the last push or rollback (drift). Nothing is committed and no robot is "
         "contacted: review the change (git diff) and commit it; then the robot's change is "
         "approved. Refuses uncommitted edits (exit 3) unless --allow-dirty.",

@@ -19,6 +19,7 @@ from .common import (
     _family_arg,
     _Help,
     _lines,
+    _phrases,
     _print,
     _usage,
 )
@@ -71,7 +72,8 @@ def _add_sim(sub: Sub) -> None:
     )
     src = p.add_mutually_exclusive_group()
     _add(src, _SIM, "--project DIR")
-    src.add_argument("--seed", type=int, default=0, help=_SIM["--seed"])
+    seed = _SIM["--seed"].format(_phrases("items", " ({})"))
+    src.add_argument("--seed", type=int, default=0, help=seed)
     stations = families.help_phrases("stations")
     _add(p, {"--stations N[,N...]": _SIM["--stations N[,N...]"].format(stations)})
     _add(p, _SIM, "--listen HOST:PORT", "--no-pty", "--no-input")
@@ -97,7 +99,7 @@ def _add_sim(sub: Sub) -> None:
 #: sim's options after --family: "--flag [METAVAR]" -> help (see :func:`_add`).
 _SIM = {
     "--project DIR": "serve the robot of this project directory",
-    "--seed": "generate a realistic robot (programs, positions) from SEED",
+    "--seed": "generate a realistic robot{} from SEED",
     "--stations N[,N...]": "stations on the line, in the family's notation ({}; default: the "
     "project's station, or the family's default)",
     "--listen HOST:PORT": "also serve over TCP (socket://HOST:PORT)",

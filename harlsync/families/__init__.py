@@ -178,7 +178,7 @@ def url_schemes() -> dict[str, int]:
 
 
 def of_port(port: str | None) -> str | None:
-    """The name of the family whose own URL scheme ``port`` has (``modbus://``), or None."""
+    """The name of the family whose own URL scheme ``port`` has (``scheme://``), or None."""
     scheme = port.partition("://")[0].lower() if port and "://" in port else None
     for family in every():
         if scheme and scheme in {s.name for s in family.schemes}:

@@ -2,8 +2,7 @@
 
 The engine (pull, diff, plan, push, rollback, backup) and the project store
 know a robot as *items*: the smallest things one write changes, each keyed by a
-typed, hashable key with a ``kind`` (``StepKey("step", "MAIN", 2, 3)``,
-``PositionKey("position", 12)``).  What the items are, how they are read and
+typed, hashable key with a ``kind`` (``TableKey("table", 3)``, say).  What the items are, how they are read and
 written, in which order a push writes them, which need an idle robot and how
 they sit in files is the family's; the engine never branches on which family
 it is::
@@ -19,8 +18,8 @@ it is::
 Three generic base classes, python-can ``BusABC`` style: a family implements a
 few abstract members and inherits a default for the rest.  Each is generic over
 the family's key type ``K`` (a NamedTuple, or a union of them) and its data
-type ``D`` (what a backup holds: the HARL-U2's ``RobotData``, IAI's position
-table), which the engine never looks into: it hands data back to the family it
+type ``D`` (what a backup holds: the robot's data as the family models it),
+which the engine never looks into: it hands data back to the family it
 came from.  An item's *value* is ``object`` to the engine: it compares values
 and hands them back, nothing more.
 """
@@ -105,14 +104,14 @@ class Driver(ABC, Generic[K, D]):
     #: Where the robot is, for messages: ``"port /dev/ttyUSB0 station 1"``.
     label: str = "the robot"
     #: The harlsync command the connection serves (``"push"``), set by the engine once
-    #: connected, for advice that names the command to run again (Epson: ``harlsync
-    #: push DIR --reset-function``, never a pull that would overwrite the project).
+    #: connected, for advice that names the command to run again (``harlsync push DIR``
+    #: with the family's option, never a pull that would overwrite the project).
     serves: str = ""
 
     @property
     def notes(self) -> Sequence[str]:
-        """What the driver did on its own to reach the robot, one sentence each (Epson:
-        a Remote Control function left in use by a harlsync that is gone, reset): the
+        """What the driver did on its own to reach the robot, one sentence each (a
+        remote function left in use by a harlsync that is gone, reset): the
         pull says it and the audit log records it.  Default: nothing."""
         return ()
 
@@ -141,8 +140,8 @@ class Driver(ABC, Generic[K, D]):
     def hold_to(self, recorded: D) -> None:
         """What the robot's project recorded of it (``recorded``, the backup or the
         state a push or rollback deploys), before :meth:`read_all`: what a read
-        found out from the controller and keeps in the project (HARL-U2: the reply
-        past its last offset table).  The next read holds the controller to it and
+        found out from the controller and keeps in the project (what it answers past
+        the end of a table, say).  The next read holds the controller to it and
         fails, naming both, when it answers otherwise.  Default: nothing to hold to."""
 
     def survey(self) -> Survey:
@@ -201,7 +200,7 @@ class PlanShape(Generic[K]):
     #: ... and the line a printed plan starts with
     reconfigure_note: str | None = None
     #: what a printed plan, a push's result and its audit record must tell about
-    #: these writes (Epson: the persistent items it writes to the memory card)
+    #: these writes (items a write keeps only until the controller saves them, say)
     notes: list[str] = field(default_factory=list)
 
 
@@ -326,8 +325,8 @@ class Analysis:
     robot: Robot | None = None
     data: object = None
     issues: list[Issue] = field(default_factory=list)
-    #: what ``validate`` tells of a valid project without failing it (Epson: a
-    #: register map without Ready), one sentence each
+    #: what ``validate`` tells of a valid project without failing it (a setting that
+    #: works but is unusual), one sentence each
     notes: list[str] = field(default_factory=list)
 
 
@@ -342,7 +341,7 @@ class Family(ABC, Generic[K, D]):
 
     #: the name robot.yaml and ``--family`` use: ``harl-u2``, ``iai``
     name: str
-    #: for people: ``Hirata HARL-U2``
+    #: for people: the maker and the controller's model
     title: str
     #: sub-directories of a project whose files the family manages
     directories: tuple[str, ...] = ()
@@ -366,8 +365,8 @@ class Family(ABC, Generic[K, D]):
     stations: range = range(1, 100)
     default_station: int = 1
     #: whether :meth:`connect` (or what a read does before the robot's identity) may
-    #: write to the controller: Epson's handshake drives its input signals when it
-    #: starts.  The engine then refuses a project with uncommitted edits before it
+    #: write to the controller (a handshake that drives its input signals when it
+    #: starts).  The engine then refuses a project with uncommitted edits before it
     #: connects; a family whose connection only reads says False, and a pull asks git
     #: while its first requests are on the line (issue 24).
     connect_writes: bool = True

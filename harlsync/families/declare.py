@@ -34,13 +34,13 @@ class Option:
 
 @dataclass(frozen=True)
 class Scheme:
-    """A URL scheme of the family's own (``modbus://HOST[:PORT]``): the line lock
+    """A URL scheme of the family's own (``scheme://HOST[:PORT]``): the line lock
     takes such a URL as the TCP endpoint it names, with ``default_port`` when it
     names none, so one controller is one line whatever speaks to it."""
 
     name: str
     default_port: int
-    #: how ``--port`` help shows it: ``an Epson controller's Modbus TCP slave: modbus://HOST[:PORT]``
+    #: how ``--port`` help shows it: ``a controller's TCP server: scheme://HOST[:PORT]``
     help: str
 
 
@@ -51,21 +51,29 @@ class Help:
 
     #: ``--station``: ``1-99, as set on the pendant``
     stations: str = ""
-    #: what a pull reads: ``the position table``
+    #: a list of stations as ``probe --stations`` takes it: ``1-4``
+    station_list: str = ""
+    #: what a pull reads: ``the settings and the tables``
     pull: str = ""
-    #: the items a diff compares: ``position``
+    #: the items a diff compares (and ``sim --seed`` generates): ``setting, table entry``
     items: str = ""
+    #: one item as status and backup name it (``adopt ITEM``), quoted: ``'table 3'``
+    item: str = ""
+    #: what tells a robot from another (a pull refuses another until ``--new-robot``):
+    #: ``version, model``
+    identity: str = ""
     #: runtime data (``--registers``): ``registers``, ``flags and variables``
     runtime: str = ""
-    #: the commands a plan prints: ``SN commands``
+    #: the commands a plan prints, in the manual's words
     commands: str = ""
-    #: the safe order of a push: ``configuration, parameters, tables, timers, programs``
+    #: the safe order of a push: ``configuration, parameters, tables``
     order: str = ""
-    #: what stops a push: ``a program running, MANUAL, emergency stop``
+    #: what stops a push: ``a program running, manual mode, emergency stop``
     busy: str = ""
     #: what ``--allow-live-tuning`` writes while the robot runs
     live_tuning: str = ""
-    #: the write of a program configuration change (``--allow-reconfigure``): ``SNX``
+    #: the write of a configuration change that destroys the programs
+    #: (``--allow-reconfigure``), in the manual's words
     reconfigure: str = ""
 
 
@@ -73,5 +81,5 @@ class Help:
 class Words:
     """The family's words for its interlock, in the engine's messages."""
 
-    #: what the interlock reads: ``the task states``, ``the Remote Control status``
+    #: what the interlock reads: ``the robot's status``, ``the task states``
     state: str = "the robot's state"

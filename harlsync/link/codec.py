@@ -1,15 +1,15 @@
 """What the link needs from a family's sans-I/O codec, as typing Protocols.
 
 The link knows bytes, deadlines and retries; a family's codec knows its frames.
-Both ASCII families (HARL-U2: STX station SP payload ETX LRC; IAI protocol B:
-``!`` station id data SC CR LF) fit these shapes without an adapter::
+A serial family's frames (a start byte, the station, a payload, an end and a
+checksum, say) fit these shapes without an adapter::
 
     Codec.decoder()        -> Decoder   feed(bytes); next_frame() -> Frame | None
     Request.encode(station) -> bytes    what goes on the wire
     Request.decode(Frame)   -> T        the typed reply, or ReplyError: not the answer
 
 A request knows its reply type: ``Link.exchange(request)`` returns exactly what
-``request.decode`` does (a HARL-U2 ``Request[Step]`` gives ``Step | ErrorReply``).
+``request.decode`` does (a read of one item gives that item, or the family's error reply).
 Protocols are structural: a family implements them without importing this module.
 """
 
@@ -88,7 +88,7 @@ class Codec(Protocol[F_co]):
     ``settings`` are the family's serial defaults.  ``no_reply_hint`` ends the
     message of a read that got no valid reply: what to check on this family's
     controller.  ``reply_timeout`` is the seconds to wait for the reply to one
-    request (HARL-U2: ``settings.timeout``; IAI: longer for a long reply).
+    request (``settings.timeout``, or longer for a long reply).
     ``reply_gap`` is the seconds the controller needs after a reply before it
     takes the next command.
     """
@@ -104,7 +104,7 @@ class Codec(Protocol[F_co]):
     def no_reply_hint(self, station: int) -> str: ...
 
     def station_text(self, station: int) -> str:
-        """A station as the family's people write it, for messages (IAI: hex)."""
+        """A station as the family's people write it, for messages (decimal, hex...)."""
         ...
 
     def reply_timeout(self, request: Request[F_co, object], settings: SerialSettings) -> float: ...

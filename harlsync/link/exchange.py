@@ -21,7 +21,7 @@ How this works::
     write : never re-sent here -> WriteUnconfirmed (the controller reads the item back)
 
 Late replies.  A reply that missed its deadline may still arrive, and most
-replies carry no echo of what they answer (``LNT 3`` and ``LNT 4`` are both
+replies carry no echo of what they answer (reads of two timers may both be
 answered ``0.50``), so a late reply would pass for the answer to the next
 request.  Every attempt that got no reply therefore leaves a reply *owed* by
 that station; before the next request is sent the link listens until owed
@@ -30,9 +30,9 @@ seconds after their deadline).  That costs one ``late_window`` after a reply
 that was really lost, and never returns a value that answers another request.
 
 A retry of the same read may take the earlier attempt's late reply as its own
-answer: the value is the same.  Not so for a volatile read (HARL-U2 LNR, I/O and
-memory bits; IAI status): the task states may have changed between the two
-attempts, and a late "idle" must never pass for the retry's "in execution".
+answer: the value is the same.  Not so for a volatile read (the robot's status,
+I/O and memory bits): the status may have changed between the two attempts, and
+a late "idle" must never pass for the retry's "running".
 Before re-sending a volatile read the link therefore waits out owed replies too,
 as before a new request.
 
@@ -53,9 +53,9 @@ So no wait of the link's depends on the line's speed: not on robot.yaml's baud
 rate, which is not the line's behind a device server (``socket://``,
 ``rfc2217://`` where the server sets the rate), nor on how the bytes are grouped
 on the way (a USB adapter's latency timer, a device server's packets).  The baud
-rate still sets a local port, and the IAI codec's reply deadline: a bound on a
-reply that does not come, not a wait for one that does.  (``modbus://`` is the
-Epson family's own transport, which has no baud rate.)  A reply paced by a slow
+rate still sets a local port, and a codec's reply deadline when the codec derives
+it from the rate: a bound on a reply that does not come, not a wait for one that
+does.  (A family's own URL scheme may name a transport that has no baud rate.)  A reply paced by a slow
 line wakes the link once per arrival, as it wakes a bare client blocking on its
 port; docs/BENCHMARKS.md ("Issues 29 and 33: the link reads replies as they come")
 measures what the timers that predicted a reply's end saved and what they cost.
@@ -243,8 +243,8 @@ class Link(Received[F]):
     def exchange(self, request: Request[F, T], *, station: int | None = None) -> T:
         """Send ``request`` to ``station`` (default: the link's) and return its reply.
 
-        Returns what ``request.decode`` makes of the reply: a typed value (for the
-        HARL-U2 and IAI codecs also an ``ErrorReply``, a value the caller inspects).
+        Returns what ``request.decode`` makes of the reply: a typed value (or the
+        family's error reply, when its codec decodes one: a value the caller inspects).
         Raises :class:`LinkTimeout` when a read got no valid reply after every
         retry, :class:`WriteUnconfirmed` when a write got none (it is never re-sent
         here), :class:`PortError` when the port fails.

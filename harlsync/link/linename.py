@@ -1,7 +1,7 @@
 """Which line a port URL names: one key per line, whatever the port is called.
 
 ``/dev/serial/by-id/...`` and ``/dev/ttyUSB0`` are one line, ``localhost`` and
-``127.0.0.1`` one machine, a family's own TCP scheme (``modbus://HOST``) the
+``127.0.0.1`` one machine, a family's own TCP scheme (``scheme://HOST``) the
 ``socket://`` line of its host and port.  The line lock names its file after
 this key (:func:`harlsync.link.lock.lock_path`), which re-exports these names.
 """

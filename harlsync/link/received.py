@@ -10,8 +10,8 @@ Replies nobody asked for.  A frame for our station that answers nothing we sent
 line delivers replies twice (two devices answering, a device server that
 retransmits, a reflection), and a repeated reply that fits would pass for the
 answer to the next request: a wrong value, no error.  Replies echo too little
-to be bound to their request (IAI: station and message id; HARL-U2: the step
-number at most), so the link counts these frames, and from the second in one
+to be bound to their request (the station and a message id or an item number
+at most), so the link counts these frames, and from the second in one
 session (:data:`UNREQUESTED_LIMIT`) it fails every read and sends nothing more:
 a :class:`LinkError` that names the port and station and says to fix the line.
 """
@@ -56,7 +56,7 @@ class LinkStats:
     retries: int = 0
     #: attempts whose deadline passed without a fitting reply
     timeouts: int = 0
-    #: frames with a bad LRC or malformed
+    #: frames with a bad checksum or malformed
     bad_frames: int = 0
     #: bytes discarded as line noise (outside any frame)
     noise_bytes: int = 0

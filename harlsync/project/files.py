@@ -213,8 +213,8 @@ class Flaws:
 
 
 def _listed_lines(doc: y.Parsed) -> None:
-    """A migration that made a mapping keyed by number into a list (a HARL-U2
-    program's steps, format 1 to 2): give each item the line its key was on
+    """A migration that made a mapping keyed by number into a list (a sequence's
+    items, in a family's format 1 to 2): give each item the line its key was on
     (``("steps", "3")`` -> ``("steps", 3)``), so that issues name where it is written."""
     for path, line in list(doc.lines.items()):
         if (

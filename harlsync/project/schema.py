@@ -92,7 +92,7 @@ def _jsonschema() -> Any:
     """jsonschema's validator class, as harlsync uses it; imported when first needed
     (a file the fast check cannot pass), not by every command that reads robot.yaml.
 
-    A program file holds up to 256 steps, and jsonschema's keywords check each one
+    A file may hold hundreds of sequence items, and jsonschema's keywords check each one
     through ``descend``, which builds a new validator per value: that, not the
     checks themselves, was most of a full-size project's load time.  The two
     keywords here first check every value (or key) with one validator, and only when

@@ -6,8 +6,8 @@ disk; then it writes them all or none (:mod:`.atomic` says how: temporaries,
 a journal, one ``syncfs``, renames), and a journal a killed save left behind
 puts the previous project back on the next load or save.
 
-Files whose content did not change are not rewritten, and program files the
-new configuration no longer has are removed in step 2 (and restored on
+Files whose content did not change are not rewritten, and files the new data no
+longer has (the family's ``stale_files``) are removed in step 2 (and restored on
 failure).  ``robot.yaml`` belongs to the user: a save writes it only when it
 does not exist yet, unless asked to replace it.
 
@@ -254,8 +254,8 @@ def save_project(
 
     Writes ``robot.yaml`` only when it does not exist (or ``rewrite_robot``),
     ``registers.yaml`` only when the robot keeps registers and the data has them,
-    and the schema copies under ``.schemas/``.  Removes program files the
-    configuration no longer has, and ``registers.yaml`` when registers are not kept.
+    and the schema copies under ``.schemas/``.  Removes the files the data no
+    longer has (the family's ``stale_files``), and ``registers.yaml`` when registers are not kept.
 
     Returns the paths (relative to ``path``) written or removed; nothing is written
     when nothing changed.  Raises ProjectInvalid, before writing anything, when the
@@ -338,8 +338,8 @@ def edited_since_save(
     save left them: changed, made or removed by someone else since.
 
     A file the save wrote is as it left it when its content has the SHA-256 the save
-    recorded; a file the save manages but did not leave (a program the configuration
-    no longer has) when it is still absent.  Anything else counts as edited: a file
+    recorded; a file the save manages but did not leave (one the data no longer
+    has) when it is still absent.  Anything else counts as edited: a file
     harlsync does not manage, and every file when there is no readable record.
     """
     root = Path(path)

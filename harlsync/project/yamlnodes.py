@@ -72,7 +72,7 @@ RowValue = str | list[str] | Node
 
 
 def row(items: Iterable[tuple[str, RowValue]]) -> MappingNode:
-    """A flow mapping of numbers, a table's row on one line (an IAI position), as
+    """A flow mapping of numbers, a table's row on one line (a position, say), as
     ``mapping(..., flow=True)`` with each number text given as :func:`num` and each
     list of them as ``sequence([num(...), ...], flow=True)``, or a node given as it
     is: the same document and the same data read back, without a node per number

@@ -11,7 +11,7 @@ make a robot busy while a client is connected.  Every family takes::
 
 and its own verbs (:attr:`~harlsync.sim.SimFamily.verbs`), each with the
 station first (the family's notation; default: the lowest station), e.g.
-HARL-U2 ``auto [STATION [TASK]]``, IAI ``manual [STATION]``.
+``auto [STATION [TASK]]`` or ``manual [STATION]``.
 """
 
 from __future__ import annotations

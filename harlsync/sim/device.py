@@ -26,7 +26,7 @@ What is not about bytes on a line is :class:`Device`, the base of every
 family's simulator: the stations, the record of what was asked of them, the
 faults, the busy-after-writes schedule, the control verbs and the
 battery-backed memory.  A family whose controllers are reached another way
-(Epson: registers over Modbus TCP, served by its own server through a
+(registers over a network protocol, say, served by its own server through a
 :class:`~harlsync.sim.family.ServedFamily`) subclasses :class:`Device` alone.
 """
 
@@ -168,8 +168,7 @@ class LineFamily(SimFamily, Protocol):
 
 class Refused(Exception):
     """A well-formed request a simulated station does not carry out: the family
-    answers it with its error reply, carrying ``code`` (HARL-U2 ``E`` + status,
-    IAI ``&`` + code)."""
+    answers it with its error reply, carrying ``code`` (the family's error code)."""
 
     def __init__(self, code: str) -> None:
         super().__init__(code)
@@ -182,15 +181,15 @@ class Received:
 
     station: int
     payload: str
-    #: the request's name: HARL-U2 letters (``SNM``), an IAI message id (``291``)
+    #: the request's name as the family's protocol names it: letters, a message id
     command: str
     #: whether the request is a write (whether or not the station carried it out)
     is_write: bool
     at: float
     #: False when a fault dropped the reply
     answered: bool
-    #: the station was not idle when the request arrived: a HARL-U2 task in
-    #: execution or suspended, an IAI controller its interlock refuses
+    #: the station was not idle when the request arrived (the family's
+    #: :attr:`~SimFamily.busy_verb`: its interlock refuses writes)
     busy: bool
     #: who sent it: "pty", a TCP peer "host:port", ... ("" when unknown)
     client: str = ""
@@ -201,8 +200,8 @@ class Device(ABC, Generic[S]):
     ``S``, whatever carries the requests to them.
 
     ``busy_after_writes`` makes the written station busy (the family's
-    :attr:`~SimFamily.busy_verb`: a HARL-U2 task in automatic operation, an IAI
-    program running) once that many writes have been carried out (0 = never),
+    :attr:`~SimFamily.busy_verb`: what the family's interlock refuses, a program
+    running, say) once that many writes have been carried out (0 = never),
     so that interlocks can be tested mid-push.  Every request a station takes
     is recorded in :attr:`received` (:meth:`record`), with whether that station
     was busy (not idle) when it arrived.
@@ -249,7 +248,8 @@ class Device(ABC, Generic[S]):
             listener(request)
 
     def parse_station(self, text: str) -> int:
-        """A station as the family's people write it (``99`` is 99h for IAI).  Raises ValueError."""
+        """A station as the family's people write it (``99`` is 99h for a family that
+        writes stations in hex).  Raises ValueError."""
         return families.get(self.family.name).parse_station(text)
 
     def show_station(self, number: int) -> str:

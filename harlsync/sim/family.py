@@ -3,9 +3,9 @@ family's ``sim`` package exports as ``SIM_FAMILY``, found through the registry
 (:func:`harlsync.families.simulator_module`), never by importing a family.
 
 A family's controllers are reached one of two ways.  A :class:`LineFamily`
-(HARL-U2, IAI) has a sans-I/O decoder for the bytes on a serial line, and the
+(frames on a serial line) has a sans-I/O decoder for the bytes on a serial line, and the
 framework serves its :class:`~harlsync.sim.device.Simulator` on a pty, TCP and
-``sim://``.  A :class:`ServedFamily` (Epson: registers over Modbus TCP) serves
+``sim://``.  A :class:`ServedFamily` (a network protocol of its own) serves
 its :class:`~harlsync.sim.device.Device` itself, with the protocol's own
 library, and ``harlsync sim`` asks it to.
 
@@ -40,7 +40,7 @@ class SimServer(Protocol):
 
     @property
     def url(self) -> str:
-        """Where clients connect (``modbus://127.0.0.1:5020``)."""
+        """Where clients connect (the family's own URL scheme, ``scheme://127.0.0.1:5020``)."""
         ...
 
     def stop(self) -> None: ...
@@ -49,7 +49,7 @@ class SimServer(Protocol):
 @runtime_checkable
 class ServedFamily(SimFamily, Protocol):
     """A family that serves its simulated controllers itself, over its own
-    protocol (Epson: a Modbus TCP server)."""
+    protocol (a server of the protocol's own library)."""
 
     def serve(self, sim: Device[Any], host: str, port: int) -> SimServer:
         """Serve ``sim`` on ``host:port`` (port 0: a free one) in the background;

@@ -5,8 +5,8 @@ memory, so a controller restarted in the middle of a push still holds what had
 been written.  With a state directory the simulator does the same: station N is
 kept in ``DIR/station-N`` (N as the family writes stations), loaded when the
 simulator starts if it is there, and saved after every write, before the write
-is answered.  How a station is kept is the family's (a HARL-U2 station is a
-robot project); modes and tasks are not kept: a restarted controller comes up idle.
+is answered.  How a station is kept is the family's (a robot project, say);
+modes and running programs are not kept: a restarted controller comes up idle.
 """
 
 from __future__ import annotations

@@ -6,13 +6,13 @@ pyserial finds this module because :mod:`harlsync.link` adds ``harlsync.sim`` to
     sim://projects/pick-and-place          the robot of that project directory (of the
                                            family its robot.yaml names)
     sim:///abs/path/to/project?baud=9600   absolute path, wire-time emulation at 9600
-    sim://?seed=7&stations=1,2             generated robots on stations 1 and 2 (HARL-U2)
-    sim://?seed=7&family=iai&stations=99   a generated IAI controller on station 99h
+    sim://?seed=7&stations=1,2             generated robots on stations 1 and 2 (default family)
+    sim://?seed=7&family=iai&stations=99   a generated controller of the family ``iai``, station 99
     sim://@name                            a Simulator registered with register()
 
 Query options: ``family``, ``seed``, ``stations`` (as the family writes them),
-``baud``, ``turnaround``, the family's schedule ``auto_after_writes`` (HARL-U2)
-or ``run_after_writes`` (IAI), and the faults ``noise``, ``drop``,
+``baud``, ``turnaround``, the family's schedule (``auto_after_writes``,
+``run_after_writes``: its busy verb's), and the faults ``noise``, ``drop``,
 ``bad_checksum``, ``fragment``, ``slow``, ``slow_delay``,
 ``fault_seed`` (rates 0-1), and the family's variants by name
 (``?missing_table=E2``, :mod:`harlsync.sim.variants`).

@@ -4,7 +4,7 @@ pyserial's ``spy://`` port (``spy:///dev/ttyUSB0?file=capture.txt``) writes what
 the client sends (TX) and reads (RX) as a hex dump, one line per 16 bytes::
 
     000000.000 Q-RX reset_input_buffer                     control line: ignored
-    000000.012 TX   0000  02 31 20 4C 4E 56 03 46                           .1 LNV.F
+    000000.012 TX   0000  02 31 20 52 45 41 44 03                           .1 READ.
     000000.041 RX   0000  02 31 20 35 2E 30 30 03  09                       .1 5.00..
     ^seconds   ^dir ^offset in the chunk                                    ^ASCII, checked
                           <------ 16 hex bytes, 49 columns ------------->
@@ -246,7 +246,8 @@ class Replay:
         return None
 
     def _show(self, data: bytes) -> str:
-        """A request as ``'1 LNM 0 3'`` when it is one valid frame, else as hex."""
+        """A request as its frame's text (station and payload) when it is one valid
+        frame, else as hex."""
         decoder = self.new_decoder()
         decoder.feed(data)
         try:

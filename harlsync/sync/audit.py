@@ -400,7 +400,7 @@ def _narrow(
     name: str, old: str | None, new: str | None
 ) -> list[tuple[str, str | None, str | None]]:
     """One field whose text reads ``name value name value ...`` on both sides with the
-    same names (an IAI position's line), narrowed to the names whose values differ."""
+    same names (a table row's line), narrowed to the names whose values differ."""
     if name or old is None or new is None:
         return [(name, old, new)]
     a, b = _groups(old), _groups(new)

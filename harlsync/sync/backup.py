@@ -9,7 +9,7 @@ is :mod:`.backupreport`'s.
 Robots on separate lines are pulled in parallel (every line at once, or at
 most ``jobs`` lines at once), spread over a worker process per core
 (:mod:`harlsync.sync.fleet`);
-robots that share a line (stations of one HNC on one port) are pulled one after
+robots that share a line (stations of one controller on one port) are pulled one after
 the other by the same worker, so their frames never interleave.  A robot that
 fails leaves its previous backup as it was (a pull is atomic) and the others go
 on.  Each project records its last successful backup in

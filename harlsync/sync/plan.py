@@ -92,7 +92,7 @@ class Plan(Generic[K]):
     @property
     def items(self) -> list[Change[K]]:
         """The changes of the diff that the writes make, in push order: what a person
-        confirms (an IAI 291H writes several positions, each one item)."""
+        confirms (one write of a run of items makes several, each one item)."""
         return [c for w in self.writes for c in w.items]
 
     @property
@@ -192,8 +192,8 @@ def covered(
     """For each write (key, old, new) of ``wanted``, in order, the changes of the diff it
     makes.
 
-    A write of one item is keyed as its change is.  A write of a run of items (IAI:
-    positions 3-7, written by one 291H) carries a tuple of their new values, in order:
+    A write of one item is keyed as its change is.  A write of a run of items (items
+    3-7 of a table, written by one request) carries a tuple of their new values, in order:
     each is matched to the first change not yet matched, of the same group, whose new
     value it is.  A write that matches no change is its own.
     """

@@ -214,7 +214,7 @@ def _pull_one(
 
 def _unattended(family: AnyFamily) -> dict[str, bool]:
     """The connection option of a run no person watches, for a family that takes it
-    (Epson: recover a Remote Control function left in use by a harlsync that is gone)."""
+    (recover a remote function left in use by a harlsync that is gone, say)."""
     return {UNATTENDED: True} if UNATTENDED in family.connect_options else {}
 
 

@@ -59,7 +59,7 @@ def interlock(driver: Driver[K, D], robot: Robot, words: Words, before: str) -> 
 
     When no robot answers at all the link's own error goes through (exit 2, like
     diff and pull): nothing can be written either way, and "refused for safety"
-    would send the reader looking for a running task instead of at the port.
+    would send the reader looking for a running robot instead of at the port.
     """
     try:
         status = driver.status()
@@ -191,5 +191,5 @@ def _maybe_hit(result: PushResult, live: Callable[[PlannedWrite[K]], bool]) -> s
         return ""
     return (
         f". It was started after the status read before {last.name}: that write may "
-        "have reached it while a task ran; check the robot"
+        "have reached it while it ran; check the robot"
     )

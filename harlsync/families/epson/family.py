@@ -56,6 +56,8 @@ class EpsonFamily(Family["Key", "EpsonData"]):
         stations=f"the Modbus unit id, 0-255, {declared.DEFAULT_UNIT} by default",
         pull="the settings, the tables and the points",
         items="setting, table entry, point",
+        item="'P12'",
+        identity="robot type, axes, model",
         commands="each Remote Control command's words in hex",
         order="load, limits, frames, tool, arch, fine, LimZ, tables, points",
         busy="Running, Paused, EStopOn, Error or the Remote Control function in use",

@@ -36,9 +36,12 @@ class HarlU2Family(Family["Key", "RobotData"]):
     probe_stations = (1, 2, 3, 4)
     help = Help(
         stations=f"{STATION_ALLOWED}, as set on the pendant",
+        station_list="1-4",
         pull="the configuration, every program step, the parameters, the offset tables "
         "and the timers",
         items="program, step, table, field, timer",
+        item="'MAIN program 0 step 2'",
+        identity="version, program configuration",
         runtime="registers",
         commands="SN commands",
         order="configuration, parameters, tables, timers, programs",

@@ -35,8 +35,11 @@ class IaiFamily(Family["Key", "IaiData"]):
     probe_bauds = profile.BAUDRATES
     help = Help(
         stations=f"two hex digits, {profile.DEFAULT_STATION:02X} by default",
+        station_list="99,1-F",
         pull="the position table",
         items="position",
+        item="'position 3'",
+        identity="model code, unit code, version",
         runtime="flags and variables",
         commands="each 291H, field by field",
         order="positions",

@@ -448,7 +448,7 @@ def test_a_robot_started_while_the_last_write_was_on_the_wire_is_reported_after_
     [warning] = result.warnings
     assert "is not idle at the end of the push: task 0 in execution" in warning
     assert "started after the status read before MAIN program 1 step 3" in warning
-    assert "that write may have reached it while a task ran" in warning
+    assert "that write may have reached it while it ran" in warning
     [record] = audit_log.read(tmp_path / "audit.jsonl")[-1:]
     assert record.warnings == [warning]
 
