@@ -152,7 +152,6 @@ def _observe(
         whole=True,
         noted=partial(_record_notes, path, robot, None, None, noted),
         identified=same_identity,
-        recorded=lambda: data_at(previous_commit),  # what the last backup found (issue 29)
     )
     live = read.live
     accepted(lambda data: _same_robot(path, things, data, live, read.driver.label))

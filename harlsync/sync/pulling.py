@@ -267,12 +267,6 @@ def _pull(
             if differ:
                 raise _not_this_robot(path, where, differ)
 
-    def recorded() -> Any:
-        """What the backup recorded of the robot for the read to hold it to; nothing
-        for a new robot, which may answer otherwise."""
-        settle()
-        return None if new_robot else backup()
-
     if family.connect_writes:  # a dirty project refused before anything is sent
         settle()
     read = read_live(
@@ -287,7 +281,6 @@ def _pull(
         whole=True,  # a backup finds out how far each table goes
         noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
         identified=same_identity,
-        recorded=recorded,
         command="pull",
     )
     settle()  # a family that cannot tell its identity first: after the read
