@@ -421,7 +421,7 @@ def _same_robot(
     from .items import change_summary, diff_items
 
     differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
-    if not differ:  # what only a whole read tells (IAI: a table's "not there" reply)
+    if not differ:  # what only a whole read tells (the "not there" replies it found)
         why = things.other_robot(live, backup)
         differ = [why] if why is not None else []
     changes: list[Change[Any]] = []
