@@ -130,6 +130,12 @@ def test_issue_29_a_no_such_table_reply_that_changes_between_pulls_fails_in_one_
     assert "set no_such_table: E2 in robot.yaml" in err  # what to do
     assert "harlsync's" not in err and "profile" not in err  # no edit of harlsync's source
     assert files(project) == before
+    robot = project / "robot.yaml"  # what the line says to do takes the reply it names
+    robot.write_text(robot.read_text() + "no_such_table: E2\n")
+    assert main(["pull", str(project), "--allow-dirty"]) == 0
+    assert "offset_tables: {count: 100, no_such_table: E2}" in (
+        (project / "controller.yaml").read_text()
+    )
     assert not sim.writes_received()
 
 
