@@ -137,13 +137,6 @@ class Driver(ABC, Generic[K, D]):
         (the default): the engine then checks the data a read returns."""
         return None
 
-    def hold_to(self, recorded: D) -> None:
-        """What the robot's project recorded of it (``recorded``, the backup or the
-        state a push or rollback deploys), before :meth:`read_all`: what a read
-        found out from the controller and keeps in the project (what it answers past
-        the end of a table, say).  The next read holds the controller to it and
-        fails, naming both, when it answers otherwise.  Default: nothing to hold to."""
-
     def survey(self) -> Survey:
         """What ``harlsync probe`` reports of the controller, read with read requests
         only (the probe refuses any write on the line: :mod:`harlsync.link.readonly`):
@@ -289,10 +282,16 @@ class Catalogue(ABC, Generic[K, D]):
         return {"version": version} if version else {}
 
     def other_robot(self, live: D, project: D) -> str | None:
-        """Why the controller read (``live``) is not the project's robot, for diff,
-        plan and push, and for a pull once :meth:`robot_identity` agrees (a pull
-        with ``--new-robot`` does not ask); None when it is.  Default: what
-        :meth:`other_identity` says of its identity."""
+        """Why the controller read (``live``) is not the robot its project recorded
+        (``project``: the backup, or the state a push or rollback deploys), for pull,
+        diff, plan, push and rollback once the read is over (a pull with
+        ``--new-robot`` does not ask): the one place where what a read found out of
+        the controller (HARL-U2: the reply past its last offset table; IAI: a
+        table's "not there" replies; Epson: what a point not defined answers) is
+        compared with what the project recorded, in one sentence naming both and
+        what to change; None when it is the robot.  Nothing is saved or written
+        before it is asked.  Default: what :meth:`other_identity` says of its
+        identity."""
         return self.other_identity(self.robot_identity(live), project)
 
     def other_identity(self, now: Mapping[str, str], project: D) -> str | None:

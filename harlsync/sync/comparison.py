@@ -114,7 +114,6 @@ def compare(
         idle_check=idle_check,
         options=connect_options,
         identified=not_another_robot,
-        recorded=lambda: project.data,
         command=command,
     )
     why = things.other_robot(read.live, project.data)

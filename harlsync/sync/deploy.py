@@ -183,8 +183,10 @@ def _read_and_plan(
     other = None if now is None else family.catalogue.other_identity(now, target)
     if other is not None:
         raise PolicyError(f"cannot deploy: {other}")
-    driver.hold_to(target)  # what the deployed state recorded of the robot
     live = driver.read_all(registers=opts.registers, progress=opts.progress)
+    other = family.catalogue.other_robot(live, target)  # what the read found out (issue 29)
+    if other is not None:
+        raise PolicyError(f"cannot deploy: {other}")
     result.plan = the_plan = make_plan(
         family.catalogue, live, target, driver, robot=robot.name, registers=opts.registers
     )

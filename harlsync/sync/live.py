@@ -99,7 +99,6 @@ def read_live(
     whole: bool = False,
     noted: Callable[[Sequence[str]], None] | None = None,
     identified: Callable[[Mapping[str, str], str], None] | None = None,
-    recorded: Callable[[], D | None] | None = None,
     command: str = "",
 ) -> LiveRead[K, D]:
     """Everything the robot holds, read over a line opened and closed for it; with
@@ -110,9 +109,9 @@ def read_live(
     it succeeded or not: what was done to the robot is told even when the read fails.
     ``identified`` is given what the robot says it is (:meth:`Driver.identity`) and
     where it is, before anything else is read, when the family can tell it first:
-    it raises to refuse a swapped controller before the long read.  ``recorded``
-    gives what the project recorded of the robot (None: nothing), for the read to
-    hold the controller to (:meth:`Driver.hold_to`).  ``command`` is the harlsync
+    it raises to refuse a swapped controller before the long read.  What else the
+    read found out of the controller is the caller's to compare with what the
+    project recorded (:meth:`Catalogue.other_robot`).  ``command`` is the harlsync
     command it serves (:attr:`Driver.serves`)."""
     driver = _connect_noting(family, robot, port, station, lock_timeout, options, command, noted)
     try:
@@ -120,9 +119,6 @@ def read_live(
             now = driver.identity()
             if now is not None:
                 identified(now, driver.label)
-        was = None if recorded is None else recorded()
-        if was is not None:
-            driver.hold_to(was)
         live = driver.read_all(registers=registers, progress=progress, whole=whole)
         # After the read, the line still held: the first request does not wait for
         # the audit log (issue 24), and what it says is the same.

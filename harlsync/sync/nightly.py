@@ -208,7 +208,6 @@ class _Observing(Generic[D]):
             whole=True,
             noted=partial(_record_notes, self.path, robot, None, None, noted),
             identified=same_identity,
-            recorded=lambda: self.data_at(self.last),  # what the last backup found (issue 29)
         )
 
 

@@ -258,12 +258,6 @@ class _Pulling(Generic[K, D]):
             if differ:
                 raise _not_this_robot(self.path, where, differ)
 
-    def recorded(self) -> D | None:
-        """What the backup recorded of the robot for the read to hold it to; nothing
-        for a new robot, which may answer otherwise."""
-        self.settle()
-        return None if self.new_robot else self.backup()
-
     def read(
         self,
         progress: Progress | None,
@@ -288,7 +282,6 @@ class _Pulling(Generic[K, D]):
             whole=True,  # a backup finds out how far each table goes
             noted=partial(_record_notes, path, robot, port, station, noted),  # whatever follows
             identified=self.same_identity,
-            recorded=self.recorded,
             command="pull",
         )
         self.settle()  # a family that cannot tell its identity first: after the read
@@ -433,7 +426,7 @@ def _same_robot(
     from .items import change_summary, diff_items
 
     differ = _identity_differs(things.robot_identity(backup), things.robot_identity(live))
-    if not differ:  # what only a whole read tells (a table's "not there" reply, say)
+    if not differ:  # what only a whole read tells (the "not there" replies it found)
         why = things.other_robot(live, backup)
         differ = [why] if why is not None else []
     changes: list[Change[K]] = []

@@ -250,6 +250,23 @@ class EpsonCatalogue(Catalogue[Key, EpsonData]):
             )
         return None
 
+    def other_robot(self, live: EpsonData, project: EpsonData) -> str | None:
+        """Another manipulator, model or answer past the point table
+        (:meth:`other_identity`), or a point not defined that answers otherwise than
+        the project recorded (controller.yaml ``points.not_defined``), which the
+        read learns only when it meets one; None when it is the robot."""
+        other = super().other_robot(live, project)
+        was = None if project.table is None else project.table.not_defined
+        now = None if live.table is None else live.table.not_defined
+        if other is not None or was is None or now is None or now == was:
+            return other
+        return (
+            f"a point not defined now answers {now.describe()}, where controller.yaml "
+            f"points.not_defined records {was.describe()} (the last pull's): another "
+            "controller, or one updated; check the port, or accept it with 'harlsync "
+            "pull DIR --new-robot'"
+        )
+
     def plan(
         self,
         live: EpsonData,

@@ -367,7 +367,8 @@ class PointTable:
     29): its last point number, what a point past it answered (asked twice), and
     what a point not defined answered (asked twice; None when the read met none).
     controller.yaml records it; a later pull whose controller answers past the table
-    otherwise is refused, naming both answers."""
+    (at its first exchanges) or for a point not defined (once the read is over:
+    ``EpsonCatalogue.other_robot``) otherwise is refused, naming both answers."""
 
     end: int
     past_end: NotThere

@@ -246,6 +246,27 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
             "with 'harlsync pull DIR --new-robot' first"
         )
 
+    def other_robot(self, live: RobotData, project: RobotData) -> str | None:
+        """Another version (:meth:`other_identity`), or a reply past the last offset
+        table other than the one the project recorded (controller.yaml
+        ``offset_tables``): the controller answers a missing table otherwise now, or
+        cannot answer normally, and the tables read may be short.  A read held to
+        robot.yaml's ``no_such_table`` is not held to the recorded reply."""
+        other = super().other_robot(live, project)
+        was, now = project.offset_end, live.offset_end
+        if other is not None or was is None or now is None or now.pinned:
+            return other
+        if now.reply == was.reply:
+            return None
+        return (
+            f"offset table {now.count} answered {now.reply} twice, not {was.reply} (as "
+            "the project recorded, controller.yaml offset_tables): the controller now "
+            "answers a missing table otherwise, or cannot answer normally (an abnormal "
+            "condition), so the tables read may be short; run again when the robot "
+            f"answers normally, or, if {now.reply} is what this controller answers for a "
+            f"table it does not have, set no_such_table: {now.reply} in robot.yaml"
+        )
+
     def contents(self, data: RobotData, *, registers: bool) -> str:
         """What a live read holds: programs, timers and registers to the sizes LNX
         reports, and the offset tables with the range the read covered and the

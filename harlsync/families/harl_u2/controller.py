@@ -56,7 +56,7 @@ from .model import (
 )
 from .protocol import Ack, ErrorReply, Frame, Request, profile
 from .protocol import commands as cmd
-from .tableend import NoSuchTable, TableReader
+from .tableend import TableReader
 
 __all__ = ["Controller", "Progress"]
 
@@ -322,25 +322,26 @@ class Controller(OnLink):
         self,
         limit: int = OFFSET_TABLE_COUNT,
         *,
-        expect: NoSuchTable | None = None,
+        pinned: str | None = None,
         tick: Callable[[], None] | None = None,
     ) -> tuple[dict[int, OffsetTable], OffsetEnd]:
         """The offset tables from 0 to where the controller's answers say they end,
         at most ``limit`` (robot.yaml's ``offset_tables``), and that end, found as
         :mod:`.tableend` tells: three exchanges beyond the tables' own reads.
-        ``expect`` is the reply robot.yaml pins or the project recorded; None:
-        whatever the controller answers twice.  ``tick`` is called after each
-        table read.
+        ``pinned`` is the reply robot.yaml's ``no_such_table`` pins; None:
+        whatever the controller answers twice (what the project recorded is
+        compared once the read is over: ``HarlU2Catalogue.other_robot``).
+        ``tick`` is called after each table read.
 
         Raises :class:`~.tableend.TableBeyondRange` naming robot.yaml's
         ``offset_tables`` when table ``limit`` answers data, and
         :class:`ControllerError` in one line when the answers do not show an end
         (two different replies, table ``n`` - 1 not reading again, table 0
-        missing) or show one with a reply other than ``expect``: the tables read
+        missing) or show one with a reply other than ``pinned``: the tables read
         could be short.
         """
         offsets, end = TableReader(self.read_offset, self.port, self.station).read(
-            limit, expect=expect, tick=tick
+            limit, pinned=pinned, tick=tick
         )
         if end.count < limit:
             log.info(
@@ -363,7 +364,7 @@ class Controller(OnLink):
         progress: Progress | None = None,
         *,
         offset_tables: int = OFFSET_TABLE_COUNT,
-        no_such_table: NoSuchTable | None = None,
+        no_such_table: str | None = None,
         known: tuple[Config, str] | None = None,
     ) -> RobotData:
         """Everything a backup holds, read in pull order.
@@ -398,7 +399,7 @@ class Controller(OnLink):
             for ptype, number in config.programs()
         }
         offsets, end = self.read_offsets(
-            offset_tables, expect=no_such_table, tick=lambda: count.tick(None)
+            offset_tables, pinned=no_such_table, tick=lambda: count.tick(None)
         )
         count.done += offset_tables - end.count  # the tables a smaller controller does not have
         for _ in range(3):  # the end: table N, table N - 1 again, table N again

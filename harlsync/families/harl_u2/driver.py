@@ -22,7 +22,6 @@ from .model import (
 )
 from .protocol import Request, profile
 from .protocol import commands as cmd
-from .tableend import NoSuchTable
 
 __all__ = ["HarlU2Driver"]
 
@@ -48,27 +47,10 @@ class HarlU2Driver(Driver[Key, RobotData]):
         #: at most
         self.offset_tables = offset_tables
         #: robot.yaml's ``no_such_table``: the only reply taken for a missing table
+        #: (what a project recorded is compared after the read: ``other_robot``)
         self.no_such_table = no_such_table
-        #: the reply the project recorded for a missing table (:meth:`hold_to`)
-        self.recorded: str | None = None
         self.label = f"port {controller.port} station {controller.station}"
         self._known: tuple[Config, str] | None = None
-
-    def hold_to(self, recorded: RobotData) -> None:
-        """The reply the project recorded past its last offset table: the next read
-        of everything takes only that one for "no such table" (robot.yaml's
-        ``no_such_table``, when set, still goes first)."""
-        end = recorded.offset_end
-        self.recorded = None if end is None else end.reply
-
-    def _expected_end(self) -> NoSuchTable | None:
-        if self.no_such_table is not None:
-            return NoSuchTable(self.no_such_table, "robot.yaml's no_such_table")
-        if self.recorded is not None:
-            return NoSuchTable(
-                self.recorded, "as the project recorded, controller.yaml offset_tables"
-            )
-        return None
 
     def identity(self) -> dict[str, str]:
         """LNX and LNV, the first two requests of a read: kept for :meth:`read_all`."""
@@ -84,7 +66,7 @@ class HarlU2Driver(Driver[Key, RobotData]):
         def explore() -> Findings:
             config = self._known[0] if self._known is not None else self.controller.config()
             _, end = self.controller.read_offsets(
-                max(PROBE_TABLES, self.offset_tables), expect=self._expected_end()
+                max(PROBE_TABLES, self.offset_tables), pinned=self.no_such_table
             )
             guessed_reply = profile.ERROR_PREFIX + profile.NO_SUCH_TABLE
             options: dict[str, object] = {"no_such_table": end.reply}
@@ -130,7 +112,7 @@ class HarlU2Driver(Driver[Key, RobotData]):
             include_registers=registers,
             progress=progress,
             offset_tables=self.offset_tables,
-            no_such_table=self._expected_end(),
+            no_such_table=self.no_such_table,
             known=known,
         )
 

@@ -294,13 +294,15 @@ class OffsetEnd:
     normally again between the two: that reply is the controller's "no such table".
     A pull records both in controller.yaml (``offset_tables``).  ``asked`` is how
     many tables the read was to read at most (robot.yaml's ``offset_tables``),
-    for what the read says; it is not recorded, and equal ends compare equal
-    whatever was asked.
+    for what the read says; ``pinned`` says that robot.yaml's ``no_such_table``
+    held the read to ``reply`` (what the project recorded then does not bind it).
+    Neither is recorded, and equal ends compare equal whatever was asked.
     """
 
     count: int
     reply: str
     asked: int = field(default=0, compare=False)
+    pinned: bool = field(default=False, compare=False)
 
 
 def canonical_offset(text: str) -> str:

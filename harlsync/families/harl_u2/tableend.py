@@ -18,22 +18,13 @@ is taken as read.  :meth:`Controller.read_offsets
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple
 
 from ...errors import ControllerError, SyncError
 from .model import OffsetEnd, OffsetTable
 from .protocol import commands as cmd
 from .protocol import profile
 
-__all__ = ["NoSuchTable", "TableBeyondRange", "TableReader"]
-
-
-class NoSuchTable(NamedTuple):
-    """The reply a read takes for "no such table" past the last offset table, and
-    what says so, for its message: ``NoSuchTable("E21", "robot.yaml's no_such_table")``."""
-
-    reply: str
-    source: str
+__all__ = ["TableBeyondRange", "TableReader"]
 
 
 class TableBeyondRange(SyncError):
@@ -54,12 +45,13 @@ class TableReader:
         self,
         limit: int,
         *,
-        expect: NoSuchTable | None = None,
+        pinned: str | None = None,
         tick: Callable[[], None] | None = None,
     ) -> tuple[dict[int, OffsetTable], OffsetEnd]:
-        """The tables from 0 to their end, at most ``limit``, and that end; ``expect``
-        is the reply the end must have (None: any), ``tick`` is called after each
-        table read.  Raises as :meth:`Controller.read_offsets` says."""
+        """The tables from 0 to their end, at most ``limit``, and that end; ``pinned``
+        is the reply the end must have (robot.yaml's ``no_such_table``; None: any),
+        ``tick`` is called after each table read.  Raises as
+        :meth:`Controller.read_offsets` says."""
         offsets: dict[int, OffsetTable] = {}
         n = 0
         while True:
@@ -67,7 +59,7 @@ class TableReader:
             if isinstance(answer, str):
                 answer = self._asked_again(n, answer)
             if isinstance(answer, str):
-                return offsets, self._end(n, answer, limit, expect)
+                return offsets, self._end(n, answer, limit, pinned)
             if n >= limit:
                 raise TableBeyondRange(
                     f"port {self.port}, station {self.station}: offset table {n} answers "
@@ -81,22 +73,22 @@ class TableReader:
                 tick()
             n += 1
 
-    def _end(self, table: int, reply: str, limit: int, expect: NoSuchTable | None) -> OffsetEnd:
+    def _end(self, table: int, reply: str, limit: int, pinned: str | None) -> OffsetEnd:
         """The end at ``table``, which answered ``reply`` twice.  Raises
-        :class:`ControllerError` when that is not the reply ``expect`` says."""
-        if expect is not None and reply != expect.reply:
+        :class:`ControllerError` when that is not the reply ``pinned`` says."""
+        if pinned is not None and reply != pinned:
             raise self._unreadable_end(
                 table,
                 reply,
-                f"offset table {table} answered {reply} twice, not {expect.reply} "
-                f"({expect.source}): the controller now answers a missing table "
-                "otherwise, or cannot answer normally (an abnormal condition)",
+                f"offset table {table} answered {reply} twice, not {pinned} "
+                "(robot.yaml's no_such_table): the controller now answers a missing "
+                "table otherwise, or cannot answer normally (an abnormal condition)",
                 advice=(
                     f"; if {reply} is what this controller answers for a table it "
                     f"does not have, set no_such_table: {reply} in robot.yaml"
                 ),
             )
-        return OffsetEnd(table, reply, asked=limit)
+        return OffsetEnd(table, reply, asked=limit, pinned=pinned is not None)
 
     def _table_or_reply(self, table: int) -> OffsetTable | str:
         """LNL ``table``: the table, or the error reply (``E`` + status) it answered."""

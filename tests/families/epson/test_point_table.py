@@ -96,6 +96,36 @@ def test_issue_29_an_answer_past_the_table_that_changes_fails_the_pull_in_one_li
     assert "past_end: 2005/0000" in (project / "controller.yaml").read_text()
 
 
+def test_issue_29_a_not_defined_answer_that_changes_fails_the_pull_in_one_line_naming_both(
+    robot: tuple[Simulator, str], repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """What a point not defined answers is recorded (controller.yaml
+    ``points.not_defined``) and compared once a later read is over
+    (``Catalogue.other_robot``, as the HARL-U2's offset-table end and IAI's "not
+    there" replies): a pull (and diff) whose controller answers otherwise is refused
+    in one line naming both answers, the setting that records the expected one and
+    what to do; nothing is saved."""
+    sim, url = robot
+    sim.point_end = TEST_PROBE_END
+    project = pulled(repo, url)
+    assert "not_defined: 2004/0000" in (project / "controller.yaml").read_text()
+    before = {p.name: p.read_bytes() for p in project.iterdir() if p.is_file()}
+    sim.vary({"undefined_point": "200A"})  # the same table end, another "not defined"
+    capsys.readouterr()
+    assert cli.main(["pull", str(project)]) == 3
+    line = one_line(capsys.readouterr().err)
+    assert "a point not defined now answers 200A/1BBF" in line
+    assert "controller.yaml points.not_defined records 2004/0000 (parameter error)" in line
+    assert f"'harlsync pull {project} --new-robot'" in line
+    assert {p.name: p.read_bytes() for p in project.iterdir() if p.is_file()} == before
+    assert cli.main(["diff", str(project)]) == 2
+    line = one_line(capsys.readouterr().err)
+    assert "not compared: a point not defined now answers 200A/1BBF" in line
+    assert "points.not_defined records 2004/0000" in line
+    assert cli.main(["pull", str(project), "--new-robot"]) == 0
+    assert "not_defined: 200A/1BBF" in (project / "controller.yaml").read_text()
+
+
 def test_issue_29_a_point_table_smaller_than_robot_yaml_says_is_read_to_its_end_and_recorded(
     robot: tuple[Simulator, str], repo: Path
 ) -> None:

@@ -5,8 +5,8 @@ no status codes (3.1.7: "E" + [Status], the codes in the HRCS-R3 manual), so a
 pull no longer waits for the profile's ``E21``.  The table past the last that read
 normally must answer the same error reply twice, with that last table read
 normally again between the two; that reply is recorded in controller.yaml, later
-reads (pull, diff, push) hold the controller to it, and robot.yaml's
-``no_such_table`` may pin it.  A controller with fewer tables than robot.yaml's
+reads (pull, diff, push) compare the controller's with it once they are over
+(``Catalogue.other_robot``), and robot.yaml's ``no_such_table`` may pin it.  A controller with fewer tables than robot.yaml's
 ``offset_tables`` is read to its end and recorded.  What each test asserts of the
 controller it takes from the simulator's own record.
 """
@@ -123,17 +123,23 @@ def test_issue_29_a_no_such_table_reply_that_changes_between_pulls_fails_in_one_
     sim.vary({"missing_table": "E2"})  # the same robot, answering otherwise now
     sim.stations[1].data.timers[0] = "7.77"  # a change the failed pull must not save
     capsys.readouterr()
-    assert main(["pull", str(project)]) == 2
+    assert main(["pull", str(project)]) == 3  # refused once the read is over, as IAI's and Epson's
     err = one_line(capsys)
     assert "offset table 100 answered E2 twice, not E21" in err
     assert "controller.yaml offset_tables" in err  # where the E21 it expected comes from
     assert "set no_such_table: E2 in robot.yaml" in err  # what to do
     assert "harlsync's" not in err and "profile" not in err  # no edit of harlsync's source
     assert files(project) == before
+    robot = project / "robot.yaml"  # what the line says to do takes the reply it names
+    robot.write_text(robot.read_text() + "no_such_table: E2\n")
+    assert main(["pull", str(project), "--allow-dirty"]) == 0
+    assert "offset_tables: {count: 100, no_such_table: E2}" in (
+        (project / "controller.yaml").read_text()
+    )
     assert not sim.writes_received()
 
 
-def test_issue_29_diff_and_push_hold_the_controller_to_the_reply_the_pull_recorded(
+def test_issue_29_diff_and_push_compare_the_controller_with_the_reply_the_pull_recorded(
     served: tuple[ScriptedSim, str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, url = served
@@ -148,7 +154,12 @@ def test_issue_29_diff_and_push_hold_the_controller_to_the_reply_the_pull_record
     with pytest.raises(PushFailed, match="offset table 100 answered E99 twice, not E21"):
         push(project, PushOptions(yes=True, allow_dirty=True))
     assert not sim.writes_received()
-    assert [r.command for r in sim.received[first:]][-3:] == ["LNL", "LNL", "LNL"]
+    # compared once the read is over: the end's three exchanges, then the timers, then nothing
+    pushed = [r.payload for r in sim.received[first:]]
+    lnl = [p for p in pushed if p.startswith("LNL")]
+    assert lnl[-3:] == ["LNL 100", "LNL 99", "LNL 100"]
+    after = pushed[len(pushed) - pushed[::-1].index("LNL 100") :]
+    assert after and all(p.startswith("LNT") for p in after)
 
 
 def test_issue_29_robot_yaml_no_such_table_pins_the_reply_a_first_pull_takes(
