@@ -90,7 +90,7 @@ class ModbusServer:
             address: int,
             count: int,
             registers: list[int],
-            values: Any,
+            values: list[int] | list[bool] | None,
         ) -> ExcCodes | None:
             if bank is None:
                 return ExcCodes.GATEWAY_NO_RESPONSE
@@ -127,7 +127,8 @@ class ModbusServer:
                 devices, address=(self.host, self.port), trace_packet=self._trace
             )
             await self._server.serve_forever(background=True)
-            listening: Any = self._server.transport  # an asyncio.Server once it listens
+            listening = self._server.transport
+            assert isinstance(listening, asyncio.Server)  # what a listening transport is
             self.port = listening.sockets[0].getsockname()[1]
 
         try:
