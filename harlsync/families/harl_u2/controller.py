@@ -68,7 +68,7 @@ Progress = Callable[[int, int], None]
 T = TypeVar("T")
 
 
-class Controller(OnLink):
+class Controller(OnLink[Frame]):
     """One robot (``station``, default the link's) on an open HARL-U2 link."""
 
     def __init__(self, link: SharedLink[Frame], station: int | None = None) -> None:
