@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from conftest import git
 from fsfaults import read_only
+from typing_extensions import Unpack
 
 from harlsync.cli import main
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
@@ -23,6 +24,7 @@ from harlsync.sim import Faults
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 from harlsync.sync.backup import backup, find_projects, line_of
+from harlsync.sync.pulling import PullResult
 
 SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
 
@@ -332,7 +334,7 @@ def test_an_unexpected_error_costs_one_robot_not_the_night(plant: Plant, monkeyp
 
     real = nightly.read_robot
 
-    def broken_for_the_loader(path: Path, **kwargs: object):  # type: ignore[no-untyped-def]
+    def broken_for_the_loader(path: Path, **kwargs: Unpack[nightly.ReadOptions]) -> PullResult:
         if Path(path).name == "loader":
             raise RuntimeError("termios.error(5, 'Input/output error')")
         return real(path, **kwargs)
