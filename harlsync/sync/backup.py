@@ -26,9 +26,7 @@ from collections.abc import Iterable
 from contextlib import ExitStack
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import TypedDict
-
-from typing_extensions import Unpack
+from typing import TYPE_CHECKING, TypedDict
 
 from ..errors import HarlsyncError, ProjectError, SyncError
 from ..link.lock import LockTimeout
@@ -44,6 +42,9 @@ from .robotbackup import (
     lines_of,
     record_not_backed_up,
 )
+
+if TYPE_CHECKING:  # for the checker only: not imported at run time
+    from typing_extensions import Unpack
 
 __all__ = [
     "BackupReport",

@@ -7,9 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, TypedDict
-
-from typing_extensions import Unpack
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from .. import families
 from ..families.base import AnyFamily, Catalogue, Driver, Progress
@@ -24,6 +22,9 @@ from .live import connect as connect_family
 from .live import station_number as family_station_number
 from .pulling import PullResult
 from .snapshots import SNAPSHOT_DIR, Snapshot, all_snapshots, snapshots
+
+if TYPE_CHECKING:  # for the checker only: not imported at run time
+    from typing_extensions import Unpack
 
 __all__ = [
     "SNAPSHOT_DIR",

@@ -29,9 +29,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from functools import partial
 from pathlib import Path
-from typing import Generic, TypedDict
-
-from typing_extensions import NotRequired, Unpack
+from typing import TYPE_CHECKING, Generic, TypedDict
 
 from ..errors import PolicyError, ProjectError, ProjectInvalid, SyncError
 from ..families.base import AnyFamily, Catalogue, D, Family, K, Progress
@@ -44,6 +42,9 @@ from .backupref import Entry
 from .items import Change, diff, diff_items
 from .live import LiveRead, read_live
 from .pulling import PullResult, pull
+
+if TYPE_CHECKING:  # for the checker only: not imported at run time
+    from typing_extensions import NotRequired, Unpack
 
 __all__ = ["Observed", "read_robot"]
 

@@ -127,8 +127,7 @@ class ModbusServer:
                 devices, address=(self.host, self.port), trace_packet=self._trace
             )
             await self._server.serve_forever(background=True)
-            listening = self._server.transport
-            assert isinstance(listening, asyncio.Server)  # what a listening transport is
+            listening: Any = self._server.transport  # an asyncio.Server once it listens
             self.port = listening.sockets[0].getsockname()[1]
 
         try:
