@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from conftest import git
 from fsfaults import read_only
+from typing_extensions import Unpack
 
 from harlsync.cli import main
 from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
@@ -340,7 +341,7 @@ def test_an_unexpected_error_costs_one_robot_not_the_night(
 
     real = nightly.read_robot
 
-    def broken_for_the_loader(path: Path, **kwargs: object) -> PullResult:
+    def broken_for_the_loader(path: Path, **kwargs: Unpack[nightly.ReadOptions]) -> PullResult:
         if Path(path).name == "loader":
             raise RuntimeError("termios.error(5, 'Input/output error')")
         return real(path, **kwargs)

@@ -32,6 +32,7 @@ from .common import (
 )
 
 if TYPE_CHECKING:
+    from ..families.base import K
     from ..sync.comparison import Comparison
     from ..sync.deploy import PushOptions, PushResult
     from ..sync.items import Differences
@@ -159,7 +160,7 @@ def _live(args: argparse.Namespace) -> Differences:
     return found.differences()
 
 
-def _compare(args: argparse.Namespace, command: str) -> tuple[Comparison, Feedback]:
+def _compare(args: argparse.Namespace, command: str) -> tuple[Comparison[Any, Any], Feedback]:
     """The live robot against the project, for ``diff`` or ``plan`` (which also asks
     whether the robot is idle); the warnings said."""
     from ..sync import comparison
@@ -242,7 +243,7 @@ def _push_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _confirm(the_plan: Plan[Any], verbose: int = 0) -> bool:
+def _confirm(the_plan: Plan[K], verbose: int = 0) -> bool:
     """Show the plan and ask on the terminal (only given when stdin is one)."""
     _lines(the_plan.lines(verbose))
     answer = input(f"Write these {the_plan.counted} to {the_plan.robot}? [y/N] ")

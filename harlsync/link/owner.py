@@ -4,8 +4,9 @@ closing the link only when it opened it (``from_url``), also as a ``with`` block
 from __future__ import annotations
 
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Generic, TypeVar
 
+from .codec import Frame
 from .exchange import Link
 
 if TYPE_CHECKING:  # for the checker only: not imported before a first request
@@ -13,13 +14,14 @@ if TYPE_CHECKING:  # for the checker only: not imported before a first request
 
 __all__ = ["OnLink"]
 
-T = TypeVar("T", bound="OnLink")
+F = TypeVar("F", bound=Frame)
 
 
-class OnLink:
-    """A controller that talks through :attr:`link`; :attr:`_owns_link` when it opened it."""
+class OnLink(Generic[F]):
+    """A controller that talks through :attr:`link` (of the family's frames ``F``);
+    :attr:`_owns_link` when it opened it."""
 
-    link: Link[Any]
+    link: Link[F]
     _owns_link: bool = False
 
     @property

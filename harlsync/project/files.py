@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from yaml.nodes import MappingNode, Node, SequenceNode
 
@@ -28,6 +28,7 @@ __all__ = [
     "FileSet",
     "Flaws",
     "MigrationError",
+    "Migrations",
     "build_serial",
     "build_windows",
     "canonical_integer",
@@ -49,7 +50,7 @@ LOCAL_DIR = ".harlsync"
 #: ``MIGRATIONS[n](kind, data)`` turns a format-``n`` document of file kind ``kind``
 #: into a format-``n+1`` one (data as :func:`yamlio.parse` gives it), or raises
 #: :class:`MigrationError` naming what it cannot carry over.
-Migrations = dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]]
+Migrations = dict[int, Callable[[str, dict[str, object]], dict[str, object]]]
 
 
 class MigrationError(ValueError):

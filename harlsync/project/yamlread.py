@@ -12,7 +12,7 @@ import decimal
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from yaml.composer import Composer, ComposerError
 from yaml.nodes import Node, ScalarNode, SequenceNode
@@ -183,7 +183,15 @@ class _Budget:
             )
 
 
-def _compose(loader: Any) -> Node | None:
+class _Composing(Protocol):
+    """What :func:`_compose` asks of a loader (ours, or libyaml's)."""
+
+    def get_single_node(self) -> Node | None: ...
+
+    def dispose(self) -> None: ...
+
+
+def _compose(loader: _Composing) -> Node | None:
     try:
         node: Node | None = loader.get_single_node()
     finally:
@@ -195,7 +203,7 @@ def _line(node: Node) -> int:
     return node.start_mark.line + 1
 
 
-def _build(node: Node, path: KeyPath, out: Parsed, active: set[int], budget: _Budget) -> Any:
+def _build(node: Node, path: KeyPath, out: Parsed, active: set[int], budget: _Budget) -> object:
     budget.spend(node)
     out.lines.setdefault(path, _line(node))
     if isinstance(node, ScalarNode):
@@ -214,7 +222,7 @@ def _build(node: Node, path: KeyPath, out: Parsed, active: set[int], budget: _Bu
             ]
         if node.tag != MAP:
             raise YamlSyntaxError(_line(node), f"unsupported tag {node.tag}")
-        result: dict[str, Any] = {}
+        result: dict[str, object] = {}
         for key_node, value_node in node.value:
             if not isinstance(key_node, ScalarNode):
                 raise YamlSyntaxError(_line(key_node), "a mapping key must be a plain value")
@@ -230,7 +238,7 @@ def _build(node: Node, path: KeyPath, out: Parsed, active: set[int], budget: _Bu
         active.discard(id(node))
 
 
-def _scalar(node: ScalarNode) -> Any:
+def _scalar(node: ScalarNode) -> Number | str | bool | None:
     value: str = node.value
     if node.tag in (INT, FLOAT):
         # 0x1F, .inf and friends are core-schema numbers Number cannot keep: text.

@@ -17,7 +17,6 @@ A request that differs from the capture fails the write (the link reports a
 from __future__ import annotations
 
 import time
-from typing import Any
 from urllib.parse import parse_qs
 
 from serial.serialutil import SerialException
@@ -80,7 +79,7 @@ class Serial(protocol_sim.Serial):
         self._pending = [(now + delay, data) for delay, data in replay.start()]
         self.is_open = True
 
-    def write(self, data: Any) -> int:
+    def write(self, data: bytes) -> int:  # type: ignore[override]  # as sim://'s
         try:
             return super().write(data)
         except ReplayMismatch as exc:

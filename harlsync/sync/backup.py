@@ -26,7 +26,7 @@ from collections.abc import Iterable
 from contextlib import ExitStack
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 from ..errors import HarlsyncError, ProjectError, SyncError
 from ..link.lock import LockTimeout
@@ -42,6 +42,9 @@ from .robotbackup import (
     lines_of,
     record_not_backed_up,
 )
+
+if TYPE_CHECKING:  # for the checker only: not imported at run time
+    from typing_extensions import Unpack
 
 __all__ = [
     "BackupReport",
@@ -110,7 +113,21 @@ def _record_commit(paths: list[Path], commit: str) -> None:
             log.warning("%s: %s", path.name, exc)
 
 
-def backup(paths: Iterable[str | Path], **options: Any) -> BackupReport:
+class BackupOptions(TypedDict, total=False):
+    """A backup's options, as :func:`_run` takes them."""
+
+    jobs: int | None
+    workers: int | None
+    commit: bool
+    push: bool
+    stale_after: timedelta
+    attempts: int
+    lock_timeout: float
+    now: datetime | None
+    watch: BackupWatch | None
+
+
+def backup(paths: Iterable[str | Path], **options: Unpack[BackupOptions]) -> BackupReport:
     """Pull every robot under ``paths``; commit and push once when asked (see
     :func:`_run` for the ``options``).
 

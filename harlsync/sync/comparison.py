@@ -6,10 +6,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic
 
 from ..errors import ProjectError
-from ..families.base import Driver, Progress
+from ..families.base import D, Driver, K, Progress
 from ..project import Project, load_project
 from .items import Change, Differences, diff
 from .live import Station, read_live, station_number
@@ -19,14 +19,14 @@ __all__ = ["Comparison", "compare", "plan"]
 
 
 @dataclass
-class Comparison:
+class Comparison(Generic[K, D]):
     """The live robot against the project.  ``driver`` is closed; it still names
     the robot and builds its commands."""
 
     project: Project
-    driver: Driver[Any, Any]
-    live: Any
-    changes: list[Change[Any]]
+    driver: Driver[K, D]
+    live: D
+    changes: list[Change[K]]
     #: Earlier pushes to this robot that never finished (see :mod:`.audit`).
     warnings: list[str] = field(default_factory=list)
     #: With ``idle_check``, when the robot is not idle: why a push would be refused now.
@@ -60,7 +60,7 @@ class Comparison:
             reasons.append(f"robot {robot} ({self.target}) is not idle: {self.busy}")
         return reasons
 
-    def plan(self) -> Plan[Any]:
+    def plan(self) -> Plan[K]:
         """The plan a push would carry out, from this comparison, each write that
         reverts a change made on the robot named (:attr:`Plan.reverts`)."""
         from .states import mark_reverts
@@ -90,7 +90,7 @@ def compare(
     idle_check: bool = False,
     connect_options: Mapping[str, bool] | None = None,
     command: str = "diff",
-) -> Comparison:
+) -> Comparison[Any, Any]:
     """Read the live robot and compare it with the project, item by item; with
     ``idle_check`` also say whether a push would be refused now (robot not idle).
     ``command`` is the harlsync command it serves (``diff``, ``plan``), for advice."""

@@ -5,12 +5,12 @@ and plan (:mod:`.comparison`), push and rollback (:mod:`.deploy`), snapshots
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from .. import families
-from ..families.base import AnyFamily, Catalogue, Driver
+from ..families.base import AnyFamily, Catalogue, Driver, Progress
 from ..project import Robot, load_project, load_robot
 from . import git, pulling
 from .comparison import Comparison, compare, plan
@@ -22,6 +22,9 @@ from .live import connect as connect_family
 from .live import station_number as family_station_number
 from .pulling import PullResult
 from .snapshots import SNAPSHOT_DIR, Snapshot, all_snapshots, snapshots
+
+if TYPE_CHECKING:  # for the checker only: not imported at run time
+    from typing_extensions import Unpack
 
 __all__ = [
     "SNAPSHOT_DIR",
@@ -78,7 +81,24 @@ def station_number(family: str | AnyFamily | None, station: Station) -> int | No
     return family_station_number(found, station)
 
 
-def pull(path: str | Path, *, family: str | AnyFamily | None = None, **options: Any) -> PullResult:
+class PullOptions(TypedDict, total=False):
+    """A pull's options besides its family, as :func:`.pulling.pull` takes them."""
+
+    port: str | None
+    station: Station
+    commit: bool
+    progress: Progress | None
+    lock_timeout: float
+    allow_dirty: bool
+    new_robot: bool
+    connect_options: Mapping[str, bool] | None
+    noted: Callable[[str], None] | None
+    discard_pending: bool
+
+
+def pull(
+    path: str | Path, *, family: str | AnyFamily | None = None, **options: Unpack[PullOptions]
+) -> PullResult:
     """:func:`.pulling.pull`, with ``family`` given by name too (as robot.yaml says it)."""
     found = families.get(family) if isinstance(family, str) else family
     return pulling.pull(path, family=found, **options)

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from .. import families
 from ..errors import ProjectError
@@ -28,7 +27,7 @@ class FirstContact:
     directory: Path | None = None
     written: Path | None = None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         out = probe.to_json(self.found)
         out["written"] = str(self.written) if self.written else None
         return out

@@ -321,7 +321,7 @@ class _Child:
         self.events = 0
         self.relay_cpu = 0.0
         read_fd, self._write_fd = os.pipe()
-        self._job: dict[str, Any] = {
+        self._job: dict[str, object] = {
             "attempts": task.attempts,
             "lock_timeout": task.lock_timeout,
             "offset": offset,

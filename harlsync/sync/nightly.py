@@ -29,10 +29,10 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from functools import partial
 from pathlib import Path
-from typing import Any, Generic
+from typing import TYPE_CHECKING, Generic, TypedDict
 
 from ..errors import PolicyError, ProjectError, ProjectInvalid, SyncError
-from ..families.base import Catalogue, D, Family, K, Progress
+from ..families.base import AnyFamily, Catalogue, D, Family, K, Progress
 from ..project import load_robot
 from ..project.robot import Robot
 from ..project.store import SCHEMAS_DIR
@@ -42,6 +42,9 @@ from .backupref import Entry
 from .items import Change, diff, diff_items
 from .live import LiveRead, read_live
 from .pulling import PullResult, pull
+
+if TYPE_CHECKING:  # for the checker only: not imported at run time
+    from typing_extensions import NotRequired, Unpack
 
 __all__ = ["Observed", "read_robot"]
 
@@ -66,7 +69,17 @@ class Observed(PullResult):
         return {"root": self.root, "where": self.where, "files": self.files, "setup": self.setup}
 
 
-def read_robot(path: Path, **options: Any) -> PullResult:
+class ReadOptions(TypedDict):
+    """What :func:`read_robot` passes on to a pull or an observation."""
+
+    lock_timeout: float
+    family: AnyFamily
+    progress: NotRequired[Progress | None]
+    connect_options: NotRequired[Mapping[str, bool] | None]
+    noted: NotRequired[Callable[[str], None] | None]
+
+
+def read_robot(path: Path, **options: Unpack[ReadOptions]) -> PullResult:
     """Back up the robot of ``path``: :func:`_observe` it when git holds an approved
     version of it, else :func:`.pulling.pull` it into its directory.  ``options``
     are a pull's (``lock_timeout``, ``progress``, ``family``, ``connect_options``,

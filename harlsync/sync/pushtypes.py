@@ -8,13 +8,19 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from ..errors import HarlsyncError, PartlyWritten, SyncError, partly_words
-from ..families.base import Progress
+from ..families.base import K, Progress
 from .plan import Plan, PlannedWrite
 
-__all__ = ["PushFailed", "PushOptions", "PushResult"]
+__all__ = ["Confirm", "PushFailed", "PushOptions", "PushResult"]
+
+
+class Confirm(Protocol):
+    """Asks a person to confirm a plan, of whichever family's robot it is."""
+
+    def __call__(self, plan: Plan[K], /) -> bool: ...
 
 
 @dataclass
@@ -24,7 +30,7 @@ class PushOptions:
     yes: bool = False
     #: Asks a person to confirm the plan; without it and without ``yes`` the push is
     #: refused before the robot is read.
-    confirm: Callable[[Plan[Any]], bool] | None = None
+    confirm: Confirm | None = None
     reason: str | None = None
     allow_dirty: bool = False
     outside_window: str | None = None

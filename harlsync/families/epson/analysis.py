@@ -169,9 +169,9 @@ def _build_robot(doc: y.Parsed, issues: list[Issue], notes: list[str]) -> Robot 
     )
 
 
-def _robot_options(conn: Mapping[str, Any], controller: Mapping[str, Any]) -> dict[str, Any]:
+def _robot_options(conn: Mapping[str, Any], controller: Mapping[str, Any]) -> dict[str, object]:
     """robot.yaml's connection and controller sections as the robot's options."""
-    options: dict[str, Any] = {
+    options: dict[str, object] = {
         key: _plain(conn.get(key, default)) for key, default in LINE_DEFAULTS.items()
     }
     options["map"] = _plain(conn.get("map", {}))

@@ -254,8 +254,10 @@ def check_points(
 ) -> None:
     """What the schema cannot say of each point it passed: the robot's range, the
     coordinates against the axes, the type's own attributes."""
-    table: Any = doc.data.get("points") if isinstance(doc.data, dict) else None
+    table = doc.data.get("points") if isinstance(doc.data, dict) else None
     first, last = point_range(robot) if robot is not None else (0, 0xFFFF)
+    if not isinstance(table, dict):
+        return  # the schema reports it
     for key, n in numbers(table):
         at = ("points", key)
         if not flaws.sound(*at):

@@ -126,7 +126,7 @@ class Kind:
     #: the first and last number of a numbered kind; None: there is one item
     numbers: tuple[int, int] | None = None
     #: ``record``: its NamedTuple and whether its fields are reals
-    record: Callable[..., Any] | None = None
+    record: Callable[..., tuple[object, ...]] | None = None
     fields: tuple[str, ...] = ()
     real: bool = True
 

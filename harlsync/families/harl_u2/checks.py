@@ -116,7 +116,7 @@ def _table_limit(asked: int | None, limits: Limits) -> tuple[int, str] | None:
     return asked, "robot.yaml offset_tables"
 
 
-def top_value(doc: y.Parsed, key: str) -> Any:
+def top_value(doc: y.Parsed, key: str) -> object:
     return doc.data.get(key) if isinstance(doc.data, dict) else None
 
 
@@ -298,6 +298,8 @@ def _check_wire(
 
 def _check_offsets(doc: y.Parsed, flaws: Flaws, issues: list[Issue]) -> None:
     tables = top_value(doc, "tables")
+    if not isinstance(tables, dict):
+        return  # the schema reports it
     for key, _ in numbers(tables):
         if not flaws.sound("tables", key):
             continue

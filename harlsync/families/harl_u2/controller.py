@@ -33,7 +33,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from ...errors import ControllerError, WriteUnconfirmed
 from ...link import DEFAULT_LOCK_TIMEOUT
@@ -68,7 +68,7 @@ Progress = Callable[[int, int], None]
 T = TypeVar("T")
 
 
-class Controller(OnLink):
+class Controller(OnLink[Frame]):
     """One robot (``station``, default the link's) on an open HARL-U2 link."""
 
     def __init__(self, link: SharedLink[Frame], station: int | None = None) -> None:
@@ -140,7 +140,7 @@ class Controller(OnLink):
             what=readback.payload,
         )
 
-    def _idle_before_resend(self, request: Any, lost: WriteUnconfirmed) -> None:
+    def _idle_before_resend(self, request: Request[object], lost: WriteUnconfirmed) -> None:
         """Raise InterlockError unless the status, read now, shows the robot idle."""
         refuse_unless_idle(
             self.idle_status,

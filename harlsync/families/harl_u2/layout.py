@@ -13,14 +13,16 @@ on the next save; a newer format is refused.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Mapping
-from typing import Any
+from collections.abc import Mapping
+
+from yaml.nodes import MappingNode, Node
 
 from ...project import yamlio as y
 from ...project.files import (
     SCHEMAS_DIR,
     FileSet,
     MigrationError,
+    Migrations,
     numbered,
     serial_items,
     window_nodes,
@@ -79,14 +81,14 @@ FORMAT = 2
 #: ``kind`` into a format-``n+1`` one (data as :func:`yamlio.parse` gives it).
 #: Load applies them in turn up to :data:`FORMAT`; the next save writes the
 #: result.
-MIGRATIONS: dict[int, Callable[[str, dict[str, Any]], dict[str, Any]]] = {}
+MIGRATIONS: Migrations = {}
 
 #: The most steps a program area has (controller.yaml's schema: ``steps`` 0-9999).
 MAX_STEPS = 9999
 _STEP_NUMBER = re.compile(r"0|[1-9][0-9]{0,3}")
 
 
-def migrate_1_to_2(kind: str, data: dict[str, Any]) -> dict[str, Any]:
+def migrate_1_to_2(kind: str, data: dict[str, object]) -> dict[str, object]:
     """Format 1 to 2: a program's ``steps`` mapping (step number -> step, empty steps
     left out) becomes the list of its steps in step order, an empty step ``null``.
 
@@ -107,7 +109,7 @@ def migrate_1_to_2(kind: str, data: dict[str, Any]) -> dict[str, Any]:
         raise MigrationError(
             [(("steps", k), f"{show(k)} is not a step number {allowed}") for k in bad]
         )
-    listed: list[Any] = [None] * (max((int(k) for k in steps), default=-1) + 1)
+    listed: list[object] = [None] * (max((int(k) for k in steps), default=-1) + 1)
     for k, step in steps.items():
         listed[int(k)] = step
     return {**data, "steps": listed}
@@ -173,7 +175,7 @@ def render_robot(robot: Robot) -> str:
         ("station", y.num(str(int(robot.station)))),
         *serial_items(robot.serial),
     ]
-    items: list[tuple[str, Any]] = [("name", y.text(robot.name))]
+    items: list[tuple[str, Node]] = [("name", y.text(robot.name))]
     if robot.description is not None:
         items.append(("description", y.text(robot.description)))
     items += [
@@ -190,13 +192,13 @@ def render_robot(robot: Robot) -> str:
 
 
 def render_controller(version: str, config: Config, offset_end: OffsetEnd | None = None) -> str:
-    def area(a: ProgramArea) -> Any:
+    def area(a: ProgramArea) -> MappingNode:
         return y.mapping(
             [("count", y.num(str(a.count))), ("steps", y.num(str(a.steps)))], flow=True
         )
 
     programs = y.mapping([(t.value.lower(), area(config.area(t))) for t in ProgramType])
-    items: list[tuple[str, Any]] = [
+    items: list[tuple[str, Node]] = [
         ("version", y.text(version)),
         ("programs", programs),
         ("timers", y.num(str(config.timers))),
@@ -215,7 +217,7 @@ def render_parameters(parameters: Parameters) -> str:
 
 
 def render_offsets(offsets: Mapping[int, OffsetTable]) -> str:
-    def table(t: OffsetTable) -> Any:
+    def table(t: OffsetTable) -> MappingNode:
         return y.mapping(
             [(name, y.scalar_for(v)) for name, v in zip(OFFSET_FIELDS, t.values)], flow=True
         )

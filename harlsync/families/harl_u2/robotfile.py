@@ -28,9 +28,9 @@ def build_robot(data: Mapping[str, Any]) -> Robot:
     )
 
 
-def _options(data: Mapping[str, Any]) -> dict[str, Any]:
+def _options(data: Mapping[str, Any]) -> dict[str, object]:
     """The HARL-U2's own settings robot.yaml gives: ``offset_tables``, ``no_such_table``."""
-    options: dict[str, Any] = {}
+    options: dict[str, object] = {}
     if "offset_tables" in data:
         options["offset_tables"] = int(data["offset_tables"])
     if "no_such_table" in data:

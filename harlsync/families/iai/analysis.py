@@ -284,7 +284,9 @@ def _check_variables(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: l
     ranges = variable_ranges(robot) if robot is not None else {}
     canonical = {"integers": canonical_integer, "reals": canonical_real}
     for section, called in VARIABLE_SECTIONS.items():
-        table: Any = doc.data.get(section) if isinstance(doc.data, dict) else None
+        table = doc.data.get(section) if isinstance(doc.data, dict) else None
+        if not isinstance(table, dict):
+            continue  # the schema reports it
         first, last = ranges.get(section, (0, HUGE))
         for key, n in numbers(table):
             at = (section, key)
@@ -308,7 +310,9 @@ def _check_records(doc: y.Parsed, flaws: Flaws, robot: Robot | None, issues: lis
     robot.yaml's range for its section, and coordinates in their one form."""
     ranges = record_ranges(robot) if robot is not None else {}
     for section in RECORD_SECTIONS:
-        table: Any = doc.data.get(section) if isinstance(doc.data, dict) else None
+        table = doc.data.get(section) if isinstance(doc.data, dict) else None
+        if not isinstance(table, dict):
+            continue  # the schema reports it
         first, last = ranges.get(section, (0, HUGE))
         for key, n in numbers(table):
             at = (section, key)

@@ -67,7 +67,7 @@ def chunks(first: int, last: int, step: int) -> list[tuple[int, int]]:
 ERROR_CODE_NOTE = "the controller's error list gives the code's meaning"
 
 
-class Station(OnLink):
+class Station(OnLink[Frame]):
     """One IAI controller on a link: its requests, its status and its reads.
 
     The arguments are :class:`~harlsync.families.iai.controller.Controller`'s.

@@ -90,7 +90,7 @@ class ModbusServer:
             address: int,
             count: int,
             registers: list[int],
-            values: Any,
+            values: list[int] | list[bool] | None,
         ) -> ExcCodes | None:
             if bank is None:
                 return ExcCodes.GATEWAY_NO_RESPONSE

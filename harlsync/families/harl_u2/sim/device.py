@@ -16,7 +16,6 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from ....errors import ProtocolError
 from ....sim import device
@@ -195,7 +194,7 @@ class Simulator(device.Simulator[SimState, Frame]):
         except ValueError:
             return profile.ERROR_PREFIX + STATUS_COMMAND
 
-    def _read(self, state: SimState, req: Request[Any]) -> str:
+    def _read(self, state: SimState, req: Request[object]) -> str:
         data, cfg, a = state.data, state.data.config, req.args
         letters = req.letters
         if letters in ("LNA", "LNM", "LNS", "LNH"):
@@ -231,7 +230,7 @@ class Simulator(device.Simulator[SimState, Frame]):
             return " ".join(str(n) for n in cfg.numbers())
         raise Refused(STATUS_COMMAND)
 
-    def _write(self, state: SimState, req: Request[Any]) -> str:
+    def _write(self, state: SimState, req: Request[object]) -> str:
         data, cfg, a = state.data, state.data.config, req.args
         letters = req.letters
         if letters in ("SNA", "SNM", "SNS", "SNH"):
