@@ -63,14 +63,16 @@ import os
 import sys
 
 
-def replay(folder: str) -> None:
-    """The floor itself: the requests of ``folder`` to the port it names, and nothing
+def replay(folder: str, port: str | None = None) -> None:
+    """The floor itself: the requests of ``folder`` to the port it names (or
+    ``port``: bench/fleet.py replays one recording on every line), and nothing
     else (only ``os`` and ``tty`` are imported before the first request, and
     ``socket`` for a device server)."""
     import tty
 
-    with open(os.path.join(folder, "port"), encoding="ascii") as f:
-        port = f.read()
+    if port is None:
+        with open(os.path.join(folder, "port"), encoding="ascii") as f:
+            port = f.read()
     with open(os.path.join(folder, "requests"), "rb") as f:
         requests = f.read()
     with open(os.path.join(folder, "sizes"), encoding="ascii") as f:
@@ -103,7 +105,7 @@ def replay(folder: str) -> None:
 
 
 if __name__ == "__main__" and sys.argv[1:2] == ["--replay"]:
-    replay(sys.argv[2])
+    replay(sys.argv[2], *sys.argv[3:4])
     sys.exit(0)
 
 # The rest is the bench around the floor, which the floor's own process never imports.
