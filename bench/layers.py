@@ -162,6 +162,7 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=32)
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--top", type=int, default=0, help="also the N costliest functions")
+    parser.add_argument("--dump", metavar="FILE", help="the merged profile, for pstats")
     args = parser.parse_args()
     print(f"harlsync layers bench: {describe()}")
     print(
@@ -198,6 +199,8 @@ def main() -> None:
     merged = pstats.Stats(main_profile)
     for profile in profiles:
         merged.add(profile)
+    if args.dump:
+        merged.dump_stats(args.dump)
     stats: dict[Func, Any] = merged.stats  # type: ignore[attr-defined]
     layers = by_layer(stats)
     total = sum(layers.values())
