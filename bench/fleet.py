@@ -9,6 +9,8 @@
     python bench/fleet.py --robots 32 --processes 4     the simulators as before issue
                                              15: 8 lines a process, two threads a line
     python bench/fleet.py --workers 1        the backup in one process, as before issue 24
+    python bench/fleet.py --quick --starting 4,0 --rounds 3   four robots of a process
+                                             starting at once against all of them
     python bench/fleet.py --split 4 --tick 0.004        4 backups of a share each, and
                                              bytes delivered every 4 ms as a USB
                                              adapter's latency timer does
@@ -64,7 +66,8 @@ import sys
 import tempfile
 import time
 import tty
-from contextlib import ExitStack
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -113,6 +116,43 @@ def one_thread_floor(ports: list[str], seconds: float) -> tuple[int, float, floa
     for fd in fds:
         os.close(fd)
     return done, took, used
+
+
+#: Run by every Python process started while the bench sets HARLSYNC_BENCH_STARTING
+#: (the fleet's workers): their ``Starts`` with that many places (0: all at once).
+SITECUSTOMIZE = """
+import os
+n = os.environ.get("HARLSYNC_BENCH_STARTING")
+if n:
+    from harlsync.sync import fleettask
+    fleettask.Starts.__init__.__defaults__ = (int(n) or 1 << 20, fleettask.START_HOLD)
+"""
+
+
+@contextmanager
+def starting_at_once(places: int | None, tmp: Path) -> Iterator[None]:
+    """The fleet's processes (this one and the workers it starts) with ``places``
+    starting places each (harlsync's ``STARTING``; 0: every robot at once; None:
+    harlsync's own), through a ``sitecustomize`` on the workers' PYTHONPATH."""
+    if places is None:
+        yield
+        return
+    from harlsync.sync import fleettask
+
+    folder = tmp / "sitecustomize"
+    folder.mkdir(exist_ok=True)
+    (folder / "sitecustomize.py").write_text(SITECUSTOMIZE)
+    saved = dict(os.environ)
+    defaults = fleettask.Starts.__init__.__defaults__
+    os.environ["HARLSYNC_BENCH_STARTING"] = str(places)
+    os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(folder), saved.get("PYTHONPATH")]))
+    fleettask.Starts.__init__.__defaults__ = (places or 1 << 20, fleettask.START_HOLD)
+    try:
+        yield
+    finally:
+        fleettask.Starts.__init__.__defaults__ = defaults
+        os.environ.clear()
+        os.environ.update(saved)
 
 
 @dataclass
@@ -175,6 +215,42 @@ def run_floors(sims: list[SimProcess], ports: list[str], folder: Path, exchanges
     return Floor(alone, alone_cpu / exchanges, fleet, cpu / made)
 
 
+def thread_per_line_floor(ports: list[str], seconds: float) -> tuple[int, float, float]:
+    """The same as :func:`one_thread_floor` by a thread a line in this process, each
+    blocking in ``poll`` on its own line (what the link does, without the link)."""
+    import threading
+
+    frames = [
+        encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload) for n in range(64)
+    ]
+    counts = [0] * len(ports)
+    start = time.perf_counter()
+    end = start + seconds
+
+    def line(n: int, port: str) -> None:
+        fd = os.open(port, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        tty.setraw(fd)
+        poller, decoder = select.poll(), FrameDecoder()
+        poller.register(fd, select.POLLIN)
+        while time.perf_counter() < end:
+            os.write(fd, frames[counts[n] % 64])
+            while decoder.next_frame() is None:
+                if poller.poll(1000):
+                    decoder.feed(os.read(fd, 4096))
+            counts[n] += 1
+        time.sleep(0.2)  # the reply still on the wire
+        os.close(fd)
+
+    cpu = os.times()
+    threads = [threading.Thread(target=line, args=(n, p)) for n, p in enumerate(ports)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    took = time.perf_counter() - start - 0.2
+    return sum(counts), took, sum(os.times()[:2]) - sum(cpu[:2])
+
+
 def split_backup(robots: list[Path], parts: int, jobs: int | None) -> BackupReport:
     """``backup`` of ``robots`` in ``parts`` processes at once, each a share; their
     reports joined (robots and durations only)."""
@@ -235,7 +311,13 @@ def main() -> None:
     parser.add_argument(
         "--floor",
         action="store_true",
-        help="then drive every line from one thread with raw frames, for scale",
+        help="then drive every line with raw frames from one thread and one epoll loop, "
+        "then from a thread a line, each blocking on its port: one against the other",
+    )
+    parser.add_argument(
+        "--starting",
+        help="how many robots of a process start at once (harlsync's STARTING; 0: all), "
+        "several, comma-separated (4,0), in turn in each round; default: harlsync's",
     )
     parser.add_argument(
         "--no-floor",
@@ -253,6 +335,9 @@ def main() -> None:
     robot = args.robot or ("small-full" if args.quick else "default-full")
     count = args.robots or (32 if args.quick else 128)
     counts: list[int | None] = [int(n) for n in args.workers.split(",")] if args.workers else [None]
+    startings: list[int | None] = (
+        [int(n) for n in args.starting.split(",")] if args.starting else [None]
+    )
     processes = args.processes or 1
     per_process = -(-count // processes)
     records: list[dict[str, Any]] = []
@@ -325,12 +410,18 @@ def main() -> None:
                 if round_ == 1:
                     floor_record(sims[0], robot, Path(tmp) / "floor")
                 bare = run_floors(sims, ports, Path(tmp) / "floor", alone_exchanges)
-            for workers in counts:
-                if args.rounds > 1 or len(counts) > 1:
-                    print(f"--- round {round_}, workers {workers or default_workers()}")
-                took, per_exchange = run_fleet(args, sims, ports, plant, workers, single, records)
+            for workers, starting in [(w, n) for w in counts for n in startings]:
+                label = f"workers {workers or default_workers()}" + (
+                    f", starting {starting or 'all'} at once" if starting is not None else ""
+                )
+                if args.rounds > 1 or len(counts) > 1 or len(startings) > 1:
+                    print(f"--- round {round_}, {label}")
+                with starting_at_once(starting, Path(tmp)):
+                    took, per_exchange = run_fleet(
+                        args, sims, ports, plant, workers, single, records
+                    )
                 summary.append(
-                    f"round {round_}: workers {workers or default_workers()}: "
+                    f"round {round_}: {label}: "
                     f"{took:.1f} s / {single:.1f} s alone = {took / single:.3f}"
                     + (
                         f"; floor {bare.fleet:.1f} s / {bare.alone:.1f} s = "
@@ -342,13 +433,18 @@ def main() -> None:
                     )
                 )
         floor = one_thread_floor(ports, min(single, 10.0)) if args.floor else None
+        threaded = thread_per_line_floor(ports, min(single, 10.0)) if args.floor else None
     print("\n" + "\n".join(summary))
-    if floor:
-        done, took, used = floor
-        print(
-            f"\nOne thread, one epoll loop, every line (raw frames, no link): {done / took:,.0f} "
-            f"exchanges/s, {used / took:.0%} of one core, {used / done * 1e6:.0f} us an exchange"
-        )
+    for what, measured in (
+        ("One thread, one epoll loop, every line", floor),
+        ("A thread a line, each in poll on its own", threaded),
+    ):
+        if measured:
+            done, took, used = measured
+            print(
+                f"{what} (raw frames, no link, one process): {done / took:,.0f} exchanges/s, "
+                f"{used / took:.0%} of one core, {used / done * 1e6:.0f} us an exchange"
+            )
 
 
 def run_fleet(
