@@ -15,7 +15,9 @@ own, even for a process under valgrind.  A fresh interpreter (this script with
 through ``Link.exchange``, as a driver does (the codec encodes the request and
 decodes the reply); it runs once for each of two counts, and the difference over
 the difference of the counts is the instructions of one exchange, start-up and
-imports taken out (after a run that compiles the bytecode, with one hash seed).  Per arrival: the same over the reply bytes of one exchange (the
+imports taken out (after a run that compiles the bytecode, with one hash seed).  The
+floor (``--bare``) sends the same requests with a bare client: write, then blocking
+reads until the codec's decoder has the frame.  Per arrival: the same over the reply bytes of one exchange (the
 simulator's count), each of which woke the link.
 
 The kernel's part (the ``poll`` and ``read`` system calls, the wake-ups) is not in
@@ -44,7 +46,30 @@ def child(port: str, baud: int, count: int) -> None:
             link.exchange(commands.read_step(ProgramType.MAIN, 0, n % 64))
 
 
-def instructions(port: str, baud: int, count: int, env: dict[str, str]) -> int:
+def bare(port: str, baud: int, count: int) -> None:
+    """The floor: the same requests by a bare client (write, then blocking reads until
+    the codec's decoder has the frame), no link."""
+    import tty
+
+    from harlsync.families.harl_u2.model import ProgramType
+    from harlsync.families.harl_u2.protocol import FrameDecoder, commands, encode_frame
+
+    frames = [
+        encode_frame(1, commands.read_step(ProgramType.MAIN, 0, n).payload) for n in range(64)
+    ]
+    fd = os.open(port, os.O_RDWR | os.O_NOCTTY)
+    tty.setraw(fd)
+    decoder = FrameDecoder()
+    for n in range(count):
+        os.write(fd, frames[n % 64])
+        while decoder.next_frame() is None:
+            decoder.feed(os.read(fd, 4096))
+    os.close(fd)
+
+
+def instructions(
+    port: str, baud: int, count: int, env: dict[str, str], mode: str = "--child"
+) -> int:
     done = subprocess.run(
         [
             "valgrind",
@@ -52,7 +77,7 @@ def instructions(port: str, baud: int, count: int, env: dict[str, str]) -> int:
             "--callgrind-out-file=/dev/null",
             sys.executable,
             __file__,
-            "--child",
+            mode,
             port,
             str(baud),
             str(count),
@@ -69,8 +94,9 @@ def instructions(port: str, baud: int, count: int, env: dict[str, str]) -> int:
 
 
 def main() -> None:
-    if sys.argv[1:2] == ["--child"]:
-        child(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]))
+    if sys.argv[1:2] in (["--child"], ["--bare"]):
+        run = child if sys.argv[1] == "--child" else bare
+        run(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]))
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--baud", type=int, default=1200)
@@ -78,7 +104,7 @@ def main() -> None:
     parser.add_argument("--against", metavar="TREE", help="another harlsync's source tree too")
     args = parser.parse_args()
     low, high = (int(n) for n in args.counts.split(","))
-    trees: list[tuple[str, str | None]] = [("this tree", None)]
+    trees: list[tuple[str, str | None]] = [("this tree", None), ("the floor", None)]
     if args.against:
         trees.append((args.against, str(Path(args.against).resolve())))
     print(f"harlsync arrivals bench: {describe()}")
@@ -92,12 +118,13 @@ def main() -> None:
         print(f"{'tree':32} {'instr/exchange':>15} {'arrivals':>9} {'instr/arrival':>14}")
         for name, tree in trees:
             env = process_env(locks, PYTHONHASHSEED="0", **({"PYTHONPATH": tree} if tree else {}))
-            warm = [sys.executable, __file__, "--child", sim.ports[0], str(args.baud), "1"]
+            mode = "--bare" if name == "the floor" else "--child"
+            warm = [sys.executable, __file__, mode, sim.ports[0], str(args.baud), "1"]
             subprocess.run(warm, env=env, check=True)  # its bytecode compiled and cached
             counted = []
             for count in (low, high):
                 sim.reset()
-                counted.append(instructions(sim.ports[0], args.baud, count, env))
+                counted.append(instructions(sim.ports[0], args.baud, count, env, mode))
                 stats = sim.stats()[0]
             per = (counted[1] - counted[0]) / (high - low)
             arrivals = stats["bytes_out"] / stats["exchanges"]

@@ -9,8 +9,6 @@
     python bench/fleet.py --robots 32 --processes 4     the simulators as before issue
                                              15: 8 lines a process, two threads a line
     python bench/fleet.py --workers 1        the backup in one process, as before issue 24
-    python bench/fleet.py --quick --starting 4,0 --rounds 3   four robots of a process
-                                             starting at once against all of them
     python bench/fleet.py --split 4 --tick 0.004        4 backups of a share each, and
                                              bytes delivered every 4 ms as a USB
                                              adapter's latency timer does
@@ -66,8 +64,7 @@ import sys
 import tempfile
 import time
 import tty
-from collections.abc import Iterator
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -116,43 +113,6 @@ def one_thread_floor(ports: list[str], seconds: float) -> tuple[int, float, floa
     for fd in fds:
         os.close(fd)
     return done, took, used
-
-
-#: Run by every Python process started while the bench sets HARLSYNC_BENCH_STARTING
-#: (the fleet's workers): their ``Starts`` with that many places (0: all at once).
-SITECUSTOMIZE = """
-import os
-n = os.environ.get("HARLSYNC_BENCH_STARTING")
-if n:
-    from harlsync.sync import fleettask
-    fleettask.Starts.__init__.__defaults__ = (int(n) or 1 << 20, fleettask.START_HOLD)
-"""
-
-
-@contextmanager
-def starting_at_once(places: int | None, tmp: Path) -> Iterator[None]:
-    """The fleet's processes (this one and the workers it starts) with ``places``
-    starting places each (harlsync's ``STARTING``; 0: every robot at once; None:
-    harlsync's own), through a ``sitecustomize`` on the workers' PYTHONPATH."""
-    if places is None:
-        yield
-        return
-    from harlsync.sync import fleettask
-
-    folder = tmp / "sitecustomize"
-    folder.mkdir(exist_ok=True)
-    (folder / "sitecustomize.py").write_text(SITECUSTOMIZE)
-    saved = dict(os.environ)
-    defaults = fleettask.Starts.__init__.__defaults__
-    os.environ["HARLSYNC_BENCH_STARTING"] = str(places)
-    os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(folder), saved.get("PYTHONPATH")]))
-    fleettask.Starts.__init__.__defaults__ = (places or 1 << 20, fleettask.START_HOLD)
-    try:
-        yield
-    finally:
-        fleettask.Starts.__init__.__defaults__ = defaults
-        os.environ.clear()
-        os.environ.update(saved)
 
 
 @dataclass
@@ -315,11 +275,6 @@ def main() -> None:
         "then from a thread a line, each blocking on its port: one against the other",
     )
     parser.add_argument(
-        "--starting",
-        help="how many robots of a process start at once (harlsync's STARTING; 0: all), "
-        "several, comma-separated (4,0), in turn in each round; default: harlsync's",
-    )
-    parser.add_argument(
         "--no-floor",
         action="store_true",
         help="no bare client (bench/floor.py's) replaying the requests, alone and on every line",
@@ -335,9 +290,6 @@ def main() -> None:
     robot = args.robot or ("small-full" if args.quick else "default-full")
     count = args.robots or (32 if args.quick else 128)
     counts: list[int | None] = [int(n) for n in args.workers.split(",")] if args.workers else [None]
-    startings: list[int | None] = (
-        [int(n) for n in args.starting.split(",")] if args.starting else [None]
-    )
     processes = args.processes or 1
     per_process = -(-count // processes)
     records: list[dict[str, Any]] = []
@@ -410,16 +362,11 @@ def main() -> None:
                 if round_ == 1:
                     floor_record(sims[0], robot, Path(tmp) / "floor")
                 bare = run_floors(sims, ports, Path(tmp) / "floor", alone_exchanges)
-            for workers, starting in [(w, n) for w in counts for n in startings]:
-                label = f"workers {workers or default_workers()}" + (
-                    f", starting {starting or 'all'} at once" if starting is not None else ""
-                )
-                if args.rounds > 1 or len(counts) > 1 or len(startings) > 1:
+            for workers in counts:
+                label = f"workers {workers or default_workers()}"
+                if args.rounds > 1 or len(counts) > 1:
                     print(f"--- round {round_}, {label}")
-                with starting_at_once(starting, Path(tmp)):
-                    took, per_exchange = run_fleet(
-                        args, sims, ports, plant, workers, single, records
-                    )
+                took, per_exchange = run_fleet(args, sims, ports, plant, workers, single, records)
                 summary.append(
                     f"round {round_}: {label}: "
                     f"{took:.1f} s / {single:.1f} s alone = {took / single:.3f}"
