@@ -49,7 +49,10 @@ next request per line, and its CPU.  Load-independent: the exchanges and the CPU
 The simulator runs on the same cores as harlsync: its cost is printed, not kept off
 them (there is no third core).
 
-Target (issues 15 and 24): 128 robots at 19200 baud in at most 1.10 x one robot alone.
+Targets (issue 33): 128 robots at 19200 baud in at most 1.25 x one robot alone with the
+simulator on the same cores, and 1.10 x with its cost taken out (here: harlsync's
+fleet time over the floor's on the same lines, which pays it too); 32 robots in at
+most 1.05 x; CPU per exchange at most 2 x the floor's.
 """
 
 from __future__ import annotations
@@ -80,7 +83,7 @@ from harlsync.settings import SerialSettings
 from harlsync.sync.backup import BackupReport, backup, line_of
 from harlsync.sync.fleet import default_workers
 
-TARGET = 1.10
+TARGET = 1.25
 
 
 def one_thread_floor(ports: list[str], seconds: float) -> tuple[int, float, float]:
@@ -461,7 +464,10 @@ def run_fleet(
         f"({(client_cpu - own_cpu) / total:.0%})"
     )
     by_process(records, ports, lines, began)
-    print(f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}).")
+    print(
+        f"Target: fleet total at most {TARGET} x one robot alone ({minutes(single * TARGET)}; "
+        "32 lines: 1.05 x), 1.10 x the floor's fleet."
+    )
     return total, client_cpu / exchanges
 
 
