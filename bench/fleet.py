@@ -73,7 +73,7 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-from machine import BITS_PER_BYTE, ROBOTS, SimProcess, describe, minutes
+from machine import BITS_PER_BYTE, PYCACHE, ROBOTS, SimProcess, describe, minutes
 
 from harlsync.families.harl_u2.layout import render_robot
 from harlsync.families.harl_u2.model import ProgramType
@@ -322,6 +322,11 @@ def main() -> None:
     )
     summary: list[str] = []
     with tempfile.TemporaryDirectory() as tmp, ExitStack() as stack:
+        # The workers cache their bytecode, as an installed harlsync does (process_env):
+        # a shell that sets PYTHONDONTWRITEBYTECODE would have every worker compile
+        # harlsync's modules again, about 0.3 s of CPU no plant server pays.
+        os.environ["PYTHONPYCACHEPREFIX"] = str(PYCACHE)
+        os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
         os.environ["HARLSYNC_LOCK_DIR"] = str(Path(tmp) / "locks")
         os.environ["HARLSYNC_AUDIT_LOG"] = str(Path(tmp) / "audit.jsonl")
         sims = [
