@@ -53,7 +53,7 @@ for byte, or the bench stops.  Printed per run, and the best of each:
 
 Targets (issue 24, issue 33): the whole pull at most 1.02 x the floor at 19200 baud
 and 1.10 x at 115200, on a pty and behind a device server alike (issue 29); the first
-request 0.08 s after the process starts; 0.1 ms from a reply's last byte to the next
+request 0.10 s after the process starts (issue 33; 0.08 s in issue 24); 0.1 ms from a reply's last byte to the next
 request; CPU per exchange at most 2 x the floor's.
 """
 
@@ -63,14 +63,16 @@ import os
 import sys
 
 
-def replay(folder: str) -> None:
-    """The floor itself: the requests of ``folder`` to the port it names, and nothing
+def replay(folder: str, port: str | None = None) -> None:
+    """The floor itself: the requests of ``folder`` to the port it names (or
+    ``port``: bench/fleet.py replays one recording on every line), and nothing
     else (only ``os`` and ``tty`` are imported before the first request, and
     ``socket`` for a device server)."""
     import tty
 
-    with open(os.path.join(folder, "port"), encoding="ascii") as f:
-        port = f.read()
+    if port is None:
+        with open(os.path.join(folder, "port"), encoding="ascii") as f:
+            port = f.read()
     with open(os.path.join(folder, "requests"), "rb") as f:
         requests = f.read()
     with open(os.path.join(folder, "sizes"), encoding="ascii") as f:
@@ -103,7 +105,7 @@ def replay(folder: str) -> None:
 
 
 if __name__ == "__main__" and sys.argv[1:2] == ["--replay"]:
-    replay(sys.argv[2])
+    replay(sys.argv[2], *sys.argv[3:4])
     sys.exit(0)
 
 # The rest is the bench around the floor, which the floor's own process never imports.
@@ -437,7 +439,7 @@ def main() -> None:
         "last reply byte due to the exit.\nCPU us/ex: the client process's user + system CPU "
         "over the exchanges; sim us/ex: the simulator's.\nratio: harlsync's best whole time "
         "over the floor's; median: the same of the medians.  Targets: whole\n1.02 x the floor "
-        "at 19200, 1.10 x at 115200; start-up 0.08 s; 0.1 ms a gap; CPU 2 x the floor's.\n"
+        "at 19200, 1.10 x at 115200; start-up 0.10 s; 0.1 ms a gap; CPU 2 x the floor's.\n"
         "socket: a device server; robot.yaml at the family's default baud rate, not the line's."
     )
     if late:

@@ -236,9 +236,10 @@ class SimProcess:
     def reset(self) -> None:
         self._ask("reset")
 
-    def record(self) -> None:
-        """From now on the simulator keeps every byte each way (:meth:`wire`)."""
-        self._ask("record")
+    def record(self, keep: bool = True) -> None:
+        """From now on the simulator keeps every byte each way (:meth:`wire`); with
+        ``keep`` false, no longer."""
+        self._ask("record" if keep else "unrecord")
 
     def wire(self) -> list[tuple[bytes, bytes]]:
         """Per line: the bytes the client sent and the reply bytes, in order, since the

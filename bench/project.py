@@ -41,6 +41,7 @@ from harlsync.families.harl_u2.catalogue import CATALOGUE
 from harlsync.families.harl_u2.model import RobotData, Step
 from harlsync.project import (
     Project,
+    atomic,
     load_project,
     new_robot,
     save_project,
@@ -151,7 +152,7 @@ SYNCS = {"fsync": 0, "syncfs": 0}
 
 def _count_syncs() -> None:
     """Count every fsync and syncfs this process makes from now on."""
-    real_fsync, real_syncfs = os.fsync, store._syncfs
+    real_fsync, real_syncfs = os.fsync, atomic._syncfs
 
     def fsync(fd: int) -> None:
         SYNCS["fsync"] += 1
@@ -162,7 +163,7 @@ def _count_syncs() -> None:
         real_syncfs(fd)
 
     os.fsync = fsync
-    store._syncfs = syncfs  # type: ignore[assignment]
+    atomic._syncfs = syncfs  # type: ignore[assignment]
 
 
 def setup_case(case: str, path: Path, robot: str = "max-full") -> Callable[[], object]:
@@ -218,9 +219,9 @@ def setup_case(case: str, path: Path, robot: str = "max-full") -> Callable[[], o
         return lambda: save_project(path, project)
     if case in ("save-write", "write-fsyncs"):
         if case == "write-fsyncs":  # as where there is no syncfs(2)
-            store._load_syncfs = lambda: None  # type: ignore[assignment]
+            atomic._load_syncfs = lambda: None  # type: ignore[assignment]
         counter = iter(range(1_000_000))
-        real_commit = store._commit
+        real_commit = store._commit  # the name save_project calls
 
         def save_write() -> object:
             took = []

@@ -8,7 +8,7 @@ JSON line each: ``stats`` (per line: exchanges, bytes each way, requests by comm
 when the first request byte came and the last reply byte was due, the gaps from a
 reply's last byte to the next request's first, and the CPU this process used so far),
 ``reset``, ``record`` (from now on keep every byte each way; ``reset`` drops what was
-kept) and ``wire`` (per line: what was kept, hex, ``in`` and ``out``: bench/floor.py
+kept; ``unrecord`` stops keeping) and ``wire`` (per line: what was kept, hex, ``in`` and ``out``: bench/floor.py
 replays it).  Exits at end of input.  bench/machine.py's
 SimProcess runs it.
 
@@ -305,9 +305,9 @@ def main() -> None:
             for sim in sims:
                 sim.reset()
             print("{}", flush=True)
-        elif command == "record":
+        elif command in ("record", "unrecord"):
             for sim in sims:
-                sim.recording = True
+                sim.recording = command == "record"
             print("{}", flush=True)
         elif command == "wire":
             print(json.dumps([sim.wire() for sim in sims]), flush=True)

@@ -239,31 +239,7 @@ def _children() -> list[int]:
     ]
 
 
-class Starting(Where):
-    """Counts the robots between their start and their first progress (or end)."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.now: set[Path] = set()
-        self.most = 0
-        self.lock = threading.Lock()
-
-    def started(self, path: Path, name: str) -> None:
-        super().started(path, name)
-        with self.lock:
-            self.now.add(path)
-            self.most = max(self.most, len(self.now))
-
-    def progress(self, path: Path, done: int, total: int) -> None:
-        with self.lock:
-            self.now.discard(path)
-
-    def finished(self, outcome: RobotOutcome) -> None:
-        with self.lock:
-            self.now.discard(Path(outcome.path))
-
-
-def test_at_most_four_robots_of_a_process_start_at_once_and_none_once_stopped(
+def test_every_robot_of_a_process_starts_at_once_and_none_once_stopped(
     tmp_path: Path,
 ) -> None:
     root = tmp_path / "plant"
@@ -271,42 +247,20 @@ def test_at_most_four_robots_of_a_process_start_at_once_and_none_once_stopped(
     try:
         for n, server in enumerate(servers):
             engine.pull(root / f"r{n}", port=server.start())
-        watch = Starting()
+        watch = Where()
         report = backup([root], workers=1, watch=watch)  # nine lines, one process
         assert report.ok, report.render()
-        assert len(watch.of) == 9 and 1 <= watch.most <= fleet.STARTING == 4
+        assert len(watch.of) == 9
 
         stop = threading.Event()
         stop.set()
-        watch = Starting()
+        watch = Where()
         task = fleet.Task(1, 0.0, lambda: datetime.now(timezone.utc))
         task.line([root / "r0", root / "r1"], watch, stop)
-        assert watch.of == {} and task.starts.held() == 0  # not started, no place taken
+        assert watch.of == {}  # not started
     finally:
         for server in servers:
             server.stop()
-
-
-def test_a_robot_long_in_its_start_gives_its_place_up_after_the_hold() -> None:
-    starts = fleet._Starts(places=2, hold=0.05)
-    stop = threading.Event()
-    first, second = starts.enter(stop), starts.enter(stop)
-    assert first is not None and second is not None and starts.held() == 2
-    third = starts.enter(stop)  # both still starting: it waits out the oldest's hold
-    assert third is not None and starts.held() == 3
-    for token in (first, second, third):
-        starts.leave(token)
-    assert starts.held() == 0
-
-    starts = fleet._Starts(places=1, hold=60.0)
-    held = starts.enter(stop)
-    waited: list[object | None] = []
-    waiting = threading.Thread(target=lambda: waited.append(starts.enter(stop)))
-    waiting.start()
-    stop.set()
-    starts.leave(held)  # as a robot stopped at its next exchange does
-    waiting.join()
-    assert waited == [None] and starts.held() == 0  # stopped: no place, no start
 
 
 def test_one_worker_and_two_give_the_same_report_files_and_commit(plant: Plant) -> None:

@@ -40,32 +40,20 @@ Replies nobody asked for: see :mod:`harlsync.link.received`, which sorts what
 comes.
 
 Waiting.  The link reads a reply as it comes: it waits until bytes arrive or the
-reply's deadline passes, never at intervals, and never for a time it works out
-itself.  On a port with a descriptor (a device, a pty, ``socket://``) it waits in
-``poll``, woken by the bytes, and reads all that is there; the decoder says when
-the frame is whole::
-
-    send          poll ... read ... read ... read: the frame is whole -> decode
-    |-------------|~~~~~~~~|~~~~~~~~|~~~~~~~~|
-                  (woken by the bytes, never by a timer of the link's)
-
-So no wait of the link's depends on the line's speed: not on robot.yaml's baud
-rate, which is not the line's behind a device server (``socket://``,
-``rfc2217://`` where the server sets the rate), nor on how the bytes are grouped
-on the way (a USB adapter's latency timer, a device server's packets).  The baud
-rate still sets a local port, and a codec's reply deadline when the codec derives
-it from the rate: a bound on a reply that does not come, not a wait for one that
-does.  (A family's own URL scheme may name a transport that has no baud rate.)  A reply paced by a slow
-line wakes the link once per arrival, as it wakes a bare client blocking on its
-port; docs/BENCHMARKS.md ("Issues 29 and 33: the link reads replies as they come")
-measures what the timers that predicted a reply's end saved and what they cost.
-Ports without a descriptor (``sim://``, ``loop://``, ``rfc2217://``, Windows) are
-read with pyserial's timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
-
-Reading.  A port of our own with a descriptor (a device path, ``socket://``:
-:func:`~harlsync.link.port.direct_fd`) is read with one ``os.read`` of all that
-is there and written with one ``write``: no ``in_waiting`` ioctl, no ``select``
-around them.  Others (``spy://``, which logs in its ``read``) go through pyserial.
+reply's deadline passes, never for a time it works out itself (not from robot.yaml's
+baud rate, which is not the line's behind a device server, nor from how a USB
+adapter or a device server groups the bytes).  A port of our own with a descriptor
+(a device path, ``socket://``: :func:`~harlsync.link.port.direct_fd`) waits in
+``poll``, woken by the bytes, and takes all that is there in one ``os.read`` (no
+``in_waiting`` ioctl), written with one ``write``; the decoder says when the frame
+is whole.  One thread per line, blocking on its own port: a reply paced by a slow
+line wakes it once per arrival, as it wakes a bare client (docs/BENCHMARKS.md,
+"Issue 33", measures it against one selector loop and against the timers that
+predicted a reply's end).  The baud rate still sets a local port, and a codec's
+reply deadline where the codec derives it from the rate: a bound on a reply that
+does not come.  Other ports
+(``spy://``, ``sim://``, ``loop://``, ``rfc2217://``, Windows) go through pyserial,
+with its timeout of :data:`~harlsync.link.port.POLL_INTERVAL`.
 
 Draining.  Before each request the link reads the line and drops what it holds
 (replies owed, frames nobody asked for), so that nothing that came before the
@@ -100,7 +88,7 @@ from typing import Generic, TypeVar
 
 import serial
 
-from ..errors import LinkError, LinkTimeout, PortError, ProtocolError, ReplyError, WriteUnconfirmed
+from ..errors import LinkError, PortError, ProtocolError, ReplyError
 from ..settings import SerialSettings, seconds
 from .codec import Codec, Decoder, Frame, Request
 from .lock import DEFAULT_LOCK_TIMEOUT, LineLock, lock_path
@@ -111,6 +99,11 @@ from .received import Failure, LinkStats, Received, hex_line, missed
 __all__ = ["Link", "LinkStats"]
 
 log = logging.getLogger(__name__)
+
+
+def _closed() -> ConnectionResetError:
+    return ConnectionResetError("the other end closed the connection")
+
 
 #: How much one read takes from a descriptor the link reads itself: more than any
 #: reply of any family, so that a reply waiting whole is one read.
@@ -297,32 +290,7 @@ class Link(Received[F]):
                 self.stats.timeouts += 1
                 count, due = self._owed.get(st, (0, 0.0))
                 self._owed[st] = (count + 1, max(due, due_by))
-            raise self._gave_up(request.is_write, st, command, attempts, failure) from failure.cause
-
-    def _gave_up(
-        self, is_write: bool, st: int, command: str, attempts: int, failure: Failure
-    ) -> LinkError:
-        """The error of an exchange that got no valid reply after ``attempts``: a
-        write's (never re-sent, so it may or may not have taken), else a timeout."""
-        if is_write:
-            self.stats.unconfirmed_writes += 1
-            self._note(logging.WARNING, st, command, f"write unconfirmed: {failure.reason}")
-            return WriteUnconfirmed(
-                f"no valid reply to this write ({failure.reason}); it may or may not have "
-                "taken: read the item back before sending it again",
-                port=self.url,
-                station=st,
-                station_text=self.codec.station_text(st),
-                command=command,
-            )
-        return LinkTimeout(
-            f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
-            f"{self.codec.no_reply_hint(st)}",
-            port=self.url,
-            station=st,
-            station_text=self.codec.station_text(st),
-            command=command,
-        )
+            raise self._no_reply(request, st, attempts, failure)
 
     @property
     def _write_timeout(self) -> float:
@@ -373,12 +341,7 @@ class Link(Received[F]):
             except OSError as exc:
                 raise self._gone(exc, station, command, "") from exc
             if not data and ready:
-                raise self._gone(
-                    ConnectionResetError("the other end closed the connection"),
-                    station,
-                    command,
-                    "",
-                )
+                raise self._gone(_closed(), station, command, "")
             return self._fed(data)
         try:
             waiting = port.in_waiting
@@ -391,7 +354,9 @@ class Link(Received[F]):
         """Wait until input arrives or ``until`` (``time.monotonic``) passes; what came.
 
         A port without a descriptor is read with pyserial's timeout instead, at most
-        :data:`~harlsync.link.port.POLL_INTERVAL` at a time.
+        :data:`~harlsync.link.port.POLL_INTERVAL` at a time.  On a port of our own
+        the wait and the read are one ``poll`` and one ``os.read``, inline: a reply
+        paced by a slow line comes in a dozen arrivals, each a wake-up of this loop.
         """
         if self._fd is None:
             return self._read_polled(port, station, command)
@@ -399,9 +364,20 @@ class Link(Received[F]):
             ready = self._poll.poll(max(0.0, until - time.monotonic()) * 1000)
         except Exception as exc:  # a descriptor closed under us; see the module docstring
             raise self._gone(exc, station, command, "") from exc
-        if not ready:
+        fd = self._direct
+        if not ready or fd is None:
+            return self._take(port, station, command, ready=True) if ready else b""
+        try:
+            data = os.read(fd, READ_SIZE)
+        except BlockingIOError:
             return b""
-        return self._take(port, station, command, ready=True)
+        except OSError as exc:
+            raise self._gone(exc, station, command, "") from exc
+        if not data:  # poll said there is input: the other end is gone
+            raise self._gone(_closed(), station, command, "")
+        self._rx += data
+        self._decoder.feed(data)
+        return data
 
     def _read_polled(self, port: SerialPort, station: int, command: str) -> bytes:
         """A port without a descriptor: wait up to one pyserial timeout for a byte,
@@ -433,6 +409,13 @@ class Link(Received[F]):
 
     def _settle(self, port: SerialPort, station: int, command: str, *, wait: bool) -> None:
         """Discard pending input; with ``wait``, first let replies owed by ``station`` come."""
+        # the usual case: nothing owed, and one read that finds nothing
+        if (
+            station not in self._owed
+            and not self._take(port, station, command)
+            and not self._decoder.pending
+        ):
+            return
         while True:
             count, due = self._owed.get(station, (0, 0.0))
             if count and time.monotonic() >= due:
@@ -465,7 +448,13 @@ class Link(Received[F]):
         failure = Failure(f"no reply within {missed(timeout, self.settings.timeout)}")
         command = request.payload
         shown = self.codec.station_text(station)
+        # Nothing is buffered when the request goes out (_settle cleared it): wait first.
         while True:
+            if time.monotonic() >= deadline:
+                self._count_noise()
+                return failure
+            if not self._wait(port, station, command, deadline):
+                continue
             for frame in self._frames(station):
                 if isinstance(frame, ProtocolError):
                     log.info("%s station %s %s: bad frame: %s", self.url, shown, command, frame)
@@ -482,10 +471,6 @@ class Link(Received[F]):
                 self._count_noise()
                 self._replied_at = time.monotonic()
                 return _Reply(value)
-            if time.monotonic() >= deadline:
-                self._count_noise()
-                return failure
-            self._wait(port, station, command, deadline)
 
 
 @dataclass(frozen=True)

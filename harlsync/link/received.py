@@ -23,9 +23,9 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
-from ..errors import LinkError, ProtocolError
+from ..errors import LinkError, LinkTimeout, ProtocolError, WriteUnconfirmed
 from ..settings import seconds
-from .codec import Codec, Decoder, Frame
+from .codec import Codec, Decoder, Frame, Request
 
 __all__ = [
     "MAX_REASONS",
@@ -122,6 +122,36 @@ class Received(Generic[F]):
         )
         self.stats.note(line)
         log.log(level, "%s", line)
+
+    def _no_reply(
+        self, request: Request[F, object], station: int, attempts: int, failure: Failure
+    ) -> LinkError:
+        """What an exchange that got no valid reply after ``attempts`` raises: a
+        write unconfirmed (never re-sent), a read timed out."""
+        command = request.payload
+        shown = self.codec.station_text(station)
+        if request.is_write:
+            self.stats.unconfirmed_writes += 1
+            self._note(logging.WARNING, station, command, f"write unconfirmed: {failure.reason}")
+            error: LinkError = WriteUnconfirmed(
+                f"no valid reply to this write ({failure.reason}); it may or may not have "
+                "taken: read the item back before sending it again",
+                port=self.url,
+                station=station,
+                station_text=shown,
+                command=command,
+            )
+        else:
+            error = LinkTimeout(
+                f"no valid reply after {attempts} attempt(s) (last: {failure.reason}); "
+                f"{self.codec.no_reply_hint(station)}",
+                port=self.url,
+                station=station,
+                station_text=shown,
+                command=command,
+            )
+        error.__cause__ = failure.cause
+        return error
 
     def _log_rx(self) -> bytes:
         """Log, as one hex line, the received bytes the decoder is done with; return them.

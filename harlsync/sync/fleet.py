@@ -57,7 +57,7 @@ from typing import Any
 from ..errors import SyncError
 from ..robotlog import about
 from . import history
-from .fleettask import START_HOLD, STARTING, Starts, Task
+from .fleettask import Task
 from .robotbackup import (
     BackupWatch,
     RobotOutcome,
@@ -67,8 +67,6 @@ from .robotbackup import (
 )
 
 __all__ = [
-    "STARTING",
-    "START_HOLD",
     "Task",
     "default_workers",
     "in_process",
@@ -78,9 +76,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-#: The starting places of one process, by the name the tests use.
-_Starts = Starts
 
 #: What a worker process runs.
 _WORKER = "from harlsync.sync.fleetworker import worker; worker()"
