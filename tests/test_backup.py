@@ -91,7 +91,7 @@ def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plan
 
 
 def test_a_backup_run_reports_changes_and_failures_and_commits_once(
-    plant: Plant, capsys: pytest.CaptureFixture[str]
+    plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     plant.sims["loader"].stations[1].data.timers[1] = "6.66"
     shared = plant.sims["press-2"].stations[2].data
@@ -102,7 +102,11 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(
     shared_line = plant.sims["press-1"]
     before = len(shared_line.received)
 
-    code = main(["backup", str(plant.root), "--commit", "--jobs", "3", "--attempts", "2"])
+    metrics = tmp_path / "harlsync.prom"
+    code = main(
+        ["backup", str(plant.root), "--commit", "--jobs", "3", "--attempts", "2"]
+        + ["--metrics", str(metrics)]
+    )
     out = capsys.readouterr().out
 
     # The two stations on one line were pulled one after the other, never interleaved.
@@ -128,6 +132,22 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(
     assert "- loader: 1 timer:\n    timer " in log  # each item named (issue 22)
     assert "- press-2: 2 programs (2 steps):\n    " in log
     assert "- silent:" in log and "- garbage:" in log  # the failures are in the message too
+    # Items changed, as the metrics count them: steps, not the programs that hold them
+    # (a family's group counts, Catalogue.group_counts, are no items).
+    items_changed = dict(
+        re.findall(
+            r'^harlsync_backup_changed_items\{project="([^"]+)".*\} (\d+)$',
+            metrics.read_text(),
+            re.MULTILINE,
+        )
+    )
+    assert items_changed == {
+        "garbage": "0",
+        "loader": "1",
+        "press-1": "0",
+        "press-2": "2",
+        "silent": "0",
+    }
     changed = git(plant.root, "show", "--name-only", "--format=", "harlsync/backup").split()
     assert sorted(changed) == [
         "loader/timers.yaml",
@@ -218,6 +238,7 @@ def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run
     assert f"{series} {stamp:.0f}" in (metrics.read_text().splitlines())
     recorded = json.loads((plant.root / "loader" / ".harlsync" / "backup.json").read_text())
     assert recorded["last_success"] == loader["last_success"]
+    assert "changed_items" not in loader  # the metrics' number, not the report's
 
 
 def test_a_robot_with_no_good_backup_for_too_long_is_flagged_stale(plant: Plant) -> None:

@@ -207,6 +207,9 @@ class Catalogue(ABC, Generic[K, D]):
 
     #: Item kinds that ``--allow-live-tuning`` may write while the robot runs.
     live_tuning: frozenset[str] = frozenset()
+    #: The keys of :meth:`counts` that count groups of items (a sequence whose items
+    #: another key counts), not items: left out of the number of items changed.
+    group_counts: frozenset[str] = frozenset()
 
     @abstractmethod
     def items(self, data: D, *, registers: bool) -> Mapping[K, object]:

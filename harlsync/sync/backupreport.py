@@ -69,7 +69,7 @@ class BackupReport:
             "push_error": self.push_error,
             "said": self.said,
             "robots": [
-                {k: v for k, v in asdict(r).items() if k != "kept"}
+                {k: v for k, v in asdict(r).items() if k not in ("kept", "changed_items")}
                 | {"duration": round(r.duration, 3)}
                 for r in self.robots
             ],
@@ -280,7 +280,7 @@ def write_metrics(path: str | Path, report: BackupReport) -> None:
         (
             "changed_items",
             "Items changed since the previous backup.",
-            lambda r: str(sum(v for k, v in r.counts.items() if k != "programs")),
+            lambda r: str(r.changed_items),
         ),
         ("failed_attempts", "Failed attempts in this run.", lambda r: str(len(r.attempts))),
         (

@@ -56,6 +56,9 @@ class RobotOutcome:
     changed: bool = False
     summary: str = ""
     counts: dict[str, int] = field(default_factory=dict)
+    #: How many items changed: :attr:`counts` but the family's
+    #: :attr:`~harlsync.families.base.Catalogue.group_counts` (the metrics' number).
+    changed_items: int = 0
     duration: float = 0.0
     error: str | None = None
     attempts: list[str] = field(default_factory=list)  # reason of each failed attempt
@@ -203,6 +206,8 @@ def _pull_one(
         outcome.changed = result.changed
         outcome.summary = result.summary
         outcome.counts = summarize(family.catalogue, result.changes or [])
+        groups = family.catalogue.group_counts
+        outcome.changed_items = sum(n for k, n in outcome.counts.items() if k not in groups)
         outcome.items = audit.changed_names(result.changes or [])
         if isinstance(result, nightly.Observed):
             outcome.kept = result.kept()

@@ -79,6 +79,8 @@ class HarlU2Catalogue(Catalogue[Key, RobotData]):
     live_tuning = frozenset({"timer", "offset"})
     """Items ``--allow-live-tuning`` writes while a task runs (the manual allows it).
     Registers are process state the running program counts with: never."""
+    group_counts = frozenset({"programs"})
+    """:meth:`counts`' programs are the programs whose steps changed: its steps count them."""
 
     def items(self, data: RobotData, *, registers: bool = True) -> dict[Key, Any]:
         out: dict[Key, Any] = {
