@@ -234,8 +234,8 @@ def _push_args(p: argparse.ArgumentParser) -> None:
             "--reason TEXT": "why, for the audit log",
             "--outside-window REASON": "allow a write outside the robot's maintenance windows, "
             "saying why",
-            "--allow-reconfigure": f"allow a program configuration change{reconfigure}, which "
-            "destroys every program; all of them are rewritten after it",
+            "--allow-reconfigure": "allow a write that reconfigures the controller and clears "
+            f"what it holds{reconfigure}; all that it cleared is written again after it",
             "--allow-live-tuning": f"write what the family allows while the robot runs ({live}); "
             "nothing else",
             "--registers": f"write runtime data too ({runtime}; the project must keep it)",

@@ -48,7 +48,7 @@ class HarlU2Family(Family["Key", "RobotData"]):
         busy="a task in execution or suspended, LNR",
         live_tuning="timers and offset tables (the manual allows it); programs, "
         "parameters, configuration and registers never",
-        reconfigure="SNX",
+        reconfigure="SNX, a program configuration change: every program",
     )
 
     @property
