@@ -10,7 +10,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+import toyfamily
 from hypothesis import HealthCheck, settings
+
+from harlsync import families
 
 # --- hypothesis profiles ------------------------------------------------------------------
 #
@@ -101,3 +104,13 @@ def repo(tmp_path: Path) -> Path:
     root.mkdir()
     git(root, "init", "-q")
     return root
+
+
+@pytest.fixture
+def toy(monkeypatch: pytest.MonkeyPatch) -> str:
+    """The toy family (tests/toyfamily), registered in a copy of the registry that the
+    test's end throws away: the robot of a test about the engine, whatever its family
+    (the rest of the suite sees only the real families).  Its name."""
+    monkeypatch.setattr(families, "FAMILIES", dict(families.FAMILIES))
+    toyfamily.register()
+    return toyfamily.NAME
