@@ -228,7 +228,6 @@ FAMILY_USERS = {
     "test_schema_fast.py",
     "test_settings.py",
     "test_startup.py",
-    "test_state_files.py",
     "test_status.py",
     "test_sync.py",
     "test_three_states.py",
