@@ -215,7 +215,6 @@ FAMILY_USERS = {
     "test_bad_input.py",
     "test_feedback.py",
     "test_fleet.py",
-    "test_git_identity.py",
     "test_link.py",
     "test_link_pacing.py",
     "test_probe.py",
