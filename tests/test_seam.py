@@ -229,7 +229,6 @@ FAMILY_USERS = {
     "test_startup.py",
     "test_status.py",
     "test_sync.py",
-    "test_three_states.py",
     "test_yaml_writer.py",
 }
 
