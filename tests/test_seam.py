@@ -226,7 +226,6 @@ FAMILY_USERS = {
     "test_rough_edges_22.py",
     "test_schema_fast.py",
     "test_startup.py",
-    "test_status.py",
     "test_sync.py",
     "test_yaml_writer.py",
 }
