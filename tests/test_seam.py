@@ -223,7 +223,6 @@ FAMILY_USERS = {
     "test_project_save.py",
     "test_robot_yaml.py",
     "test_rough_edges.py",
-    "test_rough_edges_22.py",
     "test_schema_fast.py",
     "test_startup.py",
     "test_sync.py",
