@@ -10,7 +10,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+import toyfamily
 from hypothesis import HealthCheck, settings
+
+from harlsync import families
 
 # --- hypothesis profiles ------------------------------------------------------------------
 #
@@ -101,3 +104,27 @@ def repo(tmp_path: Path) -> Path:
     root.mkdir()
     git(root, "init", "-q")
     return root
+
+
+@pytest.fixture
+def toy(monkeypatch: pytest.MonkeyPatch) -> str:
+    """The toy family (tests/toyfamily), registered in a copy of the registry that the
+    test's end throws away: the robot of a test about the engine, whatever its family
+    (the rest of the suite sees only the real families).  Its name."""
+    monkeypatch.setattr(families, "FAMILIES", dict(families.FAMILIES))
+    toyfamily.register()
+    return toyfamily.NAME
+
+
+@pytest.fixture
+def toy_installed(tmp_path: Path, toy: str) -> dict[str, str]:
+    """The toy family in this process (``toy``) and, for a harlsync run as a process of
+    its own, installed as a site adds a family: a distribution on the ``PYTHONPATH``
+    this returns declares it in the entry-point group ``harlsync.families``."""
+    site = tmp_path / "site"
+    info = site / "harlsync_toyfamily-0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: harlsync-toyfamily\nVersion: 0\n")
+    (info / "entry_points.txt").write_text(f"[{families.ENTRY_POINTS}]\n{toy} = toyfamily\n")
+    tests = Path(toyfamily.__file__).parent.parent
+    return {"PYTHONPATH": os.pathsep.join([str(site), str(tests)])}

@@ -15,11 +15,10 @@ from pathlib import Path
 
 import pytest
 from conftest import git
-from plantsim import SMALL
+from toyfamily.sim import SimState, Simulator
 
 from harlsync.cli import main
 from harlsync.errors import PortBusyError, PortError, ProjectError
-from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.link import lock as line_lock
 from harlsync.link.lock import LineLock, LockFile, LockTimeout, WindowsLockFile, lock_path
 from harlsync.project.lock import lock_path as project_lock_path
@@ -48,8 +47,9 @@ HOLDER = textwrap.dedent(
 
 
 @pytest.fixture
-def robot(repo: Path) -> Iterator[tuple[str, Path]]:
-    sim = Simulator({1: SimState.generate(7, SMALL)})
+def robot(repo: Path, toy: str) -> Iterator[tuple[str, Path]]:
+    """A toy robot (what any family's commands do with locks is the engine's)."""
+    sim = Simulator({1: SimState.generate(7)})
     url = register(sim)
     yield url, repo / "press"
     unregister(url)
@@ -70,11 +70,11 @@ def test_a_day_of_commands_leaves_no_lock_file_behind(
     robot: tuple[str, Path], lock_dir: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     url, project = robot
-    assert main(["pull", str(project), "--port", url, "--commit"]) == 0
+    assert main(["pull", str(project), "--port", url, "--family", "toy", "--commit"]) == 0
     assert sorted(os.listdir(lock_dir)) == []
-    timers = project / "timers.yaml"
-    timers.write_text(re.sub(r"(?m)^  1: .*$", "  1: 0.80", timers.read_text()))
-    git(project.parent, "commit", "-qam", "timer 1")
+    slots = project / "slots.yaml"
+    slots.write_text(re.sub(r"(?m)^  1: .*$", "  1: 80", slots.read_text()))
+    git(project.parent, "commit", "-qam", "slot 1")
     assert main(["diff", str(project)]) == 1
     assert main(["push", str(project), "--yes"]) == 0
     assert main(["rollback", str(project), "--yes"]) == 0
@@ -93,7 +93,7 @@ def test_the_locks_of_a_killed_harlsync_are_reclaimed_by_the_next_one(
     assert process.wait(30) == -signal.SIGKILL
     left = sorted(os.listdir(lock_dir))
     assert len(left) == 4 and sum(name.endswith(".owner") for name in left) == 2, left
-    assert main(["pull", str(project), "--port", url]) == 0
+    assert main(["pull", str(project), "--port", url, "--family", "toy"]) == 0
     assert sorted(os.listdir(lock_dir)) == []
 
 
@@ -105,7 +105,7 @@ def test_a_live_holders_lock_is_left_alone_and_goes_when_it_ends(
     process = holder(other, "socket://192.0.2.7:4001", "wait")
     try:
         held = sorted(os.listdir(lock_dir))
-        assert main(["pull", str(project), "--port", url]) == 0
+        assert main(["pull", str(project), "--port", url, "--family", "toy"]) == 0
         assert sorted(os.listdir(lock_dir)) == held and len(held) == 4
         assert line_lock.reclaim_dead(lock_dir) == []
         with pytest.raises(ProjectError, match="in use by pid"), project_lock(other):

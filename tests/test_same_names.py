@@ -16,18 +16,13 @@ from conftest import git
 from prometheus_client.parser import text_string_to_metric_families
 from toyfamily.sim import SimState, Simulator
 
-from harlsync import families
 from harlsync.cli import main
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import engine
 
-
-@pytest.fixture(autouse=True)
-def toy(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The robots are the toy family's: it joins a copy of the registry the test's end
-    throws away (what is said of names is the engine's, whatever the family)."""
-    monkeypatch.setattr(families, "FAMILIES", dict(families.FAMILIES))
-    toyfamily.register()
+#: The robots are the toy family's (conftest's ``toy``): what is said of names is the
+#: engine's, whatever the family.
+pytestmark = pytest.mark.usefixtures("toy")
 
 
 @pytest.fixture

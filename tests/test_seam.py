@@ -205,9 +205,10 @@ def test_issue_32_the_registry_looks_up_what_the_command_line_says_of_every_fami
 
 #: The engine's tests (and helpers) that still import a family: each drives a HARL-U2
 #: (or an IAI or Epson) simulator, or reads or writes one family's files, as the robot
-#: of an engine test. They are the ones where the toy family (tests/toyfamily/) does not
-#: yet serve: a subprocess that cannot register it, a family's own files edited on
-#: disk, a family's line timing or frames. A test converted to the toy leaves this list;
+#: of an engine test. They are the ones where the toy family (tests/toyfamily/; conftest's
+#: ``toy``, and ``toy_installed`` for a harlsync process) does not yet serve: a family's
+#: own files edited on disk, its line timing or frames, its words asserted. A test
+#: converted to the toy leaves this list;
 #: a family's own tests live in tests/families/<family>/, and what every family does in
 #: tests/conformance/.
 FAMILY_USERS = {
@@ -215,27 +216,19 @@ FAMILY_USERS = {
     "simline.py",
     "test_backup.py",
     "test_bad_input.py",
-    "test_diff_revisions.py",
     "test_feedback.py",
     "test_fleet.py",
-    "test_git_identity.py",
     "test_link.py",
     "test_link_pacing.py",
-    "test_lock_files.py",
     "test_probe.py",
     "test_process_faults.py",
     "test_project_roundtrip.py",
     "test_project_save.py",
     "test_robot_yaml.py",
     "test_rough_edges.py",
-    "test_rough_edges_22.py",
     "test_schema_fast.py",
-    "test_settings.py",
     "test_startup.py",
-    "test_state_files.py",
-    "test_status.py",
     "test_sync.py",
-    "test_three_states.py",
     "test_yaml_writer.py",
 }
 

@@ -1,7 +1,8 @@
 """Local state never crashes a command (issue 22 item 4): a malformed audit record,
 backup.json, save record, journal, plan file or lock owner file gives one line naming
 the file (and the line) and what to do, and the rest goes on: a plant's backup still
-reports, commits and writes its metrics."""
+reports, commits and writes its metrics.  The robot is the toy family's (conftest's
+``toy``): what harlsync keeps beside a project is the engine's, whatever the family."""
 
 from __future__ import annotations
 
@@ -12,10 +13,9 @@ from pathlib import Path
 
 import pytest
 from conftest import git
-from plantsim import SMALL
+from toyfamily.sim import SimState, Simulator
 
 from harlsync.cli import main
-from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.sim.protocol_sim import register, unregister
 from harlsync.sync import engine
 
@@ -33,11 +33,11 @@ class Plant:
 
 
 @pytest.fixture
-def plant(repo: Path, tmp_path: Path) -> Iterator[Plant]:
-    sim = Simulator({1: SimState.generate(7, SMALL)})
+def plant(repo: Path, tmp_path: Path, toy: str) -> Iterator[Plant]:
+    sim = Simulator({1: SimState.generate(7)})
     url = register(sim)
     project = repo / "cell-1"
-    engine.pull(project, port=url, commit=True)
+    engine.pull(project, port=url, commit=True, family=toy)
     yield Plant(sim, url, project, tmp_path / "audit.jsonl")
     unregister(url)
 
@@ -55,8 +55,8 @@ def audit_records(plant: Plant) -> list[str]:
         "robot": {"name": "cell-1", "port": plant.url, "station": 1},
         "project": str(plant.project.resolve()),
         "result": "ok",
-        "written": [{"item": "timer 1", "command": "SNT", "old": "1.00", "new": "2.00"}],
-        "plan": ["SNT"],
+        "written": [{"item": "slot 1", "command": "W 1 2000", "old": "1000", "new": "2000"}],
+        "plan": ["W 1 2000"],
     }
     lines = [DEEP, "null", "[1, 2]", '"text"', "{bad json", "\xff\xfe"]
     for field in good:
@@ -102,11 +102,11 @@ def test_a_malformed_audit_log_never_crashes_pull_log_status_diff_or_backup(
     assert run("status", str(repo), "--html", str(page)) in (0, 1)
     assert first in capsys.readouterr().out
     assert run("status", str(repo), "--format", "json") in (0, 1)
-    plant.sim.stations[1].data.timers[1] = "6.66"
+    plant.sim.stations[1].slots[1] = 6666
     code = run("backup", str(repo), "--commit", "--metrics", str(metrics), "--html", str(page))
     assert code == 0
     assert metrics.exists() and page.exists()
-    assert "6.66" in git(repo, "show", "HEAD")
+    assert "\n+  1: 6666\n" in git(repo, "show", "harlsync/backup")  # its commit (issue 30)
     assert "Traceback" not in capsys.readouterr().err
 
 
@@ -142,9 +142,13 @@ def test_a_malformed_backup_json_leaves_the_plant_backup_whole(
     state = plant.project / ".harlsync" / "backup.json"
     state.write_text(text)
     metrics, page = tmp_path / "m.prom", tmp_path / "p.html"
-    plant.sim.stations[1].data.timers[1] = "6.66"
+    plant.sim.stations[1].slots[1] = 6666
     assert run("backup", str(repo), "--commit", "--metrics", str(metrics), "--html", str(page)) == 0
-    assert metrics.exists() and page.exists() and "6.66" in git(repo, "show", "HEAD")
+    assert (
+        metrics.exists()
+        and page.exists()
+        and "\n+  1: 6666\n" in git(repo, "show", "harlsync/backup")
+    )
     assert "Traceback" not in capsys.readouterr().err
     assert json.loads(state.read_text())["last_result"] == "ok"  # the run wrote it anew
 
@@ -185,13 +189,13 @@ def test_a_malformed_plan_file_is_refused_in_one_line_before_anything_is_written
 ) -> None:
     planned = tmp_path / "plan.json"
     planned.write_bytes(text.encode("utf-8", "surrogateescape"))
-    plant.sim.stations[1].data.timers[1] = "6.66"  # a push would write it back
-    before = dict(plant.sim.stations[1].data.timers)
+    plant.sim.stations[1].slots[1] = 6666  # a push would write it back
+    before = dict(plant.sim.stations[1].slots)
     code = run("push", str(plant.project), "--yes", "--plan", str(planned))
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
     assert f"{planned}: not " in err and "harlsync plan DIR --out FILE" in err
-    assert plant.sim.stations[1].data.timers == before
+    assert plant.sim.stations[1].slots == before
 
 
 def test_a_lock_owner_file_that_is_not_text_still_gives_the_busy_message(plant: Plant) -> None:

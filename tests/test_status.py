@@ -18,10 +18,10 @@ import pytest
 import serial
 from browser import BROWSER, Table, dump_dom
 from conftest import git
-from plantsim import IAI_STATION, MARKUP, SMALL, STATES, SimPlant, build
+from plantsim import IAI_STATION, MARKUP, STATES, SimPlant, build
+from toyfamily.sim import SimState, Simulator
 
 from harlsync.cli import main
-from harlsync.families.harl_u2.sim import SimState, Simulator
 from harlsync.project import load_project
 from harlsync.sim import Faults
 from harlsync.sim.protocol_sim import register, unregister
@@ -82,12 +82,13 @@ class Robot:
 
 
 @pytest.fixture
-def robot(repo: Path) -> Iterator[Robot]:
-    """One simulated HARL-U2 robot served as sim://, its first backup committed."""
-    sim = Simulator({1: SimState.generate(7, SMALL)})
+def robot(repo: Path, toy: str) -> Iterator[Robot]:
+    """One simulated robot served as sim://, its first backup committed: the toy
+    family's (conftest's ``toy``), as what is recorded of it is the engine's."""
+    sim = Simulator({1: SimState.generate(7)})
     url = register(sim)
     project = repo / "cell-1"
-    engine.pull(project, port=url, commit=True)
+    engine.pull(project, port=url, commit=True, family=toy)
     yield Robot(sim, url, project)
     unregister(url)
 
@@ -110,16 +111,14 @@ def test_each_backup_records_what_it_changed_and_the_commit_that_holds_it(
     assert report.commit is None and state["last_changed"] is False
     assert state["last_changes"] == "no change" and state["last_commit"] == head(repo)
 
-    sim.stations[1].data.timers[1] = "6.66"
+    sim.stations[1].slots[1] = 6666
     report = backup([project], commit=True)
     state = json.loads(history.read_text())
     # Issue 30: the commit is on the backup branch; the approved one stays.
     kept = git(repo, "rev-parse", "harlsync/backup").strip()
-    assert state["last_changes"] == "1 timer" and state["last_commit"] == report.commit == kept
+    assert state["last_changes"] == "1 slot" and state["last_commit"] == report.commit == kept
 
     sim.faults = Faults(drop=1.0)
-    fast = project / "robot.yaml"
-    fast.write_text(fast.read_text().replace("timeout: 1.0", "timeout: 0.05"))
     backup([project], attempts=1)
     failed = json.loads(history.read_text())
     assert failed["last_result"] == "failed" and "no reply" in failed["last_error"]
@@ -132,7 +131,7 @@ def test_a_backup_nobody_committed_is_uncommitted_until_someone_commits_it(
     robot: Robot, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = robot.sim, robot.project
-    sim.stations[1].data.timers[2] = "2.22"
+    sim.stations[1].slots[2] = 2222
     engine.pull(project)  # no --commit
     main(["status", str(project)])
     assert rows_of(capsys.readouterr().out)["cell-1"][6] == "uncommitted"
@@ -323,12 +322,12 @@ def test_a_browser_shows_every_robot_in_its_state(
 
 def test_backup_writes_the_page_at_the_end_of_its_run(robot: Robot, tmp_path: Path) -> None:
     sim, project = robot.sim, robot.project
-    sim.stations[1].data.timers[3] = "3.33"
+    sim.stations[1].slots[3] = 3333
     page = tmp_path / "share" / "plant.html"
     page.parent.mkdir()
     assert main(["backup", str(project), "--commit", "--html", str(page)]) == 0
     html = page.read_text()
-    assert ">changed<" in html and "1 timer" in html and "+  3: 3.33" in html
+    assert ">changed<" in html and "1 slot" in html and "+  3: 3333" in html
     assert [p.name for p in page.parent.iterdir()] == ["plant.html"]  # no temporary left
 
 
@@ -378,10 +377,10 @@ def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(
     robot: Robot, repo: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     sim, project = robot.sim, robot.project
-    for value in ("1.11", "2.22"):
-        timers = project / "timers.yaml"
-        timers.write_text(re.sub(r"(?m)^  1: .*$", f"  1: {value}", timers.read_text()))
-        git(repo, "commit", "-qam", f"timer 1 {value}")
+    for value in (1111, 2222):
+        slots = project / "slots.yaml"
+        slots.write_text(re.sub(r"(?m)^  1: .*$", f"  1: {value}", slots.read_text()))
+        git(repo, "commit", "-qam", f"slot 1 {value}")
         engine.push(project, PushOptions(yes=True))
     engine.rollback(project, PushOptions(yes=True))
     assert main(["snapshots", str(project)]) == 0
@@ -392,9 +391,9 @@ def test_snapshots_lists_the_latest_first_and_marks_the_one_rollback_restores(
     [marked] = [r for r in rows if r.endswith("<- rollback restores this")]
     chosen = Path(marked.split()[4])
     assert marked.split()[0] == "2"
-    sim.stations[1].data.timers[1] = "9.99"  # changed on the pendant since
+    sim.stations[1].slots[1] = 9999  # changed on the pendant since
     engine.rollback(project, PushOptions(yes=True))  # it restores the marked one
-    assert sim.stations[1].data.timers[1] == load_project(chosen).data.timers[1] == "1.11"
+    assert sim.stations[1].slots[1] == load_project(chosen).data.slots[1] == 1111
     assert main(["snapshots", str(project), "--format", "json"]) == 0
     listed = json.loads(capsys.readouterr().out)
     assert [s["number"] for s in listed] == [4, 3, 2, 1]

@@ -7,6 +7,7 @@ files are ``robot.yaml`` and ``slots.yaml``; its one write is ``W n v``.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib.resources import files as package_files
@@ -28,6 +29,7 @@ from harlsync.families.base import (
 )
 from harlsync.link import Link
 from harlsync.project import Robot, yamlio
+from harlsync.project.robot import DAYS, build_windows
 from harlsync.project.schema import Issue
 
 from . import codec
@@ -166,6 +168,20 @@ def _plain(value: object) -> object:
     return value
 
 
+def _windows(value: object) -> bool:
+    """``maintenance_windows`` as every family's robot.yaml says them: a list of days,
+    a start and an end (HH:MM) each."""
+    clock = re.compile(r"([01][0-9]|2[0-3]):[0-5][0-9]")
+    return isinstance(value, list) and all(
+        isinstance(w, dict)
+        and isinstance(w.get("days"), list)
+        and bool(w["days"])
+        and all(day in DAYS for day in w["days"])
+        and all(isinstance(w.get(k), str) and clock.fullmatch(w[k]) for k in ("start", "end"))
+        for w in value
+    )
+
+
 def _robot(doc: yamlio.Parsed, issues: list[Issue]) -> Robot | None:
     data = _plain(doc.data) if isinstance(doc.data, dict) else {}
     assert isinstance(data, dict)
@@ -178,7 +194,13 @@ def _robot(doc: yamlio.Parsed, issues: list[Issue]) -> Robot | None:
         line = doc.line(("connection",))
         issues.append(Issue("robot.yaml", line, "connection", "needs port (text) and station 0-99"))
         return None
-    return Robot(family="toy", name=data["name"], port=port, station=station)
+    if not _windows(data.get("maintenance_windows", [])):
+        line = doc.line(("maintenance_windows",))
+        what = "needs days, a start and an end (HH:MM) for each window"
+        issues.append(Issue("robot.yaml", line, "maintenance_windows", what))
+        return None
+    windows = build_windows(data)
+    return Robot(family="toy", name=data["name"], port=port, station=station, windows=windows)
 
 
 class ToyFamily(Family[SlotKey, ToyData]):
@@ -224,6 +246,12 @@ class ToyFamily(Family[SlotKey, ToyData]):
             f"family: toy\nname: {robot.name}\nconnection:\n"
             f"  port: {json.dumps(robot.port)}\n  station: {robot.station}\n"
         )
+        if robot.windows:
+            robot_yaml += "maintenance_windows:\n" + "".join(
+                f"  - {{days: [{', '.join(w.days)}], "
+                f'start: "{w.start:%H:%M}", end: "{w.end:%H:%M}"}}\n'
+                for w in robot.windows
+            )
         slots = "".join(f"  {n}: {v}\n" for n, v in sorted(data.slots.items()))
         head = f"format: 1\nversion: {json.dumps(data.version)}\n"
         slots_yaml = head + (f"slots:\n{slots}" if slots else "slots: {}\n")

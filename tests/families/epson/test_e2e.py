@@ -984,3 +984,14 @@ def test_issue_24_review_a_dirty_project_is_refused_before_the_connection_drives
     before = sim.accesses()
     assert cli.main(["pull", str(project), "--reset-function"]) == EXIT_REFUSED
     assert sim.accesses() == before  # not a register read, not a signal driven
+
+
+def test_a_modbus_port_implies_the_epson_family(
+    repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """(Issue 22 item 11, from tests/test_rough_edges_22.py.)"""
+    sim = Simulator(SimState.from_data(sample_data()), execution_time=0.0)
+    with sim.serve() as server:
+        assert server.url.startswith("modbus://")
+        assert cli.main(["pull", str(repo / "cell-3"), "--port", server.url]) == 0
+    assert "family: epson" in (repo / "cell-3" / "robot.yaml").read_text()
