@@ -1,4 +1,7 @@
-"""The nightly plant backup against several simulators at once."""
+"""The nightly plant backup against several simulators at once.  The robots are the
+toy family's (conftest's ``toy_installed``, found by the worker processes as an
+installed family): a plant's night is the engine's, whatever its families (what a
+HARL-U2's offset-table probe does to a backup is tests/families/harl_u2/'s)."""
 
 from __future__ import annotations
 
@@ -14,19 +17,15 @@ from pathlib import Path
 import pytest
 from conftest import git
 from fsfaults import read_only
+from toyfamily.sim import SimState, Simulator
 from typing_extensions import Unpack
 
 from harlsync.cli import main
-from harlsync.families.harl_u2.model import Config, ProgramArea, ProgramType, Step
-from harlsync.families.harl_u2.sim import SimState, Simulator
-from harlsync.families.harl_u2.sim.device import STATUS_BUSY
 from harlsync.sim import Faults
 from harlsync.sim.serve import PtyServer, TcpServer
 from harlsync.sync import engine
 from harlsync.sync.backup import backup, find_projects, line_of
 from harlsync.sync.pulling import PullResult
-
-SMALL = Config(ProgramArea(1, 6), ProgramArea(2, 8), ProgramArea(1, 6), ProgramArea(1, 4), 4, 16, 4)
 
 
 def files_of(project: Path) -> dict[str, bytes]:
@@ -45,19 +44,22 @@ class Plant:
 
 
 @pytest.fixture
-def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
+def plant(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, toy_installed: dict[str, str]
+) -> Iterator[Plant]:
     """Five robots: one on a pty, two stations sharing one TCP line, one that will stop
     answering and one that will answer garbage, all first backed up while healthy."""
+    monkeypatch.setenv("PYTHONPATH", toy_installed["PYTHONPATH"])  # for worker processes
     root = tmp_path / "plant"
     root.mkdir()
     git(root, "init", "-q")
-    shared = Simulator({1: SimState.generate(21, SMALL), 2: SimState.generate(22, SMALL)})
+    shared = Simulator({1: SimState.generate(21), 2: SimState.generate(22)})
     sims = {
-        "loader": Simulator(SimState.generate(20, SMALL)),
+        "loader": Simulator({1: SimState.generate(20)}),
         "press-1": shared,
         "press-2": shared,
-        "silent": Simulator(SimState.generate(23, SMALL)),
-        "garbage": Simulator(SimState.generate(24, SMALL)),
+        "silent": Simulator({1: SimState.generate(23)}),
+        "garbage": Simulator({1: SimState.generate(24)}),
     }
     pty = PtyServer(sims["loader"])
     servers: list[TcpServer | PtyServer] = [pty]
@@ -71,9 +73,7 @@ def plant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Plant]:
         servers.append(server)
         ports[name] = (server.start(), 1)
     for name, (url, station) in ports.items():
-        engine.pull(root / name, port=url, station=station)
-        robot = root / name / "robot.yaml"
-        robot.write_text(robot.read_text().replace("timeout: 1.0", "timeout: 0.2"))
+        engine.pull(root / name, port=url, station=station, family="toy")
     git(root, "add", "-A")
     git(root, "commit", "-qm", "first backup")
     sims["silent"].faults = Faults(drop=1.0)
@@ -93,10 +93,10 @@ def test_projects_are_found_below_a_path_and_lines_are_named_by_port(plant: Plan
 def test_a_backup_run_reports_changes_and_failures_and_commits_once(
     plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
-    shared = plant.sims["press-2"].stations[2].data
-    shared.programs[(ProgramType.MAIN, 1)][7] = Step.parse("MOVE P123 S80")
-    shared.programs[(ProgramType.SUB, 0)][5] = Step.parse("MOVE P321 S20")
+    plant.sims["loader"].stations[1].slots[1] = 6666
+    shared = plant.sims["press-2"].stations[2]
+    shared.slots[7] = 7777
+    shared.slots[5] = 5555
     untouched = {n: files_of(plant.root / n) for n in ("silent", "garbage")}
     head = git(plant.root, "rev-parse", "HEAD")
     shared_line = plant.sims["press-1"]
@@ -116,10 +116,10 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(
 
     assert code == 1
     rows = {line.split()[0]: line for line in out.splitlines()[1:6]}
-    assert rows["loader"].split()[1] == "ok" and "1 timer" in rows["loader"]
-    assert rows["press-2"].split()[1] == "ok" and "2 programs (2 steps)" in rows["press-2"]
+    assert rows["loader"].split()[1] == "ok" and "1 slot" in rows["loader"]
+    assert rows["press-2"].split()[1] == "ok" and "2 slots" in rows["press-2"]
     assert "no change" in rows["press-1"]
-    assert rows["silent"].split()[1] == "FAILED" and "station 1" in rows["silent"]
+    assert rows["silent"].split()[1] == "FAILED" and "station 01" in rows["silent"]
     assert rows["garbage"].split()[1] == "FAILED"
     assert "3 of 5 robot(s) backed up, 2 changed" in out
     for name, files in untouched.items():
@@ -129,8 +129,8 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(
     assert git(plant.root, "status", "--porcelain") == ""
     log = git(plant.root, "log", "--format=%B", f"{head.strip()}..harlsync/backup")
     assert log.startswith("backup: 2 of 5 robot(s) changed: loader, press-2\n")
-    assert "- loader: 1 timer:\n    timer " in log  # each item named (issue 22)
-    assert "- press-2: 2 programs (2 steps):\n    " in log
+    assert "- loader: 1 slot:\n    slot " in log  # each item named (issue 22)
+    assert "- press-2: 2 slots:\n    " in log
     assert "- silent:" in log and "- garbage:" in log  # the failures are in the message too
     # Items changed, as the metrics count them: steps, not the programs that hold them
     # (a family's group counts, Catalogue.group_counts, are no items).
@@ -149,27 +149,7 @@ def test_a_backup_run_reports_changes_and_failures_and_commits_once(
         "silent": "0",
     }
     changed = git(plant.root, "show", "--name-only", "--format=", "harlsync/backup").split()
-    assert sorted(changed) == [
-        "loader/timers.yaml",
-        "press-2/programs/main-01.yaml",
-        "press-2/programs/sub-00.yaml",
-    ]
-
-
-def test_issue_20_a_robot_busy_at_the_offset_table_probe_fails_its_backup_not_passes_it(
-    plant: Plant, capsys: pytest.CaptureFixture[str]
-) -> None:
-    # Review finding 7: any E reply to the probe past the last offset table was
-    # taken for "no such table".  Since issue 29 only the one the first pull got
-    # twice and recorded is (controller.yaml offset_tables.no_such_table).
-    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
-    plant.sims["loader"].stations[1].errors["LNL 100"] = STATUS_BUSY
-    before = files_of(plant.root / "loader")
-    assert main(["backup", str(plant.root), "--commit", "--attempts", "1"]) == 1
-    rows = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()[1:6]}
-    assert rows["loader"].split()[1] == "FAILED"
-    assert f"offset table 100 answered E{STATUS_BUSY} twice, not E21" in rows["loader"]
-    assert files_of(plant.root / "loader") == before  # the changed timer is not saved either
+    assert sorted(changed) == ["loader/slots.yaml", "press-2/slots.yaml"]
 
 
 def test_nothing_changed_means_no_commit_and_exit_0(plant: Plant) -> None:
@@ -205,7 +185,7 @@ def test_the_json_report_records_attempts_staleness_and_never_backed_up(
     assert not robots["loader"]["never_backed_up"]
     silent = robots["silent"]
     assert not silent["ok"] and len(silent["attempts"]) == 2
-    assert all("station 1" in reason for reason in silent["attempts"])
+    assert all("station 01" in reason for reason in silent["attempts"])
     assert silent["last_success"] and not silent["never_backed_up"]  # the first pull counts
     assert report["ok"] is False
     (plant.root / "silent" / ".harlsync" / "backup.json").unlink()
@@ -221,7 +201,7 @@ def test_issue_14_last_success_is_when_each_robot_was_backed_up_not_when_the_run
 ) -> None:
     from datetime import datetime
 
-    plant.sims["loader"].faults = Faults(slow=1.0, slow_delay=0.05)  # 49 replies: 2.5 s
+    plant.sims["loader"].faults = Faults(slow=1.0, slow_delay=0.15)  # 18 replies: 2.7 s
     metrics = tmp_path / "backup.prom"
     assert (
         main(["backup", str(plant.root / "loader"), "--format", "json", "--metrics", str(metrics)])
@@ -255,7 +235,7 @@ def test_a_robot_with_no_good_backup_for_too_long_is_flagged_stale(plant: Plant)
 
 
 def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_path: Path) -> None:
-    plant.sims["loader"].stations[1].data.timers[2] = "1.23"
+    plant.sims["loader"].stations[1].slots[2] = 1234
     changed_out = tmp_path / "changed.txt"
     failed_out = tmp_path / "failed.txt"
     metrics = tmp_path / "harlsync.prom"
@@ -284,7 +264,7 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
     )
     assert code == 1
     names, summary = changed_out.read_text().split("|", 1)
-    assert names == "loader" and "1 timer" in summary
+    assert names == "loader" and "1 slot" in summary
     assert failed_out.read_text() == "garbage silent"
     text = metrics.read_text()
     assert 'harlsync_backup_success{project="loader",robot="loader"} 1' in text
@@ -295,7 +275,7 @@ def test_hooks_run_with_the_summary_and_metrics_are_written(plant: Plant, tmp_pa
 def test_issue_34_item_14_every_output_is_checked_before_a_robot_is_read_all_problems_at_once(
     plant: Plant, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    plant.sims["loader"].stations[1].data.timers[2] = "1.23"  # a backup would change it
+    plant.sims["loader"].stations[1].slots[2] = 1234  # a backup would change it
     metrics = tmp_path / "textfile" / "harlsync.prom"  # its directory was never made
     a_file = tmp_path / "www"
     a_file.write_text("not a directory\n")
@@ -338,7 +318,7 @@ def test_a_missing_port_fails_that_robot_only(plant: Plant) -> None:
 
 def test_push_failure_is_reported_and_the_local_commit_kept(plant: Plant) -> None:
     git(plant.root, "remote", "add", "origin", str(plant.root / "no-such-remote.git"))
-    plant.sims["loader"].stations[1].data.timers[3] = "3.21"
+    plant.sims["loader"].stations[1].slots[4] = 3210
     report = backup([plant.root / "loader"], commit=True, push=True)
     assert report.commit is not None and report.pushed is False and report.push_error
     assert git(plant.root, "rev-parse", "harlsync/backup").strip() == report.commit
@@ -350,7 +330,7 @@ def test_a_failed_push_is_printed_even_with_quiet_and_exits_1(
     plant: Plant, capsys: pytest.CaptureFixture[str]
 ) -> None:
     git(plant.root, "remote", "add", "origin", str(plant.root / "no-such-remote.git"))
-    plant.sims["loader"].stations[1].data.timers[3] = "3.21"
+    plant.sims["loader"].stations[1].slots[4] = 3210
     assert main(["backup", str(plant.root / "loader"), "--commit", "--push", "--quiet"]) == 1
     assert "git push FAILED" in capsys.readouterr().out
 
@@ -386,7 +366,7 @@ def test_the_documented_cron_line_runs_against_simulated_robots(
     git(plant.root, "remote", "add", "origin", str(bare))
     git(plant.root, "push", "-q", "-u", "origin", "HEAD")
     branch = git(plant.root, "rev-parse", "--abbrev-ref", "HEAD").strip()
-    plant.sims["loader"].stations[1].data.timers[0] = "0.01"
+    plant.sims["loader"].stations[1].slots[0] = 1
     harlsync = str(Path(sys.executable).parent / "harlsync")
     command = (
         command.replace("/srv/plant-robots", str(plant.root))
@@ -404,7 +384,7 @@ def test_the_documented_cron_line_runs_against_simulated_robots(
     assert "harlsync_backup_success" in (tmp_path / "m.prom").read_text()
     assert git(bare, "log", "-1", "--format=%s", branch) == "first backup\n"  # as approved
     pushed = git(bare, "log", "-1", "--format=%s", "harlsync/backup")  # issue 30
-    assert re.fullmatch(r"backup: loader: timer \d+", pushed.strip())  # names what changed
+    assert re.fullmatch(r"backup: loader: slot \d+", pushed.strip())  # names what changed
     assert git(bare, "for-each-ref", "--format=%(refname)", "refs/harlsync/deployed/").split() == [
         f"refs/harlsync/deployed/{n}" for n in ("loader", "press-1", "press-2")
     ]  # set up by the first backup of each robot that answered
@@ -422,8 +402,8 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
 ) -> None:
     for name in ("silent", "garbage"):
         plant.sims[name].faults = Faults()
-    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
-    plant.sims["press-1"].stations[1].data.timers[2] = "7.77"
+    plant.sims["loader"].stations[1].slots[1] = 6666
+    plant.sims["press-1"].stations[1].slots[1] = 7777
     loader = plant.root / "loader"
     before = {p: p.read_bytes() for p in loader.rglob("*") if p.is_file()}
     failed_out, metrics = tmp_path / "failed.txt", tmp_path / "harlsync.prom"
@@ -454,10 +434,10 @@ def test_issue_11_a_read_only_robot_directory_fails_that_robot_only_and_the_nigh
     assert rows["loader"].split()[1] == "FAILED"
     # Issue 30: a backup writes no project file, only its record in .harlsync.
     assert "/.harlsync/backup.json: cannot record the backup (Read-only file system)" in out
-    assert rows["press-1"].split()[1] == "ok" and "1 timer" in rows["press-1"]
+    assert rows["press-1"].split()[1] == "ok" and "1 slot" in rows["press-1"]
     assert "4 of 5 robot(s) backed up, 1 changed, commit " in out
     assert git(plant.root, "show", "--name-only", "--format=", "harlsync/backup").split() == [
-        "press-1/timers.yaml"
+        "press-1/slots.yaml"
     ]
     assert failed_out.read_text() == "loader"
     assert 'harlsync_backup_success{project="loader",robot="loader"} 0' in metrics.read_text()
@@ -470,7 +450,7 @@ def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
     for name in ("silent", "garbage"):
         plant.sims[name].faults = Faults()
     assert backup([plant.root], commit=True).ok  # issue 30: the backup branch set up
-    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    plant.sims["loader"].stations[1].slots[1] = 6666
     head = git(plant.root, "rev-parse", "HEAD")
     kept = git(plant.root, "rev-parse", "harlsync/backup")
     # Left by a git killed mid-commit. The backup branch's commit needs no index
@@ -490,9 +470,9 @@ def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
     report = backup([plant.root], commit=True)
     [loader] = [r for r in report.robots if r.name == "loader"]
     assert report.ok and loader.ok, loader.error
-    assert loader.changed and loader.summary == "1 timer"
+    assert loader.changed and loader.summary == "1 slot"
     assert git(plant.root, "show", "--name-only", "--format=", "harlsync/backup").split() == [
-        "loader/timers.yaml"
+        "loader/slots.yaml"
     ]
     assert git(plant.root, "rev-parse", "HEAD") == head
 
@@ -500,15 +480,15 @@ def test_issue_11_a_backup_whose_commit_failed_is_committed_by_the_next_night(
 def test_issue_11_a_user_edit_beside_an_uncommitted_backup_is_still_never_overwritten(
     plant: Plant,
 ) -> None:
-    plant.sims["loader"].stations[1].data.timers[1] = "6.66"
+    plant.sims["loader"].stations[1].slots[1] = 6666
     engine.pull(plant.root / "loader")  # saved, never committed (no --commit)
-    main_00 = plant.root / "loader" / "programs" / "main-00.yaml"
-    main_00.write_text(main_00.read_text() + "# checked by hand\n")
+    robot_yaml = plant.root / "loader" / "robot.yaml"
+    robot_yaml.write_text(robot_yaml.read_text() + "# checked by hand\n")
     edited = files_of(plant.root / "loader")
     report = backup([plant.root / "loader"], commit=True)
     [loader] = report.robots
     # Issue 30: a backup never writes the working tree, so it backs the robot up
     # onto its own branch and leaves the edit (and the uncommitted pull) alone.
     assert loader.ok, loader.error
-    assert git(plant.root, "show", "harlsync/backup:loader/timers.yaml").count("6.66") == 1
+    assert git(plant.root, "show", "harlsync/backup:loader/slots.yaml").count("6666") == 1
     assert files_of(plant.root / "loader") == edited

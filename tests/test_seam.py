@@ -94,6 +94,40 @@ def test_issue_32_an_installed_distribution_adds_a_family_through_its_entry_poin
     assert "toy" in capsys.readouterr().out
 
 
+def test_issue_32_a_family_asked_for_while_another_thread_discovers_them_is_found(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A backup's lines are read in threads: one thread's lookup of an installed
+    family, made while another thread is still reading the installed entry points,
+    finds it (it was "unknown controller family" while the first thread had marked
+    the discovery done before it was)."""
+    import importlib.metadata
+    import threading
+
+    from harlsync import families
+
+    point = importlib.metadata.EntryPoint("toy", "toyfamily", families.ENTRY_POINTS)
+    found: list[str] = []
+    asked: list[str] = []
+
+    def other_line() -> None:
+        found.append(families.get("toy").name)
+
+    def entry_points(*, group: str) -> list[importlib.metadata.EntryPoint]:
+        asked.append(group)
+        if len(asked) == 1:  # the first discovery: another line asks before it is over
+            thread = threading.Thread(target=other_line)
+            thread.start()
+            thread.join()
+        return [point] if group == families.ENTRY_POINTS else []
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
+    monkeypatch.setattr(families, "FAMILIES", dict(families.FAMILIES))
+    monkeypatch.setattr(families, "_discovered", False)
+    assert families.get("toy").name == "toy"
+    assert found == ["toy"]
+
+
 def _imports_of(path: Path, module: str, modules: set[str]) -> set[str]:
     """The harlsync modules ``module`` (at ``path``) imports, anywhere in it: at the
     top, under TYPE_CHECKING, or inside a function (``from . import x`` imports the
@@ -214,7 +248,6 @@ def test_issue_32_the_registry_looks_up_what_the_command_line_says_of_every_fami
 FAMILY_USERS = {
     "plantsim.py",
     "simline.py",
-    "test_backup.py",
     "test_bad_input.py",
     "test_feedback.py",
     "test_fleet.py",

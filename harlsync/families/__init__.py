@@ -83,11 +83,11 @@ def _discover() -> None:
     global _discovered
     if _discovered:
         return
-    _discovered = True
     from importlib.metadata import entry_points
 
     for point in entry_points(group=ENTRY_POINTS):
         FAMILIES.setdefault(point.name, point.value)
+    _discovered = True
 
 
 class _Known:

@@ -134,6 +134,35 @@ def test_issue_20_a_busy_answer_to_the_table_probe_fails_the_pull_it_is_not_no_s
     assert not sim.writes_received()
 
 
+def test_issue_20_a_robot_busy_at_the_offset_table_probe_fails_its_backup_not_passes_it(
+    repo: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # (The plant backup's own tests are tests/test_backup.py's, on the toy family.)
+    # Review finding 7: any E reply to the probe past the last offset table was
+    # taken for "no such table".  Since issue 29 only the one the first pull got
+    # twice and recorded is (controller.yaml offset_tables.no_such_table).
+    sim = robot_with(100)
+    loader = repo / "loader"
+    with TcpServer(sim) as server:
+        engine.pull(loader, port=server.url, commit=True)
+        sim.stations[1].data.timers[1] = "6.66"
+        sim.stations[1].errors["LNL 100"] = STATUS_BUSY
+        before = {
+            p: p.read_bytes()
+            for p in loader.rglob("*")
+            if p.is_file() and ".harlsync" not in p.parts
+        }
+        capsys.readouterr()
+        assert main(["backup", str(repo), "--commit", "--attempts", "1"]) == 1
+    rows = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()[1:2]}
+    assert rows["loader"].split()[1] == "FAILED"
+    assert f"offset table 100 answered E{STATUS_BUSY} twice, not E21" in rows["loader"]
+    after = {
+        p: p.read_bytes() for p in loader.rglob("*") if p.is_file() and ".harlsync" not in p.parts
+    }
+    assert after == before  # the changed timer is not saved either
+
+
 def test_issue_20_the_simulator_answers_the_profiles_no_such_table_for_a_missing_table() -> None:
     sim = robot_with(100)
     state = sim.stations[1]
