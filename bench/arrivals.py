@@ -32,7 +32,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from machine import SimProcess, describe, process_env
+from machine import SimProcess, describe, instructions, process_env
 
 
 def child(port: str, baud: int, count: int) -> None:
@@ -67,30 +67,12 @@ def bare(port: str, baud: int, count: int) -> None:
     os.close(fd)
 
 
-def instructions(
+def child_instructions(
     port: str, baud: int, count: int, env: dict[str, str], mode: str = "--child"
 ) -> int:
-    done = subprocess.run(
-        [
-            "valgrind",
-            "--tool=callgrind",
-            "--callgrind-out-file=/dev/null",
-            sys.executable,
-            __file__,
-            mode,
-            port,
-            str(baud),
-            str(count),
-        ],
-        capture_output=True,
-        text=True,
-        env=env,
-        check=False,
-    )
-    refs = [line for line in done.stderr.splitlines() if "Collected" in line]
-    if done.returncode or not refs:
-        sys.exit(f"arrivals: the child failed:\n{done.stderr[-2000:]}")
-    return int(refs[-1].rsplit(":", 1)[1].replace(",", "").strip())
+    """The instructions of ``count`` exchanges of this script's ``mode`` child."""
+    command = [sys.executable, __file__, mode, port, str(baud), str(count)]
+    return instructions(command, env, "arrivals")
 
 
 def main() -> None:
@@ -124,7 +106,7 @@ def main() -> None:
             counted = []
             for count in (low, high):
                 sim.reset()
-                counted.append(instructions(sim.ports[0], args.baud, count, env, mode))
+                counted.append(child_instructions(sim.ports[0], args.baud, count, env, mode))
                 stats = sim.stats()[0]
             per = (counted[1] - counted[0]) / (high - low)
             arrivals = stats["bytes_out"] / stats["exchanges"]

@@ -28,7 +28,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from machine import PYCACHE, describe, harlsync_command
+from machine import PYCACHE, describe, harlsync_command, instructions
 
 
 def env_of(tmp: Path, tree: str | None) -> dict[str, str]:
@@ -55,20 +55,6 @@ def cpu_of(command: list[str], env: dict[str, str]) -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def instructions(command: list[str], env: dict[str, str]) -> int:
-    done = subprocess.run(
-        ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", *command],
-        capture_output=True,
-        text=True,
-        env=env,
-        check=False,
-    )
-    refs = [line for line in done.stderr.splitlines() if "Collected" in line]
-    if done.returncode or not refs:
-        sys.exit(f"instructions: valgrind counted nothing:\n{done.stderr[-2000:]}")
-    return int(refs[-1].rsplit(":", 1)[1].replace(",", "").strip())
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--robot", default="sim://?seed=7", help="the port the robot is on")
@@ -88,7 +74,7 @@ def main() -> None:
         counted: dict[str, int] = {}
         for name, tree in trees:
             cpu_of(pull, env_of(tmp, tree))  # its bytecode compiled and cached
-            counted[name] = instructions(pull, env_of(tmp, tree))
+            counted[name] = instructions(pull, env_of(tmp, tree), "instructions")
         cpus: dict[str, list[float]] = {name: [] for name, _ in trees}
         for _ in range(args.repeat):
             for name, tree in trees:

@@ -389,3 +389,20 @@ def run_child(command: list[str], what: str) -> dict[str, Any]:
         sys.exit(f"{what} failed:\n{done.stderr}")
     result: dict[str, Any] = json.loads(done.stdout)
     return result
+
+
+def instructions(command: list[str], env: dict[str, str], who: str) -> int:
+    """The instructions ``command`` runs, counted by valgrind's callgrind (the same
+    for the same binary and inputs, whatever the machine's load); ``who`` names the
+    bench in its one-line failure."""
+    done = subprocess.run(
+        ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", *command],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=False,
+    )
+    refs = [line for line in done.stderr.splitlines() if "Collected" in line]
+    if done.returncode or not refs:
+        sys.exit(f"{who}: valgrind counted nothing:\n{done.stderr[-2000:]}")
+    return int(refs[-1].rsplit(":", 1)[1].replace(",", "").strip())

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import shutil
 import statistics
 import subprocess
@@ -102,20 +101,6 @@ def pull(sim: Any, text: str, tree: str | None, tmp: Path, n: int, **more: str) 
     return noted
 
 
-def instructions(command: list[str], env: dict[str, str]) -> int:
-    done = subprocess.run(
-        ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", *command],
-        capture_output=True,
-        text=True,
-        env=env,
-        check=False,
-    )
-    found = re.search(r"Collected : (\d+)", done.stderr)
-    if found is None:
-        sys.exit(f"startup: valgrind counted nothing:\n{done.stderr[-2000:]}")
-    return int(found.group(1))
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--robot", default="default")
@@ -125,7 +110,7 @@ def main() -> None:
     parser.add_argument("--instructions", action="store_true", help="count them under valgrind")
     args = parser.parse_args()
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from machine import SimProcess, describe, process_env
+    from machine import SimProcess, describe, instructions, process_env
     from process import robot_yaml
 
     trees: list[str | None] = [None] + ([str(Path(args.against).resolve())] if args.against else [])
@@ -147,7 +132,7 @@ def main() -> None:
                     runs[tree].append(pull(sim, text, tree, tmp, n := n + 1))
             if args.instructions:
                 env = process_env(tmp / "locks")
-                bare = instructions([sys.executable, "-c", "pass"], env)
+                bare = instructions([sys.executable, "-c", "pass"], env, "startup")
                 for tree in trees:
                     project = tmp / f"i{n}"
                     project.mkdir()
@@ -162,7 +147,7 @@ def main() -> None:
                         **({"STARTUP_TREE": tree} if tree else {}),
                     )
                     command = [sys.executable, "-c", WATCHED, "pull", str(project)]
-                    counted[tree] = instructions(command, env)
+                    counted[tree] = instructions(command, env, "startup")
                     n += 1
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
