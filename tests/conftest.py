@@ -5,6 +5,7 @@ from __future__ import annotations
 import gc
 import os
 import subprocess
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -14,6 +15,16 @@ import toyfamily
 from hypothesis import HealthCheck, settings
 
 from harlsync import families
+
+# --- bytecode -----------------------------------------------------------------------------
+#
+# The suite writes and reads bytecode whatever the shell says: with PYTHONDONTWRITEBYTECODE
+# set, every xdist worker rewrote every test module's asserts (5.5 s of CPU each) and every
+# harlsync process a test starts compiled the modules pip's editable install had left
+# uncompiled, a cost no installed harlsync pays.  What is written is __pycache__, which git
+# ignores.
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+sys.dont_write_bytecode = False
 
 # --- hypothesis profiles ------------------------------------------------------------------
 #
