@@ -57,6 +57,7 @@ __all__ = [
     "Progress",
     "Scheme",
     "Status",
+    "Survey",
     "Words",
 ]
 

@@ -27,8 +27,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from ..errors import ControllerError, LinkTimeout, ProjectError, ProtocolError
-from ..families.base import AnyFamily
-from ..families.survey import Survey
+from ..families.base import AnyFamily, Survey
 from ..link.capture import recording
 from ..link.readonly import WriteForbidden, reads_only
 from ..project.robot import Robot
